@@ -1,0 +1,16 @@
+#include "bindings/core.h"
+
+#include <lua.hpp>
+
+#include "host/version.h"
+
+extern "C" int luaopen_dca_core(lua_State* L) {
+  lua_newtable(L);
+  const auto v = dca::version();
+  lua_pushlstring(L, v.data(), v.size());
+  lua_setfield(L, -2, "version");
+  const auto dir = dca::lua_dir();
+  lua_pushlstring(L, dir.data(), dir.size());
+  lua_setfield(L, -2, "lua_dir");
+  return 1;
+}

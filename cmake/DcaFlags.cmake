@@ -1,0 +1,36 @@
+# Compiler flags as INTERFACE targets: link them, never set global flags.
+
+# dca::warnings: the warning set every dca target builds with.
+add_library(dca_warnings INTERFACE)
+target_compile_options(dca_warnings INTERFACE
+  -Wall -Wextra -Wpedantic -Wshadow -Wnon-virtual-dtor -Wold-style-cast -Wcast-align
+  -Wunused -Woverloaded-virtual -Wnull-dereference -Wdouble-promotion -Wformat=2 -Wimplicit-fallthrough
+  $<$<BOOL:${DCA_WERROR}>:-Werror>)
+add_library(dca::warnings ALIAS dca_warnings)
+
+# dca::sanitizers: ASan + UBSan when DCA_SANITIZE is on, nothing otherwise.
+add_library(dca_sanitizers INTERFACE)
+if(DCA_SANITIZE)
+  target_compile_options(dca_sanitizers INTERFACE
+    -fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer)
+  target_link_options(dca_sanitizers INTERFACE -fsanitize=address,undefined)
+  target_compile_definitions(dca_sanitizers INTERFACE DCA_SANITIZE=1)
+endif()
+add_library(dca::sanitizers ALIAS dca_sanitizers)
+
+# dca::simbody: Simbody with the flags its Debian build needs.
+# Debian built Simbody without NDEBUG and a class in its headers changes layout with NDEBUG, so every file
+# that includes Simbody must be compiled with -UNDEBUG or Release builds crash in realizeTopology().
+# Simbody 3.7's headers do not compile as C++20: targets that use this must set CXX_STANDARD 17.
+add_library(dca_simbody INTERFACE)
+target_link_libraries(dca_simbody INTERFACE SimTKsimbody SimTKmath SimTKcommon)
+target_compile_options(dca_simbody INTERFACE -UNDEBUG)
+add_library(dca::simbody ALIAS dca_simbody)
+
+# dca_add_library(name folder-alias SOURCES...): one library per folder, with its alias and flags.
+function(dca_add_library name alias)
+  add_library(${name} ${ARGN})
+  add_library(${alias} ALIAS ${name})
+  target_link_libraries(${name} PRIVATE dca::warnings PUBLIC dca::sanitizers)
+  target_include_directories(${name} PUBLIC $<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}>)
+endfunction()

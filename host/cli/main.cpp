@@ -1,0 +1,86 @@
+// The `dca` executable: subcommands dispatched like git's. C++ subcommands register with DCA_SUBCOMMAND;
+// any other word names a Lua subcommand, the module dca.cli.<word> (lua/dca/cli/<word>.lua).
+#include <cstdio>
+#include <cstring>
+#include <exception>
+#include <filesystem>
+#include <span>
+#include <string>
+
+#include "bindings/lua_runtime.h"
+#include "host/cli/subcommand.h"
+#include "host/version.h"
+
+namespace {
+
+bool is_help(const char* a) { return std::strcmp(a, "--help") == 0 || std::strcmp(a, "-h") == 0; }
+
+bool lua_subcommand_exists(const std::string& name) {
+  if (name.empty() || name.find_first_of("./\\") != std::string::npos) return false;
+  std::error_code ec;
+  return std::filesystem::is_regular_file(std::filesystem::path(dca::lua_dir()) / "dca" / "cli" / (name + ".lua"), ec);
+}
+
+void print_list(FILE* out) {
+  std::fprintf(out, "usage: dca <command> [args]\n       dca <command> --help\n       dca --version\n\ncommands:\n");
+  std::fprintf(out, "  %-10s %s\n", "help", "this list, or `dca help <command>` for one command");
+  for (const auto& s : dca::cli::all()) std::fprintf(out, "  %-10s %s\n", s.name, s.summary);
+  dca::lua::Runtime rt;
+  for (const auto& [name, summary] : dca::lua::lua_subcommands(rt))
+    if (dca::cli::find(name) == nullptr) std::fprintf(out, "  %-10s %s\n", name.c_str(), summary.c_str());
+}
+
+int print_usage(const std::string& name) {
+  if (const auto* s = dca::cli::find(name)) {
+    std::printf("%s\n", s->usage);
+    return 0;
+  }
+  if (lua_subcommand_exists(name)) {
+    dca::lua::Runtime rt;
+    std::string usage = rt.module_field("dca.cli." + name, "usage");
+    if (usage.empty()) usage = "usage: dca " + name + " [args]";
+    std::printf("%s\n", usage.c_str());
+    return 0;
+  }
+  std::fprintf(stderr, "dca: '%s' is not a dca command.\n\n", name.c_str());
+  print_list(stderr);
+  return 2;
+}
+
+int dispatch(int argc, char** argv) {
+  if (argc < 2) {
+    print_list(stderr);
+    return 2;
+  }
+  const std::string sub = argv[1];
+  if (sub == "--version" || sub == "version") {
+    std::printf("dca %.*s\n", static_cast<int>(dca::version().size()), dca::version().data());
+    return 0;
+  }
+  if (sub == "help" || is_help(argv[1])) {
+    if (argc >= 3) return print_usage(argv[2]);
+    print_list(stdout);
+    return 0;
+  }
+  const std::span<char* const> args(argv + 2, static_cast<size_t>(argc - 2));
+  if (!args.empty() && is_help(args[0])) return print_usage(sub);
+  if (const auto* s = dca::cli::find(sub)) return s->main(args);
+  if (lua_subcommand_exists(sub)) {
+    dca::lua::Runtime rt;
+    return rt.run_module_main("dca.cli." + sub, args);
+  }
+  std::fprintf(stderr, "dca: '%s' is not a dca command.\n\n", sub.c_str());
+  print_list(stderr);
+  return 2;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    return dispatch(argc, argv);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "dca: %s\n", e.what());
+    return 1;
+  }
+}

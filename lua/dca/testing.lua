@@ -1,0 +1,149 @@
+-- dca.testing: a small test framework for Lua tests (tests/lua/*_test.lua), run by `dca lua`.
+--
+--   local T = require "dca.testing"
+--   local suite = T.suite("embed")
+--   suite:case("runs_a_chunk", function() T.eq(1 + 1, 2) end)
+--   return suite:run(...)
+--
+-- `dca lua FILE --list` prints the case names (CTest registers one test per case);
+-- `dca lua FILE --case NAME` runs one; no argument runs all. Output: one "ok"/"FAIL" line per case and
+-- the closing line "N passed, N failed". The returned exit code is 0 only when every case passed.
+local M = {}
+
+local fmt, concat, sort = string.format, table.concat, table.sort
+local type, pairs, tostring, pcall, xpcall = type, pairs, tostring, pcall, xpcall
+local traceback = debug.traceback
+
+--- A readable, deterministic rendering of any Lua value (tables with sorted keys).
+function M.show(v, seen)
+  local tv = type(v)
+  if tv == "string" then return fmt("%q", v) end
+  if tv ~= "table" then return tostring(v) end
+  seen = seen or {}
+  if seen[v] then return "<cycle>" end
+  seen[v] = true
+  local keys = {}
+  for k in pairs(v) do keys[#keys + 1] = k end
+  sort(keys, function(a, b)
+    local ta, tb = type(a), type(b)
+    if ta ~= tb then return ta < tb end
+    if ta == "number" or ta == "string" then return a < b end
+    return tostring(a) < tostring(b)
+  end)
+  local parts, n = {}, #v
+  for _, k in pairs(keys) do
+    if math.type(k) == "integer" and k >= 1 and k <= n then
+      parts[#parts + 1] = M.show(v[k], seen)
+    elseif type(k) == "string" and k:match("^[%a_][%w_]*$") then
+      parts[#parts + 1] = k .. " = " .. M.show(v[k], seen)
+    else
+      parts[#parts + 1] = "[" .. M.show(k, seen) .. "] = " .. M.show(v[k], seen)
+    end
+  end
+  seen[v] = nil
+  return "{ " .. concat(parts, ", ") .. " }"
+end
+
+--- Deep equality of two values (tables compared by content).
+function M.equal(a, b)
+  if a == b then return true end
+  if type(a) ~= "table" or type(b) ~= "table" then return false end
+  for k, va in pairs(a) do
+    if not M.equal(va, b[k]) then return false end
+  end
+  for k in pairs(b) do
+    if a[k] == nil then return false end
+  end
+  return true
+end
+
+local function fail(msg, level) error(msg, (level or 1) + 2) end
+
+--- Fails unless `actual` deep-equals `expected`.
+function M.eq(actual, expected, what)
+  if not M.equal(actual, expected) then
+    fail(fmt("%sexpected %s\n       got %s", what and (what .. ": ") or "", M.show(expected), M.show(actual)))
+  end
+end
+
+--- Fails unless `v` is truthy.
+function M.ok(v, what)
+  if not v then fail(what or "expected a true value") end
+  return v
+end
+
+--- Fails unless the string `s` contains `fragment` (plain text).
+function M.contains(s, fragment, what)
+  if type(s) ~= "string" or not s:find(fragment, 1, true) then
+    fail(fmt("%sexpected text containing %q\n       got %s", what and (what .. ": ") or "", fragment, M.show(s)))
+  end
+end
+
+--- Fails unless fn(...) raises an error; returns the error message.
+function M.raises(fn, ...)
+  local ok, err = pcall(fn, ...)
+  if ok then fail("expected an error, none was raised") end
+  return err
+end
+
+--- Runs a shell command; returns its output (stdout and stderr) and its exit code.
+function M.sh(cmd)
+  local p = assert(io.popen(cmd .. " 2>&1; echo \"<<rc=$?>>\"", "r"))
+  local out = p:read("a")
+  p:close()
+  local body, rc = out:match("^(.*)<<rc=(%d+)>>%s*$")
+  return body or out, tonumber(rc)
+end
+
+local Suite = {}
+Suite.__index = Suite
+
+--- A new suite; `name` prefixes its cases in reports.
+function M.suite(name)
+  return setmetatable({ name = name, cases = {}, by_name = {} }, Suite)
+end
+
+--- Adds a case. Names are words ([%w_.-]), unique within the suite, so CTest can name a test after each.
+function Suite:case(name, fn)
+  assert(type(name) == "string" and name:match("^[%w_.%-]+$"), "case name must be a word: " .. tostring(name))
+  assert(not self.by_name[name], "duplicate case name: " .. name)
+  self.by_name[name] = fn
+  self.cases[#self.cases + 1] = name
+end
+
+local function run_case(fn)
+  return xpcall(fn, function(e) return traceback(tostring(e), 2) end)
+end
+
+--- Runs the suite with the command-line words `...` (see the header). Returns the exit code.
+function Suite:run(...)
+  local args = { ... }
+  if args[1] == "--list" then
+    for _, n in ipairs(self.cases) do io.write(n, "\n") end
+    return 0
+  end
+  local selected = self.cases
+  if args[1] == "--case" then
+    if not self.by_name[args[2]] then
+      io.stderr:write(fmt("%s: no case named %q\n", self.name, tostring(args[2])))
+      return 2
+    end
+    selected = { args[2] }
+  end
+  local passed, failed = 0, 0
+  for _, n in ipairs(selected) do
+    local ok, err = run_case(self.by_name[n])
+    if ok then
+      passed = passed + 1
+      io.write("ok   ", self.name, ".", n, "\n")
+    else
+      failed = failed + 1
+      io.write("FAIL ", self.name, ".", n, "\n  ", (tostring(err):gsub("\n", "\n  ")), "\n")
+    end
+  end
+  io.write(fmt("%d passed, %d failed\n", passed, failed))
+  io.flush()
+  return failed == 0 and 0 or 1
+end
+
+return M
