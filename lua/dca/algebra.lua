@@ -1,0 +1,663 @@
+-- dca.algebra: the DCA process-algebra interpreter (specification: shared/SEMANTICS.md).
+--
+-- Pure Lua: no I/O, no clock. The supervisor feeds events in, the interpreter answers with commands.
+--
+--   local algebra = require "dca.algebra"
+--   local expr, err, info = algebra.parse("hit # (forcedata[lbl1], compliant[lbl1], puma)")
+--   -- err: "column 5: ..." (or "line 2, column 5: ..." for multi-line text);
+--   -- info: { msg = <message without position>, pos = <byte offset>, line = , col = }
+--   local run = algebra.new(expr, {                  -- commands to the outside world (all optional)
+--     start = function(name, init) end, abort = function(name) end,
+--     activate = function(name, label) end,          -- just before start(name) of a labelled leaf
+--     deactivate = function(name, label) end,        -- just after the run of a labelled leaf ended
+--     is_running = function(name) return false end,  -- started by someone else? (SEMANTICS.md §4 item 1)
+--     log = function(line) end,                      -- errors worth a log line ("process X already running")
+--   })
+--   run:start(init)                     -- init optional; true if the expression is running afterwards
+--   run:event(name, "done", value)      --> true if taken, false if stale and ignored (SEMANTICS.md §3)
+--   run:event(name, "aborted", reason) ; run:event(name, "error", reason)
+--   run:abort()                         -- abort from outside (one LIFO abort operation on the root)
+--   run:status()                        --> "idle" | "running" | "done" | "aborted", value
+--   run:running()                       --> leaves running now, in start order: { "A", "B[l1]" }
+--   run:is_running(name)                --> true if this expression runs the leaf `name` now
+--   run:render(mark)                    --> the expression's text with running leaves marked (default *A*)
+--   run:log()                           --> the latest commands and events, oldest first (strings)
+--
+-- Expression objects (from parse) are immutable and may be shared by many runs:
+--   expr.text     the source text
+--   expr.root     the tree: { op = "leaf", name =, label =, pos =, stop =, line =, col = } or
+--                 { op = "," | ";" | "#" | ":" | ":;", kids = { node, ... }, pos =, line =, col = }
+--   expr.leaves   every leaf node in text order
+--   expr.names    the distinct process names in order of first occurrence
+--   algebra.tostring(expr) gives a canonical text that parses to the same tree.
+--
+-- Commands issued from inside a command callback must not call back into the run synchronously; if an
+-- event arrives while the run is busy it is queued, processed after the current one (run to completion),
+-- and event() returns nil for it.
+local M = {}
+
+local type, setmetatable, getmetatable, tostring, error, pcall, ipairs =
+  type, setmetatable, getmetatable, tostring, error, pcall, ipairs
+local sbyte, ssub, sfind, sformat = string.byte, string.sub, string.find, string.format
+local concat = table.concat
+
+-- Operator codes of the compiled form.
+local LEAF, PAR, SEQ, DIS, COND, REC = 0, 1, 2, 3, 4, 5
+local OPCODE = { leaf = LEAF, [","] = PAR, [";"] = SEQ, ["#"] = DIS, [":"] = COND, [":;"] = REC }
+-- Binding strength for printing: smaller binds tighter.
+local LEVEL = { leaf = 0, [":"] = 1, [":;"] = 1, ["#"] = 2, [";"] = 3, [","] = 4 }
+
+--- Parentheses nested deeper than this are rejected (keeps every walk's recursion bounded).
+M.max_depth = 1000
+
+---------------------------------------------------------------------------------------------- parsing
+
+local function line_col(text, pos)
+  local line, last = 1, 0
+  local i = sfind(text, "\n", 1, true)
+  while i and i < pos do
+    line, last = line + 1, i
+    i = sfind(text, "\n", i + 1, true)
+  end
+  return line, pos - last
+end
+
+local function printable(run)
+  return (run:gsub("[%c\128-\255]", function(c) return sformat("\\%d", sbyte(c)) end))
+end
+
+-- A parse error: raised inside the parser as a table, turned into nil, err, info by M.parse.
+local Err = {}
+local function fail(pos, msg) error(setmetatable({ pos = pos, msg = msg }, Err), 0) end
+
+-- Character classes (byte values).
+local B_LPAR, B_RPAR, B_LBR, B_RBR = sbyte("("), sbyte(")"), sbyte("["), sbyte("]")
+local B_COMMA, B_SEMI, B_COLON, B_HASH = sbyte(","), sbyte(";"), sbyte(":"), sbyte("#")
+
+local function is_name_start(b) return b and ((b >= 65 and b <= 90) or (b >= 97 and b <= 122) or b == 95) end
+local function is_digit(b) return b and b >= 48 and b <= 57 end
+
+-- Token kinds
+local T_NAME, T_OP, T_LPAR, T_RPAR = 1, 2, 3, 4
+
+-- Scans `text` into token arrays while checking the grammar with a two-state machine (expecting an
+-- operand / expecting an operator), so that every error of SEMANTICS.md §2.3 gets its own message at the
+-- right column. Returns kinds, values, labels, positions, count.
+local function scan(text)
+  local kinds, vals, labels, poss, ends, n = {}, {}, {}, {}, {}, 0
+  local len = #text
+  local i = 1
+  local want_operand = true
+  local prev = nil      -- kind of the previous token (nil at the start)
+  local depth = 0
+  local opens = {}      -- positions of unclosed '('
+  local last_op_pos
+  while true do
+    i = sfind(text, "[^ \t\r\n\f\v]", i)
+    if not i then break end
+    local b = sbyte(text, i)
+    if is_name_start(b) then
+      local j = sfind(text, "[^A-Za-z0-9_]", i) or len + 1
+      local name = ssub(text, i, j - 1)
+      if not want_operand then fail(i, "missing operator before '" .. name .. "'") end
+      local label
+      if sbyte(text, j) == B_LBR then
+        local k = sfind(text, "[^ \t\r\n\f\v]", j + 1)
+        local c = k and sbyte(text, k)
+        if c == B_RBR then fail(j, "empty label in '" .. name .. "[]'") end
+        if not c then fail(j, "unterminated label after '" .. name .. "' (no ']')") end
+        if not is_name_start(c) then
+          if is_digit(c) or c == 95 then
+            local e = sfind(text, "[^A-Za-z0-9_]", k) or len + 1
+            fail(k, "invalid label name '" .. ssub(text, k, e - 1) .. "'")
+          end
+          fail(k, "unterminated label after '" .. name .. "' (expected a label name and ']')")
+        end
+        local e = sfind(text, "[^A-Za-z0-9_]", k) or len + 1
+        label = ssub(text, k, e - 1)
+        local r = sfind(text, "[^ \t\r\n\f\v]", e)
+        if not r or sbyte(text, r) ~= B_RBR then
+          fail(j, "unterminated label '" .. name .. "[" .. label .. "' (no ']')")
+        end
+        j = r + 1
+      end
+      n = n + 1
+      kinds[n], vals[n], labels[n], poss[n], ends[n] = T_NAME, name, label, i, j - 1
+      want_operand, prev, i = false, T_NAME, j
+    elseif is_digit(b) then
+      local j = sfind(text, "[^A-Za-z0-9_]", i) or len + 1
+      fail(i, "invalid process name '" .. ssub(text, i, j - 1) .. "' (a name starts with a letter or '_')")
+    elseif b == B_COMMA or b == B_SEMI or b == B_HASH or b == B_COLON then
+      local op, j = ssub(text, i, i), i + 1
+      if b == B_COLON and sbyte(text, i + 1) == B_SEMI then op, j = ":;", i + 2 end
+      if want_operand then
+        if prev == T_OP then fail(i, "missing operand between '" .. vals[n] .. "' and '" .. op .. "'") end
+        if prev == T_LPAR then fail(i, "missing operand after '(' before '" .. op .. "'") end
+        fail(i, "missing operand before '" .. op .. "'")
+      end
+      n = n + 1
+      kinds[n], vals[n], poss[n] = T_OP, op, i
+      want_operand, prev, i, last_op_pos = true, T_OP, j, i
+    elseif b == B_LPAR then
+      if not want_operand then fail(i, "missing operator before '('") end
+      depth = depth + 1
+      if depth > M.max_depth then fail(i, "expression nested too deeply (more than " .. M.max_depth .. " levels)") end
+      opens[depth] = i
+      n = n + 1
+      kinds[n], vals[n], poss[n] = T_LPAR, "(", i
+      prev, i = T_LPAR, i + 1
+    elseif b == B_RPAR then
+      if depth == 0 then fail(i, "unbalanced parentheses: ')' without '('") end
+      if prev == T_LPAR then fail(poss[n], "empty parentheses '()'") end
+      if want_operand then fail(i, "missing operand between '" .. vals[n] .. "' and ')'") end
+      opens[depth] = nil
+      depth = depth - 1
+      n = n + 1
+      kinds[n], vals[n], poss[n] = T_RPAR, ")", i
+      prev, i = T_RPAR, i + 1
+    elseif b == B_LBR then
+      if prev == T_RPAR then fail(i, "label must follow a process name, not ')'") end
+      if prev == T_NAME then fail(i, "label must follow a process name directly (no space before '[')") end
+      fail(i, "label must follow a process name")
+    elseif b == B_RBR then
+      fail(i, "unexpected ']' (no label is open)")
+    else
+      local j = sfind(text, "[A-Za-z0-9_ \t\r\n\f\v,;:#()%[%]]", i) or len + 1
+      fail(i, "unknown operator '" .. printable(ssub(text, i, j - 1)) .. "'")
+    end
+  end
+  if n == 0 then fail(1, "empty expression") end
+  if prev == T_OP then fail(last_op_pos, "trailing operator '" .. vals[n] .. "' (missing operand at the end)") end
+  if depth > 0 then fail(opens[depth], "unbalanced parentheses: '(' never closed") end
+  return kinds, vals, labels, poss, ends
+end
+
+-- Recursive descent over a token list already known to be well formed.
+local function build(kinds, vals, labels, poss, ends)
+  local t = 1
+  local parse_expr
+  local function node(op, kids)
+    return { op = op, kids = kids, pos = kids[1].pos }
+  end
+  local function atom()
+    if kinds[t] == T_NAME then
+      local leaf = { op = "leaf", name = vals[t], label = labels[t], pos = poss[t], stop = ends[t] }
+      t = t + 1
+      return leaf
+    end
+    -- '(' expr ')'
+    t = t + 1
+    local e = parse_expr()
+    t = t + 1
+    return e
+  end
+  local function cond()
+    local left = atom()
+    while kinds[t] == T_OP and (vals[t] == ":" or vals[t] == ":;") do
+      local op = vals[t]
+      t = t + 1
+      left = node(op, { left, atom() })
+    end
+    return left
+  end
+  local function chain(op, sub)
+    return function()
+      local first = sub()
+      if not (kinds[t] == T_OP and vals[t] == op) then return first end
+      local kids = { first }
+      while kinds[t] == T_OP and vals[t] == op do
+        t = t + 1
+        kids[#kids + 1] = sub()
+      end
+      return node(op, kids)
+    end
+  end
+  parse_expr = chain(",", chain(";", chain("#", cond)))
+  return parse_expr()
+end
+
+-- Assigns preorder ids and fills the compiled arrays.
+local function compile(root)
+  local c = { op = {}, parent = {}, cidx = {}, nk = {}, kids = {}, last = {}, name = {}, label = {},
+              node = {} }
+  local op, parent, cidx, nk, kids, last, name, label, nodes =
+    c.op, c.parent, c.cidx, c.nk, c.kids, c.last, c.name, c.label, c.node
+  local n = 0
+  local function walk(nd, p, i)
+    n = n + 1
+    local id = n
+    op[id], parent[id], cidx[id], nodes[id] = OPCODE[nd.op], p, i, nd
+    nd.id = id
+    if nd.op == "leaf" then
+      name[id], label[id], nk[id] = nd.name, nd.label or false, 0
+    else
+      name[id], label[id] = false, false
+      local ks = {}
+      for j, k in ipairs(nd.kids) do ks[j] = walk(k, id, j) end
+      kids[id], nk[id] = ks, #ks
+    end
+    last[id] = n
+    return id
+  end
+  walk(root, 0, 0)
+  c.n = n
+  return c
+end
+
+-- SEMANTICS.md §10: a name may not appear in two operands of one ',' or '#'. Returns the offending
+-- leaf (the earliest in the text) and the operator, or nil.
+local function concurrency_violation(c)
+  local best, best_op
+  for id = 1, c.n do
+    local o = c.op[id]
+    if o == PAR or o == DIS then
+      local owner = {}
+      for _, k in ipairs(c.kids[id]) do
+        for l = k, c.last[k] do
+          if c.op[l] == LEAF then
+            local nm = c.name[l]
+            local ow = owner[nm]
+            if ow and ow ~= k then
+              if not best or c.node[l].pos < best.pos then best, best_op = c.node[l], (o == PAR and "," or "#") end
+            elseif not ow then
+              owner[nm] = k
+            end
+          end
+        end
+      end
+    end
+  end
+  return best, best_op
+end
+
+local function where(text, pos)
+  local line, col = line_col(text, pos)
+  if sfind(text, "\n", 1, true) then return sformat("line %d, column %d", line, col), line, col end
+  return sformat("column %d", col), line, col
+end
+
+--- Parses an expression. Returns the expression object, or nil, "column N: message", info
+--- (info = { msg, pos, line, col }). Never raises, whatever the input.
+function M.parse(text)
+  if type(text) ~= "string" then
+    return nil, "column 1: expression must be a string, got " .. type(text), { msg = "expression must be a string",
+      pos = 1, line = 1, col = 1 }
+  end
+  local ok, a, b, c2, d, e = pcall(scan, text)
+  local function err(pos, msg)
+    local w, line, col = where(text, pos)
+    return nil, w .. ": " .. msg, { msg = msg, pos = pos, line = line, col = col }
+  end
+  if not ok then
+    if getmetatable(a) == Err then return err(a.pos, a.msg) end
+    return err(1, "internal error: " .. tostring(a))
+  end
+  local ok2, root = pcall(build, a, b, c2, d, e)
+  if not ok2 then return err(1, "internal error: " .. tostring(root)) end
+  local compiled = compile(root)
+  local bad, bad_op = concurrency_violation(compiled)
+  if bad then
+    return err(bad.pos, sformat("process '%s' may run concurrently with itself (it appears in two operands of one '%s')",
+      bad.name, bad_op))
+  end
+  local leaves, names, seen = {}, {}, {}
+  for id = 1, compiled.n do
+    local nd = compiled.node[id]
+    nd.line, nd.col = line_col(text, nd.pos)
+    if nd.op == "leaf" then
+      leaves[#leaves + 1] = nd
+      if not seen[nd.name] then seen[nd.name] = true; names[#names + 1] = nd.name end
+    end
+  end
+  return { text = text, root = root, leaves = leaves, names = names, c = compiled }
+end
+
+local function render(nd, mark)
+  if nd.op == "leaf" then
+    local s = nd.label and (nd.name .. "[" .. nd.label .. "]") or nd.name
+    if mark then s = mark(nd, s) end
+    return s
+  end
+  local lv = LEVEL[nd.op]
+  local parts = {}
+  for i, k in ipairs(nd.kids) do
+    local s = render(k, mark)
+    local kl = LEVEL[k.op]
+    -- same-level n-ary children keep their parentheses (they are separate nodes); ':' is left-assoc
+    local need = kl > lv or (kl == lv and k.op ~= "leaf" and not (lv == 1 and i == 1))
+    parts[i] = need and ("(" .. s .. ")") or s
+  end
+  local sep = (nd.op == ":" or nd.op == ":;") and (" " .. nd.op .. " ") or
+              (nd.op == "," and ", " or (" " .. nd.op .. " "))
+  return concat(parts, sep)
+end
+
+--- The canonical text of an expression (or of a tree node): parses back to the same tree.
+function M.tostring(expr)
+  return render(expr.root or expr)
+end
+
+---------------------------------------------------------------------------------------------- running
+
+local Run = {}
+Run.__index = Run
+
+local function noop() end
+local function never() return false end
+
+local LOG_SIZE = 256
+
+local function log(self, kind, a, b)
+  local i = self.logi % LOG_SIZE + 1
+  self.logi = i
+  self.logn = self.logn + 1
+  self.logk[i], self.loga[i], self.logb[i] = kind, a, b
+end
+
+local function unlink(self, id)
+  local p, nx = self.rprev[id], self.rnext[id]
+  if p ~= 0 then self.rnext[p] = nx else self.rhead = nx end
+  if nx ~= 0 then self.rprev[nx] = p else self.rtail = p end
+  self.byname[self.c.name[id]] = nil
+end
+
+-- Starts node `id` with binding `b` (SEMANTICS.md §3 start order). Returns true when the node is
+-- running afterwards, false when it ended ABORTED at once (a leaf whose process was already running); in
+-- that case nothing of the subtree is left running.
+local start_node
+-- Aborts every running leaf in the subtree of `id`, most recently started first (SEMANTICS.md §6).
+local function abort_range(self, id)
+  local c = self.c
+  local hi, names, labels, rprev = c.last[id], c.name, c.label, self.rprev
+  local l = self.rtail
+  while l ~= 0 do
+    local before = rprev[l]
+    if l >= id and l <= hi then
+      unlink(self, l)
+      local nm = names[l]
+      self.cmd_abort(nm)
+      log(self, "abort", l)
+      local lb = labels[l]
+      if lb then
+        self.cmd_deactivate(nm, lb)
+        log(self, "-", l)
+      end
+    end
+    l = before
+  end
+end
+
+start_node = function(self, id, b)
+  local c = self.c
+  local o = c.op[id]
+  if o == LEAF then
+    local nm = c.name[id]
+    if self.byname[nm] or self.cmd_is_running(nm) then
+      log(self, "conflict", id)
+      self.cmd_log("process " .. nm .. " already running: occurrence aborted")
+      return false
+    end
+    local lb = c.label[id]
+    if lb then
+      self.cmd_activate(nm, lb)
+      log(self, "+", id)
+    end
+    -- append to the running list (start order)
+    local t = self.rtail
+    self.rprev[id], self.rnext[id] = t, 0
+    if t ~= 0 then self.rnext[t] = id else self.rhead = id end
+    self.rtail = id
+    self.byname[nm] = id
+    self.cmd_start(nm, b)
+    log(self, "start", id, b)
+    return true
+  elseif o == PAR or o == DIS then
+    local ks = c.kids[id]
+    if o == PAR then
+      local nk = c.nk[id]
+      self.cnt[id] = nk
+      self.vals[id] = { n = nk }
+    end
+    for i = 1, #ks do
+      if not start_node(self, ks[i], b) then
+        abort_range(self, id)
+        self.vals[id] = nil
+        return false
+      end
+    end
+    return true
+  else  -- SEQ, COND, REC start their first operand only
+    self.bind[id] = b
+    return start_node(self, c.kids[id][1], b)
+  end
+end
+
+-- Node `id` terminated by itself with outcome ok/v: let the ancestors react, upward, until one keeps
+-- running or the root ends. Iterative: recurrence never grows the stack.
+local function propagate(self, id, ok, v)
+  local c = self.c
+  local parent, op, cidx, kids, nk = c.parent, c.op, c.cidx, c.kids, c.nk
+  while true do
+    local p = parent[id]
+    if p == 0 then
+      self.st = ok and "done" or "aborted"
+      self.value = ok and v or nil
+      return
+    end
+    local o = op[p]
+    if o == SEQ then
+      if ok then
+        local i = cidx[id]
+        if i < nk[p] then
+          if start_node(self, kids[p][i + 1], self.bind[p]) then return end
+          ok, v = false, nil
+        end
+      end
+    elseif o == PAR then
+      if ok then
+        local t = self.vals[p]
+        t[cidx[id]] = v
+        local left = self.cnt[p] - 1
+        self.cnt[p] = left
+        if left > 0 then return end
+        v = t
+      else
+        abort_range(self, p)
+      end
+      self.vals[p] = nil
+    elseif o == DIS then
+      abort_range(self, p)
+    elseif o == COND then
+      if ok and cidx[id] == 1 then
+        if start_node(self, kids[p][2], v) then return end
+        ok, v = false, nil
+      end
+    else  -- REC: P done -> Q bound to P's value; Q done -> a new iteration of P with the outer binding
+      if ok then
+        local ks = kids[p]
+        if cidx[id] == 1 then ok = start_node(self, ks[2], v) else ok = start_node(self, ks[1], self.bind[p]) end
+        if ok then return end
+      end
+      v = nil
+    end
+    if not ok then v = nil end
+    id = p
+  end
+end
+
+--- A new run of `expr` (an expression object, or text to parse: then nil, err on bad text).
+function M.new(expr, commands)
+  if type(expr) == "string" then
+    local e, err = M.parse(expr)
+    if not e then return nil, err end
+    expr = e
+  end
+  if type(expr) ~= "table" or not expr.c then error("algebra.new: expected an expression from algebra.parse", 2) end
+  commands = commands or {}
+  return setmetatable({
+    expr = expr, c = expr.c,
+    cmd_start = commands.start or noop, cmd_abort = commands.abort or noop,
+    cmd_activate = commands.activate or noop, cmd_deactivate = commands.deactivate or noop,
+    cmd_is_running = commands.is_running or never, cmd_log = commands.log or noop,
+    st = "idle", value = nil,
+    bind = {}, cnt = {}, vals = {},
+    rprev = {}, rnext = {}, rhead = 0, rtail = 0, byname = {},
+    busy = false, queue = {},
+    logi = 0, logn = 0, logk = {}, loga = {}, logb = {},
+  }, Run)
+end
+
+--- Starts the expression (SEMANTICS.md §3). `init` (optional) is the value bound for the whole expression:
+--- every leaf outside a ':' / ':;' right operand starts with it. Returns true if running afterwards.
+--- A finished run may be started again.
+function Run:start(init)
+  if self.st == "running" then error("algebra: run:start() while the expression is running", 2) end
+  self.st, self.value = "running", nil
+  self.busy = true
+  if not start_node(self, 1, init) then
+    self.st = "aborted"
+  end
+  self.busy = false
+  self:_drain()
+  return self.st == "running"
+end
+
+local KINDS = { done = true, aborted = true, error = true }
+
+local function take(self, name, kind, value)
+  local id = self.byname[name]
+  if not id then
+    log(self, "ignored", name, kind)
+    return false
+  end
+  unlink(self, id)
+  log(self, "event", name, kind)
+  local lb = self.c.label[id]
+  if lb then
+    self.cmd_deactivate(name, lb)
+    log(self, "-", id)
+  end
+  if kind == "done" then propagate(self, id, true, value) else propagate(self, id, false, nil) end
+  return true
+end
+
+function Run:_drain()
+  local q = self.queue
+  while q[1] and not self.busy do
+    local e = table.remove(q, 1)
+    self.busy = true
+    if e[1] == "*" then
+      if self.st == "running" then
+        abort_range(self, 1)
+        self.st, self.value = "aborted", nil
+      end
+    else
+      take(self, e[1], e[2], e[3])
+    end
+    self.busy = false
+  end
+end
+
+--- Delivers an event of leaf `name`: kind "done" (with a value), "aborted" or "error" (with a reason).
+--- Returns true if taken, false if stale (ignored and logged), nil if queued (re-entrant call).
+function Run:event(name, kind, value)
+  if not KINDS[kind] then error("algebra: unknown event kind '" .. tostring(kind) .. "'", 2) end
+  if self.busy then
+    self.queue[#self.queue + 1] = { name, kind, value }
+    return nil
+  end
+  self.busy = true
+  local taken = take(self, name, kind, value)
+  self.busy = false
+  if self.queue[1] then self:_drain() end
+  return taken
+end
+
+--- Aborts the whole expression from outside. Returns true if it was running.
+function Run:abort()
+  if self.busy then
+    self.queue[#self.queue + 1] = { "*" }
+    return nil
+  end
+  if self.st ~= "running" then return false end
+  self.busy = true
+  log(self, "abort_all")
+  abort_range(self, 1)
+  self.st, self.value = "aborted", nil
+  self.busy = false
+  if self.queue[1] then self:_drain() end
+  return true
+end
+
+--- "idle" | "running" | "done" | "aborted", and the value when "done".
+function Run:status()
+  return self.st, self.value
+end
+
+local function leaf_text(c, id)
+  local lb = c.label[id]
+  return lb and (c.name[id] .. "[" .. lb .. "]") or c.name[id]
+end
+
+--- The leaves running now, in start order ("Name" or "Name[label]").
+function Run:running()
+  local out, c = {}, self.c
+  local l = self.rhead
+  while l ~= 0 do
+    out[#out + 1] = leaf_text(c, l)
+    l = self.rnext[l]
+  end
+  return out
+end
+
+--- True if this run has the leaf process `name` running now.
+function Run:is_running(name)
+  return self.byname[name] ~= nil
+end
+
+--- The expression's own text (layout kept) with each running leaf marked by mark(text) (default: *text*).
+function Run:render(mark)
+  mark = mark or function(s) return "*" .. s .. "*" end
+  local byname, text = self.byname, self.expr.text
+  local out, at = {}, 1
+  for _, nd in ipairs(self.expr.leaves) do
+    if byname[nd.name] == nd.id then
+      out[#out + 1] = ssub(text, at, nd.pos - 1)
+      out[#out + 1] = mark(ssub(text, nd.pos, nd.stop))
+      at = nd.stop + 1
+    end
+  end
+  out[#out + 1] = ssub(text, at)
+  return concat(out)
+end
+
+local function show(v)
+  if type(v) == "string" then return sformat("%q", v) end
+  return tostring(v)
+end
+
+--- The latest log entries (at most 256), oldest first, as text:
+--- "start A", "start A[l] init=5", "abort A", "+A[l]", "-A[l]", "event A done", "ignored A done",
+--- "conflict A (already running)", "abort (external)".
+function Run:log()
+  local out, c = {}, self.c
+  local count = self.logn < LOG_SIZE and self.logn or LOG_SIZE
+  local i = (self.logi - count) % LOG_SIZE
+  for _ = 1, count do
+    i = i % LOG_SIZE + 1
+    local k, a, b = self.logk[i], self.loga[i], self.logb[i]
+    local s
+    if k == "start" then
+      s = "start " .. leaf_text(c, a) .. (b ~= nil and (" init=" .. show(b)) or "")
+    elseif k == "abort" then s = "abort " .. c.name[a]
+    elseif k == "+" or k == "-" then s = k .. leaf_text(c, a)
+    elseif k == "event" then s = "event " .. a .. " " .. b
+    elseif k == "ignored" then s = "ignored " .. tostring(a) .. " " .. b
+    elseif k == "conflict" then s = "conflict " .. c.name[a] .. " (already running)"
+    else s = "abort (external)" end
+    out[#out + 1] = s
+  end
+  return out
+end
+
+return M

@@ -1,0 +1,92 @@
+-- The team's acceptance cases for the algebra ($DCA_SHARED_DIR/cases/algebra.lua, format in its header),
+-- each registered as one case under its own name: CTest shows lua.algebra_cases.<name>.
+local T = require "dca.testing"
+local algebra = require "dca.algebra"
+local suite = T.suite("algebra_cases")
+
+local shared = os.getenv("DCA_SHARED_DIR")
+if not shared or shared == "" then
+  error("DCA_SHARED_DIR is not set: cannot find the shared algebra cases (cases/algebra.lua)", 0)
+end
+local path = shared .. "/cases/algebra.lua"
+local chunk, load_err = loadfile(path)
+if not chunk then error("cannot load the shared algebra cases: " .. tostring(load_err), 0) end
+local cases = chunk()
+assert(type(cases) == "table" and #cases > 0, path .. " holds no cases")
+
+-- Drives one case through the interpreter and returns what was observed, in the cases' vocabulary.
+local function drive(c)
+  local seen = { started = {}, aborted = {}, inits = {}, labels = {}, order = {}, ignored = {} }
+  local expr, err = algebra.parse(c.expr)
+  if not expr then
+    seen.final, seen.error = "error", err
+    return seen
+  end
+  local before = {}
+  for _, n in ipairs(c.running_before or {}) do before[n] = true end
+  local current_label = {}
+  local run = algebra.new(expr, {
+    start = function(name, init)
+      local lb = current_label[name]
+      local s = lb and (name .. "[" .. lb .. "]") or name
+      seen.started[#seen.started + 1] = s
+      seen.order[#seen.order + 1] = "start " .. s
+      if init ~= nil then seen.inits[#seen.inits + 1] = { name, init } end
+    end,
+    abort = function(name)
+      seen.aborted[#seen.aborted + 1] = name
+      seen.order[#seen.order + 1] = "abort " .. name
+    end,
+    activate = function(name, label)
+      current_label[name] = label
+      local s = "+" .. name .. "[" .. label .. "]"
+      seen.labels[#seen.labels + 1] = s
+      seen.order[#seen.order + 1] = s
+    end,
+    deactivate = function(name, label)
+      current_label[name] = nil
+      local s = "-" .. name .. "[" .. label .. "]"
+      seen.labels[#seen.labels + 1] = s
+      seen.order[#seen.order + 1] = s
+    end,
+    is_running = function(name) return before[name] == true end,
+  })
+  run:start()
+  -- stable sort of the script by t
+  local script = {}
+  for i, s in ipairs(c.script or {}) do script[i] = { t = s.t, i = i, ev = s.ev } end
+  table.sort(script, function(a, b) if a.t ~= b.t then return a.t < b.t end return a.i < b.i end)
+  for _, s in ipairs(script) do
+    local name, kind, v = s.ev[1], s.ev[2], s.ev[3]
+    if name == "*" then
+      T.eq(kind, "abort", "the only event of '*' is abort")
+      run:abort()
+    else
+      local taken = run:event(name, kind, v)
+      T.ok(taken == true or taken == false, "event() returns a boolean")
+      if not taken then seen.ignored[#seen.ignored + 1] = name .. " " .. kind end
+    end
+  end
+  seen.final, seen.value = run:status()
+  seen.running = run:running()
+  return seen
+end
+
+for _, c in ipairs(cases) do
+  suite:case(c.name, function()
+    local x = c.expect
+    local got = drive(c)
+    T.eq(got.final, x.final, "final")
+    if x.final == "error" then
+      T.contains(got.error:lower(), x.error:lower(), "error message")
+    end
+    T.eq(got.started, x.started, "started")
+    T.eq(got.aborted, x.aborted, "aborted")
+    if x.value ~= nil then T.eq(got.value, x.value, "value") end
+    for _, k in ipairs({ "inits", "labels", "order", "running", "ignored" }) do
+      if x[k] ~= nil then T.eq(got[k], x[k], k) end
+    end
+  end)
+end
+
+return suite:run(...)
