@@ -1,0 +1,67 @@
+#include "host/loop.h"
+
+#include <boost/asio/steady_timer.hpp>
+
+namespace dca {
+
+Loop::Loop() = default;
+
+Loop::~Loop() {
+  if (signals_) {
+    boost::system::error_code ec;
+    signals_->cancel(ec);
+    signals_.reset();
+  }
+}
+
+std::size_t Loop::run() {
+  io_.restart();
+  return io_.run();
+}
+
+bool Loop::run_until(const std::function<bool()>& done, std::chrono::nanoseconds timeout) {
+  if (done()) return true;
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  io_.restart();
+  for (;;) {
+    const auto now = std::chrono::steady_clock::now();
+    if (now >= deadline) return done();
+    // run_one_until returns 0 at the deadline, or when the context is stopped or out of work.
+    const std::size_t n = io_.run_one_until(deadline);
+    if (done()) return true;
+    if (n == 0) {
+      if (io_.stopped()) {
+        // Out of work (or stopped): nothing can make done() true before the deadline except another thread.
+        return done();
+      }
+    }
+  }
+}
+
+void Loop::run_for(std::chrono::nanoseconds duration) {
+  io_.restart();
+  io_.run_for(duration);
+}
+
+void Loop::stop() { io_.stop(); }
+
+void Loop::on_signals(std::initializer_list<int> signals, std::function<void(int)> fn) {
+  if (signals_) {
+    boost::system::error_code ec;
+    signals_->cancel(ec);
+  }
+  signals_ = std::make_unique<boost::asio::signal_set>(io_);
+  for (int s : signals) signals_->add(s);
+  on_signal_ = std::move(fn);
+  wait_signal();
+}
+
+void Loop::wait_signal() {
+  signals_->async_wait([this, set = signals_.get()](const boost::system::error_code& ec, int sig) {
+    if (ec || set != signals_.get()) return;  // cancelled or replaced
+    if (on_signal_) on_signal_(sig);
+    if (signals_ && set == signals_.get()) wait_signal();
+  });
+}
+
+}  // namespace dca

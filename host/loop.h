@@ -1,0 +1,52 @@
+#pragma once
+// The process's event loop: one Boost.Asio io_context, run by one thread (the caller of run()).
+// Every dca component of a process (channels, listeners, the daemon, the Executer, timers) runs its handlers
+// on this io_context, so they need no locks.
+#pragma GCC diagnostic push  // Asio's scheduler trips GCC 12's -Wnull-dereference when inlined at -O3
+#pragma GCC diagnostic ignored "-Wnull-dereference"
+#include <boost/asio/io_context.hpp>
+#include <boost/asio/signal_set.hpp>
+#include <boost/asio/steady_timer.hpp>
+#pragma GCC diagnostic pop
+#include <chrono>
+#include <functional>
+#include <initializer_list>
+#include <memory>
+
+namespace dca {
+
+/// The process's io_context with run/stop helpers and signal handling.
+class Loop {
+ public:
+  Loop();
+  ~Loop();
+  Loop(const Loop&) = delete;
+  Loop& operator=(const Loop&) = delete;
+
+  /// The io_context every component of this process is built on.
+  boost::asio::io_context& io() { return io_; }
+
+  /// Runs handlers until stop() is called or no work is left. Returns the number of handlers run.
+  std::size_t run();
+  /// Runs handlers until `done()` returns true (checked before waiting and after each handler) or `timeout`
+  /// has passed. Returns true when `done()` became true. Does not consume a pending stop().
+  bool run_until(const std::function<bool()>& done, std::chrono::nanoseconds timeout);
+  /// Runs handlers for `duration` (or until stop()).
+  void run_for(std::chrono::nanoseconds duration);
+  /// Makes run() return after the current handler (safe from any thread and from signal handlers' callbacks).
+  void stop();
+  /// True once stop() was called and run() has not been entered since.
+  bool stopped() const { return io_.stopped(); }
+
+  /// Calls `fn(signal)` from the loop each time one of `signals` (e.g. SIGTERM, SIGINT) arrives. Replaces any
+  /// earlier handler. The signals are handled only while the Loop lives.
+  void on_signals(std::initializer_list<int> signals, std::function<void(int)> fn);
+
+ private:
+  void wait_signal();
+  boost::asio::io_context io_{1};
+  std::unique_ptr<boost::asio::signal_set> signals_;
+  std::function<void(int)> on_signal_;
+};
+
+}  // namespace dca
