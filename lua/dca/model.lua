@@ -1,0 +1,145 @@
+-- dca.model: a checked DCA file instantiated as a tree of instances with bound arguments, for the
+-- supervisor (and for `dca check` / `dca graph`).
+--
+--   local model = require "dca.model"
+--   local tree, errors = model.build(ast, { root = "main", args = {}, host = nil, types = core.types() })
+--   -- errors: the list from dca.check (plus binding errors), each { line, col, path, msg }; nil tree then.
+--
+-- Every node of the tree:
+--   { path = "main.dooropensyst.hit", name = "hit", type = "HitDetector",
+--     kind = "group" | "leaf",
+--     host = "c3.nada.kth.se",         -- leaf: its first argument; group: its host { } (else the parent's host;
+--                                      --   the root without host { } has opts.host, possibly nil)
+--     args = { v1, v2, ... },          -- every argument bound to a value, in order (leaf: host first)
+--     params = { v2, ... },            -- leaf: the arguments after the host (what the controller gets)
+--     bindings = { host1 = "c1..." },  -- group: its parameters by name
+--     manifest = m | nil,              -- leaf: the registry's (or builtin) manifest when known
+--     process = <AST process>,         -- group: its definition (instances, external_io, internal_connections,
+--                                      --   actions.expr: the dca.algebra expression)
+--     children = { node, ...; [name] = node }, -- group: its instances in declaration order and by name
+--     parent = node | nil, line, col }  -- where the instance is declared (the root: its process)
+local check = require "dca.check"
+
+local M = {}
+
+local ipairs, pairs, type, tostring, sformat = ipairs, pairs, type, tostring, string.format
+
+local function bind(a, env)
+  if a.kind == "param" then return env[a.value] end
+  return a.value
+end
+
+--- Checks `ast` (dca.check, same opts) and instantiates the tree rooted at opts.root (default "main").
+--- Returns the root node, or nil and the list of errors.
+function M.build(ast, opts)
+  opts = opts or {}
+  local root_name = opts.root or "main"
+  local copts = {}
+  for k, v in pairs(opts) do copts[k] = v end
+  copts.root = root_name
+  local errors = check.check(ast, copts)
+  if #errors > 0 then return nil, errors end
+  local defs = ast.by_name
+  local rootdef = defs[root_name]
+  local registry, manifest_fn = opts.types, opts.manifest
+  local function manifest(t)
+    if registry and registry[t] then return registry[t] end
+    if manifest_fn then
+      local m = manifest_fn(t)
+      if m then return m end
+    end
+    return check.builtins[t]
+  end
+  local args = opts.args or {}
+  if #args ~= #rootdef.params then
+    return nil, { { line = rootdef.line, col = rootdef.col, path = root_name,
+                    msg = sformat("the root process '%s' takes %d arguments, %d given", root_name, #rootdef.params,
+                                  #args) } }
+  end
+  local berrors = {}
+  local function group(def, path, name, argv, parent_host, parent, decl)
+    local env = {}
+    for i, prm in ipairs(def.params) do env[prm.name] = argv[i] end
+    local host = parent_host
+    if def.host then host = bind(def.host, env) end
+    if def.host and type(host) ~= "string" then
+      berrors[#berrors + 1] = { line = def.host.line, col = def.host.col, path = path,
+                                msg = sformat("the host of %s is %s, not a host name", path, tostring(host)) }
+    end
+    local node = { path = path, name = name, type = def.name, kind = "group", host = host, args = argv,
+                   bindings = env, process = def, children = {}, parent = parent,
+                   line = decl and decl.line or def.line, col = decl and decl.col or def.col }
+    for _, inst in ipairs(def.instances) do
+      local values = {}
+      for i, a in ipairs(inst.args) do values[i] = bind(a, env) end
+      local cpath = path .. "." .. inst.name
+      local child
+      local d = defs[inst.type]
+      if d then
+        child = group(d, cpath, inst.name, values, host, node, inst)
+      else
+        local params = {}
+        for i = 2, #values do params[i - 1] = values[i] end
+        child = { path = cpath, name = inst.name, type = inst.type, kind = "leaf", host = values[1], args = values,
+                  params = params, manifest = manifest(inst.type), parent = node, line = inst.line, col = inst.col }
+        if type(values[1]) ~= "string" then
+          local a = inst.args[1]
+          berrors[#berrors + 1] = { line = a.line, col = a.col, path = cpath,
+                                    msg = sformat("the host of leaf %s is %s, not a host name", cpath,
+                                                  tostring(values[1])) }
+        end
+      end
+      node.children[#node.children + 1] = child
+      node.children[inst.name] = child
+    end
+    return node
+  end
+  local tree = group(rootdef, root_name, root_name, args, opts.host, nil, nil)
+  if #berrors > 0 then return nil, berrors end
+  return tree
+end
+
+--- Calls fn(node, depth) for every node, depth first, parents before children.
+function M.walk(node, fn, depth)
+  depth = depth or 0
+  fn(node, depth)
+  if node.children then
+    for _, c in ipairs(node.children) do M.walk(c, fn, depth + 1) end
+  end
+end
+
+--- The node at `path` ("main.dooropensyst.hit"), or nil.
+function M.find(tree, path)
+  if path == tree.path then return tree end
+  local rest = path:sub(#tree.path + 2)
+  if path:sub(1, #tree.path + 1) ~= tree.path .. "." then return nil end
+  local node = tree
+  for part in rest:gmatch("[^.]+") do
+    node = node.children and node.children[part]
+    if not node then return nil end
+  end
+  return node
+end
+
+--- Counts for a one-line summary: { groups, instances, leaves, connections, hosts = { sorted names } }.
+function M.summary(tree)
+  local s = { groups = 0, instances = 0, leaves = 0, connections = 0, hosts = {} }
+  local seen = {}
+  M.walk(tree, function(n, depth)
+    if depth > 0 then s.instances = s.instances + 1 end
+    if n.kind == "group" then
+      s.groups = s.groups + 1
+      for _, set in ipairs(n.process.internal_connections) do s.connections = s.connections + #set.connections end
+    else
+      s.leaves = s.leaves + 1
+    end
+    if n.host ~= nil and not seen[n.host] then
+      seen[n.host] = true
+      s.hosts[#s.hosts + 1] = tostring(n.host)
+    end
+  end)
+  table.sort(s.hosts)
+  return s
+end
+
+return M

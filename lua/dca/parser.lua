@@ -1,0 +1,461 @@
+-- dca.parser: the DCA process-definition language (DCA paper, section 2.1 and appendix), an LPeg grammar.
+--
+--   local parser = require "dca.parser"
+--   local ast, err = parser.parse(text, "door.dca")
+--   -- err: "door.dca:12:7: message\n<source line>\n<caret>"; parse never raises, whatever the input.
+--
+-- The language:
+--   process Name(param, ...) {
+--     host { arg }                                        -- where this group's supervisor runs
+--     instantiated_processes { inst instof Type(arg, ...); ... }
+--     external_io { Alias = inst, Port; ... }             -- an inner port exported under another name
+--     internal_connections(inst, label) { a, Out -> b, In; ... }     -- any number of these
+--     internal_event_actions { expression }               -- dca.algebra syntax, naming instances
+--   }
+-- Arguments are parameter names, strings ("c1.example") or numbers (30, -0.5, 1e3). Comments: // and /* */.
+-- Sections may come in any order; each but internal_connections at most once (dca.check reports repeats).
+--
+-- AST (every table with `line`, `col` also has `pos`, the byte offset):
+--   ast = { file = <name>, source = <text>, index = <dca.source index>,
+--           processes = { proc, ... }, by_name = { [name] = proc } (first definition wins) }
+--   proc = {
+--     name = "DoorOpenSystem", line, col,
+--     params = { { name = "host1", line, col }, ... },
+--     host = arg | nil,                                  -- the argument of host { }
+--     instances = { inst, ...; [name] = inst ... },      -- list in order, and by name (first wins)
+--     external_io = { x, ...; [alias] = x ... },         -- x = { alias, instance, port, line, col,
+--                                                        --   instance_line/col, port_line/col }
+--     internal_connections = { set, ... },               -- set = { instance, label, line, col,
+--                                                        --   instance_line, instance_col,
+--                                                        --   connections = { { from, out, to, ["in"], line, col,
+--                                                        --     out_line/col, to_line/col, in_line/col }, ... } }
+--     actions = { text, line, col, expr = <dca.algebra expression> | nil,
+--                 error = { msg, line, col } | nil } | nil,   -- expression errors are left to dca.check
+--     duplicate_sections = { { section = "host", line, col }, ... },
+--   }
+--   inst = { name = "hit", type = "HitDetector", line, col, type_line, type_col, args = { arg, ... } }
+--   arg  = { kind = "param" | "string" | "number", value = <name | string | number>, line, col }
+local lpeg = require "lpeg"
+local algebra = require "dca.algebra"
+local source = require "dca.source"
+
+local M = {}
+
+local P, R, S, C, Cc, Cg, Ct, Cp, Cb, Cmt, Cs =
+  lpeg.P, lpeg.R, lpeg.S, lpeg.C, lpeg.Cc, lpeg.Cg, lpeg.Ct, lpeg.Cp, lpeg.Cb, lpeg.Cmt, lpeg.Cs
+local type, error, pcall, tostring, ipairs, setmetatable, getmetatable =
+  type, error, pcall, tostring, ipairs, setmetatable, getmetatable
+local sformat, ssub, sfind, smatch = string.format, string.sub, string.find, string.match
+
+--- The section keywords of a process body.
+M.sections = { "host", "instantiated_processes", "external_io", "internal_connections", "internal_event_actions" }
+local SECTION = {}
+for _, s in ipairs(M.sections) do SECTION[s] = true end
+
+---------------------------------------------------------------------------------------------- lexical
+
+local space = S(" \t\r\n\f\v")
+local line_comment = P"//" * (1 - P"\n")^0
+local ParseError = {}
+local function raise(label, pos, ...)
+  error(setmetatable({ label = label, pos = pos, n = select("#", ...), ... }, ParseError), 0)
+end
+local block_comment = Cmt(Cp() * P"/*" * (1 - P"*/")^0 * (C(P"*/") + Cc(false)), function(_, i, start, closed)
+  if not closed then raise("comment", start) end
+  return i
+end)
+local comment = line_comment + block_comment
+local ws = (space + comment)^0
+local idchar = R("az", "AZ", "09") + "_"
+local ident = (R("az", "AZ") + "_") * idchar^0
+local NAME = C(ident) * ws
+local function tok(s) return P(s) * ws end
+local function kw(w) return P(w) * -idchar * ws end
+
+local digits = R"09"^1
+local number = C(P"-"^-1 * digits * (P"." * digits)^-1 * (S"eE" * S"+-"^-1 * digits)^-1) / tonumber * -idchar * ws
+local escape = (P"\\" * C(S'"\\')) / "%1" + P"\\n" / "\n" + P"\\t" / "\t"
+local string_lit = Cmt(Cp() * P'"' * Cs((escape + (1 - S'"\\\n'))^0) * (C(P'"') + Cc(false)),
+                       function(_, i, start, value, closed)
+                         if not closed then raise("string", start) end
+                         return i, value
+                       end) * ws
+
+local section_kw = kw"host" + kw"instantiated_processes" + kw"external_io" + kw"internal_connections" +
+                   kw"internal_event_actions"
+-- Where a section (or the next process) begins, including the paper's typos "external io",
+-- "internal connections": used to tell "missing '}'" from other errors in a list.
+local section_start = section_kw + kw"process" +
+                      (P"external" + P"internal") * S" \t"^1 * ident + (P"external" + P"internal") * -idchar
+
+-- expect(p, label, refs...): p, or else a labelled error at this position; `refs` are names of group
+-- captures (Cb) handed to the message function.
+local function expect(p, label, ...)
+  local refs = { ... }
+  local thrower = Cp()
+  for _, r in ipairs(refs) do thrower = thrower * Cb(r) end
+  return p + Cmt(thrower, function(_, _, pos, ...) raise(label, pos, ...) end)
+end
+
+---------------------------------------------------------------------------------------------- grammar
+
+local function pos(name) return Cg(Cp(), name or "pos") end
+
+local arg = Ct(pos() * (Cg(string_lit, "value") * Cg(Cc"string", "kind") +
+                        Cg(number, "value") * Cg(Cc"number", "kind") +
+                        -section_start * Cg(NAME, "value") * Cg(Cc"param", "kind")))
+
+local args = expect(tok"(", "args_open", "iname", "itype") *
+             Ct((arg * (tok"," * expect(arg, "arg"))^0)^-1) *
+             expect(tok")", "args_close", "iname")
+
+local instance = Ct(pos() * -section_start * Cg(NAME, "name") * Cg(Cb("name"), "iname") *
+                    expect(kw"instof", "instof", "iname") *
+                    pos("type_pos") * Cg(expect(NAME, "type_name", "iname"), "type") * Cg(Cb("type"), "itype") *
+                    Cg(args, "args") *
+                    expect(tok";", "instance_semi", "iname"))
+
+local function section(name, body)
+  return Ct(Cg(Cc(name), "section") * pos() * pos("open_" .. name) * kw(name) * body)
+end
+
+local host_section = section("host",
+  expect(tok"{", "host_open") * Cg(expect(arg, "host_arg"), "arg") * expect(tok"}", "host_close"))
+
+local instances_section = section("instantiated_processes",
+  expect(tok"{", "section_open", "section") * Cg(Ct(instance^0), "items") *
+  expect(tok"}", "section_close", "section", "open_instantiated_processes"))
+
+local xio_entry = Ct(pos() * -section_start * Cg(NAME, "alias") * Cg(Cb("alias"), "xalias") *
+                     expect(tok"=", "xio_eq", "xalias") *
+                     pos("instance_pos") * Cg(expect(NAME, "xio_instance", "xalias"), "instance") *
+                     expect(tok",", "xio_comma", "xalias") *
+                     pos("port_pos") * Cg(expect(NAME, "xio_port", "xalias"), "port") *
+                     expect(tok";", "xio_semi", "xalias"))
+local xio_section = section("external_io",
+  expect(tok"{", "section_open", "section") * Cg(Ct(xio_entry^0), "items") *
+  expect(tok"}", "section_close", "section", "open_external_io"))
+
+local connection = Ct(pos() * -section_start * Cg(NAME, "from") * expect(tok",", "conn_comma_out") *
+                      pos("out_pos") * Cg(expect(NAME, "conn_port_out"), "out") * expect(tok"->", "conn_arrow") *
+                      pos("to_pos") * Cg(expect(NAME, "conn_instance_in"), "to") * expect(tok",", "conn_comma_in") *
+                      pos("in_pos") * Cg(expect(NAME, "conn_port_in"), "in") * expect(tok";", "conn_semi"))
+local ic_section = section("internal_connections",
+  expect(tok"(", "ic_paren") * pos("ipos") * Cg(expect(NAME, "ic_instance"), "instance") *
+  expect(tok",", "ic_comma") * Cg(expect(NAME, "ic_label"), "label") * expect(tok")", "ic_close_paren") *
+  expect(tok"{", "section_open", "section") * Cg(Ct(connection^0), "items") *
+  expect(tok"}", "section_close", "section", "open_internal_connections"))
+
+local actions_section = section("internal_event_actions",
+  expect(P"{", "section_open", "section") * pos("text_pos") * Cg(C((comment + (1 - S"}"))^0), "text") *
+  expect(tok"}", "actions_close", "open_internal_event_actions"))
+
+local any_section = host_section + instances_section + xio_section + ic_section + actions_section
+
+local param = Ct(pos() * -section_start * Cg(NAME, "name"))
+local process = Ct(pos() * pos("open_process") * kw"process" * Cg(expect(NAME, "process_name"), "name") *
+                   Cg(Cb("name"), "pname") *
+                   expect(tok"(", "params_open", "pname") *
+                   Cg(Ct((param * (tok"," * expect(param, "param", "pname"))^0)^-1), "params") *
+                   expect(tok")", "params_close", "pname") *
+                   expect(tok"{", "process_open", "pname") *
+                   Cg(Ct(any_section^0), "sections") *
+                   expect(tok"}", "process_close", "pname", "open_process"))
+
+local file = ws * Ct(process^0) * expect(P(-1), "toplevel")
+
+-- For blanking comments out of an expression (keeping offsets and newlines).
+local blank = Cs(((comment / function(c) return (c:gsub("[^\n]", " ")) end) + 1)^0)
+
+---------------------------------------------------------------------------------------------- messages
+
+-- What is at `pos`, for "found ..." (a word, a string, a character, or the end of the file).
+local function found(s, p)
+  if p > #s then return "the end of the file" end
+  local w = smatch(s, "^[%a_][%w_]*", p)
+  if w then return "'" .. w .. "'" end
+  local n = smatch(s, "^%-?%d[%w_.]*", p)
+  if n then return "'" .. n .. "'" end
+  if ssub(s, p, p) == '"' then return "a string" end
+  local c = ssub(s, p, p)
+  if c:match("%c") or c:byte() > 126 then return sformat("byte \\%d", c:byte()) end
+  return "'" .. c .. "'"
+end
+
+-- The section-like words at `pos` ("external iof" -> "external iof", "external_io" -> "external_io").
+local function section_words(s, p)
+  local w1, sp, w2 = smatch(s, "^([%a_][%w_]*)([ \t]+)([%a_][%w_]*)", p)
+  if w1 == "external" or w1 == "internal" then return w1 .. sp .. w2, w1 .. "_" .. w2 end
+  local w = smatch(s, "^[%a_][%w_]*", p)
+  return w, w
+end
+
+local function suggest_section(s, p)
+  local shown, joined = section_words(s, p)
+  if not shown then return nil end
+  if SECTION[joined] then return shown, joined end
+  return shown, source.closest(joined, M.sections)
+end
+
+local function line_of(idx, p) return (idx:at(p)) end
+
+-- Builds the message of a labelled error: returns message, position.
+local function message(e, s, idx)
+  local l, p = e.label, e.pos
+  local f = found(s, p)
+  local function open_line(op) return op and sformat(" (opened at line %d)", line_of(idx, op)) or "" end
+  if l == "comment" then return "unterminated comment: '/*' without '*/'", p end
+  if l == "string" then return "unterminated string: '\"' without a closing '\"' on the same line", p end
+  if l == "toplevel" then
+    local shown, guess = suggest_section(s, p)
+    if shown and (SECTION[guess] or guess) then
+      return sformat("'%s' outside a process: a '}' closes the process too early", shown), p
+    end
+    if shown then
+      local close = source.closest(shown, { "process" })
+      if close then return sformat("expected 'process', found '%s' (did you mean 'process'?)", shown), p end
+    end
+    return "expected 'process' to start a process definition, found " .. f, p
+  end
+  if l == "process_name" then return "expected the process name after 'process', found " .. f, p end
+  if l == "params_open" then return sformat("expected '(' after 'process %s', found %s", e[1], f), p end
+  if l == "param" then return sformat("expected a parameter name after ',' in process '%s', found %s", e[1], f), p end
+  if l == "params_close" then
+    return sformat("expected ',' or ')' in the parameters of process '%s', found %s", e[1], f), p
+  end
+  if l == "process_open" then return sformat("expected '{' to open process '%s', found %s", e[1], f), p end
+  if l == "process_close" then
+    local shown, guess = suggest_section(s, p)
+    if p > #s then
+      return sformat("missing '}' to close process '%s'%s", e[1], open_line(e[2])), p
+    end
+    if shown == "process" then
+      return sformat("missing '}' to close process '%s'%s before the next 'process'", e[1], open_line(e[2])), p
+    end
+    if shown and guess then
+      if shown ~= guess and shown:find("[ \t]") then
+        return sformat("unknown section '%s': did you mean '%s'? (section names are written with '_')",
+                       shown, guess), p
+      end
+      return sformat("unknown section '%s': did you mean '%s'?", shown, guess), p
+    end
+    if shown then
+      return sformat("unknown section '%s' in process '%s' (sections are: %s)", shown, e[1],
+                     table.concat(M.sections, ", ")), p
+    end
+    return sformat("expected a section or '}' to close process '%s', found %s", e[1], f), p
+  end
+  if l == "host_open" then
+    if ssub(s, p, p) == "(" then
+      local a = smatch(s, "^%(%s*([^%s%)]*)", p) or ""
+      return sformat("'host' takes braces, not parentheses: write 'host { %s }'", a), p
+    end
+    return "expected '{' after 'host', found " .. f, p
+  end
+  if l == "host_arg" then return "expected the host in 'host { }': a parameter name or a string, found " .. f, p end
+  if l == "host_close" then return "expected '}' after the host (one argument), found " .. f, p end
+  if l == "section_open" then return sformat("expected '{' after '%s', found %s", e[1], f), p end
+  if l == "section_close" or l == "actions_close" then
+    local sec, op = e[1], e[2]
+    if l == "actions_close" then sec, op = "internal_event_actions", e[1] end
+    local shown, guess = suggest_section(s, p)
+    if p > #s then return sformat("missing '}' to close '%s'%s", sec, open_line(op)), p end
+    if shown == "process" or (shown and guess) then
+      return sformat("missing '}' to close '%s'%s before '%s'", sec, open_line(op), shown), p
+    end
+    if sec == "instantiated_processes" then
+      return "expected an instance ('name instof Type(args);') or '}', found " .. f, p
+    elseif sec == "external_io" then
+      return "expected an export ('Name = instance, Port;') or '}', found " .. f, p
+    elseif sec == "internal_connections" then
+      return "expected a connection ('a, Out -> b, In;') or '}', found " .. f, p
+    end
+    return sformat("expected '}' to close '%s', found %s", sec, f), p
+  end
+  if l == "instof" then
+    return sformat("expected 'instof' after the instance name '%s', found %s", e[1], f), p
+  end
+  if l == "type_name" then return sformat("expected a process type after '%s instof', found %s", e[1], f), p end
+  if l == "args_open" then
+    return sformat("expected '(' after the type '%s' of instance '%s' (write %s() when there are no arguments), found %s",
+                   e[2], e[1], e[2], f), p
+  end
+  if l == "arg" then return "expected an argument after ',' (a parameter name, a string or a number), found " .. f, p end
+  if l == "args_close" then
+    return sformat("expected ',' or ')' in the arguments of instance '%s', found %s", e[1], f), p
+  end
+  if l == "instance_semi" then
+    return sformat("expected ';' after the instance '%s', found %s", e[1], f), p
+  end
+  if l == "xio_eq" then return sformat("expected '=' after the exported name '%s', found %s", e[1], f), p end
+  if l == "xio_instance" then return sformat("expected an instance name after '%s =', found %s", e[1], f), p end
+  if l == "xio_comma" then
+    return sformat("expected ',' between the instance and the port (write '%s = instance, Port;'), found %s", e[1], f), p
+  end
+  if l == "xio_port" then return sformat("expected a port name in the export '%s', found %s", e[1], f), p end
+  if l == "xio_semi" then return sformat("expected ';' after the export '%s', found %s", e[1], f), p end
+  if l == "ic_paren" then
+    return "expected '(' after 'internal_connections' (write internal_connections(instance, label) { ... }), found " .. f, p
+  end
+  if l == "ic_instance" then return "expected the instance name in internal_connections(instance, label), found " .. f, p end
+  if l == "ic_comma" then return "expected ',' between the instance and the label in internal_connections(instance, label), found " .. f, p end
+  if l == "ic_label" then return "expected the label in internal_connections(instance, label), found " .. f, p end
+  if l == "ic_close_paren" then return "expected ')' after the label in internal_connections(instance, label), found " .. f, p end
+  if l == "conn_comma_out" or l == "conn_comma_in" then
+    return "expected ',' between instance and port (write 'a, Out -> b, In;'), found " .. f, p
+  end
+  if l == "conn_port_out" or l == "conn_port_in" then return "expected a port name, found " .. f, p end
+  if l == "conn_arrow" then return "expected '->' between the output and the input (write 'a, Out -> b, In;'), found " .. f, p end
+  if l == "conn_instance_in" then return "expected the destination instance after '->', found " .. f, p end
+  if l == "conn_semi" then return "expected ';' after the connection, found " .. f, p end
+  return "syntax error (" .. tostring(l) .. "), found " .. f, p
+end
+
+---------------------------------------------------------------------------------------------- AST
+
+local function at(idx, t, p, lk, ck)
+  local line, col = idx:at(p)
+  t[lk or "line"], t[ck or "col"] = line, col
+end
+
+local function clean(t, keys)
+  for _, k in ipairs(keys) do t[k] = nil end
+end
+
+local function build_process(raw, idx, text)
+  local proc = { name = raw.name, pos = raw.pos, params = {}, instances = {}, external_io = {},
+                 internal_connections = {}, duplicate_sections = {} }
+  at(idx, proc, raw.pos)
+  for i, prm in ipairs(raw.params) do
+    proc.params[i] = prm
+    at(idx, prm, prm.pos)
+  end
+  local seen = {}
+  for _, sec in ipairs(raw.sections) do
+    local kind = sec.section
+    local spos = sec.pos
+    if kind ~= "internal_connections" and seen[kind] then
+      local l, c = idx:at(spos)
+      proc.duplicate_sections[#proc.duplicate_sections + 1] = { section = kind, pos = spos, line = l, col = c,
+                                                                 first_line = seen[kind] }
+    else
+      seen[kind] = (idx:at(spos))
+      if kind == "host" then
+        proc.host = sec.arg
+        at(idx, sec.arg, sec.arg.pos)
+        proc.host_line, proc.host_col = idx:at(spos)
+      elseif kind == "instantiated_processes" then
+        for _, inst in ipairs(sec.items) do
+          clean(inst, { "iname", "itype" })
+          at(idx, inst, inst.pos)
+          at(idx, inst, inst.type_pos, "type_line", "type_col")
+          for _, a in ipairs(inst.args) do at(idx, a, a.pos) end
+          proc.instances[#proc.instances + 1] = inst
+          if proc.instances[inst.name] == nil then proc.instances[inst.name] = inst end
+        end
+      elseif kind == "external_io" then
+        for _, x in ipairs(sec.items) do
+          clean(x, { "xalias" })
+          at(idx, x, x.pos)
+          at(idx, x, x.instance_pos, "instance_line", "instance_col")
+          at(idx, x, x.port_pos, "port_line", "port_col")
+          proc.external_io[#proc.external_io + 1] = x
+          if proc.external_io[x.alias] == nil then proc.external_io[x.alias] = x end
+        end
+      elseif kind == "internal_connections" then
+        local set = { instance = sec.instance, label = sec.label, pos = sec.pos, connections = {} }
+        at(idx, set, sec.pos)
+        set.instance_line, set.instance_col = idx:at(sec.ipos)
+        for i, cn in ipairs(sec.items) do
+          at(idx, cn, cn.pos)
+          at(idx, cn, cn.out_pos, "out_line", "out_col")
+          at(idx, cn, cn.to_pos, "to_line", "to_col")
+          at(idx, cn, cn.in_pos, "in_line", "in_col")
+          set.connections[i] = cn
+        end
+        proc.internal_connections[#proc.internal_connections + 1] = set
+      elseif kind == "internal_event_actions" then
+        local act = { text = sec.text, pos = sec.text_pos }
+        at(idx, act, sec.pos, "section_line", "section_col")
+        -- the expression's position: its first token (or the text start when blank)
+        local body = blank:match(sec.text)
+        local lead = sfind(body, "[^%s]")
+        local p0 = sec.text_pos + ((lead or 1) - 1)
+        at(idx, act, p0)
+        local expr, _, info = algebra.parse(body)
+        if expr then
+          -- positions of the expression's nodes, in file coordinates
+          local function walk(nd)
+            nd.pos = nd.pos + sec.text_pos - 1
+            if nd.stop then nd.stop = nd.stop + sec.text_pos - 1 end
+            nd.line, nd.col = idx:at(nd.pos)
+            if nd.kids then for _, k in ipairs(nd.kids) do walk(k) end end
+          end
+          walk(expr.root)
+          act.expr = expr
+        else
+          local p = sec.text_pos + info.pos - 1
+          if info.msg == "empty expression" then p = sec.pos end
+          local l, c = idx:at(p)
+          act.error = { msg = info.msg, pos = p, line = l, col = c }
+        end
+        proc.actions = act
+      end
+    end
+  end
+  return proc
+end
+
+--- Parses DCA source text. Returns the AST (see the top of this file), or nil and
+--- "file:line:col: message\n<source line>\n<caret>". Never raises.
+function M.parse(text, filename)
+  filename = filename or "<input>"
+  if type(text) ~= "string" then
+    return nil, sformat("%s:1:1: expected the source text as a string, got %s", tostring(filename), type(text))
+  end
+  local idx = source.index(text)
+  local ok, raw = pcall(lpeg.match, file, text)
+  if not ok then
+    if getmetatable(raw) == ParseError then
+      local okm, msg, p = pcall(message, raw, text, idx)
+      if not okm then msg, p = "syntax error (" .. tostring(msg) .. ")", raw.pos end
+      if p > #text then
+        -- at the end of the file: point just after the last token
+        p = (sfind(text, "[^%s]%s*$") or 0) + 1
+        if p < 1 then p = 1 end
+      end
+      local line, col = idx:at(p)
+      return nil, source.format(filename, idx, line, col, msg)
+    end
+    local m = tostring(raw)
+    if m:find("stack overflow", 1, true) or m:find("too complex", 1, true) then
+      return nil, source.format(filename, idx, 1, 1, "input too complex to parse (" .. m .. ")")
+    end
+    return nil, source.format(filename, idx, 1, 1, "internal parser error: " .. m)
+  end
+  local ast = { file = filename, source = text, index = idx, processes = {}, by_name = {} }
+  local okb, err = pcall(function()
+    for i, rp in ipairs(raw) do
+      local proc = build_process(rp, idx, text)
+      ast.processes[i] = proc
+      if ast.by_name[proc.name] == nil then ast.by_name[proc.name] = proc end
+    end
+  end)
+  if not okb then return nil, source.format(filename, idx, 1, 1, "internal parser error: " .. tostring(err)) end
+  return ast
+end
+
+--- The process named `name` in `ast` (the first definition), or nil.
+function M.process(ast, name)
+  for _, p in ipairs(ast.processes) do
+    if p.name == name then return p end
+  end
+  return nil
+end
+
+--- Formats an error at (line, col) of the parsed file, like parse errors.
+function M.format_error(ast, line, col, msg)
+  return source.format(ast.file, ast.index, line, col, msg)
+end
+
+return M

@@ -1,0 +1,89 @@
+-- `dca check` and `dca graph` as a user runs them.
+local T = require "dca.testing"
+local suite = T.suite("check_cli")
+
+local dca = os.getenv("DCA_EXE") or "dca"
+local src = os.getenv("DCA_SOURCE_DIR") or "."
+
+local function tmpfile(text)
+  local path = os.tmpname() .. ".dca"
+  local f = assert(io.open(path, "w"))
+  f:write(text)
+  f:close()
+  return path
+end
+
+suite:case("paper_systems_pass_dca_check", function()
+  local want = {
+    compliant_motion = "ok: 2 groups, 5 instances (4 leaves), 3 connections, 2 hosts (arm, control)",
+    door_open = "ok: 6 groups, 24 instances (19 leaves), 17 connections, 3 hosts (manipulation, platform, vision)",
+    tidy_up = "ok: 2 groups, 10 instances (9 leaves), 9 connections, 2 hosts (arm, robot)",
+  }
+  for name, summary in pairs(want) do
+    local path = src .. "/scripts/systems/" .. name .. ".dca"
+    -- the language-level check (the controller registry's port names are the door engineers' to match)
+    local out, rc = T.sh(dca .. " check --no-registry " .. path)
+    T.eq(rc, 0, name .. ": " .. out)
+    T.eq(out, path .. ": " .. summary .. "\n")
+  end
+end)
+
+suite:case("errors_are_printed_and_exit_1", function()
+  local path = tmpfile("process main() {\n  instantiated_processes { a instof T(); }\n  internal_event_actions { a , b }\n}\n")
+  local out, rc = T.sh(dca .. " check " .. path)
+  os.remove(path)
+  T.eq(rc, 1)
+  T.contains(out, path .. ":2:28: main.a: leaf 'a' (T) has no host")
+  T.contains(out, path .. ":3:32: main: unknown instance 'b' in internal_event_actions (instances: a)")
+  T.contains(out, path .. ": 2 errors")
+end)
+
+suite:case("syntax_error_exit_1_with_caret", function()
+  local path = tmpfile("process main() {\n  host (h)\n}\n")
+  local out, rc = T.sh(dca .. " check " .. path)
+  os.remove(path)
+  T.eq(rc, 1)
+  T.eq(out, path .. ":2:8: 'host' takes braces, not parentheses: write 'host { h }'\n  host (h)\n       ^\n")
+end)
+
+suite:case("usage_errors_exit_2", function()
+  local out, rc = T.sh(dca .. " check")
+  T.eq(rc, 2)
+  T.contains(out, "usage: dca check FILE.dca")
+  out, rc = T.sh(dca .. " check /nonexistent/x.dca")
+  T.eq(rc, 1)
+  T.contains(out, "cannot read /nonexistent/x.dca")
+  _, rc = T.sh(dca .. " check a.dca b.dca")
+  T.eq(rc, 2)
+end)
+
+suite:case("graph_writes_dot", function()
+  local out, rc = T.sh(dca .. " graph " .. src .. "/scripts/systems/door_open.dca")
+  T.eq(rc, 0, out)
+  T.ok(out:match("^digraph dca {\n"), out)
+  T.contains(out, '"main.dooropensyst" [shape=folder')
+  T.contains(out, "motionctrl, visualserv[lbl1] # distdetect ; (opengrip, approach[lbl1]) # hit")
+  T.contains(out, '"main.dooropensyst" -> "main.dooropensyst.hit";')
+  T.contains(out, '"main.dooropensyst.visualserv" -> "main.dooropensyst.motionctrl" [style=dotted')
+  T.contains(out, '"main.dooropensyst.opengrip" [shape=box, label="opengrip : GripperControl\\n@manipulation\\n(\\"open\\")"];')
+end)
+
+suite:case("graph_svg_when_dot_is_installed", function()
+  local _, has_dot = T.sh("command -v dot")
+  local out_path = os.tmpname() .. ".svg"
+  local out, rc = T.sh(dca .. " graph --svg -o " .. out_path .. " " .. src .. "/scripts/systems/tidy_up.dca")
+  if has_dot ~= 0 then
+    T.eq(rc, 1)
+    T.contains(out, "not installed")
+    return
+  end
+  T.eq(rc, 0, out)
+  local f = assert(io.open(out_path))
+  local svg = f:read("a")
+  f:close()
+  os.remove(out_path)
+  T.contains(svg, "<svg")
+  T.contains(svg, "main.tidy")
+end)
+
+return suite:run(...)

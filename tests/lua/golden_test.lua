@@ -1,0 +1,75 @@
+-- Golden tests of the language's messages: each tests/lua/golden/NAME.dca is parsed and checked, and the
+-- full text printed for it (parse error, or every check error and the count line) must equal NAME.err
+-- exactly. A first line "// golden: registry" checks against the fixed registry below; "// golden: root=X"
+-- names the root. DCA_GOLDEN_UPDATE=1 rewrites the .err files (review the diff!).
+local T = require "dca.testing"
+local parser = require "dca.parser"
+local check = require "dca.check"
+local suite = T.suite("golden")
+
+local here = debug.getinfo(1, "S").source:match("^@(.*)/[^/]*$") or "."
+local dir = here .. "/golden"
+
+-- A small fixed registry in the shape of dca.core.types().
+local registry = {
+  ForceSensor = { inputs = {}, outputs = { { name = "Out1" }, { name = "Force" } }, params = {} },
+  CompliantCtrl = { inputs = { { name = "In1" } }, outputs = { { name = "Out1" } }, params = {} },
+  Puma560 = { inputs = { { name = "In1" } }, outputs = { { name = "Joints" } }, params = {} },
+  HitDetector = { inputs = { { name = "In1" } }, outputs = {},
+                  params = { { name = "threshold", type = "number", required = true } } },
+  Gain = { inputs = { { name = "In" } }, outputs = { { name = "Out" } },
+           params = { { name = "k", type = "number", required = true },
+                      { name = "period", type = "number", required = false, default = "0" } } },
+  XR4000Odometry = { inputs = {}, outputs = { { name = "Pose" } }, params = {} },
+}
+
+local function read(path)
+  local f = io.open(path, "rb")
+  if not f then return nil end
+  local s = f:read("a")
+  f:close()
+  return s
+end
+
+--- What the language tools print for `text` (exactly what `dca check --no-registry` prints, registry aside).
+local function output(text, filename)
+  local ast, err = parser.parse(text, filename)
+  if not ast then return err .. "\n" end
+  local opts = {}
+  local directive = text:match("^// golden:([^\n]*)")
+  if directive then
+    if directive:find("registry", 1, true) then opts.types = registry end
+    opts.root = directive:match("root=([%w_]+)")
+  end
+  local errors = check.check(ast, opts)
+  return check.format_all(ast, errors) .. "\n"
+end
+
+local p = io.popen('ls "' .. dir .. '"')
+local names = {}
+for line in p:lines() do
+  local n = line:match("^(.*)%.dca$")
+  if n then names[#names + 1] = n end
+end
+p:close()
+assert(#names > 0, "no golden files in " .. dir)
+table.sort(names)
+
+for _, n in ipairs(names) do
+  suite:case(n, function()
+    local text = assert(read(dir .. "/" .. n .. ".dca"))
+    local got = output(text, n .. ".dca")
+    if os.getenv("DCA_GOLDEN_UPDATE") == "1" then
+      local f = assert(io.open(dir .. "/" .. n .. ".err", "wb"))
+      f:write(got)
+      f:close()
+      return
+    end
+    local want = read(dir .. "/" .. n .. ".err")
+    T.ok(want, "missing golden file " .. n .. ".err (run with DCA_GOLDEN_UPDATE=1 and review it)")
+    T.eq(got, want)
+    T.ok(not got:find(": 0 errors\n", 1, true), "a golden input must produce errors")
+  end)
+end
+
+return suite:run(...)

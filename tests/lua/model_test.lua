@@ -1,0 +1,90 @@
+-- dca.model: the instantiated tree the supervisor uses (paths, kinds, hosts, bound arguments).
+local T = require "dca.testing"
+local parser = require "dca.parser"
+local model = require "dca.model"
+local suite = T.suite("model")
+
+local src = os.getenv("DCA_SOURCE_DIR") or "."
+
+local function load(name)
+  local f = assert(io.open(src .. "/scripts/systems/" .. name .. ".dca", "rb"))
+  local text = f:read("a")
+  f:close()
+  return assert(parser.parse(text, name .. ".dca"))
+end
+
+suite:case("door_tree_paths_kinds_hosts_args", function()
+  local tree = assert(model.build(load("door_open")))
+  T.eq({ tree.path, tree.kind, tree.type, tree.host }, { "main", "group", "main", nil })
+  local sys = tree.children.dooropensyst
+  T.eq({ sys.path, sys.kind, sys.type, sys.host }, { "main.dooropensyst", "group", "DoorOpenSystem", "manipulation" })
+  T.eq(sys.bindings, { host1 = "vision", host2 = "platform", host3 = "manipulation" })
+  local hit = model.find(tree, "main.dooropensyst.hit")
+  T.eq({ hit.kind, hit.type, hit.host }, { "group", "HitDetector", "manipulation" })
+  local force = model.find(tree, "main.dooropensyst.hit.force")
+  T.eq({ force.kind, force.type, force.host, force.args, force.params },
+       { "leaf", "ForceTorque", "manipulation", { "manipulation" }, {} })
+  T.ok(force.parent == hit)
+  local grip = model.find(tree, "main.dooropensyst.opengrip")
+  T.eq({ grip.host, grip.args, grip.params }, { "manipulation", { "manipulation", "open" }, { "open" } })
+  local xr = model.find(tree, "main.dooropensyst.motionctrl.xr4000")
+  T.eq(xr.host, "platform")
+  T.eq(model.find(tree, "main.dooropensyst.motionctrl").host, "manipulation")
+  T.eq(model.find(tree, "main.nope"), nil)
+  T.eq(model.find(tree, "other.dooropensyst"), nil)
+  -- children in declaration order, the expression reachable from the group
+  T.eq(sys.children[1].name, "visualserv")
+  T.ok(sys.process.actions.expr, "expression")
+  local s = model.summary(tree)
+  T.eq({ s.groups, s.instances, s.leaves, s.connections, s.hosts }, { 6, 24, 19, 17, { "manipulation", "platform", "vision" } })
+end)
+
+suite:case("group_without_host_runs_on_the_parent_host", function()
+  local ast = assert(parser.parse([[
+process Inner(h) { instantiated_processes { t instof Timer(h, 1); } internal_event_actions { t } }
+process Outer(a, b) { host { a } instantiated_processes { i instof Inner(b); } internal_event_actions { i } }
+process main() { instantiated_processes { o instof Outer("x", "y"); } internal_event_actions { o } }
+]], "h.dca"))
+  local tree = assert(model.build(ast, { host = "local" }))
+  T.eq(tree.host, "local")
+  T.eq(model.find(tree, "main.o").host, "x")
+  T.eq(model.find(tree, "main.o.i").host, "x")
+  T.eq(model.find(tree, "main.o.i.t").host, "y")
+  T.eq(model.find(tree, "main.o.i.t").params, { 1 })
+end)
+
+suite:case("root_arguments_and_chosen_root", function()
+  local ast = assert(parser.parse([[
+process Pair(h1, h2) { host { h1 } instantiated_processes { a instof Timer(h1, 1); b instof Timer(h2, 2); }
+                       internal_event_actions { a , b } }
+]], "pair.dca"))
+  local tree = assert(model.build(ast, { root = "Pair", args = { "c1", "c2" } }))
+  T.eq({ tree.path, tree.host }, { "Pair", "c1" })
+  T.eq(model.find(tree, "Pair.b").host, "c2")
+  local none, errs = model.build(ast, { root = "Pair" })
+  T.eq(none, nil)
+  T.eq(errs[1].msg, "the root process 'Pair' takes 2 arguments, 0 given")
+  local bad
+  bad, errs = model.build(ast, { root = "Pair", args = { 1, "c2" } })
+  T.eq(bad, nil)
+  T.eq(errs[1].msg, "the host of Pair is 1, not a host name")
+end)
+
+suite:case("check_errors_refuse_the_tree", function()
+  local ast = assert(parser.parse([[process main() { instantiated_processes { a instof T(); } internal_event_actions { a } }]],
+                                  "bad.dca"))
+  local tree, errs = model.build(ast)
+  T.eq(tree, nil)
+  T.eq(#errs, 1)
+  T.contains(errs[1].msg, "has no host")
+end)
+
+suite:case("walk_visits_parents_first", function()
+  local tree = assert(model.build(load("compliant_motion")))
+  local seen = {}
+  model.walk(tree, function(n, depth) seen[#seen + 1] = depth .. ":" .. n.path end)
+  T.eq(seen, { "0:main", "1:main.motion", "2:main.motion.forcedata", "2:main.motion.compliant",
+               "2:main.motion.puma", "2:main.motion.hit" })
+end)
+
+return suite:run(...)
