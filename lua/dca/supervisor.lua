@@ -1,0 +1,680 @@
+-- dca.supervisor: the DCAS of the paper (section 4.1), one per process-group instance.
+--
+-- Pure logic: every effect goes through a runtime `rt` (real: dca.supervisor_rt over dca.core; tests:
+-- dca.supervisor_fake, in memory). The supervisor owns its group's children and nothing else: its leaves'
+-- events and its child supervisors' outcomes come to it only, and it reports to its parent only when its
+-- expression ends (plus progress/log lines when the parent asked for them).
+--
+--   local sup = require("dca.supervisor").new(spec, rt, opts)   -- spec: dca.supervisor_spec
+--   sup:configure(cb)         -- start children inactive, connect, cb(true) | cb(false, reason)  (start+connect)
+--   sup:run(init)             -- runs the expression; the outcome goes to rt.report{type="done"|"aborted"}
+--   sup:abort(cb)             -- aborts the running expression (LIFO), cb() once every stop is acknowledged
+--   sup:shutdown(cb)          -- aborts, then stops every child LIFO (processes gone), cb()
+--   sup:handle(msg, reply)    -- a request from the parent (configure/run/abort/shutdown/node/tree/...)
+--   sup:child_message(name, msg)  -- an event from a child (leaf node: done/aborted; child DCAS: done/aborted/log)
+--   sup:child_exit(name, reason)  -- a child's process exited (Executer) or its channel/host was lost
+--
+-- The runtime:
+--   rt.spawn(child, cb)       -- child = a spec child (leaf or group); cb(handle) | cb(nil, reason). A handle
+--                             --   has request(msg, timeout_s, cb(reply|nil, err)), send(msg), kill(signal).
+--                             --   A group's handle is a configured-to-be child DCAS: send it {type="configure"}.
+--   rt.defer(fn)              -- fn from the loop, soon
+--   rt.after(s, fn)           --> timer with cancel()
+--   rt.report(msg)            -- to the parent ({type="done", value=}, {type="aborted", path=, reason=}, log)
+--   rt.log(line)              -- a line for this process's own output
+--   rt.now()                  --> seconds
+-- State lives in the object (a plain table); the methods live in M.Sup, which a reload of this module
+-- updates in place, so running supervisors pick up new code and keep their state.
+local algebra = require "dca.algebra"
+local spec_mod = require "dca.supervisor_spec"
+
+local previous = package.loaded["dca.supervisor"]
+local M = type(previous) == "table" and previous or {}
+
+local ipairs, pairs, type, tostring, sformat, select = ipairs, pairs, type, tostring, string.format, select
+local concat, remove = table.concat, table.remove
+
+--- Timeouts (seconds) of each wait of the start protocol; any of them may be overridden per supervisor.
+M.timeouts = M.timeouts or { spawn = 10, configure = 30, connect = 5, stop = 5, request = 5 }
+
+M.Sup = M.Sup or {}
+local Sup = M.Sup
+Sup.__index = Sup
+
+local LOG_KEEP = 500
+
+local function show(v)
+  if v == nil then return "nil" end
+  if type(v) == "string" then return sformat("%q", v) end
+  if type(v) ~= "table" then return tostring(v) end
+  local parts, n = {}, 0
+  for k, x in pairs(v) do
+    n = n + 1
+    if n > 8 then parts[#parts + 1] = "..." break end
+    if k ~= "n" then parts[#parts + 1] = (type(k) == "number" and "" or tostring(k) .. "=") .. show(x) end
+  end
+  return "{" .. concat(parts, ", ") .. "}"
+end
+M.show = show
+
+--- A new supervisor for the group `spec` on the runtime `rt`. opts: { timeouts = {...}, progress = bool }.
+function M.new(spec, rt, opts)
+  opts = opts or {}
+  local self = setmetatable({
+    spec = spec, path = spec.path, rt = rt,
+    timeouts = setmetatable(opts.timeouts or {}, { __index = M.timeouts }),
+    progress = opts.progress or false,     -- send progress/transition lines up (dca run asked for them)
+    children = {},                         -- name -> child state (below)
+    order = {},                            -- names in the order their processes started (LIFO teardown)
+    state = "new",                         -- new | starting | configured | running | done | aborted | failed | stopped
+    run = nil, expr = nil, cause = nil, outcome = nil,
+    logbuf = {}, pending_expr = nil,
+    stats = { leaf_events = 0, group_events = 0 },
+  }, Sup)
+  for _, c in ipairs(spec.children) do
+    self.children[c.name] = { spec = c, name = c.name, path = c.path, kind = c.kind, host = c.host,
+                              state = "new", handle = nil, manual = false }
+  end
+  if spec.expr then
+    local e, err, info = algebra.parse(spec.expr)
+    if not e then
+      self.expr_error = sformat("%s:%d:%d: %s", spec.file or "?", (spec.expr_line or 1) + (info and info.line or 1) - 1,
+        (info and info.line or 1) == 1 and (spec.expr_col or 1) + (info and info.col or 1) - 1 or (info and info.col or 1),
+        info and info.msg or err)
+    else
+      self.expr = e
+      for _, name in ipairs(e.names) do
+        if not self.children[name] then
+          self.expr_error = sformat("%s:%d:%d: %s: unknown process '%s'", spec.file or "?", spec.expr_line or 0,
+            spec.expr_col or 0, spec.path, name)
+        end
+      end
+    end
+  end
+  return self
+end
+
+---------------------------------------------------------------------------------------------- logging
+
+function Sup:log(fmt, ...)
+  local line = select("#", ...) > 0 and sformat(fmt, ...) or fmt
+  local buf = self.logbuf
+  buf[#buf + 1] = sformat("%.3f %s", self.rt.now(), line)
+  if #buf > LOG_KEEP then remove(buf, 1) end
+  return line
+end
+
+-- A line for the person watching (`dca run`): to the parent when asked for, else to this process's output.
+function Sup:say(fmt, ...)
+  local line = self:log(fmt, ...)
+  if self.progress then self.rt.report({ type = "log", line = line }) end
+  if self.rt.log then self.rt.log(line) end
+end
+
+---------------------------------------------------------------------------------------------- start
+
+local function countdown(n, done)
+  if n == 0 then done() return function() end end
+  return function()
+    n = n - 1
+    if n == 0 then done() end
+  end
+end
+
+-- Phase 1: every child process started (inactive); groups configured (their subtree up and wired).
+function Sup:_start_children(cb)
+  local failed = false
+  local names = {}
+  for _, c in ipairs(self.spec.children) do names[#names + 1] = c.name end
+  local tick = countdown(#names, function() if not failed then cb(true) end end)
+  for _, name in ipairs(names) do
+    local ch = self.children[name]
+    ch.state = "starting"
+    local timer
+    timer = self.rt.after(self.timeouts.spawn, function()
+      if ch.state == "starting" and not failed then
+        failed = true
+        cb(false, sformat("%s (%s on host %s) did not start within %gs", ch.path, ch.kind == "group" and "supervisor"
+          or "node", tostring(ch.host), self.timeouts.spawn))
+      end
+    end)
+    self.rt.spawn(ch.spec, function(handle, err)
+      if timer then timer:cancel() end
+      if failed then
+        if handle then ch.handle = handle self.order[#self.order + 1] = name ch.state = "inactive" end
+        return
+      end
+      if not handle then
+        ch.state = "failed"
+        failed = true
+        cb(false, sformat("%s: could not start on host %s: %s", ch.path, tostring(ch.host), tostring(err)))
+        return
+      end
+      ch.handle = handle
+      self.order[#self.order + 1] = name
+      if ch.kind == "leaf" then
+        ch.state = "inactive"
+        tick()
+      else
+        ch.state = "configuring"
+        handle.request({ type = "configure", spec = ch.spec.spec, progress = self.progress, timeouts = self.timeouts_raw },
+          self.timeouts.configure, function(reply, rerr)
+            if failed then return end
+            if not reply or reply.type == "error" then
+              ch.state = "failed"
+              failed = true
+              cb(false, reply and reply.reason or sformat("%s (supervisor on host %s) did not answer: %s", ch.path,
+                tostring(ch.host), tostring(rerr)))
+              return
+            end
+            ch.state = "inactive"
+            tick()
+          end)
+      end
+    end)
+  end
+end
+
+-- Sends a message to the node of leaf `leaf_path`, directly when it is ours, else through the child DCAS
+-- whose subtree holds it. cb(reply, err).
+function Sup:to_leaf(leaf_path, msg, timeout, cb)
+  local c = spec_mod.route(self.spec, leaf_path)
+  local ch = c and self.children[c.name]
+  if not ch or not ch.handle then
+    if cb then cb(nil, sformat("%s: no route to %s", self.path, leaf_path)) end
+    return
+  end
+  if ch.kind == "leaf" then
+    if cb then ch.handle.request(msg, timeout, cb) else ch.handle.send(msg) end
+  else
+    local fwd = { type = "node", leaf = leaf_path, msg = msg }
+    if cb then ch.handle.request(fwd, timeout, cb) else ch.handle.send(fwd) end
+  end
+end
+
+-- Phase 2: this group's own connections, resolved to leaf ports, created inactive at each source node.
+function Sup:_connect(cb)
+  local wires, errs = spec_mod.wiring(self.spec)
+  if not wires then cb(false, concat(errs, "; ")) return end
+  self.wires = wires
+  self.set_sources = {}
+  for _, w in ipairs(wires) do
+    local s = self.set_sources[w.set]
+    if not s then s = {} self.set_sources[w.set] = s end
+    if not s[w.src] then s[w.src] = true s[#s + 1] = w.src end
+  end
+  local failed = false
+  local tick = countdown(#wires, function() if not failed then cb(true) end end)
+  for _, w in ipairs(wires) do
+    self:to_leaf(w.src, { type = "connect", out = w.out, to = w.dst, ["in"] = w["in"], set = w.set, mode = "push" },
+      self.timeouts.connect, function(reply, err)
+        if failed then return end
+        if not reply or reply.type == "error" then
+          failed = true
+          cb(false, sformat("%s: connecting %s.%s -> %s.%s (set %s): %s", self.path, w.src, w.out, w.dst, w["in"], w.set,
+            reply and reply.reason or tostring(err)))
+          return
+        end
+        tick()
+      end)
+  end
+end
+
+--- Start protocol below this group: children started inactive, then connected. cb(true) | cb(false, reason).
+function Sup:configure(cb)
+  if self.expr_error then self.state = "failed" cb(false, self.expr_error) return end
+  self.state = "starting"
+  self:say("%s: starting %d processes", self.path, #self.spec.children)
+  self:_start_children(function(ok, err)
+    if not ok then self.state = "failed" cb(false, err) return end
+    self:say("%s: started", self.path)
+    self:_connect(function(ok2, err2)
+      if not ok2 then self.state = "failed" cb(false, err2) return end
+      self:say("%s: connected (%d connections)", self.path, #self.wires)
+      self.state = "configured"
+      self:say("%s: configured", self.path)
+      cb(true)
+    end)
+  end)
+end
+
+---------------------------------------------------------------------------------------------- run
+
+function Sup:_commands()
+  local sup = self
+  return {
+    start = function(name, init) sup:_start_child(name, init) end,
+    abort = function(name) sup:_abort_child(name) end,
+    activate = function(name, label) sup:_set(name, label, "activate") end,
+    deactivate = function(name, label) sup:_set(name, label, "deactivate") end,
+    is_running = function(name)
+      local ch = sup.children[name]
+      return ch ~= nil and ch.manual
+    end,
+    log = function(line) sup:log("%s: %s", sup.path, line) end,
+  }
+end
+
+function Sup:_set(name, label, what)
+  local id = spec_mod.set_id(self.path, name, label)
+  local srcs = self.set_sources and self.set_sources[id]
+  if not srcs then return end
+  for _, src in ipairs(srcs) do self:to_leaf(src, { type = what, set = id }) end
+end
+
+-- An event into the expression, from the loop (never from inside a command).
+function Sup:_feed(name, kind, value)
+  local run = self.run
+  if not run then return false end
+  local taken = run:event(name, kind, value)
+  self:_check_outcome()
+  return taken
+end
+
+function Sup:_fail_later(name, reason)
+  self.rt.defer(function()
+    local ch = self.children[name]
+    if self.run and self.run:is_running(name) then
+      self.cause = self.cause or { path = ch.path, reason = reason }
+      if self:_feed(name, "error", reason) then
+        self.cause = self.cause or { path = ch.path, reason = reason }
+      end
+    end
+  end)
+end
+
+function Sup:_start_child(name, init)
+  local ch = self.children[name]
+  if not ch.handle or ch.state == "exited" or ch.state == "lost" then
+    self:_fail_later(name, sformat("%s is not running (%s)", ch.path, ch.exit_reason or ch.state))
+    return
+  end
+  ch.state = "running"
+  ch.run_no = (ch.run_no or 0) + 1
+  local run_no = ch.run_no
+  self:say("%s: running", ch.path)
+  local function check(reply, err)
+    if (not reply or reply.type == "error") and ch.state == "running" and ch.run_no == run_no then
+      self:_fail_later(name, sformat("%s: %s", ch.path, reply and reply.reason or tostring(err)))
+    end
+  end
+  if ch.kind == "leaf" then
+    ch.handle.request({ type = "init" }, self.timeouts.request, check)
+    ch.handle.request({ type = "run", init = init }, self.timeouts.request, check)
+  else
+    ch.handle.request({ type = "run", init = init }, self.timeouts.request, check)
+  end
+end
+
+function Sup:_abort_child(name)
+  local ch = self.children[name]
+  ch.state = "stopping"
+  self:say("%s: aborting", ch.path)
+  local ack = self.abort_ack
+  if ack then ack.n = ack.n + 1 end
+  self.stops_pending = (self.stops_pending or 0) + 1
+  local function done(reply, err)
+    if ch.state == "stopping" then ch.state = "inactive" end
+    self.stops_pending = self.stops_pending - 1
+    if self.stops_pending == 0 and self.held_report then
+      local m = self.held_report
+      self.held_report = nil
+      self.rt.report(m)
+    end
+    if not reply or reply.type == "error" then
+      self:log("%s: stop of %s: %s", self.path, ch.path, reply and reply.reason or tostring(err))
+    end
+    self:say("%s: stopped", ch.path)
+    if ack then
+      ack.n = ack.n - 1
+      if ack.n == 0 and ack.cb then local f = ack.cb ack.cb = nil f() end
+    end
+  end
+  if not ch.handle or ch.state == "exited" then done({ type = "ok" }) return end
+  ch.handle.request({ type = ch.kind == "leaf" and "stop" or "abort" }, self.timeouts.stop, done)
+end
+
+-- The outcome goes up only once every stop it caused is acknowledged: when a group reports, none of its
+-- processes runs (SEMANTICS.md §5: a composite never half-finishes).
+function Sup:_report(msg)
+  if (self.stops_pending or 0) > 0 then self.held_report = msg else self.rt.report(msg) end
+end
+
+function Sup:_check_outcome()
+  local run = self.run
+  if not run or self.state ~= "running" then return end
+  local st, v = run:status()
+  if st == "done" then
+    self.state = "done"
+    self.outcome = { status = "done", value = v }
+    self:say("%s: done %s", self.path, show(v))
+    self:_report({ type = "done", value = v })
+  elseif st == "aborted" then
+    self.state = "aborted"
+    local cause = self.cause or { path = self.path, reason = "aborted" }
+    self.outcome = { status = "aborted", path = cause.path, reason = cause.reason }
+    self:say("%s: aborted (%s: %s)", self.path, cause.path, cause.reason)
+    self:_report({ type = "aborted", path = cause.path, reason = cause.reason })
+  end
+end
+
+--- Runs this group's expression (the parent's "run"), with `init` bound for every leaf (dca.algebra).
+function Sup:run_expr(init)
+  if self.state == "running" then return false, self.path .. " is already running" end
+  if not self.expr then
+    -- a group without event actions runs nothing and is done at once
+    self.state = "running"
+    self.run = nil
+    self.rt.defer(function()
+      self.state = "done" self.outcome = { status = "done" }
+      self.rt.report({ type = "done" })
+    end)
+    return true
+  end
+  if self.pending_expr then
+    self.expr, self.pending_expr = self.pending_expr, nil
+    self:say("%s: new event actions in effect", self.path)
+  end
+  self.cause, self.outcome = nil, nil
+  self.state = "running"
+  self.last_init = init
+  self.run = algebra.new(self.expr, self:_commands())
+  self.run:start(init)
+  self:_check_outcome()
+  return true
+end
+
+--- Aborts the running expression (one LIFO abort); cb() once every abort is acknowledged.
+function Sup:abort(cb)
+  if not self.run or self.state ~= "running" then if cb then cb() end return end
+  local ack = { n = 1, cb = cb }
+  self.abort_ack = ack
+  self.state = "aborting"
+  self.run:abort()
+  self.abort_ack = nil
+  self.state = "aborted"
+  self.outcome = { status = "aborted", path = self.path, reason = "aborted by its parent" }
+  self:say("%s: aborted", self.path)
+  ack.n = ack.n - 1
+  if ack.n == 0 and ack.cb then local f = ack.cb ack.cb = nil f() end
+end
+
+---------------------------------------------------------------------------------------------- events
+
+--- A message from child `name`: a leaf node's done/aborted event, or a child DCAS's done/aborted/log.
+function Sup:child_message(name, msg)
+  local ch = self.children[name]
+  if not ch then return end
+  local t = msg.type
+  if t == "log" then
+    if self.progress then self.rt.report(msg) end
+    self:log("%s", msg.line)
+    return
+  end
+  if ch.kind == "leaf" then self.stats.leaf_events = self.stats.leaf_events + 1
+  else self.stats.group_events = self.stats.group_events + 1 end
+  if t == "done" then
+    local taken = self.run and self.run:is_running(name)
+    if taken then ch.state = "done" self:say("%s: done %s", ch.path, show(msg.value)) end
+    if not self:_feed(name, "done", msg.value) and not taken then
+      self:log("%s: stale done from %s ignored", self.path, ch.path)
+    end
+  elseif t == "aborted" then
+    local path, reason = msg.path or ch.path, msg.reason or "aborted"
+    local taken = self.run and self.run:is_running(name)
+    if taken then
+      ch.state = "aborted"
+      self:say("%s: aborted: %s", ch.path, reason)
+      self.cause = self.cause or { path = path, reason = reason }
+    end
+    if not self:_feed(name, "aborted", reason) and not taken then
+      self:log("%s: stale aborted from %s ignored", self.path, ch.path)
+    end
+  end
+end
+
+--- Child `name`'s process exited (the Executer's signal) or its supervisor/host was lost.
+function Sup:child_exit(name, reason)
+  local ch = self.children[name]
+  if not ch or ch.state == "exited" or ch.state == "lost" or ch.state == "gone" then return end
+  local was_running = self.run and self.run:is_running(name)
+  ch.state = ch.kind == "leaf" and "exited" or "lost"
+  ch.exit_reason = reason
+  ch.handle = nil
+  self:say("%s: %s: %s", ch.path, ch.kind == "leaf" and "exited" or "lost", reason)
+  if was_running then
+    self.cause = self.cause or { path = ch.path, reason = reason }
+    self:_feed(name, "error", reason)
+  end
+  if self.starting_cb then
+    local f = self.starting_cb
+    self.starting_cb = nil
+    f(false, sformat("%s: %s", ch.path, reason))
+  end
+end
+
+---------------------------------------------------------------------------------------------- stop
+
+--- Aborts the expression, then stops every child process, most recently started first. cb() when all gone.
+function Sup:shutdown(cb)
+  if self.state == "stopped" then if cb then cb() end return end
+  self:abort(function()
+    self.state = "stopping"
+    local names = {}
+    for i = #self.order, 1, -1 do names[#names + 1] = self.order[i] end
+    local i = 0
+    local function next_one()
+      i = i + 1
+      local name = names[i]
+      if not name then
+        self.state = "stopped"
+        self.order = {}
+        if cb then cb() end
+        return
+      end
+      local ch = self.children[name]
+      local h = ch.handle
+      ch.handle = nil
+      if not h then ch.state = "gone" return next_one() end
+      ch.state = "gone"
+      if ch.kind == "group" then
+        h.request({ type = "shutdown" }, self.timeouts.stop + 1, function()
+          h.kill("TERM")
+          next_one()
+        end)
+      else
+        h.kill("TERM")
+        next_one()
+      end
+    end
+    next_one()
+  end)
+end
+
+---------------------------------------------------------------------------------------------- parent requests
+
+--- A request from the parent (or the REPL/`dca run` on the root). reply(msg) answers it.
+function Sup:handle(msg, reply)
+  local t = msg.type
+  if t == "configure" then
+    -- the spec came with the DCAS's creation; a configure message may also carry it
+    self:configure(function(ok, err)
+      if ok then reply({ type = "ok" }) else
+        self:shutdown(function() reply({ type = "error", reason = err }) end)
+      end
+    end)
+  elseif t == "run" then
+    local ok, err = self:run_expr(msg.init)
+    reply(ok and { type = "ok" } or { type = "error", reason = err })
+  elseif t == "abort" then
+    self:abort(function() reply({ type = "ok" }) end)
+  elseif t == "shutdown" then
+    self:shutdown(function() reply({ type = "ok" }) end)
+  elseif t == "node" then
+    self:to_leaf(msg.leaf, msg.msg, self.timeouts.request, function(r, err)
+      reply(r or { type = "error", reason = err })
+    end)
+  elseif t == "tree" then
+    self:tree(function(tr) reply({ type = "ok", tree = tr }) end)
+  elseif t == "inject" or t == "restart" or t == "switch" then
+    local function done(ok, err) reply(ok and { type = "ok" } or { type = "error", reason = err }) end
+    if t == "inject" then self:inject(msg.path, msg.msg, done)
+    elseif t == "restart" then self:restart(msg.path, done)
+    else self:switch(msg.path, msg.label, msg.what, done) end
+  elseif t == "update" then
+    self:update(msg.spec, function(lines) reply({ type = "ok", lines = lines }) end)
+  elseif t == "repl" or t == "complete" then
+    local repl = self.repl
+    if not repl then
+      repl = require("dca.supervisor_repl").new(self, { reload = self.reload_hook })
+      self.repl = repl
+    end
+    if t == "complete" then reply({ type = "ok", candidates = repl:complete(msg.prefix or "") })
+    else repl:eval(msg.line or "", function(out, more) reply({ type = "ok", output = out, more = more }) end) end
+  else
+    reply({ type = "error", reason = "unknown request '" .. tostring(t) .. "'" })
+  end
+end
+
+-- The direct child of this group on the way to `path` (the child itself or the sub-group holding it).
+function Sup:_via(path)
+  for _, c in ipairs(self.spec.children) do
+    local p = c.path .. "."
+    if c.path == path or (c.kind == "group" and path:sub(1, #p) == p) then return self.children[c.name] end
+  end
+end
+
+-- Forwards a request to the child DCAS on the way to `path`. cb(ok, err)
+function Sup:_forward(path, msg, cb)
+  local ch = self:_via(path)
+  if not ch then cb(false, sformat("no process '%s' under %s", path, self.path)) return end
+  if ch.kind ~= "group" or not ch.handle then cb(false, sformat("%s is not reachable (%s)", ch.path, ch.state)) return end
+  ch.handle.request(msg, self.timeouts.request, function(r, err)
+    if r and r.type == "ok" then cb(true, r) else cb(false, r and r.reason or tostring(err)) end
+  end)
+end
+
+--- Injects an event (from the REPL or a scenario) as if the process at `path` had sent it to its owner.
+function Sup:inject(path, msg, cb)
+  local ch = self:_via(path)
+  if ch and ch.path == path then
+    self.rt.defer(function() self:child_message(ch.name, msg) end)
+    cb(true)
+  else
+    self:_forward(path, { type = "inject", path = path, msg = msg }, cb)
+  end
+end
+
+--- Aborts and restarts the expression of the group at `path` (its latest event actions take effect).
+function Sup:restart(path, cb)
+  if path == self.path then
+    self:abort(function()
+      local ok, err = self:run_expr(self.last_init)
+      cb(ok, err)
+    end)
+    return
+  end
+  local ch = self:_via(path)
+  if ch and ch.kind == "leaf" then cb(false, path .. " is a leaf: restart() is for groups") return end
+  self:_forward(path, { type = "restart", path = path }, cb)
+end
+
+--- Activates/deactivates the connection set `label` of the process at `path` (in the group that owns it).
+function Sup:switch(path, label, what, cb)
+  local ch = self:_via(path)
+  if ch and ch.path == path then
+    local id = spec_mod.set_id(self.path, ch.name, label)
+    if not (self.set_sources and self.set_sources[id]) then cb(false, "no connection set " .. id) return end
+    self:_set(ch.name, label, what)
+    cb(true)
+  else
+    self:_forward(path, { type = "switch", path = path, label = label, what = what }, cb)
+  end
+end
+
+local function same(a, b)
+  if a == b then return true end
+  if type(a) ~= "table" or type(b) ~= "table" then return false end
+  for k, v in pairs(a) do if not same(v, b[k]) then return false end end
+  for k in pairs(b) do if a[k] == nil then return false end end
+  return true
+end
+
+--- Takes a new version of this group's spec (a reload): event actions changed take effect at the group's
+--- next start; structural changes are reported (they need the system started again). cb(lines).
+function Sup:update(new, cb)
+  local lines = {}
+  local old = self.spec
+  local name = self.path .. " (" .. tostring(new.type) .. ")"
+  local function shape(sp)
+    local t = { children = {}, external_io = sp.external_io, sets = sp.sets, host = sp.host, type = sp.type }
+    for i, c in ipairs(sp.children) do t.children[i] = { c.name, c.kind, c.type, c.host, c.args } end
+    return t
+  end
+  if not same(shape(old), shape(new)) then
+    lines[#lines + 1] = name .. ": processes or connections changed; takes effect when the system is started again"
+  end
+  if old.expr ~= new.expr then
+    local algebra = require "dca.algebra"
+    local e, err = algebra.parse(new.expr or "")
+    if not e then
+      lines[#lines + 1] = sformat("%s: new event actions rejected: %s", name, err)
+    else
+      self.spec.expr, self.spec.expr_line, self.spec.expr_col = new.expr, new.expr_line, new.expr_col
+      if self.state == "running" then
+        self.pending_expr = e
+        lines[#lines + 1] = name .. ": event actions changed; takes effect at next start (or restart(\"" ..
+          self.path .. "\") now)"
+      else
+        self.expr = e
+        lines[#lines + 1] = name .. ": event actions changed; takes effect at next start"
+      end
+    end
+  end
+  local pending = 1
+  local function fin()
+    pending = pending - 1
+    if pending == 0 then cb(lines) end
+  end
+  for _, c in ipairs(new.children) do
+    local ch = self.children[c.name]
+    if c.kind == "group" and ch and ch.kind == "group" and ch.handle then
+      pending = pending + 1
+      ch.handle.request({ type = "update", spec = c.spec }, self.timeouts.request, function(r, err)
+        if r and r.lines then for _, l in ipairs(r.lines) do lines[#lines + 1] = l end
+        else lines[#lines + 1] = sformat("%s: not updated: %s", c.path, r and r.reason or tostring(err)) end
+        fin()
+      end)
+    end
+  end
+  fin()
+end
+
+--- The tree below this group: { path, kind, type, host, state, children = {...}, expr = rendered }. Async.
+function Sup:tree(cb)
+  local node = { path = self.path, kind = "group", type = self.spec.type, host = self.spec.host, state = self.state,
+                 expr = self.run and self.run:render() or self.spec.expr, children = {} }
+  local pending = 1
+  local function fin()
+    pending = pending - 1
+    if pending == 0 then cb(node) end
+  end
+  for i, c in ipairs(self.spec.children) do
+    local ch = self.children[c.name]
+    if c.kind == "leaf" then
+      node.children[i] = { path = ch.path, kind = "leaf", type = c.type, host = c.host, state = ch.state }
+    else
+      node.children[i] = { path = ch.path, kind = "group", type = c.type, host = c.host, state = ch.state, children = {} }
+      if ch.handle then
+        pending = pending + 1
+        ch.handle.request({ type = "tree" }, self.timeouts.request, function(r)
+          if r and r.tree then r.tree.state = r.tree.state or ch.state node.children[i] = r.tree end
+          fin()
+        end)
+      end
+    end
+  end
+  fin()
+end
+
+return M

@@ -1,0 +1,388 @@
+-- dca.supervisor_fake: an in-memory cluster for the supervisor's logic (no sockets, no clock).
+--
+-- Every message between processes goes through one FIFO queue and is deep-copied (it must survive
+-- serialisation); time is virtual and only advances when the queue is empty. Leaves are fake nodes whose
+-- behaviour a test scripts; groups are real dca.supervisor objects on fake runtimes, so a whole tree runs
+-- exactly as it would across daemons, only in one Lua state and deterministically.
+--
+--   local fake = require "dca.supervisor_fake"
+--   local c = fake.cluster{ behave = { Timer = function(node, init) node:after(1, function() node:done("timeout") end) end } }
+--   local root = c:root(spec)           -- the root DCAS (its parent is the test: c.outcome, c.reports)
+--   c:configure()  --> true | false, reason   (runs the start protocol to the end)
+--   c:start(init)                           -- "run" to the root
+--   c:settle(max_t)                         -- processes events (and virtual time up to max_t)
+--   c:node(path):done(v) / :aborted(reason) -- a leaf's events
+--   c:kill(path, "SEGV") ; c:lose_host("h3") ; c:fail_spawn[path] = "reason" | "silent"
+--   c.trace      -- every delivered message: { from =, to =, type = , kind = "request"|"reply"|"event" }
+--   c.commands   -- every command a node received: "path type [set]"
+local supervisor = require "dca.supervisor"
+
+local M = {}
+
+local pairs, ipairs, type, tostring, error, sformat = pairs, ipairs, type, tostring, error, string.format
+local remove = table.remove
+
+local function copy(v, depth)
+  depth = depth or 0
+  if depth > 64 then error("message too deep (a cycle?)") end
+  local t = type(v)
+  if t == "table" then
+    local r = {}
+    for k, x in pairs(v) do
+      if type(k) ~= "string" and type(k) ~= "number" then error("message key of type " .. type(k)) end
+      r[k] = copy(x, depth + 1)
+    end
+    return r
+  elseif t == "function" or t == "userdata" or t == "thread" then
+    error("message holds a " .. t)
+  end
+  return v
+end
+M.copy = copy
+
+local Cluster = {}
+Cluster.__index = Cluster
+
+local Node = {}
+Node.__index = Node
+
+function M.cluster(opts)
+  opts = opts or {}
+  local c = setmetatable({
+    t = 0, queue = {}, qhead = 1, qtail = 0, timers = {}, tseq = 0,
+    behave = opts.behave or {}, nodes = {}, sups = {}, procs = {},
+    trace = {}, commands = {}, reports = {}, fail_spawn = {}, lost_hosts = {},
+    outcome = nil, timeouts = opts.timeouts, lines = {}, pid = 100,
+  }, Cluster)
+  return c
+end
+
+function Cluster:push(fn)
+  self.qtail = self.qtail + 1
+  self.queue[self.qtail] = fn
+end
+
+function Cluster:after(s, fn)
+  self.tseq = self.tseq + 1
+  local tm = { at = self.t + s, seq = self.tseq, fn = fn }
+  self.timers[#self.timers + 1] = tm
+  return { cancel = function() tm.cancelled = true end }
+end
+
+--- Processes queued work; when idle, advances virtual time to the next timer (not beyond max_t).
+function Cluster:settle(max_t, pred)
+  max_t = max_t or (self.t + 3600)
+  local steps = 0
+  while true do
+    if pred and pred() then return true end
+    if self.qhead <= self.qtail then
+      local fn = self.queue[self.qhead]
+      self.queue[self.qhead] = nil
+      self.qhead = self.qhead + 1
+      steps = steps + 1
+      if steps > 1e6 then error("fake cluster: no quiescence after 1e6 steps") end
+      fn()
+    else
+      self.queue, self.qhead, self.qtail = {}, 1, 0
+      local best, bi
+      for i, tm in ipairs(self.timers) do
+        if not tm.cancelled and (not best or tm.at < best.at or (tm.at == best.at and tm.seq < best.seq)) then
+          best, bi = tm, i
+        end
+      end
+      if not best or best.at > max_t then
+        if not pred then self.t = math.max(self.t, math.min(max_t, self.t)) end
+        return pred and pred() or false
+      end
+      remove(self.timers, bi)
+      self.t = best.at
+      best.fn()
+    end
+  end
+end
+
+function Cluster:note(from, to, msg, kind)
+  self.trace[#self.trace + 1] = { from = from, to = to, type = msg.type, kind = kind, leaf = msg.leaf }
+end
+
+-- A process slot: alive flag, host, and the function that delivers a message to it.
+function Cluster:_proc(path, host, kind)
+  self.pid = self.pid + 1
+  local p = { path = path, host = host, kind = kind, alive = true, pid = self.pid }
+  self.procs[#self.procs + 1] = p
+  return p
+end
+
+-- A handle from `owner` (a path) to the process `p` whose requests are served by serve(msg, reply).
+function Cluster:_handle(owner, p, serve)
+  local c = self
+  local h = {}
+  function h.request(msg, timeout, cb)
+    msg = copy(msg)
+    local answered = false
+    local tm = c:after(timeout or 5, function()
+      if not answered then answered = true cb(nil, "timeout after " .. tostring(timeout) .. "s") end
+    end)
+    c:push(function()
+      if not p.alive then return end
+      c:note(owner, p.path, msg, "request")
+      serve(msg, function(r)
+        r = copy(r)
+        c:push(function()
+          if answered then return end
+          answered = true
+          tm.cancel()
+          c:note(p.path, owner, r, "reply")
+          cb(r)
+        end)
+      end)
+    end)
+  end
+  function h.send(msg)
+    msg = copy(msg)
+    c:push(function()
+      if not p.alive then return end
+      c:note(owner, p.path, msg, "send")
+      serve(msg, function() end)
+    end)
+  end
+  function h.kill(sig) c:_die(p, "killed by SIG" .. tostring(sig), true) end
+  return h
+end
+
+function Cluster:_die(p, reason, quiet)
+  if not p.alive then return end
+  p.alive = false
+  if p.kind == "group" then
+    local s = self.sups[p.path]
+    if s then
+      -- its own children die with it only when their host goes too; a supervisor's death leaves them to
+      -- the daemon, which stops what the dead supervisor started (its channels closed)
+      for _, ch in pairs(s.children) do
+        if ch.handle and ch.handle.kill then ch.handle.kill("TERM") end
+      end
+    end
+  end
+  if not quiet and p.on_exit then
+    local f = p.on_exit
+    self:push(function() f(reason) end)
+  end
+end
+
+--- The fake node of a leaf path.
+function Cluster:node(path) return self.nodes[path] end
+
+function Cluster:_spawn(owner_sup, child, cb)
+  local c = self
+  local mode = c.fail_spawn[child.path]
+  if c.lost_hosts[child.host] then mode = "host " .. child.host .. " unreachable" end
+  if mode == "silent" then return end
+  if mode then c:push(function() cb(nil, mode) end) return end
+  local p = c:_proc(child.path, child.host, child.kind)
+  p.on_exit = function(reason) owner_sup:child_exit(child.name, reason) end
+  if child.kind == "leaf" then
+    local node = setmetatable({ c = c, p = p, path = child.path, type = child.type, host = child.host,
+      args = child.args, owner = owner_sup, name = child.name, conns = {}, active = {}, running = false,
+      runs = 0, ports = {} }, Node)
+    c.nodes[child.path] = node
+    local h = c:_handle(owner_sup.path, p, function(msg, reply) node:serve(msg, reply) end)
+    c:push(function() cb(h) end)
+  else
+    local holder = {}
+    local h = c:_handle(owner_sup.path, p, function(msg, reply)
+      local s = holder.sup
+      if not s then
+        if msg.type ~= "configure" then reply({ type = "error", reason = "not configured" }) return end
+        s = supervisor.new(msg.spec, c:rt(p, function(m)
+          if p.alive then
+            local cm = copy(m)
+            c:push(function()
+              c:note(p.path, owner_sup.path, cm, "event")
+              owner_sup:child_message(child.name, cm)
+            end)
+          end
+        end), { progress = msg.progress, timeouts = c.timeouts })
+        holder.sup = s
+        c.sups[child.path] = s
+      end
+      s:handle(msg, reply)
+    end)
+    c:push(function() cb(h) end)
+  end
+end
+
+--- A runtime for a supervisor living in process `p`; report(msg) goes to its parent.
+function Cluster:rt(p, report)
+  local c = self
+  local rt = {}
+  rt.spawn = function(child, cb) c:_spawn(rt.sup_of(), child, cb) end
+  rt.defer = function(fn) c:push(function() if p.alive then fn() end end) end
+  rt.after = function(s, fn)
+    local tm = c:after(s, function() if p.alive then fn() end end)
+    return { cancel = tm.cancel }
+  end
+  rt.report = report
+  rt.log = function(line) c.lines[#c.lines + 1] = line end
+  rt.now = function() return c.t end
+  rt.sup_of = function() return c.sups[p.path] end
+  return rt
+end
+
+--- The root DCAS for `spec`; its reports land in c.reports and c.outcome.
+function Cluster:root(spec, opts)
+  local p = self:_proc(spec.path, spec.host, "group")
+  self.root_proc = p
+  local s = supervisor.new(spec, self:rt(p, function(m)
+    m = copy(m)
+    self.reports[#self.reports + 1] = m
+    if m.type == "done" or m.type == "aborted" then self.outcome = m end
+  end), opts or { timeouts = self.timeouts })
+  self.sups[spec.path] = s
+  self.root_sup = s
+  return s
+end
+
+--- Runs the root's start protocol to the end. --> true | false, reason
+function Cluster:configure(max_t)
+  local res
+  self.root_sup:configure(function(ok, err)
+    if ok then res = { true } else
+      self.root_sup:shutdown(function() res = { false, err } end)
+    end
+  end)
+  self:settle(max_t, function() return res ~= nil end)
+  if not res then return false, "configure did not finish" end
+  return res[1], res[2]
+end
+
+function Cluster:start(init)
+  self.outcome = nil
+  self.root_sup:run_expr(init)
+end
+
+--- Settles until the root reported its outcome (or max_t). --> the outcome or nil
+function Cluster:outcome_within(max_t)
+  self:settle(max_t, function() return self.outcome ~= nil end)
+  return self.outcome
+end
+
+--- Kills a leaf's or a supervisor's process with a signal (the Executer reports it to its owner).
+function Cluster:kill(path, sig)
+  for _, p in ipairs(self.procs) do
+    if p.path == path and p.alive then
+      local host = p.host
+      self:_die(p, sformat("killed by SIG%s on host %s", sig or "KILL", tostring(host)))
+      return true
+    end
+  end
+  return false
+end
+
+--- Every process on `host` is gone; owners elsewhere hear "host lost".
+function Cluster:lose_host(host)
+  self.lost_hosts[host] = true
+  for _, p in ipairs(self.procs) do
+    if p.host == host and p.alive then self:_die(p, sformat("host %s lost (daemon gone)", host)) end
+  end
+end
+
+--- Processes still alive (the test's /proc).
+function Cluster:alive()
+  local list = {}
+  for _, p in ipairs(self.procs) do if p.alive and p ~= self.root_proc then list[#list + 1] = p.path end end
+  return list
+end
+
+---------------------------------------------------------------------------------------------- fake nodes
+
+function Node:serve(msg, reply)
+  local t = msg.type
+  local c = self.c
+  c.commands[#c.commands + 1] = self.path .. " " .. t .. (msg.set and (" " .. msg.set) or "")
+  if t == "init" then
+    reply({ type = "ok" })
+  elseif t == "run" then
+    self.running = true
+    self.runs = self.runs + 1
+    self.run_id = self.runs
+    reply({ type = "ok" })
+    local b = c.behave[self.type]
+    if b then b(self, msg.init) end
+  elseif t == "stop" then
+    self.running = false
+    reply({ type = "ok" })
+  elseif t == "connect" then
+    self.conns[#self.conns + 1] = { out = msg.out, to = msg.to, ["in"] = msg["in"], set = msg.set }
+    reply({ type = "ok" })
+  elseif t == "activate" then
+    self.active[msg.set] = true
+    reply({ type = "ok" })
+  elseif t == "deactivate" then
+    self.active[msg.set] = nil
+    reply({ type = "ok" })
+  elseif t == "read" then
+    reply({ type = "ok", value = self.ports[msg.port] })
+  else
+    reply({ type = "error", reason = "unknown command " .. tostring(t) })
+  end
+end
+
+local function event(self, msg)
+  if not self.p.alive then return end
+  local c, owner, name = self.c, self.owner, self.name
+  msg = copy(msg)
+  c:push(function()
+    c:note(self.path, owner.path, msg, "event")
+    owner:child_message(name, msg)
+  end)
+end
+
+--- The node ends its run DONE(value) (only while it runs, like a controller).
+function Node:done(v)
+  if not self.running then return false end
+  self.running = false
+  event(self, { type = "done", value = v })
+  return true
+end
+
+function Node:aborted(reason)
+  if not self.running then return false end
+  self.running = false
+  event(self, { type = "aborted", reason = reason })
+  return true
+end
+
+--- A timer on this node that fires only if the same run is still going.
+function Node:after(s, fn)
+  local id = self.run_id
+  return self.c:after(s, function() if self.running and self.run_id == id and self.p.alive then fn() end end)
+end
+
+---------------------------------------------------------------------------------------------- spec builders
+
+--- Spec builders for tests: leaf(name, type, host, args), group(name, type, host, expr, children, sets, xio),
+--- root(name, host, expr, children, sets) gives a finished spec with full paths, set(inst, label, {{a,o,b,i}}).
+function M.leaf(name, typ, host, args) return { name = name, kind = "leaf", type = typ, host = host, args = args or {} } end
+function M.group(name, typ, host, expr, children, sets, xio)
+  return { name = name, kind = "group", type = typ, host = host,
+           spec = { type = typ, host = host, expr = expr, children = children, sets = sets or {},
+                    external_io = xio or {}, file = "test.dca", expr_line = 1, expr_col = 1 } }
+end
+local function finish(g, path)
+  local s = g.spec
+  s.path = path
+  g.path = path
+  for _, c in ipairs(s.children) do
+    c.path = path .. "." .. c.name
+    if c.kind == "group" then finish(c, c.path) end
+  end
+  return s
+end
+function M.root(name, host, expr, children, sets) return finish(M.group(name, name, host, expr, children, sets), name) end
+function M.set(instance, label, conns)
+  local list = {}
+  for _, k in ipairs(conns) do list[#list + 1] = { from = k[1], out = k[2], to = k[3], ["in"] = k[4] } end
+  return { instance = instance, label = label, connections = list }
+end
+
+return M

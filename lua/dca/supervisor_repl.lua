@@ -1,0 +1,251 @@
+-- dca.supervisor_repl: the console that runs inside a supervisor (server side of `dca repl`).
+--
+-- Evaluates Lua like lua.c: `return <line>` first, then the line itself; a chunk whose parse ends at <eof>
+-- waits for more lines. Each evaluation runs in a coroutine so that commands which ask other supervisors
+-- (tree(), status(), expr() of a sub-group) wait for their answers without blocking the loop.
+--
+--   local repl = require("dca.supervisor_repl").new(sup, { reload = function(what) return lines end })
+--   repl:eval(line, function(output, more) end)   -- output: text to print; more: the chunk is incomplete
+--   repl:complete(prefix)                          --> { candidates }
+local supervisor = require "dca.supervisor"
+local spec_mod = require "dca.supervisor_spec"
+
+local M = {}
+
+local ipairs, pairs, type, tostring, select, pcall, load = ipairs, pairs, type, tostring, select, pcall, load
+local sformat, concat, sort = string.format, table.concat, table.sort
+local cocreate, coresume, coyield, costatus = coroutine.create, coroutine.resume, coroutine.yield, coroutine.status
+local traceback = debug.traceback
+
+local HELP = [[
+tree()                        the whole tree: each process with its state and host
+status(path)                  one process: kind, type, host, state
+expr(path)                    a group's expression, running operands marked *X*
+log(n)                        the last n events and commands of this supervisor (default 20)
+event(path, "done", value)    inject a leaf event ("done" value | "aborted" reason)
+abort(path)                   abort a process (its owner's algebra decides what follows); abort() the group
+restart(path)                 abort a group's expression and start it again (new event actions take effect)
+activate(path, label)         activate / deactivate a connection set of a process
+deactivate(path, label)
+reload()                      re-read the system file (and reload("modules") the supervisor's Lua)
+help()                        this text
+Any other Lua is evaluated here, in the supervisor; `return` is implied for expressions.
+Paths are full (main.door.hit) or any unique suffix (door.hit).]]
+
+local Repl = {}
+Repl.__index = Repl
+
+local function fmt_value(v)
+  if type(v) == "string" then return v end
+  if type(v) == "table" then
+    local ok, s = pcall(require("dca.testing").show, v)
+    return ok and s or tostring(v)
+  end
+  return tostring(v)
+end
+
+local function render_tree(node, out, depth)
+  depth = depth or 0
+  local pad = string.rep("  ", depth)
+  local name = pad .. node.path:match("[^.]+$")
+  out[#out + 1] = sformat("%-30s %-6s %-28s %s", name, node.kind, node.type .. "@" .. tostring(node.host),
+    tostring(node.state))
+  for _, c in ipairs(node.children or {}) do render_tree(c, out, depth + 1) end
+  return out
+end
+M.render_tree = render_tree
+
+local function find(node, path)
+  if node.path == path then return node end
+  for _, c in ipairs(node.children or {}) do
+    local f = find(c, path)
+    if f then return f end
+  end
+end
+
+local function all_paths(node, list)
+  list[#list + 1] = node.path
+  for _, c in ipairs(node.children or {}) do all_paths(c, list) end
+  return list
+end
+
+--- Resolves a full path or a unique suffix against the spec tree of `spec`. --> path | nil, err
+function M.resolve(spec, path)
+  if type(path) ~= "string" then return nil, "a path is a string such as \"main.door.hit\"" end
+  local hits = {}
+  spec_mod.walk(spec, function(n)
+    if n.path == path then hits = { n.path } return end
+    if #n.path > #path and n.path:sub(-#path - 1) == "." .. path then hits[#hits + 1] = n.path end
+  end)
+  for _, h in ipairs(hits) do if h == path then return path end end
+  if #hits == 1 then return hits[1] end
+  if #hits == 0 then return nil, sformat("no process '%s' under %s", path, spec.path) end
+  return nil, sformat("'%s' is ambiguous: %s", path, concat(hits, ", "))
+end
+
+function M.new(sup, opts)
+  opts = opts or {}
+  local self = setmetatable({ sup = sup, buffer = nil, opts = opts }, Repl)
+  self.env = self:_env()
+  return self
+end
+
+-- Waits (inside the evaluation coroutine) for an asynchronous answer: fn(resume) calls resume(...) once.
+local function await(fn)
+  local co = coroutine.running()
+  local result, sync, waiting = nil, false, false
+  fn(function(...)
+    result = table.pack(...)
+    if waiting then
+      local ok, err = coresume(co, table.unpack(result, 1, result.n))
+      if not ok then error(err, 0) end
+    else
+      sync = true
+    end
+  end)
+  if sync then return table.unpack(result, 1, result.n) end
+  waiting = true
+  return coyield()
+end
+
+function Repl:_env()
+  local repl, sup = self, self.sup
+  local env = {}
+  local function path_of(p)
+    if p == nil then return sup.path end
+    local r, err = M.resolve(sup.spec, p)
+    if not r then error(err, 0) end
+    return r
+  end
+  local function get_tree() return await(function(k) sup:tree(k) end) end
+  local function say(...) repl:_print(...) end
+  env.print = say
+  function env.help() say(HELP) end
+  function env.tree()
+    say(concat(render_tree(get_tree(), {}), "\n"))
+  end
+  function env.status(p)
+    local path = path_of(p)
+    local n = find(get_tree(), path)
+    if not n then error("no process " .. path, 0) end
+    return sformat("%s: %s %s on host %s, %s", n.path, n.kind, n.type, tostring(n.host), n.state)
+  end
+  function env.expr(p)
+    local path = path_of(p)
+    local n = find(get_tree(), path)
+    if not n or n.kind ~= "group" then error(path .. " is not a group", 0) end
+    return n.expr or "(no internal_event_actions)"
+  end
+  function env.log(n)
+    n = n or 20
+    local buf = sup.logbuf
+    local from = math.max(1, #buf - n + 1)
+    say(concat(buf, "\n", from, #buf))
+  end
+  local function inject(p, msg)
+    local path = path_of(p)
+    local ok, err = await(function(k) sup:inject(path, msg, k) end)
+    if not ok then error(err, 0) end
+    return sformat("%s: %s injected", path, msg.type)
+  end
+  function env.event(p, kind, value)
+    if kind ~= "done" and kind ~= "aborted" then error("event kind is \"done\" or \"aborted\"", 0) end
+    local msg = { type = kind }
+    if kind == "done" then msg.value = value else msg.reason = value or "aborted from the REPL" end
+    return inject(p, msg)
+  end
+  function env.abort(p)
+    if p == nil then
+      await(function(k) sup:abort(k) end)
+      return sup.path .. ": aborted"
+    end
+    return inject(p, { type = "aborted", reason = "aborted from the REPL" })
+  end
+  function env.restart(p)
+    local path = path_of(p)
+    local ok, err = await(function(k) sup:restart(path, k) end)
+    if not ok then error(err, 0) end
+    return path .. ": restarted"
+  end
+  local function set(p, label, what)
+    local path = path_of(p)
+    local ok, err = await(function(k) sup:switch(path, label, what, k) end)
+    if not ok then error(err, 0) end
+    return sformat("%s[%s]: %sd", path, tostring(label), what)
+  end
+  function env.activate(p, label) return set(p, label, "activate") end
+  function env.deactivate(p, label) return set(p, label, "deactivate") end
+  function env.reload(what)
+    if not repl.opts.reload then error("reload is offered by the root supervisor (dca run)", 0) end
+    local lines = await(function(k) repl.opts.reload(what, k) end)
+    say(concat(lines, "\n"))
+  end
+  env.sup = sup
+  return setmetatable(env, { __index = _G })
+end
+
+function Repl:_print(...)
+  local parts = {}
+  for i = 1, select("#", ...) do parts[i] = fmt_value((select(i, ...))) end
+  self.out[#self.out + 1] = concat(parts, "\t")
+end
+
+local function incomplete(err)
+  return err and err:sub(-5) == "<eof>"
+end
+
+--- Evaluates one line; cb(output, more) once (now, or later when the line waits for other supervisors).
+function Repl:eval(line, cb)
+  local chunk = self.buffer and (self.buffer .. "\n" .. line) or line
+  local fn, err = load("return " .. chunk, "=stdin", "t", self.env)
+  if not fn then
+    fn, err = load(chunk, "=stdin", "t", self.env)
+    if not fn then
+      if incomplete(err) then self.buffer = chunk cb("", true) return end
+      self.buffer = nil
+      cb(err, false)
+      return
+    end
+  end
+  self.buffer = nil
+  self.out = {}
+  local out = self.out
+  local function finish(res)
+    if res[1] then
+      local parts = {}
+      for i = 2, res.n do parts[#parts + 1] = fmt_value(res[i]) end
+      if #parts > 0 then out[#out + 1] = concat(parts, "\t") end
+    else
+      out[#out + 1] = tostring(res[2])
+    end
+    cb(concat(out, "\n"), false)
+  end
+  -- the coroutine reports its own end, whoever resumes it last (here, or an answer awaited by a command)
+  local co = cocreate(function()
+    finish(table.pack(xpcall(fn, function(e)
+      if type(e) == "string" and not e:find("\n") and not e:find("^stdin:") then return e end
+      return traceback(tostring(e), 2)
+    end)))
+  end)
+  local ok, err2 = coresume(co)
+  if not ok then out[#out + 1] = tostring(err2) cb(concat(out, "\n"), false) end
+end
+
+--- Completion candidates for `prefix` (the word being typed): REPL functions, globals, and process paths.
+function Repl:complete(prefix)
+  local out, seen = {}, {}
+  local function add(s) if s:sub(1, #prefix) == prefix and not seen[s] then seen[s] = true out[#out + 1] = s end end
+  for k in pairs(self.env) do if type(k) == "string" then add(k) end end
+  for k in pairs(_G) do if type(k) == "string" then add(k) end end
+  spec_mod.walk(self.sup.spec, function(n)
+    add(n.path)
+    local rel = n.path:sub(#self.sup.path + 2)
+    if rel ~= "" then add(rel) end
+  end)
+  sort(out)
+  return out
+end
+
+M.HELP = HELP
+M.supervisor = supervisor
+return M

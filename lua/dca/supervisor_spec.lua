@@ -1,0 +1,178 @@
+-- dca.supervisor_spec: the group spec a supervisor receives, and the pure walks over it.
+--
+-- A group spec is a plain table that survives msgpack (strings, numbers, booleans, lists, maps): the parent
+-- hands it to a child supervisor over the control plane (never a file path).
+--
+--   spec = {
+--     path = "main.door", type = "DoorOpenSystem", host = "h2",     -- full path, process type, host name
+--     file = "door.dca", line = 12, col = 1,                         -- where the type is defined
+--     expr = "MotionControl , (...)", expr_line = 40, expr_col = 5, -- internal_event_actions (nil: none)
+--     children = {                                                  -- in declaration order
+--       { name = "hit", path = "main.door.hit", kind = "leaf", type = "Threshold", host = "h1",
+--         args = { 2.5 } },                                         -- the .dca arguments after the host
+--       { name = "mc", path = "main.door.mc", kind = "group", type = "MotionControl", host = "h3",
+--         spec = <the child's group spec> },
+--     },
+--     external_io = { { alias = "Vel", instance = "mc", port = "In" }, ... },
+--     sets = { { instance = "forcedata", label = "lbl1",
+--                connections = { { from = "forcedata", out = "Out1", to = "hit", ["in"] = "In1" } } } },
+--   }
+--
+--   spec_mod.from_model(tree, file, default_host) --> spec (tree: dca.model.build's checked instance tree)
+--   spec_mod.validate(spec)                       --> { message, ... } (connections that do not resolve)
+--   spec_mod.set_id(group_path, instance, label)  --> "<group path>:<instance>[<label>]"
+--   spec_mod.endpoint(spec, instance, port)       --> leaf path, port | nil, err  (follows external_io)
+--   spec_mod.wiring(spec)   --> { { set =, src =, out =, dst =, ["in"] = }, ... } (leaf ports, every set)
+--   spec_mod.route(spec, leaf_path)               --> the direct child (table) whose subtree holds the leaf
+--   spec_mod.walk(spec, fn)                       -- fn(node, depth) for the group and every descendant
+--   spec_mod.hosts(spec)                          --> sorted list of the host names used in the tree
+local M = {}
+
+local ipairs, pairs, type, tostring, sformat = ipairs, pairs, type, tostring, string.format
+local sort, concat = table.sort, table.concat
+
+--- The id of a connection set: `<group path>:<instance>[<label>]` (ARCHITECTURE.md, nodes and the data plane).
+function M.set_id(group_path, instance, label)
+  return group_path .. ":" .. instance .. "[" .. label .. "]"
+end
+
+local function child_by_name(spec, name)
+  for _, c in ipairs(spec.children) do
+    if c.name == name then return c end
+  end
+end
+M.child = child_by_name
+
+--- Follows external_io aliases down from `instance, port` of group `spec` to a real leaf port.
+function M.endpoint(spec, instance, port)
+  local c = child_by_name(spec, instance)
+  if not c then return nil, sformat("%s: no instance '%s'", spec.path, tostring(instance)) end
+  local depth = 0
+  while c.kind == "group" do
+    depth = depth + 1
+    if depth > 1000 then return nil, sformat("%s: external_io aliases loop", c.path) end
+    local g, found = c.spec, nil
+    for _, x in ipairs(g.external_io or {}) do
+      if x.alias == port then found = x break end
+    end
+    if not found then
+      return nil, sformat("%s: no external_io '%s' in group %s", c.path, tostring(port), g.type)
+    end
+    c = child_by_name(g, found.instance)
+    if not c then return nil, sformat("%s: external_io '%s' names no instance '%s'", g.path, port, found.instance) end
+    port = found.port
+  end
+  return c.path, port
+end
+
+--- Every connection of this group (not of its sub-groups) resolved to leaf ports, in declaration order.
+function M.wiring(spec)
+  local out, errs = {}, {}
+  for _, s in ipairs(spec.sets or {}) do
+    local id = M.set_id(spec.path, s.instance, s.label)
+    for _, k in ipairs(s.connections) do
+      local src, sport = M.endpoint(spec, k.from, k.out)
+      local dst, dport = M.endpoint(spec, k.to, k["in"])
+      if not src then errs[#errs + 1] = sport end
+      if not dst then errs[#errs + 1] = dport end
+      if src and dst then out[#out + 1] = { set = id, src = src, out = sport, dst = dst, ["in"] = dport } end
+    end
+  end
+  if #errs > 0 then return nil, errs end
+  return out
+end
+
+--- The direct child of `spec` whose subtree holds the leaf `leaf_path` (or the leaf itself).
+function M.route(spec, leaf_path)
+  for _, c in ipairs(spec.children) do
+    if c.path == leaf_path then return c end
+    local p = c.path .. "."
+    if c.kind == "group" and leaf_path:sub(1, #p) == p then return c end
+  end
+end
+
+--- Calls fn(node, depth) for the group itself (a spec, kind "group") and each descendant node, depth first.
+function M.walk(spec, fn, depth)
+  depth = depth or 0
+  fn({ name = spec.path:match("[^.]+$"), path = spec.path, kind = "group", type = spec.type, host = spec.host,
+       spec = spec }, depth)
+  for _, c in ipairs(spec.children) do
+    if c.kind == "group" then M.walk(c.spec, fn, depth + 1) else fn(c, depth + 1) end
+  end
+end
+
+--- The host names used anywhere in the tree, sorted.
+function M.hosts(spec)
+  local seen, list = {}, {}
+  M.walk(spec, function(n)
+    if n.host and not seen[n.host] then seen[n.host] = true list[#list + 1] = n.host end
+  end)
+  sort(list)
+  return list
+end
+
+--- Counts of a tree: groups, leaves, connections.
+function M.count(spec)
+  local g, l, k = 0, 0, 0
+  M.walk(spec, function(n)
+    if n.kind == "group" then
+      g = g + 1
+      for _, s in ipairs(n.spec.sets or {}) do k = k + #s.connections end
+    else l = l + 1 end
+  end)
+  return g, l, k
+end
+
+---------------------------------------------------------------------------------------------- from the model
+
+--- The spec of a dca.model tree (checked, arguments bound, hosts resolved). `file` names the source for
+--- messages. A group without a host (the root of a file without host { }) gets `default_host`.
+function M.from_model(node, file, default_host)
+  local proc = node.process or {}
+  local host = node.host or default_host
+  local spec = {
+    path = node.path, type = node.type, host = host, file = file, line = proc.line, col = proc.col,
+    children = {}, external_io = {}, sets = {},
+  }
+  local actions = proc.actions
+  if actions and actions.text then
+    spec.expr, spec.expr_line, spec.expr_col = actions.text, actions.line, actions.col
+  end
+  for _, c in ipairs(node.children or {}) do
+    if c.kind == "group" then
+      local cs = M.from_model(c, file, host)
+      spec.children[#spec.children + 1] = { name = c.name, path = c.path, kind = "group", type = c.type,
+                                            host = cs.host, spec = cs }
+    else
+      local args = {}
+      for i, v in ipairs(c.params or {}) do args[i] = v end
+      spec.children[#spec.children + 1] = { name = c.name, path = c.path, kind = "leaf", type = c.type,
+                                            host = c.host, args = args }
+    end
+  end
+  for _, x in ipairs(proc.external_io or {}) do
+    spec.external_io[#spec.external_io + 1] = { alias = x.alias, instance = x.instance, port = x.port }
+  end
+  for _, st in ipairs(proc.internal_connections or {}) do
+    local conns = {}
+    for _, k in ipairs(st.connections or {}) do
+      conns[#conns + 1] = { from = k.from, out = k.out, to = k.to, ["in"] = k["in"] }
+    end
+    spec.sets[#spec.sets + 1] = { instance = st.instance, label = st.label, connections = conns }
+  end
+  return spec
+end
+
+--- Every connection of the tree must resolve to leaf ports: a list of messages (empty when all do).
+function M.validate(spec)
+  local errs = {}
+  M.walk(spec, function(n)
+    if n.kind == "group" then
+      local _, e = M.wiring(n.spec)
+      for _, m in ipairs(e or {}) do errs[#errs + 1] = m end
+    end
+  end)
+  return errs
+end
+
+return M

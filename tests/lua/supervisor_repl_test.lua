@@ -1,0 +1,134 @@
+-- The console inside a supervisor (dca.supervisor_repl) and reload (Sup:update), on the in-memory cluster.
+local T = require "dca.testing"
+local fake = require "dca.supervisor_fake"
+local suite = T.suite("supervisor_repl")
+
+local leaf, group, root, set = fake.leaf, fake.group, fake.root, fake.set
+local behave = {
+  Threshold = function(n) n:after(2, function() n:done(1.5) end) end,
+}
+
+local function system()
+  local hitg = group("hitg", "HitDetector", "h3", "hit # (ft[l], comp)", {
+    leaf("ft", "ForceTorque", "h3"), leaf("comp", "CompliantCtrl", "h3"), leaf("hit", "Worker", "h3"),
+  }, { set("ft", "l", { { "ft", "Out", "hit", "In" } }) })
+  return root("main", "h1", "mc , hitg", { leaf("mc", "Worker", "h2"), hitg })
+end
+
+-- Evaluates `line` in the root's console and settles the cluster until it answered.
+local function eval(c, repl, line)
+  local out, more
+  repl:eval(line, function(o, m) out, more = o, m end)
+  c:settle(nil, function() return out ~= nil end)
+  return out, more
+end
+
+local function running_system()
+  local c = fake.cluster{ behave = behave }
+  local sup = c:root(system())
+  assert(c:configure())
+  c:start()
+  c:settle(1)
+  return c, require("dca.supervisor_repl").new(sup)
+end
+
+suite:case("expressions_print_like_the_lua_console_and_statements_run", function()
+  local c, repl = running_system()
+  T.eq(eval(c, repl, "1 + 2"), "3")
+  T.eq(eval(c, repl, "x = 41"), "")
+  T.eq(eval(c, repl, "x + 1"), "42")
+  T.eq(eval(c, repl, "'a', 2"), "a\t2")
+end)
+
+suite:case("an_incomplete_chunk_waits_for_more_lines", function()
+  local c, repl = running_system()
+  local out, more = eval(c, repl, "function f(a)")
+  T.eq(more, true)
+  T.eq(out, "")
+  T.eq(select(2, eval(c, repl, "return a * 2")), true)
+  T.eq(select(2, eval(c, repl, "end")), false)
+  T.eq(eval(c, repl, "f(21)"), "42")
+end)
+
+suite:case("errors_print_and_keep_the_console_and_the_system_alive", function()
+  local c, repl = running_system()
+  T.contains(eval(c, repl, "error('boom')"), "boom")
+  T.contains(eval(c, repl, "1 +* 2"), "unexpected symbol")
+  T.contains(eval(c, repl, "status('nosuch')"), "no process 'nosuch'")
+  T.eq(eval(c, repl, "2 * 2"), "4")
+  T.eq(c.root_sup.state, "running")
+end)
+
+suite:case("tree_shows_every_process_with_state_and_host_across_supervisors", function()
+  local c, repl = running_system()
+  local out = eval(c, repl, "tree()")
+  T.contains(out, "main")
+  T.contains(out, "hitg")
+  T.contains(out, "HitDetector@h3")
+  T.contains(out, "ft ")
+  T.contains(out, "ForceTorque@h3")
+  T.contains(out, "running")
+  T.contains(eval(c, repl, "status('hitg.ft')"), "main.hitg.ft: leaf ForceTorque on host h3, running")
+  T.contains(eval(c, repl, "expr('hitg')"), "*hit*")
+end)
+
+suite:case("event_injection_reaches_the_owner_and_ends_the_group", function()
+  local c, repl = running_system()
+  T.contains(eval(c, repl, "event('hitg.hit', 'done', 7)"), "main.hitg.hit: done injected")
+  c:settle(2)
+  T.eq(c:node("main.hitg.ft").running, false, "ft aborted by hit's DONE")
+  T.eq(c.sups["main.hitg"].outcome, { status = "done", value = 7 })
+  T.contains(eval(c, repl, "abort('mc')"), "aborted injected")
+  T.eq(c:outcome_within(10).type, "aborted")
+  T.eq(c.outcome.path, "main.mc")
+end)
+
+suite:case("activate_and_deactivate_switch_a_set_at_its_source_node", function()
+  local c, repl = running_system()
+  local ft = c:node("main.hitg.ft")
+  T.ok(ft.active["main.hitg:ft[l]"], "active while ft[l] runs")
+  T.contains(eval(c, repl, "deactivate('hitg.ft', 'l')"), "deactivated")
+  c:settle(1.5)
+  T.eq(ft.active["main.hitg:ft[l]"], nil)
+  T.contains(eval(c, repl, "activate('hitg.ft', 'nolabel')"), "no connection set main.hitg:ft[nolabel]")
+end)
+
+suite:case("log_shows_recent_events_and_completion_offers_commands_and_paths", function()
+  local c, repl = running_system()
+  T.contains(eval(c, repl, "log(50)"), "main.mc: running")
+  local cands = repl:complete("hitg.f")
+  T.eq(cands, { "hitg.ft" })
+  T.ok(#repl:complete("tre") >= 1 and repl:complete("tre")[1] == "tree")
+end)
+
+suite:case("reload_of_event_actions_takes_effect_at_the_next_start_and_restart_applies_it_now", function()
+  local c, repl = running_system()
+  local new = system()
+  new.children[2].spec.expr = "hit # ft[l]"
+  local lines
+  c.root_sup:update(new, function(l) lines = l end)
+  c:settle(nil, function() return lines ~= nil end)
+  T.eq(#lines, 1)
+  T.contains(lines[1], "main.hitg (HitDetector): event actions changed; takes effect at next start")
+  T.ok(c:node("main.hitg.comp").running, "the running expression is untouched")
+  T.contains(eval(c, repl, "restart('hitg')"), "main.hitg: restarted")
+  c:settle(3)
+  T.eq(c:node("main.hitg.comp").running, false, "comp is not in the new expression")
+  T.ok(c:node("main.hitg.ft").running)
+  T.contains(eval(c, repl, "expr('hitg')"), "*hit* # *ft[l]*")
+end)
+
+suite:case("a_structural_change_is_reported_not_applied", function()
+  local c = fake.cluster{ behave = behave }
+  local sup = c:root(system())
+  assert(c:configure())
+  local new = system()
+  new.children[1].type = "Other"
+  local lines
+  sup:update(new, function(l) lines = l end)
+  c:settle(nil, function() return lines ~= nil end)
+  T.contains(lines[1], "main (main): processes or connections changed")
+  T.eq(sup.spec.children[1].type, "Worker")
+end)
+
+return suite:run(...)

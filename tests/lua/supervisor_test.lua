@@ -1,0 +1,243 @@
+-- The supervisor's logic (dca.supervisor) on the in-memory cluster (dca.supervisor_fake): the start protocol,
+-- local event handling, LIFO aborts, faults, and that events stay with their owner.
+local T = require "dca.testing"
+local fake = require "dca.supervisor_fake"
+local spec_mod = require "dca.supervisor_spec"
+local suite = T.suite("supervisor")
+
+local leaf, group, root, set = fake.leaf, fake.group, fake.root, fake.set
+
+-- Behaviours: a Threshold ends DONE after 2 s, a Timer after args[1] s, a Crash aborts at once.
+local behave = {
+  Threshold = function(n) n:after(2, function() n:done(1.5) end) end,
+  Timer = function(n) n:after(n.args[1] or 1, function() n:done("timeout") end) end,
+  Fail = function(n) n:after(1, function() n:aborted("sensor fault") end) end,
+}
+
+local function compliant()
+  return root("main", "h1", "hit # (forcedata[lbl1], compliant[lbl1], puma)", {
+    leaf("forcedata", "ForceSensor", "h1"), leaf("compliant", "CompliantCtrl", "h1"),
+    leaf("puma", "Puma560", "h2"), leaf("hit", "Threshold", "h1", { 2.0 }),
+  }, {
+    set("forcedata", "lbl1", { { "forcedata", "Out1", "compliant", "In1" }, { "forcedata", "Out1", "hit", "In1" } }),
+    set("compliant", "lbl1", { { "compliant", "Out1", "puma", "In1" } }),
+  })
+end
+
+local function index_of(list, pattern)
+  for i, s in ipairs(list) do if s:find(pattern, 1, true) then return i end end
+end
+
+suite:case("start_protocol_starts_everything_inactive_then_connects_before_any_run", function()
+  local c = fake.cluster{ behave = behave }
+  c:root(compliant())
+  T.eq(c:configure(), true)
+  T.eq(#c:alive(), 4, "four nodes")
+  -- connections were made at the source nodes, inactive, with the set id of the group
+  local fd = c:node("main.forcedata")
+  T.eq(#fd.conns, 2)
+  T.eq(fd.conns[1].set, "main:forcedata[lbl1]")
+  T.eq(fd.conns[1].to, "main.compliant")
+  T.eq(next(fd.active), nil, "nothing active before run")
+  for _, cmd in ipairs(c.commands) do T.ok(not cmd:find(" run"), "no run before 'run': " .. cmd) end
+  T.eq(c.root_sup.state, "configured")
+end)
+
+suite:case("compliant_motion_hit_ends_done_and_aborts_lifo", function()
+  local c = fake.cluster{ behave = behave }
+  c:root(compliant())
+  assert(c:configure())
+  c:start()
+  local out = c:outcome_within(100)
+  T.eq(out and out.type, "done")
+  T.eq(out.value, 1.5)
+  -- activation of the lbl1 sets before the start, at their sources only
+  local a = index_of(c.commands, "main.forcedata activate main:forcedata[lbl1]")
+  local r = index_of(c.commands, "main.forcedata run")
+  T.ok(a and r and a < r, "activate before run")
+  -- LIFO: puma, compliant, forcedata
+  local sp, sc, sf = index_of(c.commands, "main.puma stop"), index_of(c.commands, "main.compliant stop"),
+    index_of(c.commands, "main.forcedata stop")
+  T.ok(sp and sc and sf and sp < sc and sc < sf, "stop order puma, compliant, forcedata")
+  T.eq(next(c:node("main.forcedata").active), nil, "deactivated after the run")
+  T.eq(next(c:node("main.compliant").active), nil, "deactivated after the run")
+end)
+
+-- A three-level tree: main -> door(DoorOpenSystem on h2) -> hitg(HitDetector on h3) with external_io aliases.
+local function door()
+  local hitg = group("hitg", "HitDetector", "h3", "hit # (ft[l], comp[l])", {
+    leaf("ft", "ForceTorque", "h3"), leaf("comp", "CompliantCtrl", "h3"), leaf("hit", "Threshold", "h3"),
+  }, { set("ft", "l", { { "ft", "Out", "comp", "In" }, { "ft", "Out", "hit", "In" } }) },
+  { { alias = "Vel", instance = "comp", port = "Out" } })
+  local mc = group("mc", "MotionControl", "h2", "rr , base", {
+    leaf("rr", "RedundancyResolution", "h2"), leaf("base", "XR4000Ctrl", "h2"),
+  }, { set("rr", "x", { { "rr", "Out", "base", "In" } }) },
+  { { alias = "Vel", instance = "rr", port = "In" } })
+  local doorg = group("door", "DoorOpenSystem", "h2", "mc , (vs # dist ; hitg)", {
+    mc, leaf("vs", "VisualServoing", "h1"), leaf("dist", "Threshold", "h1"), hitg,
+  }, { set("hitg", "lbl1", { { "hitg", "Vel", "mc", "Vel" } }) })
+  return root("main", "h1", "door", { doorg })
+end
+
+suite:case("external_io_aliases_resolve_to_leaf_ports_and_connect_at_the_real_source", function()
+  local s = door()
+  local d = spec_mod.child(s, "door").spec
+  local w = assert(spec_mod.wiring(d))
+  T.eq(w[1], { set = "main.door:hitg[lbl1]", src = "main.door.hitg.comp", out = "Out", dst = "main.door.mc.rr", ["in"] = "In" })
+  local c = fake.cluster{ behave = behave }
+  c:root(s)
+  T.eq(c:configure(), true)
+  local conns = c:node("main.door.hitg.comp").conns
+  T.eq(conns[1], { out = "Out", to = "main.door.mc.rr", ["in"] = "In", set = "main.door:hitg[lbl1]" })
+  T.eq(spec_mod.hosts(s), { "h1", "h2", "h3" })
+end)
+
+suite:case("a_group_reports_to_its_parent_only_when_its_expression_ends", function()
+  local c = fake.cluster{ behave = behave }
+  c:root(door())
+  assert(c:configure())
+  c:start()
+  c:settle(1.5)
+  -- dist (a Threshold) is done at t=2: until then nothing went up from door to main
+  for _, m in ipairs(c.trace) do
+    T.ok(not (m.from == "main.door" and m.to == "main" and m.kind == "event"), "no event up before the end")
+  end
+  c:settle(3)
+  T.ok(c:node("main.door.hitg.hit").running, "hit group started after dist")
+  T.ok(not c:node("main.door.vs").running, "vs aborted by dist")
+  c:settle(10)
+  T.eq(c:node("main.door.hitg.hit").running, false)
+  -- hitg is done; door's expression still runs (mc never ends), so main heard nothing
+  T.eq(c.outcome, nil)
+  local ups = 0
+  for _, m in ipairs(c.trace) do if m.from == "main.door.hitg" and m.to == "main.door" and m.kind == "event" then ups = ups + 1 end end
+  T.eq(ups, 1, "one event from hitg to door: its outcome")
+end)
+
+suite:case("leaf_events_go_only_to_the_owning_supervisor", function()
+  local c = fake.cluster{ behave = behave }
+  c:root(door())
+  assert(c:configure())
+  c:start()
+  c:settle(10)
+  local owner = { ["main.door.hitg.hit"] = "main.door.hitg", ["main.door.hitg.ft"] = "main.door.hitg",
+                  ["main.door.dist"] = "main.door", ["main.door.vs"] = "main.door" }
+  local seen = 0
+  for _, m in ipairs(c.trace) do
+    if owner[m.from] and m.kind == "event" then
+      seen = seen + 1
+      T.eq(m.to, owner[m.from], "event of " .. m.from)
+    end
+    T.ok(not (m.kind == "event" and (m.type == "done" or m.type == "aborted") and m.to == "main" and m.from ~= "main.door"),
+      "main hears only from its own child")
+  end
+  T.ok(seen >= 2, "leaf events seen")
+end)
+
+suite:case("a_leaf_crash_mid_run_aborts_the_group_lifo_and_names_the_leaf", function()
+  local c = fake.cluster{ behave = behave }
+  c:root(compliant())
+  assert(c:configure())
+  c:start()
+  c:settle(1)
+  c:kill("main.compliant", "SEGV")
+  local out = c:outcome_within(100)
+  T.eq(out.type, "aborted")
+  T.eq(out.path, "main.compliant")
+  T.contains(out.reason, "SIGSEGV")
+  local sp, sh, sf = index_of(c.commands, "main.puma stop"), index_of(c.commands, "main.hit stop"),
+    index_of(c.commands, "main.forcedata stop")
+  T.ok(sp and sh and sf and sp < sf and sf < sh, "LIFO: puma, forcedata, then hit (started first)")
+end)
+
+suite:case("a_host_lost_mid_run_is_an_aborted_event_naming_the_host", function()
+  local c = fake.cluster{ behave = behave }
+  c:root(door())
+  assert(c:configure())
+  c:start()
+  c:settle(2.5)
+  c:lose_host("h3")
+  local out = c:outcome_within(100)
+  T.eq(out.type, "aborted")
+  T.contains(out.reason, "h3")
+  T.eq(out.path, "main.door.hitg")
+end)
+
+suite:case("a_part_that_fails_to_start_fails_the_start_by_name_and_nothing_is_left", function()
+  local c = fake.cluster{ behave = behave }
+  c.fail_spawn["main.door.hitg.ft"] = "no such controller type 'ForceTorque'"
+  c:root(door())
+  local ok, err = c:configure()
+  T.eq(ok, false)
+  T.contains(err, "main.door.hitg.ft")
+  T.contains(err, "ForceTorque")
+  c:settle()
+  T.eq(c:alive(), {}, "everything already started is stopped")
+end)
+
+suite:case("a_part_that_does_not_answer_times_out_by_name", function()
+  local c = fake.cluster{ behave = behave, timeouts = { spawn = 2 } }
+  c.fail_spawn["main.door.mc.base"] = "silent"
+  c:root(door(), { timeouts = { spawn = 2 } })
+  local ok, err = c:configure()
+  T.eq(ok, false)
+  T.contains(err, "main.door.mc.base")
+  T.contains(err, "did not start within")
+  c:settle()
+  T.eq(c:alive(), {})
+end)
+
+suite:case("tidy_up_timer_ends_the_task_and_aborts_the_finders", function()
+  local s = root("main", "h1", "Timeout # (FindA : PlaceA , FindB : PlaceB)", {
+    leaf("Timeout", "Timer", "h1", { 5 }), leaf("FindA", "Finder", "h1"), leaf("PlaceA", "Placer", "h2"),
+    leaf("FindB", "Finder", "h2"), leaf("PlaceB", "Placer", "h2"),
+  })
+  local c = fake.cluster{ behave = behave }
+  c:root(s)
+  assert(c:configure())
+  c:start()
+  c:settle(1)
+  c:node("main.FindA"):done({ x = 1 })
+  c:settle(2)
+  T.ok(c:node("main.PlaceA").running, "PlaceA runs with FindA's value")
+  local out = c:outcome_within(100)
+  T.eq(out, { type = "done", value = "timeout" })
+  T.ok(not c:node("main.PlaceA").running and not c:node("main.FindB").running)
+end)
+
+suite:case("shutdown_stops_every_process_lifo", function()
+  local c = fake.cluster{ behave = behave }
+  c:root(door())
+  assert(c:configure())
+  c:start()
+  c:settle(1)
+  local done = false
+  c.root_sup:shutdown(function() done = true end)
+  c:settle(nil, function() return done end)
+  T.ok(done)
+  T.eq(c:alive(), {})
+end)
+
+suite:case("an_expression_naming_an_unknown_process_fails_before_anything_starts", function()
+  local c = fake.cluster{ behave = behave }
+  c:root(root("main", "h1", "a ; nosuch", { leaf("a", "Timer", "h1") }))
+  local ok, err = c:configure()
+  T.eq(ok, false)
+  T.contains(err, "unknown process 'nosuch'")
+  T.eq(c:alive(), {})
+end)
+
+suite:case("reloading_the_module_keeps_running_supervisors_and_their_state", function()
+  local c = fake.cluster{ behave = behave }
+  local sup = c:root(compliant())
+  assert(c:configure())
+  local before = getmetatable(sup)
+  package.loaded["dca.supervisor"] = require("dca.supervisor") -- same table, reloaded code
+  local path = package.searchpath("dca.supervisor", package.path)
+  local fresh = assert(loadfile(path))("dca.supervisor")
+  T.ok(getmetatable(sup) == before and fresh.Sup == before, "the method table is updated in place")
+  c:start()
+  T.eq(c:outcome_within(100).type, "done")
+end)
+
+return suite:run(...)
