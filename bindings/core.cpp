@@ -4,6 +4,11 @@
 
 #include "host/version.h"
 
+namespace dca::bindings {
+void open_readline(lua_State* L);  // wrap_readline.cpp
+void open_inotify(lua_State* L);   // wrap_inotify.cpp
+}  // namespace dca::bindings
+
 extern "C" int luaopen_dca_core(lua_State* L) {
   lua_newtable(L);
   const auto v = dca::version();
@@ -12,5 +17,7 @@ extern "C" int luaopen_dca_core(lua_State* L) {
   const auto dir = dca::lua_dir();
   lua_pushlstring(L, dir.data(), dir.size());
   lua_setfield(L, -2, "lua_dir");
+  dca::bindings::open_readline(L);
+  dca::bindings::open_inotify(L);
   return 1;
 }

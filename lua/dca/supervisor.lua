@@ -107,8 +107,8 @@ end
 -- A line for the person watching (`dca run`): to the parent when asked for, else to this process's output.
 function Sup:say(fmt, ...)
   local line = self:log(fmt, ...)
-  if self.progress then self.rt.report({ type = "log", line = line }) end
-  if self.rt.log then self.rt.log(line) end
+  if self.progress then self.rt.report({ type = "log", line = line })
+  elseif self.rt.log then self.rt.log(line) end
 end
 
 ---------------------------------------------------------------------------------------------- start

@@ -352,6 +352,38 @@ function Node:aborted(reason)
   return true
 end
 
+--- Writes `v` on output `port`: delivered to the input of every destination whose set is active here.
+function Node:write(port, v)
+  self.ports[port] = v
+  for _, k in ipairs(self.conns) do
+    if k.out == port and self.active[k.set] then
+      local dst = self.c.nodes[k.to]
+      if dst and dst.p.alive then
+        local vv = copy(v)
+        self.c:push(function() dst:input(k["in"], vv) end)
+      end
+    end
+  end
+end
+
+--- A sample arrives on input `port` (its behaviour's on_input runs while the node runs).
+function Node:input(port, v)
+  self.ports[port] = v
+  if self.running and self.on_input then self.on_input(self, port, v) end
+end
+
+--- A periodic timer for the current run: fn(tick_number) every `period` until the run ends.
+function Node:every(period, fn)
+  local id, k = self.run_id, 0
+  local function tick()
+    if not (self.running and self.run_id == id and self.p.alive) then return end
+    k = k + 1
+    fn(k)
+    if self.running and self.run_id == id then self.c:after(period, tick) end
+  end
+  self.c:after(period, tick)
+end
+
 --- A timer on this node that fires only if the same run is still going.
 function Node:after(s, fn)
   local id = self.run_id

@@ -1,0 +1,153 @@
+-- `dca run FILE.dca`: checks the system, starts its hosts' daemons (or uses a hosts file), the root DCAS
+-- in this process, brings the tree up (start, connect, confirm), runs it and reports every transition.
+-- Exit code: 0 when the root expression ends DONE, 1 when it ends ABORTED (with the path and reason),
+-- 2 on bad usage or check errors, 3 when the start fails, 130 after Ctrl-C.
+local core = require "dca.core"
+local supervisor = require "dca.supervisor"
+local spec_mod = require "dca.supervisor_spec"
+local srt = require "dca.supervisor_rt"
+local hosts_mod = require "dca.supervisor_hosts"
+
+local M = {}
+
+M.summary = "run a .dca system: start its hosts and supervisor tree, run it, report each transition"
+M.usage = [[usage: dca run FILE.dca [--root NAME] [--hosts FILE] [--sim WORLD] [--repl] [--watch] [--timeout S] [--quiet]
+
+Checks FILE.dca (errors stop here, nothing is started), starts one local daemon per host name on 127.0.0.1
+(or uses the daemons named in --hosts, lines of "name address"), starts the supervisor tree, shows one line
+per group as it comes up and one per process transition, and runs the root expression.
+  --root NAME     the root process (default: main)
+  --hosts FILE    daemons already running: "name address" per line
+  --sim WORLD     start the simulated world (dca sim WORLD) and run every host on its clock
+  --repl          open a console on the root supervisor once the system runs
+  --watch         reload the system file when it is saved (inotify)
+  --timeout S     stop with an error when the start does not finish within S seconds (default 30)
+  --quiet         no progress lines; only the outcome
+Exit code 0 when the root expression ends DONE, 1 when ABORTED, 2 for usage or check errors, 3 when the
+start fails, 130 after Ctrl-C. Ctrl-C stops the whole tree, most recently started first.]]
+
+local function parse_args(args)
+  local o = { timeout = 30 }
+  local i, n = 1, args.n or #args
+  local function value(name)
+    i = i + 1
+    if not args[i] then error("dca run: " .. name .. " needs a value", 0) end
+    return args[i]
+  end
+  while i <= n do
+    local a = args[i]
+    if a == "--root" then o.root = value(a)
+    elseif a == "--hosts" then o.hosts = value(a)
+    elseif a == "--sim" then o.sim = value(a)
+    elseif a == "--timeout" then o.timeout = tonumber(value(a)) or error("dca run: --timeout needs seconds", 0)
+    elseif a == "--repl" then o.repl = true
+    elseif a == "--watch" then o.watch = true
+    elseif a == "--quiet" then o.quiet = true
+    elseif a:sub(1, 1) == "-" or o.file then error("dca run: unexpected argument '" .. a .. "'", 0)
+    else o.file = a end
+    i = i + 1
+  end
+  if not o.file then error("dca run: which .dca file?", 0) end
+  return o
+end
+
+--- Reads, parses and checks FILE and builds the spec of its root. --> spec | nil, error text
+function M.load(file, root)
+  local loader = require "dca.cli.check"
+  local ast, tree = loader.load(file, root, true)
+  if not ast then return nil, tree end
+  if not tree then return nil, file .. ": no process '" .. (root or "main") .. "' to run" end
+  local spec = spec_mod.from_model(tree, file)
+  local errs = spec_mod.validate(spec)
+  if #errs > 0 then return nil, table.concat(errs, "\n") end
+  return spec
+end
+
+function M.main(args)
+  local ok, o = pcall(parse_args, args)
+  if not ok then io.stderr:write(o, "\n", M.usage, "\n") return 2 end
+  local spec, err = M.load(o.file, o.root)
+  if not spec then io.stderr:write(err, "\n") return 2 end
+  if not core.loop or not core.connect then
+    io.stderr:write("dca run: this dca has no control plane (dca.core.loop/connect)\n")
+    return 3
+  end
+
+  local t0 = core.now and core.now() or os.clock()
+  local function say(line)
+    if not o.quiet then
+      io.stdout:write(string.format("[%7.3f] %s\n", (core.now and core.now() or os.clock()) - t0, line))
+      io.stdout:flush()
+    end
+  end
+
+  -- hosts: a file of running daemons, or one fresh local daemon per host name
+  local exe = hosts_mod.self_exe()
+  local key, keydir = os.getenv("DCA_KEY_FILE"), nil
+  local daemons, hosts
+  if o.hosts then
+    hosts, err = hosts_mod.read_file(o.hosts)
+    if not hosts then io.stderr:write(err, "\n") return 2 end
+  else
+    if not key then key, keydir = hosts_mod.fresh_key() end
+    local names = spec_mod.hosts(spec)
+    daemons, err = hosts_mod.start_local(names, { exe = exe, key = key, clock = o.sim and "sim" or nil,
+                                                   log_dir = keydir or os.getenv("TMPDIR") or "/tmp" })
+    if not daemons then io.stderr:write("dca run: ", err, "\n") return 3 end
+    hosts = daemons.hosts
+    for _, name in ipairs(names) do say(string.format("host %s: daemon at %s (pid %d)", name, hosts[name], daemons.pids[name])) end
+  end
+  for _, h in ipairs(spec_mod.hosts(spec)) do
+    if not hosts[h] then io.stderr:write("dca run: no daemon for host '", h, "' in ", tostring(o.hosts), "\n") return 2 end
+  end
+
+  local loop = core.loop()
+  local code
+  local sup
+  local rt = srt.new({ hosts = hosts, key = key, exe = exe,
+    report = function(msg)
+      if msg.type == "log" then say(msg.line)
+      elseif msg.type == "done" then
+        say(string.format("%s: DONE %s", spec.path, supervisor.show(msg.value)))
+        if not o.repl then code = 0 sup:shutdown(function() loop:stop() end) end
+      elseif msg.type == "aborted" then
+        io.stderr:write(string.format("%s: ABORTED at %s: %s\n", spec.path, tostring(msg.path), tostring(msg.reason)))
+        if not o.repl then code = 1 sup:shutdown(function() loop:stop() end) end
+      end
+    end,
+    log = say })
+  sup = supervisor.new(spec, rt, { progress = true })
+  sup.hosts = hosts
+  rt.bind(sup)
+  local function stop_all(c)
+    if code == nil then code = c end
+    sup:shutdown(function() loop:stop() end)
+    core.after(15, function() loop:stop() end) -- a bounded stop: daemons are killed below in any case
+  end
+  if loop.on_signal then loop:on_signal({ "INT", "TERM" }, function() say("interrupted: stopping") stop_all(130) end) end
+
+  -- daemons first answer when they listen: wait for each (bounded), then bring the tree up
+  local deadline = core.after(o.timeout, function()
+    if sup.state == "starting" or sup.state == "new" then
+      io.stderr:write(string.format("dca run: the start did not finish within %gs\n", o.timeout))
+      stop_all(3)
+    end
+  end)
+  sup:configure(function(cok, cerr)
+    if not cok then
+      io.stderr:write("dca run: start failed: ", tostring(cerr), "\n")
+      stop_all(3)
+      return
+    end
+    deadline:cancel()
+    say(spec.path .. ": the whole tree is configured: run")
+    sup:run_expr()
+  end)
+  loop:run()
+  rt.close()
+  if daemons then daemons:stop() end
+  if keydir then os.execute("rm -rf " .. hosts_mod.sh_quote(keydir)) end
+  return code or 1
+end
+
+return M

@@ -1,0 +1,45 @@
+-- `dca scenario [--backend memory] FILE.lua`: runs a scripted test scenario (see dca.scenario) and exits 0
+-- when every step passed, 1 when one failed, 2 on bad usage.
+local scenario = require "dca.scenario"
+
+local USAGE = [[usage: dca scenario [--backend memory] FILE.lua
+
+Runs the scenario in FILE.lua: it starts systems, drives them (events, faults, reloads), waits with timeouts
+and asserts; each step prints one line (ok/FAIL, with the system's time). Exit code 0 when every step passed.
+  --backend memory   the supervisor tree in memory with simulated time and the test controllers' behaviour]]
+
+local function main(args)
+  local file
+  local i = 1
+  while i <= (args.n or #args) do
+    local a = args[i]
+    if a == "--backend" then
+      scenario.backend = args[i + 1]
+      i = i + 1
+      if scenario.backend ~= "memory" then
+        io.stderr:write("dca scenario: unknown backend '", tostring(scenario.backend), "' (memory)\n")
+        return 2
+      end
+    elseif a:sub(1, 1) == "-" or file then
+      io.stderr:write("dca scenario: unexpected argument '", a, "'\n", USAGE, "\n")
+      return 2
+    else
+      file = a
+    end
+    i = i + 1
+  end
+  if not file then io.stderr:write(USAGE, "\n") return 2 end
+  local chunk, err = loadfile(file)
+  if not chunk then io.stderr:write("dca scenario: ", err, "\n") return 2 end
+  scenario.reset()
+  local ok, res = xpcall(chunk, debug.traceback, file)
+  if not ok then
+    print("FAIL " .. tostring(res))
+    return 1
+  end
+  if type(res) == "number" then return res end
+  return scenario.finish()
+end
+
+return { summary = "run a scripted test scenario (start a system, inject events and faults, assert)",
+         usage = USAGE, main = main }

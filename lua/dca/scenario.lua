@@ -1,0 +1,264 @@
+-- dca.scenario: scripted test scenarios (`dca scenario FILE.lua`): start a system, drive it, assert.
+--
+--   local S = require "dca.scenario"
+--   local sys = S.system("scripts/systems/test_compliant.dca", { root = "main" })
+--   S.step("the tree comes up", function() sys:up() end)
+--   S.step("hit ends the group", function()
+--     sys:run()
+--     sys:inject("main.motion.hit", "done", 2.5)
+--     local out = sys:wait_outcome(10)
+--     S.eq(out.type, "done")
+--   end)
+--   return S.finish()
+--
+-- Every wait has a timeout (seconds of the system's time). Steps are reported one line each
+-- ("ok   2 hit ends the group (t=2.000)"); the first failing step ends the scenario and the system is stopped.
+--
+-- Backends: "memory" runs the tree in dca.supervisor_fake (simulated time, nodes whose behaviour follows
+-- their type: Timer, Deadline, Crash, Constant...; other types run until an event is injected or they are
+-- killed). The backend is chosen with `dca scenario --backend NAME` (default memory).
+local spec_mod = require "dca.supervisor_spec"
+local T = require "dca.testing"
+
+local M = {}
+
+local ipairs, pairs, type, tostring, sformat, pcall, xpcall = ipairs, pairs, type, tostring, string.format, pcall, xpcall
+local traceback = debug.traceback
+
+M.backend = "memory"
+M.eq, M.ok, M.contains, M.show = T.eq, T.ok, T.contains, T.show
+
+-- Behaviours of the built-in test controllers in the memory backend, after controllers/builtins (args: the
+-- .dca arguments after the host, in the registry's parameter order). Values are scalars here.
+local function num(v, d) return tonumber(v) or d end
+M.behave = {
+  Timer = function(n) n:after(num(n.args[1], 1), function() n:done("timeout") end) end,
+  Deadline = function(n) n:after(num(n.args[1], 1), function() n:aborted("deadline of " .. tostring(n.args[1]) .. " s passed") end) end,
+  Constant = function(n)
+    local v = num(n.args[2], 0)
+    local period = num(n.args[1], 0)
+    if period > 0 then n:every(period, function() n:write("Out", v) end) else n:write("Out", v) end
+  end,
+  Gain = function(n)
+    n.on_input = function(self, _, v) self:write("Out", num(self.args[1], 1) * num(v, 0)) end
+  end,
+  Sum = function(n)
+    n.on_input = function(self) self:write("Out", num(self.ports.In1, 0) + num(self.ports.In2, 0)) end
+  end,
+  Threshold = function(n)
+    local level, dir = num(n.args[1], 0), n.args[2] or "rising"
+    local prev
+    n.on_input = function(self, _, v)
+      v = num(v, 0)
+      if prev then
+        local up, down = prev < level and v >= level, prev > level and v <= level
+        if ((dir == "rising" or dir == "either") and up) or ((dir == "falling" or dir == "either") and down) then
+          self:done(v)
+        end
+      end
+      prev = v
+    end
+  end,
+  Counter = function(n)
+    local limit = math.tointeger(num(n.args[2], 0)) or 0
+    n:every(num(n.args[1], 1), function(k)
+      n:write("Count", k)
+      if limit > 0 and k >= limit then n:done(k) end
+    end)
+  end,
+  Crash = function(n)
+    local ticks = num(n.args[1], 1)
+    n:every(num(n.args[3], 0.001), function(k) if k >= ticks then n.c:kill(n.path, "SEGV") end end)
+  end,
+}
+
+local steps = { n = 0, failed = 0, lines = {} }
+local systems = {}
+
+--- Loads, checks and builds the system in FILE (root opts.root or "main"). Errors stop the scenario.
+function M.spec(file, root)
+  local loader = require "dca.cli.check"
+  local ast, tree = loader.load(file, root, true)
+  if not ast then error(tree, 0) end
+  if not tree then error(file .. ": no root process to run", 0) end
+  local spec = spec_mod.from_model(tree, file)
+  local errs = spec_mod.validate(spec)
+  if #errs > 0 then error(table.concat(errs, "\n"), 0) end
+  return spec
+end
+
+local System = {}
+System.__index = System
+
+--- A system from a .dca file (or a ready spec with opts.spec), not started yet.
+function M.system(file, opts)
+  opts = opts or {}
+  local spec = opts.spec or M.spec(file, opts.root)
+  local fake = require "dca.supervisor_fake"
+  local behave = setmetatable(opts.behave or {}, { __index = M.behave })
+  local c = fake.cluster{ behave = behave, timeouts = opts.timeouts }
+  local s = setmetatable({ spec = spec, c = c, file = file, root = opts.root }, System)
+  c:root(spec, { timeouts = opts.timeouts })
+  systems[#systems + 1] = s
+  return s
+end
+
+--- Starts, connects and confirms the whole tree (raises with the reason when the start fails).
+function System:up(timeout)
+  local ok, err = self.c:configure(self.c.t + (timeout or 30))
+  if not ok then error("start failed: " .. tostring(err), 0) end
+  return true
+end
+
+--- Like up(), but returns false, reason instead of raising.
+function System:try_up(timeout)
+  return self.c:configure(self.c.t + (timeout or 30))
+end
+
+--- Sends "run" to the root (its expression starts).
+function System:run(init) self.c:start(init) self:settle(0) end
+
+--- Lets the system run for `s` seconds of its time.
+function System:settle(s) self.c:settle(self.c.t + (s or 0)) end
+
+--- Waits until pred() is true (checked after every event), at most `timeout` seconds. Raises on timeout.
+function System:wait(what, pred, timeout)
+  local ok = self.c:settle(self.c.t + (timeout or 10), pred)
+  if not ok then error(sformat("timed out after %gs waiting for %s", timeout or 10, what), 2) end
+end
+
+--- Waits for the root's outcome ({type = "done", value} | {type = "aborted", path, reason}).
+function System:wait_outcome(timeout)
+  self:wait("the root's outcome", function() return self.c.outcome ~= nil end, timeout)
+  self.c:settle(self.c.t) -- the stops it caused are acknowledged
+  return self.c.outcome
+end
+
+--- The state of a process ("running", "done", "inactive", "exited", "lost", ...) as its owner sees it.
+function System:state(path)
+  local owner = self.c.sups[path:match("^(.*)%.[^.]+$") or ""]
+  local sup = self.c.sups[path]
+  if sup then return sup.state end
+  if not owner then return nil end
+  local ch = owner.children[path:match("[^.]+$")]
+  return ch and ch.state
+end
+
+function System:wait_state(path, state, timeout)
+  self:wait(path .. " " .. state, function() return self:state(path) == state end, timeout)
+end
+
+--- Injects an event as the process at `path` ("done", value | "aborted", reason).
+function System:inject(path, kind, value)
+  local node = self.c:node(path)
+  if node and node.running then
+    if kind == "done" then node:done(value) else node:aborted(value or "injected") end
+  else
+    local msg = kind == "done" and { type = "done", value = value } or { type = "aborted", reason = value or "injected" }
+    local r
+    self.c.root_sup:inject(path, msg, function(ok, err) r = { ok, err } end)
+    self.c:settle(self.c.t, function() return r ~= nil end)
+    if not r or not r[1] then error("inject " .. path .. ": " .. tostring(r and r[2]), 2) end
+  end
+  self.c:settle(self.c.t)
+end
+
+--- Faults: kill a process with a signal, lose a whole host, drop the connections of a set.
+function System:kill(path, sig)
+  if not self.c:kill(path, sig or "KILL") then error("no live process " .. path, 2) end
+  self.c:settle(self.c.t)
+end
+function System:lose_host(host) self.c:lose_host(host) self.c:settle(self.c.t) end
+function System:drop(path, set)
+  local node = self.c:node(path)
+  if not node then error("no node " .. path, 2) end
+  local kept = {}
+  for _, k in ipairs(node.conns) do if k.set ~= set then kept[#kept + 1] = k end end
+  node.conns = kept
+  node.active[set] = nil
+end
+
+--- Reloads the system file (parse + check first): the old version keeps running on an error.
+--- Returns the lines saying what changed, or nil and the error text (file:line:col).
+function System:reload(file)
+  local ok, spec = pcall(M.spec, file or self.file, self.root)
+  if not ok then return nil, tostring(spec) end
+  local lines
+  self.c.root_sup:update(spec, function(l) lines = l end)
+  self.c:settle(self.c.t, function() return lines ~= nil end)
+  return lines or {}
+end
+
+--- The latest value of a port of a leaf.
+function System:read(path, port)
+  local node = self.c:node(path)
+  if not node then error("no node " .. path, 2) end
+  return node.ports[port]
+end
+
+--- A node's view: running flag, active sets, connections, commands it received.
+function System:node(path) return self.c:node(path) end
+
+--- The commands the nodes received, in order ("main.a stop"), optionally only those matching `pattern`.
+function System:commands(pattern)
+  local out = {}
+  for _, l in ipairs(self.c.commands) do
+    if not pattern or l:find(pattern) then out[#out + 1] = l end
+  end
+  return out
+end
+
+--- Processes still alive (besides the root).
+function System:alive() return self.c:alive() end
+
+--- The progress and transition lines of every supervisor so far.
+function System:lines() return self.c.lines end
+
+function System:now() return self.c.t end
+
+--- Stops the whole tree (LIFO) and checks nothing is left.
+function System:stop()
+  local done = false
+  self.c.root_sup:shutdown(function() done = true end)
+  self.c:settle(self.c.t + 60, function() return done end)
+  self.stopped = true
+  return #self.c:alive() == 0
+end
+
+--- Runs one named step; its failure is reported with the reason and ends the scenario.
+function M.step(name, fn)
+  if steps.failed > 0 then return false end
+  steps.n = steps.n + 1
+  local ok, err = xpcall(fn, function(e)
+    if type(e) == "string" and not e:find("traceback") then return traceback(e, 2) end
+    return tostring(e)
+  end)
+  local t = systems[#systems] and systems[#systems]:now() or 0
+  if ok then
+    print(sformat("ok   %d %s (t=%.3f)", steps.n, name, t))
+  else
+    steps.failed = steps.failed + 1
+    print(sformat("FAIL %d %s (t=%.3f)\n  %s", steps.n, name, t, tostring(err):gsub("\n", "\n  ")))
+  end
+  return ok
+end
+
+--- Ends the scenario: stops every system still up, prints the summary; returns the exit code.
+function M.finish()
+  for _, s in ipairs(systems) do
+    if not s.stopped then
+      local clean = s:stop()
+      if not clean then
+        steps.failed = steps.failed + 1
+        print("FAIL processes left after stop: " .. table.concat(s:alive(), ", "))
+      end
+    end
+  end
+  print(sformat("%d steps, %d failed", steps.n, steps.failed))
+  return steps.failed == 0 and 0 or 1
+end
+
+--- Resets the step counters (for running several scenarios in one process).
+function M.reset() steps = { n = 0, failed = 0, lines = {} } systems = {} end
+
+return M

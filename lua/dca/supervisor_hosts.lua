@@ -1,0 +1,136 @@
+-- dca.supervisor_hosts: the hosts of a run: a hosts file, or one local daemon per host name on loopback.
+--
+--   local hosts = require "dca.supervisor_hosts"
+--   local map, err = hosts.read_file(path)            -- "name address" per line, # comments
+--   local key = hosts.fresh_key()                      -- a new 0600 key file in a fresh 0700 temp dir
+--   local set = hosts.start_local(names, { exe =, key =, clock = "wall"|"sim", log_dir = })
+--   -- set.hosts = { name = "127.0.0.1:PORT" }, set.pids = { name = pid }; set:stop() (LIFO, waits for /proc)
+local M = {}
+
+local ipairs, pairs, type, tostring, sformat, tonumber = ipairs, pairs, type, tostring, string.format, tonumber
+local concat = table.concat
+
+local function sh_quote(s) return "'" .. tostring(s):gsub("'", "'\\''") .. "'" end
+M.sh_quote = sh_quote
+
+local function run(cmd)
+  local p = assert(io.popen(cmd, "r"))
+  local out = p:read("a")
+  local ok, _, code = p:close()
+  return out, ok and 0 or code
+end
+
+--- This process's pid and executable (the `dca` to start daemons, nodes and supervisors with).
+function M.self_pid()
+  local f = io.open("/proc/self/stat", "r")
+  if not f then return nil end
+  local pid = f:read("l"):match("^(%d+)")
+  f:close()
+  return tonumber(pid)
+end
+
+function M.self_exe()
+  local env = os.getenv("DCA_EXE")
+  if env and env ~= "" then return env end
+  local pid = M.self_pid()
+  local out = run("readlink /proc/" .. tostring(pid) .. "/exe")
+  out = out:gsub("%s+$", "")
+  if out == "" then return "dca" end
+  return out
+end
+
+--- Reads a hosts file: one `name address` per line ("vision 10.0.0.2:7000"); `#` starts a comment.
+function M.read_file(path)
+  local f, err = io.open(path, "r")
+  if not f then return nil, "cannot read hosts file: " .. tostring(err) end
+  local map, n = {}, 0
+  for line in f:lines() do
+    n = n + 1
+    local text = line:gsub("#.*$", "")
+    local name, addr = text:match("^%s*(%S+)%s+(%S+)%s*$")
+    if name then map[name] = addr
+    elseif text:match("%S") then
+      f:close()
+      return nil, sformat("%s:%d:1: expected 'name address', got '%s'", path, n, line)
+    end
+  end
+  f:close()
+  return map
+end
+
+--- A fresh temp directory (0700) holding a new key file (0600, 32 random bytes as hex). --> key path, dir
+function M.fresh_key()
+  local dir = os.tmpname()
+  os.remove(dir)
+  local out, code = run("umask 077 && mkdir -p " .. sh_quote(dir) .. " && od -An -tx1 -N32 /dev/urandom | tr -d ' \\n' > "
+    .. sh_quote(dir .. "/key") .. " && echo ok")
+  if code ~= 0 or not out:find("ok") then error("cannot create a key file in " .. dir) end
+  return dir .. "/key", dir
+end
+
+--- Free loopback TCP ports, one per name (the kernel picks them: bind port 0 and close again).
+function M.free_ports(n)
+  local py = "import socket\nss=[]\nfor i in range(%d):\n s=socket.socket(); s.bind(('127.0.0.1',0)); ss.append(s)\n"
+    .. "print(' '.join(str(s.getsockname()[1]) for s in ss))\n"
+  local out = run("python3 -c " .. sh_quote(sformat(py, n)) .. " 2>/dev/null")
+  local ports = {}
+  for p in out:gmatch("%d+") do ports[#ports + 1] = tonumber(p) end
+  if #ports == n then return ports end
+  -- no python: spread over a high range by pid (the daemon's bind error names a clash)
+  local base = 20000 + ((M.self_pid() or 0) * 7) % 30000
+  for i = 1, n do ports[i] = base + i end
+  return ports
+end
+
+local Set = {}
+Set.__index = Set
+
+--- Starts one `dca daemon` per host name on 127.0.0.1 (peers of each other). Returns the set; each daemon's
+--- output goes to <log_dir>/<name>.log.
+function M.start_local(names, opts)
+  local ports = M.free_ports(#names)
+  local set = setmetatable({ hosts = {}, pids = {}, order = {}, logs = {}, opts = opts }, Set)
+  for i, name in ipairs(names) do set.hosts[name] = "127.0.0.1:" .. ports[i] end
+  for _, name in ipairs(names) do
+    local argv = { opts.exe, "daemon", "--host", name, "--listen", set.hosts[name], "--key", opts.key }
+    for _, other in ipairs(names) do
+      if other ~= name then argv[#argv + 1] = "--peer" argv[#argv + 1] = set.hosts[other] end
+    end
+    if opts.clock then argv[#argv + 1] = "--clock" argv[#argv + 1] = opts.clock end
+    local q = {}
+    for i, a in ipairs(argv) do q[i] = sh_quote(a) end
+    local log = (opts.log_dir or "/tmp") .. "/" .. name .. ".log"
+    set.logs[name] = log
+    local out = run("exec </dev/null; " .. concat(q, " ") .. " >" .. sh_quote(log) .. " 2>&1 & echo $!")
+    local pid = tonumber(out:match("%d+"))
+    if not pid then set:stop() return nil, "could not start the daemon of host " .. name end
+    set.pids[name] = pid
+    set.order[#set.order + 1] = name
+  end
+  return set
+end
+
+function M.alive(pid)
+  local f = io.open("/proc/" .. tostring(pid) .. "/stat", "r")
+  if not f then return false end
+  local st = f:read("l") or ""
+  f:close()
+  return not st:match("^%d+ %b() Z")
+end
+
+--- Stops the daemons, last started first; waits (bounded) until they are gone from /proc.
+function Set:stop(signal)
+  for i = #self.order, 1, -1 do
+    local pid = self.pids[self.order[i]]
+    if pid and M.alive(pid) then os.execute("kill -" .. (signal or "TERM") .. " " .. pid .. " 2>/dev/null") end
+  end
+  local deadline = os.time() + 5
+  for i = #self.order, 1, -1 do
+    local pid = self.pids[self.order[i]]
+    while pid and M.alive(pid) and os.time() <= deadline do os.execute("sleep 0.02") end
+    if pid and M.alive(pid) then os.execute("kill -KILL " .. pid .. " 2>/dev/null") end
+  end
+  self.order = {}
+end
+
+return M

@@ -1,0 +1,28 @@
+-- The compliant motion system of the paper with test controllers: the Threshold (hit) preempts the group.
+local S = require "dca.scenario"
+local src = os.getenv("DCA_SOURCE_DIR") or "."
+local sys = S.system(src .. "/scripts/systems/test_compliant_motion.dca")
+
+S.step("the tree comes up: every process started inactive and connected", function()
+  sys:up()
+  S.eq(#sys:alive(), 5, "one supervisor and four nodes")
+  S.eq(#sys:node("main.motion.forcedata").conns, 2)
+  S.eq(sys:commands(" run$"), {}, "nothing runs before 'run'")
+end)
+
+S.step("the hit fires at force 20 and ends the expression DONE with its value", function()
+  sys:run()
+  local out = sys:wait_outcome(5)
+  S.eq(out.type, "done")
+  S.eq(out.value, 20)
+end)
+
+S.step("puma, compliant and forcedata were stopped in LIFO order, their sets deactivated", function()
+  local stops = sys:commands(" stop$")
+  S.eq(stops, { "main.motion.puma stop", "main.motion.compliant stop", "main.motion.forcedata stop" })
+  S.eq(next(sys:node("main.motion.forcedata").active), nil)
+  S.eq(sys:read("main.motion.puma", "Out"), sys:read("main.motion.compliant", "Out"), "data flowed to the arm")
+end)
+
+S.step("stop leaves no process behind", function() S.ok(sys:stop(), "all stopped") end)
+return S.finish()

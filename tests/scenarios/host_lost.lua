@@ -1,0 +1,27 @@
+-- A host is lost mid-run: the parent of what ran there hears ABORTED naming the host, and the rest stops.
+local S = require "dca.scenario"
+local src = os.getenv("DCA_SOURCE_DIR") or "."
+local sys = S.system(src .. "/scripts/systems/test_three_hosts.dca")
+
+S.step("three hosts up, connections resolved through external_io controller to controller", function()
+  sys:up()
+  local conns = sys:node("main.chain.src.count").conns
+  S.eq(conns[1], { out = "Count", to = "main.chain.gain", ["in"] = "In", set = "main.chain:src[run]" })
+  S.eq(sys:node("main.chain.gain").conns[1].to, "main.chain.det.level")
+end)
+
+S.step("data flows host to host while it runs", function()
+  sys:run()
+  sys:settle(0.1)
+  S.ok((sys:read("main.chain.det.level", "In") or 0) >= 5, "the detector receives the count")
+end)
+
+S.step("host manip is lost: ABORTED naming it", function()
+  sys:lose_host("manip")
+  local out = sys:wait_outcome(5)
+  S.eq(out.type, "aborted")
+  S.eq(out.path, "main.chain.det")
+  S.contains(out.reason, "host manip lost")
+  S.eq(sys:node("main.chain.gain").running, false, "the gain was stopped")
+end)
+return S.finish()
