@@ -32,7 +32,7 @@ local previous = package.loaded["dca.supervisor"]
 local M = type(previous) == "table" and previous or {}
 
 local ipairs, pairs, type, tostring, sformat, select = ipairs, pairs, type, tostring, string.format, select
-local concat, remove = table.concat, table.remove
+local concat = table.concat
 
 --- Timeouts (seconds) of each wait of the start protocol; any of them may be overridden per supervisor.
 M.timeouts = M.timeouts or { spawn = 10, configure = 30, connect = 5, stop = 5, request = 5 }
@@ -98,10 +98,20 @@ end
 
 function Sup:log(fmt, ...)
   local line = select("#", ...) > 0 and sformat(fmt, ...) or fmt
-  local buf = self.logbuf
-  buf[#buf + 1] = sformat("%.3f %s", self.rt.now(), line)
-  if #buf > LOG_KEEP then remove(buf, 1) end
+  -- a ring of the last LOG_KEEP lines: logbuf[1 + (k - 1) % LOG_KEEP] holds line number k
+  local k = (self.logn or 0) + 1
+  self.logn = k
+  self.logbuf[1 + (k - 1) % LOG_KEEP] = sformat("%.3f %s", self.rt.now(), line)
   return line
+end
+
+--- The last n log lines of this supervisor, oldest first.
+function Sup:recent(n)
+  local total = self.logn or 0
+  n = math.min(n or 20, total, LOG_KEEP)
+  local out = {}
+  for k = total - n + 1, total do out[#out + 1] = self.logbuf[1 + (k - 1) % LOG_KEEP] end
+  return out
 end
 
 -- A line for the person watching (`dca run`): to the parent when asked for, else to this process's output.

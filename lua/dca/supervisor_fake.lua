@@ -85,11 +85,14 @@ function Cluster:settle(max_t, pred)
     else
       self.queue, self.qhead, self.qtail = {}, 1, 0
       local best, bi
-      for i, tm in ipairs(self.timers) do
-        if not tm.cancelled and (not best or tm.at < best.at or (tm.at == best.at and tm.seq < best.seq)) then
-          best, bi = tm, i
+      local live = {}
+      for _, tm in ipairs(self.timers) do
+        if not tm.cancelled then
+          live[#live + 1] = tm
+          if not best or tm.at < best.at or (tm.at == best.at and tm.seq < best.seq) then best, bi = tm, #live end
         end
       end
+      self.timers = live
       if not best or best.at > max_t then
         if not pred then self.t = math.max(self.t, math.min(max_t, self.t)) end
         return pred and pred() or false

@@ -137,10 +137,7 @@ function Repl:_env()
     return n.expr or "(no internal_event_actions)"
   end
   function env.log(n)
-    n = n or 20
-    local buf = sup.logbuf
-    local from = math.max(1, #buf - n + 1)
-    say(concat(buf, "\n", from, #buf))
+    say(concat(sup:recent(n or 20), "\n"))
   end
   local function inject(p, msg)
     local path = path_of(p)

@@ -1,5 +1,6 @@
 -- dca.supervisor_rt: the real runtime of a supervisor, over `dca.core` channels and the hosts' daemons.
 --
+-- argv[1] is "dca": the daemon starts its own executable (its allow-list admits `dca node|supervise|sim`).
 -- Leaves start as `dca node --type T --name PATH --daemon ADDR -- ARGS` and sub-groups as
 -- `dca supervise --name PATH --daemon ADDR`, each by the daemon (Executer) of its host; the supervisor then
 -- looks the new process up by its path (NameServer) and opens a channel to its `control` endpoint.
@@ -105,12 +106,12 @@ function M.new(opts)
       local addr = opts.hosts[child.host]
       local argv
       if child.kind == "leaf" then
-        argv = { opts.exe, "node", "--type", child.type, "--name", child.path, "--daemon", addr }
+        argv = { "dca", "node", "--type", child.type, "--name", child.path, "--daemon", addr }
         if opts.key then argv[#argv + 1] = "--key" argv[#argv + 1] = opts.key end
         argv[#argv + 1] = "--"
         for _, a in ipairs(child.args or {}) do argv[#argv + 1] = argstr(a) end
       else
-        argv = { opts.exe, "supervise", "--name", child.path, "--daemon", addr }
+        argv = { "dca", "supervise", "--name", child.path, "--daemon", addr }
         if opts.key then argv[#argv + 1] = "--key" argv[#argv + 1] = opts.key end
       end
       dch:request({ type = "spawn", argv = argv, name = child.path }, timeouts.spawn, function(r, rerr)

@@ -136,7 +136,10 @@ function M.from_model(node, file, default_host)
   }
   local actions = proc.actions
   if actions and actions.text then
-    spec.expr, spec.expr_line, spec.expr_col = actions.text, actions.line, actions.col
+    -- the parser's expression text has its comments blanked out (positions kept)
+    spec.expr = actions.expr and actions.expr.text or actions.text
+    spec.expr_line, spec.expr_col = actions.line, actions.col
+    if not spec.expr:find("%S") then spec.expr = nil end
   end
   for _, c in ipairs(node.children or {}) do
     if c.kind == "group" then

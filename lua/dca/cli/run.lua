@@ -133,6 +133,65 @@ function M.main(args)
       stop_all(3)
     end
   end)
+  -- the root listens for consoles (`dca repl main`) and registers its path with its host's daemon
+  local listener = core.listen("127.0.0.1:0", { key = key }, function(ch)
+    ch:on_message(function(msg)
+      if (msg.id or 0) == 0 then return end
+      local t = msg.type
+      if t == "repl" or t == "complete" or t == "tree" or t == "inject" or t == "restart" or t == "switch" then
+        sup:handle(msg, function(r) srt.reply(ch, msg, r) end)
+      else
+        srt.reply(ch, msg, { type = "error", reason = "the root supervisor takes only console requests" })
+      end
+    end)
+  end)
+  local root_daemon = hosts[spec.host]
+  if listener and root_daemon then
+    core.connect(root_daemon, { key = key }, function(dch)
+      if not dch then return end
+      rt.root_daemon = dch
+      dch:request({ type = "register", name = spec.path, endpoints = { control = listener:address() } }, 5, function() end)
+      say(string.format("console: dca repl %s --daemon %s --key %s", spec.path, root_daemon, tostring(key)))
+    end)
+  end
+
+  -- reload: the file again (validated first; on an error the old version keeps running), or the modules
+  local function reload(what, cb)
+    if what == "modules" then
+      local lines = {}
+      for _, name in ipairs({ "dca.supervisor", "dca.supervisor_repl" }) do
+        local path = package.searchpath(name, package.path)
+        local fn, lerr = loadfile(path)
+        if not fn then lines[#lines + 1] = lerr
+        else
+          local okm, merr = pcall(fn, name)
+          if okm then package.loaded[name] = merr lines[#lines + 1] = name .. ": reloaded (state kept)"
+          else lines[#lines + 1] = name .. ": " .. tostring(merr) end
+        end
+      end
+      cb(lines)
+      return
+    end
+    local new, lerr = M.load(what or o.file, o.root)
+    if not new then cb({ "reload refused, the running version is kept:", lerr }) return end
+    sup:update(new, function(lines)
+      if #lines == 0 then lines = { "no change" } end
+      cb(lines)
+    end)
+  end
+  sup.reload_hook = reload
+  if o.watch then
+    local w, werr = core.watch_file(o.file)
+    if not w then io.stderr:write("dca run: --watch: ", werr, "\n")
+    else
+      core.every(0.2, function()
+        if w:changed() then
+          reload(nil, function(lines) for _, l in ipairs(lines) do say("reload: " .. l) end end)
+        end
+      end)
+    end
+  end
+
   sup:configure(function(cok, cerr)
     if not cok then
       io.stderr:write("dca run: start failed: ", tostring(cerr), "\n")
@@ -142,6 +201,16 @@ function M.main(args)
     deadline:cancel()
     say(spec.path .. ": the whole tree is configured: run")
     sup:run_expr()
+    if o.repl then
+      local repl = require("dca.supervisor_repl").new(sup, { reload = reload })
+      require("dca.cli.repl").local_console({
+        eval = function(line, cb) repl:eval(line, cb) end,
+        complete = function(word) return repl:complete(word) end,
+      }, function()
+        local st = sup.outcome and sup.outcome.status
+        stop_all(st == "done" and 0 or (st == "aborted" and 1 or 130))
+      end)
+    end
   end)
   loop:run()
   rt.close()

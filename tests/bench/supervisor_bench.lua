@@ -1,0 +1,124 @@
+-- Supervisor benchmarks (BENCHMARKS.md format): bring-up of the door-opening system's shape and of a
+-- generated 1,000-leaf / 100-group tree on 3 hosts, and preemption latency (a leaf's DONE to the last sibling
+-- abort acknowledged) for a `#` three supervisor levels down.
+--
+-- variant *_memory: the supervisor tree in one process on dca.supervisor_fake (every message deep-copied as
+-- for the wire, no sockets): the cost of the supervisor's own logic. Baseline: dca.algebra alone driving the
+-- same expressions (start, and the preempting event), which any supervisor must pay.
+local fake = require "dca.supervisor_fake"
+local algebra = require "dca.algebra"
+local spec_mod = require "dca.supervisor_spec"
+
+local clock = os.clock
+local sformat = string.format
+local src = os.getenv("DCA_SOURCE_DIR") or "."
+
+local function stats(samples)
+  table.sort(samples)
+  local n = #samples
+  local function q(p) return samples[math.max(1, math.min(n, math.ceil(p * n)))] end
+  return sformat("n=%d p50_us=%.1f p99_us=%.1f p999_us=%.1f max_us=%.1f", n, q(0.5), q(0.99), q(0.999), samples[n])
+end
+
+local function result(bench, variant, samples, extra)
+  io.stdout:write(sformat("RESULT bench=%s variant=%s %s%s\n", bench, variant, stats(samples), extra or ""))
+  io.stdout:flush()
+end
+
+-- The door-opening system (scripts/systems/door_open.dca) as a spec.
+local function door_spec()
+  local loader = require "dca.cli.check"
+  local ast, tree = loader.load(src .. "/scripts/systems/door_open.dca", nil, false)
+  assert(ast and tree, tree)
+  return spec_mod.from_model(tree, "door_open.dca")
+end
+
+-- A generated tree: `groups` groups of `per` leaves each on hosts h1..h3, under one root; each group runs
+-- all its leaves concurrently, the root runs all groups concurrently; each group chains its leaves with
+-- one connection set.
+local function generated(groups, per)
+  local children = {}
+  for g = 1, groups do
+    local leaves, conns = {}, {}
+    for l = 1, per do
+      leaves[l] = fake.leaf("l" .. l, "Worker", "h" .. ((g + l) % 3 + 1))
+      if l > 1 then conns[#conns + 1] = { "l" .. (l - 1), "Out", "l" .. l, "In" } end
+    end
+    local names = {}
+    for l = 1, per do names[l] = "l" .. l end
+    children[g] = fake.group("g" .. g, "G" .. g, "h" .. (g % 3 + 1), table.concat(names, " , "), leaves,
+      { fake.set("l1", "run", conns) })
+  end
+  local names = {}
+  for g = 1, groups do names[g] = "g" .. g end
+  return fake.root("main", "h1", table.concat(names, " , "), children)
+end
+
+local function all_exprs(spec, f)
+  spec_mod.walk(spec, function(n) if n.kind == "group" and n.spec.expr then f(n.spec.expr) end end)
+end
+
+local function bringup(name, make, reps)
+  local sup_t, base_t = {}, {}
+  for _ = 1, reps do
+    -- A: the supervisor tree (start, connect, confirm, run)
+    local spec = make()
+    local t0 = clock()
+    local c = fake.cluster{}
+    c:root(spec)
+    assert(c:configure())
+    c:start()
+    c:settle(c.t)
+    sup_t[#sup_t + 1] = (clock() - t0) * 1e6
+    -- B: the algebra alone starting the same expressions
+    t0 = clock()
+    all_exprs(spec, function(text)
+      local run = algebra.new(assert(algebra.parse(text)), {})
+      run:start()
+    end)
+    base_t[#base_t + 1] = (clock() - t0) * 1e6
+  end
+  local g, l, k = spec_mod.count(make())
+  result("supervisor_bringup", name .. "_memory", sup_t, sformat(" groups=%d leaves=%d connections=%d", g, l, k))
+  result("algebra_start_baseline", name .. "_memory", base_t)
+end
+
+-- Preemption: root -> a -> b -> c, c runs `win # (s1, s2, s3)`. From win's DONE to the last abort ack.
+local function preemption(reps)
+  local function level3()
+    local c3 = fake.group("c", "C", "h3", "win # (s1 , s2 , s3)", {
+      fake.leaf("win", "Worker", "h3"), fake.leaf("s1", "Worker", "h1"), fake.leaf("s2", "Worker", "h2"),
+      fake.leaf("s3", "Worker", "h3") })
+    local b = fake.group("b", "B", "h2", "c", { c3 })
+    local a = fake.group("a", "A", "h1", "b", { b })
+    return fake.root("main", "h1", "a", { a })
+  end
+  local c = fake.cluster{}
+  c:root(level3())
+  assert(c:configure())
+  local sup_t, base_t = {}, {}
+  for _ = 1, reps do
+    c:start()
+    c:settle(c.t)
+    local csup = c.sups["main.a.b.c"]
+    local t0 = clock()
+    c:node("main.a.b.c.win"):done(1)
+    c:settle(c.t, function() return csup.state == "done" and (csup.stops_pending or 0) == 0 end)
+    sup_t[#sup_t + 1] = (clock() - t0) * 1e6
+    c:settle(c.t, function() return c.outcome ~= nil end)
+    -- baseline: the algebra alone taking the same DONE and issuing the three aborts
+    local run = algebra.new(assert(algebra.parse("win # (s1 , s2 , s3)")), {})
+    run:start()
+    t0 = clock()
+    run:event("win", "done", 1)
+    base_t[#base_t + 1] = (clock() - t0) * 1e6
+  end
+  result("supervisor_preemption", "3_levels_memory", sup_t)
+  result("algebra_preemption_baseline", "3_levels_memory", base_t)
+end
+
+for _ = 1, 2 do -- A B A B
+  bringup("door_shape_3hosts", door_spec, 50)
+  bringup("1000leaves_100groups_3hosts", function() return generated(100, 10) end, 3)
+  preemption(500)
+end
