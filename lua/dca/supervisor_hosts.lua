@@ -107,6 +107,25 @@ function M.start_local(names, opts)
     set.pids[name] = pid
     set.order[#set.order + 1] = name
   end
+  -- each daemon prints "dca daemon: host NAME listening on ADDR" when it accepts connections: wait for it
+  local deadline = os.time() + (opts.ready_timeout or 10)
+  for _, name in ipairs(names) do
+    while true do
+      local f = io.open(set.logs[name], "r")
+      local text = f and f:read("a") or ""
+      if f then f:close() end
+      if text:find("listening on", 1, true) then break end
+      if not M.alive(set.pids[name]) then
+        set:stop()
+        return nil, sformat("the daemon of host %s exited: %s", name, (text:gsub("%s+$", "")))
+      end
+      if os.time() > deadline then
+        set:stop()
+        return nil, sformat("the daemon of host %s did not start listening within %gs", name, opts.ready_timeout or 10)
+      end
+      os.execute("sleep 0.01")
+    end
+  end
   return set
 end
 

@@ -95,6 +95,26 @@ function M.new(opts)
           end
         end
       end)
+      -- heartbeat: a daemon that does not answer a ping within `heartbeat` seconds is lost
+      local hb = opts.heartbeat or 1
+      local beat
+      beat = core.every(hb, function()
+        if rt.closing or d.ch ~= ch then beat:cancel() return end
+        ch:request({ type = "ping" }, 2 * hb, function(r, perr)
+          if not r and d.ch == ch and not rt.closing then
+            beat:cancel()
+            ch:close()
+            if sup then
+              for _, rec in pairs(rt.by_child) do
+                if rec.host == host and not rec.exited then
+                  rec.exited = true
+                  sup:child_exit(rec.name, sformat("host %s lost (no heartbeat for %gs: %s)", host, 2 * hb, tostring(perr)))
+                end
+              end
+            end
+          end
+        end)
+      end)
       for _, w in ipairs(waiters) do w(ch) end
     end)
   end
