@@ -240,4 +240,53 @@ suite:case("reloading_the_module_keeps_running_supervisors_and_their_state", fun
   T.eq(c:outcome_within(100).type, "done")
 end)
 
+suite:case("a_groups_init_value_binds_every_leaf_it_starts", function()
+  local seen = {}
+  local b = { Rec = function(n, init) seen[n.path] = init n:after(1, function() n:done(init) end) end,
+              Finder = function(n) n:after(1, function() n:done({ x = 3 }) end) end }
+  local sub = group("place", "Place", "h2", "grip ; move", { leaf("grip", "Rec", "h2"), leaf("move", "Rec", "h2") })
+  local c = fake.cluster{ behave = b }
+  c:root(root("main", "h1", "find : place", { leaf("find", "Finder", "h1"), sub }))
+  assert(c:configure())
+  c:start()
+  local out = c:outcome_within(100)
+  T.eq(out, { type = "done", value = { x = 3 } })
+  T.eq(seen["main.place.grip"], { x = 3 })
+  T.eq(seen["main.place.move"], { x = 3 })
+end)
+
+suite:case("an_abort_from_the_parent_is_acknowledged_after_every_stop_below", function()
+  local c = fake.cluster{ behave = behave }
+  c:root(door())
+  assert(c:configure())
+  c:start()
+  c:settle(2.5)
+  local acked = false
+  local door_sup = c.sups["main.door"]
+  door_sup:abort(function() acked = true end)
+  T.eq(acked, false, "not before the stops are acknowledged")
+  c:settle(nil, function() return acked end)
+  T.ok(acked)
+  for _, p in ipairs({ "main.door.mc.rr", "main.door.mc.base", "main.door.hitg.ft", "main.door.hitg.hit" }) do
+    T.eq(c:node(p).running, false, p .. " stopped")
+  end
+  T.eq(c.outcome, nil, "an abort from the parent reports nothing up")
+end)
+
+suite:case("a_recurrent_group_restarts_its_sub_group_each_iteration", function()
+  local runs = 0
+  local b = { Step = function(n) runs = runs + 1 n:after(1, function() n:done(runs) end) end,
+              Timer = behave.Timer }
+  local sub = group("body", "Body", "h2", "step", { leaf("step", "Step", "h2") })
+  local c = fake.cluster{ behave = b }
+  c:root(root("main", "h1", "stop # (tick :; body)", {
+    leaf("stop", "Timer", "h1", { 10.5 }), leaf("tick", "Step", "h1"), sub }))
+  assert(c:configure())
+  c:start()
+  local out = c:outcome_within(100)
+  T.eq(out, { type = "done", value = "timeout" })
+  T.ok(runs >= 10, "iterations: " .. runs)
+  T.eq(c:node("main.body.step").running, false)
+end)
+
 return suite:run(...)

@@ -68,10 +68,6 @@ function M.main(args)
   if not ok then io.stderr:write(o, "\n", M.usage, "\n") return 2 end
   local spec, err = M.load(o.file, o.root)
   if not spec then io.stderr:write(err, "\n") return 2 end
-  if not core.loop or not core.connect then
-    io.stderr:write("dca run: this dca has no control plane (dca.core.loop/connect)\n")
-    return 3
-  end
 
   local t0 = core.now and core.now() or os.clock()
   local function say(line)
@@ -88,7 +84,12 @@ function M.main(args)
   if o.hosts then
     hosts, err = hosts_mod.read_file(o.hosts)
     if not hosts then io.stderr:write(err, "\n") return 2 end
-  else
+  end
+  if not core.loop or not core.connect then
+    io.stderr:write("dca run: this dca has no control plane (dca.core.loop/connect)\n")
+    return 3
+  end
+  if not o.hosts then
     if not key then key, keydir = hosts_mod.fresh_key() end
     local names = spec_mod.hosts(spec)
     daemons, err = hosts_mod.start_local(names, { exe = exe, key = key, clock = o.sim and "sim" or nil,

@@ -1,0 +1,94 @@
+-- `dca run`, `dca scenario`, `dca supervise`, `dca repl` as a person calls them: usage, check errors first.
+local T = require "dca.testing"
+local suite = T.suite("supervisor_cli")
+
+local dca = os.getenv("DCA_EXE") or "dca"
+local src = os.getenv("DCA_SOURCE_DIR") or "."
+
+local function tmpfile(text, ext)
+  local path = os.tmpname() .. (ext or ".dca")
+  local f = assert(io.open(path, "w"))
+  f:write(text)
+  f:close()
+  return path
+end
+
+-- Processes whose command line mentions `needle` (the test's own temp file name makes it unique).
+local function procs_with(needle)
+  local ls = io.popen("ls /proc")
+  local n = 0
+  for pid in ls:lines() do
+    if pid:match("^%d+$") then
+      local f = io.open("/proc/" .. pid .. "/cmdline", "rb")
+      local cmd = f and f:read("a") or ""
+      if f then f:close() end
+      if cmd:find(needle, 1, true) then n = n + 1 end
+    end
+  end
+  ls:close()
+  return n
+end
+
+suite:case("run_with_check_errors_prints_file_line_col_and_starts_nothing", function()
+  local path = tmpfile([[
+process main() {
+  instantiated_processes { a instof Timer("h1", 1); }
+  internal_event_actions { a # nosuch }
+}
+]])
+  local out, rc = T.sh(dca .. " run " .. path)
+  T.eq(rc, 2)
+  T.contains(out, path .. ":3:")
+  T.contains(out, "nosuch")
+  T.eq(procs_with(path), 0, "no process started for " .. path)
+  os.remove(path)
+end)
+
+suite:case("run_without_a_file_prints_usage_and_exits_2", function()
+  local out, rc = T.sh(dca .. " run")
+  T.eq(rc, 2)
+  T.contains(out, "usage: dca run FILE.dca")
+  out, rc = T.sh(dca .. " run x.dca --frob")
+  T.eq(rc, 2)
+  T.contains(out, "unexpected argument '--frob'")
+end)
+
+suite:case("run_with_a_bad_hosts_file_names_its_line", function()
+  local hosts = tmpfile("# hosts\nh1 127.0.0.1:1\nthis line is wrong\n", ".hosts")
+  local out, rc = T.sh(dca .. " run " .. src .. "/scripts/systems/test_reload.dca --hosts " .. hosts)
+  T.eq(rc, 2)
+  T.contains(out, hosts .. ":3:1: expected 'name address'")
+  os.remove(hosts)
+end)
+
+suite:case("scenario_reports_each_step_and_fails_with_the_failing_step", function()
+  local path = tmpfile([[
+local S = require "dca.scenario"
+local sys = S.system(os.getenv("DCA_SOURCE_DIR") .. "/scripts/systems/test_reload.dca")
+S.step("up", function() sys:up() end)
+S.step("expects DONE but the deadline wins", function()
+  sys:run()
+  S.eq(sys:wait_outcome(5).type, "done")
+end)
+S.step("never reached", function() end)
+return S.finish()
+]], ".lua")
+  local out, rc = T.sh(dca .. " scenario " .. path)
+  os.remove(path)
+  T.eq(rc, 1)
+  T.contains(out, "ok   1 up (t=0.000)")
+  T.contains(out, "FAIL 2 expects DONE but the deadline wins (t=1.000)")
+  T.contains(out, "expected \"done\"")
+  T.ok(not out:find("never reached", 1, true), "steps after a failure do not run")
+  T.contains(out, "2 steps, 1 failed")
+end)
+
+suite:case("supervise_and_repl_need_their_arguments", function()
+  local out, rc = T.sh(dca .. " supervise --name x")
+  T.ok(rc == 2 or rc == 3, "rc " .. tostring(rc))
+  T.ok(out:find("--daemon", 1, true) or out:find("control plane", 1, true), out)
+  out, rc = T.sh(dca .. " repl")
+  T.ok(rc == 2 or rc == 3)
+end)
+
+return suite:run(...)
