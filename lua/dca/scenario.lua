@@ -94,10 +94,16 @@ System.__index = System
 function M.system(file, opts)
   opts = opts or {}
   local spec = opts.spec or M.spec(file, opts.root)
+  if M.backend == "real" then
+    local s = require("dca.scenario_real").system(spec, { file = file, root = opts.root })
+    s.commands = System.commands
+    systems[#systems + 1] = s
+    return s
+  end
   local fake = require "dca.supervisor_fake"
   local behave = setmetatable(opts.behave or {}, { __index = M.behave })
   local c = fake.cluster{ behave = behave, timeouts = opts.timeouts }
-  local s = setmetatable({ spec = spec, c = c, file = file, root = opts.root }, System)
+  local s = setmetatable({ spec = spec, c = c, file = file, root = opts.root, backend = "memory" }, System)
   c:root(spec, { timeouts = opts.timeouts })
   systems[#systems + 1] = s
   return s
@@ -199,11 +205,19 @@ end
 --- A node's view: running flag, active sets, connections, commands it received.
 function System:node(path) return self.c:node(path) end
 
---- The commands the nodes received, in order ("main.a stop"), optionally only those matching `pattern`.
+--- The transition lines of every supervisor so far ("main.motion.puma: aborting", ...).
+function System:transitions() return self.c.lines end
+
+--- The leaves' run and stop commands in the order their supervisors issued them ("main.a run",
+--- "main.a stop"), optionally only those matching `pattern`. The same in every backend.
 function System:commands(pattern)
+  local leaf = {}
+  spec_mod.walk(self.spec, function(n) if n.kind == "leaf" then leaf[n.path] = true end end)
   local out = {}
-  for _, l in ipairs(self.c.commands) do
-    if not pattern or l:find(pattern) then out[#out + 1] = l end
+  for _, l in ipairs(self:transitions()) do
+    local path, what = l:match("^(%S+): (%a+)$")
+    local cmd = path and leaf[path] and ((what == "running" and path .. " run") or (what == "aborting" and path .. " stop"))
+    if cmd and (not pattern or cmd:find(pattern)) then out[#out + 1] = cmd end
   end
   return out
 end
@@ -211,8 +225,6 @@ end
 --- Processes still alive (besides the root).
 function System:alive() return self.c:alive() end
 
---- The progress and transition lines of every supervisor so far.
-function System:lines() return self.c.lines end
 
 function System:now() return self.c.t end
 

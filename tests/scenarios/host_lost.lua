@@ -5,9 +5,12 @@ local sys = S.system(src .. "/scripts/systems/test_three_hosts.dca")
 
 S.step("three hosts up, connections resolved through external_io controller to controller", function()
   sys:up()
-  local conns = sys:node("main.chain.src.count").conns
-  S.eq(conns[1], { out = "Count", to = "main.chain.gain", ["in"] = "In", set = "main.chain:src[run]" })
-  S.eq(sys:node("main.chain.gain").conns[1].to, "main.chain.det.level")
+  if sys.backend == "memory" then
+    local conns = sys:node("main.chain.src.count").conns
+    S.eq(conns[1], { out = "Count", to = "main.chain.gain", ["in"] = "In", set = "main.chain:src[run]" })
+    S.eq(sys:node("main.chain.gain").conns[1].to, "main.chain.det.level")
+  end
+  S.eq(sys:state("main.chain.det.level"), "inactive")
 end)
 
 S.step("data flows host to host while it runs", function()
@@ -22,6 +25,6 @@ S.step("host manip is lost: ABORTED naming it", function()
   S.eq(out.type, "aborted")
   S.eq(out.path, "main.chain.det")
   S.contains(out.reason, "host manip lost")
-  S.eq(sys:node("main.chain.gain").running, false, "the gain was stopped")
+  S.ok(sys:state("main.chain.gain") ~= "running", "the gain was stopped")
 end)
 return S.finish()

@@ -2,11 +2,12 @@
 -- when every step passed, 1 when one failed, 2 on bad usage.
 local scenario = require "dca.scenario"
 
-local USAGE = [[usage: dca scenario [--backend memory] FILE.lua
+local USAGE = [[usage: dca scenario [--backend memory|real] FILE.lua
 
 Runs the scenario in FILE.lua: it starts systems, drives them (events, faults, reloads), waits with timeouts
 and asserts; each step prints one line (ok/FAIL, with the system's time). Exit code 0 when every step passed.
-  --backend memory   the supervisor tree in memory with simulated time and the test controllers' behaviour]]
+  --backend memory   the supervisor tree in memory with simulated time and the test controllers' behaviour
+  --backend real     local daemons on loopback, real nodes and supervisors (wall-clock time)]]
 
 local function main(args)
   local file
@@ -16,8 +17,8 @@ local function main(args)
     if a == "--backend" then
       scenario.backend = args[i + 1]
       i = i + 1
-      if scenario.backend ~= "memory" then
-        io.stderr:write("dca scenario: unknown backend '", tostring(scenario.backend), "' (memory)\n")
+      if scenario.backend ~= "memory" and scenario.backend ~= "real" then
+        io.stderr:write("dca scenario: unknown backend '", tostring(scenario.backend), "' (memory, real)\n")
         return 2
       end
     elseif a:sub(1, 1) == "-" or file then

@@ -1,0 +1,220 @@
+-- dca.scenario_real: the "real" backend of dca.scenario: local daemons (one per host name, loopback), the
+-- root DCAS in this process, nodes and sub-supervisors as real processes. Same methods as the memory backend
+-- (see dca.scenario); waits run this process's event loop with a wall-clock timeout.
+local core = require "dca.core"
+local supervisor = require "dca.supervisor"
+local spec_mod = require "dca.supervisor_spec"
+local srt = require "dca.supervisor_rt"
+local hosts_mod = require "dca.supervisor_hosts"
+
+local M = {}
+
+local ipairs, pairs, type, tostring, sformat, error = ipairs, pairs, type, tostring, string.format, error
+
+local System = {}
+System.__index = System
+
+local function now() return core.now and core.now() or os.clock() end
+
+function M.system(spec, opts)
+  local s = setmetatable({ spec = spec, opts = opts, file = opts.file, root = opts.root, lines = {},
+                           backend = "real", outcome = nil, t0 = now() }, System)
+  s.loop = core.loop()
+  return s
+end
+
+-- Runs the loop until pred() or `timeout` seconds. --> true when pred() became true
+function System:_until(pred, timeout)
+  if pred() then return true end
+  return self.loop:run_until(pred, timeout) and true or pred()
+end
+
+function System:_ask(fn, timeout, what)
+  local res
+  fn(function(...) res = table.pack(...) end)
+  if not self:_until(function() return res ~= nil end, timeout or 5) then
+    error(sformat("timed out after %gs waiting for %s", timeout or 5, what or "an answer"), 3)
+  end
+  return table.unpack(res, 1, res.n)
+end
+
+function System:try_up(timeout)
+  timeout = timeout or 30
+  local key, dir = hosts_mod.fresh_key()
+  self.key, self.keydir = key, dir
+  local names = spec_mod.hosts(self.spec)
+  local set, err = hosts_mod.start_local(names, { exe = hosts_mod.self_exe(), key = key, log_dir = dir })
+  if not set then return false, err end
+  self.daemons = set
+  local rt = srt.new({ hosts = set.hosts, key = key, exe = "dca",
+    report = function(msg)
+      if msg.type == "log" then self.lines[#self.lines + 1] = msg.line
+      elseif msg.type == "done" or msg.type == "aborted" then self.outcome = msg end
+    end })
+  self.rt = rt
+  self.sup = supervisor.new(self.spec, rt, { progress = true })
+  rt.bind(self.sup)
+  local res = self:_ask(function(k) self.sup:configure(function(ok, cerr) k({ ok, cerr }) end) end, timeout, "the start")
+  if not res[1] then
+    self:_ask(function(k) self.sup:shutdown(k) end, 30, "the stop after a failed start")
+    return false, res[2]
+  end
+  return true
+end
+
+function System:up(timeout)
+  local ok, err = self:try_up(timeout)
+  if not ok then error("start failed: " .. tostring(err), 0) end
+  return true
+end
+
+function System:run(init)
+  self.outcome = nil
+  self.sup:run_expr(init)
+end
+
+function System:settle(s) self.loop:run_until(function() return false end, s or 0) end
+
+function System:wait(what, pred, timeout)
+  if not self:_until(pred, timeout or 10) then
+    error(sformat("timed out after %gs waiting for %s", timeout or 10, what), 2)
+  end
+end
+
+function System:wait_outcome(timeout)
+  self:wait("the root's outcome", function() return self.outcome ~= nil end, timeout)
+  self:_until(function() return (self.sup.stops_pending or 0) == 0 end, 5)
+  return self.outcome
+end
+
+local function find(node, path)
+  if node.path == path then return node end
+  for _, c in ipairs(node.children or {}) do
+    local f = find(c, path)
+    if f then return f end
+  end
+end
+
+function System:state(path)
+  local tree = self:_ask(function(k) self.sup:tree(k) end, 5, "the tree")
+  local n = find(tree, path)
+  return n and n.state
+end
+
+function System:wait_state(path, state, timeout)
+  local deadline = now() + (timeout or 10)
+  while now() < deadline do
+    if self:state(path) == state then return end
+    self:settle(0.005)
+  end
+  error(sformat("timed out after %gs waiting for %s %s", timeout or 10, path, state), 2)
+end
+
+function System:inject(path, kind, value)
+  local msg = kind == "done" and { type = "done", value = value } or { type = "aborted", reason = value or "injected" }
+  local ok, err = self:_ask(function(k) self.sup:inject(path, msg, k) end, 5, "the injection")
+  if not ok then error("inject " .. path .. ": " .. tostring(err), 2) end
+end
+
+-- The daemon channel of `host` (opened once for the scenario's own questions).
+function System:_daemon(host)
+  self.dchs = self.dchs or {}
+  if self.dchs[host] then return self.dchs[host] end
+  local ch, err = self:_ask(function(k) core.connect(self.daemons.hosts[host], { key = self.key }, k) end, 5,
+    "the daemon of " .. host)
+  if not ch then error("daemon " .. host .. ": " .. tostring(err), 3) end
+  ch:on_message(function() end)
+  self.dchs[host] = ch
+  return ch
+end
+
+-- The pid of the process registered as `path` (node or supervisor), from its host's daemon.
+function System:pid(path)
+  local host
+  spec_mod.walk(self.spec, function(n) if n.path == path then host = n.host end end)
+  if not host then error("no process " .. path, 3) end
+  local r = self:_ask(function(k) self:_daemon(host):request({ type = "status" }, 5, k) end, 6, "the daemon's status")
+  for _, c in ipairs(r and r.children or {}) do
+    if c.name == path then return c.pid end
+  end
+  return nil
+end
+
+function System:kill(path, sig)
+  local pid = self:pid(path)
+  if not pid then error("no live process " .. path, 2) end
+  os.execute("kill -" .. (sig or "KILL") .. " " .. pid)
+end
+
+function System:lose_host(host)
+  local pid = self.daemons.pids[host]
+  if not pid then error("no host " .. host, 2) end
+  os.execute("kill -KILL " .. pid)
+  -- its children lose their daemon; they are this host's processes and go with it
+  for _, p in ipairs(self:_host_pids(host)) do os.execute("kill -KILL " .. p .. " 2>/dev/null") end
+end
+
+-- Processes started by the daemon of `host` (from /proc: their parent is the daemon).
+function System:_host_pids(host)
+  local dpid = self.daemons.pids[host]
+  local list = {}
+  local ls = io.popen("ls /proc")
+  for pid in ls:lines() do
+    if pid:match("^%d+$") then
+      local f = io.open("/proc/" .. pid .. "/stat")
+      local st = f and f:read("l") or ""
+      if f then f:close() end
+      local ppid = st:match("^%d+ %b() %a (%d+)")
+      if ppid and tonumber(ppid) == dpid then list[#list + 1] = tonumber(pid) end
+    end
+  end
+  ls:close()
+  return list
+end
+
+function System:drop(path, set)
+  local r = self:_ask(function(k) self.sup:to_leaf(path, { type = "deactivate", set = set }, 5, k) end, 6, "the drop")
+  if not r or r.type == "error" then error("drop " .. path .. " " .. set .. ": " .. tostring(r and r.reason), 2) end
+end
+
+function System:read(path, port)
+  local r = self:_ask(function(k) self.sup:to_leaf(path, { type = "read", port = port }, 5, k) end, 6, "the read")
+  if not r or r.type == "error" then error("read " .. path .. "." .. port .. ": " .. tostring(r and r.reason), 2) end
+  local v = r.value
+  if type(v) == "table" and #v == 1 then v = v[1] end
+  return v
+end
+
+function System:transitions() return self.lines end
+
+function System:alive()
+  local list = {}
+  if not self.daemons then return list end
+  for _, h in ipairs(self.daemons.order) do
+    if hosts_mod.alive(self.daemons.pids[h]) then
+      for _, p in ipairs(self:_host_pids(h)) do list[#list + 1] = p end
+    end
+  end
+  return list
+end
+
+function System:now() return now() - self.t0 end
+
+function System:reload(file)
+  local ok, new = pcall(require("dca.scenario").spec, file or self.file, self.root)
+  if not ok then return nil, tostring(new) end
+  return self:_ask(function(k) self.sup:update(new, k) end, 10, "the reload")
+end
+
+function System:stop()
+  if self.sup then self:_ask(function(k) self.sup:shutdown(k) end, 30, "the stop") end
+  local left = self:alive()
+  for _, ch in pairs(self.dchs or {}) do ch:close() end
+  if self.rt then self.rt.close() end
+  if self.daemons then self.daemons:stop() end
+  if self.keydir then os.execute("rm -rf " .. hosts_mod.sh_quote(self.keydir)) end
+  self.stopped = true
+  return #left == 0, left
+end
+
+return M
