@@ -301,9 +301,15 @@ function M.parse(text)
       bad.name, bad_op))
   end
   local leaves, names, seen = {}, {}, {}
+  -- line and column of every node, in one forward pass (node positions never decrease in preorder)
+  local line, line_start, nl = 1, 1, sfind(text, "\n", 1, true)
   for id = 1, compiled.n do
     local nd = compiled.node[id]
-    nd.line, nd.col = line_col(text, nd.pos)
+    while nl and nl < nd.pos do
+      line, line_start = line + 1, nl + 1
+      nl = sfind(text, "\n", nl + 1, true)
+    end
+    nd.line, nd.col = line, nd.pos - line_start + 1
     if nd.op == "leaf" then
       leaves[#leaves + 1] = nd
       if not seen[nd.name] then seen[nd.name] = true; names[#names + 1] = nd.name end

@@ -16,12 +16,23 @@ function M.index(text)
     i = sfind(text, "\n", i + 1, true)
   end
   local idx = { text = text, starts = starts }
+  local last = 1   -- the line of the previous lookup: lookups mostly move forward a little
   function idx.at(_, pos)
+    local l = last
+    if starts[l] <= pos then
+      local steps = 0
+      while l < n and starts[l + 1] <= pos and steps < 8 do l, steps = l + 1, steps + 1 end
+      if l == n or starts[l + 1] > pos then
+        last = l
+        return l, pos - starts[l] + 1
+      end
+    end
     local lo, hi = 1, n
     while lo < hi do
       local mid = (lo + hi + 1) // 2
       if starts[mid] <= pos then lo = mid else hi = mid - 1 end
     end
+    last = lo
     return lo, pos - starts[lo] + 1
   end
   function idx.line_text(_, line)
