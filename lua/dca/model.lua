@@ -18,6 +18,13 @@
 --                                      --   actions.expr: the dca.algebra expression)
 --     children = { node, ...; [name] = node }, -- group: its instances in declaration order and by name
 --     parent = node | nil, line, col }  -- where the instance is declared (the root: its process)
+--
+--   model.walk(tree, fn)            fn(node, depth) for every node, parents first
+--   model.find(tree, path)          the node at "main.dooropensyst.hit", or nil
+--   model.resolve(group, name, port)  the leaf port behind a child's port (follows external_io down)
+--   model.connections(tree)         every connection resolved to leaf ports, with its set name
+--                                   "<group path>:<instance>[<label>]" (ARCHITECTURE.md, nodes)
+--   model.summary(tree)             counts for `dca check`'s summary line
 local check = require "dca.check"
 
 local M = {}
@@ -119,6 +126,47 @@ function M.find(tree, path)
     if not node then return nil end
   end
   return node
+end
+
+--- The leaf port behind `port` of the child `name` of group `node`, following external_io aliases down
+--- through groups. Returns leaf_node, port_name, or nil and a reason.
+function M.resolve(node, name, port)
+  local child = node.children and node.children[name]
+  for _ = 1, 1000 do
+    if not child then return nil, sformat("no instance '%s' in %s", tostring(name), node.path) end
+    if child.kind == "leaf" then return child, port end
+    local x = child.process.external_io[port]
+    if not x then return nil, sformat("%s (%s) exports no port '%s'", child.path, child.type, tostring(port)) end
+    node, name, port = child, x.instance, x.port
+    child = node.children[name]
+  end
+  return nil, "external_io aliases nested too deeply at " .. node.path
+end
+
+--- Every connection of the tree resolved to leaf ports, in tree order:
+--- { group = <group node>, owner = <instance name>, label = "lbl1", set = "<group path>:<owner>[<label>]",
+---   from = <leaf node>, out = "Out", to = <leaf node>, ["in"] = "In", line =, col = }.
+--- Returns the list, or nil and a list of { line, col, path, msg } (an alias that leads nowhere).
+function M.connections(tree)
+  local out, errors = {}, {}
+  M.walk(tree, function(n)
+    if n.kind ~= "group" then return end
+    for _, set in ipairs(n.process.internal_connections) do
+      for _, c in ipairs(set.connections) do
+        local from, op = M.resolve(n, c.from, c.out)
+        local to, ip = M.resolve(n, c.to, c["in"])
+        if from and to then
+          out[#out + 1] = { group = n, owner = set.instance, label = set.label,
+                            set = sformat("%s:%s[%s]", n.path, set.instance, set.label),
+                            from = from, out = op, to = to, ["in"] = ip, line = c.line, col = c.col }
+        else
+          errors[#errors + 1] = { line = c.line, col = c.col, path = n.path, msg = from and ip or op }
+        end
+      end
+    end
+  end)
+  if #errors > 0 then return nil, errors end
+  return out
 end
 
 --- Counts for a one-line summary: { groups, instances, leaves, connections, hosts = { sorted names } }.

@@ -87,4 +87,27 @@ suite:case("walk_visits_parents_first", function()
                "2:main.motion.puma", "2:main.motion.hit" })
 end)
 
+suite:case("connections_resolve_through_exports", function()
+  local tree = assert(model.build(load("door_open")))
+  local conns = assert(model.connections(tree))
+  local seen = {}
+  for _, c in ipairs(conns) do
+    seen[#seen + 1] = string.format("%s: %s.%s -> %s.%s", c.set, c.from.path, c.out, c.to.path, c["in"])
+  end
+  -- visualserv's velocity reaches the redundancy resolution inside motionctrl (MotionControl's In)
+  T.ok(seen[1]:find("main.dooropensyst.motionctrl.redundancy.In", 1, true), seen[1])
+  local found
+  for _, line in ipairs(seen) do
+    if line == "main.dooropensyst:dooropen[lbl1]: main.dooropensyst.dooropen.add.Out -> " ..
+               "main.dooropensyst.motionctrl.redundancy.In" then found = true end
+  end
+  T.ok(found, "dooropen's Out (add, Out) to motionctrl's In (redundancy, In):\n" .. table.concat(seen, "\n"))
+  T.eq(#conns, 17)
+  local leaf, port = model.resolve(tree.children.dooropensyst, "dooropen", "Out")
+  T.eq({ leaf.path, port }, { "main.dooropensyst.dooropen.add", "Out" })
+  local none, why = model.resolve(tree.children.dooropensyst, "dooropen", "Nope")
+  T.eq(none, nil)
+  T.eq(why, "main.dooropensyst.dooropen (DoorOpen) exports no port 'Nope'")
+end)
+
 return suite:run(...)
