@@ -84,9 +84,11 @@ local string_lit = Cmt(Cp() * P'"' * Cs((escape + (1 - S'"\\\n'))^0) * (C(P'"') 
 local section_kw = kw"host" + kw"instantiated_processes" + kw"external_io" + kw"internal_connections" +
                    kw"internal_event_actions"
 -- Where a section (or the next process) begins, including the paper's typos "external io",
--- "internal connections": used to tell "missing '}'" from other errors in a list.
-local section_start = section_kw + kw"process" +
-                      (P"external" + P"internal") * S" \t"^1 * ident + (P"external" + P"internal") * -idchar
+-- "internal connections": used to tell "missing '}'" from other errors in a list. A keyword counts only
+-- when a brace or parenthesis follows, so that `host instof T(h);` still declares an instance "host".
+local section_start = (kw"host" + kw"instantiated_processes" + kw"external_io" + kw"internal_event_actions") * S"{(" +
+                      kw"internal_connections" * P"(" + kw"process" * ident +
+                      (P"external" + P"internal") * -idchar
 
 -- expect(p, label, refs...): p, or else a labelled error at this position; `refs` are names of group
 -- captures (Cb) handed to the message function.
@@ -103,7 +105,7 @@ local function pos(name) return Cg(Cp(), name or "pos") end
 
 local arg = Ct(pos() * (Cg(string_lit, "value") * Cg(Cc"string", "kind") +
                         Cg(number, "value") * Cg(Cc"number", "kind") +
-                        -section_start * Cg(NAME, "value") * Cg(Cc"param", "kind")))
+                        Cg(NAME, "value") * Cg(Cc"param", "kind")))
 
 local args = expect(tok"(", "args_open", "iname", "itype") *
              Ct((arg * (tok"," * expect(arg, "arg"))^0)^-1) *
@@ -152,7 +154,7 @@ local actions_section = section("internal_event_actions",
 
 local any_section = host_section + instances_section + xio_section + ic_section + actions_section
 
-local param = Ct(pos() * -section_start * Cg(NAME, "name"))
+local param = Ct(pos() * Cg(NAME, "name"))
 local process = Ct(pos() * pos("open_process") * kw"process" * Cg(expect(NAME, "process_name"), "name") *
                    Cg(Cb("name"), "pname") *
                    expect(tok"(", "params_open", "pname") *

@@ -118,12 +118,15 @@ suite:case("string_escapes", function()
   T.eq(ast.by_name.P.instances.a.args[2].value, "q\"b\\s\n\t")
 end)
 
-suite:case("keywords_are_not_instance_names", function()
-  local ast, err = parser.parse("process P() { instantiated_processes { host instof T(\"h\"); } }", "k.dca")
+suite:case("keywords_start_sections_only_before_a_brace", function()
+  local ast, err = parser.parse("process P() { instantiated_processes { a instof T(\"h\"); host { h } }", "k.dca")
   T.eq(ast, nil)
-  T.contains(err, "k.dca:1:40: missing '}' to close 'instantiated_processes'")
-  ast = assert(parser.parse("process P() { instantiated_processes { hostname instof T(\"h\"); processor instof T(\"h\"); } }"))
-  T.eq(ast.by_name.P.instances[2].name, "processor")
+  T.contains(err, "k.dca:1:57: missing '}' to close 'instantiated_processes' (opened at line 1) before 'host'")
+  ast = assert(parser.parse("process P(host) { host { host } instantiated_processes { host instof T(host); " ..
+                            "process instof T(host); processor instof T(\"h\"); } }"))
+  local p = ast.by_name.P
+  T.eq({ p.params[1].name, p.host.value, p.instances[1].name, p.instances[2].name, p.instances[3].name },
+       { "host", "host", "host", "process", "processor" })
 end)
 
 suite:case("error_format_has_file_line_col_source_and_caret", function()
