@@ -87,7 +87,7 @@ local section_kw = kw"host" + kw"instantiated_processes" + kw"external_io" + kw"
 -- "internal connections": used to tell "missing '}'" from other errors in a list. A keyword counts only
 -- when a brace or parenthesis follows, so that `host instof T(h);` still declares an instance "host".
 local section_start = (kw"host" + kw"instantiated_processes" + kw"external_io" + kw"internal_event_actions") * S"{(" +
-                      kw"internal_connections" * P"(" + kw"process" * ident +
+                      kw"internal_connections" * P"(" + kw"process" * ident * ws * P"(" +
                       (P"external" + P"internal") * -idchar
 
 -- expect(p, label, refs...): p, or else a labelled error at this position; `refs` are names of group
