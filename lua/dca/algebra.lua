@@ -354,9 +354,9 @@ local function never() return false end
 local LOG_SIZE = 256
 
 local function log(self, kind, a, b)
-  local i = self.logi % LOG_SIZE + 1
+  local i = self.logi + 1
+  if i > LOG_SIZE then i, self.logfull = 1, true end
   self.logi = i
-  self.logn = self.logn + 1
   self.logk[i], self.loga[i], self.logb[i] = kind, a, b
 end
 
@@ -509,7 +509,7 @@ function M.new(expr, commands)
     bind = {}, cnt = {}, vals = {},
     rprev = {}, rnext = {}, rhead = 0, rtail = 0, byname = {},
     busy = false, queue = {},
-    logi = 0, logn = 0, logk = {}, loga = {}, logb = {},
+    logi = 0, logfull = false, logk = {}, loga = {}, logb = {},
   }, Run)
 end
 
@@ -647,7 +647,7 @@ end
 --- "conflict A (already running)", "abort (external)".
 function Run:log()
   local out, c = {}, self.c
-  local count = self.logn < LOG_SIZE and self.logn or LOG_SIZE
+  local count = self.logfull and LOG_SIZE or self.logi
   local i = (self.logi - count) % LOG_SIZE
   for _ = 1, count do
     i = i % LOG_SIZE + 1
