@@ -52,7 +52,7 @@ function System:try_up(timeout)
       elseif msg.type == "done" or msg.type == "aborted" then self.outcome = msg end
     end })
   self.rt = rt
-  self.sup = supervisor.new(self.spec, rt, { progress = true })
+  self.sup = supervisor.new(self.spec, rt, { progress = true, hosts = set.hosts })
   rt.bind(self.sup)
   local res = self:_ask(function(k) self.sup:configure(function(ok, cerr) k({ ok, cerr }) end) end, timeout, "the start")
   if not res[1] then

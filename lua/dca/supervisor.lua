@@ -57,12 +57,15 @@ local function show(v)
 end
 M.show = show
 
---- A new supervisor for the group `spec` on the runtime `rt`. opts: { timeouts = {...}, progress = bool }.
+--- A new supervisor for the group `spec` on the runtime `rt`.
+--- opts: { timeouts = {...}, progress = bool (send progress lines up), hosts = { name = daemon address } }.
 function M.new(spec, rt, opts)
   opts = opts or {}
   local self = setmetatable({
     spec = spec, path = spec.path, rt = rt,
     timeouts = setmetatable(opts.timeouts or {}, { __index = M.timeouts }),
+    timeouts_override = opts.timeouts,     -- handed down to child supervisors
+    hosts = opts.hosts,                    -- host name -> daemon address (handed down too)
     progress = opts.progress or false,     -- send progress/transition lines up (dca run asked for them)
     children = {},                         -- name -> child state (below)
     order = {},                            -- names in the order their processes started (LIFO teardown)
@@ -167,7 +170,8 @@ function Sup:_start_children(cb)
         tick()
       else
         ch.state = "configuring"
-        handle.request({ type = "configure", spec = ch.spec.spec, progress = self.progress, timeouts = self.timeouts_raw },
+        handle.request({ type = "configure", spec = ch.spec.spec, progress = self.progress, hosts = self.hosts,
+                         timeouts = self.timeouts_override },
           self.timeouts.configure, function(reply, rerr)
             if failed then return end
             if not reply or reply.type == "error" then

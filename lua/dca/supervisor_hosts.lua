@@ -101,7 +101,8 @@ function M.start_local(names, opts)
     for i, a in ipairs(argv) do q[i] = sh_quote(a) end
     local log = (opts.log_dir or "/tmp") .. "/" .. name .. ".log"
     set.logs[name] = log
-    local out = run("exec </dev/null; " .. concat(q, " ") .. " >" .. sh_quote(log) .. " 2>&1 & echo $!")
+    -- its own session: a Ctrl-C at the terminal reaches `dca run` only, which stops the tree LIFO first
+    local out = run("exec </dev/null; setsid " .. concat(q, " ") .. " >" .. sh_quote(log) .. " 2>&1 & echo $!")
     local pid = tonumber(out:match("%d+"))
     if not pid then set:stop() return nil, "could not start the daemon of host " .. name end
     set.pids[name] = pid
