@@ -330,6 +330,14 @@ function Sup:_abort_child(name)
   local function done(reply, err)
     if ch.state == "stopping" then ch.state = "inactive" end
     self.stops_pending = self.stops_pending - 1
+    if self.stops_pending == 0 and self.event_t0 then
+      -- preemption latency: the event that caused these aborts to the last abort acknowledged
+      local st = self.stats
+      st.preempt_n = (st.preempt_n or 0) + 1
+      st.preempt = st.preempt or {}
+      st.preempt[1 + (st.preempt_n - 1) % 1000] = self.rt.now() - self.event_t0
+      self.event_t0 = nil
+    end
     if self.stops_pending == 0 and self.held_report then
       local m = self.held_report
       self.held_report = nil
@@ -427,6 +435,8 @@ function Sup:child_message(name, msg)
   end
   if ch.kind == "leaf" then self.stats.leaf_events = self.stats.leaf_events + 1
   else self.stats.group_events = self.stats.group_events + 1 end
+  local t0 = self.rt.now()
+  local pending0 = self.stops_pending or 0
   if t == "done" then
     local taken = self.run and self.run:is_running(name)
     if taken then ch.state = "done" self:say("%s: done %s", ch.path, show(msg.value)) end
@@ -445,6 +455,7 @@ function Sup:child_message(name, msg)
       self:log("%s: stale aborted from %s ignored", self.path, ch.path)
     end
   end
+  if pending0 == 0 and (self.stops_pending or 0) > 0 then self.event_t0 = t0 end
 end
 
 --- Child `name`'s process exited (the Executer's signal) or its supervisor/host was lost.
@@ -535,6 +546,12 @@ function Sup:handle(msg, reply)
     if t == "inject" then self:inject(msg.path, msg.msg, done)
     elseif t == "restart" then self:restart(msg.path, done)
     else self:switch(msg.path, msg.label, msg.what, done) end
+  elseif t == "stats" then
+    if msg.path and msg.path ~= self.path then
+      self:_forward(msg.path, msg, function(ok, r) reply(ok and r or { type = "error", reason = r }) end)
+    else
+      reply({ type = "ok", stats = self.stats, path = self.path })
+    end
   elseif t == "update" then
     self:update(msg.spec, function(lines) reply({ type = "ok", lines = lines }) end)
   elseif t == "repl" or t == "complete" then

@@ -122,3 +122,105 @@ for _ = 1, 2 do -- A B A B
   bringup("1000leaves_100groups_3hosts", function() return generated(100, 10) end, 3)
   preemption(500)
 end
+
+---------------------------------------------------------------------------------------------- real processes
+-- variant *_loopback: local daemons, real `dca node` and `dca supervise` processes (dca.scenario_real),
+-- measured with the wall clock. Baseline: a ping round trip to a daemon over the same authenticated
+-- loopback channel, the least any supervisor-to-process exchange costs.
+local core = require "dca.core"
+local function has_node()
+  local exe = os.getenv("DCA_EXE") or "dca"
+  local p = io.popen(exe .. " help 2>&1")
+  local out = p:read("a")
+  p:close()
+  return out:find("\n  node ", 1, true) ~= nil
+end
+if not (core.loop and core.connect and has_node()) then
+  io.stderr:write("supervisor_bench: no control plane or no `dca node` in this build: loopback variants not run\n")
+  return 0
+end
+local real = require "dca.scenario_real"
+local wall = core.now
+
+-- Every leaf a Gain (In -> Out, periodic, runs until stopped); ports renamed to In/Out.
+local function as_gains(spec)
+  spec_mod.walk(spec, function(n)
+    if n.kind ~= "group" then return end
+    local g = n.spec
+    local kind = {}
+    for _, c in ipairs(g.children) do
+      kind[c.name] = c.kind
+      if c.kind == "leaf" then c.type, c.args = "Gain", { 1.0, 0.01 } end
+    end
+    for _, x in ipairs(g.external_io) do
+      if kind[x.instance] == "leaf" then x.port = x.alias:match("^In") and "In" or "Out" end
+    end
+    for _, st in ipairs(g.sets) do
+      for _, k in ipairs(st.connections) do
+        if kind[k.from] == "leaf" then k.out = "Out" end
+        if kind[k.to] == "leaf" then k["in"] = "In" end
+      end
+    end
+  end)
+  return spec
+end
+
+local function ping_baseline(sys, n)
+  local ch = sys:_daemon(sys.daemons.order[1])
+  local out = {}
+  for _ = 1, n do
+    local t0 = wall()
+    sys:_ask(function(k) ch:request({ type = "ping" }, 5, k) end, 6, "ping")
+    out[#out + 1] = (wall() - t0) * 1e6
+  end
+  return out
+end
+
+local function real_bringup(name, make, reps)
+  local up_t, base = {}, nil
+  for _ = 1, reps do
+    local sys = real.system(make(), {})
+    local t0 = wall()
+    sys:up(60)
+    sys:run()
+    up_t[#up_t + 1] = (wall() - t0) * 1e6
+    base = base or ping_baseline(sys, 200)
+    sys:stop()
+  end
+  local g, l, k = spec_mod.count(make())
+  result("supervisor_bringup", name .. "_loopback", up_t, sformat(" groups=%d leaves=%d connections=%d", g, l, k))
+  result("daemon_ping_baseline", name .. "_loopback", base)
+end
+
+local function real_preemption(reps)
+  local c3 = fake.group("c", "C", "h3", "win # (s1 , s2 , s3)", {
+    fake.leaf("win", "Timer", "h3", { 0.02 }), fake.leaf("s1", "Gain", "h1", { 1.0, 0.01 }),
+    fake.leaf("s2", "Gain", "h2", { 1.0, 0.01 }), fake.leaf("s3", "Gain", "h3", { 1.0, 0.01 }) })
+  local spec = fake.root("main", "h1", "a", { fake.group("a", "A", "h1", "b", {
+    fake.group("b", "B", "h2", "c", { c3 }) }) })
+  local sys = real.system(spec, {})
+  sys:up(30)
+  for _ = 1, reps do
+    sys:run()
+    sys:wait_outcome(10)
+  end
+  local r = sys:_ask(function(k) sys.sup:handle({ type = "stats", path = "main.a.b.c" }, k) end, 5, "stats")
+  local samples = {}
+  for _, v in ipairs(r.stats.preempt or {}) do samples[#samples + 1] = v * 1e6 end
+  result("supervisor_preemption", "3_levels_loopback", samples)
+  result("daemon_ping_baseline", "3_levels_loopback", ping_baseline(sys, 200))
+  sys:stop()
+end
+
+for _ = 1, 2 do
+  real_bringup("door_shape_3hosts", function() return as_gains(door_spec()) end, 3)
+  real_preemption(100)
+end
+real_bringup("1000leaves_100groups_3hosts", function()
+  local s = generated(100, 10)
+  spec_mod.walk(s, function(n) if n.kind == "leaf" then n.type, n.args = "Gain", { 1.0, 0.01 } end end)
+  for _, c in ipairs(s.children) do
+    for _, st in ipairs(c.spec.sets) do for _, k in ipairs(st.connections) do k.out, k["in"] = "Out", "In" end end
+  end
+  return s
+end, 1)

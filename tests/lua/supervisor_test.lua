@@ -289,4 +289,20 @@ suite:case("a_recurrent_group_restarts_its_sub_group_each_iteration", function()
   T.eq(c:node("main.body.step").running, false)
 end)
 
+suite:case("preemption_latency_is_recorded_where_the_event_lands_and_read_through_the_tree", function()
+  local c = fake.cluster{ behave = behave }
+  c:root(door())
+  assert(c:configure())
+  c:start()
+  c:settle(2.5) -- dist (Threshold, 2 s) preempted vs in main.door; hitg started
+  local r
+  c.root_sup:handle({ type = "stats", path = "main.door" }, function(m) r = m end)
+  c:settle(nil, function() return r ~= nil end)
+  T.eq(r.type, "ok")
+  T.eq(r.path, "main.door")
+  T.eq(r.stats.preempt_n, 1)
+  T.eq(#r.stats.preempt, 1)
+  T.ok(r.stats.leaf_events >= 1)
+end)
+
 return suite:run(...)
