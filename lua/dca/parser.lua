@@ -31,6 +31,10 @@
 --                                                        --     out_line/col, to_line/col, in_line/col }, ... } }
 --     actions = { text, line, col, expr = <dca.algebra expression> | nil,
 --                 error = { msg, line, col } | nil } | nil,   -- expression errors are left to dca.check
+--       text: everything between the braces, as written; expr.text: the same with comments blanked out
+--       (same length, newlines kept); text_line/text_col: where the text begins (just after '{');
+--       line/col: the expression's first token; section_line/section_col: the keyword.
+--       Every node of expr.root has its file position (pos, line, col).
 --     duplicate_sections = { { section = "host", line, col }, ... },
 --   }
 --   inst = { name = "hit", type = "HitDetector", line, col, type_line, type_col, args = { arg, ... } }
@@ -379,6 +383,7 @@ local function build_process(raw, idx, text)
       elseif kind == "internal_event_actions" then
         local act = { text = sec.text, pos = sec.text_pos }
         at(idx, act, sec.pos, "section_line", "section_col")
+        at(idx, act, sec.text_pos, "text_line", "text_col")
         -- the expression's position: its first token (or the text start when blank)
         local body = blank:match(sec.text)
         local lead = sfind(body, "[^%s]")
