@@ -180,6 +180,23 @@ suite:case("conflict_in_later_sequence_step_aborts_whole", function()
   T.eq(run:status(), "aborted")
 end)
 
+suite:case("conflict_on_a_later_iteration_aborts_the_recurrence", function()
+  local taken_by_other = false
+  local log = {}
+  local run = assert(algebra.new("M # (P :; Q)", {
+    start = function(n) log[#log + 1] = "start " .. n end,
+    abort = function(n) log[#log + 1] = "abort " .. n end,
+    is_running = function(n) return n == "P" and taken_by_other end,
+  }))
+  run:start()
+  run:event("P", "done", 1)
+  taken_by_other = true          -- someone else starts P while Q runs
+  T.ok(run:event("Q", "done"))
+  T.eq(log, { "start M", "start P", "start Q", "abort M" })
+  T.eq(run:status(), "aborted")
+  T.eq(run:log()[#run:log()], "abort M")
+end)
+
 suite:case("external_abort_after_finish_has_no_effect", function()
   local run, log = recorder("A ; B")
   run:start()
