@@ -99,21 +99,29 @@ function M.check(ast, opts)
     errors[#errors + 1] = { line = line, col = col, path = path, msg = sformat(fmt, ...) }
   end
 
-  local function names_of_exports(d)
-    local out = {}
-    for i, x in ipairs(d.external_io) do out[i] = x.alias end
+  local port_info
+  -- The export names of group `d`, without those known to go the other way than `want` ("input"/"output").
+  local function names_of_exports(d, want, depth)
+    local out, seen = {}, {}
+    for _, x in ipairs(d.external_io) do
+      if not seen[x.alias] then
+        seen[x.alias] = true
+        local dir = want and port_info(d, x.instance, x.port, depth + 1) or "unknown"
+        if dir == "unknown" or dir == want then out[#out + 1] = x.alias end
+      end
+    end
     return out
   end
   -- Direction of `port` on instance `iname` of process `proc`: "input" | "output" | "unknown" (no manifest)
   -- or nil when the port does not exist; the second result lists the valid names for messages.
-  local function port_info(proc, iname, port, depth)
+  function port_info(proc, iname, port, depth, want)
     depth = depth or 0
     local inst = proc.instances[iname]
     if not inst or depth > 50 then return "unknown" end
     local d = defs[inst.type]
     if d then
       local x = d.external_io[port]
-      if not x then return nil, { exports = names_of_exports(d) } end
+      if not x then return nil, { exports = names_of_exports(d, want, depth) } end
       local dir = port_info(d, x.instance, x.port, depth + 1)
       return dir or "unknown"
     end
@@ -302,7 +310,7 @@ function M.check(ast, opts)
               cn.from, cn.out, cn.to, cn["in"], set.instance, set.instance)
         end
         if ok_from then
-          local dir, valid = port_info(p, cn.from, cn.out)
+          local dir, valid = port_info(p, cn.from, cn.out, 0, "output")
           local ty = ok_from.type
           if not dir then
             if valid.exports then
@@ -318,7 +326,7 @@ function M.check(ast, opts)
           end
         end
         if ok_to then
-          local dir, valid = port_info(p, cn.to, cn["in"])
+          local dir, valid = port_info(p, cn.to, cn["in"], 0, "input")
           local ty = ok_to.type
           if not dir then
             if valid.exports then

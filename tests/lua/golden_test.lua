@@ -21,6 +21,9 @@ local registry = {
            params = { { name = "k", type = "number", required = true },
                       { name = "period", type = "number", required = false, default = "0" } } },
   XR4000Odometry = { inputs = {}, outputs = { { name = "Pose" } }, params = {} },
+  Counter = { inputs = {}, outputs = { { name = "Count" } },
+              params = { { name = "period", type = "number", required = true },
+                         { name = "limit", type = "integer", required = false, default = "0" } } },
 }
 
 local function read(path)
