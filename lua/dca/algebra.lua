@@ -446,8 +446,7 @@ local function propagate(self, id, ok, v)
   while true do
     local p = parent[id]
     if p == 0 then
-      self.st = ok and "done" or "aborted"
-      self.value = ok and v or nil
+      if ok then self.st, self.value = "done", v else self.st, self.value = "aborted", nil end
       return
     end
     local o = op[p]

@@ -208,6 +208,21 @@ suite:case("external_abort_after_finish_has_no_effect", function()
   T.eq(run:event("B", "done"), false, "stale after the end")
 end)
 
+suite:case("values_pass_through_opaquely_even_false", function()
+  local inits = {}
+  local run = assert(algebra.new("A : B", { start = function(n, v) inits[#inits + 1] = { n, v } end }))
+  run:start()
+  run:event("A", "done", false)
+  run:event("B", "done", false)
+  T.eq({ run:status() }, { "done", false })
+  T.eq(inits, { { "A" }, { "B", false } })
+  local t = {}
+  run:start()
+  run:event("A", "done", t)
+  run:event("B", "done", t)
+  T.ok(select(2, run:status()) == t, "the same table, not a copy")
+end)
+
 suite:case("finished_run_can_start_again", function()
   local run, log = recorder("A , B")
   run:start()
