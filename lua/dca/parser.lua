@@ -85,8 +85,6 @@ local string_lit = Cmt(Cp() * P'"' * Cs((escape + (1 - S'"\\\n'))^0) * (C(P'"') 
                          return i, value
                        end) * ws
 
-local section_kw = kw"host" + kw"instantiated_processes" + kw"external_io" + kw"internal_connections" +
-                   kw"internal_event_actions"
 -- Where a section (or the next process) begins, including the paper's typos "external io",
 -- "internal connections": used to tell "missing '}'" from other errors in a list. A keyword counts only
 -- when a brace or parenthesis follows, so that `host instof T(h);` still declares an instance "host".
