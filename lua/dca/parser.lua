@@ -317,22 +317,19 @@ end
 
 ---------------------------------------------------------------------------------------------- AST
 
-local function at(idx, t, p, lk, ck)
-  local line, col = idx:at(p)
-  t[lk or "line"], t[ck or "col"] = line, col
-end
 
 local function clean(t, keys)
   for _, k in ipairs(keys) do t[k] = nil end
 end
 
 local function build_process(raw, idx, text)
+  local at = idx.set
   local proc = { name = raw.name, pos = raw.pos, params = {}, instances = {}, external_io = {},
                  internal_connections = {}, duplicate_sections = {} }
-  at(idx, proc, raw.pos)
+  at(proc, raw.pos)
   for i, prm in ipairs(raw.params) do
     proc.params[i] = prm
-    at(idx, prm, prm.pos)
+    at(prm, prm.pos)
   end
   local seen = {}
   for _, sec in ipairs(raw.sections) do
@@ -346,47 +343,47 @@ local function build_process(raw, idx, text)
       seen[kind] = (idx:at(spos))
       if kind == "host" then
         proc.host = sec.arg
-        at(idx, sec.arg, sec.arg.pos)
+        at(sec.arg, sec.arg.pos)
         proc.host_line, proc.host_col = idx:at(spos)
       elseif kind == "instantiated_processes" then
         for _, inst in ipairs(sec.items) do
           clean(inst, { "iname", "itype" })
-          at(idx, inst, inst.pos)
-          at(idx, inst, inst.type_pos, "type_line", "type_col")
-          for _, a in ipairs(inst.args) do at(idx, a, a.pos) end
+          at(inst, inst.pos)
+          at(inst, inst.type_pos, "type_line", "type_col")
+          for _, a in ipairs(inst.args) do at(a, a.pos) end
           proc.instances[#proc.instances + 1] = inst
           if proc.instances[inst.name] == nil then proc.instances[inst.name] = inst end
         end
       elseif kind == "external_io" then
         for _, x in ipairs(sec.items) do
           clean(x, { "xalias" })
-          at(idx, x, x.pos)
-          at(idx, x, x.instance_pos, "instance_line", "instance_col")
-          at(idx, x, x.port_pos, "port_line", "port_col")
+          at(x, x.pos)
+          at(x, x.instance_pos, "instance_line", "instance_col")
+          at(x, x.port_pos, "port_line", "port_col")
           proc.external_io[#proc.external_io + 1] = x
           if proc.external_io[x.alias] == nil then proc.external_io[x.alias] = x end
         end
       elseif kind == "internal_connections" then
         local set = { instance = sec.instance, label = sec.label, pos = sec.pos, connections = {} }
-        at(idx, set, sec.pos)
+        at(set, sec.pos)
         set.instance_line, set.instance_col = idx:at(sec.ipos)
         for i, cn in ipairs(sec.items) do
-          at(idx, cn, cn.pos)
-          at(idx, cn, cn.out_pos, "out_line", "out_col")
-          at(idx, cn, cn.to_pos, "to_line", "to_col")
-          at(idx, cn, cn.in_pos, "in_line", "in_col")
+          at(cn, cn.pos)
+          at(cn, cn.out_pos, "out_line", "out_col")
+          at(cn, cn.to_pos, "to_line", "to_col")
+          at(cn, cn.in_pos, "in_line", "in_col")
           set.connections[i] = cn
         end
         proc.internal_connections[#proc.internal_connections + 1] = set
       elseif kind == "internal_event_actions" then
         local act = { text = sec.text, pos = sec.text_pos }
-        at(idx, act, sec.pos, "section_line", "section_col")
-        at(idx, act, sec.text_pos, "text_line", "text_col")
+        at(act, sec.pos, "section_line", "section_col")
+        at(act, sec.text_pos, "text_line", "text_col")
         -- the expression's position: its first token (or the text start when blank)
         local body = blank:match(sec.text)
         local lead = sfind(body, "[^%s]")
         local p0 = sec.text_pos + ((lead or 1) - 1)
-        at(idx, act, p0)
+        at(act, p0)
         local expr, _, info = algebra.parse(body)
         if expr then
           -- positions of the expression's nodes, in file coordinates

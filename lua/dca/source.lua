@@ -35,6 +35,20 @@ function M.index(text)
     last = lo
     return lo, pos - starts[lo] + 1
   end
+  --- t[lk or "line"], t[ck or "col"] = the line and column of pos (one call, for building ASTs).
+  function idx.set(t, pos, lk, ck)
+    local l = last
+    if starts[l] > pos then l = 1 end
+    local nxt = starts[l + 1]
+    while nxt and nxt <= pos do
+      l = l + 1
+      nxt = starts[l + 1]
+      if l - last > 64 then break end
+    end
+    if nxt and nxt <= pos then l = idx:at(pos) end
+    last = l
+    t[lk or "line"], t[ck or "col"] = l, pos - starts[l] + 1
+  end
   function idx.line_text(_, line)
     local s = starts[line]
     if not s then return "" end
