@@ -28,6 +28,19 @@ suite:case("paper_systems_pass_dca_check", function()
   end
 end)
 
+suite:case("tree_option_prints_the_instances", function()
+  local path = src .. "/scripts/systems/compliant_motion.dca"
+  local out, rc = T.sh(dca .. " check --no-registry --tree " .. path)
+  T.eq(rc, 0, out)
+  T.eq(out, path .. ": ok: 2 groups, 5 instances (4 leaves), 3 connections, 2 hosts (arm, control)\n" ..
+            "main : main  { motion }\n" ..
+            "  motion : CompliantMotion @control  { hit # (forcedata[lbl1], compliant[lbl1], puma) }\n" ..
+            "    forcedata : ForceSensor @control\n" ..
+            "    compliant : CompliantCtrl @control\n" ..
+            "    puma : Puma560 @arm\n" ..
+            "    hit : HitDetector @control\n")
+end)
+
 suite:case("errors_are_printed_and_exit_1", function()
   local path = tmpfile("process main() {\n  instantiated_processes { a instof T(); }\n  internal_event_actions { a , b }\n}\n")
   local out, rc = T.sh(dca .. " check " .. path)

@@ -6,13 +6,14 @@ local model = require "dca.model"
 local M = {}
 
 M.summary = "check a .dca system file (syntax, instances, ports, expressions) without starting anything"
-M.usage = [[usage: dca check FILE.dca [--root NAME] [--no-registry]
+M.usage = [[usage: dca check FILE.dca [--root NAME] [--no-registry] [--tree]
 
 Parses FILE.dca and runs every static check, printing all errors (file:line:col, the instance path, the
 source line and a caret); exits 1 when there are errors, else prints a one-line summary and exits 0.
   --root NAME     the root process (default: main)
   --no-registry   do not ask the controller registry (dca.core.types) for port manifests; undefined
-                  process types are then taken as leaves]]
+                  process types are then taken as leaves
+  --tree          also print the instance tree (type, host, parameters) after the summary]]
 
 --- The controller registry's manifests, when dca.core provides them (nil otherwise).
 function M.registry()
@@ -43,10 +44,29 @@ function M.load(path, root, use_registry)
   return ast, tree
 end
 
+--- The instance tree as indented text: "name : Type @host (params)" per line; groups show their expression.
+function M.tree_text(tree)
+  local algebra = require "dca.algebra"
+  local out = {}
+  model.walk(tree, function(n, depth)
+    local parts = { string.rep("  ", depth), n.name, " : ", n.type }
+    if n.host ~= nil then parts[#parts + 1] = " @" .. tostring(n.host) end
+    if n.kind == "leaf" and #n.params > 0 then
+      local ps = {}
+      for i, v in ipairs(n.params) do ps[i] = type(v) == "string" and string.format("%q", v) or tostring(v) end
+      parts[#parts + 1] = " (" .. table.concat(ps, ", ") .. ")"
+    elseif n.kind == "group" and n.process.actions and n.process.actions.expr then
+      parts[#parts + 1] = "  { " .. algebra.tostring(n.process.actions.expr) .. " }"
+    end
+    out[#out + 1] = table.concat(parts)
+  end)
+  return table.concat(out, "\n") .. "\n"
+end
+
 local function plural(n, one) return n == 1 and ("1 " .. one) or (n .. " " .. one .. "s") end
 
 function M.main(args)
-  local file, root, use_registry = nil, nil, true
+  local file, root, use_registry, show_tree = nil, nil, true, false
   local i = 1
   while i <= args.n do
     local a = args[i]
@@ -56,6 +76,8 @@ function M.main(args)
       i = i + 1
     elseif a == "--no-registry" then
       use_registry = false
+    elseif a == "--tree" then
+      show_tree = true
     elseif a:sub(1, 1) == "-" or file then
       io.stderr:write("dca check: unexpected argument '", a, "'\n", M.usage, "\n")
       return 2
@@ -80,6 +102,7 @@ function M.main(args)
                                 plural(s.instances, "instance"), plural(s.leaves, "leaf"):gsub("leafs", "leaves"),
                                 plural(s.connections, "connection"), plural(#s.hosts, "host"),
                                 table.concat(s.hosts, ", ")))
+  if show_tree then io.stdout:write(M.tree_text(tree)) end
   return 0
 end
 
