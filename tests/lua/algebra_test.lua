@@ -149,6 +149,44 @@ suite:case("recurrence_100000_iterations_without_stack_growth", function()
   T.eq(run:running(), {})
 end)
 
+local DOOR = "MotionControl , ((VisualServoing[lbl1] # DistDetector); ((OpenGripper, Approach[lbl1]) # HitDetector); " ..
+             "CloseGripper ; PressHandle[lbl1] ; DoorOpen[lbl1])"
+
+suite:case("door_approach_crashes_aborts_everything_innermost_first", function()
+  local run, log = recorder(DOOR)
+  run:start()
+  run:event("DistDetector", "done")
+  T.ok(run:event("Approach", "error", "SIGSEGV"))
+  T.eq(run:status(), "aborted")
+  T.eq(log, { "start MotionControl", "+VisualServoing[lbl1]", "start VisualServoing", "start DistDetector",
+              "abort VisualServoing", "-VisualServoing[lbl1]", "start OpenGripper", "+Approach[lbl1]",
+              "start Approach", "start HitDetector", "-Approach[lbl1]", "abort OpenGripper", "abort HitDetector",
+              "abort MotionControl" })
+  T.eq(run:running(), {})
+end)
+
+local TIDY = "Timeout # (FindObjectA : PlaceA , FindObjectB : PlaceB , FindObjectC : PlaceC)"
+
+suite:case("tidy_timeout_first_aborts_lifo", function()
+  local run, log = recorder(TIDY)
+  run:start()
+  run:event("FindObjectB", "done", "posB")
+  run:event("Timeout", "done", "timeout")
+  T.eq({ run:status() }, { "done", "timeout" })
+  T.eq(log, { "start Timeout", "start FindObjectA", "start FindObjectB", "start FindObjectC", "start PlaceB",
+              "abort PlaceB", "abort FindObjectC", "abort FindObjectA" })
+end)
+
+suite:case("tidy_find_fails_aborts_the_task", function()
+  local run, log = recorder(TIDY)
+  run:start()
+  run:event("FindObjectC", "done", "posC")
+  run:event("FindObjectA", "aborted", "not found")
+  T.eq(run:status(), "aborted")
+  T.eq(log, { "start Timeout", "start FindObjectA", "start FindObjectB", "start FindObjectC", "start PlaceC",
+              "abort PlaceC", "abort FindObjectB", "abort Timeout" })
+end)
+
 suite:case("deadline_that_aborts_ends_aborted", function()
   local run, log = recorder("Deadline # Task")
   run:start()
