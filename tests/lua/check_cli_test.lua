@@ -43,12 +43,27 @@ end)
 
 suite:case("errors_are_printed_and_exit_1", function()
   local path = tmpfile("process main() {\n  instantiated_processes { a instof T(); }\n  internal_event_actions { a , b }\n}\n")
-  local out, rc = T.sh(dca .. " check " .. path)
+  local out, rc = T.sh(dca .. " check --no-registry " .. path)
   os.remove(path)
   T.eq(rc, 1)
   T.contains(out, path .. ":2:28: main.a: leaf 'a' (T) has no host")
   T.contains(out, path .. ":3:32: main: unknown instance 'b' in internal_event_actions (instances: a)")
   T.contains(out, path .. ": 2 errors")
+end)
+
+suite:case("registry_is_used_when_dca_core_has_types", function()
+  local path = tmpfile("process main() {\n  instantiated_processes { t instof Timer(\"h\", 30); x instof NoSuchType(\"h\"); }\n" ..
+                       "  internal_event_actions { t # x }\n}\n")
+  local out, rc = T.sh(dca .. " check " .. path)
+  local out2, rc2 = T.sh(dca .. " check --no-registry " .. path)
+  os.remove(path)
+  T.eq(rc2, 0, out2)
+  if type(require("dca.core").types) == "function" then
+    T.eq(rc, 1, out)
+    T.contains(out, ":2:62: main.x: unknown process type 'NoSuchType'")
+  else
+    T.eq(rc, 0, "without dca.core.types undefined types are leaves: " .. out)
+  end
 end)
 
 suite:case("syntax_error_exit_1_with_caret", function()
@@ -71,7 +86,7 @@ suite:case("usage_errors_exit_2", function()
 end)
 
 suite:case("graph_writes_dot", function()
-  local out, rc = T.sh(dca .. " graph " .. src .. "/scripts/systems/door_open.dca")
+  local out, rc = T.sh(dca .. " graph --no-registry " .. src .. "/scripts/systems/door_open.dca")
   T.eq(rc, 0, out)
   T.ok(out:match("^digraph dca {\n"), out)
   T.contains(out, '"main.dooropensyst" [shape=folder')
@@ -84,7 +99,7 @@ end)
 suite:case("graph_svg_when_dot_is_installed", function()
   local _, has_dot = T.sh("command -v dot")
   local out_path = os.tmpname() .. ".svg"
-  local out, rc = T.sh(dca .. " graph --svg -o " .. out_path .. " " .. src .. "/scripts/systems/tidy_up.dca")
+  local out, rc = T.sh(dca .. " graph --no-registry --svg -o " .. out_path .. " " .. src .. "/scripts/systems/tidy_up.dca")
   if has_dot ~= 0 then
     T.eq(rc, 1)
     T.contains(out, "not installed")

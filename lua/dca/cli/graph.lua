@@ -5,16 +5,17 @@ local cli_check = require "dca.cli.check"
 local M = {}
 
 M.summary = "draw a .dca system: the process tree and expressions as Graphviz DOT, or SVG"
-M.usage = [[usage: dca graph FILE.dca [--root NAME] [--svg] [-o OUT]
+M.usage = [[usage: dca graph FILE.dca [--root NAME] [--svg] [-o OUT] [--no-registry]
 
 Writes the checked system's tree (groups with their host and expression, leaves with host and parameters,
 connections dotted) as Graphviz DOT to stdout, or to OUT with -o. --svg renders it with `dot -Tsvg`
-(graphviz; scripts/setup installs it).]]
+(graphviz; scripts/setup installs it). The file is checked as by `dca check` first (--no-registry: without
+the controller registry's manifests).]]
 
 local function shell_quote(s) return "'" .. s:gsub("'", "'\\''") .. "'" end
 
 function M.main(args)
-  local file, root, svg, out
+  local file, root, svg, out, use_registry = nil, nil, false, nil, true
   local i = 1
   while i <= args.n do
     local a = args[i]
@@ -25,6 +26,8 @@ function M.main(args)
       i = i + 1
     elseif a == "--svg" then
       svg = true
+    elseif a == "--no-registry" then
+      use_registry = false
     elseif a:sub(1, 1) == "-" or file then
       io.stderr:write("dca graph: unexpected argument '", a, "'\n", M.usage, "\n")
       return 2
@@ -34,7 +37,7 @@ function M.main(args)
     i = i + 1
   end
   if not file then io.stderr:write(M.usage, "\n"); return 2 end
-  local ast, tree = cli_check.load(file, root, true)
+  local ast, tree = cli_check.load(file, root, use_registry)
   if not ast then io.stderr:write(tree, "\n"); return 1 end
   if not tree then io.stderr:write("dca graph: ", file, " has no root process 'main' (use --root NAME)\n"); return 1 end
   local dot = graph.dot(tree)
