@@ -70,8 +70,10 @@ function M.build(ast, opts)
     local host = parent_host
     if def.host then host = bind(def.host, env) end
     if def.host and type(host) ~= "string" then
-      berrors[#berrors + 1] = { line = def.host.line, col = def.host.col, path = path,
-                                msg = sformat("the host of %s is %s, not a host name", path, tostring(host)) }
+      local why = def.host.kind == "param" and sformat(" (its parameter '%s')", def.host.value) or ""
+      local at = decl or def.host
+      berrors[#berrors + 1] = { line = at.line, col = at.col, path = path,
+                                msg = sformat("the host of %s is %s%s, not a host name", path, tostring(host), why) }
     end
     local node = { path = path, name = name, type = def.name, kind = "group", host = host, args = argv,
                    bindings = env, process = def, children = {}, parent = parent,
@@ -91,9 +93,10 @@ function M.build(ast, opts)
                   params = params, manifest = manifest(inst.type), parent = node, line = inst.line, col = inst.col }
         if type(values[1]) ~= "string" then
           local a = inst.args[1]
+          local why = a.kind == "param" and sformat(" (parameter '%s' of %s)", a.value, path) or ""
           berrors[#berrors + 1] = { line = a.line, col = a.col, path = cpath,
-                                    msg = sformat("the host of leaf %s is %s, not a host name", cpath,
-                                                  tostring(values[1])) }
+                                    msg = sformat("the host of leaf %s is %s%s, not a host name", cpath,
+                                                  tostring(values[1]), why) }
         end
       end
       node.children[#node.children + 1] = child

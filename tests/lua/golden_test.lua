@@ -5,6 +5,7 @@
 local T = require "dca.testing"
 local parser = require "dca.parser"
 local check = require "dca.check"
+local model = require "dca.model"
 local suite = T.suite("golden")
 
 local here = debug.getinfo(1, "S").source:match("^@(.*)/[^/]*$") or "."
@@ -44,7 +45,14 @@ local function output(text, filename)
     if directive:find("registry", 1, true) then opts.types = registry end
     opts.root = directive:match("root=([%w_]+)")
   end
-  local errors = check.check(ast, opts)
+  local errors
+  if ast.by_name[opts.root or "main"] then
+    -- with a root, exactly what `dca check` does: dca.model checks, binds the arguments and checks again
+    local tree, errs = model.build(ast, opts)
+    errors = tree and {} or errs
+  else
+    errors = check.check(ast, opts)
+  end
   return check.format_all(ast, errors) .. "\n"
 end
 

@@ -67,7 +67,7 @@ process Pair(h1, h2) { host { h1 } instantiated_processes { a instof Timer(h1, 1
   local bad
   bad, errs = model.build(ast, { root = "Pair", args = { 1, "c2" } })
   T.eq(bad, nil)
-  T.eq(errs[1].msg, "the host of Pair is 1, not a host name")
+  T.eq(errs[1].msg, "the host of Pair is 1 (its parameter 'h1'), not a host name")
 end)
 
 suite:case("check_errors_refuse_the_tree", function()
