@@ -7,6 +7,7 @@
 namespace dca::bindings {
 void open_readline(lua_State* L);  // wrap_readline.cpp
 void open_inotify(lua_State* L);   // wrap_inotify.cpp
+void open_types(lua_State* L);     // wrap_types.cpp
 }  // namespace dca::bindings
 
 extern "C" int luaopen_dca_core(lua_State* L) {
@@ -19,5 +20,6 @@ extern "C" int luaopen_dca_core(lua_State* L) {
   lua_setfield(L, -2, "lua_dir");
   dca::bindings::open_readline(L);
   dca::bindings::open_inotify(L);
+  dca::bindings::open_types(L);
   return 1;
 }

@@ -1,0 +1,79 @@
+// core.types(): the controller registry's manifests for Lua (dca check uses them).
+//   { [TypeName] = { doc = "...", inputs = { {name=, type=, size=, units=} ... }, outputs = {...},
+//                    params = { {name=, type=, required=, default=, variadic=, doc=} ... } } }
+#include <lua.hpp>
+
+#include "controllers/registry.h"
+
+namespace {
+
+void push_ports(lua_State* L, const std::vector<dca::PortSpec>& ports) {
+  lua_createtable(L, static_cast<int>(ports.size()), 0);
+  int i = 1;
+  for (const auto& p : ports) {
+    lua_createtable(L, 0, 4);
+    lua_pushlstring(L, p.name.data(), p.name.size());
+    lua_setfield(L, -2, "name");
+    const auto t = dca::to_string(p.type);
+    lua_pushlstring(L, t.data(), t.size());
+    lua_setfield(L, -2, "type");
+    lua_pushinteger(L, static_cast<lua_Integer>(p.size));
+    lua_setfield(L, -2, "size");
+    lua_pushlstring(L, p.units.data(), p.units.size());
+    lua_setfield(L, -2, "units");
+    lua_rawseti(L, -2, i++);
+  }
+}
+
+void push_params(lua_State* L, const std::vector<dca::ParamSpec>& params) {
+  lua_createtable(L, static_cast<int>(params.size()), 0);
+  int i = 1;
+  for (const auto& p : params) {
+    lua_createtable(L, 0, 6);
+    lua_pushlstring(L, p.name.data(), p.name.size());
+    lua_setfield(L, -2, "name");
+    lua_pushlstring(L, p.type.data(), p.type.size());
+    lua_setfield(L, -2, "type");
+    lua_pushboolean(L, p.required);
+    lua_setfield(L, -2, "required");
+    if (!p.required && !p.variadic) {
+      lua_pushlstring(L, p.default_value.data(), p.default_value.size());
+      lua_setfield(L, -2, "default");
+    }
+    lua_pushboolean(L, p.variadic);
+    lua_setfield(L, -2, "variadic");
+    lua_pushlstring(L, p.doc.data(), p.doc.size());
+    lua_setfield(L, -2, "doc");
+    lua_rawseti(L, -2, i++);
+  }
+}
+
+int l_types(lua_State* L) {
+  const auto all = dca::Registry::global().all();
+  lua_createtable(L, 0, static_cast<int>(all.size()));
+  for (const auto* m : all) {
+    lua_createtable(L, 0, 4);
+    lua_pushlstring(L, m->doc.data(), m->doc.size());
+    lua_setfield(L, -2, "doc");
+    push_ports(L, m->inputs);
+    lua_setfield(L, -2, "inputs");
+    push_ports(L, m->outputs);
+    lua_setfield(L, -2, "outputs");
+    push_params(L, m->params);
+    lua_setfield(L, -2, "params");
+    lua_setfield(L, -2, m->type.c_str());
+  }
+  return 1;
+}
+
+}  // namespace
+
+namespace dca::bindings {
+
+/// Adds `types` to the dca.core table on the top of the stack.
+void open_types(lua_State* L) {
+  lua_pushcfunction(L, l_types);
+  lua_setfield(L, -2, "types");
+}
+
+}  // namespace dca::bindings

@@ -1,0 +1,60 @@
+#include "controllers/registry.h"
+
+#include <algorithm>
+#include <set>
+#include <stdexcept>
+
+namespace dca {
+
+Registry& Registry::global() {
+  static Registry r;
+  return r;
+}
+
+void Registry::add(Manifest m, Factory f) {
+  if (manifest(m.type)) throw std::invalid_argument("controller type '" + m.type + "' registered twice");
+  for (const auto* ports : {&m.inputs, &m.outputs}) {
+    std::set<std::string> seen;
+    for (const auto& p : *ports)
+      if (!seen.insert(p.name).second)
+        throw std::invalid_argument("controller type '" + m.type + "' declares port '" + p.name + "' twice");
+  }
+  for (std::size_t i = 0; i + 1 < m.params.size(); ++i)
+    if (m.params[i].variadic)
+      throw std::invalid_argument("controller type '" + m.type + "': only the last parameter may be variadic");
+  entries_.push_back({std::move(m), std::move(f)});
+}
+
+const Manifest* Registry::manifest(std::string_view type) const {
+  for (const auto& e : entries_)
+    if (e.manifest.type == type) return &e.manifest;
+  return nullptr;
+}
+
+std::vector<const Manifest*> Registry::all() const {
+  std::vector<const Manifest*> v;
+  for (const auto& e : entries_) v.push_back(&e.manifest);
+  std::sort(v.begin(), v.end(), [](const Manifest* a, const Manifest* b) { return a->type < b->type; });
+  return v;
+}
+
+std::string Registry::unknown_type(std::string_view type) const {
+  std::string m = "unknown controller type '" + std::string(type) + "'; types are: ";
+  bool first = true;
+  for (const auto* e : all()) {
+    m += (first ? "" : ", ") + e->type;
+    first = false;
+  }
+  return m;
+}
+
+std::unique_ptr<Controller> Registry::create(std::string_view type, ControllerContext ctx) const {
+  for (const auto& e : entries_)
+    if (e.manifest.type == type) {
+      ctx.manifest = &e.manifest;
+      return e.factory(ctx);
+    }
+  throw std::invalid_argument(unknown_type(type));
+}
+
+}  // namespace dca

@@ -1,0 +1,58 @@
+#pragma once
+// The controller registry: type name -> manifest and factory. `dca types` lists it; `core.types()` gives it to
+// Lua (dca check); the node creates its controller from it.
+//
+// Register a type in its .cpp with DCA_REGISTER_CONTROLLER(T): T needs `static Manifest Describe()` and a
+// constructor `T(const ControllerContext&)`. The controllers library is linked whole-archive, so a registration
+// in any controllers/*.cpp is never dropped by the linker.
+#include <functional>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "controllers/controller.h"
+
+namespace dca {
+
+/// Every controller type of the process.
+class Registry {
+ public:
+  /// Creates an instance from its context (ctx.manifest is filled in by create()).
+  using Factory = std::function<std::unique_ptr<Controller>(const ControllerContext&)>;
+
+  /// The process's registry (filled at static-initialisation time).
+  static Registry& global();
+
+  /// Adds a type. Throws std::invalid_argument if the name is taken or the manifest repeats a port name.
+  void add(Manifest m, Factory f);
+  /// The manifest of `type`, or nullptr.
+  const Manifest* manifest(std::string_view type) const;
+  /// Every manifest, sorted by type name.
+  std::vector<const Manifest*> all() const;
+  /// A new instance of `type`. Throws std::invalid_argument for an unknown type (listing the known ones) or a
+  /// bad parameter.
+  std::unique_ptr<Controller> create(std::string_view type, ControllerContext ctx) const;
+  /// "unknown controller type 'X'; types are: A, B, ..."
+  std::string unknown_type(std::string_view type) const;
+
+ private:
+  struct Entry {
+    Manifest manifest;
+    Factory factory;
+  };
+  std::vector<Entry> entries_;
+};
+
+/// Registers T at static-initialisation time (see DCA_REGISTER_CONTROLLER).
+template <class T>
+struct RegisterController {
+  RegisterController() {
+    Registry::global().add(T::Describe(), [](const ControllerContext& c) { return std::make_unique<T>(c); });
+  }
+};
+
+}  // namespace dca
+
+/// Registers the controller class T under the type name in its manifest.
+#define DCA_REGISTER_CONTROLLER(T) static const ::dca::RegisterController<T> dca_register_controller_##T

@@ -1,0 +1,55 @@
+#pragma once
+// Data-plane frames (pure code, no I/O): what travels on a data socket between two nodes.
+//
+//   frame = length (4 bytes, big-endian, counts kind + body) | kind (1 byte) | body
+//
+//   Hello      source -> destination, first frame: msgpack map {from, out, to, in, set, mode, queue, type, size}
+//   HelloOk    destination -> source: the input exists and fits; samples may flow
+//   HelloError destination -> source: body is the reason (UTF-8); the destination then closes
+//   Sample     source -> destination: body is the sample's bytes (push)
+//   PullRequest destination -> source: empty body; the source answers with Pulled
+//   Pulled     source -> destination: body is the latest sample (pull answer)
+#include <cstddef>
+#include <cstdint>
+#include <string>
+
+#include "host/comms.h"
+
+namespace dca::comms {
+
+/// Frame kinds.
+enum class Kind : std::uint8_t { Hello = 1, HelloOk = 2, HelloError = 3, Sample = 4, PullRequest = 5, Pulled = 6 };
+
+/// Bytes before a frame's body.
+inline constexpr std::size_t kHeader = 5;
+/// Largest accepted frame (length field), like the control plane's default.
+inline constexpr std::uint32_t kMaxFrame = 16u << 20;
+
+/// Writes a header for a frame of `kind` with a body of `body_size` bytes into h[0..5).
+void put_header(std::byte* h, Kind kind, std::size_t body_size);
+
+/// One parsed frame, pointing into the buffer it was parsed from.
+struct Frame {
+  Kind kind = Kind::Sample;
+  Bytes body;
+};
+
+/// Outcome of parse_frame.
+enum class Parse : std::uint8_t { Ok, NeedMore, Error };
+
+/// Parses the frame at the start of `buf`. Ok: `f` and `used` are set. NeedMore: `used` is the total size the
+/// frame will need (0 when even the header is incomplete). Error: `error` says why (oversize, empty, unknown kind).
+Parse parse_frame(Bytes buf, Frame& f, std::size_t& used, std::string& error);
+
+/// The Hello's fields.
+struct Hello {
+  ConnectRequest request;
+  PortSpec out;  ///< the source output's spec (name = request.out)
+};
+
+/// Packs a Hello body (msgpack map).
+std::string encode_hello(const Hello& h);
+/// Decodes a Hello body; false with `error` on malformed input.
+bool decode_hello(Bytes body, Hello& h, std::string& error);
+
+}  // namespace dca::comms

@@ -1,0 +1,39 @@
+#pragma once
+// What a node hosts: a component with named ports and a life cycle (init / run / stop) that ends its runs with
+// DONE(value) or ABORTED(reason). dca::Controller (controllers/controller.h) is the one implementation; host/
+// knows only this interface, so host/ does not depend on controllers/.
+#include <cstdint>
+#include <functional>
+#include <string>
+
+#include "host/comms.h"
+
+namespace dca {
+
+/// The end of a run, reported to the supervisor as `done {value}` or `aborted {reason}`.
+struct ComponentEvent {
+  enum class Kind : std::uint8_t { Done, Aborted };
+  Kind kind = Kind::Done;
+  std::string value;   ///< Done: the value, msgpack-encoded (a packed nil when there is none)
+  std::string reason;  ///< Aborted: why
+};
+
+/// A hosted component (a controller instance).
+class Component {
+ public:
+  virtual ~Component() = default;
+  /// The instance's name (its PATH, e.g. "/door/hit").
+  virtual const std::string& name() const = 0;
+  /// Its ports.
+  virtual PortSet& ports() = 0;
+  /// Acquires and resets. "" on success, else the reason.
+  virtual std::string init() = 0;
+  /// Starts a run with an initial value (msgpack bytes; empty for nil). Inits first if needed. "" or a reason.
+  virtual std::string run(Bytes init) = 0;
+  /// Stops the run (leaves actuators safe); a later DONE/ABORTED of this run is ignored. Idempotent.
+  virtual void stop() = 0;
+  /// Where DONE/ABORTED go (set by the node).
+  std::function<void(const ComponentEvent&)> on_event;
+};
+
+}  // namespace dca

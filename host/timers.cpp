@@ -1,0 +1,293 @@
+// Boost.Asio 1.74 under GCC 12 -O3 trips middle-end warnings inside its own headers (false positives),
+// silenced for this file only, before any include.
+#pragma GCC diagnostic ignored "-Wnull-dereference"
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+
+#include "host/timers.h"
+
+#include <sys/prctl.h>
+#include <sys/timerfd.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <stdexcept>
+#include <system_error>
+
+#include <boost/asio/posix/stream_descriptor.hpp>
+
+namespace asio = boost::asio;
+
+namespace dca {
+
+Nanos from_seconds(double s) { return static_cast<Nanos>(std::llround(s * 1e9)); }
+double to_seconds(Nanos n) { return static_cast<double>(n) * 1e-9; }
+
+Nanos monotonic_now() {
+  timespec ts{};
+  ::clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<Nanos>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
+}
+
+bool minimise_timer_slack() { return ::prctl(PR_SET_TIMERSLACK, 1UL, 0UL, 0UL, 0UL) == 0; }
+
+const char* to_string(ClockKind k) { return k == ClockKind::Wall ? "wall" : "sim"; }
+
+void LatenessHistogram::record(Nanos late) {
+  if (late < 0) late = 0;
+  ++count_;
+  max_ = std::max(max_, late);
+  const Nanos us = late / 1000;
+  std::size_t b;
+  if (us < kFine) b = static_cast<std::size_t>(us);
+  else if (us < kFine + Nanos{kCoarse} * 100) b = static_cast<std::size_t>(kFine + (us - kFine) / 100);
+  else b = kFine + kCoarse;
+  ++buckets_[b];
+}
+
+Nanos LatenessHistogram::quantile(double q) const {
+  if (count_ == 0) return 0;
+  const auto want = static_cast<std::uint64_t>(std::ceil(q * static_cast<double>(count_)));
+  std::uint64_t seen = 0;
+  for (std::size_t b = 0; b <= kFine + kCoarse; ++b) {
+    seen += buckets_[b];
+    if (seen >= std::max<std::uint64_t>(want, 1)) {
+      Nanos upper;
+      if (b < kFine) upper = static_cast<Nanos>(b + 1) * 1000;
+      else if (b < kFine + kCoarse) upper = (kFine + static_cast<Nanos>(b - kFine + 1) * 100) * 1000;
+      else upper = max_;
+      return std::min(upper, max_);
+    }
+  }
+  return max_;
+}
+
+namespace {
+struct Entry {
+  TimerServer::Id id = 0;
+  std::string name;
+  Nanos deadline = 0;
+  Nanos period = 0;
+  std::function<void()> fn;
+  bool active = true;
+  std::uint64_t missed = 0;
+  LatenessHistogram hist;
+};
+
+constexpr std::size_t kKeepFinished = 256;
+}  // namespace
+
+struct TimerServer::Impl {
+  Impl(asio::io_context& io, ClockKind kind) : fd(io) {
+    if (kind == ClockKind::Wall) {
+      const int f = ::timerfd_create(CLOCK_MONOTONIC, TFD_NONBLOCK | TFD_CLOEXEC);
+      if (f < 0) throw std::system_error(errno, std::generic_category(), "timerfd_create");
+      fd.assign(f);
+      minimise_timer_slack();
+    }
+  }
+  asio::posix::stream_descriptor fd;
+  std::vector<std::unique_ptr<Entry>> entries;  // stable addresses: callbacks may add timers
+  Id next_id = 1;
+  Nanos sim_now = 0;
+  Nanos armed = -1;  // the deadline the timerfd is set for (-1: disarmed)
+  bool waiting = false;
+  int firing = 0;    // > 0 while callbacks run: no cleanup then
+  std::shared_ptr<bool> alive = std::make_shared<bool>(true);
+
+  Entry* due(Nanos t) {
+    Entry* best = nullptr;
+    for (auto& e : entries)
+      if (e->active && e->deadline <= t && (!best || e->deadline < best->deadline)) best = e.get();
+    return best;  // ties: the first in the vector, i.e. the oldest (creation order)
+  }
+  std::optional<Nanos> next() const {
+    std::optional<Nanos> n;
+    for (const auto& e : entries)
+      if (e->active && (!n || e->deadline < *n)) n = e->deadline;
+    return n;
+  }
+  void cleanup() {
+    if (firing) return;
+    std::size_t finished = 0;
+    for (const auto& e : entries) finished += !e->active;
+    if (finished <= kKeepFinished) return;
+    std::size_t drop = finished - kKeepFinished;
+    std::erase_if(entries, [&](const std::unique_ptr<Entry>& e) {
+      if (drop && !e->active) {
+        --drop;
+        return true;
+      }
+      return false;
+    });
+  }
+  // Runs one due entry; `now` is the time it runs at.
+  void fire(Entry& e, Nanos now, TimerServer& ts) {
+    e.hist.record(now - e.deadline);
+    const Nanos deadline = e.deadline;
+    if (e.period > 0) {
+      e.deadline += e.period;
+      if (e.deadline <= now) {  // overran whole periods: skip them, count them
+        const Nanos k = (now - e.deadline) / e.period + 1;
+        e.deadline += k * e.period;
+        e.missed += static_cast<std::uint64_t>(k);
+      }
+    } else {
+      e.active = false;
+    }
+    ++firing;
+    // Keep the callable alive even if the callback cancels its own timer.
+    auto fn = e.period > 0 ? nullptr : std::move(e.fn);
+    if (fn) fn();
+    else e.fn();
+    --firing;
+    if (ts.on_fire) ts.on_fire(e.name, deadline);
+  }
+  void arm(TimerServer& ts);
+  void on_ready(TimerServer& ts);
+};
+
+void TimerServer::Impl::arm(TimerServer& ts) {
+  const auto n = next();
+  const Nanos want = n ? *n : -1;
+  if (want != armed) {
+    itimerspec its{};
+    if (want >= 0) {
+      its.it_value.tv_sec = want / 1'000'000'000;
+      its.it_value.tv_nsec = want % 1'000'000'000;
+      if (its.it_value.tv_sec == 0 && its.it_value.tv_nsec == 0) its.it_value.tv_nsec = 1;
+    }
+    ::timerfd_settime(fd.native_handle(), TFD_TIMER_ABSTIME, &its, nullptr);
+    armed = want;
+  }
+  if (want >= 0 && !waiting) {
+    waiting = true;
+    fd.async_wait(asio::posix::stream_descriptor::wait_read,
+                  [this, &ts, alive = alive](const boost::system::error_code& ec) {
+                    if (!*alive) return;
+                    waiting = false;
+                    if (ec) return;
+                    on_ready(ts);
+                  });
+  }
+}
+
+void TimerServer::Impl::on_ready(TimerServer& ts) {
+  std::uint64_t expirations = 0;
+  [[maybe_unused]] const auto r = ::read(fd.native_handle(), &expirations, sizeof expirations);
+  armed = -1;  // a fired ABSTIME timerfd is disarmed
+  for (;;) {
+    const Nanos now = monotonic_now();
+    Entry* e = due(now);
+    if (!e) break;
+    fire(*e, now, ts);
+  }
+  cleanup();
+  arm(ts);
+}
+
+TimerServer::TimerServer(asio::io_context& io, ClockKind kind)
+    : kind_(kind), impl_(std::make_unique<Impl>(io, kind)) {}
+
+TimerServer::~TimerServer() {
+  *impl_->alive = false;
+  boost::system::error_code ec;
+  impl_->fd.close(ec);
+}
+
+TimerServer::Id TimerServer::every(Nanos period, std::function<void()> fn, std::string name, Nanos first) {
+  if (period <= 0) throw std::invalid_argument("timer '" + name + "': period must be positive");
+  auto e = std::make_unique<Entry>();
+  e->id = impl_->next_id++;
+  e->name = std::move(name);
+  e->period = period;
+  e->deadline = first >= 0 ? first : now() + period;
+  e->fn = std::move(fn);
+  const Id id = e->id;
+  impl_->entries.push_back(std::move(e));
+  if (kind_ == ClockKind::Wall && !impl_->firing) impl_->arm(*this);
+  return id;
+}
+
+TimerServer::Id TimerServer::after(Nanos delay, std::function<void()> fn, std::string name) {
+  auto e = std::make_unique<Entry>();
+  e->id = impl_->next_id++;
+  e->name = std::move(name);
+  e->deadline = now() + std::max<Nanos>(delay, 0);
+  e->fn = std::move(fn);
+  const Id id = e->id;
+  impl_->entries.push_back(std::move(e));
+  if (kind_ == ClockKind::Wall && !impl_->firing) impl_->arm(*this);
+  return id;
+}
+
+bool TimerServer::cancel(Id id) {
+  for (auto& e : impl_->entries)
+    if (e->id == id && e->active) {
+      e->active = false;
+      if (!impl_->firing) {
+        e->fn = nullptr;
+        impl_->cleanup();
+        if (kind_ == ClockKind::Wall) impl_->arm(*this);
+      }
+      return true;
+    }
+  return false;
+}
+
+Nanos TimerServer::now() const { return kind_ == ClockKind::Wall ? monotonic_now() : impl_->sim_now; }
+
+namespace {
+TimerStats stats_of(const Entry& e) {
+  TimerStats s;
+  s.id = e.id;
+  s.name = e.name;
+  s.period = e.period;
+  s.active = e.active;
+  s.count = e.hist.count();
+  s.missed = e.missed;
+  s.p50_us = static_cast<double>(e.hist.quantile(0.5)) / 1000.0;
+  s.p99_us = static_cast<double>(e.hist.quantile(0.99)) / 1000.0;
+  s.max_us = static_cast<double>(e.hist.max()) / 1000.0;
+  return s;
+}
+}  // namespace
+
+std::vector<TimerStats> TimerServer::stats() const {
+  std::vector<TimerStats> v;
+  for (const auto& e : impl_->entries) v.push_back(stats_of(*e));
+  return v;
+}
+
+std::optional<TimerStats> TimerServer::stats(Id id) const {
+  for (const auto& e : impl_->entries)
+    if (e->id == id) return stats_of(*e);
+  return std::nullopt;
+}
+
+std::optional<Nanos> TimerServer::next_deadline() const { return impl_->next(); }
+
+std::size_t TimerServer::advance_to(Nanos t) {
+  if (kind_ != ClockKind::Simulated) throw std::logic_error("advance_to: this TimerServer runs on the wall clock");
+  if (t < impl_->sim_now)
+    throw std::logic_error("advance_to: time " + std::to_string(t) + " ns is before now (" +
+                           std::to_string(impl_->sim_now) + " ns)");
+  std::size_t n = 0;
+  while (Entry* e = impl_->due(t)) {
+    impl_->sim_now = e->deadline;
+    impl_->fire(*e, e->deadline, *this);
+    ++n;
+  }
+  impl_->sim_now = t;
+  impl_->cleanup();
+  return n;
+}
+
+std::size_t TimerServer::step() {
+  const auto n = next_deadline();
+  return n ? advance_to(*n) : 0;
+}
+
+}  // namespace dca

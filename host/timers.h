@@ -1,0 +1,139 @@
+#pragma once
+// The TimerServer: periodic and one-shot timers for every controller of a process, on one clock
+// (ARCHITECTURE.md, "Time"; SEMANTICS.md §12 for the Timer and Deadline controllers built on it).
+//
+// Two clocks:
+//   - Wall: CLOCK_MONOTONIC. Timers are absolute deadlines on one timerfd (TFD_TIMER_ABSTIME) registered with
+//     the process's io_context, so timer callbacks run on the same thread as the data plane and nothing needs
+//     a lock. A periodic timer's next deadline is the previous deadline plus the period (no drift); when a
+//     callback overran whole periods they are skipped and counted (`missed`). The constructor minimises the
+//     calling thread's timer slack (prctl PR_SET_TIMERSLACK, 1 ns): construct the TimerServer on the thread
+//     that runs the io_context (the control-loop thread), or call minimise_timer_slack() there.
+//   - Simulated: time stands still until a master advances it. Nothing fires on its own.
+//
+// Simulated time and its master (the simulator, issue 5). The master owns time; each process with controllers
+// has a TimerServer on a Simulated clock and obeys the master in lock-step:
+//   1. the master asks every TimerServer for next_deadline() (a node answers this in its `advance` reply);
+//   2. it picks the next tick t (the smallest of those and its own integration step) and calls advance_to(t)
+//      on every TimerServer (a node does this on `advance {t}` from its control channel);
+//   3. advance_to(t) runs, in order, every timer due at or before t — each callback (a controller's MainCalc)
+//      runs to completion before the next — then sets now() = t and returns the next deadline;
+//   4. only when every TimerServer has returned (every node has replied) does the master move on.
+// So the clock moves to the next tick only when every controller due at the current tick has finished its
+// MainCalc, and the order of callbacks at one tick is fixed (deadline, then creation order): every run is the
+// same. In one process the master simply calls advance_to()/step() itself (see tests/host/timers_test.cpp).
+//
+// Lateness: for every timer, how late each callback started (now - deadline when it ran), as count, p50, p99
+// and max (a histogram, no allocation per tick); the node reports them to its supervisor (`stats {}`).
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <boost/asio/io_context.hpp>
+
+namespace dca {
+
+/// Nanoseconds on a Clock (since its epoch: boot for the wall clock, 0 for a simulated clock).
+using Nanos = std::int64_t;
+
+/// Seconds -> Nanos (rounded to the nearest nanosecond).
+Nanos from_seconds(double s);
+/// Nanos -> seconds.
+double to_seconds(Nanos n);
+
+/// CLOCK_MONOTONIC now.
+Nanos monotonic_now();
+
+/// Sets the calling thread's timer slack to 1 ns (prctl PR_SET_TIMERSLACK). False if the kernel refused.
+bool minimise_timer_slack();
+
+/// Which clock a TimerServer runs on.
+enum class ClockKind : std::uint8_t { Wall, Simulated };
+
+/// "wall" or "sim".
+const char* to_string(ClockKind k);
+
+/// A lateness histogram: 1 µs buckets below 1 ms, 100 µs buckets to 100 ms, one overflow bucket; exact max.
+class LatenessHistogram {
+ public:
+  /// Records one lateness (negative values count as 0).
+  void record(Nanos late);
+  /// Number of records.
+  std::uint64_t count() const { return count_; }
+  /// The q-quantile (0..1) in nanoseconds: the upper edge of its bucket (never above max()).
+  Nanos quantile(double q) const;
+  /// The largest lateness recorded.
+  Nanos max() const { return max_; }
+
+ private:
+  static constexpr int kFine = 1000;   // 1 µs buckets, [0, 1 ms)
+  static constexpr int kCoarse = 999;  // 100 µs buckets, [1 ms, 100.9 ms)
+  std::uint32_t buckets_[kFine + kCoarse + 1] = {};
+  std::uint64_t count_ = 0;
+  Nanos max_ = 0;
+};
+
+/// One timer's statistics (what the supervisor sees).
+struct TimerStats {
+  std::uint64_t id = 0;
+  std::string name;
+  Nanos period = 0;          ///< 0 for one-shot timers
+  bool active = false;       ///< false once cancelled or (one-shot) fired
+  std::uint64_t count = 0;   ///< callbacks run
+  std::uint64_t missed = 0;  ///< whole periods skipped because a callback started too late
+  double p50_us = 0, p99_us = 0, max_us = 0;  ///< lateness
+};
+
+/// Periodic and one-shot timers on one clock. Not thread-safe: use it from its io_context's thread.
+class TimerServer {
+ public:
+  /// A timer's handle.
+  using Id = std::uint64_t;
+
+  /// A TimerServer on `kind` of clock. Wall: creates its timerfd on `io` and minimises the calling thread's
+  /// timer slack. Throws std::system_error if the timerfd cannot be made.
+  explicit TimerServer(boost::asio::io_context& io, ClockKind kind = ClockKind::Wall);
+  ~TimerServer();
+  TimerServer(const TimerServer&) = delete;
+  TimerServer& operator=(const TimerServer&) = delete;
+
+  /// Calls `fn` every `period` ns, first at now() + `period` (or at the absolute time `first` when >= 0).
+  Id every(Nanos period, std::function<void()> fn, std::string name = "", Nanos first = -1);
+  /// Calls `fn` once, `delay` ns from now().
+  Id after(Nanos delay, std::function<void()> fn, std::string name = "");
+  /// Cancels a timer (safe from inside any callback, including its own). False if unknown or already done.
+  bool cancel(Id id);
+
+  /// The clock's current time.
+  Nanos now() const;
+  /// The clock's kind.
+  ClockKind kind() const { return kind_; }
+
+  /// Statistics of every timer still known (active ones, and the last finished ones).
+  std::vector<TimerStats> stats() const;
+  /// Statistics of one timer.
+  std::optional<TimerStats> stats(Id id) const;
+
+  /// The earliest deadline among active timers, if any.
+  std::optional<Nanos> next_deadline() const;
+  /// Simulated clock only: runs every timer due at or before `t` in (deadline, creation) order, each with
+  /// now() equal to its deadline, then sets now() = t. Returns the number of callbacks run. Throws
+  /// std::logic_error on a wall clock or when `t` is before now().
+  std::size_t advance_to(Nanos t);
+  /// Simulated clock only: advance_to(next_deadline()); 0 when no timer is active.
+  std::size_t step();
+
+  /// Called after every timer callback with (timer name, deadline): a trace for tests and the simulator.
+  std::function<void(const std::string& name, Nanos deadline)> on_fire;
+
+  struct Impl;
+
+ private:
+  ClockKind kind_;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace dca

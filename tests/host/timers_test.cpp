@@ -1,0 +1,157 @@
+// TimerServer: wall-clock timers on a timerfd, simulated time advanced by a master, lateness statistics.
+#include "host/timers.h"
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <boost/asio/io_context.hpp>
+
+namespace {
+
+using namespace std::chrono_literals;
+
+bool run_until(boost::asio::io_context& io, const std::function<bool()>& pred, std::chrono::milliseconds timeout = 5s) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  while (!pred()) {
+    if (std::chrono::steady_clock::now() >= deadline) return false;
+    io.restart();
+    io.run_one_for(10ms);
+  }
+  return true;
+}
+
+constexpr dca::Nanos kMs = 1'000'000;
+
+class TimersTest : public ::testing::Test {
+ protected:
+  boost::asio::io_context io;
+};
+
+TEST_F(TimersTest, SecondsConvert) {
+  EXPECT_EQ(dca::from_seconds(0.001), kMs);
+  EXPECT_DOUBLE_EQ(dca::to_seconds(1'500'000'000), 1.5);
+}
+
+TEST_F(TimersTest, HistogramQuantilesAndMax) {
+  dca::LatenessHistogram h;
+  for (int i = 0; i < 99; ++i) h.record(10'500);  // 10.5 µs -> bucket [10, 11) µs
+  h.record(5'000'000);                             // 5 ms
+  EXPECT_EQ(h.count(), 100u);
+  EXPECT_EQ(h.quantile(0.5), 11'000);
+  EXPECT_EQ(h.quantile(0.99), 11'000);
+  EXPECT_EQ(h.quantile(1.0), 5'000'000);
+  EXPECT_EQ(h.max(), 5'000'000);
+  h.record(-5);  // early counts as on time
+  EXPECT_EQ(h.count(), 101u);
+}
+
+TEST_F(TimersTest, SimulatedTimeStandsStillUntilAdvanced) {
+  dca::TimerServer ts(io, dca::ClockKind::Simulated);
+  int fired = 0;
+  ts.after(5 * kMs, [&] { ++fired; });
+  io.restart();
+  io.poll();
+  EXPECT_EQ(fired, 0);
+  EXPECT_EQ(ts.now(), 0);
+  EXPECT_EQ(ts.next_deadline(), 5 * kMs);
+  EXPECT_EQ(ts.advance_to(4 * kMs), 0u);
+  EXPECT_EQ(ts.advance_to(5 * kMs), 1u);
+  EXPECT_EQ(fired, 1);
+  EXPECT_FALSE(ts.next_deadline());
+  EXPECT_THROW(ts.advance_to(1 * kMs), std::logic_error);
+}
+
+TEST_F(TimersTest, AdvanceRunsDueTimersInDeadlineThenCreationOrder) {
+  dca::TimerServer ts(io, dca::ClockKind::Simulated);
+  std::vector<std::string> trace;
+  auto rec = [&](std::string n) { return [&trace, &ts, n] { trace.push_back(n + "@" + std::to_string(ts.now() / kMs)); }; };
+  ts.every(2 * kMs, rec("b"), "b");
+  ts.every(1 * kMs, rec("a"), "a");
+  ts.every(3 * kMs, rec("c"), "c");
+  EXPECT_EQ(ts.advance_to(6 * kMs), 11u);
+  EXPECT_EQ(trace, (std::vector<std::string>{"a@1", "b@2", "a@2", "a@3", "c@3", "b@4", "a@4", "a@5", "b@6", "a@6",
+                                             "c@6"}));
+  EXPECT_EQ(ts.now(), 6 * kMs);
+  const auto s = ts.stats();
+  ASSERT_EQ(s.size(), 3u);
+  EXPECT_EQ(s[1].name, "a");
+  EXPECT_EQ(s[1].count, 6u);
+  EXPECT_EQ(s[1].max_us, 0.0);  // simulated time is never late
+}
+
+TEST_F(TimersTest, StepMovesToTheNextDeadline) {
+  dca::TimerServer ts(io, dca::ClockKind::Simulated);
+  int n = 0;
+  ts.every(3 * kMs, [&] { ++n; });
+  EXPECT_EQ(ts.step(), 1u);
+  EXPECT_EQ(ts.now(), 3 * kMs);
+  EXPECT_EQ(ts.step(), 1u);
+  EXPECT_EQ(ts.now(), 6 * kMs);
+  EXPECT_EQ(n, 2);
+}
+
+TEST_F(TimersTest, CancelFromInsideItsOwnCallback) {
+  dca::TimerServer ts(io, dca::ClockKind::Simulated);
+  int n = 0;
+  dca::TimerServer::Id id = 0;
+  id = ts.every(kMs, [&] {
+    if (++n == 3) ts.cancel(id);
+  });
+  ts.advance_to(10 * kMs);
+  EXPECT_EQ(n, 3);
+  EXPECT_FALSE(ts.cancel(id));
+  EXPECT_FALSE(ts.stats(id)->active);
+}
+
+TEST_F(TimersTest, CallbacksMayAddTimers) {
+  dca::TimerServer ts(io, dca::ClockKind::Simulated);
+  std::vector<int> order;
+  ts.after(kMs, [&] {
+    order.push_back(1);
+    ts.after(kMs, [&] { order.push_back(2); });
+  });
+  ts.advance_to(5 * kMs);
+  EXPECT_EQ(order, (std::vector<int>{1, 2}));
+}
+
+TEST_F(TimersTest, AdvanceOnTheWallClockIsRefused) {
+  dca::TimerServer ts(io, dca::ClockKind::Wall);
+  EXPECT_THROW(ts.advance_to(0), std::logic_error);
+}
+
+TEST_F(TimersTest, WallPeriodicTimerFiresAndRecordsLateness) {
+  dca::TimerServer ts(io, dca::ClockKind::Wall);
+  int n = 0;
+  const auto start = ts.now();
+  const auto id = ts.every(kMs, [&] { ++n; }, "tick");
+  ASSERT_TRUE(run_until(io, [&] { return n >= 20; }));
+  EXPECT_GE(ts.now() - start, 20 * kMs);  // absolute deadlines: never early
+  const auto s = ts.stats(id);
+  ASSERT_TRUE(s);
+  EXPECT_EQ(s->name, "tick");
+  EXPECT_EQ(s->count + 0, static_cast<std::uint64_t>(n));
+  EXPECT_GE(s->max_us, s->p99_us);
+  EXPECT_GE(s->p99_us, s->p50_us);
+  ts.cancel(id);
+  const int stopped_at = n;
+  int later = 0;
+  ts.after(3 * kMs, [&] { ++later; });
+  ASSERT_TRUE(run_until(io, [&] { return later == 1; }));
+  EXPECT_EQ(n, stopped_at);  // cancelled: no more ticks
+}
+
+TEST_F(TimersTest, WallOneShotFiresOnceNotBeforeItsDelay) {
+  dca::TimerServer ts(io, dca::ClockKind::Wall);
+  dca::Nanos at = 0;
+  const auto start = ts.now();
+  ts.after(2 * kMs, [&] { at = ts.now(); });
+  ASSERT_TRUE(run_until(io, [&] { return at != 0; }));
+  EXPECT_GE(at - start, 2 * kMs);
+  EXPECT_FALSE(ts.next_deadline());
+}
+
+}  // namespace
