@@ -138,7 +138,7 @@ function M.from_model(node, file, default_host)
   if actions and actions.text then
     -- the parser's expression text has its comments blanked out (positions kept)
     spec.expr = actions.expr and actions.expr.text or actions.text
-    spec.expr_line, spec.expr_col = actions.line, actions.col
+    spec.expr_line, spec.expr_col = actions.text_line or actions.line, actions.text_col or actions.col
     if not spec.expr:find("%S") then spec.expr = nil end
   end
   for _, c in ipairs(node.children or {}) do
