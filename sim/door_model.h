@@ -24,13 +24,14 @@ struct DoorParams {
   double grasp_offset = 0.075;     ///< the feature/grasp point on the bar, from the pivot axis
   double handle_mass = 0.3;
   double handle_max = 0.7;         ///< the handle's stop when pressed (40 degrees)
-  double handle_damping = 0.01;    ///< N m s/rad
+  double handle_damping = 0.05;    ///< N m s/rad
   double handle_spring = 1.0;      ///< N m/rad return spring
   double handle_preload = 0.4;     ///< N m: the spring's torque at rest against the upper stop
   double latch_release = 0.45;     ///< handle angle past which the latch lets the door open (26 degrees)
   double latch_play = 0.005;       ///< how far the latched door can move (rad)
   double latch_stiffness = 5000;   ///< N m/rad of the latch bolt against the strike
   double latch_damping = 200;      ///< N m s/rad
+  bool latch_jammed = false;       ///< a fault: the latch never releases, whatever the handle does
 };
 
 /// URDF text of a door: links door_frame (root, massless), door_leaf (joint "door_hinge", revolute about -z so

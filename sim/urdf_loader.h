@@ -20,7 +20,7 @@ namespace dca::sim {
 struct LoaderOptions {
   double period = 1e-3;              ///< the integration step: stop stiffness is limited for stability
   double stop_stiffness = 2e4;       ///< N m/rad (or N/m): joint-limit stiffness, at most what `period` allows
-  double stop_dissipation = 1.0;     ///< s/rad (or s/m): Hunt-Crossley dissipation of the stops
+  double stop_dissipation = 0.1;     ///< s/rad (or s/m): Hunt-Crossley dissipation of the stops
 };
 
 /// One URDF joint that moves.
