@@ -1,5 +1,7 @@
 #pragma once
 // The process's event loop: one Boost.Asio io_context, run by one thread (the caller of run()).
+// Include this header before any other Asio header: it includes Asio's core with GCC 12's false-positive
+// -Wnull-dereference (in Asio's scheduler, inlined at -O3) silenced, which -Werror builds need.
 // Every dca component of a process (channels, listeners, the daemon, the Executer, timers) runs its handlers
 // on this io_context, so they need no locks.
 #pragma GCC diagnostic push  // Asio's scheduler trips GCC 12's -Wnull-dereference when inlined at -O3

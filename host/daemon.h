@@ -1,0 +1,89 @@
+#pragma once
+// The per-host daemon (`dca daemon`): a channel listener serving the Executer and the NameServer.
+//
+// Requests it answers on any authenticated channel (ARCHITECTURE.md, "How the pieces meet"):
+//   spawn {argv, name?}        -> ok {child, pid}; later the event exit {child, pid, name, code | signal}
+//                                 goes to the channel that asked (signal is a name such as "SIGSEGV")
+//   kill {child, signal?}      -> ok {}            signal "SIGTERM" (default), "KILL", 9, ...
+//   register {name, endpoints} -> ok {name, host}  removed when the registering channel closes
+//   unregister {name}          -> ok {}
+//   lookup {name, wait_ms?}    -> ok {name, endpoints, host}, or error at the deadline (see host/names.h)
+//   ping {}                    -> ok {host, pid}
+//   status {}                  -> ok {host, children = [{child, pid, name}], names = [...]}
+// Anything else goes to the handler set with on_message (other services, e.g. a TimerServer), else gets
+// error "unknown request".
+#include <chrono>
+#include <functional>
+#include <map>
+#include <memory>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "host/loop.h"
+#include "host/channel.h"
+#include "host/exec.h"
+#include "host/names.h"
+
+namespace dca {
+
+/// How a daemon is set up.
+struct DaemonOptions {
+  std::string host = "localhost";                      ///< this host's logical name
+  Address listen = *Address::parse("127.0.0.1:0");     ///< where to listen (port 0: a free port)
+  std::vector<Address> peers;                          ///< the other daemons, for name look-ups
+  auth::Key key;                                       ///< the cluster key
+  AllowList allow = AllowList::defaults();             ///< what spawn may start
+  std::chrono::milliseconds stop_grace{2000};          ///< SIGTERM -> SIGKILL delay for children at stop
+  std::chrono::milliseconds handshake_timeout{5000};   ///< for accepted and peer channels
+};
+
+/// One host's daemon on an io_context.
+class Daemon {
+ public:
+  /// Extra request handler: return true when it handled `m` (replied or will reply).
+  using Handler = std::function<bool(const Channel::Ptr&, const wire::Message&)>;
+
+  Daemon(boost::asio::io_context& io, DaemonOptions options);
+  /// Calls stop().
+  ~Daemon();
+  Daemon(const Daemon&) = delete;
+  Daemon& operator=(const Daemon&) = delete;
+
+  /// Binds and starts listening. False with *error when it cannot.
+  bool start(std::string* error);
+  /// Where it listens (with the chosen port), valid after start().
+  const Address& address() const;
+  /// Stops: no new connections, every child's process group killed and reaped (SIGTERM, then SIGKILL after
+  /// stop_grace), pending look-ups failed, every channel closed. Idempotent; blocks at most about stop_grace.
+  void stop();
+
+  /// Handler for request types the daemon does not know.
+  void on_message(Handler h) { extra_ = std::move(h); }
+  /// Called with each refused connection's reason (default: printed on stderr).
+  void on_refused(std::function<void(const std::string&)> fn) { on_refused_ = std::move(fn); }
+
+  const std::string& host() const { return options_.host; }
+  Executer& executer() { return exec_; }
+  NameServer& names() { return names_; }
+  /// Open client channels.
+  std::size_t channels() const { return channels_.size(); }
+
+ private:
+  void accepted(const Channel::Ptr& ch);
+  void handle(const Channel::Ptr& ch, const wire::Message& m);
+  void spawn(const Channel::Ptr& ch, const wire::Message& m);
+
+  boost::asio::io_context& io_;
+  DaemonOptions options_;
+  Executer exec_;
+  NameServer names_;
+  Listener::Ptr listener_;
+  std::set<Channel::Ptr> channels_;
+  std::map<Executer::ChildId, std::string> child_names_;
+  Handler extra_;
+  std::function<void(const std::string&)> on_refused_;
+  bool stopped_ = false;
+};
+
+}  // namespace dca

@@ -1,0 +1,279 @@
+#include "host/exec.h"
+
+#include <fcntl.h>
+#include <poll.h>
+#include <signal.h>
+#include <spawn.h>
+#include <string.h>
+#include <sys/syscall.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <boost/asio/posix/stream_descriptor.hpp>
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
+
+extern char** environ;
+
+namespace dca {
+namespace asio = boost::asio;
+
+namespace {
+
+std::string self_exe() {
+  std::error_code ec;
+  auto p = std::filesystem::read_symlink("/proc/self/exe", ec);
+  return ec ? std::string("/proc/self/exe") : p.string();
+}
+
+std::string real(const std::string& path) {
+  std::error_code ec;
+  auto p = std::filesystem::canonical(path, ec);
+  return ec ? path : p.string();
+}
+
+int pidfd_open(pid_t pid) { return static_cast<int>(::syscall(SYS_pidfd_open, pid, 0)); }
+
+ExitStatus decode_status(pid_t pid, int st) {
+  ExitStatus s;
+  s.pid = pid;
+  if (WIFEXITED(st)) {
+    s.exited = true;
+    s.code = WEXITSTATUS(st);
+  } else if (WIFSIGNALED(st)) {
+    s.signal = WTERMSIG(st);
+    s.core = WCOREDUMP(st);
+  }
+  return s;
+}
+
+}  // namespace
+
+std::string signal_name(int sig) {
+  if (const char* abbrev = ::sigabbrev_np(sig)) return std::string("SIG") + abbrev;
+  return "SIG" + std::to_string(sig);
+}
+
+int signal_number(const std::string& name) {
+  if (name.empty()) return 0;
+  if (std::all_of(name.begin(), name.end(), [](char c) { return c >= '0' && c <= '9'; })) {
+    const int n = std::atoi(name.c_str());
+    return n > 0 && n < NSIG ? n : 0;
+  }
+  std::string up;
+  for (char c : name) up += static_cast<char>(c >= 'a' && c <= 'z' ? c - 32 : c);
+  if (up.rfind("SIG", 0) == 0) up = up.substr(3);
+  for (int s = 1; s < NSIG; ++s)
+    if (const char* a = ::sigabbrev_np(s); a != nullptr && up == a) return s;
+  return 0;
+}
+
+std::string ExitStatus::signal_name() const { return exited ? std::string() : dca::signal_name(signal); }
+
+std::string ExitStatus::str() const {
+  if (exited) return "exit code " + std::to_string(code);
+  return "killed by " + signal_name() + (core ? " (core dumped)" : "");
+}
+
+// ---------------------------------------------------------------------------------------------------- AllowList
+
+AllowList AllowList::defaults() {
+  AllowList a;
+  a.allow("dca", {"node", "supervise", "sim"});
+  return a;
+}
+
+void AllowList::allow(const std::string& program, std::vector<std::string> first_args) {
+  rules_.push_back(Rule{program == "dca" ? real(self_exe()) : real(program), std::move(first_args)});
+}
+
+std::optional<std::string> AllowList::resolve(const std::vector<std::string>& argv, std::string* error) const {
+  const auto refuse = [&](std::string why) -> std::optional<std::string> {
+    if (error != nullptr) *error = std::move(why);
+    return std::nullopt;
+  };
+  if (argv.empty() || argv[0].empty()) return refuse("spawn needs a non-empty argv");
+  const std::string& p = argv[0];
+  if (p != "dca" && p[0] != '/') return refuse("not allowed: '" + p + "' (give 'dca' or an absolute path)");
+  const std::string path = p == "dca" ? real(self_exe()) : real(p);
+  bool program_known = false;
+  for (const auto& r : rules_) {
+    if (r.program != path) continue;
+    program_known = true;
+    if (r.first_args.empty()) return path;
+    if (argv.size() >= 2 && std::find(r.first_args.begin(), r.first_args.end(), argv[1]) != r.first_args.end())
+      return path;
+  }
+  if (!program_known) return refuse("not allowed: '" + p + "' is not on this daemon's allow-list");
+  return refuse("not allowed: '" + p + " " + (argv.size() >= 2 ? argv[1] : std::string()) +
+                "' (this daemon allows only some subcommands of it)");
+}
+
+// ----------------------------------------------------------------------------------------------------- Executer
+
+struct Executer::Watch {
+  ChildId id = 0;
+  pid_t pid = 0;
+  ExitFn on_exit;
+  std::unique_ptr<asio::posix::stream_descriptor> fd;
+  bool reaped = false;
+};
+
+Executer::Executer(asio::io_context& io, AllowList allow) : io_(io), allow_(std::move(allow)) {}
+
+Executer::~Executer() { stop_all(std::chrono::milliseconds(500)); }
+
+std::optional<Executer::Child> Executer::spawn(const std::vector<std::string>& argv, ExitFn on_exit,
+                                               std::string* error) {
+  const auto fail = [&](std::string why) -> std::optional<Child> {
+    if (error != nullptr) *error = std::move(why);
+    return std::nullopt;
+  };
+  if (refusing_) return fail("the executer is stopping");
+  const auto path = allow_.resolve(argv, error);
+  if (!path) return std::nullopt;
+
+  std::vector<char*> args;
+  for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+  args.push_back(nullptr);
+
+  posix_spawnattr_t attr;
+  posix_spawn_file_actions_t fa;
+  ::posix_spawnattr_init(&attr);
+  ::posix_spawn_file_actions_init(&fa);
+  sigset_t none, all;
+  sigemptyset(&none);
+  sigfillset(&all);
+  ::posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETPGROUP | POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETSIGDEF);
+  ::posix_spawnattr_setpgroup(&attr, 0);  // its own process group, led by the child
+  ::posix_spawnattr_setsigmask(&attr, &none);
+  ::posix_spawnattr_setsigdefault(&attr, &all);
+  ::posix_spawn_file_actions_addopen(&fa, 0, "/dev/null", O_RDONLY, 0);
+  ::posix_spawn_file_actions_addclosefrom_np(&fa, 3);
+  pid_t pid = 0;
+  const int rc = ::posix_spawn(&pid, path->c_str(), &fa, &attr, args.data(), environ);
+  ::posix_spawn_file_actions_destroy(&fa);
+  ::posix_spawnattr_destroy(&attr);
+  if (rc != 0) return fail("cannot start " + *path + ": " + std::strerror(rc));
+
+  auto w = std::make_shared<Watch>();
+  w->id = next_id_++;
+  w->pid = pid;
+  w->on_exit = std::move(on_exit);
+  const int pfd = pidfd_open(pid);
+  if (pfd < 0) {
+    // Without a pidfd we cannot watch it: do not leave it running unwatched.
+    ::kill(-pid, SIGKILL);
+    int st = 0;
+    ::waitpid(pid, &st, 0);
+    return fail(std::string("cannot watch the child (pidfd_open: ") + std::strerror(errno) + ")");
+  }
+  w->fd = std::make_unique<asio::posix::stream_descriptor>(io_, pfd);
+  children_[w->id] = w;
+  const ChildId id = w->id;
+  w->fd->async_wait(asio::posix::stream_descriptor::wait_read, [this, id, w](const boost::system::error_code& ec) {
+    if (ec || w->reaped) return;  // cancelled by stop_all
+    reaped(id);
+  });
+  return Child{w->id, pid};
+}
+
+void Executer::reaped(ChildId id) {
+  auto it = children_.find(id);
+  if (it == children_.end()) return;
+  auto w = it->second;
+  int st = 0;
+  pid_t r = 0;
+  do {
+    r = ::waitpid(w->pid, &st, WNOHANG);
+  } while (r < 0 && errno == EINTR);
+  if (r == 0) {
+    // Readable but not yet waitable: watch again.
+    w->fd->async_wait(asio::posix::stream_descriptor::wait_read, [this, id, w](const boost::system::error_code& ec) {
+      if (ec || w->reaped) return;
+      reaped(id);
+    });
+    return;
+  }
+  w->reaped = true;
+  children_.erase(it);
+  // Whatever the child left in its process group goes with it: no orphans.
+  ::kill(-w->pid, SIGKILL);
+  boost::system::error_code ec;
+  w->fd->close(ec);
+  ExitStatus s = r > 0 ? decode_status(w->pid, st) : ExitStatus{w->pid, false, 0, 0, false};
+  if (w->on_exit) {
+    auto fn = std::move(w->on_exit);
+    fn(id, s);
+  }
+}
+
+bool Executer::kill(ChildId child, int signal, std::string* error) {
+  auto it = children_.find(child);
+  if (it == children_.end()) {
+    if (error != nullptr) *error = "no running child " + std::to_string(child);
+    return false;
+  }
+  if (signal <= 0 || signal >= NSIG) {
+    if (error != nullptr) *error = "bad signal " + std::to_string(signal);
+    return false;
+  }
+  if (::kill(-it->second->pid, signal) != 0 && ::kill(it->second->pid, signal) != 0) {
+    if (error != nullptr) *error = "kill " + std::to_string(it->second->pid) + ": " + std::strerror(errno);
+    return false;
+  }
+  return true;
+}
+
+void Executer::stop_all(std::chrono::milliseconds grace) {
+  refusing_ = true;
+  if (children_.empty()) return;
+  auto children = std::move(children_);
+  children_.clear();
+  for (auto& [id, w] : children) {
+    w->reaped = true;  // no callback
+    ::kill(-w->pid, SIGTERM);
+  }
+  const auto deadline = std::chrono::steady_clock::now() + grace;
+  std::vector<std::shared_ptr<Watch>> left;
+  for (auto& [id, w] : children) left.push_back(w);
+  while (!left.empty()) {
+    // Reap what has ended.
+    for (auto it = left.begin(); it != left.end();) {
+      int st = 0;
+      if (::waitpid((*it)->pid, &st, WNOHANG) != 0) {
+        ::kill(-(*it)->pid, SIGKILL);
+        it = left.erase(it);
+      } else {
+        ++it;
+      }
+    }
+    const auto now = std::chrono::steady_clock::now();
+    if (left.empty() || now >= deadline) break;
+    std::vector<pollfd> fds;
+    for (auto& w : left) fds.push_back(pollfd{w->fd->native_handle(), POLLIN, 0});
+    const auto ms = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - now).count();
+    ::poll(fds.data(), fds.size(), static_cast<int>(std::max<std::int64_t>(1, ms)));
+  }
+  for (auto& w : left) {
+    ::kill(-w->pid, SIGKILL);
+    ::kill(w->pid, SIGKILL);
+    int st = 0;
+    while (::waitpid(w->pid, &st, 0) < 0 && errno == EINTR) {
+    }
+  }
+  for (auto& [id, w] : children) {
+    boost::system::error_code ec;
+    w->fd->close(ec);
+  }
+}
+
+std::map<Executer::ChildId, pid_t> Executer::children() const {
+  std::map<ChildId, pid_t> out;
+  for (const auto& [id, w] : children_) out[id] = w->pid;
+  return out;
+}
+
+}  // namespace dca

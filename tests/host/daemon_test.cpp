@@ -1,0 +1,436 @@
+#include "host/daemon.h"
+
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <poll.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <boost/asio/ip/tcp.hpp>
+#include <boost/asio/write.hpp>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+extern char** environ;
+
+namespace {
+
+using namespace std::chrono_literals;
+using dca::Address;
+using dca::Channel;
+using dca::ChannelOptions;
+using dca::Response;
+using dca::wire::Message;
+using dca::wire::Value;
+
+const std::string kKey = "0123456789abcdef0123456789abcdef";
+
+bool process_exists(pid_t pid) { return std::filesystem::exists("/proc/" + std::to_string(pid)); }
+
+// A client of one daemon: a channel, the events it received, and blocking helpers driven by the loop.
+struct Client {
+  dca::Loop& loop;
+  Channel::Ptr ch;
+  std::vector<Message> events;
+  std::string closed;
+
+  Response call(Message m, std::chrono::milliseconds timeout = 10s) {
+    Response r;
+    bool done = false;
+    ch->request(std::move(m), timeout, [&](Response got) {
+      r = std::move(got);
+      done = true;
+    });
+    EXPECT_TRUE(loop.run_until([&] { return done; }, timeout + 5s));
+    return r;
+  }
+  const Message* wait_event(const std::string& type, std::chrono::milliseconds timeout = 20s) {
+    const auto find = [&]() -> const Message* {
+      for (const auto& e : events)
+        if (e.type == type) return &e;
+      return nullptr;
+    };
+    loop.run_until([&] { return find() != nullptr; }, timeout);
+    return find();
+  }
+};
+
+std::unique_ptr<Client> connect(dca::Loop& loop, const Address& to, std::string key = kKey,
+                                std::string* error = nullptr) {
+  auto c = std::make_unique<Client>(Client{loop, nullptr, {}, {}});
+  bool done = false;
+  std::string err;
+  Channel::connect(loop.io(), to, ChannelOptions{std::move(key)}, [&](Channel::Ptr ch, const std::string& e) {
+    c->ch = std::move(ch);
+    err = e;
+    done = true;
+  });
+  EXPECT_TRUE(loop.run_until([&] { return done; }, 20s));
+  if (error != nullptr) *error = err;
+  if (!c->ch) return nullptr;
+  Client* raw = c.get();
+  c->ch->on_message([raw](const Message& m) { raw->events.push_back(m); });
+  c->ch->on_close([raw](const std::string& why) { raw->closed = why; });
+  return c;
+}
+
+Message req(const std::string& type, Value payload = Value::map()) { return Message{type, 0, std::move(payload)}; }
+
+class DaemonTest : public ::testing::Test {
+ protected:
+  std::unique_ptr<dca::Daemon> make(const std::string& host, std::vector<Address> peers = {}) {
+    dca::DaemonOptions o;
+    o.host = host;
+    o.key = kKey;
+    o.peers = std::move(peers);
+    o.allow.allow("/bin/sh");
+    o.allow.allow("/bin/sleep");
+    o.stop_grace = 200ms;
+    auto d = std::make_unique<dca::Daemon>(loop_.io(), o);
+    std::string error;
+    EXPECT_TRUE(d->start(&error)) << error;
+    return d;
+  }
+  dca::Loop loop_;
+};
+
+TEST_F(DaemonTest, SpawnReportsExitCodeToTheRequester) {
+  auto d = make("h1");
+  auto c = connect(loop_, d->address());
+  ASSERT_TRUE(c);
+  const auto r = c->call(req("spawn", Value::map().set("argv", Value::Array{"/bin/sh", "-c", "exit 3"}).set("name", "three")));
+  ASSERT_TRUE(r.ok()) << r.error;
+  EXPECT_GT(r.message.payload["pid"].as_int(), 0);
+  const Message* ev = c->wait_event("exit");
+  ASSERT_NE(ev, nullptr);
+  EXPECT_EQ(ev->payload["code"].as_int(-1), 3);
+  EXPECT_EQ(ev->payload["child"], r.message.payload["child"]);
+  EXPECT_EQ(ev->payload["name"].as_string(), "three");
+  EXPECT_EQ(ev->payload["host"].as_string(), "h1");
+  EXPECT_TRUE(ev->payload["signal"].is_nil());
+}
+
+TEST_F(DaemonTest, SpawnReportsSignalAndKillsOnRequest) {
+  auto d = make("h1");
+  auto c = connect(loop_, d->address());
+  ASSERT_TRUE(c);
+  auto r = c->call(req("spawn", Value::map().set("argv", Value::Array{"/bin/sh", "-c", "ulimit -c 0; kill -SEGV $$"})));
+  ASSERT_TRUE(r.ok()) << r.error;
+  const Message* segv = c->wait_event("exit");
+  ASSERT_NE(segv, nullptr);
+  EXPECT_EQ(segv->payload["signal"].as_string(), "SIGSEGV");
+  c->events.clear();
+  r = c->call(req("spawn", Value::map().set("argv", Value::Array{"/bin/sleep", "100"})));
+  ASSERT_TRUE(r.ok()) << r.error;
+  const auto kill = c->call(req("kill", Value::map().set("child", r.message.payload["child"]).set("signal", "SIGKILL")));
+  EXPECT_TRUE(kill.ok()) << kill.error;
+  const Message* killed = c->wait_event("exit");
+  ASSERT_NE(killed, nullptr);
+  EXPECT_EQ(killed->payload["signal"].as_string(), "SIGKILL");
+  const auto again = c->call(req("kill", Value::map().set("child", r.message.payload["child"])));
+  EXPECT_NE(again.error.find("no running child"), std::string::npos) << again.error;
+}
+
+TEST_F(DaemonTest, RefusesProgramsNotOnTheAllowList) {
+  auto d = make("h1");
+  auto c = connect(loop_, d->address());
+  ASSERT_TRUE(c);
+  const auto r = c->call(req("spawn", Value::map().set("argv", Value::Array{"/bin/rm", "-rf", "/tmp/x"})));
+  EXPECT_FALSE(r.ok());
+  EXPECT_NE(r.error.find("not allowed"), std::string::npos) << r.error;
+  EXPECT_NE(r.error.find("host h1"), std::string::npos) << r.error;
+  EXPECT_EQ(d->executer().running(), 0u);
+}
+
+TEST_F(DaemonTest, RegisterLookupUnregister) {
+  auto d = make("h1");
+  auto a = connect(loop_, d->address());
+  auto b = connect(loop_, d->address());
+  ASSERT_TRUE(a && b);
+  auto r = a->call(req("register", Value::map().set("name", "/sys/arm").set("endpoints", Value::map().set("control", "127.0.0.1:1"))));
+  ASSERT_TRUE(r.ok()) << r.error;
+  r = b->call(req("lookup", Value::map().set("name", "/sys/arm")));
+  ASSERT_TRUE(r.ok()) << r.error;
+  EXPECT_EQ(r.message.payload["endpoints"]["control"].as_string(), "127.0.0.1:1");
+  EXPECT_EQ(r.message.payload["host"].as_string(), "h1");
+  r = b->call(req("register", Value::map().set("name", "/sys/arm")));
+  EXPECT_NE(r.error.find("already registered"), std::string::npos) << r.error;
+  r = b->call(req("unregister", Value::map().set("name", "/sys/arm")));
+  EXPECT_NE(r.error.find("another process"), std::string::npos) << r.error;
+  r = a->call(req("unregister", Value::map().set("name", "/sys/arm")));
+  EXPECT_TRUE(r.ok()) << r.error;
+  r = b->call(req("lookup", Value::map().set("name", "/sys/arm")));
+  EXPECT_EQ(r.error, "no process named '/sys/arm' on host h1");
+}
+
+TEST_F(DaemonTest, NamesGoAwayWhenTheirChannelCloses) {
+  auto d = make("h1");
+  auto a = connect(loop_, d->address());
+  auto b = connect(loop_, d->address());
+  ASSERT_TRUE(a && b);
+  ASSERT_TRUE(a->call(req("register", Value::map().set("name", "n"))).ok());
+  a->ch->close();
+  ASSERT_TRUE(loop_.run_until([&] { return d->names().table().size() == 0; }, 10s));
+  EXPECT_FALSE(b->call(req("lookup", Value::map().set("name", "n"))).ok());
+}
+
+TEST_F(DaemonTest, LookupWaitsForANameRegisteredLater) {
+  auto d = make("h1");
+  auto a = connect(loop_, d->address());
+  auto b = connect(loop_, d->address());
+  ASSERT_TRUE(a && b);
+  Response got;
+  bool done = false;
+  b->ch->request(req("lookup", Value::map().set("name", "late").set("wait_ms", 10000)), 20s, [&](Response r) {
+    got = std::move(r);
+    done = true;
+  });
+  ASSERT_TRUE(loop_.run_until([&] { return d->names().table().waiting() == 1; }, 10s));
+  EXPECT_FALSE(done);
+  ASSERT_TRUE(a->call(req("register", Value::map().set("name", "late").set("endpoints", Value::map().set("pid", 5)))).ok());
+  ASSERT_TRUE(loop_.run_until([&] { return done; }, 10s));
+  EXPECT_TRUE(got.ok()) << got.error;
+  EXPECT_EQ(got.message.payload["endpoints"]["pid"].as_int(), 5);
+  // A wait that ends without the name is an error naming the wait.
+  const auto r = b->call(req("lookup", Value::map().set("name", "never").set("wait_ms", 30)));
+  EXPECT_EQ(r.error, "no process named 'never' on host h1 within 30 ms");
+  EXPECT_EQ(d->names().table().waiting(), 0u);
+}
+
+TEST_F(DaemonTest, LookupIsAnsweredByPeers) {
+  auto c_daemon = make("hc");
+  auto b_daemon = make("hb");
+  auto a_daemon = make("ha", {b_daemon->address(), c_daemon->address()});
+  auto on_c = connect(loop_, c_daemon->address());
+  auto on_a = connect(loop_, a_daemon->address());
+  ASSERT_TRUE(on_c && on_a);
+  ASSERT_TRUE(on_c->call(req("register", Value::map().set("name", "/far").set("endpoints", Value::map().set("pid", 9)))).ok());
+  auto r = on_a->call(req("lookup", Value::map().set("name", "/far")));
+  ASSERT_TRUE(r.ok()) << r.error;
+  EXPECT_EQ(r.message.payload["host"].as_string(), "hc");
+  EXPECT_EQ(r.message.payload["endpoints"]["pid"].as_int(), 9);
+  r = on_a->call(req("lookup", Value::map().set("name", "/nowhere")));
+  EXPECT_EQ(r.error, "no process named '/nowhere' on host ha or its 2 peers");
+  // Waiting look-ups also wait at the peers.
+  Response later;
+  bool done = false;
+  on_a->ch->request(req("lookup", Value::map().set("name", "/later").set("wait_ms", 10000)), 20s, [&](Response got) {
+    later = std::move(got);
+    done = true;
+  });
+  ASSERT_TRUE(loop_.run_until([&] { return c_daemon->names().table().waiting() == 1; }, 10s));
+  ASSERT_TRUE(on_c->call(req("register", Value::map().set("name", "/later"))).ok());
+  ASSERT_TRUE(loop_.run_until([&] { return done; }, 10s));
+  EXPECT_TRUE(later.ok()) << later.error;
+  EXPECT_EQ(later.message.payload["host"].as_string(), "hc");
+}
+
+TEST_F(DaemonTest, UnreachablePeerIsNamedInTheError) {
+  boost::asio::ip::tcp::acceptor probe(loop_.io(), {boost::asio::ip::make_address("127.0.0.1"), 0});
+  const auto dead = *Address::parse("127.0.0.1:" + std::to_string(probe.local_endpoint().port()));
+  probe.close();
+  auto a_daemon = make("ha", {dead});
+  auto on_a = connect(loop_, a_daemon->address());
+  ASSERT_TRUE(on_a);
+  const auto r = on_a->call(req("lookup", Value::map().set("name", "x")));
+  EXPECT_NE(r.error.find(dead.str() + ": unreachable"), std::string::npos) << r.error;
+}
+
+TEST_F(DaemonTest, StopLeavesNoChildAndClosesChannels) {
+  auto d = make("h1");
+  auto c = connect(loop_, d->address());
+  ASSERT_TRUE(c);
+  std::vector<pid_t> pids;
+  for (const char* script : {"sleep 100", "trap '' TERM; sleep 100 & wait"}) {
+    const auto r = c->call(req("spawn", Value::map().set("argv", Value::Array{"/bin/sh", "-c", script})));
+    ASSERT_TRUE(r.ok()) << r.error;
+    pids.push_back(static_cast<pid_t>(r.message.payload["pid"].as_int()));
+  }
+  d->stop();
+  for (pid_t p : pids) EXPECT_FALSE(process_exists(p)) << "child " << p << " is still in /proc";
+  ASSERT_TRUE(loop_.run_until([&] { return !c->closed.empty(); }, 10s));
+  EXPECT_NE(c->closed.find("the daemon on host h1 stopped"), std::string::npos) << c->closed;
+}
+
+TEST_F(DaemonTest, UnknownRequestIsAnError) {
+  auto d = make("h1");
+  auto c = connect(loop_, d->address());
+  ASSERT_TRUE(c);
+  const auto r = c->call(req("frobnicate"));
+  EXPECT_EQ(r.error, "unknown request 'frobnicate' (daemon on host h1)");
+  const auto p = c->call(req("ping"));
+  EXPECT_EQ(p.message.payload["host"].as_string(), "h1");
+}
+
+// ------------------------------------------------------------------------ real `dca daemon` processes
+
+// A `dca daemon` child process; its listen address is read from the line it prints when ready.
+class DaemonProcess {
+ public:
+  DaemonProcess(const std::vector<std::string>& args, const std::string& key_file) {
+    int out[2];
+    EXPECT_EQ(::pipe2(out, O_CLOEXEC), 0);
+    std::vector<std::string> argv = {DCA_TEST_EXE, "daemon", "--key", key_file};
+    argv.insert(argv.end(), args.begin(), args.end());
+    std::vector<char*> cargv;
+    for (auto& a : argv) cargv.push_back(a.data());
+    cargv.push_back(nullptr);
+    posix_spawn_file_actions_t fa;
+    posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_adddup2(&fa, out[1], 1);
+    EXPECT_EQ(::posix_spawn(&pid_, DCA_TEST_EXE, &fa, nullptr, cargv.data(), environ), 0);
+    posix_spawn_file_actions_destroy(&fa);
+    ::close(out[1]);
+    // Read the ready line (bounded).
+    std::string line;
+    for (int waited = 0; line.find('\n') == std::string::npos && waited < 20000;) {
+      pollfd p{out[0], POLLIN, 0};
+      if (::poll(&p, 1, 100) <= 0) {
+        waited += 100;
+        continue;
+      }
+      char buf[256];
+      const ssize_t n = ::read(out[0], buf, sizeof buf);
+      if (n <= 0) break;
+      line.append(buf, static_cast<std::size_t>(n));
+    }
+    ::close(out[0]);
+    line_ = line;
+    const auto at = line.find(" listening on ");
+    EXPECT_NE(at, std::string::npos) << "daemon said: " << line;
+    if (at != std::string::npos) address_ = *Address::parse(line.substr(at + 14, line.find('\n') - at - 14));
+  }
+  ~DaemonProcess() { stop(); }
+  /// SIGTERM, then waits for it; returns its exit status.
+  int stop() {
+    if (pid_ <= 0) return status_;
+    ::kill(pid_, SIGTERM);
+    ::waitpid(pid_, &status_, 0);
+    pid_ = 0;
+    return status_;
+  }
+  const Address& address() const { return address_; }
+  const std::string& line() const { return line_; }
+
+ private:
+  pid_t pid_ = 0;
+  int status_ = 0;
+  Address address_;
+  std::string line_;
+};
+
+class DaemonProcessTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    char tmpl[] = "/tmp/dca_daemon_test_XXXXXX";
+    ASSERT_NE(::mkdtemp(tmpl), nullptr);
+    dir_ = tmpl;
+    key_file_ = dir_ + "/key";
+    std::string error;
+    auto key = dca::auth::load_or_create_key(key_file_, &error);
+    ASSERT_TRUE(key) << error;
+    key_ = *key;
+  }
+  void TearDown() override { std::filesystem::remove_all(dir_); }
+  // A free loopback port (bound then released, so a daemon started next can use it as a peer address).
+  std::string free_port_address() {
+    boost::asio::ip::tcp::acceptor a(loop_.io(), {boost::asio::ip::make_address("127.0.0.1"), 0});
+    return "127.0.0.1:" + std::to_string(a.local_endpoint().port());
+  }
+  dca::Loop loop_;
+  std::string dir_, key_file_;
+  dca::auth::Key key_;
+};
+
+TEST_F(DaemonProcessTest, PrintsItsAddressAndRefusesAKeyFileReadableByOthers) {
+  DaemonProcess d({"--host", "h1", "--listen", "127.0.0.1:0"}, key_file_);
+  EXPECT_EQ(d.line().rfind("dca daemon: host h1 listening on 127.0.0.1:", 0), 0u) << d.line();
+  EXPECT_NE(d.address().port, 0);
+  EXPECT_EQ(d.stop(), 0);
+  ::chmod(key_file_.c_str(), 0640);
+  const std::string cmd = std::string(DCA_TEST_EXE) + " daemon --key " + key_file_ + " 2>&1";
+  FILE* p = ::popen(cmd.c_str(), "r");
+  ASSERT_NE(p, nullptr);
+  char buf[512] = {};
+  const std::size_t n = std::fread(buf, 1, sizeof buf - 1, p);
+  const int status = ::pclose(p);
+  EXPECT_NE(WEXITSTATUS(status), 0);
+  EXPECT_NE(std::string(buf, n).find("key file " + key_file_ + " has mode 0640; it must be 0600"), std::string::npos)
+      << std::string(buf, n);
+}
+
+TEST_F(DaemonProcessTest, SigtermKillsAndReapsEveryChild) {
+  DaemonProcess d({"--host", "h1", "--allow", "/bin/sh", "--grace", "100"}, key_file_);
+  auto c = connect(loop_, d.address(), key_);
+  ASSERT_TRUE(c);
+  std::vector<pid_t> pids;
+  for (const char* script : {"sleep 100", "trap '' TERM; sleep 100 & wait"}) {
+    const auto r = c->call(req("spawn", Value::map().set("argv", Value::Array{"/bin/sh", "-c", script})));
+    ASSERT_TRUE(r.ok()) << r.error;
+    pids.push_back(static_cast<pid_t>(r.message.payload["pid"].as_int()));
+  }
+  for (pid_t p : pids) EXPECT_TRUE(process_exists(p));
+  const int status = d.stop();
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << status;
+  for (pid_t p : pids) EXPECT_FALSE(process_exists(p)) << "child " << p << " outlived its daemon";
+  ASSERT_TRUE(loop_.run_until([&] { return !c->closed.empty(); }, 10s));
+}
+
+// Three daemons on loopback acting as three hosts, configured as peers.
+TEST_F(DaemonProcessTest, ThreeDaemonsAsThreeHosts) {
+  const std::string a_addr = free_port_address(), b_addr = free_port_address(), c_addr = free_port_address();
+  DaemonProcess a({"--host", "A", "--listen", a_addr, "--peer", b_addr, "--peer", c_addr}, key_file_);
+  DaemonProcess b({"--host", "B", "--listen", b_addr, "--peer", a_addr, "--peer", c_addr, "--allow", "/bin/sh"},
+                  key_file_);
+  DaemonProcess c({"--host", "C", "--listen", c_addr, "--peer", a_addr, "--peer", b_addr}, key_file_);
+  ASSERT_EQ(a.address().str(), a_addr);
+
+  // A process on C registers a name; a client on A finds it without knowing its host.
+  auto on_c = connect(loop_, c.address(), key_);
+  auto on_a = connect(loop_, a.address(), key_);
+  ASSERT_TRUE(on_c && on_a);
+  ASSERT_TRUE(on_c->call(req("register", Value::map().set("name", "/door/arm").set("endpoints", Value::map().set("control", "x")))).ok());
+  auto r = on_a->call(req("lookup", Value::map().set("name", "/door/arm")));
+  ASSERT_TRUE(r.ok()) << r.error;
+  EXPECT_EQ(r.message.payload["host"].as_string(), "C");
+
+  // The client on A has B's daemon spawn a child, which dies by SIGSEGV: the exit event reaches A's client.
+  auto to_b = connect(loop_, b.address(), key_);
+  ASSERT_TRUE(to_b);
+  r = to_b->call(req("spawn", Value::map().set("argv", Value::Array{"/bin/sh", "-c", "ulimit -c 0; kill -SEGV $$"})));
+  ASSERT_TRUE(r.ok()) << r.error;
+  EXPECT_EQ(r.message.payload["host"].as_string(), "B");
+  const Message* ev = to_b->wait_event("exit");
+  ASSERT_NE(ev, nullptr);
+  EXPECT_EQ(ev->payload["signal"].as_string(), "SIGSEGV");
+  EXPECT_EQ(ev->payload["host"].as_string(), "B");
+  // B refuses programs that are not on its allow-list.
+  r = to_b->call(req("spawn", Value::map().set("argv", Value::Array{"/bin/sleep", "1"})));
+  EXPECT_NE(r.error.find("not allowed"), std::string::npos) << r.error;
+
+  // A wrong key is refused, with a reason.
+  std::string error;
+  auto intruder = connect(loop_, a.address(), "the wrong key, 32 bytes long....", &error);
+  EXPECT_FALSE(intruder);
+  EXPECT_NE(error.find("key check"), std::string::npos) << error;
+
+  // A malformed frame closes only its own connection: the other client of A carries on.
+  auto victim = connect(loop_, a.address(), key_);
+  ASSERT_TRUE(victim);
+  const std::string garbage("\x00\x00\x00\x02\x93\xc1", 6);
+  boost::asio::write(victim->ch->socket(), boost::asio::buffer(garbage));
+  ASSERT_TRUE(loop_.run_until([&] { return !victim->closed.empty(); }, 10s));
+  EXPECT_NE(victim->closed.find("malformed frame"), std::string::npos) << victim->closed;
+  r = on_a->call(req("lookup", Value::map().set("name", "/door/arm")));
+  EXPECT_TRUE(r.ok()) << r.error;
+
+  // When C stops, its names go with it.
+  EXPECT_EQ(c.stop(), 0);
+  r = on_a->call(req("lookup", Value::map().set("name", "/door/arm")));
+  EXPECT_FALSE(r.ok());
+}
+
+}  // namespace
