@@ -153,6 +153,9 @@ TEST_F(ExecTest, StopLeavesNoChildNorGrandchild) {
   ASSERT_TRUE(loop_.run_until([&] { return members_of_group(stubborn->pid).size() >= 2; }, 20s));
   ex.stop_all(100ms);
   EXPECT_EQ(ex.running(), 0u);
+  // The children are reaped by stop_all; the grandchild got SIGKILL, and the kernel takes a moment to end it:
+  // wait for that (bounded).
+  for (int i = 0; i < 5000 && !members_of_group(stubborn->pid).empty(); ++i) ::usleep(1000);
   EXPECT_TRUE(members_of_group(stubborn->pid).empty()) << "no process left in the stubborn child's group";
   EXPECT_TRUE(members_of_group(plain->pid).empty());
   EXPECT_EQ(pgrp_of(stubborn->pid), -1);
