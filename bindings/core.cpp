@@ -2,6 +2,7 @@
 
 #include <lua.hpp>
 
+#include "bindings/lua_loop.h"
 #include "host/version.h"
 
 namespace dca::bindings {
@@ -21,5 +22,7 @@ extern "C" int luaopen_dca_core(lua_State* L) {
   dca::bindings::open_readline(L);
   dca::bindings::open_inotify(L);
   dca::bindings::open_types(L);
+  dca::lua::register_loop(L);     // core.loop, core.after, core.every (wrap_loop.cpp)
+  dca::lua::register_channel(L);  // core.connect, core.listen (wrap_channel.cpp)
   return 1;
 }

@@ -1,0 +1,31 @@
+#pragma once
+// Lua values <-> wire values (msgpack), for every binding that moves messages between Lua and the core.
+//
+// Lua -> wire: nil, booleans, integers, floats and strings (bytes) map to themselves. A table whose keys are
+// exactly 1..n (n >= 1) is an array; any other table is a map (an empty table is an empty map). A sequence with
+// nil holes ({1, nil, 3}) is therefore sent as a map with integer keys and comes back with the same keys and
+// the same holes. Functions, userdata, threads, tables nested deeper than wire::kMaxDepth (or cyclic) are
+// refused with an error naming the path ("msg.argv[2]: cannot send a function").
+// wire -> Lua: maps become tables with the same keys (keys that cannot index a Lua table, such as NaN, are
+// dropped), arrays become sequences (a nil element leaves a hole), msgpack bin and str both become strings.
+//
+// A message {type, id, payload} is the Lua table {type = "...", <payload fields>}: the top-level field `type`
+// is reserved for the message type.
+#include <string>
+
+#include "host/wire.h"
+
+struct lua_State;
+
+namespace dca::lua {
+
+/// Converts the Lua value at `index`. Never raises a Lua error: false with *error when it cannot.
+bool to_value(lua_State* L, int index, wire::Value& out, std::string* error);
+/// Pushes `v` (may raise a Lua memory error: call from a C function that Lua called, or under lua_pcall).
+void push_value(lua_State* L, const wire::Value& v);
+/// Converts the Lua table at `index` ({type = "...", ...}) to a message with id 0. Never raises.
+bool to_message(lua_State* L, int index, wire::Message& out, std::string* error);
+/// Pushes message `m` as a table {type = m.type, <payload fields>}.
+void push_message(lua_State* L, const wire::Message& m);
+
+}  // namespace dca::lua
