@@ -1,5 +1,5 @@
 // core.types(): the controller registry's manifests for Lua (dca check uses them).
-//   { [TypeName] = { doc = "...", inputs = { {name=, type=, size=, units=} ... }, outputs = {...},
+//   { [TypeName] = { doc = "...", inputs = { {name=, type=, size=, units=, device= (device ports only)} ... }, outputs = {...},
 //                    params = { {name=, type=, required=, default=, variadic=, doc=} ... } } }
 #include <lua.hpp>
 
@@ -21,6 +21,10 @@ void push_ports(lua_State* L, const std::vector<dca::PortSpec>& ports) {
     lua_setfield(L, -2, "size");
     lua_pushlstring(L, p.units.data(), p.units.size());
     lua_setfield(L, -2, "units");
+    if (!p.device.empty()) {
+      lua_pushlstring(L, p.device.data(), p.device.size());
+      lua_setfield(L, -2, "device");
+    }
     lua_rawseti(L, -2, i++);
   }
 }

@@ -67,16 +67,16 @@ std::string_view to_string(Transport t) {
 }
 
 PortSpec scalar_port(std::string name, std::string units) {
-  return {std::move(name), PortType::Scalar, 1, std::move(units)};
+  return {std::move(name), PortType::Scalar, 1, std::move(units), {}};
 }
 PortSpec vector_port(std::string name, std::uint32_t size, std::string units) {
-  return {std::move(name), PortType::Vector, size, std::move(units)};
+  return {std::move(name), PortType::Vector, size, std::move(units), {}};
 }
 PortSpec vectorx_port(std::string name, std::string units) {
-  return {std::move(name), PortType::VectorX, 0, std::move(units)};
+  return {std::move(name), PortType::VectorX, 0, std::move(units), {}};
 }
 PortSpec value_port(std::string name, std::string units) {
-  return {std::move(name), PortType::Value, 0, std::move(units)};
+  return {std::move(name), PortType::Value, 0, std::move(units), {}};
 }
 
 namespace {

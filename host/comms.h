@@ -60,6 +60,10 @@ struct PortSpec {
   PortType type = PortType::Scalar;
   std::uint32_t size = 1;  ///< number of doubles: 1 for Scalar, N for Vector, 0 for VectorX and Value
   std::string units;  ///< free text, e.g. "m/s", "N", "" when dimensionless
+  /// A device port: the robot signal it is wired to ("arm.q", "base.cmd_vel"; see sim/world.h), or "".
+  /// The supervisor that owns the controller connects it to that signal of the robot process ("world"),
+  /// always active; .dca files never name device ports.
+  std::string device;
 };
 
 /// A scalar port spec.

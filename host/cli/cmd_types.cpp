@@ -29,9 +29,11 @@ void print(const dca::Manifest& m) {
   for (const auto& p : m.params)
     std::printf("    param  %-10s %-8s %s\n", p.name.c_str(), p.type.c_str(), p.doc.c_str());
   for (const auto& p : m.inputs)
-    std::printf("    in     %-10s %-8s %s\n", p.name.c_str(), port_type(p).c_str(), p.units.c_str());
+    std::printf("    in     %-10s %-8s %s%s%s\n", p.name.c_str(), port_type(p).c_str(), p.units.c_str(),
+                p.device.empty() ? "" : "  <- device ", p.device.c_str());
   for (const auto& p : m.outputs)
-    std::printf("    out    %-10s %-8s %s\n", p.name.c_str(), port_type(p).c_str(), p.units.c_str());
+    std::printf("    out    %-10s %-8s %s%s%s\n", p.name.c_str(), port_type(p).c_str(), p.units.c_str(),
+                p.device.empty() ? "" : "  -> device ", p.device.c_str());
 }
 
 int cmd_types(std::span<char* const> args) {

@@ -41,7 +41,7 @@ TEST_F(ControllerTest, EveryManifestPortExistsOnAnInstance) {
   for (const auto* m : dca::Registry::global().all()) {
     std::vector<std::string> params;
     for (const auto& p : m->params)
-      if (p.required) params.push_back(p.type == "string" ? "x" : "1");
+      if (p.required) params.push_back(p.type != "string" ? "1" : p.name == "action" ? "open" : "x");
     auto c = make(m->type, params);
     for (const auto& p : m->inputs) EXPECT_NE(c->ports().find_input(p.name), nullptr) << m->type << "." << p.name;
     for (const auto& p : m->outputs) EXPECT_NE(c->ports().find_output(p.name), nullptr) << m->type << "." << p.name;

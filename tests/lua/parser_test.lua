@@ -161,8 +161,8 @@ suite:case("paper_systems_parse", function()
   end
   local ast = assert(parser.parse(read(src .. "/scripts/systems/door_open.dca"), "door_open.dca"))
   T.eq(algebra.tostring(ast.by_name.DoorOpenSystem.actions.expr),
-       "motionctrl, visualserv[lbl1] # distdetect ; (opengrip, approach[lbl1]) # hit ; closegrip ; " ..
-       "presshandle[lbl1] ; dooropen[lbl1]")
+       "motionctrl # ((visualserv[lbl1], camera) # distdetect ; (opengrip, approach[lbl1]) # hit ; closegrip ; " ..
+       "presshandle[lbl1] # (pressft, pressjoints) ; dooropen[lbl1])")
 end)
 
 return suite:run(...)

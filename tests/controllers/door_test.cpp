@@ -1,0 +1,377 @@
+// The door-opening controller library on simulated time: each controller's maths and its life cycle, with
+// its inputs fed by a test source and its outputs read back.
+#include "controllers/door.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include <boost/asio/io_context.hpp>
+
+#include "controllers/registry.h"
+
+namespace {
+
+using dca::door::Vec3;
+using dca::door::Vec6;
+using dca::door::Vec9;
+constexpr dca::Nanos kMs = 1'000'000;
+constexpr double kPi = 3.14159265358979323846;
+
+std::string unpack_string(const std::string& packed) {
+  return msgpack::unpack(packed.data(), packed.size()).get().as<std::string>();
+}
+double unpack_double(const std::string& packed) {
+  return msgpack::unpack(packed.data(), packed.size()).get().as<double>();
+}
+
+class DoorTest : public ::testing::Test {
+ protected:
+  dca::Controller& make(const std::string& type, std::vector<std::string> params, const std::string& name) {
+    cs.push_back(dca::Registry::global().create(type, {name, "local", std::move(params), &timers, nullptr}));
+    auto& c = *cs.back();
+    c.on_event = [this, name](const dca::ComponentEvent& e) { events.emplace_back(name, e); };
+    ep.add_component(name, c.ports());
+    return c;
+  }
+  /// A test source output `port` of `size` doubles, connected to `to`.`in`.
+  dca::Output& feed(const std::string& port, std::uint32_t size, const std::string& to, const std::string& in) {
+    if (!src_added) {
+      ep.add_component("/src", src);
+      src_added = true;
+    }
+    auto* o = src.find_output(port);
+    if (o == nullptr) o = &src.add_output(dca::vector_port(port, size));
+    connect("/src", port, to, in);
+    return *o;
+  }
+  void connect(const std::string& from, const std::string& out, const std::string& to, const std::string& in) {
+    std::string err = "none";
+    ep.connect({from, out, to, in, "s", dca::Mode::Push, 16}, {}, [&](const std::string& e) { err = e; });
+    ASSERT_EQ(err, "");
+  }
+  static Eigen::VectorXd latest(const dca::Controller& c, const std::string& port) {
+    const auto* out = const_cast<dca::Controller&>(c).ports().find_output(port);
+    EXPECT_NE(out, nullptr);
+    msgpack::sbuffer sb;
+    msgpack::packer<msgpack::sbuffer> pk(sb);
+    out->pack_latest(pk);
+    const auto v = msgpack::unpack(sb.data(), sb.size()).get().as<std::vector<double>>();
+    return Eigen::Map<const Eigen::VectorXd>(v.data(), static_cast<Eigen::Index>(v.size()));
+  }
+  void TearDown() override {
+    for (auto& c : cs) ep.remove_component(c->name());
+    if (src_added) ep.remove_component("/src");
+  }
+  boost::asio::io_context io;
+  dca::TimerServer timers{io, dca::ClockKind::Simulated};
+  dca::Endpoint ep{io, "local"};
+  dca::PortSet src;
+  bool src_added = false;
+  std::vector<std::unique_ptr<dca::Controller>> cs;
+  std::vector<std::pair<std::string, dca::ComponentEvent>> events;
+};
+
+Vec6 ReadyPose() { return (Vec6() << 0.1513, 0.711, -3.428, 0.1658, 1.151, 1.503).finished(); }
+
+TEST_F(DoorTest, HardwareFacingPortsNameTheirRobotSignals) {
+  const auto* m = dca::Registry::global().manifest("Puma560Ctrl");
+  ASSERT_NE(m, nullptr);
+  EXPECT_EQ(m->inputs[1].device, "arm.q");
+  EXPECT_EQ(m->outputs[0].device, "arm.cmd_qd");
+  EXPECT_EQ(m->outputs[1].device, "");
+  EXPECT_EQ(dca::Registry::global().manifest("ForceTorque")->inputs[0].device, "wrist.wrench");
+  EXPECT_EQ(dca::Registry::global().manifest("GripperControl")->outputs[0].device, "gripper.cmd");
+}
+
+TEST_F(DoorTest, RobotArmIsTheUrdfChainToTool0) {
+  const auto arm = dca::door::robot_arm();
+  EXPECT_EQ(arm.dof(), 6);
+  EXPECT_EQ(arm.joint_names().front(), "arm_joint_1");
+  EXPECT_EQ(arm.joint_names().back(), "arm_joint_6");
+}
+
+// The command's tool twist is realised exactly on top of the motion its base velocity gives the robot.
+TEST_F(DoorTest, RedundancyResolutionRealisesTheTwistOnTopOfTheBaseVelocity) {
+  const auto arm = dca::door::robot_arm();
+  dca::kin::JointVector w(9);
+  w << 10, 10, 10, 1, 1, 1, 1, 1, 1;
+  dca::kin::RedundancyParams params;
+  params.damping = 1e-6;
+  params.limit_gain = 0;
+  Vec9 cmd;
+  cmd << 0.05, -0.02, 0.03, 0, 0.1, 0, 0.2, 0.1, 0.05;
+  Vec3 base;
+  Vec6 qd;
+  dca::door::RedundancyResolution::Solve(arm, cmd, ReadyPose(), w, params, &base, &qd);
+  dca::kin::JointVector q = ReadyPose(), all(9);
+  all << base, qd;
+  dca::kin::JacobianMatrix J;
+  dca::kin::MobileJacobian(dca::kin::BasePose{}, arm, q, &J);
+  dca::kin::JointVector base_only = dca::kin::JointVector::Zero(9);
+  base_only.head<3>() = cmd.tail<3>();
+  const Vec6 expected = J * base_only + cmd.head<6>();
+  EXPECT_LT((J * all - expected).norm(), 1e-6);
+  // A pure base command moves the robot rigidly: the arm stays still.
+  cmd.head<6>().setZero();
+  dca::door::RedundancyResolution::Solve(arm, cmd, ReadyPose(), w, params, &base, &qd);
+  EXPECT_LT(qd.norm(), 1e-9);
+  EXPECT_LT((base - cmd.tail<3>()).norm(), 1e-9);
+}
+
+TEST_F(DoorTest, VisualServoingTurnsTowardsTheHandle) {
+  const double f = 320 / std::tan(kPi / 6);
+  const Vec9 right = dca::door::VisualServoing::Law(400, 0.25, 0.8, f, 320);
+  EXPECT_DOUBLE_EQ(right[6], 0.25);
+  EXPECT_LT(right[8], 0);  // handle right of centre: turn right (negative yaw rate)
+  EXPECT_NEAR(dca::door::VisualServoing::Law(320, 0.25, 0.8, f, 320)[8], 0, 1e-15);
+  EXPECT_GT(dca::door::VisualServoing::Law(100, 0.25, 0.8, f, 320)[8], 0);
+  EXPECT_TRUE(right.head<6>().isZero());  // the arm does not move relative to the base
+}
+
+TEST_F(DoorTest, VisualServoingAbortsWhenTheHandleIsLost) {
+  auto& vs = make("VisualServoing", {}, "/vs");
+  auto& f = feed("F", 3, "/vs", "Feature");
+  ep.activate("s");
+  ASSERT_EQ(vs.init(), "");
+  ASSERT_EQ(vs.run({}), "");
+  f.write((Vec3() << 330, 240, 1).finished());
+  timers.advance_to(1 * kMs);
+  EXPECT_GT(latest(vs, "Vel")[6], 0);
+  f.write((Vec3() << 0, 0, 0).finished());  // not visible
+  timers.advance_to(400 * kMs);
+  EXPECT_TRUE(events.empty());
+  timers.advance_to(600 * kMs);
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_EQ(events[0].second.kind, dca::ComponentEvent::Kind::Aborted);
+  EXPECT_EQ(events[0].second.reason, "lost sight of the handle for more than 0.5 s");
+  EXPECT_TRUE(latest(vs, "Vel").isZero());
+}
+
+TEST_F(DoorTest, StaleCommandsStopTheRobotWithinOnePeriod) {
+  auto& xr = make("XR4000Ctrl", {}, "/xr");
+  auto& v = feed("V", 3, "/xr", "Vel");
+  ep.activate("s");
+  ASSERT_EQ(xr.run({}), "");
+  v.write((Vec3() << 0.2, 0, 0.1).finished());
+  timers.advance_to(1 * kMs);
+  EXPECT_DOUBLE_EQ(latest(xr, "Cmd")[0], 0.2);
+  timers.advance_to(2 * kMs);  // no new command: zero
+  EXPECT_TRUE(latest(xr, "Cmd").isZero());
+  v.write((Vec3() << 0.2, 0, 0.1).finished());
+  timers.advance_to(3 * kMs);
+  xr.stop();
+  EXPECT_TRUE(latest(xr, "Cmd").isZero());
+}
+
+TEST_F(DoorTest, DistanceThresholdIsDoneAtTheDistance) {
+  auto& d = make("DistanceThreshold", {"0.7"}, "/d");
+  auto& s = src.add_output(dca::scalar_port("S"));  // Distance is a scalar
+  ep.add_component("/src", src);
+  src_added = true;
+  connect("/src", "S", "/d", "Distance");
+  ep.activate("s");
+  ASSERT_EQ(d.run({}), "");
+  for (int i = 0; i < 10; ++i) {
+    s.write(1.0 - 0.05 * i);
+    timers.advance_to((i + 1) * kMs);
+  }
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_NEAR(unpack_double(events[0].second.value), 0.7, 1e-12);
+}
+
+TEST_F(DoorTest, ForceThresholdIgnoresTheToolsWeightAndBriefSpikes) {
+  auto& t = make("ForceThreshold", {"6", "3"}, "/t");
+  auto& w = feed("W", 6, "/t", "Wrench");
+  ep.activate("s");
+  ASSERT_EQ(t.run({}), "");
+  Vec6 weight;
+  weight << 0, 0, -9.3, 0, 0, 0;
+  int tick = 0;
+  auto step = [&](const Vec6& x) {
+    w.write(x);
+    timers.advance_to(++tick * kMs);
+  };
+  for (int i = 0; i < 20; ++i) step(weight);
+  Vec6 spike = weight;
+  spike[0] = 20;
+  step(spike);
+  step(spike);
+  step(weight);  // two samples above: not a hit
+  EXPECT_TRUE(events.empty());
+  step(spike);
+  step(spike);
+  step(spike);
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_NEAR(unpack_double(events[0].second.value), 20, 1e-9);
+}
+
+TEST_F(DoorTest, GripperCloseIsDoneWhenGraspingAndAbortsOnNothing) {
+  auto& g = make("GripperControl", {"close"}, "/g");
+  auto& s = feed("S", 1, "/g", "State");
+  ep.activate("s");
+  ASSERT_EQ(g.run({}), "");
+  EXPECT_DOUBLE_EQ(latest(g, "Cmd")[0], 1.0);
+  s.write((Eigen::VectorXd(1) << 2).finished());
+  timers.advance_to(1 * kMs);
+  EXPECT_TRUE(events.empty());
+  s.write((Eigen::VectorXd(1) << 3).finished());
+  timers.advance_to(2 * kMs);
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_EQ(unpack_string(events[0].second.value), "grasping");
+
+  auto& g2 = make("GripperControl", {"close"}, "/g2");
+  auto& s2 = feed("S2", 1, "/g2", "State");
+  ASSERT_EQ(g2.run({}), "");
+  s2.write((Eigen::VectorXd(1) << 1).finished());
+  timers.advance_to(3 * kMs);
+  ASSERT_EQ(events.size(), 2u);
+  EXPECT_EQ(events[1].second.reason, "the gripper closed on nothing: no handle between the fingers");
+}
+
+TEST_F(DoorTest, GripperRefusesAnUnknownAction) {
+  try {
+    make("GripperControl", {"squeeze"}, "/g");
+    FAIL() << "no error";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_STREQ(e.what(), "GripperControl /g: action must be \"open\" or \"close\", got \"squeeze\"");
+  }
+}
+
+TEST_F(DoorTest, LinearTrajectoryAbortsWhenNothingIsHit) {
+  auto& a = make("LinearTrajectory", {"0.05", "0.01"}, "/a");
+  ASSERT_EQ(a.run({}), "");
+  timers.advance_to(100 * kMs);
+  EXPECT_DOUBLE_EQ(latest(a, "Vel")[0], 0.05);
+  timers.advance_to(300 * kMs);
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_EQ(events[0].second.reason, "moved 0.01 m without reaching anything");
+}
+
+// PressHandle: the handle is a lever (radius 0.075 m); the spring pushes back harder as it turns; at its stop
+// the force rises to the limit. Travel 0.048 m > 0.04: DONE. A jammed handle: ABORTED with the reason.
+class PressHandleTest : public DoorTest {
+ protected:
+  // Simulates the arm (integrating the tool's vertical velocity into joint 3's angle, roughly) is overkill:
+  // instead the joint angles are those of a tool that moved down by `drop` metres, found by Newton steps.
+  Vec6 PoseWithToolDrop(double drop) {
+    const auto arm = dca::door::robot_arm();
+    dca::kin::JointVector q = ReadyPose();
+    const Eigen::Vector3d target = arm.Forward(q).translation() - Eigen::Vector3d(0, 0, drop);
+    for (int i = 0; i < 20; ++i) {
+      dca::kin::JacobianMatrix J;
+      arm.Jacobian(q, &J);
+      const Eigen::Vector3d e = target - arm.Forward(q).translation();
+      const Eigen::MatrixXd Jv = J.topRows<3>();
+      q += Jv.completeOrthogonalDecomposition().solve(e);
+    }
+    return q;
+  }
+  std::string Run(double stop_at) {
+    auto& p = make("PressHandle", {}, "/p");
+    auto& w = feed("W", 6, "/p", "Wrench");
+    auto& j = feed("J", 6, "/p", "Joints");
+    ep.activate("s");
+    EXPECT_EQ(p.run({}), "");
+    const auto arm = dca::door::robot_arm();
+    double drop = 0, v = 0;
+    for (int tick = 1; tick < 5000 && events.empty(); ++tick) {
+      drop = std::min(stop_at, drop - v * 1e-3);
+      const double angle = std::asin(std::min(1.0, drop / 0.075));
+      // The tool feels the lever push up: spring torque / lever, plus a stiff stop at stop_at.
+      double up = (0.4 + 1.0 * angle) / 0.075;
+      if (drop >= stop_at - 1e-9) up += 5 * tick * 1e-3 * 100;
+      dca::kin::JointVector q = PoseWithToolDrop(drop);
+      const Eigen::Matrix3d R = arm.Forward(q).linear();
+      Vec6 wrench = Vec6::Zero();
+      wrench.head<3>() = R.transpose() * Eigen::Vector3d(0, 0, up - 0.4 / 0.075) + R.transpose() * Eigen::Vector3d(0, 0, -9.3);
+      w.write(wrench);
+      j.write(q);
+      timers.advance_to(tick * kMs);
+      if (events.empty()) v = latest(p, "Vel")[2];
+    }
+    if (events.empty()) return "running";
+    const auto& e = events[0].second;
+    return e.kind == dca::ComponentEvent::Kind::Done ? "done " + std::to_string(unpack_double(e.value)) : e.reason;
+  }
+};
+
+TEST_F(PressHandleTest, IsDoneWhenTheHandleStopsAfterEnoughTravel) {
+  const std::string r = Run(0.048);
+  ASSERT_EQ(r.substr(0, 5), "done ") << r;
+  EXPECT_NEAR(std::stod(r.substr(5)), 0.048, 0.003);
+}
+
+TEST_F(PressHandleTest, AbortsWhenTheHandleIsJammed) {
+  const std::string r = Run(0.004);
+  EXPECT_EQ(r.substr(0, 38), "handle jammed: 30 N reached after 0.00") << r;
+}
+
+TEST_F(DoorTest, ConfigCtrlMovesTheBaseUnderTheStillTool) {
+  auto& c = make("ConfigCtrl", {}, "/c");
+  auto& j = feed("J", 6, "/c", "Joints");
+  ep.activate("s");
+  ASSERT_EQ(c.run({}), "");
+  j.write(ReadyPose());
+  timers.advance_to(1 * kMs);
+  const Eigen::VectorXd v = latest(c, "Vel");
+  ASSERT_EQ(v.size(), 9);
+  EXPECT_NEAR(v[0], -v[6], 1e-12);  // the tool's twist cancels the base's motion
+  EXPECT_NEAR(v[1], -v[7], 1e-12);
+  EXPECT_LE(std::hypot(v[6], v[7]), 0.2 + 1e-12);
+}
+
+TEST_F(DoorTest, AddVelocitySumsFreshInputsOnly) {
+  auto& a = make("AddVelocity", {}, "/a");
+  auto& i1 = feed("A", 9, "/a", "In1");
+  auto& i2 = feed("B", 9, "/a", "In2");
+  ep.activate("s");
+  ASSERT_EQ(a.run({}), "");
+  i1.write(Vec9::Constant(1.0));
+  i2.write(Vec9::Constant(2.0));
+  timers.advance_to(1 * kMs);
+  EXPECT_TRUE(latest(a, "Out").isApprox(Eigen::VectorXd::Constant(9, 3.0)));
+  i1.write(Vec9::Constant(1.0));
+  timers.advance_to(2 * kMs);  // In2 went quiet: it counts zero
+  EXPECT_TRUE(latest(a, "Out").isApprox(Eigen::VectorXd::Constant(9, 1.0)));
+}
+
+// ModelBasedCtrl on a synthetic door: the hand is carried by the door around a hinge 0.85 m to the right;
+// the controller must find the hinge, keep pushing along the circle and finish at the target angle.
+TEST_F(DoorTest, ModelBasedCtrlFollowsTheCircleAndStopsAtTheTargetAngle) {
+  auto& m = make("ModelBasedCtrl", {"0.15", "75", "0.9", "right"}, "/m");
+  auto& pose = feed("P", 3, "/m", "BasePose");
+  auto& joints = feed("J", 6, "/m", "Joints");
+  ep.activate("s");
+  ASSERT_EQ(m.run({}), "");
+  const auto arm = dca::door::robot_arm();
+  dca::kin::JointVector q = ReadyPose();
+  const Eigen::Vector3d tool = arm.Forward(q).translation();
+  // The base moves instead of the arm (a rigid robot): the hand is at base + tool.
+  const Eigen::Vector2d hinge(tool.x(), tool.y() - 0.85);
+  double angle = 0;  // door opening angle
+  Vec3 base = Vec3::Zero();
+  int tick = 0;
+  double max_radial_error = 0;
+  for (; tick < 20000 && events.empty(); ++tick) {
+    const Eigen::Vector2d hand = hinge + 0.85 * Eigen::Vector2d(std::sin(angle), std::cos(angle));
+    base.head<2>() = hand - tool.head<2>();
+    pose.write(base);
+    joints.write(q);
+    timers.advance_to((tick + 1) * kMs);
+    const Eigen::VectorXd v = latest(m, "Vel");
+    const Eigen::Vector2d vel(v[0], v[1]);
+    // The door takes the component of the commanded velocity along its circle.
+    const Eigen::Vector2d tangent(std::cos(angle), -std::sin(angle));
+    angle += vel.dot(tangent) / 0.85 * 1e-3;
+    const Eigen::Vector2d radial = (hand - hinge).normalized();
+    if (tick > 2000) max_radial_error = std::max(max_radial_error, std::abs(vel.dot(radial)) / 0.15);
+  }
+  ASSERT_EQ(events.size(), 1u) << "after " << tick << " ticks, angle " << angle * 180 / kPi;
+  EXPECT_NEAR(unpack_double(events[0].second.value), 75, 1.0);
+  EXPECT_NEAR(angle * 180 / kPi, 75, 2.0);
+  EXPECT_LT(max_radial_error, 0.05);  // once fitted, it pushes along the circle
+}
+
+}  // namespace
