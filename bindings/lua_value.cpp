@@ -157,6 +157,16 @@ bool to_message(lua_State* L, int index, wire::Message& out, std::string* error)
   out.type = lua_tostring(L, -1);
   lua_pop(L, 1);
   out.id = 0;
+  lua_getfield(L, index, "id");
+  if (!lua_isnil(L, -1)) {
+    if (!lua_isinteger(L, -1) || lua_tointeger(L, -1) < 0) {
+      lua_pop(L, 1);
+      err = "a message's 'id' must be a non-negative integer (it is reserved for the request id)";
+      return false;
+    }
+    out.id = static_cast<std::uint64_t>(lua_tointeger(L, -1));
+  }
+  lua_pop(L, 1);
   wire::Value payload;
   if (!convert(L, index, payload, &err, "msg", 0)) return false;
   if (payload.is_array()) {
@@ -164,20 +174,25 @@ bool to_message(lua_State* L, int index, wire::Message& out, std::string* error)
     return false;
   }
   auto& m = payload.map_ref();
-  for (auto it = m.begin(); it != m.end(); ++it) {
-    if (it->first.is_string() && it->first.as_string() == "type") {
-      m.erase(it);
-      break;
+  for (auto it = m.begin(); it != m.end();) {
+    if (it->first.is_string() && (it->first.as_string() == "type" || it->first.as_string() == "id")) {
+      it = m.erase(it);
+    } else {
+      ++it;
     }
   }
   out.payload = std::move(payload);
   return true;
 }
 
-void push_message(lua_State* L, const wire::Message& m) {
+void push_message(lua_State* L, const wire::Message& m, bool with_id) {
   push_value(L, m.payload.is_map() ? m.payload : wire::Value::map());
   lua_pushlstring(L, m.type.data(), m.type.size());
   lua_setfield(L, -2, "type");
+  if (with_id && m.id != 0) {
+    lua_pushinteger(L, static_cast<lua_Integer>(m.id));
+    lua_setfield(L, -2, "id");
+  }
 }
 
 }  // namespace dca::lua

@@ -9,8 +9,8 @@
 // wire -> Lua: maps become tables with the same keys (keys that cannot index a Lua table, such as NaN, are
 // dropped), arrays become sequences (a nil element leaves a hole), msgpack bin and str both become strings.
 //
-// A message {type, id, payload} is the Lua table {type = "...", <payload fields>}: the top-level field `type`
-// is reserved for the message type.
+// A message {type, id, payload} is the Lua table {type = "...", id = N, <payload fields>}: the top-level fields
+// `type` and `id` are reserved (id is absent for events, whose id is 0).
 #include <string>
 
 #include "host/wire.h"
@@ -23,9 +23,10 @@ namespace dca::lua {
 bool to_value(lua_State* L, int index, wire::Value& out, std::string* error);
 /// Pushes `v` (may raise a Lua memory error: call from a C function that Lua called, or under lua_pcall).
 void push_value(lua_State* L, const wire::Value& v);
-/// Converts the Lua table at `index` ({type = "...", ...}) to a message with id 0. Never raises.
+/// Converts the Lua table at `index` ({type = "...", [id = N,] ...}) to a message (id 0 without `id`).
+/// Never raises.
 bool to_message(lua_State* L, int index, wire::Message& out, std::string* error);
-/// Pushes message `m` as a table {type = m.type, <payload fields>}.
-void push_message(lua_State* L, const wire::Message& m);
+/// Pushes message `m` as a table {type = m.type, id = m.id (when with_id and m.id != 0), <payload fields>}.
+void push_message(lua_State* L, const wire::Message& m, bool with_id = true);
 
 }  // namespace dca::lua

@@ -6,13 +6,15 @@
 //   directory; created when missing), timeout = seconds for connect + handshake (default 5),
 //   on_refused = function(reason) (listen: each refused connection).
 //
-//   ch:send{type = "event", x = 1}             -- true, or false once closed
+//   ch:send{type = "event", x = 1}             -- true, or false once closed (a field id = N sends that id)
 //   ch:request({type = "lookup", name = "/a"}, 2.0, function(reply, err, error_reply) ... end)
 //        reply: the "ok" reply as a table; or nil, err: the reason of an "error" reply (error_reply: the whole
 //        reply), a timeout, or the channel's close. Runs exactly once.
-//   ch:on_message(function(msg, id) ... end)   -- requests (id > 0: answer with ch:reply / ch:reply_error) and
-//                                              -- events (id == 0)
-//   ch:reply(id, {field = ...})  ch:reply_error(id, "reason")
+//   ch:on_message(function(msg, id) ... end)   -- requests (msg.id == id > 0: answer with ch:reply) and
+//                                              -- events (msg.id == nil, id == 0)
+//   ch:reply(req, {field = ...})               -- req: the request table or its id; replies "ok" with the fields,
+//                                              -- or "error" when the table has type = "error" (and a reason)
+//   ch:reply_error(req, "reason")
 //   ch:on_close(function(reason) ... end)      -- exactly once
 //   ch:close([reason])  ch:is_open()  ch:peer()
 // An open channel is never garbage collected: close it. Messages are tables {type = "...", ...} (lua_value.h).
@@ -234,13 +236,13 @@ int ch_request(lua_State* L) {
                            [cb](Response r) {
                              invoke(*cb, [&](lua_State* S) {
                                if (r.ok()) {
-                                 push_message(S, r.message);
+                                 push_message(S, r.message, false);
                                  return 1;
                                }
                                lua_pushnil(S);
                                lua_pushlstring(S, r.error.data(), r.error.size());
                                if (!r.replied()) return 2;
-                               push_message(S, r.message);
+                               push_message(S, r.message, false);
                                return 3;
                              });
                            });
@@ -251,11 +253,30 @@ int ch_request(lua_State* L) {
   return 1;
 }
 
+// The request id given as an integer or as the request table's `id` (raises when there is none).
+lua_Integer request_id(lua_State* L, int index) {
+  lua_Integer id = 0;
+  if (lua_istable(L, index)) {
+    lua_getfield(L, index, "id");
+    id = lua_isinteger(L, -1) ? lua_tointeger(L, -1) : 0;
+    lua_pop(L, 1);
+  } else {
+    id = luaL_checkinteger(L, index);
+  }
+  luaL_argcheck(L, id > 0, index, "a request (a table with id > 0) or its id");
+  return id;
+}
+
 int ch_reply(lua_State* L) {
   ChannelUD* ud = check_channel(L);
-  const lua_Integer id = luaL_checkinteger(L, 2);
-  luaL_argcheck(L, id > 0, 2, "a request id (> 0)");
+  const lua_Integer id = request_id(L, 2);
   if (!lua_isnoneornil(L, 3)) luaL_checktype(L, 3, LUA_TTABLE);
+  bool is_error = false;
+  if (lua_istable(L, 3)) {
+    lua_getfield(L, 3, "type");
+    is_error = lua_type(L, -1) == LUA_TSTRING && std::strcmp(lua_tostring(L, -1), "error") == 0;
+    lua_pop(L, 1);
+  }
   char err[512] = {};
   bool sent = false;
   {
@@ -265,8 +286,16 @@ int ch_reply(lua_State* L) {
       std::snprintf(err, sizeof err, "%s", error.c_str());
     } else {
       if (!payload.is_map()) payload = wire::Value::map();
-      wire::Message to{"", static_cast<std::uint64_t>(id), wire::Value::map()};
-      sent = ud->ch->reply(to, std::move(payload));
+      auto& m = payload.map_ref();
+      for (auto it = m.begin(); it != m.end();) {
+        if (it->first.is_string() && (it->first.as_string() == "type" || it->first.as_string() == "id")) {
+          it = m.erase(it);
+        } else {
+          ++it;
+        }
+      }
+      if (is_error && payload["reason"].as_string().empty()) payload.set("reason", "error reply without a reason");
+      sent = ud->ch->send(wire::Message{is_error ? "error" : "ok", static_cast<std::uint64_t>(id), std::move(payload)});
     }
   }
   if (err[0] != '\0') return luaL_argerror(L, 3, err);
@@ -276,8 +305,7 @@ int ch_reply(lua_State* L) {
 
 int ch_reply_error(lua_State* L) {
   ChannelUD* ud = check_channel(L);
-  const lua_Integer id = luaL_checkinteger(L, 2);
-  luaL_argcheck(L, id > 0, 2, "a request id (> 0)");
+  const lua_Integer id = request_id(L, 2);
   std::size_t n = 0;
   const char* reason = luaL_checklstring(L, 3, &n);
   bool sent = false;

@@ -61,7 +61,12 @@ void Daemon::accepted(const Channel::Ptr& ch) {
 }
 
 void Daemon::handle(const Channel::Ptr& ch, const wire::Message& m) {
-  if (m.id == 0) return;  // events from clients: none defined
+  if (m.id == 0 && m.type != "kill") {
+    // Only kill may come as an event (fire and forget); say so rather than drop it silently.
+    std::fprintf(stderr, "dca daemon %s: ignored event '%s' from %s (requests need an id)\n", options_.host.c_str(),
+                 m.type.c_str(), ch->peer().c_str());
+    return;
+  }
   if (m.type == "spawn") {
     spawn(ch, m);
   } else if (m.type == "kill") {
@@ -69,11 +74,17 @@ void Daemon::handle(const Channel::Ptr& ch, const wire::Message& m) {
     const int signo = sig.is_nil() ? SIGTERM : sig.is_int() ? static_cast<int>(sig.as_int()) : signal_number(sig.as_string());
     std::string error;
     if (signo == 0) {
-      ch->reply_error(m, "unknown signal " + sig.str());
-    } else if (!exec_.kill(static_cast<Executer::ChildId>(m.payload["child"].as_int()), signo, &error)) {
-      ch->reply_error(m, error + " on host " + options_.host);
+      error = "unknown signal " + sig.str();
+    } else if (exec_.kill(static_cast<Executer::ChildId>(m.payload["child"].as_int()), signo, &error)) {
+      if (m.id != 0) ch->reply(m);
+      return;
+    }
+    error += " on host " + options_.host;
+    if (m.id != 0) {
+      ch->reply_error(m, error);
     } else {
-      ch->reply(m);
+      std::fprintf(stderr, "dca daemon %s: kill event from %s: %s\n", options_.host.c_str(), ch->peer().c_str(),
+                   error.c_str());
     }
   } else if (names_.handle(ch, m)) {
     // register / unregister / lookup

@@ -4,7 +4,8 @@
 // Requests it answers on any authenticated channel (ARCHITECTURE.md, "How the pieces meet"):
 //   spawn {argv, name?}        -> ok {child, pid}; later the event exit {child, pid, name, code | signal}
 //                                 goes to the channel that asked (signal is a name such as "SIGSEGV")
-//   kill {child, signal?}      -> ok {}            signal "SIGTERM" (default), "KILL", 9, ...
+//   kill {child, signal?}      -> ok {}            signal "SIGTERM" (default), "KILL", 9, ...; may also be sent
+//                                                   as an event (id 0): no reply, errors go to stderr
 //   register {name, endpoints} -> ok {name, host}  removed when the registering channel closes
 //   unregister {name}          -> ok {}
 //   lookup {name, wait_ms?}    -> ok {name, endpoints, host}, or error at the deadline (see host/names.h)

@@ -132,6 +132,14 @@ TEST_F(DaemonTest, SpawnReportsSignalAndKillsOnRequest) {
   EXPECT_EQ(killed->payload["signal"].as_string(), "SIGKILL");
   const auto again = c->call(req("kill", Value::map().set("child", r.message.payload["child"])));
   EXPECT_NE(again.error.find("no running child"), std::string::npos) << again.error;
+  // kill also works as an event (no reply).
+  c->events.clear();
+  r = c->call(req("spawn", Value::map().set("argv", Value::Array{"/bin/sleep", "100"})));
+  ASSERT_TRUE(r.ok()) << r.error;
+  c->ch->send(Message{"kill", 0, Value::map().set("child", r.message.payload["child"]).set("signal", "TERM")});
+  const Message* termed = c->wait_event("exit");
+  ASSERT_NE(termed, nullptr);
+  EXPECT_EQ(termed->payload["signal"].as_string(), "SIGTERM");
 }
 
 TEST_F(DaemonTest, RefusesProgramsNotOnTheAllowList) {

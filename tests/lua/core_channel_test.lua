@@ -103,6 +103,31 @@ suite:case("error_replies_give_nil_reason_and_reply", function()
   l:close()
 end)
 
+suite:case("requests_carry_their_id_and_reply_takes_the_request", function()
+  local seen = {}
+  local l = T.ok(core.listen("127.0.0.1:0", { key = KEY }, function(ch)
+    ch:on_message(function(msg, id)
+      seen[#seen + 1] = { type = msg.type, id = msg.id, arg = id }
+      if msg.type == "good" then ch:reply(msg, { type = "ok", answer = 42 }) end
+      if msg.type == "bad" then ch:reply(msg, { type = "error", reason = "bad request", detail = 1 }) end
+    end)
+  end))
+  local ch = T.ok(connect(l:address()))
+  ch:send({ type = "event" })
+  local reply = call(ch, { type = "good" })
+  T.eq(reply, { type = "ok", answer = 42 })
+  local r2, err, full = call(ch, { type = "bad" })
+  T.eq(r2, nil)
+  T.eq(err, "bad request")
+  T.eq(full.detail, 1)
+  T.eq(seen[1], { type = "event", arg = 0 })
+  T.eq(seen[2].type, "good")
+  T.ok(seen[2].id > 0 and seen[2].id == seen[2].arg)
+  T.contains(T.raises(ch.send, ch, { type = "x", id = -1 }), "'id' must be a non-negative integer")
+  ch:close()
+  l:close()
+end)
+
 suite:case("peer_close_is_an_event_and_fails_pending_requests", function()
   local s = echo_server()
   local ch = T.ok(connect(s.listener:address()))
