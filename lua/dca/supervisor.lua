@@ -455,6 +455,12 @@ function Sup:child_message(name, msg)
       self:log("%s: stale aborted from %s ignored", self.path, ch.path)
     end
   end
+  if t == "broken" or t == "overflow" then
+    -- a data connection of this leaf broke or overflowed: worth a line, not an event of the algebra (the
+    -- process at the other end, if it died, is reported by its own owner)
+    self:say("%s: %s %s%s: %s", ch.path, t, tostring(msg.port), msg.peer and (" <-> " .. tostring(msg.peer)) or "",
+      tostring(msg.reason))
+  end
   if pending0 == 0 and (self.stops_pending or 0) > 0 then self.event_t0 = t0 end
 end
 
