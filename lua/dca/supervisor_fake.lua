@@ -233,7 +233,8 @@ end
 
 --- The root DCAS for `spec`; its reports land in c.reports and c.outcome.
 function Cluster:root(spec, opts)
-  local p = self:_proc(spec.path, spec.host, "group")
+  -- the root lives in the test's own process (as in `dca run`): no host loss takes it down
+  local p = self:_proc(spec.path, nil, "group")
   self.root_proc = p
   local s = supervisor.new(spec, self:rt(p, function(m)
     m = copy(m)

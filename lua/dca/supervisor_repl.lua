@@ -134,7 +134,8 @@ function Repl:_env()
     local path = path_of(p)
     local n = find(get_tree(), path)
     if not n or n.kind ~= "group" then error(path .. " is not a group", 0) end
-    return n.expr or "(no internal_event_actions)"
+    if not n.expr then return "(no internal_event_actions)" end
+    return (n.expr:gsub("^%s+", ""):gsub("%s+$", ""))
   end
   function env.log(n)
     say(concat(sup:recent(n or 20), "\n"))

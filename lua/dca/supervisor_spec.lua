@@ -163,6 +163,18 @@ function M.from_model(node, file, default_host)
     end
     spec.sets[#spec.sets + 1] = { instance = st.instance, label = st.label, connections = conns }
   end
+  if not node.parent and not spec.host then
+    -- a root without host { } (and no default) runs on the first host its tree uses
+    local first = M.hosts(spec)[1] or "localhost"
+    M.walk(spec, function(n)
+      if n.kind == "group" and not n.spec.host then n.spec.host = first end
+    end)
+    M.walk(spec, function(n)
+      if n.kind == "group" then
+        for _, c in ipairs(n.spec.children) do if c.kind == "group" then c.host = c.spec.host end end
+      end
+    end)
+  end
   return spec
 end
 
