@@ -14,7 +14,7 @@ local ipairs, pairs, type, tostring, sformat, error = ipairs, pairs, type, tostr
 local System = {}
 System.__index = System
 
-local function now() return core.now and core.now() or os.clock() end
+local function now() return core.now() end
 
 function M.system(spec, opts)
   local s = setmetatable({ spec = spec, opts = opts, file = opts.file, root = opts.root, lines = {},
@@ -120,7 +120,7 @@ end
 function System:_daemon(host)
   self.dchs = self.dchs or {}
   if self.dchs[host] then return self.dchs[host] end
-  local ch, err = self:_ask(function(k) core.connect(self.daemons.hosts[host], { key = self.key }, k) end, 5,
+  local ch, err = self:_ask(function(k) core.connect(self.daemons.hosts[host], srt.key_opts(self.key), k) end, 5,
     "the daemon of " .. host)
   if not ch then error("daemon " .. host .. ": " .. tostring(err), 3) end
   ch:on_message(function() end)

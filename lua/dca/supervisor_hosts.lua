@@ -32,6 +32,11 @@ end
 function M.self_exe()
   local env = os.getenv("DCA_EXE")
   if env and env ~= "" then return env end
+  local ok, core = pcall(require, "dca.core")
+  if ok and core.exe_path then
+    local p = core.exe_path()
+    if p then return p end
+  end
   local pid = M.self_pid()
   local out = run("readlink /proc/" .. tostring(pid) .. "/exe")
   out = out:gsub("%s+$", "")

@@ -17,11 +17,19 @@ local M = {}
 local ipairs, pairs, type, tostring, sformat, tonumber = ipairs, pairs, type, tostring, string.format, tonumber
 local concat = table.concat
 
---- Answers request `req` (received on channel `ch`) with `msg` ({type = "ok", ...} or {type = "error", reason}).
-function M.reply(ch, req, msg)
-  if ch.reply then return ch:reply(req, msg) end
-  msg.id = req.id
-  return ch:send(msg)
+--- Answers the request number `id` (received on channel `ch`) with `msg`: {type = "ok", ...} or
+--- {type = "error", reason = "..."}.
+function M.reply(ch, id, msg)
+  if not id or id == 0 then return false end
+  if msg.type == "error" then return ch:reply_error(id, tostring(msg.reason)) end
+  local payload = {}
+  for k, v in pairs(msg) do if k ~= "type" then payload[k] = v end end
+  return ch:reply(id, payload)
+end
+
+--- Connection options for `core.connect`/`core.listen` from a key file path (nil: dca.core's default).
+function M.key_opts(key_file)
+  return { key_file = key_file }
 end
 
 local SIGNAMES = { [1] = "HUP", [2] = "INT", [3] = "QUIT", [4] = "ILL", [6] = "ABRT", [7] = "BUS", [8] = "FPE",
@@ -48,7 +56,7 @@ function M.new(opts)
   local timeouts = opts.timeouts or { spawn = 10, lookup = 10 }
 
   function rt.bind(s) sup = s end
-  function rt.now() return core.now and core.now() or os.clock() end
+  function rt.now() return core.now() end
   function rt.defer(fn) return core.after(0, fn) end
   function rt.after(s, fn) return core.after(s, fn) end
   function rt.report(msg) if opts.report then opts.report(msg) end end
@@ -66,7 +74,7 @@ function M.new(opts)
     end
     d = { waiters = { cb }, children = {} }
     rt.daemons[host] = d
-    core.connect(addr, { key = opts.key }, function(ch, err)
+    core.connect(addr, M.key_opts(opts.key), function(ch, err)
       local waiters = d.waiters
       d.waiters = {}
       if not ch then
@@ -148,11 +156,11 @@ function M.new(opts)
             local ep = lr.endpoints or lr
             local control = ep.control
             if not control then kill("KILL") cb(nil, child.path .. " registered no control endpoint") return end
-            core.connect(control, { key = opts.key }, function(ch, cerr)
+            core.connect(control, M.key_opts(opts.key), function(ch, cerr)
               if not ch then kill("KILL") cb(nil, sformat("%s at %s: %s", child.path, control, tostring(cerr))) return end
               rec.ch = ch
-              ch:on_message(function(msg)
-                if (msg.id or 0) == 0 and sup then sup:child_message(child.name, msg) end
+              ch:on_message(function(msg, id)
+                if (id or 0) == 0 and sup then sup:child_message(child.name, msg) end
               end)
               ch:on_close(function(reason)
                 rec.ch_closed = true

@@ -76,7 +76,7 @@ function M.main(args)
   if not addr then
     if not daemon then io.stderr:write("dca repl: to find '", target, "' give --daemon ADDR (or $DCA_DAEMON)\n") return 2 end
     local dch, derr
-    core.connect(daemon, { key = key }, function(c, e) dch, derr = c, e or "" end)
+    core.connect(daemon, { key_file = key }, function(c, e) dch, derr = c, e or "" end)
     wait(function() return dch or derr end, 10)
     if not dch then io.stderr:write("dca repl: daemon ", daemon, ": ", tostring(derr), "\n") return 1 end
     local r, rerr
@@ -91,7 +91,7 @@ function M.main(args)
     dch:close()
   end
   local ch, cerr
-  core.connect(addr, { key = key }, function(c, e) ch, cerr = c, e or "" end)
+  core.connect(addr, { key_file = key }, function(c, e) ch, cerr = c, e or "" end)
   wait(function() return ch or cerr end, 10)
   if not ch then io.stderr:write("dca repl: ", addr, ": ", tostring(cerr), "\n") return 1 end
   local closed

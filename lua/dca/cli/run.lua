@@ -69,10 +69,10 @@ function M.main(args)
   local spec, err = M.load(o.file, o.root)
   if not spec then io.stderr:write(err, "\n") return 2 end
 
-  local t0 = core.now and core.now() or os.clock()
+  local t0 = core.now()
   local function say(line)
     if not o.quiet then
-      io.stdout:write(string.format("[%7.3f] %s\n", (core.now and core.now() or os.clock()) - t0, line))
+      io.stdout:write(string.format("[%7.3f] %s\n", core.now() - t0, line))
       io.stdout:flush()
     end
   end
@@ -125,7 +125,7 @@ function M.main(args)
     sup:shutdown(function() loop:stop() end)
     core.after(15, function() loop:stop() end) -- a bounded stop: daemons are killed below in any case
   end
-  if loop.on_signal then loop:on_signal({ "INT", "TERM" }, function() say("interrupted: stopping") stop_all(130) end) end
+  core.on_signal(function() say("interrupted: stopping") stop_all(130) end)
 
   -- daemons first answer when they listen: wait for each (bounded), then bring the tree up
   local deadline = core.after(o.timeout, function()
@@ -135,20 +135,20 @@ function M.main(args)
     end
   end)
   -- the root listens for consoles (`dca repl main`) and registers its path with its host's daemon
-  local listener = core.listen("127.0.0.1:0", { key = key }, function(ch)
-    ch:on_message(function(msg)
-      if (msg.id or 0) == 0 then return end
+  local listener = core.listen("127.0.0.1:0", srt.key_opts(key), function(ch)
+    ch:on_message(function(msg, id)
+      if (id or 0) == 0 then return end
       local t = msg.type
       if t == "repl" or t == "complete" or t == "tree" or t == "inject" or t == "restart" or t == "switch" then
-        sup:handle(msg, function(r) srt.reply(ch, msg, r) end)
+        sup:handle(msg, function(r) srt.reply(ch, id, r) end)
       else
-        srt.reply(ch, msg, { type = "error", reason = "the root supervisor takes only console requests" })
+        srt.reply(ch, id, { type = "error", reason = "the root supervisor takes only console requests" })
       end
     end)
   end)
   local root_daemon = hosts[spec.host]
   if listener and root_daemon then
-    core.connect(root_daemon, { key = key }, function(dch)
+    core.connect(root_daemon, srt.key_opts(key), function(dch)
       if not dch then return end
       rt.root_daemon = dch
       dch:request({ type = "register", name = spec.path, endpoints = { control = listener:address() } }, 5, function() end)

@@ -42,26 +42,24 @@ local function main(args)
   local function on_parent(ch)
     if parent then ch:close() return end -- one parent
     parent = ch
-    ch:on_message(function(msg)
-      if (msg.id or 0) == 0 then return end
+    ch:on_message(function(msg, id)
+      if (id or 0) == 0 then return end
       if msg.type == "configure" and not sup then
-        rt = srt.new({ hosts = msg.hosts, key = key, exe = core.exe_path and core.exe_path() or "dca",
+        rt = srt.new({ hosts = msg.hosts, key = key, exe = "dca",
           timeouts = msg.timeouts,
           report = function(m) ch:send(m) end,
           log = function(line) if os.getenv("DCA_SUPERVISE_VERBOSE") then io.stderr:write(line, "\n") end end })
-        sup = supervisor.new(msg.spec, rt, { progress = msg.progress, timeouts = msg.timeouts })
+        sup = supervisor.new(msg.spec, rt, { progress = msg.progress, timeouts = msg.timeouts, hosts = msg.hosts })
         sup.hosts = msg.hosts
         rt.bind(sup)
       end
-      if not sup then srt.reply(ch, msg, { type = "error", reason = "not configured yet" }) return end
+      if not sup then srt.reply(ch, id, { type = "error", reason = "not configured yet" }) return end
       if msg.type == "configure" then
-        -- children of children need the daemons too: hand the hosts table down with every spec
-        local orig = sup.handle
-        orig(sup, msg, function(r) srt.reply(ch, msg, r) end)
+        sup:handle(msg, function(r) srt.reply(ch, id, r) end)
         return
       end
       sup:handle(msg, function(r)
-        srt.reply(ch, msg, r)
+        srt.reply(ch, id, r)
         if msg.type == "shutdown" then core.after(0.05, function() finish(0) end) end
       end)
     end)
@@ -71,11 +69,11 @@ local function main(args)
       core.after(10, function() finish(1) end)
     end)
   end
-  local listener = core.listen(o.listen or "127.0.0.1:0", { key = key }, on_parent)
-  core.connect(o.daemon, { key = key }, function(dch, cerr)
+  local listener = core.listen(o.listen or "127.0.0.1:0", srt.key_opts(key), on_parent)
+  core.connect(o.daemon, srt.key_opts(key), function(dch, cerr)
     if not dch then io.stderr:write("dca supervise: daemon ", o.daemon, ": ", tostring(cerr), "\n") finish(1) return end
     dch:request({ type = "register", name = o.name,
-                  endpoints = { control = listener:address(), pid = core.pid and core.pid() or nil } }, 5,
+                  endpoints = { control = listener:address(), pid = core.pid() } }, 5,
       function(r, rerr)
         if not r or r.type == "error" then
           io.stderr:write("dca supervise: register ", o.name, ": ", tostring(r and r.reason or rerr), "\n")
