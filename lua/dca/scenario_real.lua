@@ -208,7 +208,13 @@ end
 
 function System:stop()
   if self.sup then self:_ask(function(k) self.sup:shutdown(k) end, 30, "the stop") end
+  -- the processes end after their stop: wait (bounded) until the daemons have no child left
+  local deadline = now() + 5
   local left = self:alive()
+  while #left > 0 and now() < deadline do
+    self:settle(0.01)
+    left = self:alive()
+  end
   for _, ch in pairs(self.dchs or {}) do ch:close() end
   if self.rt then self.rt.close() end
   if self.daemons then self.daemons:stop() end

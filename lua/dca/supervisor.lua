@@ -172,13 +172,14 @@ function Sup:_start_children(cb)
         ch.state = "configuring"
         handle.request({ type = "configure", spec = ch.spec.spec, progress = self.progress, hosts = self.hosts,
                          timeouts = self.timeouts_override },
-          self.timeouts.configure, function(reply, rerr)
+          self.timeouts.configure, function(reply, rerr, error_reply)
             if failed then return end
             if not reply or reply.type == "error" then
               ch.state = "failed"
               failed = true
-              cb(false, reply and reply.reason or sformat("%s (supervisor on host %s) did not answer: %s", ch.path,
-                tostring(ch.host), tostring(rerr)))
+              -- an error reply carries the child's own reason (naming what failed below it); else no answer
+              cb(false, reply and reply.reason or (error_reply and rerr) or
+                sformat("%s (supervisor on host %s) did not answer: %s", ch.path, tostring(ch.host), tostring(rerr)))
               return
             end
             ch.state = "inactive"
@@ -198,11 +199,17 @@ function Sup:to_leaf(leaf_path, msg, timeout, cb)
     if cb then cb(nil, sformat("%s: no route to %s", self.path, leaf_path)) end
     return
   end
+  -- always a request: its answer (or its failure, logged) says the command arrived
+  cb = cb or function(reply, err)
+    if not reply or reply.type == "error" then
+      self:log("%s: %s to %s: %s", self.path, tostring(msg.type), leaf_path, reply and reply.reason or tostring(err))
+    end
+  end
+  timeout = timeout or self.timeouts.request
   if ch.kind == "leaf" then
-    if cb then ch.handle.request(msg, timeout, cb) else ch.handle.send(msg) end
+    ch.handle.request(msg, timeout, cb)
   else
-    local fwd = { type = "node", leaf = leaf_path, msg = msg }
-    if cb then ch.handle.request(fwd, timeout, cb) else ch.handle.send(fwd) end
+    ch.handle.request({ type = "node", leaf = leaf_path, msg = msg }, timeout, cb)
   end
 end
 
@@ -329,6 +336,10 @@ function Sup:_abort_child(name)
   self.stops_pending = (self.stops_pending or 0) + 1
   local function done(reply, err)
     if ch.state == "stopping" then ch.state = "inactive" end
+    if not reply or reply.type == "error" then
+      self:log("%s: stop of %s: %s", self.path, ch.path, reply and reply.reason or tostring(err))
+    end
+    self:say("%s: stopped", ch.path)
     self.stops_pending = self.stops_pending - 1
     if self.stops_pending == 0 and self.event_t0 then
       -- preemption latency: the event that caused these aborts to the last abort acknowledged
@@ -343,10 +354,6 @@ function Sup:_abort_child(name)
       self.held_report = nil
       self.rt.report(m)
     end
-    if not reply or reply.type == "error" then
-      self:log("%s: stop of %s: %s", self.path, ch.path, reply and reply.reason or tostring(err))
-    end
-    self:say("%s: stopped", ch.path)
     if ack then
       ack.n = ack.n - 1
       if ack.n == 0 and ack.cb then local f = ack.cb ack.cb = nil f() end
@@ -439,7 +446,10 @@ function Sup:child_message(name, msg)
   local pending0 = self.stops_pending or 0
   if t == "done" then
     local taken = self.run and self.run:is_running(name)
-    if taken then ch.state = "done" self:say("%s: done %s", ch.path, show(msg.value)) end
+    if taken then
+      ch.state = "done"
+      if ch.kind == "leaf" then self:say("%s: done %s", ch.path, show(msg.value)) end
+    end
     if not self:_feed(name, "done", msg.value) and not taken then
       self:log("%s: stale done from %s ignored", self.path, ch.path)
     end
@@ -587,7 +597,7 @@ function Sup:_forward(path, msg, cb)
   if not ch then cb(false, sformat("no process '%s' under %s", path, self.path)) return end
   if ch.kind ~= "group" or not ch.handle then cb(false, sformat("%s is not reachable (%s)", ch.path, ch.state)) return end
   ch.handle.request(msg, self.timeouts.request, function(r, err)
-    if r and r.type == "ok" then cb(true, r) else cb(false, r and r.reason or tostring(err)) end
+    if r and r.type ~= "error" then cb(true, r) else cb(false, r and r.reason or tostring(err)) end
   end)
 end
 

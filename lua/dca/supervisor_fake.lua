@@ -127,7 +127,11 @@ function Cluster:_handle(owner, p, serve)
       if not answered then answered = true cb(nil, "timeout after " .. tostring(timeout) .. "s") end
     end)
     c:push(function()
-      if not p.alive then return end
+      if not p.alive then
+        -- a dead process's channel is closed: the request fails at once, as over a socket
+        if not answered then answered = true tm.cancel() cb(nil, "channel closed: " .. p.path .. " is gone") end
+        return
+      end
       c:note(owner, p.path, msg, "request")
       serve(msg, function(r)
         r = copy(r)
@@ -142,11 +146,11 @@ function Cluster:_handle(owner, p, serve)
     end)
   end
   function h.send(msg)
+    -- an event (no answer expected): a node or supervisor serves requests only, as over a real channel
     msg = copy(msg)
     c:push(function()
       if not p.alive then return end
       c:note(owner, p.path, msg, "send")
-      serve(msg, function() end)
     end)
   end
   function h.kill(sig) c:_die(p, "killed by SIG" .. tostring(sig), true) end

@@ -85,9 +85,10 @@ function M.new(opts)
       d.ch = ch
       ch:on_message(function(msg)
         if msg.type == "exit" then
-          local rec = rt.by_child[msg.child]
-          if rec and sup then
+          local rec = rt.by_child[host .. ":" .. tostring(msg.child)]
+          if rec and sup and not rec.exited then
             rec.exited = true
+            if rec.lost_timer then rec.lost_timer:cancel() end
             sup:child_exit(rec.name, M.describe_exit(msg, host))
             if rec.ch and not rec.ch_closed then rec.ch:close() end
           end
@@ -145,10 +146,12 @@ function M.new(opts)
       dch:request({ type = "spawn", argv = argv, name = child.path }, timeouts.spawn, function(r, rerr)
         if not r or r.type == "error" then cb(nil, r and r.reason or rerr) return end
         local rec = { name = child.name, host = child.host, child = r.child, pid = r.pid, path = child.path }
-        rt.by_child[r.child] = rec
+        rt.by_child[child.host .. ":" .. tostring(r.child)] = rec  -- child ids are per daemon
         local function kill(sig)
           if rec.exited then return end
-          dch:send({ type = "kill", child = r.child, signal = sig or "TERM" })
+          dch:request({ type = "kill", child = r.child, signal = sig or "TERM" }, 5, function(_, kerr)
+            if kerr and rt.opts.log then rt.opts.log(sformat("kill %s: %s", child.path, tostring(kerr))) end
+          end)
         end
         dch:request({ type = "lookup", name = child.path, wait_ms = math.floor(timeouts.lookup * 1000) },
           timeouts.lookup + 1, function(lr, lerr)
@@ -165,9 +168,13 @@ function M.new(opts)
               ch:on_close(function(reason)
                 rec.ch_closed = true
                 if rt.closing or rec.exited or rec.stopping or not sup then return end
-                rec.exited = true
-                sup:child_exit(child.name, sformat("%s lost on host %s: %s", child.kind == "group" and "supervisor"
-                  or "node", child.host, tostring(reason)))
+                -- the process's exit event (with its signal) usually follows at once: give it a moment
+                rec.lost_timer = core.after(opts.exit_grace or 0.5, function()
+                  if rec.exited or rt.closing then return end
+                  rec.exited = true
+                  sup:child_exit(child.name, sformat("%s lost on host %s: %s", child.kind == "group" and "supervisor"
+                    or "node", child.host, tostring(reason)))
+                end)
               end)
               local h = {}
               function h.request(msg, timeout, rcb) ch:request(msg, timeout, rcb) end

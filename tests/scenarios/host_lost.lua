@@ -7,8 +7,8 @@ S.step("three hosts up, connections resolved through external_io controller to c
   sys:up()
   if sys.backend == "memory" then
     local conns = sys:node("main.chain.src.count").conns
-    S.eq(conns[1], { out = "Count", to = "main.chain.gain", ["in"] = "In", set = "main.chain:src[run]" })
-    S.eq(sys:node("main.chain.gain").conns[1].to, "main.chain.det.level")
+    S.eq(conns[1], { out = "Count", to = "main.chain.det.level", ["in"] = "In", set = "main.chain:src[run]" })
+    S.eq(sys:node("main.chain.vel").conns[1].to, "main.chain.arm")
   end
   S.eq(sys:state("main.chain.det.level"), "inactive")
 end)
@@ -23,8 +23,8 @@ S.step("host manip is lost: ABORTED naming it", function()
   sys:lose_host("manip")
   local out = sys:wait_outcome(5)
   S.eq(out.type, "aborted")
-  S.eq(out.path, "main.chain.det")
+  S.ok(out.path == "main.chain.det" or out.path == "main.chain.arm", "a process on manip: " .. tostring(out.path))
   S.contains(out.reason, "host manip lost")
-  S.ok(sys:state("main.chain.gain") ~= "running", "the gain was stopped")
+  S.ok(sys:state("main.chain.vel") ~= "running", "the command source on platform was stopped")
 end)
 return S.finish()
