@@ -104,6 +104,7 @@ int l_set_completer(lua_State* L) {
     g_state = L;
   }
   rl_attempted_completion_function = complete;
+  rl_completion_append_character = '\0';  // a path inside quotes goes on with the quote, not a space
   // complete process paths as whole words: '.' is part of a word
   rl_basic_word_break_characters = const_cast<char*>(" \t\n\"'(),=[]{}+-*/<>;:#");
   return 0;

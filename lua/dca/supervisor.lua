@@ -605,6 +605,11 @@ end
 function Sup:inject(path, msg, cb)
   local ch = self:_via(path)
   if ch and ch.path == path then
+    -- the process is told to stop first (its run is over as far as the algebra is concerned), then the
+    -- event is taken as if it had sent it
+    if ch.kind == "leaf" and ch.handle and ch.state == "running" then
+      ch.handle.request({ type = "stop" }, self.timeouts.stop, function() end)
+    end
     self.rt.defer(function() self:child_message(ch.name, msg) end)
     cb(true)
   else

@@ -222,7 +222,14 @@ function Repl:eval(line, cb)
   local co = cocreate(function()
     finish(table.pack(xpcall(fn, function(e)
       if type(e) == "string" and not e:find("\n") and not e:find("^stdin:") then return e end
-      return traceback(tostring(e), 2)
+      -- the traceback of the typed code only (not the console's own frames)
+      local tb = traceback(tostring(e), 2)
+      local keep = {}
+      for l in tb:gmatch("[^\n]+") do
+        if l:find("xpcall", 1, true) then break end
+        keep[#keep + 1] = l
+      end
+      return table.concat(keep, "\n")
     end)))
   end)
   local ok, err2 = coresume(co)

@@ -150,7 +150,7 @@ function M.new(opts)
         local function kill(sig)
           if rec.exited then return end
           dch:request({ type = "kill", child = r.child, signal = sig or "TERM" }, 5, function(_, kerr)
-            if kerr and rt.opts.log then rt.opts.log(sformat("kill %s: %s", child.path, tostring(kerr))) end
+            if kerr and not rt.closing and rt.opts.log then rt.opts.log(sformat("kill %s: %s", child.path, tostring(kerr))) end
           end)
         end
         dch:request({ type = "lookup", name = child.path, wait_ms = math.floor(timeouts.lookup * 1000) },

@@ -15,36 +15,6 @@ any other Lua runs inside the supervisor. Ctrl-D leaves the console; the system 
 
 local HISTORY = (os.getenv("HOME") or ".") .. "/.dca_history"
 
---- A console in this process that does not block its event loop: lines typed are evaluated by
---- evaluator.eval(line, cb(output, more)); Tab asks evaluator.complete(word) (synchronous).
---- on_end() runs at Ctrl-D.
-function M.local_console(evaluator, on_end)
-  core.read_history(HISTORY)
-  core.set_completer(function(word) return evaluator.complete(word) end)
-  local busy = false
-  local timer
-  core.readline_install("dca> ", function(line)
-    if line == nil then
-      core.readline_remove()
-      core.write_history(HISTORY)
-      if timer then timer:cancel() end
-      io.stdout:write("\n")
-      if on_end then on_end() end
-      return
-    end
-    core.add_history(line)
-    busy = true
-    evaluator.eval(line, function(out, more)
-      busy = false
-      if out and out ~= "" then io.stdout:write(out, "\n") end
-      core.readline_prompt(more and "  >> " or "dca> ")
-      io.stdout:flush()
-    end)
-  end)
-  timer = core.every(0.02, function() if not busy then core.readline_poll() end end)
-  return timer
-end
-
 local function looks_like_address(s)
   return s:match("^unix:") or s:match("^/") or s:match("^[%w%.%-%[%]:]+:%d+$")
 end

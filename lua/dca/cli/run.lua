@@ -202,15 +202,25 @@ function M.main(args)
     deadline:cancel()
     say(spec.path .. ": the whole tree is configured: run")
     sup:run_expr()
-    if o.repl then
-      local repl = require("dca.supervisor_repl").new(sup, { reload = reload })
-      require("dca.cli.repl").local_console({
-        eval = function(line, cb) repl:eval(line, cb) end,
-        complete = function(word) return repl:complete(word) end,
-      }, function()
-        local st = sup.outcome and sup.outcome.status
-        stop_all(st == "done" and 0 or (st == "aborted" and 1 or 130))
-      end)
+    if o.repl and listener then
+      -- the console is `dca repl` on the root's console endpoint, in its own process on this terminal, so
+      -- that line editing owns the terminal while this process's loop keeps the system running
+      local cmd = string.format("%s repl %s%s </dev/tty >/dev/tty 2>&1 & echo $!", hosts_mod.sh_quote(exe),
+        hosts_mod.sh_quote(listener:address()), key and (" --key " .. hosts_mod.sh_quote(key)) or "")
+      local p = io.popen(cmd, "r")
+      local pid = p and tonumber((p:read("a") or ""):match("%d+"))
+      if p then p:close() end
+      if not pid then io.stderr:write("dca run: could not start the console\n")
+      else
+        local watch
+        watch = core.every(0.1, function()
+          if not hosts_mod.alive(pid) then
+            watch:cancel()
+            local st = sup.outcome and sup.outcome.status
+            stop_all(st == "done" and 0 or (st == "aborted" and 1 or 130))
+          end
+        end)
+      end
     end
   end)
   loop:run()

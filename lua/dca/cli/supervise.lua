@@ -69,7 +69,11 @@ local function main(args)
       core.after(10, function() finish(1) end)
     end)
   end
-  local listener = core.listen(o.listen or "127.0.0.1:0", srt.key_opts(key), on_parent)
+  -- listen on the daemon's IP (another host's supervisor must reach it), a free port
+  local ip = o.daemon:match("^%[(.-)%]:%d+$") and ("[" .. o.daemon:match("^%[(.-)%]") .. "]")
+    or o.daemon:match("^([%d%.]+):%d+$") or "127.0.0.1"
+  local listener, lerr = core.listen(o.listen or (ip .. ":0"), srt.key_opts(key), on_parent)
+  if not listener then io.stderr:write("dca supervise: listen: ", tostring(lerr), "\n") return 1 end
   core.connect(o.daemon, srt.key_opts(key), function(dch, cerr)
     if not dch then io.stderr:write("dca supervise: daemon ", o.daemon, ": ", tostring(cerr), "\n") finish(1) return end
     dch:request({ type = "register", name = o.name,
