@@ -38,14 +38,23 @@ function System:_ask(fn, timeout, what)
   return table.unpack(res, 1, res.n)
 end
 
-function System:try_up(timeout)
-  timeout = timeout or 30
+--- Starts one local daemon per host name (done by try_up when not yet). --> true | false, reason
+function System:start_hosts()
+  if self.daemons then return true end
   local key, dir = hosts_mod.fresh_key()
   self.key, self.keydir = key, dir
   local names = spec_mod.hosts(self.spec)
   local set, err = hosts_mod.start_local(names, { exe = hosts_mod.self_exe(), key = key, log_dir = dir })
   if not set then return false, err end
   self.daemons = set
+  return true
+end
+
+function System:try_up(timeout)
+  timeout = timeout or 30
+  local hok, herr = self:start_hosts()
+  if not hok then return false, herr end
+  local set, key = self.daemons, self.key
   local rt = srt.new({ hosts = set.hosts, key = key, exe = "dca",
     report = function(msg)
       if msg.type == "log" then self.lines[#self.lines + 1] = msg.line
