@@ -19,7 +19,8 @@ namespace {
 
 constexpr const char* kUsage =
     "usage: dca sim [--world door] [--seed N] [--door-width W] [--duration S] [--period S] [--script FILE]\n"
-    "               [--record FILE.csv] [--record-period S] [--realtime] [--print-door-urdf]\n\n"
+    "               [--record FILE.csv] [--record-period S] [--realtime] [--visualize]\n"
+    "               [--print-door-urdf]\n\n"
     "Runs the simulated world (the mobile manipulator and the door, Simbody, from sim/models/) in lock-step\n"
     "at a fixed control period (default 0.001 s), as fast as the machine allows or, with --realtime, paced to\n"
     "the wall clock. Without --script the built-in scripted door opening drives the robot (drive to the door,\n"
@@ -32,6 +33,7 @@ constexpr const char* kUsage =
     "                    base VX VY WZ | arm Q1..Q6 | gripper open|close | stop | door | end\n"
     "  --record FILE.csv record time, joint angles, base pose, wrench, door and handle angles (see\n"
     "                    `dca plot`), every --record-period seconds (default 0.01)\n"
+    "  --visualize       show the world in Simbody's 3-D visualizer where a display exists (else a warning)\n"
     "  --print-door-urdf print the door's URDF for the chosen width and exit\n\n"
     "Prints each step of the door opening as it starts and a summary (`door opened to NN.N deg`). Exit code 0\n"
     "on success, 1 if the scripted opening fails or the world cannot be built, 2 on a usage error.";
@@ -40,7 +42,7 @@ struct Options {
   std::uint64_t seed = 0;
   double door_width = 0, duration = -1, period = 1e-3, record_period = 0.01;
   std::string script, record;
-  bool realtime = false, print_urdf = false;
+  bool realtime = false, print_urdf = false, visualize = false;
 };
 
 int usage_error(const std::string& why) {
@@ -95,6 +97,8 @@ int cmd_sim(std::span<char* const> args) {
       o.record = v;
     } else if (a == "--realtime") {
       o.realtime = true;
+    } else if (a == "--visualize") {
+      o.visualize = true;
     } else if (a == "--print-door-urdf") {
       o.print_urdf = true;
     } else {
@@ -112,6 +116,10 @@ int cmd_sim(std::span<char* const> args) {
     std::optional<dca::sim::Script> script;
     if (!o.script.empty()) script = dca::sim::Script::load(o.script);
     dca::sim::World world(config);
+    if (o.visualize) {
+      const std::string why = world.start_visualizer();
+      if (!why.empty()) std::fprintf(stderr, "dca sim: --visualize: %s; running without it\n", why.c_str());
+    }
     std::optional<dca::sim::Recorder> recorder;
     if (!o.record.empty()) recorder.emplace(o.record);
     dca::sim::ScriptedDoorOpening door;

@@ -48,6 +48,32 @@ double stop_stiffness(const urdf::Link& child, const LoaderOptions& o, const Sim
   return std::min(o.stop_stiffness, 0.2 * inertia / (o.period * o.period));
 }
 
+// URDF <visual> boxes, cylinders and spheres as decorations (seen only with a visualizer).
+void add_visuals(const urdf::Link& link, SimTK::Body& body) {
+  for (const auto& v : link.visual_array) {
+    if (!v || !v->geometry) continue;
+    const SimTK::Transform X = to_transform(v->origin);
+    switch (v->geometry->type) {
+      case urdf::Geometry::BOX: {
+        const auto& b = static_cast<const urdf::Box&>(*v->geometry);
+        body.addDecoration(X, SimTK::DecorativeBrick(SimTK::Vec3(b.dim.x / 2, b.dim.y / 2, b.dim.z / 2)));
+        break;
+      }
+      case urdf::Geometry::CYLINDER: {  // Simbody's cylinders lie along y, URDF's along z
+        const auto& c = static_cast<const urdf::Cylinder&>(*v->geometry);
+        body.addDecoration(X * SimTK::Transform(SimTK::Rotation(SimTK::Pi / 2, SimTK::XAxis)),
+                           SimTK::DecorativeCylinder(c.radius, c.length / 2));
+        break;
+      }
+      case urdf::Geometry::SPHERE:
+        body.addDecoration(X, SimTK::DecorativeSphere(static_cast<const urdf::Sphere&>(*v->geometry).radius));
+        break;
+      default:
+        break;
+    }
+  }
+}
+
 struct Builder {
   SimTK::SimbodyMatterSubsystem& matter;
   SimTK::GeneralForceSubsystem& forces;
@@ -69,7 +95,8 @@ struct Builder {
           add_children(child, body, X_BJ);
           continue;
         }
-        const SimTK::Body::Rigid rigid(mass_properties(child));
+        SimTK::Body::Rigid rigid(mass_properties(child));
+        add_visuals(child, rigid);
         const auto attach = [&](SimTK::MobilizedBody& m) {
           out.link_body[child.name] = m.getMobilizedBodyIndex();
           out.link_in_body[child.name] = SimTK::Transform();
@@ -172,8 +199,9 @@ LoadedUrdf add_urdf(SimTK::SimbodyMatterSubsystem& matter, SimTK::GeneralForceSu
     b.out.link_in_body[r.name] = X_parent_root;
     b.add_children(r, parent, X_parent_root);
   } else {
-    SimTK::MobilizedBody::Weld weld(parent, X_parent_root, SimTK::Body::Rigid(mass_properties(r)),
-                                    SimTK::Transform());
+    SimTK::Body::Rigid rigid(mass_properties(r));
+    add_visuals(r, rigid);
+    SimTK::MobilizedBody::Weld weld(parent, X_parent_root, rigid, SimTK::Transform());
     b.out.link_body[r.name] = weld.getMobilizedBodyIndex();
     b.out.link_in_body[r.name] = SimTK::Transform();
     b.add_children(r, weld, SimTK::Transform());

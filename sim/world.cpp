@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <stdexcept>
+#include <unistd.h>
 
 #include "sim/urdf_loader.h"
 
@@ -52,7 +53,7 @@ struct Sphere {
 }  // namespace
 
 std::string models_dir() {
-  if (const char* env = std::getenv("DCA_SIM_MODELS")) return env;
+  if (const char* env = std::getenv("DCA_MODELS_DIR"); env != nullptr && *env != '\0') return env;
   std::error_code ec;
   if (std::filesystem::is_directory(DCA_SIM_MODELS_DIR, ec)) return DCA_SIM_MODELS_DIR;
   // Installed: <prefix>/bin/dca -> <prefix>/share/dca/models.
@@ -126,6 +127,8 @@ struct World::Impl {
   std::vector<Sphere> spheres;
 
   Sensors sensors;
+  std::unique_ptr<SimTK::Visualizer> visualizer;
+  long steps = 0;
   // Buffers reused every step.
   mutable SimTK::Vector a_des, tau, zero_mobility;
   mutable SimTK::Vector_<SimTK::SpatialVec> gravity_forces;
@@ -524,6 +527,32 @@ void World::step() {
   w.system.realize(s, SimTK::Stage::Acceleration);
   w.dirty = false;
   w.compute_sensors();
+  if (w.visualizer && ++w.steps % std::max(1L, std::lround(1.0 / (30 * h))) == 0) w.visualizer->report(s);
+}
+
+std::string World::start_visualizer() {
+  const char* display = std::getenv("DISPLAY");
+  if (!display || !*display) return "no display (DISPLAY is not set)";
+  namespace fs = std::filesystem;
+  // Debian's libsimbody ships the visualizer as simbody-visualizer; Simbody looks for simbody-visualizer_d.
+  const fs::path shipped = "/usr/lib/x86_64-linux-gnu/simbody/libexec/simbody-visualizer";
+  std::error_code ec;
+  if (fs::exists(shipped, ec) && !std::getenv("SIMBODY_HOME")) {
+    const fs::path home = fs::temp_directory_path(ec) / ("dca-simbody-home-" + std::to_string(getpid()));
+    const fs::path link = home / "libexec" / "simbody" / "simbody-visualizer_d";
+    fs::create_directories(link.parent_path(), ec);
+    if (!fs::exists(link, ec)) fs::create_symlink(shipped, link, ec);
+    setenv("SIMBODY_HOME", home.c_str(), 1);
+  }
+  try {
+    impl_->visualizer = std::make_unique<SimTK::Visualizer>(impl_->system);
+    impl_->visualizer->setShowSimTime(true);
+    impl_->visualizer->report(impl_->state);
+  } catch (const std::exception& e) {
+    impl_->visualizer.reset();
+    return std::string("the visualizer did not start: ") + e.what();
+  }
+  return "";
 }
 
 const Sensors& World::sensors() const { return impl_->sensors; }

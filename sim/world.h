@@ -68,7 +68,7 @@ struct WorldConfig {
   double handle_start = 0;                 ///< the handle's starting angle (rad)
 };
 
-/// Where the URDF models are: $DCA_SIM_MODELS, else the source tree's sim/models, else the installed
+/// Where the URDF models are: $DCA_MODELS_DIR (as controllers/door.h), else the source tree's sim/models, else the installed
 /// <prefix>/share/dca/models.
 std::string models_dir();
 
@@ -136,6 +136,11 @@ class World {
   /// External torques (N m) on the door's hinge (positive opens) and on the handle (positive presses), as a
   /// person would apply: for tests and scenarios. They stay until changed.
   void set_disturbance(double hinge_torque, double handle_torque);
+
+  /// Shows the world in Simbody's 3-D visualizer (about 30 frames per simulated second) from now on. Needs a
+  /// display; Debian's simbody-visualizer is found through a SIMBODY_HOME made for it. Returns "" when it
+  /// started, else why not (the world runs on either way).
+  std::string start_visualizer();
 
   /// The Simbody side (defined in world.cpp only).
   struct Impl;

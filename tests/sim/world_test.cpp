@@ -5,6 +5,7 @@
 
 #include <Eigen/Geometry>
 #include <cmath>
+#include <cstdlib>
 
 #include "sim/door_script.h"
 
@@ -230,6 +231,18 @@ TEST_F(WorldTest, ScriptedOpenLoopRunGraspsPressesAndSwingsTheDoor) {
     EXPECT_GT(script.phase_start(p), last) << dca::sim::to_string(p);
     last = script.phase_start(p);
   }
+}
+
+}  // namespace
+
+namespace {
+
+TEST_F(WorldTest, VisualizerWithoutADisplaySaysWhyAndTheWorldRunsOn) {
+  unsetenv("DISPLAY");
+  World w(dca::sim::door_world());
+  EXPECT_EQ(w.start_visualizer(), "no display (DISPLAY is not set)");
+  run(w, 0.01);
+  EXPECT_NEAR(w.time(), 0.01, 1e-12);
 }
 
 }  // namespace
