@@ -8,11 +8,16 @@
 #include <fstream>
 #include <sstream>
 
+#include <unistd.h>
+
 namespace {
 
 namespace fs = std::filesystem;
 
-fs::path temp(const std::string& name) { return fs::temp_directory_path() / ("dca_recorder_test_" + name); }
+// Per process: ctest runs the cases of this file in parallel, each in its own process.
+fs::path temp(const std::string& name) {
+  return fs::temp_directory_path() / ("dca_recorder_test_" + std::to_string(::getpid()) + "_" + name);
+}
 
 std::vector<std::string> lines(const fs::path& p) {
   std::ifstream in(p);
