@@ -1,0 +1,92 @@
+// `dca node`: one controller in its own process, driven by its supervisor (host/node.h).
+#include <csignal>
+#include <cstdio>
+#include <cstring>
+#include <string>
+
+#include "controllers/registry.h"
+#include "host/cli/subcommand.h"
+#include "host/loop.h"
+#include "host/node.h"
+
+namespace {
+
+constexpr const char* kUsage =
+    "usage: dca node --type T --name PATH --daemon ADDR [--key FILE] [--host NAME] [--clock wall|sim]\n"
+    "                [--timeout MS] [-- ARG...]\n"
+    "\n"
+    "Hosts one controller of type T (see `dca types`) named PATH: registers it with the daemon at ADDR, then\n"
+    "waits, inactive, for its supervisor's init / run / stop / connect / activate / deactivate / read / ports\n"
+    "requests on the control address it registered (host/node.h lists them). ARG are the controller's .dca\n"
+    "arguments after the host. The daemon (`dca daemon`) normally starts it.\n"
+    "  --key FILE     the cluster key (default: $DCA_KEY_FILE, else ~/.config/dca/key)\n"
+    "  --host NAME    its logical host (default: the daemon's)\n"
+    "  --clock sim    simulated time, advanced by `advance {t}` requests (lock-step, host/timers.h)\n"
+    "  --timeout MS   deadline of each start-up step and look-up (default 5000)\n"
+    "Prints `dca node: PATH ready` on stdout once registered. Exits 0 on `exit` or SIGTERM, 1 when start-up\n"
+    "fails or the daemon goes away.";
+
+int cmd_node(std::span<char* const> args) {
+  dca::NodeOptions o;
+  for (std::size_t i = 0; i < args.size(); ++i) {
+    const std::string a = args[i];
+    if (a == "--") {
+      for (++i; i < args.size(); ++i) o.args.emplace_back(args[i]);
+      break;
+    }
+    if (i + 1 >= args.size()) {
+      std::fprintf(stderr, "dca node: %s\n%s\n",
+                   a.rfind("--", 0) == 0 ? (a + " needs a value").c_str() : ("unexpected argument '" + a + "'").c_str(),
+                   kUsage);
+      return 2;
+    }
+    const std::string v = args[++i];
+    if (a == "--type") o.type = v;
+    else if (a == "--name") o.name = v;
+    else if (a == "--daemon") o.daemon = v;
+    else if (a == "--key") o.key_file = v;
+    else if (a == "--host") o.host = v;
+    else if (a == "--timeout") o.timeout_ms = std::atoi(v.c_str());
+    else if (a == "--clock" && (v == "wall" || v == "sim")) o.clock = v == "sim" ? dca::ClockKind::Simulated : dca::ClockKind::Wall;
+    else {
+      std::fprintf(stderr, "dca node: unknown argument '%s %s'\n%s\n", a.c_str(), v.c_str(), kUsage);
+      return 2;
+    }
+  }
+  if (o.type.empty() || o.name.empty() || o.daemon.empty()) {
+    std::fprintf(stderr, "dca node: --type, --name and --daemon are required\n%s\n", kUsage);
+    return 2;
+  }
+  if (o.timeout_ms <= 0) o.timeout_ms = 5000;
+  dca::Loop loop;
+  dca::Node node(loop, o,
+                 [](const std::string& type, const std::string& name, const std::string& host,
+                    const std::vector<std::string>& params, dca::TimerServer& timers) -> std::unique_ptr<dca::Component> {
+                   return dca::Registry::global().create(type, {name, host, params, &timers, nullptr});
+                 });
+  loop.on_signals({SIGTERM, SIGINT}, [&](int) { loop.stop(); });
+  bool started = false;
+  std::string failure;
+  node.start([&](const std::string& error) {
+    if (!error.empty()) {
+      failure = error;
+      loop.stop();
+      return;
+    }
+    started = true;
+    std::printf("dca node: %s ready\n", o.name.c_str());
+    std::fflush(stdout);
+  });
+  loop.run();
+  if (!started) {
+    std::fprintf(stderr, "dca node %s: %s\n", o.name.c_str(), failure.empty() ? "stopped before it was ready" : failure.c_str());
+    node.shutdown("start-up failed");
+    return 1;
+  }
+  node.shutdown("node exiting");
+  return node.exit_code();
+}
+
+}  // namespace
+
+DCA_SUBCOMMAND("node", "host one controller, driven by its supervisor (started by a daemon)", kUsage, cmd_node);

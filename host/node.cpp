@@ -1,0 +1,392 @@
+// Boost.Asio 1.74 under GCC 12 -O3 trips middle-end warnings inside its own headers (false positives),
+// silenced for this file only, before any include.
+#pragma GCC diagnostic ignored "-Wnull-dereference"
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+
+#include "host/node.h"
+
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <set>
+
+#include <boost/asio/post.hpp>
+
+#include "host/auth.h"
+#include "host/channel.h"
+#include "host/comms.h"
+
+namespace dca {
+
+using wire::Message;
+using wire::Value;
+
+namespace {
+
+Value from_object(const msgpack::object& o, int depth = 0) {
+  if (depth > wire::kMaxDepth) return {};
+  switch (o.type) {
+    case msgpack::type::NIL: return {};
+    case msgpack::type::BOOLEAN: return Value(o.via.boolean);
+    case msgpack::type::POSITIVE_INTEGER: return Value(o.via.u64);
+    case msgpack::type::NEGATIVE_INTEGER: return Value(o.via.i64);
+    case msgpack::type::FLOAT32:
+    case msgpack::type::FLOAT64: return Value(o.via.f64);
+    case msgpack::type::STR: return Value(std::string(o.via.str.ptr, o.via.str.size));
+    case msgpack::type::BIN: return Value(std::string(o.via.bin.ptr, o.via.bin.size));
+    case msgpack::type::ARRAY: {
+      Value::Array a;
+      for (std::uint32_t i = 0; i < o.via.array.size; ++i) a.push_back(from_object(o.via.array.ptr[i], depth + 1));
+      return Value(std::move(a));
+    }
+    case msgpack::type::MAP: {
+      Value::Map m;
+      for (std::uint32_t i = 0; i < o.via.map.size; ++i)
+        m.emplace_back(from_object(o.via.map.ptr[i].key, depth + 1), from_object(o.via.map.ptr[i].val, depth + 1));
+      return Value(std::move(m));
+    }
+    default: return {};
+  }
+}
+
+std::string runtime_dir() {
+  if (const char* x = std::getenv("XDG_RUNTIME_DIR"); x && *x && ::access(x, W_OK) == 0) return x;
+  const auto d = std::filesystem::temp_directory_path() / ("dca-" + std::to_string(::getuid()));
+  std::error_code ec;
+  std::filesystem::create_directories(d, ec);
+  std::filesystem::permissions(d, std::filesystem::perms::owner_all, ec);
+  return d.string();
+}
+
+Value spec_value(const PortSpec& s) {
+  return Value::map()
+      .set("name", s.name)
+      .set("type", std::string(to_string(s.type)))
+      .set("size", static_cast<std::int64_t>(s.size))
+      .set("units", s.units);
+}
+
+Value latest_value(const Port& p) {
+  msgpack::sbuffer sb;
+  msgpack::packer<msgpack::sbuffer> pk(sb);
+  p.pack_latest(pk);
+  return value_from_msgpack({reinterpret_cast<const std::byte*>(sb.data()), sb.size()});
+}
+
+}  // namespace
+
+Value value_from_msgpack(Bytes b) {
+  if (b.empty()) return {};
+  try {
+    auto oh = msgpack::unpack(reinterpret_cast<const char*>(b.data()), b.size());
+    return from_object(oh.get());
+  } catch (const std::exception&) {
+    return {};
+  }
+}
+
+std::string msgpack_from_value(const Value& v) {
+  std::string out;
+  wire::encode_value(v, out);
+  return out;
+}
+
+struct Node::Impl {
+  Impl(Loop& l, NodeOptions o, ComponentFactory f) : loop(l), opts(std::move(o)), factory(std::move(f)) {}
+  Loop& loop;
+  NodeOptions opts;
+  ComponentFactory factory;
+  ChannelOptions chopts;
+  std::unique_ptr<TimerServer> timers;
+  std::unique_ptr<Endpoint> endpoint;
+  std::unique_ptr<Component> component;
+  Channel::Ptr daemon;
+  Listener::Ptr control;
+  std::set<Channel::Ptr> supervisors;
+  std::string ip;  // the daemon's IP: where this node listens
+  std::string uds;
+  bool done = false;
+  int code = 0;
+
+  void fail_start(const std::function<void(const std::string&)>& done_fn, const std::string& error) {
+    code = 1;
+    done_fn(error);
+  }
+
+  void event(Message m) {
+    for (const auto& ch : supervisors)
+      if (ch->is_open()) ch->send(m);
+  }
+
+  void handle(const Channel::Ptr& ch, const Message& m);
+  void connect(const Channel::Ptr& ch, const Message& m);
+  Value ports() const;
+  Value stats() const;
+};
+
+Node::Node(Loop& loop, NodeOptions options, ComponentFactory factory)
+    : impl_(std::make_unique<Impl>(loop, std::move(options), std::move(factory))) {}
+
+Node::~Node() { shutdown("node destroyed"); }
+
+bool Node::finished() const { return impl_->done; }
+int Node::exit_code() const { return impl_->code; }
+
+void Node::start(std::function<void(const std::string& error)> done) {
+  auto& I = *impl_;
+  std::string error;
+  auto key = auth::load_key(auth::key_file_path(I.opts.key_file), &error);
+  if (!key) return I.fail_start(done, error);
+  I.chopts.key = *key;
+  I.chopts.handshake_timeout = std::chrono::milliseconds(I.opts.timeout_ms);
+  const auto daddr = Address::parse(I.opts.daemon, &error);
+  if (!daddr) return I.fail_start(done, error);
+  I.ip = daddr->kind == Address::Kind::kTcp ? daddr->host : "127.0.0.1";
+  Channel::connect(I.loop.io(), *daddr, I.chopts, [this, done](Channel::Ptr ch, const std::string& err) {
+    auto& J = *impl_;
+    if (!ch) return J.fail_start(done, "cannot reach the daemon at " + J.opts.daemon + ": " + err);
+    J.daemon = ch;
+    ch->on_close([this](const std::string& reason) {
+      if (!impl_->done) {
+        std::fprintf(stderr, "dca node %s: the daemon's channel closed (%s): stopping\n", impl_->opts.name.c_str(),
+                     reason.c_str());
+        impl_->code = 1;
+        shutdown("daemon lost");
+        impl_->loop.stop();
+      }
+    });
+    auto with_host = [this, done](const std::string& host) {
+      auto& K = *impl_;
+      try {
+        K.timers = std::make_unique<TimerServer>(K.loop.io(), K.opts.clock);
+        K.component = K.factory(K.opts.type, K.opts.name, host, K.opts.args, *K.timers);
+        K.endpoint = std::make_unique<Endpoint>(K.loop.io(), host);
+        K.uds = runtime_dir() + "/node-" + std::to_string(::getpid()) + ".sock";
+        K.endpoint->listen(K.uds, K.ip + ":0");
+        K.endpoint->add_component(K.opts.name, K.component->ports());
+      } catch (const std::exception& e) {
+        return K.fail_start(done, e.what());
+      }
+      K.component->on_event = [this](const ComponentEvent& e) {
+        auto& L = *impl_;
+        if (e.kind == ComponentEvent::Kind::Done)
+          L.event({"done", 0,
+                   Value::map().set("name", L.opts.name).set("value", value_from_msgpack(
+                       {reinterpret_cast<const std::byte*>(e.value.data()), e.value.size()}))});
+        else
+          L.event({"aborted", 0, Value::map().set("name", L.opts.name).set("reason", e.reason)});
+      };
+      K.endpoint->on_event([this](const CommsEvent& e) {
+        auto& L = *impl_;
+        if (e.kind == CommsEvent::Kind::Broken)
+          L.event({"broken", 0, Value::map().set("name", e.component).set("port", e.port).set("peer", e.peer)
+                                     .set("set", e.set).set("reason", e.reason)});
+        else
+          L.event({"overflow", 0, Value::map().set("name", e.component).set("port", e.port).set("reason", e.reason)});
+      });
+      std::string lerr;
+      K.control = Listener::listen(K.loop.io(), *Address::parse(K.ip + ":0"), K.chopts,
+                                   [this](Channel::Ptr sup) {
+                                     impl_->supervisors.insert(sup);
+                                     std::weak_ptr<Channel> w = sup;
+                                     sup->on_message([this, w](const Message& m) {
+                                       if (auto s = w.lock()) impl_->handle(s, m);
+                                     });
+                                     sup->on_close([this, w](const std::string&) {
+                                       if (auto s = w.lock()) impl_->supervisors.erase(s);
+                                     });
+                                   },
+                                   &lerr);
+      if (!K.control) return K.fail_start(done, "cannot listen for control channels: " + lerr);
+      const auto loc = K.endpoint->location();
+      Value endpoints = Value::map()
+                            .set("host", host)
+                            .set("control", K.control->address().str())
+                            .set("data_uds", loc.data_uds)
+                            .set("data_tcp", loc.data_tcp)
+                            .set("pid", static_cast<std::int64_t>(::getpid()))
+                            .set("type", K.opts.type);
+      K.daemon->request({"register", 0, Value::map().set("name", K.opts.name).set("endpoints", endpoints)},
+                        std::chrono::milliseconds(K.opts.timeout_ms), [this, done](Response r) {
+                          if (!r.ok()) return impl_->fail_start(done, "cannot register " + impl_->opts.name + ": " + r.error);
+                          done("");
+                        });
+    };
+    if (!J.opts.host.empty()) return with_host(J.opts.host);
+    ch->request({"ping", 0, Value::map()}, std::chrono::milliseconds(J.opts.timeout_ms),
+                [this, done, with_host](Response r) {
+                  if (!r.ok()) return impl_->fail_start(done, "the daemon did not answer ping: " + r.error);
+                  with_host(r.message.payload["host"].as_string());
+                });
+  });
+}
+
+void Node::shutdown(const std::string& why) {
+  auto& I = *impl_;
+  if (I.done) return;
+  I.done = true;
+  if (I.component) I.component->stop();
+  if (I.endpoint && I.component) I.endpoint->remove_component(I.opts.name);
+  I.endpoint.reset();
+  if (I.control) I.control->close();
+  for (auto ch : std::set<Channel::Ptr>(I.supervisors)) ch->close(why);
+  I.supervisors.clear();
+  if (I.daemon) {
+    auto d = I.daemon;
+    I.daemon.reset();
+    d->close(why);
+  }
+}
+
+Value Node::Impl::ports() const {
+  Value ins = Value::array(), outs = Value::array(), links = Value::array();
+  for (const auto& p : component->ports().inputs()) {
+    auto v = spec_value(p->spec());
+    v.set("samples", p->stats().samples).set("dropped", p->stats().dropped).set("rejected", p->stats().rejected);
+    v.set("queued", static_cast<std::uint64_t>(p->queued())).set("capacity", static_cast<std::uint64_t>(p->capacity()));
+    ins.array_ref().push_back(std::move(v));
+  }
+  for (const auto& p : component->ports().outputs()) {
+    auto v = spec_value(p->spec());
+    v.set("samples", p->stats().samples).set("rejected", p->stats().rejected);
+    outs.array_ref().push_back(std::move(v));
+  }
+  for (const auto& l : endpoint->links()) {
+    links.array_ref().push_back(Value::map()
+                                    .set("out", l.request.out)
+                                    .set("to", l.request.to)
+                                    .set("in", l.request.in)
+                                    .set("set", l.request.set)
+                                    .set("mode", std::string(to_string(l.request.mode)))
+                                    .set("transport", std::string(to_string(l.transport)))
+                                    .set("active", l.active)
+                                    .set("broken", l.broken)
+                                    .set("sent", l.sent)
+                                    .set("skipped", l.skipped)
+                                    .set("tx_dropped", l.tx_dropped)
+                                    .set("bytes", l.bytes));
+  }
+  return Value::map().set("inputs", ins).set("outputs", outs).set("links", links)
+      .set("accepted", static_cast<std::uint64_t>(endpoint->accepted()))
+      .set("bytes_received", endpoint->bytes_received());
+}
+
+Value Node::Impl::stats() const {
+  Value ts = Value::array();
+  for (const auto& s : timers->stats())
+    ts.array_ref().push_back(Value::map()
+                                 .set("name", s.name)
+                                 .set("period_s", to_seconds(s.period))
+                                 .set("active", s.active)
+                                 .set("count", s.count)
+                                 .set("missed", s.missed)
+                                 .set("p50_us", s.p50_us)
+                                 .set("p99_us", s.p99_us)
+                                 .set("max_us", s.max_us));
+  return Value::map().set("timers", ts).set("clock", to_string(timers->kind()));
+}
+
+void Node::Impl::connect(const Channel::Ptr& ch, const Message& m) {
+  const auto& p = m.payload;
+  ConnectRequest r;
+  r.from = opts.name;
+  r.out = p["out"].as_string();
+  r.to = p["to"].as_string();
+  r.in = p["in"].as_string();
+  r.set = p["set"].as_string();
+  const std::string mode = p["mode"].is_nil() ? "push" : p["mode"].as_string();
+  const auto md = mode_from(mode);
+  if (!md) return void(ch->reply_error(m, "connect: mode must be push or pull, not '" + mode + "'"));
+  r.mode = *md;
+  r.queue = static_cast<std::uint32_t>(p["queue"].is_nil() ? 16 : std::max<std::int64_t>(1, p["queue"].as_int(16)));
+  if (r.out.empty() || r.to.empty() || r.in.empty())
+    return void(ch->reply_error(m, "connect needs out, to and in"));
+  const int timeout = opts.timeout_ms;
+  auto finish = [this, ch, m](const std::string& error) {
+    if (!endpoint) return;
+    if (!error.empty()) return void(ch->reply_error(m, error));
+    Value t = "";
+    for (const auto& l : endpoint->links())
+      if (l.request.out == m.payload["out"].as_string() && l.request.to == m.payload["to"].as_string() &&
+          l.request.in == m.payload["in"].as_string() && l.request.set == m.payload["set"].as_string())
+        t = std::string(to_string(l.transport));
+    ch->reply(m, Value::map().set("transport", t));
+  };
+  if (endpoint->component(r.to)) return endpoint->connect(r, {}, finish, timeout);
+  daemon->request({"lookup", 0, Value::map().set("name", r.to).set("wait_ms", static_cast<std::int64_t>(timeout))},
+                  std::chrono::milliseconds(timeout + 1000), [this, r, finish, timeout](Response resp) {
+                    if (!endpoint) return;
+                    if (!resp.ok()) return finish("connect: cannot find " + r.to + ": " + resp.error);
+                    const auto& e = resp.message.payload["endpoints"];
+                    Location loc{e["host"].as_string(), e["data_uds"].as_string(), e["data_tcp"].as_string()};
+                    if (loc.host.empty()) loc.host = resp.message.payload["host"].as_string();
+                    endpoint->connect(r, loc, finish, timeout);
+                  });
+}
+
+void Node::Impl::handle(const Channel::Ptr& ch, const Message& m) {
+  if (done || !component) return void(ch->reply_error(m, "node " + opts.name + " is stopping"));
+  const auto& t = m.type;
+  const auto& p = m.payload;
+  if (t == "init") {
+    const auto err = component->init();
+    if (!err.empty()) return void(ch->reply_error(m, err));
+    return void(ch->reply(m));
+  }
+  if (t == "run") {
+    const std::string init = p.find("init") ? msgpack_from_value(p["init"]) : std::string();
+    const auto err = component->run({reinterpret_cast<const std::byte*>(init.data()), init.size()});
+    if (!err.empty()) return void(ch->reply_error(m, err));
+    return void(ch->reply(m));
+  }
+  if (t == "stop") {
+    component->stop();
+    return void(ch->reply(m));
+  }
+  if (t == "connect") return connect(ch, m);
+  if (t == "disconnect") {
+    endpoint->disconnect_set(p["set"].as_string());
+    return void(ch->reply(m));
+  }
+  if (t == "activate" || t == "deactivate") {
+    const auto& set = p["set"].as_string();
+    if (set.empty()) return void(ch->reply_error(m, t + " needs a set"));
+    if (t == "activate") endpoint->activate(set);
+    else endpoint->deactivate(set);
+    return void(ch->reply(m));
+  }
+  if (t == "read") {
+    const auto& name = p["port"].as_string();
+    auto& ps = component->ports();
+    const Port* port = ps.find_output(name);
+    if (!port) port = ps.find_input(name);
+    if (!port) {
+      std::string valid;
+      for (const auto& o : ps.outputs()) valid += (valid.empty() ? "" : ", ") + o->name();
+      for (const auto& i : ps.inputs()) valid += (valid.empty() ? "" : ", ") + i->name();
+      return void(ch->reply_error(m, "no port '" + name + "' on " + opts.name + "; ports are: " +
+                                         (valid.empty() ? std::string("(none)") : valid)));
+    }
+    return void(ch->reply(m, Value::map().set("value", latest_value(*port)).set("count", port->stats().samples)));
+  }
+  if (t == "ports") return void(ch->reply(m, ports()));
+  if (t == "stats") return void(ch->reply(m, stats()));
+  if (t == "advance") {
+    if (timers->kind() != ClockKind::Simulated)
+      return void(ch->reply_error(m, "advance: node " + opts.name + " runs on the wall clock"));
+    const Nanos at = p["t"].as_int(-1);
+    if (at < timers->now()) return void(ch->reply_error(m, "advance: t must be >= now (" + std::to_string(timers->now()) + ")"));
+    timers->advance_to(at);
+    const auto next = timers->next_deadline();
+    return void(ch->reply(m, Value::map().set("now", timers->now()).set("next", next ? Value(*next) : Value())));
+  }
+  if (t == "exit") {
+    ch->reply(m);
+    boost::asio::post(loop.io(), [this] { loop.stop(); });  // the caller of run() then calls shutdown()
+    return;
+  }
+  ch->reply_error(m, "unknown request '" + t + "' for node " + opts.name);
+}
+
+}  // namespace dca

@@ -1,0 +1,90 @@
+#pragma once
+// The node runtime (`dca node`): hosts one component (a controller) in its own process, so a crash is contained.
+//
+//   dca node --type T --name PATH --daemon ADDR [--key FILE] [--host NAME] [--clock wall|sim] [-- ARG...]
+//
+// Start-up: connects to its daemon (authenticated channel), learns the host name (`ping`) unless --host gives
+// it, creates the component (ARG are the .dca arguments after the host), listens for data connections (a Unix
+// socket under $XDG_RUNTIME_DIR or /tmp, and TCP on the daemon's IP) and for control channels (TCP on the
+// daemon's IP), then registers PATH with the daemon:
+//   register {name = PATH, endpoints = {host, control, data_uds, data_tcp, pid, type}}
+// and waits, inactive. When the daemon's channel closes, the node stops its component and exits.
+//
+// Control requests (from its supervisor, on a channel to `control`), each answered ok or error {reason}:
+//   init {}                                   -> ok {}
+//   run {init}                                -> ok {}         init: the initial value (nil outside bindings)
+//   stop {}                                   -> ok {}
+//   connect {out, to, in, set, mode, queue}   -> ok {transport = "inprocess"|"unix"|"tcp"}
+//                                                to: the destination's PATH, looked up at the daemon (peers
+//                                                included); mode "push" (default) or "pull"; queue default 16
+//   disconnect {set}                          -> ok {}
+//   activate {set} / deactivate {set}         -> ok {}         a flag flip, never a socket opened or closed
+//   read {port}                               -> ok {value, count}  the latest sample of any port (nil before)
+//   ports {}                                  -> ok {inputs = [...], outputs = [...], links = [...]} with
+//                                                counters (samples, dropped, queued, rejected, skipped, sent)
+//   stats {}                                  -> ok {timers = [{name, period, count, missed, p50_us, p99_us,
+//                                                max_us}], clock, reentries}
+//   advance {t}  (--clock sim only)           -> ok {now, next}  t in ns; runs every timer due (lock-step,
+//                                                host/timers.h); next = the next deadline (nil when none)
+//   exit {}                                   -> ok {}, then the node stops its component and exits 0
+// Events it sends on every open control channel:
+//   done {name, value}  aborted {name, reason}  broken {name, port, peer, set, reason}
+//   overflow {name, port, reason}
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "host/component.h"
+#include "host/loop.h"
+#include "host/timers.h"
+#include "host/wire.h"
+
+namespace dca {
+
+/// How a node is set up (the `dca node` command line).
+struct NodeOptions {
+  std::string type;                 ///< controller type
+  std::string name;                 ///< instance PATH
+  std::string daemon;               ///< the daemon's address
+  std::string key_file;             ///< cluster key file ("" = the default, see host/auth.h)
+  std::string host;                 ///< logical host name ("" = ask the daemon)
+  ClockKind clock = ClockKind::Wall;
+  std::vector<std::string> args;    ///< the .dca arguments after the host
+  int timeout_ms = 5000;            ///< for start-up steps and look-ups
+};
+
+/// Creates the hosted component: (type, name, host, args, timers). Throws std::invalid_argument with a message
+/// for the supervisor (unknown type, bad parameter).
+using ComponentFactory = std::function<std::unique_ptr<Component>(
+    const std::string& type, const std::string& name, const std::string& host, const std::vector<std::string>& args,
+    TimerServer& timers)>;
+
+/// msgpack bytes -> a wire value (nil for empty or malformed input).
+wire::Value value_from_msgpack(Bytes b);
+/// A wire value -> msgpack bytes.
+std::string msgpack_from_value(const wire::Value& v);
+
+/// The node runtime on a Loop.
+class Node {
+ public:
+  Node(Loop& loop, NodeOptions options, ComponentFactory factory);
+  ~Node();
+  Node(const Node&) = delete;
+  Node& operator=(const Node&) = delete;
+
+  /// Starts up (see the header comment); `done(error)` runs once: "" when registered and ready.
+  void start(std::function<void(const std::string& error)> done);
+  /// Stops the component and closes everything (idempotent). Called on `exit`, SIGTERM, or daemon loss.
+  void shutdown(const std::string& why);
+  /// True once shutdown() ran.
+  bool finished() const;
+  /// The exit code to leave with (0, or 1 after a start-up failure or daemon loss).
+  int exit_code() const;
+
+  struct Impl;
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace dca

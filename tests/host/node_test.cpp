@@ -1,0 +1,278 @@
+// The node runtime: start-up against a daemon (a minimal stand-in here: ping/register/lookup over a real
+// authenticated channel), the control requests, DONE/ABORTED/broken events, data between two nodes.
+#include "host/node.h"
+
+#include <gtest/gtest.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <optional>
+
+#include "host/auth.h"
+#include "host/channel.h"
+
+namespace {
+
+using namespace std::chrono_literals;
+using dca::wire::Message;
+using dca::wire::Value;
+
+// A component with a scalar output Out and a scalar input In; finish() ends its run.
+class TestComponent final : public dca::Component {
+ public:
+  explicit TestComponent(std::string name) : name_(std::move(name)) {
+    out = &ports_.add_output(dca::scalar_port("Out"));
+    in = &ports_.add_input(dca::scalar_port("In"));
+  }
+  const std::string& name() const override { return name_; }
+  dca::PortSet& ports() override { return ports_; }
+  std::string init() override {
+    ++inits;
+    return fail_init ? "cannot init: told to fail" : "";
+  }
+  std::string run(dca::Bytes init_value) override {
+    running = true;
+    last_init = dca::value_from_msgpack(init_value);
+    return "";
+  }
+  void stop() override { running = false; }
+  void finish(dca::ComponentEvent e) {
+    if (!running) return;
+    running = false;
+    on_event(e);
+  }
+  dca::Output* out = nullptr;
+  dca::Input* in = nullptr;
+  int inits = 0;
+  bool fail_init = false, running = false;
+  Value last_init;
+
+ private:
+  std::string name_;
+  dca::PortSet ports_;
+};
+
+class NodeTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir = std::filesystem::temp_directory_path() / ("dca-node-test-" + std::to_string(::getpid()));
+    std::filesystem::create_directories(dir);
+    key_file = (dir / "key").string();
+    std::string error;
+    auto key = dca::auth::load_or_create_key(key_file, &error);
+    ASSERT_TRUE(key) << error;
+    opts.key = *key;
+    // The daemon stand-in: ping, register, lookup (waiting), as host "h".
+    daemon = dca::Listener::listen(loop.io(), *dca::Address::parse("127.0.0.1:0"), opts,
+                                   [this](dca::Channel::Ptr ch) {
+                                     daemon_channels.push_back(ch);
+                                     ch->on_message([this, ch](const Message& m) { serve(ch, m); });
+                                   },
+                                   &error);
+    ASSERT_TRUE(daemon) << error;
+  }
+  void TearDown() override {
+    nodes.clear();
+    for (auto& ch : daemon_channels) ch->close();
+    if (daemon) daemon->close();
+    std::error_code ec;
+    std::filesystem::remove_all(dir, ec);
+  }
+  void serve(const dca::Channel::Ptr& ch, const Message& m) {
+    if (m.type == "ping") return void(ch->reply(m, Value::map().set("host", "h").set("pid", 1)));
+    if (m.type == "register") {
+      names[m.payload["name"].as_string()] = m.payload["endpoints"];
+      return void(ch->reply(m, Value::map().set("name", m.payload["name"]).set("host", "h")));
+    }
+    if (m.type == "lookup") {
+      auto it = names.find(m.payload["name"].as_string());
+      if (it == names.end()) return void(ch->reply_error(m, "no name '" + m.payload["name"].as_string() + "'"));
+      return void(ch->reply(m, Value::map().set("name", it->first).set("endpoints", it->second).set("host", "h")));
+    }
+    ch->reply_error(m, "unknown request");
+  }
+  bool run_until(const std::function<bool()>& pred) { return loop.run_until(pred, 5s); }
+
+  // Starts a node hosting a TestComponent named `name`; returns the component.
+  TestComponent* start_node(const std::string& name) {
+    dca::NodeOptions o;
+    o.type = "Test";
+    o.name = name;
+    o.daemon = daemon->address().str();
+    o.key_file = key_file;
+    TestComponent* made = nullptr;
+    nodes.push_back(std::make_unique<dca::Node>(
+        loop, o,
+        [&made](const std::string&, const std::string& n, const std::string& host, const std::vector<std::string>&,
+                dca::TimerServer&) {
+          EXPECT_EQ(host, "h");  // learnt from the daemon's ping
+          auto c = std::make_unique<TestComponent>(n);
+          made = c.get();
+          return c;
+        }));
+    std::optional<std::string> result;
+    nodes.back()->start([&](const std::string& e) { result = e; });
+    EXPECT_TRUE(run_until([&] { return result.has_value(); }));
+    EXPECT_EQ(result.value_or("timeout"), "");
+    return made;
+  }
+
+  // A supervisor's channel to the node registered as `name`.
+  dca::Channel::Ptr supervise(const std::string& name) {
+    EXPECT_TRUE(names.count(name));
+    dca::Channel::Ptr ch;
+    std::string err = "pending";
+    dca::Channel::connect(loop.io(), *dca::Address::parse(names[name]["control"].as_string()), opts,
+                          [&](dca::Channel::Ptr c, const std::string& e) {
+                            ch = c;
+                            err = e;
+                          });
+    EXPECT_TRUE(run_until([&] { return err != "pending"; }));
+    EXPECT_TRUE(ch) << err;
+    if (ch) ch->on_message([this](const Message& m) { events.push_back(m); });
+    return ch;
+  }
+
+  dca::Response call(const dca::Channel::Ptr& ch, const std::string& type, Value payload = Value::map()) {
+    std::optional<dca::Response> r;
+    ch->request({type, 0, std::move(payload)}, 3s, [&](dca::Response x) { r = std::move(x); });
+    EXPECT_TRUE(run_until([&] { return r.has_value(); }));
+    return r.value_or(dca::Response{});
+  }
+
+  dca::Loop loop;
+  std::filesystem::path dir;
+  std::string key_file;
+  dca::ChannelOptions opts;
+  dca::Listener::Ptr daemon;
+  std::vector<dca::Channel::Ptr> daemon_channels;
+  std::map<std::string, Value> names;
+  std::vector<std::unique_ptr<dca::Node>> nodes;
+  std::vector<Message> events;
+};
+
+TEST_F(NodeTest, RegistersItsEndpointsWithTheDaemon) {
+  start_node("/sys/a");
+  ASSERT_TRUE(names.count("/sys/a"));
+  const auto& e = names["/sys/a"];
+  EXPECT_EQ(e["host"].as_string(), "h");
+  EXPECT_EQ(e["pid"].as_int(), ::getpid());
+  EXPECT_EQ(e["type"].as_string(), "Test");
+  EXPECT_FALSE(e["control"].as_string().empty());
+  EXPECT_FALSE(e["data_uds"].as_string().empty());
+  EXPECT_EQ(e["data_tcp"].as_string().rfind("127.0.0.1:", 0), 0u);
+}
+
+TEST_F(NodeTest, InitRunStopAndDoneEvent) {
+  auto* c = start_node("/sys/a");
+  auto sup = supervise("/sys/a");
+  EXPECT_TRUE(call(sup, "init").ok());
+  EXPECT_EQ(c->inits, 1);
+  EXPECT_TRUE(call(sup, "run", Value::map().set("init", 42)).ok());
+  EXPECT_TRUE(c->running);
+  EXPECT_EQ(c->last_init, Value(42));
+  msgpack::sbuffer sb;
+  msgpack::pack(sb, std::string("timeout"));
+  c->finish({dca::ComponentEvent::Kind::Done, std::string(sb.data(), sb.size()), ""});
+  ASSERT_TRUE(run_until([&] { return !events.empty(); }));
+  EXPECT_EQ(events[0].type, "done");
+  EXPECT_EQ(events[0].payload["name"].as_string(), "/sys/a");
+  EXPECT_EQ(events[0].payload["value"].as_string(), "timeout");
+  EXPECT_TRUE(call(sup, "run").ok());
+  c->finish({dca::ComponentEvent::Kind::Aborted, "", "hit the wall"});
+  ASSERT_TRUE(run_until([&] { return events.size() == 2; }));
+  EXPECT_EQ(events[1].type, "aborted");
+  EXPECT_EQ(events[1].payload["reason"].as_string(), "hit the wall");
+  EXPECT_TRUE(call(sup, "stop").ok());
+}
+
+TEST_F(NodeTest, InitFailureIsAnErrorReply) {
+  auto* c = start_node("/sys/a");
+  c->fail_init = true;
+  auto sup = supervise("/sys/a");
+  const auto r = call(sup, "init");
+  EXPECT_EQ(r.error, "cannot init: told to fail");
+}
+
+TEST_F(NodeTest, ConnectsTwoNodesByNameAndSwitchesTheSet) {
+  auto* a = start_node("/sys/a");
+  auto* b = start_node("/sys/b");
+  auto sa = supervise("/sys/a");
+  auto sb = supervise("/sys/b");
+  auto r = call(sa, "connect", Value::map().set("out", "Out").set("to", "/sys/b").set("in", "In").set("set", "g:a[l]"));
+  ASSERT_TRUE(r.ok()) << r.error;
+  EXPECT_EQ(r.message.payload["transport"].as_string(), "unix");  // same host, another process's endpoint
+  a->out->write(1.0);  // inactive: nothing
+  ASSERT_TRUE(call(sa, "activate", Value::map().set("set", "g:a[l]")).ok());
+  a->out->write(2.0);
+  ASSERT_TRUE(run_until([&] { return b->in->stats().samples == 1; }));
+  r = call(sb, "read", Value::map().set("port", "In"));
+  ASSERT_TRUE(r.ok()) << r.error;
+  EXPECT_EQ(r.message.payload["value"].as_float(), 2.0);
+  EXPECT_EQ(r.message.payload["count"].as_int(), 1);
+  ASSERT_TRUE(call(sa, "deactivate", Value::map().set("set", "g:a[l]")).ok());
+  a->out->write(3.0);
+  r = call(sa, "ports");
+  ASSERT_TRUE(r.ok());
+  const auto& links = r.message.payload["links"].as_array();
+  ASSERT_EQ(links.size(), 1u);
+  EXPECT_EQ(links[0]["skipped"].as_int(), 2);
+  EXPECT_EQ(links[0]["sent"].as_int(), 1);
+  EXPECT_EQ(links[0]["active"].as_bool(), false);
+  EXPECT_EQ(b->in->stats().samples, 1u);
+}
+
+TEST_F(NodeTest, ConnectErrorsNameTheValidPorts) {
+  start_node("/sys/a");
+  start_node("/sys/b");
+  auto sa = supervise("/sys/a");
+  auto r = call(sa, "connect", Value::map().set("out", "Out").set("to", "/sys/b").set("in", "Inn").set("set", "s"));
+  EXPECT_EQ(r.error, "no input 'Inn' on /sys/b; inputs are: In");
+  r = call(sa, "connect", Value::map().set("out", "Oot").set("to", "/sys/b").set("in", "In").set("set", "s"));
+  EXPECT_EQ(r.error, "no output 'Oot' on /sys/a; outputs are: Out");
+  r = call(sa, "connect", Value::map().set("out", "Out").set("to", "/nobody").set("in", "In").set("set", "s"));
+  EXPECT_EQ(r.error, "connect: cannot find /nobody: no name '/nobody'");
+  r = call(sa, "read", Value::map().set("port", "X"));
+  EXPECT_EQ(r.error, "no port 'X' on /sys/a; ports are: Out, In");
+  r = call(sa, "frobnicate");
+  EXPECT_EQ(r.error, "unknown request 'frobnicate' for node /sys/a");
+  r = call(sa, "advance", Value::map().set("t", 5));
+  EXPECT_EQ(r.error, "advance: node /sys/a runs on the wall clock");
+}
+
+TEST_F(NodeTest, BrokenDataConnectionIsAnEventAtTheSupervisor) {
+  auto* a = start_node("/sys/a");
+  start_node("/sys/b");
+  auto sa = supervise("/sys/a");
+  ASSERT_TRUE(call(sa, "connect", Value::map().set("out", "Out").set("to", "/sys/b").set("in", "In").set("set", "s")).ok());
+  nodes[1]->shutdown("test");  // /sys/b goes away
+  ASSERT_TRUE(run_until([&] { return !events.empty(); }));
+  EXPECT_EQ(events[0].type, "broken");
+  EXPECT_EQ(events[0].payload["port"].as_string(), "Out");
+  EXPECT_EQ(events[0].payload["peer"].as_string(), "/sys/b.In");
+  EXPECT_EQ(events[0].payload["set"].as_string(), "s");
+  a->out->write(1.0);  // never blocks
+}
+
+TEST_F(NodeTest, LosingTheDaemonStopsTheNode) {
+  auto* c = start_node("/sys/a");
+  auto sa = supervise("/sys/a");
+  ASSERT_TRUE(call(sa, "run").ok());
+  for (auto& ch : daemon_channels) ch->close("daemon stopping");
+  ASSERT_TRUE(run_until([&] { return nodes[0]->finished(); }));
+  EXPECT_FALSE(c->running);  // stopped: actuators safe
+  EXPECT_EQ(nodes[0]->exit_code(), 1);
+}
+
+TEST_F(NodeTest, ValuesConvertBetweenMsgpackAndWire) {
+  const Value v = Value::map().set("a", Value::Array{1, 2.5, "x", Value()}).set("b", true);
+  const auto bytes = dca::msgpack_from_value(v);
+  EXPECT_EQ(dca::value_from_msgpack({reinterpret_cast<const std::byte*>(bytes.data()), bytes.size()}), v);
+  EXPECT_TRUE(dca::value_from_msgpack({}).is_nil());
+}
+
+}  // namespace
