@@ -12,6 +12,7 @@
 #include <set>
 
 #include <boost/asio/post.hpp>
+#include <boost/asio/steady_timer.hpp>
 
 #include "host/auth.h"
 #include "host/channel.h"
@@ -121,6 +122,7 @@ struct Node::Impl {
 
   void handle(const Channel::Ptr& ch, const Message& m);
   void connect(const Channel::Ptr& ch, const Message& m);
+  void pull(const Channel::Ptr& ch, const Message& m);
   Value ports() const;
   Value stats() const;
 };
@@ -325,6 +327,34 @@ void Node::Impl::connect(const Channel::Ptr& ch, const Message& m) {
                   });
 }
 
+// pull {port, timeout_ms}: asks the input's pull connections for their latest sample and answers with it
+// when it arrives (checked every millisecond), or an error at the deadline.
+void Node::Impl::pull(const Channel::Ptr& ch, const Message& m) {
+  const auto& name = m.payload["port"].as_string();
+  Input* in = component->ports().find_input(name);
+  if (!in) return void(ch->reply_error(m, component->ports().no_such_input(opts.name, name)));
+  const std::uint64_t before = in->stats().samples;
+  const auto deadline = std::chrono::steady_clock::now() +
+                        std::chrono::milliseconds(m.payload["timeout_ms"].as_int(opts.timeout_ms));
+  in->request();
+  auto timer = std::make_shared<boost::asio::steady_timer>(loop.io());
+  auto check = std::make_shared<std::function<void()>>();
+  // The function holds itself weakly; each pending wait holds it strongly, so it is freed when the chain ends.
+  std::weak_ptr<std::function<void()>> self = check;
+  *check = [this, ch, m, in, before, deadline, timer, self, name] {
+    if (done || !component) return;
+    if (in->stats().samples > before)
+      return void(ch->reply(m, Value::map().set("value", latest_value(*in)).set("count", in->stats().samples)));
+    if (std::chrono::steady_clock::now() >= deadline)
+      return void(ch->reply_error(m, "pull: no sample arrived at " + opts.name + "." + name + " in time"));
+    timer->expires_after(std::chrono::milliseconds(1));
+    timer->async_wait([strong = self.lock()](const boost::system::error_code& ec) {
+      if (!ec && strong) (*strong)();
+    });
+  };
+  (*check)();
+}
+
 void Node::Impl::handle(const Channel::Ptr& ch, const Message& m) {
   if (done || !component) return void(ch->reply_error(m, "node " + opts.name + " is stopping"));
   const auto& t = m.type;
@@ -370,6 +400,7 @@ void Node::Impl::handle(const Channel::Ptr& ch, const Message& m) {
     }
     return void(ch->reply(m, Value::map().set("value", latest_value(*port)).set("count", port->stats().samples)));
   }
+  if (t == "pull") return pull(ch, m);
   if (t == "ports") return void(ch->reply(m, ports()));
   if (t == "stats") return void(ch->reply(m, stats()));
   if (t == "advance") {

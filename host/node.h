@@ -20,6 +20,8 @@
 //   disconnect {set}                          -> ok {}
 //   activate {set} / deactivate {set}         -> ok {}         a flag flip, never a socket opened or closed
 //   read {port}                               -> ok {value, count}  the latest sample of any port (nil before)
+//   pull {port, timeout_ms}                   -> ok {value, count}  asks the input's pull connections for
+//                                                their latest sample; answers when it has arrived
 //   ports {}                                  -> ok {inputs = [...], outputs = [...], links = [...]} with
 //                                                counters (samples, dropped, queued, rejected, skipped, sent)
 //   stats {}                                  -> ok {timers = [{name, period, count, missed, p50_us, p99_us,

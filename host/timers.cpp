@@ -95,6 +95,7 @@ struct TimerServer::Impl {
   Nanos armed = -1;  // the deadline the timerfd is set for (-1: disarmed)
   bool waiting = false;
   int firing = 0;    // > 0 while callbacks run: no cleanup then
+  Nanos current = -1;  // the deadline of the callback running now
   std::shared_ptr<bool> alive = std::make_shared<bool>(true);
 
   Entry* due(Nanos t) {
@@ -138,10 +139,13 @@ struct TimerServer::Impl {
       e.active = false;
     }
     ++firing;
+    const Nanos outer = current;
+    current = deadline;
     // Keep the callable alive even if the callback cancels its own timer.
     auto fn = e.period > 0 ? nullptr : std::move(e.fn);
     if (fn) fn();
     else e.fn();
+    current = outer;
     --firing;
     if (ts.on_fire) ts.on_fire(e.name, deadline);
   }
@@ -236,6 +240,8 @@ bool TimerServer::cancel(Id id) {
     }
   return false;
 }
+
+Nanos TimerServer::current_deadline() const { return impl_->current; }
 
 Nanos TimerServer::now() const { return kind_ == ClockKind::Wall ? monotonic_now() : impl_->sim_now; }
 

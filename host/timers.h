@@ -111,6 +111,8 @@ class TimerServer {
   Nanos now() const;
   /// The clock's kind.
   ClockKind kind() const { return kind_; }
+  /// Inside a timer callback: the deadline it was due at (its tick time); -1 outside callbacks.
+  Nanos current_deadline() const;
 
   /// Statistics of every timer still known (active ones, and the last finished ones).
   std::vector<TimerStats> stats() const;

@@ -226,6 +226,26 @@ TEST_F(NodeTest, ConnectsTwoNodesByNameAndSwitchesTheSet) {
   EXPECT_EQ(b->in->stats().samples, 1u);
 }
 
+TEST_F(NodeTest, PullAnswersWithTheSourcesLatestSample) {
+  auto* a = start_node("/sys/a");
+  start_node("/sys/b");
+  auto sa = supervise("/sys/a");
+  auto sb = supervise("/sys/b");
+  auto r = call(sa, "connect",
+                Value::map().set("out", "Out").set("to", "/sys/b").set("in", "In").set("set", "p").set("mode", "pull"));
+  ASSERT_TRUE(r.ok()) << r.error;
+  ASSERT_TRUE(call(sa, "activate", Value::map().set("set", "p")).ok());
+  a->out->write(5.0);
+  a->out->write(6.0);
+  r = call(sb, "pull", Value::map().set("port", "In"));
+  ASSERT_TRUE(r.ok()) << r.error;
+  EXPECT_EQ(r.message.payload["value"].as_float(), 6.0);
+  EXPECT_EQ(r.message.payload["count"].as_int(), 1);  // nothing was pushed: only the answer arrived
+  ASSERT_TRUE(call(sa, "deactivate", Value::map().set("set", "p")).ok());
+  r = call(sb, "pull", Value::map().set("port", "In").set("timeout_ms", 50));
+  EXPECT_EQ(r.error, "pull: no sample arrived at /sys/b.In in time");  // an inactive set answers nothing
+}
+
 TEST_F(NodeTest, ConnectErrorsNameTheValidPorts) {
   start_node("/sys/a");
   start_node("/sys/b");

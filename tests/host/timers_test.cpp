@@ -68,7 +68,12 @@ TEST_F(TimersTest, SimulatedTimeStandsStillUntilAdvanced) {
 TEST_F(TimersTest, AdvanceRunsDueTimersInDeadlineThenCreationOrder) {
   dca::TimerServer ts(io, dca::ClockKind::Simulated);
   std::vector<std::string> trace;
-  auto rec = [&](std::string n) { return [&trace, &ts, n] { trace.push_back(n + "@" + std::to_string(ts.now() / kMs)); }; };
+  auto rec = [&](std::string n) {
+    return [&trace, &ts, n] {
+      EXPECT_EQ(ts.current_deadline(), ts.now());
+      trace.push_back(n + "@" + std::to_string(ts.now() / kMs));
+    };
+  };
   ts.every(2 * kMs, rec("b"), "b");
   ts.every(1 * kMs, rec("a"), "a");
   ts.every(3 * kMs, rec("c"), "c");
@@ -76,6 +81,7 @@ TEST_F(TimersTest, AdvanceRunsDueTimersInDeadlineThenCreationOrder) {
   EXPECT_EQ(trace, (std::vector<std::string>{"a@1", "b@2", "a@2", "a@3", "c@3", "b@4", "a@4", "a@5", "b@6", "a@6",
                                              "c@6"}));
   EXPECT_EQ(ts.now(), 6 * kMs);
+  EXPECT_EQ(ts.current_deadline(), -1);  // outside callbacks
   const auto s = ts.stats();
   ASSERT_EQ(s.size(), 3u);
   EXPECT_EQ(s[1].name, "a");

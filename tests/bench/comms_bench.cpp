@@ -1,0 +1,442 @@
+// Data-plane benchmarks (BENCHMARKS.md format), each beside its raw baseline measured in the same run:
+//   - round trip of a 64-byte sample through two controllers (a pinger and a Gain echo):
+//       in-process (beside a raw function-call hand-off), two processes over a Unix socket and over loopback TCP
+//       (beside a raw Boost.Asio ping-pong of 64 bytes over the same transport), placements unpinned, _cpu0-0
+//       and _cpu0-1, alternated A B A B;
+//   - samples/s through one Unix-socket push connection (beside raw Asio writes of the same frames).
+// Usage: bench_comms [ROUND_TRIPS_PER_ROUND]   (default 2000; 2 rounds of each)
+#pragma GCC diagnostic ignored "-Wnull-dereference"
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+
+#include <poll.h>
+#include <sched.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <utility>  // before asio.hpp: its awaitable.hpp uses std::exchange
+
+#include <boost/asio.hpp>
+
+#include "controllers/registry.h"
+#include "host/comms.h"
+#include "host/timers.h"
+
+namespace asio = boost::asio;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+constexpr int kDoubles = 8;  // 64 bytes
+
+void pin(int cpu) {
+  if (cpu < 0) return;
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  CPU_SET(cpu, &set);
+  sched_setaffinity(0, sizeof set, &set);
+}
+
+struct Samples {
+  std::vector<double> us;
+  void add(Clock::duration d) { us.push_back(std::chrono::duration<double, std::micro>(d).count()); }
+};
+
+void print(const char* bench, const std::string& variant, Samples& s, const std::string& extra = "") {
+  auto& v = s.us;
+  if (v.empty()) return;
+  std::sort(v.begin(), v.end());
+  auto q = [&](double p) { return v[std::min(v.size() - 1, static_cast<std::size_t>(p * static_cast<double>(v.size())))]; };
+  std::printf("RESULT bench=%s variant=%s n=%zu p50_us=%.2f p99_us=%.2f p999_us=%.2f max_us=%.2f%s\n", bench,
+              variant.c_str(), v.size(), q(0.5), q(0.99), q(0.999), v.back(), extra.c_str());
+  std::fflush(stdout);
+}
+
+bool run_until(asio::io_context& io, const std::function<bool()>& pred, std::chrono::seconds timeout = std::chrono::seconds(10)) {
+  const auto deadline = Clock::now() + timeout;
+  while (!pred()) {
+    if (Clock::now() > deadline) return false;
+    io.restart();
+    io.run_one_for(std::chrono::milliseconds(10));
+  }
+  return true;
+}
+
+// --- the echo side in a child process --------------------------------------------------------------------
+
+// dca echo: an Endpoint with a Gain(k=1) controller "/echo" that connects its Out back to the parent's "/ping".
+// Protocol over `pipe_w`: writes its TCP port (int) once listening.
+[[noreturn]] void dca_echo_child(bool tcp, const std::string& uds, int cpu, int pipe_w, int pipe_r) {
+  pin(cpu);
+  asio::io_context io;
+  dca::TimerServer timers(io, dca::ClockKind::Wall);
+  dca::Endpoint ep(io, tcp ? "b" : "a");
+  auto gain = dca::Registry::global().create("Gain", {"/echo", "b", {"1"}, &timers, nullptr});
+  ep.add_component("/echo", gain->ports());
+  ep.listen(uds + ".echo", "127.0.0.1:0");
+  const auto loc = ep.location();
+  const int port = std::stoi(loc.data_tcp.substr(loc.data_tcp.rfind(':') + 1));
+  [[maybe_unused]] auto w = ::write(pipe_w, &port, sizeof port);
+  // Wait for the parent's address (its TCP port), then connect back.
+  int parent_port = 0;
+  [[maybe_unused]] auto r = ::read(pipe_r, &parent_port, sizeof parent_port);
+  std::string err = "pending";
+  ep.connect({"/echo", "Out", "/ping", "In", "s", dca::Mode::Push, 16},
+             {"a", uds, "127.0.0.1:" + std::to_string(parent_port)}, [&](const std::string& e) { err = e; });
+  run_until(io, [&] { return err != "pending"; });
+  if (!err.empty()) {
+    std::fprintf(stderr, "echo: %s\n", err.c_str());
+    ::_exit(1);
+  }
+  ep.activate("s");
+  gain->run({});
+  [[maybe_unused]] auto w2 = ::write(pipe_w, &port, sizeof port);  // ready
+  ep.on_event([&](const dca::CommsEvent& e) {
+    if (e.kind == dca::CommsEvent::Kind::Broken) io.stop();
+  });
+  io.run();
+  ::_exit(0);
+}
+
+// raw echo: Asio, read 64 bytes, write them back, forever.
+[[noreturn]] void raw_echo_child(bool tcp, const std::string& uds, int cpu, int pipe_w) {
+  pin(cpu);
+  asio::io_context io;
+  std::array<char, 64> buf{};
+  int port = 0;
+  if (tcp) {
+    asio::ip::tcp::acceptor acc(io, {asio::ip::make_address("127.0.0.1"), 0});
+    port = acc.local_endpoint().port();
+    [[maybe_unused]] auto w = ::write(pipe_w, &port, sizeof port);
+    asio::ip::tcp::socket s = acc.accept();
+    s.set_option(asio::ip::tcp::no_delay(true));
+    std::function<void()> loop = [&] {
+      asio::async_read(s, asio::buffer(buf), [&](boost::system::error_code ec, std::size_t) {
+        if (ec) return io.stop();
+        asio::async_write(s, asio::buffer(buf), [&](boost::system::error_code ec2, std::size_t) {
+          if (ec2) return io.stop();
+          loop();
+        });
+      });
+    };
+    loop();
+    io.run();
+  } else {
+    ::unlink((uds + ".raw").c_str());
+    asio::local::stream_protocol::acceptor acc(io, asio::local::stream_protocol::endpoint(uds + ".raw"));
+    [[maybe_unused]] auto w = ::write(pipe_w, &port, sizeof port);
+    asio::local::stream_protocol::socket s = acc.accept();
+    std::function<void()> loop = [&] {
+      asio::async_read(s, asio::buffer(buf), [&](boost::system::error_code ec, std::size_t) {
+        if (ec) return io.stop();
+        asio::async_write(s, asio::buffer(buf), [&](boost::system::error_code ec2, std::size_t) {
+          if (ec2) return io.stop();
+          loop();
+        });
+      });
+    };
+    loop();
+    io.run();
+  }
+  ::_exit(0);
+}
+
+// --- the measuring side -----------------------------------------------------------------------------------
+
+void dca_socket_round(bool tcp, int cpu_parent, int cpu_child, int n, Samples& out) {
+  const std::string uds = "/tmp/dca-bench-" + std::to_string(::getpid());
+  int up[2], down[2];
+  if (::pipe(up) != 0 || ::pipe(down) != 0) return;
+  const pid_t child = ::fork();
+  if (child == 0) dca_echo_child(tcp, uds, cpu_child, up[1], down[0]);
+  pin(cpu_parent);
+  asio::io_context io;
+  dca::Endpoint ep(io, "a");
+  dca::PortSet ping;
+  auto& o = ping.add_output(dca::vectorx_port("Out"));
+  auto& in = ping.add_input(dca::vectorx_port("In"));
+  ep.add_component("/ping", ping);
+  ep.listen(uds, "127.0.0.1:0");
+  int child_port = 0;
+  [[maybe_unused]] auto r1 = ::read(up[0], &child_port, sizeof child_port);
+  const auto loc = ep.location();
+  const int my_port = std::stoi(loc.data_tcp.substr(loc.data_tcp.rfind(':') + 1));
+  [[maybe_unused]] auto w1 = ::write(down[1], &my_port, sizeof my_port);
+  std::string err = "pending";
+  ep.connect({"/ping", "Out", "/echo", "In", "s", dca::Mode::Push, 16},
+             {tcp ? "b" : "a", uds + ".echo", "127.0.0.1:" + std::to_string(child_port)},
+             [&](const std::string& e) { err = e; });
+  run_until(io, [&] { return err != "pending"; });
+  // The child connects back to us: keep our io_context turning until it says it is ready.
+  run_until(io, [&] {
+    pollfd pfd{up[0], POLLIN, 0};
+    return ::poll(&pfd, 1, 0) == 1;
+  });
+  int ready = 0;
+  [[maybe_unused]] auto r2 = ::read(up[0], &ready, sizeof ready);
+  if (!err.empty()) {
+    std::fprintf(stderr, "connect: %s\n", err.c_str());
+  } else {
+    ep.activate("s");
+    Eigen::VectorXd x = Eigen::VectorXd::Constant(kDoubles, 1.0);
+    bool got = false;
+    in.on_sample = [&] { got = true; };
+    for (int i = 0; i < n + 100; ++i) {
+      got = false;
+      const auto t0 = Clock::now();
+      o.write(x);
+      while (!got) io.run_one();
+      const auto t1 = Clock::now();
+      in.pop();
+      if (i >= 100) out.add(t1 - t0);  // the first 100 warm up
+    }
+  }
+  ep.remove_component("/ping");
+  ::kill(child, SIGTERM);
+  ::waitpid(child, nullptr, 0);
+  for (int f : {up[0], up[1], down[0], down[1]}) ::close(f);
+}
+
+void raw_socket_round(bool tcp, int cpu_parent, int cpu_child, int n, Samples& out) {
+  const std::string uds = "/tmp/dca-bench-" + std::to_string(::getpid());
+  int up[2];
+  if (::pipe(up) != 0) return;
+  const pid_t child = ::fork();
+  if (child == 0) raw_echo_child(tcp, uds, cpu_child, up[1]);
+  pin(cpu_parent);
+  int port = 0;
+  [[maybe_unused]] auto r = ::read(up[0], &port, sizeof port);
+  asio::io_context io;
+  auto work = asio::make_work_guard(io);  // run_one must never find the context out of work
+  std::array<char, 64> buf{}, back{};
+  auto measure = [&](auto& s) {
+    bool got = false;
+    for (int i = 0; i < n + 100; ++i) {
+      got = false;
+      const auto t0 = Clock::now();
+      asio::async_write(s, asio::buffer(buf), [](boost::system::error_code, std::size_t) {});
+      asio::async_read(s, asio::buffer(back), [&](boost::system::error_code, std::size_t) { got = true; });
+      while (!got) io.run_one();
+      const auto t1 = Clock::now();
+      if (i >= 100) out.add(t1 - t0);
+    }
+  };
+  if (tcp) {
+    asio::ip::tcp::socket s(io);
+    s.connect({asio::ip::make_address("127.0.0.1"), static_cast<unsigned short>(port)});
+    s.set_option(asio::ip::tcp::no_delay(true));
+    measure(s);
+  } else {
+    asio::local::stream_protocol::socket s(io);
+    s.connect(asio::local::stream_protocol::endpoint(uds + ".raw"));
+    measure(s);
+  }
+  ::kill(child, SIGTERM);
+  ::waitpid(child, nullptr, 0);
+  ::unlink((uds + ".raw").c_str());
+  ::close(up[0]);
+  ::close(up[1]);
+}
+
+void dca_inprocess_round(int n, Samples& out) {
+  asio::io_context io;
+  dca::TimerServer timers(io, dca::ClockKind::Wall);
+  dca::Endpoint ep(io, "a");
+  auto gain = dca::Registry::global().create("Gain", {"/echo", "a", {"1"}, &timers, nullptr});
+  dca::PortSet ping;
+  auto& o = ping.add_output(dca::vectorx_port("Out"));
+  auto& in = ping.add_input(dca::vectorx_port("In"));
+  ep.add_component("/ping", ping);
+  ep.add_component("/echo", gain->ports());
+  std::string e1 = "x", e2 = "x";
+  ep.connect({"/ping", "Out", "/echo", "In", "s", dca::Mode::Push, 16}, {}, [&](const std::string& e) { e1 = e; });
+  ep.connect({"/echo", "Out", "/ping", "In", "s", dca::Mode::Push, 16}, {}, [&](const std::string& e) { e2 = e; });
+  ep.activate("s");
+  gain->run({});
+  Eigen::VectorXd x = Eigen::VectorXd::Constant(kDoubles, 1.0);
+  Clock::time_point t1;
+  in.on_sample = [&] { t1 = Clock::now(); };
+  for (int i = 0; i < n + 100; ++i) {
+    const auto t0 = Clock::now();
+    o.write(x);
+    in.pop();
+    if (i >= 100) out.add(t1 - t0);
+  }
+  ep.remove_component("/ping");
+  ep.remove_component("/echo");
+}
+
+void raw_inprocess_round(int n, Samples& out) {
+  // The same hand-off done by hand: copy 64 bytes into the echo's buffer, call it, it copies them back.
+  std::array<double, kDoubles> a{}, b{}, c{};
+  Clock::time_point t1;
+  std::function<void()> back = [&] { t1 = Clock::now(); };
+  std::function<void()> echo = [&] {
+    std::memcpy(c.data(), b.data(), sizeof c);
+    back();
+  };
+  for (int i = 0; i < n + 100; ++i) {
+    const auto t0 = Clock::now();
+    std::memcpy(b.data(), a.data(), sizeof b);
+    echo();
+    if (i >= 100) out.add(t1 - t0);
+  }
+}
+
+// Samples/s through one push connection over a Unix socket (receiver in a child process).
+double dca_throughput(int n) {
+  const std::string uds = "/tmp/dca-bench-tp-" + std::to_string(::getpid());
+  int up[2];
+  if (::pipe(up) != 0) return 0;
+  const pid_t child = ::fork();
+  if (child == 0) {
+    asio::io_context io;
+    dca::Endpoint ep(io, "a");
+    dca::PortSet sink;
+    auto& in = sink.add_input(dca::vectorx_port("In"));
+    ep.add_component("/sink", sink);
+    ep.listen(uds, "");
+    std::uint64_t got = 0;
+    in.on_sample = [&] {
+      in.pop();
+      if (++got == static_cast<std::uint64_t>(n)) {
+        [[maybe_unused]] auto w = ::write(up[1], &got, sizeof got);
+      }
+    };
+    int ok = 1;
+    [[maybe_unused]] auto w = ::write(up[1], &ok, sizeof ok);
+    io.run();
+    ::_exit(0);
+  }
+  int ok = 0;
+  [[maybe_unused]] auto r = ::read(up[0], &ok, sizeof ok);
+  asio::io_context io;
+  dca::Endpoint ep(io, "a");
+  dca::PortSet src;
+  auto& o = src.add_output(dca::vectorx_port("Out"));
+  ep.add_component("/src", src);
+  std::string err = "pending";
+  ep.connect({"/src", "Out", "/sink", "In", "s", dca::Mode::Push, 64}, {"a", uds, ""}, [&](const std::string& e) { err = e; });
+  run_until(io, [&] { return err != "pending"; });
+  ep.activate("s");
+  Eigen::VectorXd x = Eigen::VectorXd::Constant(kDoubles, 1.0);
+  const auto t0 = Clock::now();
+  for (int i = 0; i < n; ++i) {
+    o.write(x);
+    if ((i & 63) == 0) io.poll();  // let backed-up writes drain
+  }
+  std::uint64_t got = 0;
+  // Keep the io_context turning until the receiver has every sample.
+  bool done = false;
+  asio::posix::stream_descriptor pd(io, ::dup(up[0]));
+  pd.async_read_some(asio::buffer(&got, sizeof got), [&](boost::system::error_code, std::size_t) { done = true; });
+  run_until(io, [&] { return done; }, std::chrono::seconds(30));
+  const double secs = std::chrono::duration<double>(Clock::now() - t0).count();
+  ep.remove_component("/src");
+  ::kill(child, SIGTERM);
+  ::waitpid(child, nullptr, 0);
+  ::close(up[0]);
+  ::close(up[1]);
+  return done ? n / secs : 0;
+}
+
+double raw_throughput(int n) {
+  const std::string uds = "/tmp/dca-bench-tpr-" + std::to_string(::getpid());
+  ::unlink(uds.c_str());
+  int up[2];
+  if (::pipe(up) != 0) return 0;
+  const pid_t child = ::fork();
+  if (child == 0) {
+    asio::io_context io;
+    asio::local::stream_protocol::acceptor acc(io, asio::local::stream_protocol::endpoint(uds));
+    int ok = 1;
+    [[maybe_unused]] auto w = ::write(up[1], &ok, sizeof ok);
+    auto s = acc.accept();
+    std::array<char, 69> frame{};  // the same 5-byte header + 64-byte body as a dca sample frame
+    for (int i = 0; i < n; ++i) asio::read(s, asio::buffer(frame));
+    [[maybe_unused]] auto w2 = ::write(up[1], &ok, sizeof ok);
+    ::_exit(0);
+  }
+  int ok = 0;
+  [[maybe_unused]] auto r = ::read(up[0], &ok, sizeof ok);
+  asio::io_context io;
+  asio::local::stream_protocol::socket s(io);
+  s.connect(asio::local::stream_protocol::endpoint(uds));
+  std::array<char, 69> frame{};
+  const auto t0 = Clock::now();
+  for (int i = 0; i < n; ++i) asio::write(s, asio::buffer(frame));
+  [[maybe_unused]] auto r2 = ::read(up[0], &ok, sizeof ok);
+  const double secs = std::chrono::duration<double>(Clock::now() - t0).count();
+  ::waitpid(child, nullptr, 0);
+  ::unlink(uds.c_str());
+  ::close(up[0]);
+  ::close(up[1]);
+  return n / secs;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const int n = argc > 1 ? std::max(100, std::atoi(argv[1])) : 2000;
+  ::signal(SIGPIPE, SIG_IGN);
+  const int ncpu = static_cast<int>(::sysconf(_SC_NPROCESSORS_ONLN));
+  struct Placement {
+    const char* suffix;
+    int parent, child;
+  };
+  std::vector<Placement> placements{{"", -1, -1}, {"_cpu0-0", 0, 0}};
+  if (ncpu > 1) placements.push_back({"_cpu0-1", 0, 1});
+
+  {  // in-process
+    Samples d, r;
+    for (int round = 0; round < 2; ++round) {
+      std::fprintf(stderr, "in-process round %d\n", round + 1);
+      dca_inprocess_round(n, d);
+      raw_inprocess_round(n, r);
+    }
+    print("dca_pingpong", "64B_inprocess", d);
+    print("raw_call_pingpong", "64B_inprocess", r);
+  }
+  for (bool tcp : {false, true}) {
+    for (const auto& p : placements) {
+      Samples d, r;
+      for (int round = 0; round < 2; ++round) {
+        std::fprintf(stderr, "%s%s round %d\n", tcp ? "tcp" : "uds", p.suffix, round + 1);
+        dca_socket_round(tcp, p.parent, p.child, n, d);
+        raw_socket_round(tcp, p.parent, p.child, n, r);
+      }
+      pin(-1);
+      cpu_set_t all;
+      CPU_ZERO(&all);
+      for (int c = 0; c < ncpu; ++c) CPU_SET(c, &all);
+      sched_setaffinity(0, sizeof all, &all);
+      const std::string v = std::string("64B_") + (tcp ? "tcp" : "uds") + p.suffix;
+      print("dca_pingpong", v, d);
+      print(tcp ? "raw_tcp_pingpong" : "raw_uds_pingpong", v, r);
+      if (!d.us.empty() && !r.us.empty())
+        std::fprintf(stderr, "  ratio p50 dca/raw = %.2f\n", d.us[d.us.size() / 2] / r.us[r.us.size() / 2]);
+    }
+  }
+  {  // throughput
+    const int m = n * 50;
+    double d = 0, r = 0;
+    for (int round = 0; round < 2; ++round) {
+      d = std::max(d, dca_throughput(m));
+      r = std::max(r, raw_throughput(m));
+    }
+    Samples sd, sr;
+    sd.us.push_back(d > 0 ? 1e6 / d : 0);
+    sr.us.push_back(r > 0 ? 1e6 / r : 0);
+    print("dca_samples", "64B_uds_push", sd, " samples_per_s=" + std::to_string(static_cast<long long>(d)));
+    print("raw_uds_writes", "69B_uds", sr, " samples_per_s=" + std::to_string(static_cast<long long>(r)));
+  }
+  return 0;
+}

@@ -1,0 +1,82 @@
+// Timer lateness (BENCHMARKS.md format): a 1 kHz periodic timer of the TimerServer (timerfd on the io_context,
+// as controllers use it) beside a raw clock_nanosleep(TIMER_ABSTIME) loop, both with 1 ns timer slack,
+// alternated A B A B. Lateness = when the callback starts - its deadline.
+// Usage: bench_timers [TICKS_PER_ROUND]   (default 2000, i.e. 2 s per round; 2 rounds of each)
+#pragma GCC diagnostic ignored "-Wnull-dereference"
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+
+#include <time.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+#include <vector>
+
+#include <boost/asio/io_context.hpp>
+
+#include "host/timers.h"
+
+namespace {
+
+constexpr dca::Nanos kPeriod = 1'000'000;
+
+void print(const char* bench, std::vector<double>& v, const std::string& extra = "") {
+  std::sort(v.begin(), v.end());
+  auto q = [&](double p) { return v[std::min(v.size() - 1, static_cast<std::size_t>(p * static_cast<double>(v.size())))]; };
+  std::printf("RESULT bench=%s variant=1kHz n=%zu p50_us=%.2f p99_us=%.2f p999_us=%.2f max_us=%.2f%s\n", bench, v.size(),
+              q(0.5), q(0.99), q(0.999), v.back(), extra.c_str());
+  std::fflush(stdout);
+}
+
+void dca_round(int ticks, std::vector<double>& out, dca::TimerStats& stats) {
+  boost::asio::io_context io;
+  dca::TimerServer ts(io, dca::ClockKind::Wall);
+  const dca::Nanos first = ts.now() + kPeriod;  // absolute deadlines from here
+  int k = 0;
+  dca::TimerServer::Id id = 0;
+  id = ts.every(kPeriod, [&] {
+    const dca::Nanos late = dca::monotonic_now() - ts.current_deadline();
+    out.push_back(static_cast<double>(late) / 1000.0);
+    if (++k == ticks) {
+      ts.cancel(id);
+      io.stop();
+    }
+  }, "bench", first);
+  io.run();
+  stats = *ts.stats(id);
+}
+
+void raw_round(int ticks, std::vector<double>& out) {
+  dca::minimise_timer_slack();
+  timespec next{};
+  clock_gettime(CLOCK_MONOTONIC, &next);
+  for (int k = 0; k < ticks; ++k) {
+    next.tv_nsec += kPeriod;
+    if (next.tv_nsec >= 1'000'000'000) {
+      next.tv_nsec -= 1'000'000'000;
+      ++next.tv_sec;
+    }
+    while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &next, nullptr) != 0) {
+    }
+    const dca::Nanos deadline = static_cast<dca::Nanos>(next.tv_sec) * 1'000'000'000 + next.tv_nsec;
+    out.push_back(static_cast<double>(dca::monotonic_now() - deadline) / 1000.0);
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const int ticks = argc > 1 ? std::max(100, std::atoi(argv[1])) : 2000;
+  std::vector<double> d, r;
+  dca::TimerStats s;
+  for (int round = 0; round < 2; ++round) {
+    std::fprintf(stderr, "timer round %d\n", round + 1);
+    dca_round(ticks, d, s);
+    raw_round(ticks, r);
+  }
+  print("dca_timer_lateness", d,
+        " missed=" + std::to_string(s.missed) + " server_p99_us=" + std::to_string(s.p99_us));
+  print("raw_clock_nanosleep_lateness", r);
+  return 0;
+}
