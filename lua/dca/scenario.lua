@@ -96,7 +96,7 @@ function M.system(file, opts)
   local spec = opts.spec or M.spec(file, opts.root)
   if M.backend == "real" then
     local s = require("dca.scenario_real").system(spec, { file = file, root = opts.root })
-    s.commands = System.commands
+    s.commands, s.host = System.commands, System.host
     systems[#systems + 1] = s
     return s
   end
@@ -152,6 +152,13 @@ end
 
 function System:wait_state(path, state, timeout)
   self:wait(path .. " " .. state, function() return self:state(path) == state end, timeout)
+end
+
+--- Waits until pred(value of `path`.`port`) holds, at most `timeout` seconds. --> the value
+function System:wait_read(path, port, pred, timeout)
+  local v
+  self:wait(path .. "." .. port, function() v = self:read(path, port) return pred(v) end, timeout)
+  return v
 end
 
 --- Injects an event as the process at `path` ("done", value | "aborted", reason).
@@ -220,6 +227,13 @@ function System:commands(pattern)
     if cmd and (not pattern or cmd:find(pattern)) then out[#out + 1] = cmd end
   end
   return out
+end
+
+--- The host name of the process at `path` (from the system's spec), or nil.
+function System:host(path)
+  local host
+  spec_mod.walk(self.spec, function(n) if n.path == path then host = n.host end end)
+  return host
 end
 
 --- Processes still alive (besides the root).

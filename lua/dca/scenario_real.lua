@@ -16,9 +16,22 @@ System.__index = System
 
 local function now() return core.now() end
 
+-- Wall-clock waits only bound a hang: a scenario's timeout is in its system's time (exact in memory), and
+-- here a loaded machine must never fail a step that is merely slow. Nothing timed is asserted.
+local function bound(t) return math.min(20 + 4 * (t or 10), 100) end
+M.bound = bound
+
+-- A transition line ("main.a: running", "main.a: done 2", "main.g: aborted (...)") --> path, state
+local WORD_STATE = { running = "running", done = "done", aborting = "stopping", stopped = "inactive",
+                     aborted = "aborted", exited = "exited", lost = "lost", configured = "configured" }
+local function transition(line)
+  local path, word = tostring(line):match("^(%S+): (%a+)")
+  return path, word and WORD_STATE[word]
+end
+
 function M.system(spec, opts)
   local s = setmetatable({ spec = spec, opts = opts, file = opts.file, root = opts.root, lines = {},
-                           backend = "real", outcome = nil, t0 = now() }, System)
+                           seen = {}, backend = "real", outcome = nil, t0 = now() }, System)
   s.loop = core.loop()
   return s
 end
@@ -31,9 +44,10 @@ end
 
 function System:_ask(fn, timeout, what)
   local res
+  timeout = timeout or 30
   fn(function(...) res = table.pack(...) end)
-  if not self:_until(function() return res ~= nil end, timeout or 5) then
-    error(sformat("timed out after %gs waiting for %s", timeout or 5, what or "an answer"), 3)
+  if not self:_until(function() return res ~= nil end, timeout) then
+    error(sformat("timed out after %gs waiting for %s", timeout, what or "an answer"), 3)
   end
   return table.unpack(res, 1, res.n)
 end
@@ -57,15 +71,22 @@ function System:try_up(timeout)
   local set, key = self.daemons, self.key
   local rt = srt.new({ hosts = set.hosts, key = key, exe = "dca",
     report = function(msg)
-      if msg.type == "log" then self.lines[#self.lines + 1] = msg.line
+      if msg.type == "log" then
+        self.lines[#self.lines + 1] = msg.line
+        local path, state = transition(msg.line)
+        if state then
+          self.seen[path] = self.seen[path] or {}
+          self.seen[path][state] = true
+        end
       elseif msg.type == "done" or msg.type == "aborted" then self.outcome = msg end
     end })
   self.rt = rt
   self.sup = supervisor.new(self.spec, rt, { progress = true, hosts = set.hosts })
   rt.bind(self.sup)
-  local res = self:_ask(function(k) self.sup:configure(function(ok, cerr) k({ ok, cerr }) end) end, timeout, "the start")
+  local res = self:_ask(function(k) self.sup:configure(function(ok, cerr) k({ ok, cerr }) end) end, bound(timeout),
+    "the start")
   if not res[1] then
-    self:_ask(function(k) self.sup:shutdown(k) end, 30, "the stop after a failed start")
+    self:_ask(function(k) self.sup:shutdown(k) end, 100, "the stop after a failed start")
     return false, res[2]
   end
   return true
@@ -79,20 +100,22 @@ end
 
 function System:run(init)
   self.outcome = nil
+  self.seen = {}
   self.sup:run_expr(init)
 end
 
 function System:settle(s) self.loop:run_until(function() return false end, s or 0) end
 
 function System:wait(what, pred, timeout)
-  if not self:_until(pred, timeout or 10) then
-    error(sformat("timed out after %gs waiting for %s", timeout or 10, what), 2)
+  local b = bound(timeout)
+  if not self:_until(pred, b) then
+    error(sformat("timed out after %gs (wall clock) waiting for %s", b, what), 2)
   end
 end
 
 function System:wait_outcome(timeout)
   self:wait("the root's outcome", function() return self.outcome ~= nil end, timeout)
-  self:_until(function() return (self.sup.stops_pending or 0) == 0 end, 5)
+  self:_until(function() return (self.sup.stops_pending or 0) == 0 end, bound(timeout))
   return self.outcome
 end
 
@@ -105,23 +128,39 @@ local function find(node, path)
 end
 
 function System:state(path)
-  local tree = self:_ask(function(k) self.sup:tree(k) end, 5, "the tree")
+  local tree = self:_ask(function(k) self.sup:tree(k) end, 25, "the tree")
   local n = find(tree, path)
   return n and n.state
 end
 
+-- Waits until `path` has been in `state` since the last run() (from the transition lines its owner sends
+-- up, so a short state is never missed), or is in it now.
 function System:wait_state(path, state, timeout)
-  local deadline = now() + (timeout or 10)
-  while now() < deadline do
-    if self:state(path) == state then return end
-    self:settle(0.005)
+  local function seen() return self.seen[path] ~= nil and self.seen[path][state] == true end
+  if seen() or self:state(path) == state then return end
+  local b = bound(timeout)
+  if not self:_until(seen, b) then
+    error(sformat("timed out after %gs (wall clock) waiting for %s %s (now %s)", b, path, state,
+      tostring(self:state(path))), 2)
   end
-  error(sformat("timed out after %gs waiting for %s %s", timeout or 10, path, state), 2)
+end
+
+-- Reads `path`.`port` until pred(value) holds (each read a request to the node), bounded.
+function System:wait_read(path, port, pred, timeout)
+  local b = bound(timeout)
+  local deadline, v = now() + b, nil
+  while true do
+    v = self:read(path, port)
+    if pred(v) then return v end
+    if now() > deadline then break end
+    self:settle(0.01)
+  end
+  error(sformat("timed out after %gs (wall clock) waiting for %s.%s (last value %s)", b, path, port, tostring(v)), 2)
 end
 
 function System:inject(path, kind, value)
   local msg = kind == "done" and { type = "done", value = value } or { type = "aborted", reason = value or "injected" }
-  local ok, err = self:_ask(function(k) self.sup:inject(path, msg, k) end, 5, "the injection")
+  local ok, err = self:_ask(function(k) self.sup:inject(path, msg, k) end, 25, "the injection")
   if not ok then error("inject " .. path .. ": " .. tostring(err), 2) end
 end
 
@@ -129,7 +168,7 @@ end
 function System:_daemon(host)
   self.dchs = self.dchs or {}
   if self.dchs[host] then return self.dchs[host] end
-  local ch, err = self:_ask(function(k) core.connect(self.daemons.hosts[host], srt.key_opts(self.key), k) end, 5,
+  local ch, err = self:_ask(function(k) core.connect(self.daemons.hosts[host], srt.key_opts(self.key), k) end, 25,
     "the daemon of " .. host)
   if not ch then error("daemon " .. host .. ": " .. tostring(err), 3) end
   ch:on_message(function() end)
@@ -142,7 +181,7 @@ function System:pid(path)
   local host
   spec_mod.walk(self.spec, function(n) if n.path == path then host = n.host end end)
   if not host then error("no process " .. path, 3) end
-  local r = self:_ask(function(k) self:_daemon(host):request({ type = "status" }, 5, k) end, 6, "the daemon's status")
+  local r = self:_ask(function(k) self:_daemon(host):request({ type = "status" }, 20, k) end, 25, "the daemon's status")
   for _, c in ipairs(r and r.children or {}) do
     if c.name == path then return c.pid end
   end
@@ -182,12 +221,12 @@ function System:_host_pids(host)
 end
 
 function System:drop(path, set)
-  local r = self:_ask(function(k) self.sup:to_leaf(path, { type = "deactivate", set = set }, 5, k) end, 6, "the drop")
+  local r = self:_ask(function(k) self.sup:to_leaf(path, { type = "deactivate", set = set }, 20, k) end, 25, "the drop")
   if not r or r.type == "error" then error("drop " .. path .. " " .. set .. ": " .. tostring(r and r.reason), 2) end
 end
 
 function System:read(path, port)
-  local r = self:_ask(function(k) self.sup:to_leaf(path, { type = "read", port = port }, 5, k) end, 6, "the read")
+  local r = self:_ask(function(k) self.sup:to_leaf(path, { type = "read", port = port }, 20, k) end, 25, "the read")
   if not r or r.type == "error" then error("read " .. path .. "." .. port .. ": " .. tostring(r and r.reason), 2) end
   local v = r.value
   if type(v) == "table" and #v == 1 then v = v[1] end
@@ -216,9 +255,9 @@ function System:reload(file)
 end
 
 function System:stop()
-  if self.sup then self:_ask(function(k) self.sup:shutdown(k) end, 30, "the stop") end
-  -- the processes end after their stop: wait (bounded) until the daemons have no child left
-  local deadline = now() + 5
+  if self.sup then self:_ask(function(k) self.sup:shutdown(k) end, 100, "the stop") end
+  -- the shutdown saw every exit event; the daemons reap their children just after: a bounded check
+  local deadline = now() + 15
   local left = self:alive()
   while #left > 0 and now() < deadline do
     self:settle(0.01)

@@ -16,10 +16,15 @@
 --
 -- The runtime:
 --   rt.spawn(child, cb)       -- child = a spec child (leaf or group); cb(handle) | cb(nil, reason). A handle
---                             --   has request(msg, timeout_s, cb(reply|nil, err)), send(msg), kill(signal).
+--                             --   has request(msg, timeout_s, cb(reply|nil, err)), send(msg), kill(signal, cb)
+--                             --   (cb(true) once the process has exited, cb(false, reason) if it outlived
+--                             --   SIGKILL), and optionally lost() (stop reporting its exit: it was declared lost).
 --                             --   A group's handle is a configured-to-be child DCAS: send it {type="configure"}.
 --   rt.defer(fn)              -- fn from the loop, soon
 --   rt.after(s, fn)           --> timer with cancel()
+--   rt.every(s, fn)           --> periodic timer with cancel() (only with rt.heartbeat)
+--   rt.heartbeat()            --> period, silence (optional: child supervisors are pinged, lost when silent)
+--   rt.reap(group_spec)       -- optional: kills what a lost child supervisor had started (by path)
 --   rt.report(msg)            -- to the parent ({type="done", value=}, {type="aborted", path=, reason=}, log)
 --   rt.log(line)              -- a line for this process's own output
 --   rt.now()                  --> seconds
@@ -36,6 +41,7 @@ local concat = table.concat
 
 --- Timeouts (seconds) of each wait of the start protocol; any of them may be overridden per supervisor.
 M.timeouts = M.timeouts or { spawn = 10, configure = 30, connect = 5, stop = 5, request = 5 }
+M.timeouts.shutdown = M.timeouts.shutdown or 30   -- a child group's whole subtree gone (each exit bounded)
 
 M.Sup = M.Sup or {}
 local Sup = M.Sup
@@ -183,11 +189,39 @@ function Sup:_start_children(cb)
               return
             end
             ch.state = "inactive"
+            self:_watch(name, handle)
             tick()
           end)
       end
     end)
   end
+end
+
+-- Heartbeat of a child supervisor: pinged every rt.heartbeat() period; no answer within the silence bound
+-- (a stopped or wedged process keeps its socket open) makes it lost: ABORTED at this group naming its host.
+-- Only runtimes with a heartbeat (the real one; the fake when asked) do this.
+function Sup:_watch(name, handle)
+  if not self.rt.heartbeat then return end
+  local period, silence = self.rt.heartbeat()
+  local ch = self.children[name]
+  local beat, busy
+  beat = self.rt.every(period, function()
+    if ch.handle ~= handle then beat:cancel() return end
+    if busy then return end
+    busy = true
+    handle.request({ type = "ping" }, silence, function(r, err)
+      busy = false
+      if r or ch.handle ~= handle then return end
+      beat:cancel()
+      local reason = sformat("supervisor lost on host %s (no answer for %gs: %s)", tostring(ch.host), silence,
+        tostring(err))
+      -- it is ended for good (SIGKILL: a stopped process cannot stop itself) and so is what it started
+      handle.kill("KILL")
+      if handle.lost then handle.lost() end
+      if self.rt.reap then self.rt.reap(ch.spec) end
+      self:child_exit(name, reason)
+    end)
+  end)
 end
 
 -- Sends a message to the node of leaf `leaf_path`, directly when it is ours, else through the child DCAS
@@ -496,36 +530,54 @@ end
 
 ---------------------------------------------------------------------------------------------- stop
 
---- Aborts the expression, then stops every child process, most recently started first. cb() when all gone.
+--- Aborts the expression, then stops every child process, most recently started first: a child group is
+--- asked to shut down its own subtree (its answer comes when all of it is gone) before it is ended and the
+--- next child is stopped; leaves are sent their stop signal in LIFO order. cb() once every child's exit was
+--- seen (each wait is bounded: SIGKILL after a grace, then it is reported and given up).
 function Sup:shutdown(cb)
   if self.state == "stopped" then if cb then cb() end return end
+  if self.shutdown_waiters then
+    -- a second shutdown (parent gone while its shutdown runs, Ctrl-C twice): answered with the first
+    self.shutdown_waiters[#self.shutdown_waiters + 1] = cb
+    return
+  end
+  self.shutdown_waiters = { cb }
   self:abort(function()
     self.state = "stopping"
     local names = {}
     for i = #self.order, 1, -1 do names[#names + 1] = self.order[i] end
-    local i = 0
+    local waiting, i = 1, 0
+    local function gone(ok, err)
+      if ok == false then self:say("%s: %s", self.path, tostring(err)) end
+      waiting = waiting - 1
+      if waiting > 0 then return end
+      self.state = "stopped"
+      self.order = {}
+      local ws = self.shutdown_waiters
+      self.shutdown_waiters = nil
+      for _, w in ipairs(ws) do if w then w() end end
+    end
     local function next_one()
-      i = i + 1
-      local name = names[i]
-      if not name then
-        self.state = "stopped"
-        self.order = {}
-        if cb then cb() end
-        return
-      end
-      local ch = self.children[name]
-      local h = ch.handle
-      ch.handle = nil
-      if not h then ch.state = "gone" return next_one() end
-      ch.state = "gone"
-      if ch.kind == "group" then
-        h.request({ type = "shutdown" }, self.timeouts.stop + 1, function()
-          h.kill("TERM")
-          next_one()
-        end)
-      else
-        h.kill("TERM")
-        next_one()
+      while true do
+        i = i + 1
+        local name = names[i]
+        if not name then gone(true) return end
+        local ch = self.children[name]
+        local h = ch.handle
+        ch.handle = nil
+        ch.state = "gone"
+        if h then
+          waiting = waiting + 1
+          if ch.kind == "group" then
+            h.request({ type = "shutdown" }, self.timeouts.shutdown, function(_, err)
+              if err then self:log("%s: shutdown of %s: %s", self.path, ch.path, tostring(err)) end
+              h.kill("TERM", gone)
+              next_one()
+            end)
+            return
+          end
+          h.kill("TERM", gone)
+        end
       end
     end
     next_one()
@@ -562,6 +614,8 @@ function Sup:handle(msg, reply)
     if t == "inject" then self:inject(msg.path, msg.msg, done)
     elseif t == "restart" then self:restart(msg.path, done)
     else self:switch(msg.path, msg.label, msg.what, done) end
+  elseif t == "ping" then
+    reply({ type = "ok", path = self.path, state = self.state })
   elseif t == "stats" then
     if msg.path and msg.path ~= self.path then
       self:_forward(msg.path, msg, function(ok, r) reply(ok and r or { type = "error", reason = r }) end)

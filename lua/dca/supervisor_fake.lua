@@ -153,7 +153,11 @@ function Cluster:_handle(owner, p, serve)
       c:note(owner, p.path, msg, "send")
     end)
   end
-  function h.kill(sig) c:_die(p, "killed by SIG" .. tostring(sig), true) end
+  function h.kill(sig, cb)
+    c:_die(p, "killed by SIG" .. tostring(sig), true)
+    if cb then c:push(function() cb(true) end) end
+  end
+  function h.lost() p.on_exit = nil end
   return h
 end
 

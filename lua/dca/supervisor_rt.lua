@@ -59,8 +59,40 @@ function M.new(opts)
   function rt.now() return core.now() end
   function rt.defer(fn) return core.after(0, fn) end
   function rt.after(s, fn) return core.after(s, fn) end
+  function rt.every(s, fn) return core.every(s, fn) end
   function rt.report(msg) if opts.report then opts.report(msg) end end
   function rt.log(line) if opts.log then opts.log(line) end end
+
+  --- The heartbeat period and the silence after which a daemon or a child supervisor is lost (seconds):
+  --- opts.heartbeat = { period, timeout }, default 1 and 5 (generous: a loaded machine answers late, a
+  --- stopped process never).
+  function rt.heartbeat()
+    local hb = opts.heartbeat or {}
+    return hb.period or hb[1] or 1, hb.timeout or hb[2] or 5
+  end
+
+  -- A child process is gone (its exit event, or its host lost): whoever waits for it hears it once.
+  function rt._gone(rec)
+    if rec.kill_timer then rec.kill_timer:cancel() rec.kill_timer = nil end
+    local waiters = rec.on_exit
+    rec.on_exit = nil
+    for _, w in ipairs(waiters or {}) do w(true) end
+  end
+
+  -- Every child on `host` is lost (its daemon closed or stopped answering).
+  function rt._host_lost(host, reason)
+    for _, rec in pairs(rt.by_child) do
+      if rec.host == host then
+        if not rec.exited then
+          rec.exited = true
+          if rec.lost_timer then rec.lost_timer:cancel() end
+          if sup and not rt.closing then sup:child_exit(rec.name, reason) end
+          if rec.ch and not rec.ch_closed then rec.ch:close() end
+        end
+        rt._gone(rec)
+      end
+    end
+  end
 
   -- The channel to the daemon of `host` (opened once; its loss loses every child on that host).
   local function daemon(host, cb)
@@ -86,41 +118,32 @@ function M.new(opts)
       ch:on_message(function(msg)
         if msg.type == "exit" then
           local rec = rt.by_child[host .. ":" .. tostring(msg.child)]
-          if rec and sup and not rec.exited then
+          if rec and not rec.exited then
             rec.exited = true
             if rec.lost_timer then rec.lost_timer:cancel() end
-            sup:child_exit(rec.name, M.describe_exit(msg, host))
+            if sup then sup:child_exit(rec.name, M.describe_exit(msg, host)) end
             if rec.ch and not rec.ch_closed then rec.ch:close() end
           end
+          if rec then rt._gone(rec) end
         end
       end)
       ch:on_close(function(reason)
-        rt.daemons[host] = nil
-        if rt.closing or not sup then return end
-        for _, rec in pairs(rt.by_child) do
-          if rec.host == host and not rec.exited then
-            rec.exited = true
-            sup:child_exit(rec.name, sformat("host %s lost (daemon gone: %s)", host, tostring(reason)))
-          end
-        end
+        if rt.daemons[host] == d then rt.daemons[host] = nil end
+        rt._host_lost(host, sformat("host %s lost (daemon gone: %s)", host, tostring(reason)))
       end)
-      -- heartbeat: a daemon that does not answer a ping within `heartbeat` seconds is lost
-      local hb = opts.heartbeat or 1
+      -- heartbeat: a daemon that does not answer a ping within `hb_timeout` seconds is lost (a stopped or
+      -- wedged daemon keeps its socket open: only the silence tells)
+      local hb, hb_timeout = rt.heartbeat()
       local beat
       beat = core.every(hb, function()
         if rt.closing or d.ch ~= ch then beat:cancel() return end
-        ch:request({ type = "ping" }, 2 * hb, function(r, perr)
+        ch:request({ type = "ping" }, hb_timeout, function(r, perr)
           if not r and d.ch == ch and not rt.closing then
             beat:cancel()
+            rt.daemons[host] = nil
+            rt._host_lost(host, sformat("host %s lost (its daemon did not answer for %gs: %s)", host, hb_timeout,
+              tostring(perr)))
             ch:close()
-            if sup then
-              for _, rec in pairs(rt.by_child) do
-                if rec.host == host and not rec.exited then
-                  rec.exited = true
-                  sup:child_exit(rec.name, sformat("host %s lost (no heartbeat for %gs: %s)", host, 2 * hb, tostring(perr)))
-                end
-              end
-            end
           end
         end)
       end)
@@ -150,17 +173,45 @@ function M.new(opts)
         local function kill(sig)
           if rec.exited then return end
           dch:request({ type = "kill", child = r.child, signal = sig or "TERM" }, 5, function(_, kerr)
-            if kerr and not rt.closing and rt.opts.log then rt.opts.log(sformat("kill %s: %s", child.path, tostring(kerr))) end
+            if kerr and not rec.exited and not rt.closing and rt.opts.log then
+              rt.opts.log(sformat("kill %s: %s", child.path, tostring(kerr)))
+            end
+          end)
+        end
+        -- kill, then wait for the exit event (bounded): SIGKILL after `stop_grace` seconds, give up after as
+        -- many again. cb(true) once gone | cb(false, reason)
+        local function kill_wait(sig, cb)
+          if cb then
+            if rec.exited then cb(true) return end
+            rec.on_exit = rec.on_exit or {}
+            rec.on_exit[#rec.on_exit + 1] = cb
+          end
+          if rec.exited or rec.kill_timer then return end
+          kill(sig)
+          local grace = opts.stop_grace or 5
+          rec.kill_timer = core.after(grace, function()
+            if rec.exited then return end
+            kill("KILL")
+            rec.kill_timer = core.after(grace, function()
+              rec.kill_timer = nil
+              if rec.exited then return end
+              local waiters = rec.on_exit
+              rec.on_exit = nil
+              for _, w in ipairs(waiters or {}) do
+                w(false, sformat("%s (pid %s on host %s) did not exit within %gs of SIGKILL", child.path,
+                  tostring(rec.pid), child.host, grace))
+              end
+            end)
           end)
         end
         dch:request({ type = "lookup", name = child.path, wait_ms = math.floor(timeouts.lookup * 1000) },
           timeouts.lookup + 1, function(lr, lerr)
-            if not lr or lr.type == "error" then kill("KILL") cb(nil, lr and lr.reason or lerr) return end
+            if not lr or lr.type == "error" then kill_wait("KILL") cb(nil, lr and lr.reason or lerr) return end
             local ep = lr.endpoints or lr
             local control = ep.control
-            if not control then kill("KILL") cb(nil, child.path .. " registered no control endpoint") return end
+            if not control then kill_wait("KILL") cb(nil, child.path .. " registered no control endpoint") return end
             core.connect(control, M.key_opts(opts.key), function(ch, cerr)
-              if not ch then kill("KILL") cb(nil, sformat("%s at %s: %s", child.path, control, tostring(cerr))) return end
+              if not ch then kill_wait("KILL") cb(nil, sformat("%s at %s: %s", child.path, control, tostring(cerr))) return end
               rec.ch = ch
               ch:on_message(function(msg, id)
                 if (id or 0) == 0 and sup then sup:child_message(child.name, msg) end
@@ -168,8 +219,9 @@ function M.new(opts)
               ch:on_close(function(reason)
                 rec.ch_closed = true
                 if rt.closing or rec.exited or rec.stopping or not sup then return end
-                -- the process's exit event (with its signal) usually follows at once: give it a moment
-                rec.lost_timer = core.after(opts.exit_grace or 0.5, function()
+                -- the process's exit event (with its signal) follows from its daemon (or the daemon's loss
+                -- does, or its heartbeat): this bound only covers a process that closed its channel and lives on
+                rec.lost_timer = core.after(opts.exit_grace or 10, function()
                   if rec.exited or rt.closing then return end
                   rec.exited = true
                   sup:child_exit(child.name, sformat("%s lost on host %s: %s", child.kind == "group" and "supervisor"
@@ -179,16 +231,51 @@ function M.new(opts)
               local h = {}
               function h.request(msg, timeout, rcb) ch:request(msg, timeout, rcb) end
               function h.send(msg) ch:send(msg) end
-              function h.kill(sig)
+              --- Sends `sig` (via the daemon); cb(true) once the process has exited, cb(false, reason) when
+              --- it outlives SIGKILL (bounded).
+              function h.kill(sig, kcb)
                 rec.stopping = true
-                kill(sig)
+                if rec.lost_timer then rec.lost_timer:cancel() end
+                kill_wait(sig, kcb)
                 ch:close()
               end
+              --- Marks the process as gone for its owner (heartbeat lost): no further exit reports.
+              function h.lost()
+                rec.exited = true
+                if rec.lost_timer then rec.lost_timer:cancel() end
+              end
+              h.pid, h.host = rec.pid, child.host
               cb(h)
             end)
           end)
       end)
     end)
+  end
+
+  --- Kills (SIGKILL) every process the lost child supervisor of `group` had started: the daemons of its
+  --- subtree's hosts are asked which of their children bear a path below it. Best effort, nothing awaited.
+  function rt.reap(group)
+    local prefix = group.path .. "."
+    local seen = {}
+    local function visit(spec)
+      for _, c in ipairs(spec.children or {}) do
+        if c.host and not seen[c.host] then seen[c.host] = true end
+        if c.kind == "group" and c.spec then visit(c.spec) end
+      end
+    end
+    visit(group.spec or group)
+    for host in pairs(seen) do
+      daemon(host, function(dch)
+        if not dch then return end
+        dch:request({ type = "status" }, 5, function(r)
+          for _, c in ipairs(r and r.children or {}) do
+            if type(c.name) == "string" and c.name:sub(1, #prefix) == prefix then
+              dch:request({ type = "kill", child = c.child, signal = "KILL" }, 5, function() end)
+            end
+          end
+        end)
+      end)
+    end
   end
 
   --- Closes every daemon channel (after shutdown).

@@ -66,7 +66,7 @@ local function main(args)
     ch:on_close(function()
       -- the parent is gone: stop everything this supervisor started, then exit
       if sup then sup:shutdown(function() finish(1) end) else finish(1) end
-      core.after(10, function() finish(1) end)
+      core.after(30, function() finish(1) end)
     end)
   end
   -- listen on the daemon's IP (another host's supervisor must reach it), a free port
@@ -85,6 +85,11 @@ local function main(args)
         end
       end)
     dch:on_close(function() if sup then sup:shutdown(function() finish(1) end) else finish(1) end end)
+  end)
+  -- SIGTERM (its daemon stopping it, or a person): what it started goes first, then it exits (bounded)
+  core.on_signal(function()
+    if sup then sup:shutdown(function() finish(0) end) else finish(0) end
+    core.after(30, function() finish(1) end)
   end)
   -- a parent that never comes is a failed start: give up after the configure timeout
   core.after(supervisor.timeouts.configure, function() if not parent then finish(1) end end)
