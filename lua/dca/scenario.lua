@@ -102,7 +102,7 @@ function M.system(file, opts)
   end
   local fake = require "dca.supervisor_fake"
   local behave = setmetatable(opts.behave or {}, { __index = M.behave })
-  local c = fake.cluster{ behave = behave, timeouts = opts.timeouts }
+  local c = fake.cluster{ behave = behave, timeouts = opts.timeouts, heartbeat = opts.heartbeat or { 1, 5 } }
   local s = setmetatable({ spec = spec, c = c, file = file, root = opts.root, backend = "memory" }, System)
   c:root(spec, { timeouts = opts.timeouts })
   systems[#systems + 1] = s
@@ -143,10 +143,10 @@ end
 --- The state of a process ("running", "done", "inactive", "exited", "lost", ...) as its owner sees it.
 function System:state(path)
   local owner = self.c.sups[path:match("^(.*)%.[^.]+$") or ""]
+  local ch = owner and owner.children[path:match("[^.]+$")]
   local sup = self.c.sups[path]
-  if sup then return sup.state end
-  if not owner then return nil end
-  local ch = owner.children[path:match("[^.]+$")]
+  -- a group answers for itself unless its owner has lost it (as the real tree() does)
+  if sup and not (ch and (ch.state == "lost" or ch.state == "gone" or ch.state == "exited")) then return sup.state end
   return ch and ch.state
 end
 
@@ -182,6 +182,21 @@ function System:kill(path, sig)
   self.c:settle(self.c.t)
 end
 function System:lose_host(host) self.c:lose_host(host) self.c:settle(self.c.t) end
+--- Stops a process (SIGSTOP): its sockets stay open, it answers nothing (the heartbeat finds it).
+function System:freeze(path)
+  if not self.c:freeze(path) then error("no live process " .. path, 2) end
+end
+--- Stops a whole host without closing anything (its daemon, SIGSTOP; here: every process on it).
+function System:freeze_host(host)
+  for _, p in ipairs(self.c.procs) do
+    if p.host == host and p.alive then p.frozen = true end
+  end
+end
+--- Whether the process at `path` is alive (frozen counts as alive).
+function System:exists(path)
+  for _, p in ipairs(self.c.procs) do if p.path == path and p.alive then return true end end
+  return false
+end
 function System:drop(path, set)
   local node = self.c:node(path)
   if not node then error("no node " .. path, 2) end

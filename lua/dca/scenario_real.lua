@@ -194,6 +194,20 @@ function System:kill(path, sig)
   os.execute("kill -" .. (sig or "KILL") .. " " .. pid)
 end
 
+function System:freeze(path)
+  local pid = self:pid(path)
+  if not pid then error("no live process " .. path, 2) end
+  os.execute("kill -STOP " .. pid)
+end
+
+function System:freeze_host(host)
+  local pid = self.daemons.pids[host]
+  if not pid then error("no host " .. host, 2) end
+  os.execute("kill -STOP " .. pid)
+end
+
+function System:exists(path) return self:pid(path) ~= nil end
+
 function System:lose_host(host)
   local pid = self.daemons.pids[host]
   if not pid then error("no host " .. host, 2) end

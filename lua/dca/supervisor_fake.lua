@@ -12,7 +12,8 @@
 --   c:start(init)                           -- "run" to the root
 --   c:settle(max_t)                         -- processes events (and virtual time up to max_t)
 --   c:node(path):done(v) / :aborted(reason) -- a leaf's events
---   c:kill(path, "SEGV") ; c:lose_host("h3") ; c:fail_spawn[path] = "reason" | "silent"
+--   c:kill(path, "SEGV") ; c:lose_host("h3") ; c:fail_spawn[path] = "reason" | "silent" ; c:freeze(path)
+--   fake.cluster{ heartbeat = { period, silence } }  -- supervisors ping their child supervisors
 --   c.trace      -- every delivered message: { from =, to =, type = , kind = "request"|"reply"|"event" }
 --   c.commands   -- every command a node received: "path type [set]"
 local supervisor = require "dca.supervisor"
@@ -52,7 +53,7 @@ function M.cluster(opts)
     t = 0, queue = {}, qhead = 1, qtail = 0, timers = {}, tseq = 0,
     behave = opts.behave or {}, nodes = {}, sups = {}, procs = {},
     trace = {}, commands = {}, reports = {}, fail_spawn = {}, lost_hosts = {},
-    outcome = nil, timeouts = opts.timeouts, lines = {}, pid = 100,
+    outcome = nil, timeouts = opts.timeouts, lines = {}, pid = 100, heartbeat = opts.heartbeat,
   }, Cluster)
   return c
 end
@@ -127,6 +128,7 @@ function Cluster:_handle(owner, p, serve)
       if not answered then answered = true cb(nil, "timeout after " .. tostring(timeout) .. "s") end
     end)
     c:push(function()
+      if p.frozen and p.alive then return end -- stopped (SIGSTOP): no answer, the request times out
       if not p.alive then
         -- a dead process's channel is closed: the request fails at once, as over a socket
         if not answered then answered = true tm.cancel() cb(nil, "channel closed: " .. p.path .. " is gone") end
@@ -149,7 +151,7 @@ function Cluster:_handle(owner, p, serve)
     -- an event (no answer expected): a node or supervisor serves requests only, as over a real channel
     msg = copy(msg)
     c:push(function()
-      if not p.alive then return end
+      if not (p.alive and not p.frozen) then return end
       c:note(owner, p.path, msg, "send")
     end)
   end
@@ -205,7 +207,7 @@ function Cluster:_spawn(owner_sup, child, cb)
       if not s then
         if msg.type ~= "configure" then reply({ type = "error", reason = "not configured" }) return end
         s = supervisor.new(msg.spec, c:rt(p, function(m)
-          if p.alive then
+          if (p.alive and not p.frozen) then
             local cm = copy(m)
             c:push(function()
               c:note(p.path, owner_sup.path, cm, "event")
@@ -227,15 +229,29 @@ function Cluster:rt(p, report)
   local c = self
   local rt = {}
   rt.spawn = function(child, cb) c:_spawn(rt.sup_of(), child, cb) end
-  rt.defer = function(fn) c:push(function() if p.alive then fn() end end) end
+  rt.defer = function(fn) c:push(function() if (p.alive and not p.frozen) then fn() end end) end
   rt.after = function(s, fn)
-    local tm = c:after(s, function() if p.alive then fn() end end)
+    local tm = c:after(s, function() if (p.alive and not p.frozen) then fn() end end)
     return { cancel = tm.cancel }
   end
   rt.report = report
   rt.log = function(line) c.lines[#c.lines + 1] = line end
   rt.now = function() return c.t end
   rt.sup_of = function() return c.sups[p.path] end
+  if c.heartbeat then
+    -- child supervisors are pinged as by the real runtime (cluster{heartbeat = {period, silence}})
+    rt.heartbeat = function() return c.heartbeat[1], c.heartbeat[2] end
+    rt.every = function(s, fn)
+      local t = { on = true }
+      local function tick()
+        if not t.on or not (p.alive and not p.frozen) then return end
+        fn()
+        if t.on then c:after(s, tick) end
+      end
+      c:after(s, tick)
+      return { cancel = function() t.on = false end }
+    end
+  end
   return rt
 end
 
@@ -298,6 +314,14 @@ function Cluster:lose_host(host)
   end
 end
 
+--- Stops a process (SIGSTOP): it keeps its channels open but answers nothing, sends nothing, runs no timer.
+function Cluster:freeze(path)
+  for _, p in ipairs(self.procs) do
+    if p.path == path and p.alive then p.frozen = true return true end
+  end
+  return false
+end
+
 --- Processes still alive (the test's /proc).
 function Cluster:alive()
   local list = {}
@@ -340,7 +364,7 @@ function Node:serve(msg, reply)
 end
 
 local function event(self, msg)
-  if not self.p.alive then return end
+  if not (self.p.alive and not self.p.frozen) then return end
   local c, owner, name = self.c, self.owner, self.name
   msg = copy(msg)
   c:push(function()
@@ -370,7 +394,7 @@ function Node:write(port, v)
   for _, k in ipairs(self.conns) do
     if k.out == port and self.active[k.set] then
       local dst = self.c.nodes[k.to]
-      if dst and dst.p.alive then
+      if dst and (dst.p.alive and not dst.p.frozen) then
         local vv = copy(v)
         self.c:push(function() dst:input(k["in"], vv) end)
       end
@@ -388,7 +412,7 @@ end
 function Node:every(period, fn)
   local id, k = self.run_id, 0
   local function tick()
-    if not (self.running and self.run_id == id and self.p.alive) then return end
+    if not (self.running and self.run_id == id and (self.p.alive and not self.p.frozen)) then return end
     k = k + 1
     fn(k)
     if self.running and self.run_id == id then self.c:after(period, tick) end
@@ -399,7 +423,7 @@ end
 --- A timer on this node that fires only if the same run is still going.
 function Node:after(s, fn)
   local id = self.run_id
-  return self.c:after(s, function() if self.running and self.run_id == id and self.p.alive then fn() end end)
+  return self.c:after(s, function() if self.running and self.run_id == id and (self.p.alive and not self.p.frozen) then fn() end end)
 end
 
 ---------------------------------------------------------------------------------------------- spec builders

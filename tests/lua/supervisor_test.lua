@@ -218,6 +218,25 @@ suite:case("shutdown_stops_every_process_lifo", function()
   T.eq(c:alive(), {})
 end)
 
+suite:case("a_silent_child_supervisor_is_lost_after_the_silence_naming_its_host_and_its_subtree_ends", function()
+  local c = fake.cluster{ behave = behave, heartbeat = { 1, 3 } }
+  c:root(door())
+  assert(c:configure())
+  c:start()
+  c:settle(0.5)
+  T.ok(c:freeze("main.door.mc"), "mc's supervisor stops answering (SIGSTOP)")
+  local out = c:outcome_within(30)
+  T.eq(out and out.type, "aborted")
+  T.eq(out.path, "main.door.mc")
+  T.contains(out.reason, "supervisor lost on host h2 (no answer for 3s")
+  T.ok(c.t >= 3 and c.t < 10, "found within a period or two after the silence: " .. c.t)
+  for _, p in ipairs(c:alive()) do T.ok(not p:find("^main%.door%.mc"), "left running: " .. p) end
+  local done = false
+  c.root_sup:shutdown(function() done = true end)
+  c:settle(c.t + 60, function() return done end)
+  T.eq(c:alive(), {})
+end)
+
 suite:case("an_expression_naming_an_unknown_process_fails_before_anything_starts", function()
   local c = fake.cluster{ behave = behave }
   c:root(root("main", "h1", "a ; nosuch", { leaf("a", "Timer", "h1") }))
