@@ -89,7 +89,10 @@ void Daemon::handle(const Channel::Ptr& ch, const wire::Message& m) {
   } else if (names_.handle(ch, m)) {
     // register / unregister / lookup
   } else if (m.type == "ping") {
-    ch->reply(m, wire::Value::map().set("host", options_.host).set("pid", static_cast<std::int64_t>(::getpid())));
+    ch->reply(m, wire::Value::map()
+                    .set("host", options_.host)
+                    .set("pid", static_cast<std::int64_t>(::getpid()))
+                    .set("clock", options_.sim_clock ? "sim" : "wall"));
   } else if (m.type == "status") {
     wire::Value::Array children, names;
     for (const auto& [id, pid] : exec_.children()) {
@@ -114,6 +117,12 @@ void Daemon::spawn(const Channel::Ptr& ch, const wire::Message& m) {
       return;
     }
     argv.push_back(a.as_string());
+  }
+  // A host on simulated time: its nodes take the clock from the world (host/node.h) unless told otherwise.
+  if (options_.sim_clock && argv.size() >= 2 && argv[1] == "node") {
+    bool has_clock = false;
+    for (std::size_t i = 2; i < argv.size() && argv[i] != "--"; ++i) has_clock = has_clock || argv[i] == "--clock";
+    if (!has_clock) argv.insert(argv.begin() + 2, {"--clock", "sim"});
   }
   const std::string name = m.payload["name"].as_string();
   std::weak_ptr<Channel> requester = ch;

@@ -37,6 +37,7 @@ struct DaemonOptions {
   AllowList allow = AllowList::defaults();             ///< what spawn may start
   std::chrono::milliseconds stop_grace{2000};          ///< SIGTERM -> SIGKILL delay for children at stop
   std::chrono::milliseconds handshake_timeout{5000};   ///< for accepted and peer channels
+  bool sim_clock = false;  ///< `--clock sim`: every `dca node` it spawns without --clock gets `--clock sim`
 };
 
 /// One host's daemon on an io_context.

@@ -19,6 +19,16 @@ std::size_t Loop::run() {
   return io_.run();
 }
 
+std::size_t Loop::settle(int max_rounds) {
+  std::size_t total = 0;
+  for (int i = 0; i < max_rounds && !io_.stopped(); ++i) {
+    const std::size_t n = io_.poll();
+    if (n == 0) break;
+    total += n;
+  }
+  return total;
+}
+
 bool Loop::run_until(const std::function<bool()>& done, std::chrono::nanoseconds timeout) {
   if (done()) return true;
   const auto deadline = std::chrono::steady_clock::now() + timeout;

@@ -35,6 +35,11 @@ class Loop {
   bool run_until(const std::function<bool()>& done, std::chrono::nanoseconds timeout);
   /// Runs handlers for `duration` (or until stop()).
   void run_for(std::chrono::nanoseconds duration);
+  /// Runs every handler that is ready now, and those they make ready, until none is (at most `max_rounds`
+  /// rounds of io_context::poll). Safe from inside a handler of this loop (Asio supports nested polls on a
+  /// one-thread io_context). Lock-step uses it to drain data sockets before a tick and to flush writes after
+  /// it. Returns the number of handlers run.
+  std::size_t settle(int max_rounds = 1000);
   /// Makes run() return after the current handler (safe from any thread and from signal handlers' callbacks).
   void stop();
   /// True once stop() was called and run() has not been entered since.

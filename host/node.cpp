@@ -103,6 +103,8 @@ struct Node::Impl {
   std::unique_ptr<Endpoint> endpoint;
   std::unique_ptr<Component> component;
   Channel::Ptr daemon;
+  Channel::Ptr master;  // the clock master (simulated time)
+  std::function<bool(const Channel::Ptr&, const Message&)> hook;
   Listener::Ptr control;
   std::set<Channel::Ptr> supervisors;
   std::string ip;  // the daemon's IP: where this node listens
@@ -121,6 +123,7 @@ struct Node::Impl {
   }
 
   void handle(const Channel::Ptr& ch, const Message& m);
+  void subscribe(const std::function<void(const std::string&)>& done_fn);
   void connect(const Channel::Ptr& ch, const Message& m);
   void pull(const Channel::Ptr& ch, const Message& m);
   Value ports() const;
@@ -133,6 +136,9 @@ Node::Node(Loop& loop, NodeOptions options, ComponentFactory factory)
 Node::~Node() { shutdown("node destroyed"); }
 
 bool Node::finished() const { return impl_->done; }
+void Node::on_request(std::function<bool(const std::shared_ptr<Channel>&, const wire::Message&)> hook) {
+  impl_->hook = std::move(hook);
+}
 int Node::exit_code() const { return impl_->code; }
 
 void Node::start(std::function<void(const std::string& error)> done) {
@@ -162,9 +168,11 @@ void Node::start(std::function<void(const std::string& error)> done) {
       auto& K = *impl_;
       try {
         K.timers = std::make_unique<TimerServer>(K.loop.io(), K.opts.clock);
+        K.timers->set_aligned(K.opts.clock == ClockKind::Simulated);
         K.component = K.factory(K.opts.type, K.opts.name, host, K.opts.args, *K.timers);
         K.endpoint = std::make_unique<Endpoint>(K.loop.io(), host);
-        K.uds = runtime_dir() + "/node-" + std::to_string(::getpid()) + ".sock";
+        static int made = 0;  // several nodes in one process (tests) need distinct sockets
+        K.uds = runtime_dir() + "/node-" + std::to_string(::getpid()) + (made++ ? "-" + std::to_string(made) : "") + ".sock";
         K.endpoint->listen(K.uds, K.ip + ":0");
         K.endpoint->add_component(K.opts.name, K.component->ports());
       } catch (const std::exception& e) {
@@ -212,6 +220,8 @@ void Node::start(std::function<void(const std::string& error)> done) {
       K.daemon->request({"register", 0, Value::map().set("name", K.opts.name).set("endpoints", endpoints)},
                         std::chrono::milliseconds(K.opts.timeout_ms), [this, done](Response r) {
                           if (!r.ok()) return impl_->fail_start(done, "cannot register " + impl_->opts.name + ": " + r.error);
+                          if (impl_->opts.clock == ClockKind::Simulated && !impl_->opts.world.empty())
+                            return impl_->subscribe(done);
                           done("");
                         });
     };
@@ -232,6 +242,11 @@ void Node::shutdown(const std::string& why) {
   if (I.endpoint && I.component) I.endpoint->remove_component(I.opts.name);
   I.endpoint.reset();
   if (I.control) I.control->close();
+  if (I.master) {
+    auto c = I.master;
+    I.master.reset();
+    c->close(why);
+  }
   for (auto ch : std::set<Channel::Ptr>(I.supervisors)) ch->close(why);
   I.supervisors.clear();
   if (I.daemon) {
@@ -239,6 +254,47 @@ void Node::shutdown(const std::string& why) {
     I.daemon.reset();
     d->close(why);
   }
+}
+
+// Simulated time: find the clock master, subscribe, take its time (see node.h).
+void Node::Impl::subscribe(const std::function<void(const std::string&)>& done_fn) {
+  const auto timeout = std::chrono::milliseconds(opts.timeout_ms);
+  const std::string who = opts.name + " (simulated clock)";
+  daemon->request(
+      {"lookup", 0, Value::map().set("name", opts.world).set("wait_ms", static_cast<std::int64_t>(opts.timeout_ms))},
+      timeout + std::chrono::milliseconds(1000), [this, done_fn, timeout, who](Response r) {
+        if (done) return;
+        if (!r.ok())
+          return fail_start(done_fn, who + ": no clock master '" + opts.world + "' (the world, `dca sim --serve`): " +
+                                         r.error);
+        std::string err;
+        const auto addr = Address::parse(r.message.payload["endpoints"]["control"].as_string(), &err);
+        if (!addr) return fail_start(done_fn, who + ": the clock master's control address: " + err);
+        Channel::connect(loop.io(), *addr, chopts, [this, done_fn, timeout, who](Channel::Ptr ch, const std::string& e) {
+          if (done) return;
+          if (!ch) return fail_start(done_fn, who + ": cannot reach the clock master '" + opts.world + "': " + e);
+          master = ch;
+          std::weak_ptr<Channel> w = ch;
+          ch->on_message([this, w](const Message& m) {
+            if (auto c = w.lock()) handle(c, m);
+          });
+          ch->on_close([this](const std::string& reason) {
+            if (done || !master) return;
+            std::fprintf(stderr, "dca node %s: the clock master '%s' closed its channel (%s): stopping\n",
+                         opts.name.c_str(), opts.world.c_str(), reason.c_str());
+            code = 1;
+            master.reset();
+            boost::asio::post(loop.io(), [this] { loop.stop(); });
+          });
+          ch->request({"clock", 0, Value::map().set("name", opts.name)}, timeout, [this, done_fn, who](Response r2) {
+            if (done) return;
+            if (!r2.ok()) return fail_start(done_fn, who + ": the clock master refused the subscription: " + r2.error);
+            const Nanos now = r2.message.payload["now"].as_int(0);
+            if (now > timers->now()) timers->advance_to(now);
+            done_fn("");
+          });
+        });
+      });
 }
 
 Value Node::Impl::ports() const {
@@ -408,7 +464,14 @@ void Node::Impl::handle(const Channel::Ptr& ch, const Message& m) {
       return void(ch->reply_error(m, "advance: node " + opts.name + " runs on the wall clock"));
     const Nanos at = p["t"].as_int(-1);
     if (at < timers->now()) return void(ch->reply_error(m, "advance: t must be >= now (" + std::to_string(timers->now()) + ")"));
+    // Drain: every sample sent to this node before the master asked is in its sockets; take it in first, so
+    // that a sample written at one tick is always seen at the next (runs repeat exactly).
+    loop.settle();
+    if (done || !component) return;
     timers->advance_to(at);
+    // Flush what the timers wrote before answering: the master moves on only when it is on its way.
+    loop.settle();
+    if (done || !component) return;
     const auto next = timers->next_deadline();
     return void(ch->reply(m, Value::map().set("now", timers->now()).set("next", next ? Value(*next) : Value())));
   }
@@ -417,6 +480,7 @@ void Node::Impl::handle(const Channel::Ptr& ch, const Message& m) {
     boost::asio::post(loop.io(), [this] { loop.stop(); });  // the caller of run() then calls shutdown()
     return;
   }
+  if (hook && hook(ch, m)) return;
   ch->reply_error(m, "unknown request '" + t + "' for node " + opts.name);
 }
 

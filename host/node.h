@@ -26,9 +26,17 @@
 //                                                counters (samples, dropped, queued, rejected, skipped, sent)
 //   stats {}                                  -> ok {timers = [{name, period, count, missed, p50_us, p99_us,
 //                                                max_us}], clock, reentries}
-//   advance {t}  (--clock sim only)           -> ok {now, next}  t in ns; runs every timer due (lock-step,
-//                                                host/timers.h); next = the next deadline (nil when none)
+//   advance {t}  (--clock sim only)           -> ok {now, next}  t in ns; first drains the data sockets
+//                                                (every sample already sent to this node is taken in), runs
+//                                                every timer due (host/timers.h), flushes what they wrote, then
+//                                                answers; next = the next deadline (nil when none)
 //   exit {}                                   -> ok {}, then the node stops its component and exits 0
+// Simulated time (--clock sim): once registered, the node looks up the clock master (`world`, see --world) at
+// its daemon, opens a channel to its control address and subscribes with `clock {name}` (answered ok {now});
+// it takes the master's time and from then on obeys its `advance {t}` requests (lock-step, ARCHITECTURE.md
+// "Time"). Periodic timers are aligned (host/timers.h set_aligned). If the master's channel closes, the node
+// stops as it would on daemon loss. With --world none it subscribes to nothing and any control channel may
+// advance it.
 // Events it sends on every open control channel:
 //   done {name, value}  aborted {name, reason}  broken {name, port, peer, set, reason}
 //   overflow {name, port, reason}
@@ -43,6 +51,8 @@
 
 namespace dca {
 
+class Channel;
+
 /// How a node is set up (the `dca node` command line).
 struct NodeOptions {
   std::string type;                 ///< controller type
@@ -51,6 +61,7 @@ struct NodeOptions {
   std::string key_file;             ///< cluster key file ("" = the default, see host/auth.h)
   std::string host;                 ///< logical host name ("" = ask the daemon)
   ClockKind clock = ClockKind::Wall;
+  std::string world = "world";      ///< simulated clock: the clock master's name ("" = none)
   std::vector<std::string> args;    ///< the .dca arguments after the host
   int timeout_ms = 5000;            ///< for start-up steps and look-ups
 };
@@ -82,6 +93,10 @@ class Node {
   bool finished() const;
   /// The exit code to leave with (0, or 1 after a start-up failure or daemon loss).
   int exit_code() const;
+  /// Extra control requests: `hook` sees every request the node does not know, before it would answer
+  /// "unknown request"; it returns true when it handled (answered or will answer) it. The world process uses
+  /// this for its clock master requests. Set before start().
+  void on_request(std::function<bool(const std::shared_ptr<Channel>&, const wire::Message&)> hook);
 
   struct Impl;
 

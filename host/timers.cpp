@@ -207,7 +207,8 @@ TimerServer::Id TimerServer::every(Nanos period, std::function<void()> fn, std::
   e->id = impl_->next_id++;
   e->name = std::move(name);
   e->period = period;
-  e->deadline = first >= 0 ? first : now() + period;
+  const Nanos t = now();
+  e->deadline = first >= 0 ? first : aligned_ ? (t / period + 1) * period : t + period;
   e->fn = std::move(fn);
   const Id id = e->id;
   impl_->entries.push_back(std::move(e));

@@ -100,7 +100,8 @@ class TimerServer {
   TimerServer(const TimerServer&) = delete;
   TimerServer& operator=(const TimerServer&) = delete;
 
-  /// Calls `fn` every `period` ns, first at now() + `period` (or at the absolute time `first` when >= 0).
+  /// Calls `fn` every `period` ns, first at now() + `period` (or at the absolute time `first` when >= 0). With
+  /// set_aligned(true), the first deadline is instead the next multiple of `period` after now().
   Id every(Nanos period, std::function<void()> fn, std::string name = "", Nanos first = -1);
   /// Calls `fn` once, `delay` ns from now().
   Id after(Nanos delay, std::function<void()> fn, std::string name = "");
@@ -111,6 +112,10 @@ class TimerServer {
   Nanos now() const;
   /// The clock's kind.
   ClockKind kind() const { return kind_; }
+  /// Aligned periodic timers: every() without `first` starts at the next multiple of its period, so all
+  /// timers of one period tick together in every process of a lock-stepped system (a node on simulated time
+  /// sets this; the master then wakes it once per tick, not once per timer).
+  void set_aligned(bool aligned) { aligned_ = aligned; }
   /// Inside a timer callback: the deadline it was due at (its tick time); -1 outside callbacks.
   Nanos current_deadline() const;
 
@@ -135,6 +140,7 @@ class TimerServer {
 
  private:
   ClockKind kind_;
+  bool aligned_ = false;
   std::unique_ptr<Impl> impl_;
 };
 

@@ -9,18 +9,25 @@
 #include <string>
 #include <thread>
 
+#include <csignal>
+
 #include "host/cli/subcommand.h"
+#include "host/loop.h"
+#include "host/node.h"
 #include "sim/door_script.h"
 #include "sim/recorder.h"
 #include "sim/script.h"
 #include "sim/world.h"
+#include "sim/world_node.h"
 
 namespace {
 
 constexpr const char* kUsage =
     "usage: dca sim [--world door] [--seed N] [--door-width W] [--duration S] [--period S] [--script FILE]\n"
     "               [--record FILE.csv] [--record-period S] [--realtime] [--visualize]\n"
-    "               [--print-door-urdf]\n\n"
+    "               [--print-door-urdf]\n"
+    "       dca sim --serve --daemon ADDR [--name world] [--key FILE] [--host NAME] [--go] [--sync S]\n"
+    "               [--command-timeout S] [--tick-timeout MS] [world options as above]\n\n"
     "Runs the simulated world (the mobile manipulator and the door, Simbody, from sim/models/) in lock-step\n"
     "at a fixed control period (default 0.001 s), as fast as the machine allows or, with --realtime, paced to\n"
     "the wall clock. Without --script the built-in scripted door opening drives the robot (drive to the door,\n"
@@ -35,10 +42,21 @@ constexpr const char* kUsage =
     "                    `dca plot`), every --record-period seconds (default 0.01)\n"
     "  --visualize       show the world in Simbody's 3-D visualizer where a display exists (else a warning)\n"
     "  --print-door-urdf print the door's URDF for the chosen width and exit\n\n"
+    "--serve: the world as a process (sim/world_node.h): registers NAME (default `world`) with the daemon at\n"
+    "ADDR, its ports are the world's signals (sim/world.h), and it is the clock master of every node on\n"
+    "simulated time (`dca node --clock sim`): time starts at 0 on `go` (or at once with --go) and advances in\n"
+    "lock-step with the nodes that subscribed. --duration holds time after S seconds; --realtime paces it.\n"
+    "Prints `dca sim: world ready` once registered and a summary when it exits (`exit` request or SIGTERM).\n"
+    "  --sync S             every subscriber is advanced at least every S seconds (default 0.01)\n"
+    "  --command-timeout S  base and arm commands older than S count as zero (default 0.05)\n"
+    "  --tick-timeout MS    a node that does not answer an advance in MS is dropped from the clock (10000)\n\n"
     "Prints each step of the door opening as it starts and a summary (`door opened to NN.N deg`). Exit code 0\n"
     "on success, 1 if the scripted opening fails or the world cannot be built, 2 on a usage error.";
 
 struct Options {
+  bool serve = false, go = false;
+  std::string daemon, name = "world", key, host;
+  dca::sim::WorldNodeOptions node;
   std::uint64_t seed = 0;
   double door_width = 0, duration = -1, period = 1e-3, record_period = 0.01;
   std::string script, record;
@@ -55,6 +73,68 @@ std::optional<double> number(const char* s) {
   const double v = std::strtod(s, &end);
   if (end == s || *end != '\0' || !std::isfinite(v)) return std::nullopt;
   return v;
+}
+
+// --serve: the world process (sim/world_node.h).
+int serve(const Options& o, const dca::sim::WorldConfig& config) {
+  if (o.daemon.empty()) return usage_error("--serve needs --daemon ADDR");
+  if (!o.script.empty()) return usage_error("--serve takes no --script: the nodes drive the robot");
+  try {
+    dca::sim::World world(config);
+    if (o.visualize) {
+      const std::string why = world.start_visualizer();
+      if (!why.empty()) std::fprintf(stderr, "dca sim: --visualize: %s; running without it\n", why.c_str());
+    }
+    dca::Loop loop;
+    dca::sim::WorldNodeOptions wo = o.node;
+    wo.realtime = o.realtime;
+    wo.duration = o.duration;
+    wo.record = o.record;
+    wo.record_period = o.record_period;
+    dca::sim::WorldNode wn(loop, world, wo);
+    dca::NodeOptions no;
+    no.type = "World";
+    no.name = o.name;
+    no.daemon = o.daemon;
+    no.key_file = o.key;
+    no.host = o.host;
+    no.world.clear();
+    dca::Node node(loop, no,
+                   [&wn](const std::string&, const std::string& name, const std::string&,
+                         const std::vector<std::string>&, dca::TimerServer&) { return wn.make_component(name); });
+    node.on_request([&wn](const std::shared_ptr<dca::Channel>& ch, const dca::wire::Message& m) {
+      return wn.handle(ch, m);
+    });
+    loop.on_signals({SIGTERM, SIGINT}, [&](int) { loop.stop(); });
+    std::string failure;
+    node.start([&](const std::string& error) {
+      if (!error.empty()) {
+        failure = error;
+        loop.stop();
+        return;
+      }
+      std::printf("dca sim: world ready (%s), door %.3f m wide, robot at (%.3f, %.3f, %.1f deg), period %g s\n",
+                  o.name.c_str(), config.door.width, config.base_start.x, config.base_start.y,
+                  config.base_start.yaw * 180 / M_PI, config.period);
+      std::fflush(stdout);
+      if (o.go) wn.go();
+    });
+    const auto wall0 = std::chrono::steady_clock::now();
+    loop.run();
+    node.shutdown(failure.empty() ? "world exiting" : "start-up failed");
+    if (!failure.empty()) {
+      std::fprintf(stderr, "dca sim: %s\n", failure.c_str());
+      return 1;
+    }
+    const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+    const double t = dca::to_seconds(wn.now());
+    std::printf("dca sim: door at %.1f deg; simulated %.3f s in %.3f s wall\n", world.sensors().door_angle * 180 / M_PI,
+                t, wall);
+    return node.exit_code();
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "dca sim: %s\n", e.what());
+    return 1;
+  }
 }
 
 int cmd_sim(std::span<char* const> args) {
@@ -99,6 +179,22 @@ int cmd_sim(std::span<char* const> args) {
       o.realtime = true;
     } else if (a == "--visualize") {
       o.visualize = true;
+    } else if (a == "--serve") {
+      o.serve = true;
+    } else if (a == "--go") {
+      o.go = true;
+    } else if (a == "--daemon" || a == "--name" || a == "--key" || a == "--host") {
+      const char* v = value();
+      if (!v || !*v) return usage_error(a + " needs a value");
+      (a == "--daemon" ? o.daemon : a == "--name" ? o.name : a == "--key" ? o.key : o.host) = v;
+    } else if (a == "--sync") {
+      if (!positive(o.node.sync_period, false)) return usage_error("--sync needs positive seconds");
+    } else if (a == "--command-timeout") {
+      if (!positive(o.node.command_timeout, false)) return usage_error("--command-timeout needs positive seconds");
+    } else if (a == "--tick-timeout") {
+      double ms = 0;
+      if (!positive(ms, false)) return usage_error("--tick-timeout needs positive milliseconds");
+      o.node.tick_timeout_ms = static_cast<int>(ms);
     } else if (a == "--print-door-urdf") {
       o.print_urdf = true;
     } else {
@@ -112,6 +208,7 @@ int cmd_sim(std::span<char* const> args) {
     std::fputs(dca::sim::door_urdf(config.door).c_str(), stdout);
     return 0;
   }
+  if (o.serve) return serve(o, config);
   try {
     std::optional<dca::sim::Script> script;
     if (!o.script.empty()) script = dca::sim::Script::load(o.script);

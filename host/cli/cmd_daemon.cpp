@@ -14,6 +14,7 @@ namespace {
 
 constexpr const char* kUsage =
     "usage: dca daemon [--host NAME] [--listen ADDR] [--peer ADDR]... [--key FILE] [--allow PROGRAM]...\n"
+    "                  [--clock wall|sim] [--grace MS]\n"
     "\n"
     "Runs this host's daemon: the Executer (starts allow-listed programs, reports their exit) and the\n"
     "NameServer (register / look up names; look-ups not known here are asked of the peers).\n"
@@ -26,6 +27,8 @@ constexpr const char* kUsage =
     "                   else $XDG_CONFIG_HOME/dca/key, else ~/.config/dca/key\n"
     "  --allow PROGRAM  also allow spawning PROGRAM (an absolute path) with any arguments (repeatable;\n"
     "                   for tests and benchmarks). By default only `dca node|supervise|sim` may be spawned.\n"
+    "  --clock sim      this host runs on simulated time: every `dca node` it spawns gets --clock sim (and\n"
+    "                   takes its clock from the world, `dca sim --serve`) unless its argv names a clock\n"
     "  --grace MS       at stop, how long children get between SIGTERM and SIGKILL (default 2000)\n"
     "\n"
     "When ready it prints one line on stdout: `dca daemon: host NAME listening on ADDR`.\n"
@@ -75,6 +78,14 @@ int cmd_daemon(std::span<char* const> args) {
         return 2;
       }
       o.allow.allow(v);
+    } else if (a == "--clock") {
+      const char* v = value();
+      if (v == nullptr) return 2;
+      if (std::string(v) != "wall" && std::string(v) != "sim") {
+        std::fprintf(stderr, "dca daemon: --clock must be wall or sim, not '%s'\n", v);
+        return 2;
+      }
+      o.sim_clock = std::string(v) == "sim";
     } else if (a == "--grace") {
       const char* v = value();
       if (v == nullptr) return 2;

@@ -13,7 +13,7 @@ namespace {
 
 constexpr const char* kUsage =
     "usage: dca node --type T --name PATH --daemon ADDR [--key FILE] [--host NAME] [--clock wall|sim]\n"
-    "                [--timeout MS] [-- ARG...]\n"
+    "                [--world NAME|none] [--timeout MS] [-- ARG...]\n"
     "\n"
     "Hosts one controller of type T (see `dca types`) named PATH: registers it with the daemon at ADDR, then\n"
     "waits, inactive, for its supervisor's init / run / stop / connect / activate / deactivate / read / ports\n"
@@ -21,7 +21,10 @@ constexpr const char* kUsage =
     "arguments after the host. The daemon (`dca daemon`) normally starts it.\n"
     "  --key FILE     the cluster key (default: $DCA_KEY_FILE, else ~/.config/dca/key)\n"
     "  --host NAME    its logical host (default: the daemon's)\n"
-    "  --clock sim    simulated time, advanced by `advance {t}` requests (lock-step, host/timers.h)\n"
+    "  --clock sim    simulated time: subscribes to the clock master (the world) and obeys its `advance {t}`\n"
+    "                 requests in lock-step (host/node.h, host/timers.h)\n"
+    "  --world NAME   the clock master's registered name (default `world`; `none`: any control channel may\n"
+    "                 advance the clock, for tests)\n"
     "  --timeout MS   deadline of each start-up step and look-up (default 5000)\n"
     "Prints `dca node: PATH ready` on stdout once registered. Exits 0 on `exit` or SIGTERM, 1 when start-up\n"
     "fails or the daemon goes away.";
@@ -46,6 +49,7 @@ int cmd_node(std::span<char* const> args) {
     else if (a == "--daemon") o.daemon = v;
     else if (a == "--key") o.key_file = v;
     else if (a == "--host") o.host = v;
+    else if (a == "--world") o.world = v == "none" ? std::string() : v;
     else if (a == "--timeout") o.timeout_ms = std::atoi(v.c_str());
     else if (a == "--clock" && (v == "wall" || v == "sim")) o.clock = v == "sim" ? dca::ClockKind::Simulated : dca::ClockKind::Wall;
     else {

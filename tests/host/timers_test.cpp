@@ -161,3 +161,24 @@ TEST_F(TimersTest, WallOneShotFiresOnceNotBeforeItsDelay) {
 }
 
 }  // namespace
+
+TEST_F(TimersTest, AlignedPeriodicTimersStartOnMultiplesOfTheirPeriod) {
+  dca::TimerServer ts(io, dca::ClockKind::Simulated);
+  ts.advance_to(3 * kMs);
+  ts.every(10 * kMs, [] {});  // not aligned: 13 ms
+  EXPECT_EQ(ts.next_deadline(), 13 * kMs);
+  dca::TimerServer al(io, dca::ClockKind::Simulated);
+  al.set_aligned(true);
+  al.advance_to(3 * kMs);
+  int a = 0, b = 0;
+  al.every(10 * kMs, [&] { ++a; });
+  al.advance_to(7 * kMs);
+  al.every(10 * kMs, [&] { ++b; });
+  EXPECT_EQ(al.next_deadline(), 10 * kMs);  // both at 10 ms, whenever they were made
+  EXPECT_EQ(al.advance_to(10 * kMs), 2u);
+  al.advance_to(20 * kMs);  // exactly on a tick: the next one is 30, not 20 again
+  al.every(10 * kMs, [&] { ++b; });
+  EXPECT_EQ(al.next_deadline(), 30 * kMs);
+  EXPECT_EQ(a, 2);
+  EXPECT_EQ(b, 2);
+}

@@ -1,0 +1,227 @@
+// The world as a process (sim/world_node.h), in one test process: a real daemon, the world hosted by the node
+// runtime, and a node on simulated time that subscribes to it. Lock-step: the node's timers run exactly once
+// per period of simulated time, it sees the world's sensors through a device-style connection, its commands
+// move the robot, and two identical runs give identical results.
+#include "sim/world_node.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <optional>
+
+#include "host/auth.h"
+#include "host/channel.h"
+#include "host/daemon.h"
+#include "host/node.h"
+#include "host/timers.h"
+
+namespace {
+
+using namespace std::chrono_literals;
+using dca::wire::Message;
+using dca::wire::Value;
+
+// Drives the base forward at 0.2 m/s every 10 ms and counts its ticks and the arm.q samples it saw.
+class Driver final : public dca::Component {
+ public:
+  Driver(std::string name, dca::TimerServer& t) : name_(std::move(name)), timers(t) {
+    q = &ports_.add_input(dca::vector_port("Q", 6), 16);
+    cmd = &ports_.add_output(dca::vector_port("Cmd", 3));
+  }
+  const std::string& name() const override { return name_; }
+  dca::PortSet& ports() override { return ports_; }
+  std::string init() override { return ""; }
+  std::string run(dca::Bytes) override {
+    timer = timers.every(10'000'000, [this] {
+      ++ticks;
+      tick_times.push_back(timers.now());
+      if (q->take_latest()) ++q_seen;
+      Eigen::Vector3d v(0.2, 0, 0);
+      cmd->write(v);
+    });
+    return "";
+  }
+  void stop() override { timers.cancel(timer); }
+  dca::Input* q = nullptr;
+  dca::Output* cmd = nullptr;
+  int ticks = 0, q_seen = 0;
+  std::vector<dca::Nanos> tick_times;
+
+ private:
+  std::string name_;
+  dca::TimerServer& timers;
+  dca::TimerServer::Id timer = 0;
+  dca::PortSet ports_;
+};
+
+class WorldNodeTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir = std::filesystem::temp_directory_path() / ("dca-world-node-test-" + std::to_string(::getpid()));
+    std::filesystem::create_directories(dir);
+    key_file = (dir / "key").string();
+    std::string error;
+    auto key = dca::auth::load_or_create_key(key_file, &error);
+    ASSERT_TRUE(key) << error;
+    chopts.key = *key;
+  }
+  void TearDown() override {
+    std::error_code ec;
+    std::filesystem::remove_all(dir, ec);
+  }
+
+  struct Run {
+    double x = 0, y = 0, yaw = 0;
+    int ticks = 0, q_seen = 0;
+    std::vector<dca::Nanos> tick_times;
+    Value status;
+  };
+
+  // One run: daemon, world (duration `seconds`), driver node wired both ways, `go`, until the world holds.
+  Run run_once(double seconds, bool with_stalled_subscriber = false) {
+    Run out;
+    dca::Loop loop;
+    dca::DaemonOptions dopts;
+    dopts.host = "h";
+    dopts.key = chopts.key;
+    dca::Daemon daemon(loop.io(), dopts);
+    std::string error;
+    EXPECT_TRUE(daemon.start(&error)) << error;
+
+    dca::sim::World world(dca::sim::door_world());
+    dca::sim::WorldNodeOptions wo;
+    wo.duration = seconds;
+    wo.tick_timeout_ms = 300;
+    dca::sim::WorldNode wn(loop, world, wo);
+    bool held = false;
+    wn.on_duration = [&] { held = true; };
+    dca::NodeOptions no;
+    no.type = "World";
+    no.name = "world";
+    no.daemon = daemon.address().str();
+    no.key_file = key_file;
+    no.world.clear();
+    dca::Node wnode(loop, no, [&](const std::string&, const std::string& n, const std::string&,
+                                  const std::vector<std::string>&, dca::TimerServer&) { return wn.make_component(n); });
+    wnode.on_request([&](const std::shared_ptr<dca::Channel>& ch, const Message& m) { return wn.handle(ch, m); });
+    std::optional<std::string> started;
+    wnode.start([&](const std::string& e) { started = e; });
+    EXPECT_TRUE(loop.run_until([&] { return started.has_value(); }, 10s));
+    EXPECT_EQ(started.value_or("timeout"), "");
+
+    dca::NodeOptions dn;
+    dn.type = "Driver";
+    dn.name = "/drv";
+    dn.daemon = daemon.address().str();
+    dn.key_file = key_file;
+    dn.clock = dca::ClockKind::Simulated;
+    Driver* drv = nullptr;
+    dca::Node dnode(loop, dn, [&](const std::string&, const std::string& n, const std::string&,
+                                  const std::vector<std::string>&, dca::TimerServer& t) {
+      auto c = std::make_unique<Driver>(n, t);
+      drv = c.get();
+      return c;
+    });
+    std::optional<std::string> dstarted;
+    dnode.start([&](const std::string& e) { dstarted = e; });
+    EXPECT_TRUE(loop.run_until([&] { return dstarted.has_value(); }, 10s));
+    EXPECT_EQ(dstarted.value_or("timeout"), "");
+    if (!drv) return out;
+
+    // The supervisor's side: channels to the world and to the driver, found by name at the daemon.
+    auto control_of = [&](const std::string& name) {
+      const auto* e = daemon.names().table().find(name);
+      return e ? e->endpoints["control"].as_string() : std::string();
+    };
+    auto open = [&](const std::string& addr) {
+      dca::Channel::Ptr ch;
+      std::string err = "pending";
+      dca::Channel::connect(loop.io(), *dca::Address::parse(addr), chopts, [&](dca::Channel::Ptr c, const std::string& e) {
+        ch = c;
+        err = e;
+      });
+      EXPECT_TRUE(loop.run_until([&] { return err != "pending"; }, 10s));
+      EXPECT_TRUE(ch) << err;
+      return ch;
+    };
+    auto call = [&](const dca::Channel::Ptr& ch, const std::string& type, Value payload = Value::map()) {
+      std::optional<dca::Response> r;
+      ch->request({type, 0, std::move(payload)}, 10s, [&](dca::Response x) { r = std::move(x); });
+      EXPECT_TRUE(loop.run_until([&] { return r.has_value(); }, 15s));
+      EXPECT_TRUE(r && r->ok()) << type << ": " << (r ? r->error : "no reply");
+      return r ? r->message.payload : Value();
+    };
+    auto to_world = open(control_of("world"));
+    auto to_drv = open(control_of("/drv"));
+    if (!to_world || !to_drv) return out;
+    call(to_world, "connect",
+         Value::map().set("out", "arm.q").set("to", "/drv").set("in", "Q").set("set", "/drv:device"));
+    call(to_world, "activate", Value::map().set("set", "/drv:device"));
+    call(to_drv, "connect",
+         Value::map().set("out", "Cmd").set("to", "world").set("in", "base.cmd_vel").set("set", "/drv:device"));
+    call(to_drv, "activate", Value::map().set("set", "/drv:device"));
+    call(to_drv, "run");
+    dca::Channel::Ptr stalled;
+    if (with_stalled_subscriber) {
+      stalled = open(control_of("world"));
+      stalled->on_message([](const Message&) {});  // takes the advances and never answers
+      stalled->request({"clock", 0, Value::map().set("name", "/stalled")}, 5s, [](dca::Response) {});
+    }
+    call(to_world, "go");
+    EXPECT_TRUE(loop.run_until([&] { return held; }, 60s)) << "the world did not reach its duration";
+    out.status = call(to_world, "status");
+    const auto& p = out.status["base_pose"].as_array();
+    if (p.size() == 3) {
+      out.x = p[0].as_float();
+      out.y = p[1].as_float();
+      out.yaw = p[2].as_float();
+    }
+    out.ticks = drv->ticks;
+    out.q_seen = drv->q_seen;
+    out.tick_times = drv->tick_times;
+    dnode.shutdown("test over");
+    wnode.shutdown("test over");
+    daemon.stop();
+    return out;
+  }
+
+  std::filesystem::path dir;
+  std::string key_file;
+  dca::ChannelOptions chopts;
+};
+
+TEST_F(WorldNodeTest, NodeTicksInLockStepAndItsCommandsMoveTheRobot) {
+  const auto r = run_once(1.0);
+  // Aligned 10 ms timers from t = 0: ticks at 10, 20, ..., 1000 ms, each exactly once.
+  ASSERT_EQ(r.ticks, 100);
+  for (int i = 0; i < r.ticks; ++i) EXPECT_EQ(r.tick_times[i], (i + 1) * 10'000'000LL) << i;
+  // The world publishes before each tick: every tick saw a fresh arm.q sample.
+  EXPECT_EQ(r.q_seen, 100);
+  // 0.2 m/s forward for about a second, from the nominal start (x = 0).
+  EXPECT_NEAR(r.x, 0.2 * 0.99, 0.03);
+  EXPECT_NEAR(r.y, 0.0, 1e-3);
+  EXPECT_EQ(r.status["t"].as_float(), 1.0);
+  EXPECT_EQ(r.status["subscribers"].as_array().size(), 1u);
+}
+
+TEST_F(WorldNodeTest, TwoRunsAreIdentical) {
+  const auto a = run_once(0.5);
+  const auto b = run_once(0.5);
+  EXPECT_EQ(a.ticks, b.ticks);
+  EXPECT_EQ(a.x, b.x);
+  EXPECT_EQ(a.y, b.y);
+  EXPECT_EQ(a.yaw, b.yaw);
+}
+
+TEST_F(WorldNodeTest, AStalledSubscriberIsDroppedByName) {
+  const auto r = run_once(0.2, true);
+  EXPECT_EQ(r.ticks, 20);  // the others go on
+  const auto& dropped = r.status["dropped"].as_array();
+  ASSERT_EQ(dropped.size(), 1u);
+  EXPECT_NE(dropped[0].as_string().find("/stalled: did not answer the advance"), std::string::npos)
+      << dropped[0].as_string();
+}
+
+}  // namespace
