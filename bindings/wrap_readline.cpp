@@ -10,6 +10,10 @@
 //   core.readline_poll()               --> true if stdin had input (read and fed to the line editor)
 //   core.readline_prompt(prompt)       -- the prompt of the next line
 //   core.readline_remove()             -- restores the terminal
+//   core.readline_print(text)          -- prints text on its own line(s) above the prompt, then redraws the
+//                                         prompt and the line being typed (asynchronous output; libedit
+//                                         redraws a just-accepted line too: remove the handler until the
+//                                         answer, as `dca repl` does)
 //
 // The completer is called from inside readline (a C callback): it runs under lua_pcall, so a Lua error in
 // it prints nothing and offers no candidates, and never unwinds through libedit's frames.
@@ -159,6 +163,18 @@ int l_readline_prompt(lua_State* L) {
   return 0;
 }
 
+int l_readline_print(lua_State* L) {
+  size_t n = 0;
+  const char* text = luaL_checklstring(L, 1, &n);
+  // the cursor is on the prompt line: clear it, print, and let the line editor draw prompt and input again
+  std::fputs("\r\033[K", stdout);
+  std::fwrite(text, 1, n, stdout);
+  if (n > 0 && text[n - 1] != '\n') std::fputc('\n', stdout);  // "" only redraws (a new prompt)
+  std::fflush(stdout);
+  if (g_on_line != LUA_NOREF) rl_forced_update_display();
+  return 0;
+}
+
 int l_readline_remove(lua_State* L) {
   rl_callback_handler_remove();
   if (g_on_line != LUA_NOREF) luaL_unref(L, LUA_REGISTRYINDEX, g_on_line);
@@ -180,6 +196,7 @@ void open_readline(lua_State* L) {
                                  {"readline_poll", l_readline_poll},
                                  {"readline_prompt", l_readline_prompt},
                                  {"readline_remove", l_readline_remove},
+                                 {"readline_print", l_readline_print},
                                  {nullptr, nullptr}};
   luaL_setfuncs(L, fns, 0);
 }

@@ -27,6 +27,35 @@ function M.reply(ch, id, msg)
   return ch:reply(id, payload)
 end
 
+--- The requests a console (`dca repl`) may send to a supervisor.
+M.CONSOLE = { repl = true, complete = true, tree = true, inject = true, restart = true, switch = true,
+              stats = true, ping = true }
+
+--- Answers one request `msg` (number `id`) of a console channel `ch` on supervisor `sup` (nil: not configured
+--- yet). `follow {}` subscribes the channel to the transition lines in `followers` (a set of channels).
+function M.console(ch, id, msg, sup, followers)
+  if (id or 0) == 0 then return end
+  if msg.type == "follow" then
+    followers[ch] = true
+    return M.reply(ch, id, { type = "ok" })
+  end
+  if not M.CONSOLE[msg.type] then
+    return M.reply(ch, id, { type = "error", reason = "a console may send " ..
+      "repl, complete, tree, inject, restart, switch, stats, ping or follow, not '" .. tostring(msg.type) .. "'" })
+  end
+  if not sup then return M.reply(ch, id, { type = "error", reason = "the supervisor is not configured yet" }) end
+  sup:handle(msg, function(r) M.reply(ch, id, r) end)
+end
+
+--- Sends a transition line to every following console (closed ones are dropped). --> how many got it
+function M.to_followers(followers, line)
+  local n = 0
+  for ch in pairs(followers) do
+    if ch:is_open() then ch:send({ type = "log", line = line }) n = n + 1 else followers[ch] = nil end
+  end
+  return n
+end
+
 --- Connection options for `core.connect`/`core.listen` from a key file path (nil: dca.core's default).
 function M.key_opts(key_file)
   return { key_file = key_file }

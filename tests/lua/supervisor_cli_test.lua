@@ -91,4 +91,56 @@ suite:case("supervise_and_repl_need_their_arguments", function()
   T.ok(rc == 2 or rc == 3)
 end)
 
+-- Waits (bounded) until the file at `path` holds `pattern`. --> its text, or nil at the deadline
+local function wait_for(path, pattern, timeout)
+  local deadline = os.time() + timeout
+  repeat
+    local f = io.open(path)
+    local text = f and f:read("a") or ""
+    if f then f:close() end
+    if text:find(pattern) then return text end
+    os.execute("sleep 0.05")
+  until os.time() > deadline
+end
+
+suite:case("a_console_opens_on_a_sub_supervisor_and_on_the_root_while_the_system_runs", function()
+  local path = tmpfile([[
+process G(h) {
+  host { h }
+  instantiated_processes { t instof Threshold(h, 1); }
+  internal_event_actions { t }
+}
+process main() {
+  instantiated_processes { g instof G("h2"); w instof Timer("h1", 600); }
+  internal_event_actions { g # w }
+}
+]])
+  local log = path .. ".log"
+  local p = assert(io.popen(dca .. " run " .. path .. " > " .. log .. " 2>&1 & echo $!"))
+  local pid = tonumber(p:read("a"):match("%d+"))
+  p:close()
+  local text = wait_for(log, "whole tree is configured", 60)
+  T.ok(text, "dca run came up")
+  local h2 = text:match("host h2: daemon at (%S+)")
+  local key = text:match("%-%-key (%S+)")
+  T.ok(h2 and key, text)
+  -- the sub-supervisor main.g (a `dca supervise` on h2) takes a console beside its parent
+  local out, rc = T.sh(string.format("printf 'tree()\nstatus(\"main.g.t\")\n' | %s repl main.g --daemon %s --key %s",
+    dca, h2, key))
+  T.eq(rc, 0, out)
+  T.contains(out, "Threshold@h2")
+  T.contains(out, "running")
+  -- the root, at the address dca run printed
+  local root = text:match("console: dca repl main %-%-daemon (%S+)")
+  out, rc = T.sh(string.format("printf 'tree()\n' | %s repl main --daemon %s --key %s", dca, root, key))
+  T.eq(rc, 0, out)
+  T.contains(out, "Timer@h1")
+  os.execute("kill -INT " .. pid)
+  T.ok(wait_for(log, "interrupted", 10), "dca run stops on SIGINT")
+  local deadline = os.time() + 60
+  while os.execute("kill -0 " .. pid .. " 2>/dev/null") and os.time() <= deadline do os.execute("sleep 0.05") end
+  T.ok(not os.execute("kill -0 " .. pid .. " 2>/dev/null"), "dca run exited")
+  os.remove(path) os.remove(log)
+end)
+
 return suite:run(...)

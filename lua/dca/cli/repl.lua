@@ -75,29 +75,68 @@ function M.main(args)
     return r, e
   end
   core.read_history(HISTORY)
+  -- Tab: asked from inside the line editor, outside the loop (never a nested run of it)
   core.set_completer(function(word)
     local r = ask({ type = "complete", prefix = word }, 2)
     return r and r.candidates or {}
   end)
   io.stdout:write("connected to ", target, " (", addr, "); help() lists the commands, Ctrl-D leaves\n")
-  local prompt = "dca> "
-  while true do
-    local line = core.readline(prompt)
-    if line == nil then break end
-    core.add_history(line)
-    local r, e = ask({ type = "repl", line = line }, 60)
-    if not r then
-      io.stderr:write("no answer: ", tostring(e), "\n")
-      if closed then break end
-    else
-      if r.output and r.output ~= "" then io.stdout:write(r.output, "\n") end
-      prompt = r.more and "  >> " or "dca> "
+  local interactive = core.readline_install and core.readline_print and os.execute("test -t 0 && test -t 1")
+  if not interactive then
+    -- stdin is a pipe or a file: one answer per line, in order, nothing asynchronous
+    local prompt = "dca> "
+    while true do
+      local line = core.readline(prompt)
+      if line == nil then break end
+      core.add_history(line)
+      local r, e = ask({ type = "repl", line = line }, 60)
+      if not r then
+        io.stderr:write("no answer: ", tostring(e), "\n")
+        if closed then break end
+      else
+        if r.output and r.output ~= "" then io.stdout:write(r.output, "\n") end
+        prompt = r.more and "  >> " or "dca> "
+      end
     end
+  else
+    -- a terminal: the supervisor's transition lines arrive while a line is being typed; each is printed
+    -- above the prompt, which is drawn again with the typed text (core.readline_print)
+    local quit = false
+    local prompt = "dca> "
+    ch:on_message(function(msg) if msg.type == "log" and msg.line then core.readline_print(msg.line) end end)
+    ch:request({ type = "follow" }, 10, function() end)
+    -- while a line is evaluated there is no prompt (lines arriving meanwhile simply print); the answer,
+    -- then a fresh prompt
+    local on_line
+    function on_line(line)
+      if line == nil then quit = true return end
+      core.readline_remove()
+      if line:match("%S") then core.add_history(line) end
+      ch:request({ type = "repl", line = line }, 60, function(r, e)
+        if not r then io.stdout:write("no answer: ", tostring(e), "\n")
+        else
+          prompt = r.more and "  >> " or "dca> "
+          if r.output and r.output ~= "" then io.stdout:write(r.output, "\n") end
+        end
+        io.stdout:flush()
+        core.readline_install(prompt, on_line)
+      end)
+    end
+    core.readline_install(prompt, on_line)
+    -- the loop runs in slices; between them the terminal's input is fed to the line editor (a person's
+    -- keystrokes: 20 ms is below what anyone notices)
+    while not quit and not closed do
+      loop:run_until(function() return quit or closed ~= nil end, 0.02)
+      core.readline_poll()
+    end
+    core.readline_remove()
+    if closed then io.stderr:write("\nthe supervisor closed the console: ", tostring(closed), "\n") end
   end
   core.write_history(HISTORY)
+  local lost = closed  -- the supervisor went away (1), or the person left (0)
   ch:close()
   io.stdout:write("\n")
-  return closed and 1 or 0
+  return lost and 1 or 0
 end
 
 return M

@@ -75,11 +75,15 @@ function M.main(args)
   if not spec then io.stderr:write(err, "\n") return 2 end
 
   local t0 = core.now()
+  -- consoles following the root's lines; with --repl the console owns the terminal once it follows, and
+  -- prints these lines above its prompt (redrawn), so this process no longer writes them itself
+  local followers = {}
   local function say(line)
-    if not o.quiet then
-      io.stdout:write(string.format("[%7.3f] %s\n", core.now() - t0, line))
-      io.stdout:flush()
-    end
+    if o.quiet then return end
+    local text = string.format("[%7.3f] %s", core.now() - t0, line)
+    if srt.to_followers(followers, text) > 0 and o.repl then return end
+    io.stdout:write(text, "\n")
+    io.stdout:flush()
   end
 
   -- hosts: a file of running daemons, or one fresh local daemon per host name
@@ -117,7 +121,8 @@ function M.main(args)
         say(string.format("%s: DONE %s", spec.path, supervisor.show(msg.value)))
         if not o.repl then code = 0 sup:shutdown(function() loop:stop() end) end
       elseif msg.type == "aborted" then
-        io.stderr:write(string.format("%s: ABORTED at %s: %s\n", spec.path, tostring(msg.path), tostring(msg.reason)))
+        local text = string.format("%s: ABORTED at %s: %s", spec.path, tostring(msg.path), tostring(msg.reason))
+        if not (o.repl and srt.to_followers(followers, text) > 0) then io.stderr:write(text, "\n") end
         if not o.repl then code = 1 sup:shutdown(function() loop:stop() end) end
       end
     end,
@@ -141,15 +146,8 @@ function M.main(args)
   end)
   -- the root listens for consoles (`dca repl main`) and registers its path with its host's daemon
   local listener = core.listen("127.0.0.1:0", srt.key_opts(key), function(ch)
-    ch:on_message(function(msg, id)
-      if (id or 0) == 0 then return end
-      local t = msg.type
-      if t == "repl" or t == "complete" or t == "tree" or t == "inject" or t == "restart" or t == "switch" then
-        sup:handle(msg, function(r) srt.reply(ch, id, r) end)
-      else
-        srt.reply(ch, id, { type = "error", reason = "the root supervisor takes only console requests" })
-      end
-    end)
+    ch:on_message(function(msg, id) srt.console(ch, id, msg, sup, followers) end)
+    ch:on_close(function() followers[ch] = nil end)
   end)
   local root_daemon = hosts[spec.host]
   if listener and root_daemon then

@@ -39,16 +39,32 @@ local function main(args)
     if rt then rt.close() end
     loop:stop()
   end
-  local function on_parent(ch)
-    if parent then ch:close() return end -- one parent
-    parent = ch
+  local followers = {}   -- consoles (`dca repl PATH`) following this supervisor's transition lines
+  local function line_out(line)
+    srt.to_followers(followers, line)
+    if os.getenv("DCA_SUPERVISE_VERBOSE") then io.stderr:write(line, "\n") end
+  end
+  -- The first channel whose first request is "configure" is the parent; any other is a console.
+  local function on_channel(ch)
     ch:on_message(function(msg, id)
       if (id or 0) == 0 then return end
+      if ch ~= parent then
+        if parent or msg.type ~= "configure" then srt.console(ch, id, msg, sup, followers) return end
+        parent = ch
+        ch:on_close(function()
+          -- the parent is gone: stop everything this supervisor started, then exit
+          if sup then sup:shutdown(function() finish(1) end) else finish(1) end
+          core.after(30, function() finish(1) end)
+        end)
+      end
       if msg.type == "configure" and not sup then
         rt = srt.new({ hosts = msg.hosts, key = key, exe = "dca",
           timeouts = msg.timeouts,
-          report = function(m) ch:send(m) end,
-          log = function(line) if os.getenv("DCA_SUPERVISE_VERBOSE") then io.stderr:write(line, "\n") end end })
+          report = function(m)
+            ch:send(m)
+            if m.type == "log" then srt.to_followers(followers, m.line) end
+          end,
+          log = line_out })
         sup = supervisor.new(msg.spec, rt, { progress = msg.progress, timeouts = msg.timeouts, hosts = msg.hosts })
         sup.hosts = msg.hosts
         rt.bind(sup)
@@ -63,16 +79,12 @@ local function main(args)
         if msg.type == "shutdown" then core.after(0.05, function() finish(0) end) end
       end)
     end)
-    ch:on_close(function()
-      -- the parent is gone: stop everything this supervisor started, then exit
-      if sup then sup:shutdown(function() finish(1) end) else finish(1) end
-      core.after(30, function() finish(1) end)
-    end)
+    ch:on_close(function() followers[ch] = nil end)
   end
   -- listen on the daemon's IP (another host's supervisor must reach it), a free port
   local ip = o.daemon:match("^%[(.-)%]:%d+$") and ("[" .. o.daemon:match("^%[(.-)%]") .. "]")
     or o.daemon:match("^([%d%.]+):%d+$") or "127.0.0.1"
-  local listener, lerr = core.listen(o.listen or (ip .. ":0"), srt.key_opts(key), on_parent)
+  local listener, lerr = core.listen(o.listen or (ip .. ":0"), srt.key_opts(key), on_channel)
   if not listener then io.stderr:write("dca supervise: listen: ", tostring(lerr), "\n") return 1 end
   core.connect(o.daemon, srt.key_opts(key), function(dch, cerr)
     if not dch then io.stderr:write("dca supervise: daemon ", o.daemon, ": ", tostring(cerr), "\n") finish(1) return end
