@@ -25,6 +25,9 @@
 --   rt.every(s, fn)           --> periodic timer with cancel() (only with rt.heartbeat)
 --   rt.heartbeat()            --> period, silence (optional: child supervisors are pinged, lost when silent)
 --   rt.reap(group_spec)       -- optional: kills what a lost child supervisor had started (by path)
+--   rt.world(msg, timeout_s, cb(reply|nil, err, missing)) -- a request to the robot process `world`
+--                             --   (missing = true when no world is registered)
+--   rt.types()                -- optional: the controller manifests (default dca.core.types())
 --   rt.report(msg)            -- to the parent ({type="done", value=}, {type="aborted", path=, reason=}, log)
 --   rt.log(line)              -- a line for this process's own output
 --   rt.now()                  --> seconds
@@ -275,6 +278,98 @@ function Sup:_connect(cb)
   end
 end
 
+--- The controller types' manifests (dca.core.types(), once per process; {} without a registry).
+function M.types()
+  if not M._types then
+    local ok, core = pcall(require, "dca.core")
+    M._types = ok and type(core) == "table" and core.types and core.types() or {}
+  end
+  return M._types
+end
+
+--- The device ports of the group's own leaves, in declaration order:
+--- { { leaf = path, type = T, port = name, signal = "arm.q", dir = "in" | "out" }, ... }
+function M.device_ports(spec, types)
+  local list = {}
+  for _, c in ipairs(spec.children) do
+    local t = c.kind == "leaf" and types[c.type]
+    if t then
+      for _, dir in ipairs({ "inputs", "outputs" }) do
+        for _, p in ipairs(t[dir] or {}) do
+          if p.device and p.device ~= "" then
+            list[#list + 1] = { leaf = c.path, type = c.type, port = p.name, signal = p.device,
+                                dir = dir == "inputs" and "in" or "out" }
+          end
+        end
+      end
+    end
+  end
+  return list
+end
+
+-- "main.door.xr4000 (XR4000Ctrl: Cmd -> base.cmd_vel, Odom <- base.pose)", one per leaf
+local function describe_devices(ports)
+  local by_leaf, order = {}, {}
+  for _, p in ipairs(ports) do
+    local l = by_leaf[p.leaf]
+    if not l then l = { type = p.type, parts = {} } by_leaf[p.leaf] = l order[#order + 1] = p.leaf end
+    l.parts[#l.parts + 1] = p.dir == "in" and (p.port .. " <- " .. p.signal) or (p.port .. " -> " .. p.signal)
+  end
+  local out = {}
+  for _, leaf in ipairs(order) do
+    out[#out + 1] = sformat("%s (%s: %s)", leaf, by_leaf[leaf].type, concat(by_leaf[leaf].parts, ", "))
+  end
+  return concat(out, "; ")
+end
+
+-- Phase 2b: device ports of this group's leaves wired to the robot process `world` (ARCHITECTURE.md, "The
+-- robot: device ports"): an input's signal world -> leaf, an output leaf -> world, in the set
+-- "<leaf path>:device", activated at once and for good (the algebra never touches these sets).
+function Sup:_wire_devices(cb)
+  local types = self.rt.types and self.rt.types() or M.types()
+  local ports = M.device_ports(self.spec, types)
+  self.device_ports = ports
+  if #ports == 0 then cb(true) return end
+  local function no_world(err)
+    return sformat("%s: no world for the device ports of %s (start it with `dca run --sim WORLD`, or a robot "
+      .. "driver registered as `world`): %s", self.path, describe_devices(ports), tostring(err))
+  end
+  if not self.rt.world then cb(false, no_world("this runtime reaches no world")) return end
+  local failed = false
+  local activated = {}
+  local tick = countdown(#ports, function() if not failed then cb(true) end end)
+  local function fail(p, what, reply, err, missing)
+    if failed then return end
+    failed = true
+    if missing then cb(false, no_world(err)) return end
+    cb(false, sformat("%s: %s device port %s.%s (%s): %s", self.path, what, p.leaf, p.port, p.signal,
+      reply and reply.reason or tostring(err)))
+  end
+  for _, p in ipairs(ports) do
+    local set = p.leaf .. ":device"
+    -- the source of the connection: the world for an input, the leaf for an output
+    local function at_source(msg, k)
+      if p.dir == "in" then self.rt.world(msg, self.timeouts.connect, k)
+      else self:to_leaf(p.leaf, msg, self.timeouts.connect, k) end
+    end
+    local conn = p.dir == "in"
+      and { type = "connect", out = p.signal, to = p.leaf, ["in"] = p.port, set = set, mode = "push" }
+      or { type = "connect", out = p.port, to = "world", ["in"] = p.signal, set = set, mode = "push" }
+    at_source(conn, function(reply, err, missing)
+      if failed then return end
+      if not reply or reply.type == "error" then fail(p, "connecting", reply, err, missing) return end
+      local key = p.dir .. " " .. set
+      if activated[key] then tick() return end
+      activated[key] = true
+      at_source({ type = "activate", set = set }, function(r2, e2)
+        if failed then return end
+        if not r2 or r2.type == "error" then fail(p, "activating", r2, e2) return end
+        tick()
+      end)
+    end)
+  end
+end
+
 --- Start protocol below this group: children started inactive, then connected. cb(true) | cb(false, reason).
 function Sup:configure(cb)
   if self.expr_error then self.state = "failed" cb(false, self.expr_error) return end
@@ -286,9 +381,15 @@ function Sup:configure(cb)
     self:_connect(function(ok2, err2)
       if not ok2 then self.state = "failed" cb(false, err2) return end
       self:say("%s: connected (%d connections)", self.path, #self.wires)
-      self.state = "configured"
-      self:say("%s: configured", self.path)
-      cb(true)
+      self:_wire_devices(function(ok3, err3)
+        if not ok3 then self.state = "failed" cb(false, err3) return end
+        if #self.device_ports > 0 then
+          self:say("%s: %d device ports wired to the world", self.path, #self.device_ports)
+        end
+        self.state = "configured"
+        self:say("%s: configured", self.path)
+        cb(true)
+      end)
     end)
   end)
 end

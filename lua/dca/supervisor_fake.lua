@@ -14,6 +14,7 @@
 --   c:node(path):done(v) / :aborted(reason) -- a leaf's events
 --   c:kill(path, "SEGV") ; c:lose_host("h3") ; c:fail_spawn[path] = "reason" | "silent" ; c:freeze(path)
 --   fake.cluster{ heartbeat = { period, silence } }  -- supervisors ping their child supervisors
+--   fake.cluster{ types = { T = manifest }, world = true }  -- device ports, wired to the fake `world` node
 --   c.trace      -- every delivered message: { from =, to =, type = , kind = "request"|"reply"|"event" }
 --   c.commands   -- every command a node received: "path type [set]"
 local supervisor = require "dca.supervisor"
@@ -54,7 +55,9 @@ function M.cluster(opts)
     behave = opts.behave or {}, nodes = {}, sups = {}, procs = {},
     trace = {}, commands = {}, reports = {}, fail_spawn = {}, lost_hosts = {},
     outcome = nil, timeouts = opts.timeouts, lines = {}, pid = 100, heartbeat = opts.heartbeat,
+    types = opts.types,
   }, Cluster)
+  if opts.world then c:add_world(opts.world_host) end
   return c
 end
 
@@ -182,6 +185,17 @@ function Cluster:_die(p, reason, quiet)
   end
 end
 
+--- A fake robot process registered as `world` (a node whose ports are the robot's signals): c:node("world").
+function Cluster:add_world(host)
+  local p = self:_proc("world", host or "robot", "leaf")
+  local node = setmetatable({ c = self, p = p, path = "world", type = "World", host = p.host, args = {},
+    owner = nil, name = "world", conns = {}, active = {}, running = true, runs = 0, ports = {} }, Node)
+  self.nodes.world = node
+  self.world_proc = p
+  self.world_handle = self:_handle("world-client", p, function(msg, reply) node:serve(msg, reply) end)
+  return node
+end
+
 --- The fake node of a leaf path.
 function Cluster:node(path) return self.nodes[path] end
 
@@ -238,6 +252,12 @@ function Cluster:rt(p, report)
   rt.log = function(line) c.lines[#c.lines + 1] = line end
   rt.now = function() return c.t end
   rt.sup_of = function() return c.sups[p.path] end
+  rt.types = function() return c.types or {} end
+  rt.world = function(msg, timeout, cb)
+    local w = c.world_handle
+    if not w then c:push(function() cb(nil, "no process is registered as `world`", true) end) return end
+    w.request(msg, timeout, cb)
+  end
   if c.heartbeat then
     -- child supervisors are pinged as by the real runtime (cluster{heartbeat = {period, silence}})
     rt.heartbeat = function() return c.heartbeat[1], c.heartbeat[2] end
@@ -325,7 +345,9 @@ end
 --- Processes still alive (the test's /proc).
 function Cluster:alive()
   local list = {}
-  for _, p in ipairs(self.procs) do if p.alive and p ~= self.root_proc then list[#list + 1] = p.path end end
+  for _, p in ipairs(self.procs) do
+    if p.alive and p ~= self.root_proc and p ~= self.world_proc then list[#list + 1] = p.path end
+  end
   return list
 end
 

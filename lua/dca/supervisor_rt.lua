@@ -307,10 +307,57 @@ function M.new(opts)
     end
   end
 
+  --- A request to the robot process registered as `world` (dca sim --serve, or a robot's driver), looked up
+  --- at the daemon of this supervisor's host (opts.daemon_host, else the first host; lookups reach the
+  --- peers) and reached on its control channel (opened once). cb(reply) | cb(nil, err, missing)
+  function rt.world(msg, timeout, cb)
+    local w = rt._world
+    if w and w.ch then w.ch:request(msg, timeout, cb) return end
+    local function go(ch, err, missing)
+      if ch then ch:request(msg, timeout, cb) else cb(nil, err, missing) end
+    end
+    if w then w.waiters[#w.waiters + 1] = go return end
+    w = { waiters = { go } }
+    rt._world = w
+    local function finish(ch, err, missing)
+      local ws = w.waiters
+      w.waiters = {}
+      if ch then w.ch = ch else rt._world = nil end
+      for _, f in ipairs(ws) do f(ch, err, missing) end
+    end
+    local host = opts.daemon_host
+    if not host then
+      local names = {}
+      for h in pairs(opts.hosts or {}) do names[#names + 1] = h end
+      table.sort(names)
+      host = names[1]
+    end
+    daemon(host, function(dch, derr)
+      if not dch then finish(nil, derr) return end
+      local wait_ms = math.floor((opts.world_wait or 5) * 1000)
+      dch:request({ type = "lookup", name = opts.world_name or "world", wait_ms = wait_ms }, wait_ms / 1000 + 2,
+        function(lr, lerr)
+          local ep = lr and lr.type ~= "error" and (lr.endpoints or lr)
+          if not ep or not ep.control then
+            finish(nil, sformat("no process is registered as `%s` (asked the daemon of host %s: %s)",
+              opts.world_name or "world", host, tostring(lr and lr.reason or lerr)), true)
+            return
+          end
+          core.connect(ep.control, M.key_opts(opts.key), function(ch, cerr)
+            if not ch then finish(nil, sformat("world at %s: %s", ep.control, tostring(cerr))) return end
+            ch:on_message(function() end)
+            ch:on_close(function() if rt._world == w then rt._world = nil end end)
+            finish(ch)
+          end)
+        end)
+    end)
+  end
+
   --- Closes every daemon channel (after shutdown).
   function rt.close()
     rt.closing = true
     for _, d in pairs(rt.daemons) do if d.ch then d.ch:close() end end
+    if rt._world and rt._world.ch then rt._world.ch:close() end
   end
 
   return rt

@@ -237,6 +237,53 @@ suite:case("a_silent_child_supervisor_is_lost_after_the_silence_naming_its_host_
   T.eq(c:alive(), {})
 end)
 
+-- Two hardware-facing types: a base drive (command out to the robot, odometry in) and a plain controller.
+local device_types = {
+  Drive = { inputs = { { name = "Odom", device = "base.pose" }, { name = "Vel" } },
+            outputs = { { name = "Cmd", device = "base.cmd_vel" } } },
+  Planner = { inputs = {}, outputs = { { name = "Vel" } } },
+}
+local function robot()
+  return root("main", "h1", "plan , drive", { leaf("plan", "Planner", "h1"), leaf("drive", "Drive", "h2") },
+    { set("plan", "run", { { "plan", "Vel", "drive", "Vel" } }) })
+end
+
+suite:case("device_ports_are_wired_to_the_world_at_connect_time_and_stay_active", function()
+  local c = fake.cluster{ behave = behave, types = device_types, world = true }
+  c:root(robot())
+  T.eq(c:configure(), true)
+  local world, drive = c:node("world"), c:node("main.drive")
+  -- input: world -> leaf, made and activated at the world; output: leaf -> world, at the leaf
+  T.eq(world.conns, { { out = "base.pose", to = "main.drive", ["in"] = "Odom", set = "main.drive:device" } })
+  T.eq(world.active, { ["main.drive:device"] = true })
+  T.eq(drive.conns, { { out = "Cmd", to = "world", ["in"] = "base.cmd_vel", set = "main.drive:device" } })
+  T.eq(drive.active, { ["main.drive:device"] = true }, "active before any run, for good")
+  -- samples flow both ways through the device set; the planner's own set is still inactive
+  world:write("base.pose", { 1, 2, 3 })
+  drive:write("Cmd", { 0.1, 0, 0 })
+  c:settle(c.t)
+  T.eq(drive.ports.Odom, { 1, 2, 3 })
+  T.eq(world.ports["base.cmd_vel"], { 0.1, 0, 0 })
+  -- a run and its end (LIFO stops, deactivations of the labelled sets) leave the device set active
+  c:start()
+  c:settle(1)
+  c:node("main.plan"):done(1) c:node("main.drive"):done(2)
+  T.eq(c:outcome_within(10), { type = "done", value = { 1, 2, n = 2 } })
+  T.eq(drive.active["main.drive:device"], true)
+  T.ok(not c:node("main.plan").active["main:plan[run]"], "the labelled set was deactivated")
+  T.eq(c:alive(), { "main.plan", "main.drive" }, "the world is not one of the tree's processes")
+end)
+
+suite:case("a_missing_world_fails_the_start_naming_the_leaf_and_its_device_ports", function()
+  local c = fake.cluster{ behave = behave, types = device_types }
+  c:root(robot())
+  local ok, err = c:configure()
+  T.eq(ok, false)
+  T.contains(err, "no world for the device ports of main.drive (Drive: Odom <- base.pose, Cmd -> base.cmd_vel)")
+  T.contains(err, "--sim")
+  T.eq(c:alive(), {}, "nothing left running")
+end)
+
 suite:case("an_expression_naming_an_unknown_process_fails_before_anything_starts", function()
   local c = fake.cluster{ behave = behave }
   c:root(root("main", "h1", "a ; nosuch", { leaf("a", "Timer", "h1") }))

@@ -58,7 +58,9 @@ local function main(args)
         end)
       end
       if msg.type == "configure" and not sup then
-        rt = srt.new({ hosts = msg.hosts, key = key, exe = "dca",
+        local own_host
+        for h, a in pairs(msg.hosts or {}) do if a == o.daemon then own_host = h end end
+        rt = srt.new({ hosts = msg.hosts, key = key, exe = "dca", daemon_host = own_host,
           timeouts = msg.timeouts,
           report = function(m)
             ch:send(m)
