@@ -39,7 +39,7 @@ local spec_mod = require "dca.supervisor_spec"
 local previous = package.loaded["dca.supervisor"]
 local M = type(previous) == "table" and previous or {}
 
-local ipairs, pairs, type, tostring, sformat, select = ipairs, pairs, type, tostring, string.format, select
+local ipairs, pairs, type, tostring, sformat, select, tonumber = ipairs, pairs, type, tostring, string.format, select, tonumber
 local concat = table.concat
 
 --- Timeouts (seconds) of each wait of the start protocol; any of them may be overridden per supervisor.
@@ -130,6 +130,16 @@ end
 function Sup:say(fmt, ...)
   local line = self:log(fmt, ...)
   if self.progress then self.rt.report({ type = "log", line = line })
+  elseif self.rt.log then self.rt.log(line) end
+end
+
+-- The same, for a leaf's event that says when it happened on its clock (`now`, ns, as in the node's
+-- `advance` reply): the line carries it (`at`, seconds) up to `dca run`, which stamps lines with it.
+function Sup:say_at(now, fmt, ...)
+  local at = tonumber(now) and tonumber(now) / 1e9 or nil
+  if not at then return self:say(fmt, ...) end
+  local line = self:log(fmt, ...)
+  if self.progress then self.rt.report({ type = "log", line = line, at = at })
   elseif self.rt.log then self.rt.log(line) end
 end
 
@@ -583,7 +593,7 @@ function Sup:child_message(name, msg)
     local taken = self.run and self.run:is_running(name)
     if taken then
       ch.state = "done"
-      if ch.kind == "leaf" then self:say("%s: done %s", ch.path, show(msg.value)) end
+      if ch.kind == "leaf" then self:say_at(msg.now, "%s: done %s", ch.path, show(msg.value)) end
     end
     if not self:_feed(name, "done", msg.value) and not taken then
       self:log("%s: stale done from %s ignored", self.path, ch.path)
@@ -593,7 +603,7 @@ function Sup:child_message(name, msg)
     local taken = self.run and self.run:is_running(name)
     if taken then
       ch.state = "aborted"
-      self:say("%s: aborted: %s", ch.path, reason)
+      self:say_at(ch.kind == "leaf" and msg.now, "%s: aborted: %s", ch.path, reason)
       self.cause = self.cause or { path = path, reason = reason }
     end
     if not self:_feed(name, "aborted", reason) and not taken then

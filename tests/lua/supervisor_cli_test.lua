@@ -143,4 +143,45 @@ process main() {
   os.remove(path) os.remove(log)
 end)
 
+-- A laser on the robot (a device port: laser.range) until a Timer ends the run after 0.5 s.
+local LASER = [[
+process main() {
+  instantiated_processes {
+    laser instof LaserSensor("h1");
+    stop  instof Timer("h2", 0.5);
+  }
+  internal_event_actions { stop # laser }
+}
+]]
+
+suite:case("run_sim_starts_the_world_wires_device_ports_stamps_simulated_time_and_summarises", function()
+  local path = tmpfile(LASER)
+  local out, rc = T.sh(dca .. " run " .. path .. " --sim door --seed 1")
+  T.eq(rc, 0, out)
+  T.contains(out, "world: ready")
+  T.contains(out, "main: 1 device ports wired to the world")
+  T.ok(out:find("%[sim +0%.000%] main%.laser: running"), "lines carry the simulated time:\n" .. out)
+  T.ok(out:find("door opened to %-?%d+%.%d deg"), out)
+  local simulated = tonumber(out:match("simulated (%d+%.%d+) s in"))
+  T.ok(simulated and simulated >= 0.5, "simulated time: " .. tostring(simulated))
+  -- the steps with their simulated start and end: the Timer ran its 0.5 s of simulated time
+  local a, b = out:match("(%d+%.%d+) %-  *(%d+%.%d+)  main%.stop  done")
+  T.ok(a and b, "a step line for main.stop:\n" .. out)
+  -- time stood at 0 until the root ran; a stamp is the world's time at or after the event (exact when the
+  -- node's event carries its own time), so the Timer's end is never before its 0.5 s of simulated time
+  T.eq(tonumber(a), 0)
+  T.ok(tonumber(b) >= 0.5 - 1e-9, "0.5 s of simulated time at least: " .. a .. " - " .. b)
+  T.ok(out:find("main%.laser  stopped") or out:find("main%.laser  aborted"), out)
+  os.remove(path)
+end)
+
+suite:case("a_device_leaf_without_a_world_fails_the_start_naming_it_and_its_ports", function()
+  local path = tmpfile(LASER)
+  local out, rc = T.sh(dca .. " run " .. path)
+  T.eq(rc, 3, out)
+  T.contains(out, "no world for the device ports of main.laser (LaserSensor: Raw <- laser.range)")
+  T.contains(out, "--sim")
+  os.remove(path)
+end)
+
 return suite:run(...)

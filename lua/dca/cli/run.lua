@@ -7,25 +7,31 @@ local supervisor = require "dca.supervisor"
 local spec_mod = require "dca.supervisor_spec"
 local srt = require "dca.supervisor_rt"
 local hosts_mod = require "dca.supervisor_hosts"
+local sim = require "dca.supervisor_sim"
 
 local M = {}
 
 M.summary = "run a .dca system: start its hosts and supervisor tree, run it, report each transition"
-M.usage = [[usage: dca run FILE.dca [--root NAME] [--hosts FILE] [--sim WORLD] [--repl] [--watch] [--timeout S] [--quiet]
+M.usage = [=[usage: dca run FILE.dca [--root NAME] [--hosts FILE] [--repl] [--watch] [--timeout S] [--quiet]
+                    [--sim WORLD [--seed N] [--door-width W] [--record FILE.csv]]
 
 Checks FILE.dca (errors stop here, nothing is started), starts one local daemon per host name on 127.0.0.1
 (or uses the daemons named in --hosts, lines of "name address"), starts the supervisor tree, shows one line
 per group as it comes up and one per process transition, and runs the root expression.
   --root NAME     the root process (default: main)
   --hosts FILE    daemons already running: "name address" per line
-  --sim WORLD     start the simulated world (dca sim WORLD) and run every host on its clock (not yet
-                  available: refused with a message)
+  --sim WORLD     run in simulated time: the daemons on the simulated clock, the world (`dca sim --serve
+                  --world WORLD`, e.g. door) started through the first host's daemon before the tree, its
+                  device ports wired to the leaves that have them, time started when the root runs; the
+                  lines carry the simulated time and the end prints the world's summary (door angle,
+                  simulated and wall time, each step's start and end)
+  --seed N, --door-width W, --record FILE.csv   passed to the world (see `dca sim --help`)
   --repl          open a console on the root supervisor once the system runs
   --watch         reload the system file when it is saved (inotify)
   --timeout S     stop with an error when the start does not finish within S seconds (default 30)
   --quiet         no progress lines; only the outcome
 Exit code 0 when the root expression ends DONE, 1 when ABORTED, 2 for usage or check errors, 3 when the
-start fails, 130 after Ctrl-C. Ctrl-C stops the whole tree, most recently started first.]]
+start fails, 130 after Ctrl-C. Ctrl-C stops the whole tree, most recently started first.]=]
 
 local function parse_args(args)
   local o = { timeout = 30 }
@@ -40,6 +46,9 @@ local function parse_args(args)
     if a == "--root" then o.root = value(a)
     elseif a == "--hosts" then o.hosts = value(a)
     elseif a == "--sim" then o.sim = value(a)
+    elseif a == "--seed" then o.seed = tonumber(value(a)) or error("dca run: --seed needs a number", 0)
+    elseif a == "--door-width" then o.door_width = tonumber(value(a)) or error("dca run: --door-width needs metres", 0)
+    elseif a == "--record" then o.record = value(a)
     elseif a == "--timeout" then o.timeout = tonumber(value(a)) or error("dca run: --timeout needs seconds", 0)
     elseif a == "--repl" then o.repl = true
     elseif a == "--watch" then o.watch = true
@@ -49,10 +58,10 @@ local function parse_args(args)
     i = i + 1
   end
   if not o.file then error("dca run: which .dca file?", 0) end
-  if o.sim then
-    -- the daemons have no simulated clock and `dca sim` no control channel yet: say so rather than half-run
-    error("dca run: --sim is not available yet (the hosts' daemons take no simulated clock); run `dca sim` on its own", 0)
+  if (o.seed or o.door_width or o.record) and not o.sim then
+    error("dca run: --seed, --door-width and --record go with --sim WORLD", 0)
   end
+  if o.record and o.record:sub(1, 1) ~= "/" then o.record = (os.getenv("PWD") or ".") .. "/" .. o.record end
   return o
 end
 
@@ -78,12 +87,19 @@ function M.main(args)
   -- consoles following the root's lines; with --repl the console owns the terminal once it follows, and
   -- prints these lines above its prompt (redrawn), so this process no longer writes them itself
   local followers = {}
-  local function say(line)
-    if o.quiet then return end
-    local text = string.format("[%7.3f] %s", core.now() - t0, line)
+  local world  -- with --sim: the world process (dca.supervisor_sim)
+  local function emit(text)
     if srt.to_followers(followers, text) > 0 and o.repl then return end
     io.stdout:write(text, "\n")
     io.stdout:flush()
+  end
+  local function say(line, at)
+    if world and world.ch then
+      -- stamped with the world's time (in order); the transitions are the steps of the summary
+      world:stamp(line, function(t, l) if not o.quiet then emit(string.format("[sim %8.3f] %s", t, l)) end end, at)
+    elseif not o.quiet then
+      emit(string.format("[%7.3f] %s", core.now() - t0, line))
+    end
   end
 
   -- hosts: a file of running daemons, or one fresh local daemon per host name
@@ -101,7 +117,7 @@ function M.main(args)
   if not o.hosts then
     if not key then key, keydir = hosts_mod.fresh_key() end
     local names = spec_mod.hosts(spec)
-    daemons, err = hosts_mod.start_local(names, { exe = exe, key = key,
+    daemons, err = hosts_mod.start_local(names, { exe = exe, key = key, clock = o.sim and "sim" or nil,
                                                    log_dir = keydir or os.getenv("TMPDIR") or "/tmp" })
     if not daemons then io.stderr:write("dca run: ", err, "\n") return 3 end
     hosts = daemons.hosts
@@ -114,16 +130,29 @@ function M.main(args)
   local loop = core.loop()
   local code
   local sup
-  local rt = srt.new({ hosts = hosts, key = key, exe = exe,
+  -- the end of a run: the world's summary (with --sim), then the tree, then the world stopped
+  local function wind_up()
+    local function down()
+      sup:shutdown(function()
+        if world then world:stop(function() loop:stop() end) else loop:stop() end
+      end)
+    end
+    if not world then down() return end
+    world:summary(core.now() - t0, function(lines)
+      for _, l in ipairs(lines) do emit(l) end
+      down()
+    end)
+  end
+  local rt = srt.new({ hosts = hosts, key = key, exe = exe, daemon_host = spec.host,
     report = function(msg)
-      if msg.type == "log" then say(msg.line)
+      if msg.type == "log" then say(msg.line, msg.at)
       elseif msg.type == "done" then
         say(string.format("%s: DONE %s", spec.path, supervisor.show(msg.value)))
-        if not o.repl then code = 0 sup:shutdown(function() loop:stop() end) end
+        if not o.repl then code = 0 wind_up() end
       elseif msg.type == "aborted" then
         local text = string.format("%s: ABORTED at %s: %s", spec.path, tostring(msg.path), tostring(msg.reason))
         if not (o.repl and srt.to_followers(followers, text) > 0) then io.stderr:write(text, "\n") end
-        if not o.repl then code = 1 sup:shutdown(function() loop:stop() end) end
+        if not o.repl then code = 1 wind_up() end
       end
     end,
     log = say })
@@ -132,18 +161,23 @@ function M.main(args)
   rt.bind(sup)
   local function stop_all(c)
     if code == nil then code = c end
-    sup:shutdown(function() loop:stop() end)
+    sup:shutdown(function()
+      if world then world:stop(function() loop:stop() end) else loop:stop() end
+    end)
     core.after(15, function() loop:stop() end) -- a bounded stop: daemons are killed below in any case
   end
   core.on_signal(function() say("interrupted: stopping") stop_all(130) end)
 
-  -- daemons first answer when they listen: wait for each (bounded), then bring the tree up
-  local deadline = core.after(o.timeout, function()
-    if sup.state == "starting" or sup.state == "new" then
-      io.stderr:write(string.format("dca run: the start did not finish within %gs\n", o.timeout))
-      stop_all(3)
-    end
-  end)
+  -- the start must finish within --timeout (from the moment the tree starts coming up)
+  local deadline
+  local function arm_deadline()
+    deadline = core.after(o.timeout, function()
+      if sup.state == "starting" or sup.state == "new" then
+        io.stderr:write(string.format("dca run: the start did not finish within %gs\n", o.timeout))
+        stop_all(3)
+      end
+    end)
+  end
   -- the root listens for consoles (`dca repl main`) and registers its path with its host's daemon
   local listener = core.listen("127.0.0.1:0", srt.key_opts(key), function(ch)
     ch:on_message(function(msg, id) srt.console(ch, id, msg, sup, followers) end)
@@ -196,38 +230,66 @@ function M.main(args)
     end
   end
 
-  sup:configure(function(cok, cerr)
-    if not cok then
-      io.stderr:write("dca run: start failed: ", tostring(cerr), "\n")
-      stop_all(3)
-      return
-    end
-    deadline:cancel()
-    say(spec.path .. ": the whole tree is configured: run")
-    sup:run_expr()
-    if o.repl and listener then
-      -- the console is `dca repl` on the root's console endpoint, in its own process on this terminal, so
-      -- that line editing owns the terminal while this process's loop keeps the system running
-      local cmd = string.format("%s repl %s%s </dev/tty >/dev/tty 2>&1 & echo $!", hosts_mod.sh_quote(exe),
-        hosts_mod.sh_quote(listener:address()), key and (" --key " .. hosts_mod.sh_quote(key)) or "")
-      local p = io.popen(cmd, "r")
-      local pid = p and tonumber((p:read("a") or ""):match("%d+"))
-      if p then p:close() end
-      if not pid then io.stderr:write("dca run: could not start the console\n")
-      else
-        local watch
-        watch = core.every(0.1, function()
-          if not hosts_mod.alive(pid) then
-            watch:cancel()
-            local st = sup.outcome and sup.outcome.status
-            stop_all(st == "done" and 0 or (st == "aborted" and 1 or 130))
-          end
+  local function bring_up()
+    arm_deadline()
+    sup:configure(function(cok, cerr)
+      if not cok then
+        io.stderr:write("dca run: start failed: ", tostring(cerr), "\n")
+        stop_all(3)
+        return
+      end
+      deadline:cancel()
+      say(spec.path .. ": the whole tree is configured: run")
+      sup:run_expr()
+      if world then
+        world:go(function(r, gerr)
+          if not r then io.stderr:write("dca run: the world did not start its time: ", tostring(gerr), "\n") stop_all(3) end
         end)
       end
-    end
-  end)
+      if o.repl and listener then
+        -- the console is `dca repl` on the root's console endpoint, in its own process on this terminal, so
+        -- that line editing owns the terminal while this process's loop keeps the system running
+        local cmd = string.format("%s repl %s%s </dev/tty >/dev/tty 2>&1 & echo $!", hosts_mod.sh_quote(exe),
+          hosts_mod.sh_quote(listener:address()), key and (" --key " .. hosts_mod.sh_quote(key)) or "")
+        local p = io.popen(cmd, "r")
+        local pid = p and tonumber((p:read("a") or ""):match("%d+"))
+        if p then p:close() end
+        if not pid then io.stderr:write("dca run: could not start the console\n")
+        else
+          local watch
+          watch = core.every(0.1, function()
+            if not hosts_mod.alive(pid) then
+              watch:cancel()
+              local st = sup.outcome and sup.outcome.status
+              stop_all(st == "done" and 0 or (st == "aborted" and 1 or 130))
+            end
+          end)
+        end
+      end
+    end)
+  end
+  if o.sim then
+    -- the world first (the nodes on the simulated clock find it when they start), through the first host
+    local first = spec_mod.hosts(spec)[1]
+    world = sim.new({ daemon = hosts[first], host = first, key = key, world = o.sim, seed = o.seed,
+                      door_width = o.door_width, record = o.record, wait = o.timeout })
+    say(string.format("world: starting `dca sim --serve --world %s` on host %s", o.sim, first))
+    world:start(function(wok, werr)
+      if not wok then
+        io.stderr:write("dca run: ", tostring(werr), "\n")
+        code = 3
+        world:stop(function() loop:stop() end)
+        return
+      end
+      say("world: ready; time stands at 0 until the root runs")
+      bring_up()
+    end)
+  else
+    bring_up()
+  end
   loop:run()
   rt.close()
+  if world then world:close() end
   if daemons then daemons:stop() end
   if keydir then os.execute("rm -rf " .. hosts_mod.sh_quote(keydir)) end
   return code or 1
