@@ -481,6 +481,11 @@ void Node::Impl::handle(const Channel::Ptr& ch, const Message& m) {
     return;
   }
   if (hook && hook(ch, m)) return;
+  if (m.id == 0) {
+    // an event this node has no use for (e.g. the world's `broken`/`overflow`, sent to every channel it
+    // accepted, clock subscribers included): answering it as an error would close the channel
+    return;
+  }
   ch->reply_error(m, "unknown request '" + t + "' for node " + opts.name);
 }
 

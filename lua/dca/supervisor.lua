@@ -362,9 +362,11 @@ function Sup:_wire_devices(cb)
       if p.dir == "in" then self.rt.world(msg, self.timeouts.connect, k)
       else self:to_leaf(p.leaf, msg, self.timeouts.connect, k) end
     end
+    -- a queue of one: a device port holds the robot's latest reading or command (the set is active while
+    -- the leaf waits inactive: older samples would pile up and be read stale when it runs)
     local conn = p.dir == "in"
-      and { type = "connect", out = p.signal, to = p.leaf, ["in"] = p.port, set = set, mode = "push" }
-      or { type = "connect", out = p.port, to = "world", ["in"] = p.signal, set = set, mode = "push" }
+      and { type = "connect", out = p.signal, to = p.leaf, ["in"] = p.port, set = set, mode = "push", queue = 1 }
+      or { type = "connect", out = p.port, to = "world", ["in"] = p.signal, set = set, mode = "push", queue = 1 }
     at_source(conn, function(reply, err, missing)
       if failed then return end
       if not reply or reply.type == "error" then fail(p, "connecting", reply, err, missing) return end
@@ -610,6 +612,10 @@ function Sup:child_message(name, msg)
       self:log("%s: stale aborted from %s ignored", self.path, ch.path)
     end
   end
+  if t == "overflow" and self:_is_device_input(ch.path, msg.port) then
+    -- a device input holds the robot's latest sample (a queue of one): the older one dropped is expected
+    return
+  end
   if t == "broken" or t == "overflow" then
     -- a data connection of this leaf broke or overflowed: worth a line, not an event of the algebra (the
     -- process at the other end, if it died, is reported by its own owner)
@@ -617,6 +623,13 @@ function Sup:child_message(name, msg)
       tostring(msg.reason))
   end
   if pending0 == 0 and (self.stops_pending or 0) > 0 then self.event_t0 = t0 end
+end
+
+function Sup:_is_device_input(leaf, port)
+  for _, p in ipairs(self.device_ports or {}) do
+    if p.leaf == leaf and p.port == port and p.dir == "in" then return true end
+  end
+  return false
 end
 
 --- Child `name`'s process exited (the Executer's signal) or its supervisor/host was lost.

@@ -370,7 +370,7 @@ function Node:serve(msg, reply)
     self.running = false
     reply({ type = "ok" })
   elseif t == "connect" then
-    self.conns[#self.conns + 1] = { out = msg.out, to = msg.to, ["in"] = msg["in"], set = msg.set }
+    self.conns[#self.conns + 1] = { out = msg.out, to = msg.to, ["in"] = msg["in"], set = msg.set, queue = msg.queue }
     reply({ type = "ok" })
   elseif t == "activate" then
     self.active[msg.set] = true

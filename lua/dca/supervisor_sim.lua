@@ -12,6 +12,7 @@
 --                                      -- (when it answered: at or after the event), or `at` when given
 --   w:summary(cb(lines))               -- "door opened to NN.N deg", times, the steps
 --   w:stop(cb)                         -- `exit` to the world, then waits for its exit (SIGKILL after a grace)
+--   w.on_lost = function(reason) end   -- the world exited by itself (every node on its clock stops)
 local core = require "dca.core"
 local srt = require "dca.supervisor_rt"
 
@@ -52,6 +53,7 @@ function W:start(cb)
     dch:on_message(function(msg)
       if msg.type == "exit" and msg.child == self.child then
         self.exited = srt.describe_exit(msg, o.host)
+        if not self.stopping and done and self.on_lost then self.on_lost("the world " .. self.exited) end
         local ws = self.exit_waiters or {}
         self.exit_waiters = nil
         for _, w in ipairs(ws) do w() end
@@ -152,6 +154,7 @@ end
 --- (or after the last bound).
 function W:stop(cb)
   cb = cb or function() end
+  self.stopping = true
   if not self.child or self.exited or not self.dch then cb() return end
   local called = false
   local function done() if not called then called = true cb() end end

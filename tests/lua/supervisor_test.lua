@@ -254,9 +254,9 @@ suite:case("device_ports_are_wired_to_the_world_at_connect_time_and_stay_active"
   T.eq(c:configure(), true)
   local world, drive = c:node("world"), c:node("main.drive")
   -- input: world -> leaf, made and activated at the world; output: leaf -> world, at the leaf
-  T.eq(world.conns, { { out = "base.pose", to = "main.drive", ["in"] = "Odom", set = "main.drive:device" } })
+  T.eq(world.conns, { { out = "base.pose", to = "main.drive", ["in"] = "Odom", set = "main.drive:device", queue = 1 } })
   T.eq(world.active, { ["main.drive:device"] = true })
-  T.eq(drive.conns, { { out = "Cmd", to = "world", ["in"] = "base.cmd_vel", set = "main.drive:device" } })
+  T.eq(drive.conns, { { out = "Cmd", to = "world", ["in"] = "base.cmd_vel", set = "main.drive:device", queue = 1 } })
   T.eq(drive.active, { ["main.drive:device"] = true }, "active before any run, for good")
   -- samples flow both ways through the device set; the planner's own set is still inactive
   world:write("base.pose", { 1, 2, 3 })

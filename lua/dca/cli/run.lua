@@ -151,7 +151,12 @@ function M.main(args)
         if not o.repl then code = 0 wind_up() end
       elseif msg.type == "aborted" then
         local text = string.format("%s: ABORTED at %s: %s", spec.path, tostring(msg.path), tostring(msg.reason))
-        if not (o.repl and srt.to_followers(followers, text) > 0) then io.stderr:write(text, "\n") end
+        local function out(t)
+          if not (o.repl and srt.to_followers(followers, t) > 0) then io.stderr:write(t, "\n") end
+        end
+        -- in order with the stamped lines (with --sim)
+        if world and world.ch then world:stamp(text, function(t) out(string.format("[sim %8.3f] %s", t, text)) end)
+        else out(text) end
         if not o.repl then code = 1 wind_up() end
       end
     end,
@@ -274,6 +279,10 @@ function M.main(args)
     world = sim.new({ daemon = hosts[first], host = first, key = key, world = o.sim, seed = o.seed,
                       door_width = o.door_width, record = o.record, wait = o.timeout })
     say(string.format("world: starting `dca sim --serve --world %s` on host %s", o.sim, first))
+    world.on_lost = function(reason)
+      io.stderr:write("dca run: ", reason, " (the nodes on its clock stop with it)\n")
+      if code == nil then code = 1 end
+    end
     world:start(function(wok, werr)
       if not wok then
         io.stderr:write("dca run: ", tostring(werr), "\n")
