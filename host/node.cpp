@@ -180,12 +180,14 @@ void Node::start(std::function<void(const std::string& error)> done) {
       }
       K.component->on_event = [this](const ComponentEvent& e) {
         auto& L = *impl_;
+        // `now`: when it happened on this node's clock (ns; simulated time on --clock sim), as in `advance`
         if (e.kind == ComponentEvent::Kind::Done)
           L.event({"done", 0,
-                   Value::map().set("name", L.opts.name).set("value", value_from_msgpack(
+                   Value::map().set("name", L.opts.name).set("now", L.timers->now()).set("value", value_from_msgpack(
                        {reinterpret_cast<const std::byte*>(e.value.data()), e.value.size()}))});
         else
-          L.event({"aborted", 0, Value::map().set("name", L.opts.name).set("reason", e.reason)});
+          L.event({"aborted", 0,
+                   Value::map().set("name", L.opts.name).set("now", L.timers->now()).set("reason", e.reason)});
       };
       K.endpoint->on_event([this](const CommsEvent& e) {
         auto& L = *impl_;

@@ -38,7 +38,7 @@
 // stops as it would on daemon loss. With --world none it subscribes to nothing and any control channel may
 // advance it.
 // Events it sends on every open control channel:
-//   done {name, value}  aborted {name, reason}  broken {name, port, peer, set, reason}
+//   done {name, now, value}  aborted {name, now, reason} (now: ns on its clock)  broken {name, port, peer, set, reason}
 //   overflow {name, port, reason}
 #include <memory>
 #include <string>

@@ -78,7 +78,11 @@ function System:try_up(timeout)
           self.seen[path] = self.seen[path] or {}
           self.seen[path][state] = true
         end
-      elseif msg.type == "done" or msg.type == "aborted" then self.outcome = msg end
+      elseif msg.type == "done" or msg.type == "aborted" then
+        -- the outcome as in the memory backend ({type, value} | {type, path, reason}); `now` is kept apart
+        self.outcome = { type = msg.type, value = msg.value, path = msg.path, reason = msg.reason }
+        self.outcome_now = msg.now
+      end
     end })
   self.rt = rt
   self.sup = supervisor.new(self.spec, rt, { progress = true, hosts = set.hosts })

@@ -127,21 +127,16 @@ function Sup:recent(n)
 end
 
 -- A line for the person watching (`dca run`): to the parent when asked for, else to this process's output.
+-- A line said while an event is handled carries the event's time on its node's clock (`at`, seconds: the
+-- `now` of a leaf's done/aborted, handed down with `run` and up with a group's outcome) to `dca run`, which
+-- stamps lines with it in simulated time.
 function Sup:say(fmt, ...)
   local line = self:log(fmt, ...)
-  if self.progress then self.rt.report({ type = "log", line = line })
+  if self.progress then self.rt.report({ type = "log", line = line, at = self.event_at })
   elseif self.rt.log then self.rt.log(line) end
 end
 
--- The same, for a leaf's event that says when it happened on its clock (`now`, ns, as in the node's
--- `advance` reply): the line carries it (`at`, seconds) up to `dca run`, which stamps lines with it.
-function Sup:say_at(now, fmt, ...)
-  local at = tonumber(now) and tonumber(now) / 1e9 or nil
-  if not at then return self:say(fmt, ...) end
-  local line = self:log(fmt, ...)
-  if self.progress then self.rt.report({ type = "log", line = line, at = at })
-  elseif self.rt.log then self.rt.log(line) end
-end
+local function now_ns(at) return at and math.floor(at * 1e9 + 0.5) or nil end
 
 ---------------------------------------------------------------------------------------------- start
 
@@ -466,11 +461,22 @@ function Sup:_start_child(name, init)
       self:_fail_later(name, sformat("%s: %s", ch.path, reply and reply.reason or tostring(err)))
     end
   end
+  -- while run_expr starts the expression, the answers to these runs are counted (run_expr's cb)
+  local acks = self.run_acks
+  if acks then acks.n = acks.n + 1 end
+  local function ran(reply, err)
+    check(reply, err)
+    if acks then
+      acks.n = acks.n - 1
+      if acks.n == 0 and acks.cb then local f = acks.cb acks.cb = nil f() end
+    end
+  end
   if ch.kind == "leaf" then
     ch.handle.request({ type = "init" }, self.timeouts.request, check)
-    ch.handle.request({ type = "run", init = init }, self.timeouts.request, check)
+    ch.handle.request({ type = "run", init = init }, self.timeouts.request, ran)
   else
-    ch.handle.request({ type = "run", init = init }, self.timeouts.request, check)
+    -- a group answers when its whole started subtree has: bounded like a configure
+    ch.handle.request({ type = "run", init = init, at = self.event_at }, self.timeouts.configure, ran)
   end
 end
 
@@ -524,19 +530,24 @@ function Sup:_check_outcome()
     self.state = "done"
     self.outcome = { status = "done", value = v }
     self:say("%s: done %s", self.path, show(v))
-    self:_report({ type = "done", value = v })
+    self:_report({ type = "done", value = v, now = now_ns(self.event_at) })
   elseif st == "aborted" then
     self.state = "aborted"
     local cause = self.cause or { path = self.path, reason = "aborted" }
     self.outcome = { status = "aborted", path = cause.path, reason = cause.reason }
     self:say("%s: aborted (%s: %s)", self.path, cause.path, cause.reason)
-    self:_report({ type = "aborted", path = cause.path, reason = cause.reason })
+    self:_report({ type = "aborted", path = cause.path, reason = cause.reason, now = now_ns(self.event_at) })
   end
 end
 
 --- Runs this group's expression (the parent's "run"), with `init` bound for every leaf (dca.algebra).
-function Sup:run_expr(init)
-  if self.state == "running" then return false, self.path .. " is already running" end
+--- `started(ok)`, if given, is called once every process the start of the expression ran (below this
+--- group too) has answered its run (`dca run --sim` starts the simulated time then).
+function Sup:run_expr(init, started)
+  if self.state == "running" then
+    if started then started(false) end
+    return false, self.path .. " is already running"
+  end
   if not self.expr then
     -- a group without event actions runs nothing and is done at once
     self.state = "running"
@@ -545,6 +556,7 @@ function Sup:run_expr(init)
       self.state = "done" self.outcome = { status = "done" }
       self.rt.report({ type = "done" })
     end)
+    if started then started(true) end
     return true
   end
   if self.pending_expr then
@@ -555,7 +567,12 @@ function Sup:run_expr(init)
   self.state = "running"
   self.last_init = init
   self.run = algebra.new(self.expr, self:_commands())
+  local acks = { n = 1, cb = started and function() started(true) end }
+  self.run_acks = acks
   self.run:start(init)
+  self.run_acks = nil
+  acks.n = acks.n - 1
+  if acks.n == 0 and acks.cb then local f = acks.cb acks.cb = nil f() end
   self:_check_outcome()
   return true
 end
@@ -589,13 +606,15 @@ function Sup:child_message(name, msg)
   end
   if ch.kind == "leaf" then self.stats.leaf_events = self.stats.leaf_events + 1
   else self.stats.group_events = self.stats.group_events + 1 end
+  local saved_at = self.event_at
+  if tonumber(msg.now) then self.event_at = tonumber(msg.now) / 1e9 end
   local t0 = self.rt.now()
   local pending0 = self.stops_pending or 0
   if t == "done" then
     local taken = self.run and self.run:is_running(name)
     if taken then
       ch.state = "done"
-      if ch.kind == "leaf" then self:say_at(msg.now, "%s: done %s", ch.path, show(msg.value)) end
+      if ch.kind == "leaf" then self:say("%s: done %s", ch.path, show(msg.value)) end
     end
     if not self:_feed(name, "done", msg.value) and not taken then
       self:log("%s: stale done from %s ignored", self.path, ch.path)
@@ -605,7 +624,7 @@ function Sup:child_message(name, msg)
     local taken = self.run and self.run:is_running(name)
     if taken then
       ch.state = "aborted"
-      self:say_at(ch.kind == "leaf" and msg.now, "%s: aborted: %s", ch.path, reason)
+      self:say("%s: aborted: %s", ch.path, reason)
       self.cause = self.cause or { path = path, reason = reason }
     end
     if not self:_feed(name, "aborted", reason) and not taken then
@@ -614,6 +633,7 @@ function Sup:child_message(name, msg)
   end
   if t == "overflow" and self:_is_device_input(ch.path, msg.port) then
     -- a device input holds the robot's latest sample (a queue of one): the older one dropped is expected
+    self.event_at = saved_at
     return
   end
   if t == "broken" or t == "overflow" then
@@ -623,6 +643,7 @@ function Sup:child_message(name, msg)
       tostring(msg.reason))
   end
   if pending0 == 0 and (self.stops_pending or 0) > 0 then self.event_t0 = t0 end
+  self.event_at = saved_at
 end
 
 function Sup:_is_device_input(leaf, port)
@@ -721,8 +742,14 @@ function Sup:handle(msg, reply)
       end
     end)
   elseif t == "run" then
-    local ok, err = self:run_expr(msg.init)
-    reply(ok and { type = "ok" } or { type = "error", reason = err })
+    -- answered once everything the start ran has answered its own run (a whole subtree is running)
+    self.event_at = tonumber(msg.at)
+    local answered = false
+    local ok, err = self:run_expr(msg.init, function(started)
+      if started and not answered then answered = true reply({ type = "ok" }) end
+    end)
+    self.event_at = nil
+    if not ok and not answered then answered = true reply({ type = "error", reason = err }) end
   elseif t == "abort" then
     self:abort(function() reply({ type = "ok" }) end)
   elseif t == "shutdown" then

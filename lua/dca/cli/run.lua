@@ -245,12 +245,13 @@ function M.main(args)
       end
       deadline:cancel()
       say(spec.path .. ": the whole tree is configured: run")
-      sup:run_expr()
-      if world then
+      -- simulated time starts once every process the start ran has its run (a repeatable start)
+      sup:run_expr(nil, function()
+        if not world then return end
         world:go(function(r, gerr)
           if not r then io.stderr:write("dca run: the world did not start its time: ", tostring(gerr), "\n") stop_all(3) end
         end)
-      end
+      end)
       if o.repl and listener then
         -- the console is `dca repl` on the root's console endpoint, in its own process on this terminal, so
         -- that line editing owns the terminal while this process's loop keeps the system running
