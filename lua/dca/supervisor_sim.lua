@@ -109,6 +109,10 @@ function W:stamp(line, fn, at)
   local function flush()
     while self.pending[1] and self.pending[1].t do
       local e = table.remove(self.pending, 1)
+      -- a node's clock may lag the world's by up to a sync period (it is advanced when due): a line is
+      -- never stamped before the one said before it
+      e.t = math.max(e.t, self.t_flushed or 0)
+      self.t_flushed = e.t
       local path, word = transition(e.line)
       if word == "running" then
         if not self.steps[path] then self.order[#self.order + 1] = path end

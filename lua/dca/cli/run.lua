@@ -284,16 +284,51 @@ function M.main(args)
       io.stderr:write("dca run: ", reason, " (the nodes on its clock stop with it)\n")
       if code == nil then code = 1 end
     end
-    world:start(function(wok, werr)
-      if not wok then
-        io.stderr:write("dca run: ", tostring(werr), "\n")
-        code = 3
-        world:stop(function() loop:stop() end)
-        return
+    local function start_world()
+      world:start(function(wok, werr)
+        if not wok then
+          io.stderr:write("dca run: ", tostring(werr), "\n")
+          code = 3
+          world:stop(function() loop:stop() end)
+          return
+        end
+        say("world: ready; time stands at 0 until the root runs")
+        bring_up()
+      end)
+    end
+    if not o.hosts then
+      start_world()
+    else
+      -- daemons of a hosts file must be on the simulated clock (their ping says so)
+      local names, left, bad = spec_mod.hosts(spec), 0, {}
+      left = #names
+      for _, h in ipairs(names) do
+        core.connect(hosts[h], srt.key_opts(key), function(ch, cerr)
+          local function one(reason)
+            if reason then bad[#bad + 1] = reason end
+            left = left - 1
+            if left > 0 then return end
+            if #bad > 0 then
+              io.stderr:write("dca run: --sim needs every daemon on the simulated clock: ", table.concat(bad, "; "), "\n")
+              code = 2
+              loop:stop()
+            else
+              start_world()
+            end
+          end
+          if not ch then one(string.format("host %s at %s: %s", h, hosts[h], tostring(cerr))) return end
+          ch:on_message(function() end)
+          ch:request({ type = "ping" }, 10, function(r, perr)
+            ch:close()
+            if not r then one(string.format("host %s: %s", h, tostring(perr)))
+            elseif r.clock ~= "sim" then
+              one(string.format("the daemon of host %s runs on the %s clock (start it with --clock sim)", h,
+                tostring(r.clock or "wall")))
+            else one(nil) end
+          end)
+        end)
       end
-      say("world: ready; time stands at 0 until the root runs")
-      bring_up()
-    end)
+    end
   else
     bring_up()
   end
