@@ -184,4 +184,23 @@ suite:case("a_device_leaf_without_a_world_fails_the_start_naming_it_and_its_port
   os.remove(path)
 end)
 
+suite:case("run_sim_with_a_hosts_file_refuses_a_daemon_on_the_wall_clock", function()
+  local hosts = require "dca.supervisor_hosts"
+  local key, dir = hosts.fresh_key()
+  local set = assert(hosts.start_local({ "h1" }, { exe = dca, key = key, log_dir = dir }))
+  local hf = tmpfile("h1 " .. set.hosts.h1 .. "\n", ".hosts")
+  local path = tmpfile([[
+process main() {
+  instantiated_processes { stop instof Timer("h1", 0.2); }
+  internal_event_actions { stop }
+}
+]])
+  local out, rc = T.sh("DCA_KEY_FILE=" .. key .. " " .. dca .. " run " .. path .. " --hosts " .. hf .. " --sim door")
+  set:stop()
+  os.execute("rm -rf " .. hosts.sh_quote(dir))
+  os.remove(hf) os.remove(path)
+  T.eq(rc, 2, out)
+  T.contains(out, "the daemon of host h1 runs on the wall clock (start it with --clock sim)")
+end)
+
 return suite:run(...)
