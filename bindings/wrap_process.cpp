@@ -3,7 +3,8 @@
 //   core.now()               --> seconds on the monotonic clock (for durations and progress stamps)
 //   core.pid()               --> this process's id
 //   core.exe_path()          --> the path of the running executable (/proc/self/exe resolved)
-//   core.on_signal(fn | nil) -- fn("INT" | "TERM") from the loop when SIGINT or SIGTERM arrives (Ctrl-C);
+//   core.on_signal(fn | nil) -- fn("INT" | "TERM" | "HUP") from the loop when SIGINT, SIGTERM or SIGHUP
+//                               arrives (Ctrl-C, kill, the terminal closed);
 //                               replaces any earlier handler; nil restores nothing (the handler stays inert)
 #include <lua.hpp>
 
@@ -52,10 +53,13 @@ int l_on_signal(lua_State* L) {
     luaL_checktype(L, 1, LUA_TFUNCTION);
     fn = std::make_shared<dca::lua::LuaRef>(L, 1, ls);
   }
-  ls.loop.on_signals({SIGINT, SIGTERM}, [fn](int sig) {
+  // a process that stops its tree on these signals must not die by SIGPIPE first (its output piped to a
+  // reader that the same hang-up ended): writes then fail with EPIPE instead
+  std::signal(SIGPIPE, SIG_IGN);
+  ls.loop.on_signals({SIGINT, SIGTERM, SIGHUP}, [fn](int sig) {
     if (!fn) return;
     dca::lua::invoke(*fn, [sig](lua_State* S) {
-      lua_pushstring(S, sig == SIGINT ? "INT" : "TERM");
+      lua_pushstring(S, sig == SIGINT ? "INT" : sig == SIGHUP ? "HUP" : "TERM");
       return 1;
     });
   });

@@ -171,7 +171,7 @@ function M.main(args)
     end)
     core.after(15, function() loop:stop() end) -- a bounded stop: daemons are killed below in any case
   end
-  core.on_signal(function() say("interrupted: stopping") stop_all(130) end)
+  core.on_signal(function(sig) say("interrupted (SIG" .. tostring(sig) .. "): stopping") stop_all(130) end)
 
   -- the start must finish within --timeout (from the moment the tree starts coming up)
   local deadline
