@@ -14,6 +14,13 @@
 -- Every wait has a timeout (seconds of the system's time). Steps are reported one line each
 -- ("ok   2 hit ends the group (t=2.000)"); the first failing step ends the scenario and the system is stopped.
 --
+-- Faults: sys:kill(path, sig), sys:lose_host(host), sys:freeze(path) / sys:freeze_host(host) (SIGSTOP: sockets
+-- stay open, the heartbeat finds the silence), sys:drop(path, set). Conditions: sys:wait(what, pred, t),
+-- sys:wait_state(path, state, t), sys:wait_read(path, port, pred, t), sys:wait_outcome(t); sys:host(path).
+-- In the real backend (wall clock) a timeout only bounds a hang (it is stretched, see scenario_real.bound) and
+-- wait_state is met when the process has been in the state since the last run() (from the transition
+-- lines, so a short state is never missed).
+--
 -- Backends: "memory" runs the tree in dca.supervisor_fake (simulated time, nodes whose behaviour follows
 -- their type: Timer, Deadline, Crash, Constant...; other types run until an event is injected or they are
 -- killed). The backend is chosen with `dca scenario --backend NAME` (default memory).
