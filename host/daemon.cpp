@@ -27,6 +27,29 @@ bool Daemon::start(std::string* error) {
     if (error != nullptr) *error = "no cluster key: the daemon refuses to start without one";
     return false;
   }
+  if (options_.state_dir.empty()) {
+    config_off_ = "no configuration repository on host " + options_.host + " (its daemon runs without a state directory)";
+  } else {
+    ConfigServiceOptions co;
+    co.host = options_.host;
+    co.state_dir = options_.state_dir;
+    co.peers = options_.peers;
+    co.peer_options = channel_options(options_);
+    co.sync_interval = options_.config_sync_interval;
+    config_ = std::make_unique<ConfigService>(io_, co);
+    std::string why;
+    const auto r = config_->start(&why);
+    if (r != ConfigService::StartError::kNone) {
+      config_.reset();
+      if (r == ConfigService::StartError::kInUse && options_.state_dir_is_default) {
+        config_off_ = "no configuration repository on host " + options_.host + ": " + why;
+        std::fprintf(stderr, "dca daemon %s: %s\n", options_.host.c_str(), config_off_.c_str());
+      } else {
+        if (error != nullptr) *error = why;
+        return false;
+      }
+    }
+  }
   listener_ = Listener::listen(
       io_, options_.listen, channel_options(options_), [this](Channel::Ptr ch) { accepted(ch); }, error,
       [this](const std::string& why) {
@@ -104,6 +127,12 @@ void Daemon::handle(const Channel::Ptr& ch, const wire::Message& m) {
     }
     for (const auto& n : names_.table().names()) names.emplace_back(n);
     ch->reply(m, wire::Value::map().set("host", options_.host).set("children", children).set("names", names));
+  } else if (m.type.rfind("config_", 0) == 0) {
+    if (config_) {
+      config_->handle(ch, m);
+    } else {
+      ch->reply_error(m, config_off_);
+    }
   } else if (!extra_ || !extra_(ch, m)) {
     ch->reply_error(m, "unknown request '" + m.type + "' (daemon on host " + options_.host + ")");
   }
@@ -167,6 +196,7 @@ void Daemon::stop() {
   if (listener_) listener_->close();
   exec_.stop_all(options_.stop_grace);
   names_.stop();
+  if (config_) config_->stop();
   auto channels = channels_;
   for (const auto& ch : channels) ch->close("the daemon on host " + options_.host + " stopped", true);
   channels_.clear();

@@ -11,6 +11,9 @@
 //   lookup {name, wait_ms?}    -> ok {name, endpoints, host}, or error at the deadline (see host/names.h)
 //   ping {}                    -> ok {host, pid}
 //   status {}                  -> ok {host, children = [{child, pid, name}], names = [...]}
+//   config_* {...}             the configuration repository (host/config_service.h has the full list): get, set,
+//                                 list, log, watch (config_changed events), status, and config_sync between
+//                                 daemons; with no state_dir: error "no configuration repository ..."
 // Anything else goes to the handler set with on_message (other services, e.g. a TimerServer), else gets
 // error "unknown request".
 #include <chrono>
@@ -23,6 +26,7 @@
 
 #include "host/loop.h"
 #include "host/channel.h"
+#include "host/config_service.h"
 #include "host/exec.h"
 #include "host/names.h"
 
@@ -38,6 +42,12 @@ struct DaemonOptions {
   std::chrono::milliseconds stop_grace{2000};          ///< SIGTERM -> SIGKILL delay for children at stop
   std::chrono::milliseconds handshake_timeout{5000};   ///< for accepted and peer channels
   bool sim_clock = false;  ///< `--clock sim`: every `dca node` it spawns without --clock gets `--clock sim`
+  /// Where the configuration replica lives (<state_dir>/config.db, replicated with `peers`); "" = none.
+  std::string state_dir;
+  /// The state_dir was not chosen by the user: when another daemon holds it, run without a repository (and say
+  /// so on stderr and in every config_* reply) instead of refusing to start.
+  bool state_dir_is_default = false;
+  std::chrono::milliseconds config_sync_interval{2000};  ///< anti-entropy period with the peers
 };
 
 /// One host's daemon on an io_context.
@@ -68,6 +78,8 @@ class Daemon {
   const std::string& host() const { return options_.host; }
   Executer& executer() { return exec_; }
   NameServer& names() { return names_; }
+  /// The configuration service (nullptr when the daemon runs without a repository).
+  ConfigService* config() { return config_.get(); }
   /// Open client channels.
   std::size_t channels() const { return channels_.size(); }
 
@@ -83,6 +95,8 @@ class Daemon {
   Listener::Ptr listener_;
   std::set<Channel::Ptr> channels_;
   std::map<Executer::ChildId, std::string> child_names_;
+  std::unique_ptr<ConfigService> config_;
+  std::string config_off_;  // why there is no repository
   Handler extra_;
   std::function<void(const std::string&)> on_refused_;
   bool stopped_ = false;

@@ -317,6 +317,29 @@ Decoded decode_body(std::string_view body) {
   return d;
 }
 
+bool decode_value(std::string_view bytes, Value& out, std::string* error) {
+  const auto failed = [&](std::string why) {
+    if (error != nullptr) *error = std::move(why);
+    return false;
+  };
+  if (bytes.empty()) return failed("empty value");
+  msgpack::object_handle oh;
+  std::size_t off = 0;
+  const msgpack::unpack_limit limit(bytes.size(), bytes.size() / 2 + 1, bytes.size(), bytes.size(), 0,
+                                    static_cast<std::size_t>(kMaxDepth) + 1);
+  try {
+    oh = msgpack::unpack(bytes.data(), bytes.size(), off, reference_everything, nullptr, limit);
+  } catch (const msgpack::insufficient_bytes&) {
+    return failed("truncated value (" + std::to_string(bytes.size()) + " bytes)");
+  } catch (const std::exception& e) {
+    return failed(std::string("malformed msgpack value: ") + e.what());
+  }
+  if (off != bytes.size()) return failed(std::to_string(bytes.size() - off) + " trailing bytes after the value");
+  std::string why;
+  if (!convert(oh.get(), out, 0, &why)) return failed(why);
+  return true;
+}
+
 Decoded decode_frame(std::string_view bytes, std::size_t max_frame) {
   if (bytes.size() < kHeaderSize) return Decoded{};
   const auto b = [&](std::size_t i) { return static_cast<std::uint32_t>(static_cast<unsigned char>(bytes[i])); };

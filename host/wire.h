@@ -114,6 +114,10 @@ std::string encode(const Message& m);
 /// Appends the msgpack encoding of one value (no frame) to `out`.
 void encode_value(const Value& v, std::string& out);
 
+/// Decodes exactly one msgpack value (no frame) from `bytes` into `out`, with the decoder's limits (depth,
+/// sizes); false with *error when `bytes` is empty, truncated, malformed or has trailing bytes.
+bool decode_value(std::string_view bytes, Value& out, std::string* error = nullptr);
+
 /// The result of decoding.
 struct Decoded {
   enum class Status {

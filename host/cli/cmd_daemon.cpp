@@ -2,6 +2,7 @@
 #include <unistd.h>
 
 #include <csignal>
+#include <cstdlib>
 #include <cstdio>
 #include <cstring>
 #include <string>
@@ -14,10 +15,11 @@ namespace {
 
 constexpr const char* kUsage =
     "usage: dca daemon [--host NAME] [--listen ADDR] [--peer ADDR]... [--key FILE] [--allow PROGRAM]...\n"
-    "                  [--clock wall|sim] [--grace MS]\n"
+    "                  [--clock wall|sim] [--grace MS] [--state-dir DIR|none] [--sync-ms MS]\n"
     "\n"
     "Runs this host's daemon: the Executer (starts allow-listed programs, reports their exit) and the\n"
-    "NameServer (register / look up names; look-ups not known here are asked of the peers).\n"
+    "NameServer (register / look up names; look-ups not known here are asked of the peers) and the\n"
+    "configuration repository (a SQLite replica, replicated with the peers; `dca config`).\n"
     "\n"
     "  --host NAME      this host's logical name (default: the machine's host name)\n"
     "  --listen ADDR    127.0.0.1:PORT (port 0 picks a free one; the default is 127.0.0.1:0),\n"
@@ -30,6 +32,11 @@ constexpr const char* kUsage =
     "  --clock sim      this host runs on simulated time: every `dca node` it spawns gets --clock sim (and\n"
     "                   takes its clock from the world, `dca sim --serve`) unless its argv names a clock\n"
     "  --grace MS       at stop, how long children get between SIGTERM and SIGKILL (default 2000)\n"
+    "  --state-dir DIR  where the configuration replica lives (DIR/config.db; one daemon per DIR). Default:\n"
+    "                   $XDG_STATE_HOME/dca/HOST, else ~/.local/state/dca/HOST (when another daemon holds the\n"
+    "                   default, this one runs without a repository and says so). `none`: no repository.\n"
+    "                   A corrupt database makes the daemon refuse to start, naming the file.\n"
+    "  --sync-ms MS     anti-entropy period with the peers (default 2000)\n"
     "\n"
     "When ready it prints one line on stdout: `dca daemon: host NAME listening on ADDR`.\n"
     "SIGTERM or SIGINT stops it: every child's process group is killed and reaped first.";
@@ -39,6 +46,8 @@ int cmd_daemon(std::span<char* const> args) {
   char hostname[256] = {};
   if (::gethostname(hostname, sizeof hostname - 1) == 0 && hostname[0] != '\0') o.host = hostname;
   std::string key_file;
+  std::string state_dir;
+  bool state_dir_given = false;
   for (std::size_t i = 0; i < args.size(); ++i) {
     const std::string a = args[i];
     const auto value = [&]() -> const char* {
@@ -86,6 +95,19 @@ int cmd_daemon(std::span<char* const> args) {
         return 2;
       }
       o.sim_clock = std::string(v) == "sim";
+    } else if (a == "--state-dir") {
+      const char* v = value();
+      if (v == nullptr) return 2;
+      state_dir = v;
+      state_dir_given = true;
+    } else if (a == "--sync-ms") {
+      const char* v = value();
+      if (v == nullptr) return 2;
+      if (std::atol(v) <= 0) {
+        std::fprintf(stderr, "dca daemon: --sync-ms needs a positive number of milliseconds, not '%s'\n", v);
+        return 2;
+      }
+      o.config_sync_interval = std::chrono::milliseconds(std::atol(v));
     } else if (a == "--grace") {
       const char* v = value();
       if (v == nullptr) return 2;
@@ -95,6 +117,17 @@ int cmd_daemon(std::span<char* const> args) {
       return 2;
     }
   }
+  if (!state_dir_given) {
+    const char* xdg = std::getenv("XDG_STATE_HOME");
+    const char* home = std::getenv("HOME");
+    if (xdg != nullptr && xdg[0] == '/') {
+      state_dir = std::string(xdg) + "/dca/" + o.host;
+    } else if (home != nullptr && home[0] != '\0') {
+      state_dir = std::string(home) + "/.local/state/dca/" + o.host;
+    }
+    o.state_dir_is_default = true;
+  }
+  if (state_dir != "none") o.state_dir = state_dir;
   const std::string path = dca::auth::key_file_path(key_file);
   std::string error;
   const auto key = dca::auth::load_or_create_key(path, &error);
@@ -116,6 +149,10 @@ int cmd_daemon(std::span<char* const> args) {
     loop.stop();
   });
   std::signal(SIGPIPE, SIG_IGN);
+  if (auto* c = daemon.config(); c != nullptr && c->store() != nullptr) {
+    std::fprintf(stderr, "dca daemon: host %s configuration replica %s (%s)\n", o.host.c_str(), c->path().c_str(),
+                 c->store()->origin().c_str());
+  }
   std::printf("dca daemon: host %s listening on %s\n", o.host.c_str(), daemon.address().str().c_str());
   std::fflush(stdout);
   loop.run();
@@ -129,4 +166,4 @@ int cmd_daemon(std::span<char* const> args) {
 
 }  // namespace
 
-DCA_SUBCOMMAND("daemon", "run this host's daemon (Executer, NameServer)", kUsage, cmd_daemon);
+DCA_SUBCOMMAND("daemon", "run this host's daemon (Executer, NameServer, configuration replica)", kUsage, cmd_daemon);

@@ -96,6 +96,22 @@ TEST(WireTest, RoundTripsEveryValueKind) {
   EXPECT_EQ(decode_one(dca::wire::encode(m)), m);
 }
 
+TEST(WireTest, DecodesOneValueAndRejectsTruncatedOrTrailingBytes) {
+  const Value v(Value::Map{{Value("a"), Value(Value::Array{Value(1), Value(2.5), Value("x")})}, {Value(3), Value(true)}});
+  std::string bytes;
+  dca::wire::encode_value(v, bytes);
+  Value back;
+  std::string error;
+  ASSERT_TRUE(dca::wire::decode_value(bytes, back, &error)) << error;
+  EXPECT_EQ(back, v);
+  EXPECT_FALSE(dca::wire::decode_value(bytes.substr(0, bytes.size() - 1), back, &error));
+  EXPECT_NE(error.find("truncated value"), std::string::npos) << error;
+  EXPECT_FALSE(dca::wire::decode_value(bytes + "x", back, &error));
+  EXPECT_EQ(error, "1 trailing bytes after the value");
+  EXPECT_FALSE(dca::wire::decode_value("", back, &error));
+  EXPECT_EQ(error, "empty value");
+}
+
 TEST(WireTest, DecodesFramesBackToBack) {
   std::string two;
   const auto msgs = every_message_type();
