@@ -81,6 +81,17 @@ function M.client(d)
   return self
 end
 
+--- A config client over a raw dca.core channel `ch` to a daemon (as the supervisor's runtime holds them). Watch
+--- events arrive on that channel's on_message handler: pass them to client:event(msg) (true when it was one).
+function M.over_channel(ch, timeout)
+  local self = new(function(msg, t, k) ch:request(msg, t, k) end, timeout)
+  self.channel = ch
+  return self
+end
+
+--- Delivers a config_changed event received elsewhere; false for other messages.
+function Client:event(msg) return self:_event(msg) end
+
 function Client:_request(msg, cb)
   self.request_fn(msg, self.timeout, cb or ignore)
 end
