@@ -193,6 +193,16 @@ end
 
 -- ------------------------------------------------------------------------------- controller parameters
 
+local function fits(value, want)
+  if want == "integer" then return math.type(value) == "integer" end
+  return type(value) == want
+end
+
+local function render(v)
+  if type(v) == "string" then return sformat("%q", v) end
+  return tostring(v)
+end
+
 --- Whether `v` is a parameter naming a configuration key: the table { config = "door.stop_distance" } (what a
 --- .dca file's `config("door.stop_distance")` becomes), or the string "config:door.stop_distance".
 function M.param_key(v)
@@ -203,10 +213,13 @@ end
 
 --- Resolves the configuration parameters of one controller: a copy of `args` where each parameter naming a key
 --- (M.param_key) is replaced by the key's value, read through `client` (a Client). `what` names the controller
---- in errors ({ process = "main.door.det", host = "h2", params = { "threshold", ... } }: process path, host and
---- the parameters' names from the type's manifest, all optional). cb(resolved) or cb(nil, err), where err names
---- the process, the parameter and the key. `expect` (optional) maps a parameter index to the Lua type it must
---- have ("number", "string", "boolean", "table").
+--- in errors: { process = "main.door.det", host = "h2", params = <the type's manifest params> } (all optional;
+--- params[i] names args[i], a string or a manifest entry { name, type }). cb(resolved) or cb(nil, err), where
+--- err names the process, the parameter and the key. `expect` (optional) maps an index to the Lua type the value
+--- must have ("number", "string", "boolean", "table"); without it a manifest entry's type "number"/"integer"
+--- expects a number (an integer for "integer") and "string" a string.
+--- For a leaf of dca.model: resolve_params(leaf.params, client, cb, { process = leaf.path, host = leaf.host,
+--- params = leaf.manifest and leaf.manifest.params }) -- leaf.params are the arguments after the host.
 function M.resolve_params(args, client, cb, what, expect)
   what = what or {}
   local out, pending, failed = {}, 1, nil
@@ -218,6 +231,13 @@ function M.resolve_params(args, client, cb, what, expect)
     return sformat("%sparameter %d%s (config key '%s')",
       what.process and ("process " .. what.process .. (what.host and (" on host " .. tostring(what.host)) or "") .. ": ") or "",
       i, pname and (" '" .. tostring(pname) .. "'") or "", key)
+  end
+  local function want(i)
+    if expect and expect[i] then return expect[i] end
+    local p = what.params and what.params[i]
+    local t = type(p) == "table" and p.type
+    if t == "number" or t == "integer" or t == "string" or t == "boolean" then return t end
+    return nil
   end
   local function finish()
     pending = pending - 1
@@ -232,9 +252,10 @@ function M.resolve_params(args, client, cb, what, expect)
       client:get(key, function(value, err)
         if err then
           failed = failed or (describe(i, key) .. ": " .. tostring(err))
-        elseif expect and expect[i] and type(value) ~= expect[i] then
-          failed = failed or sformat("%s: the value %s is a %s, not a %s", describe(i, key), tostring(value),
-            type(value), expect[i])
+        elseif want(i) and not fits(value, want(i)) then
+          failed = failed or sformat("%s: the value %s is %s, not %s", describe(i, key), render(value),
+            math.type(value) == "float" and "a float" or ("a " .. type(value)), want(i) == "integer" and "an integer"
+            or ("a " .. want(i)))
         else
           out[i] = value
         end

@@ -33,6 +33,7 @@ local ipairs, pairs, type, tostring, sformat = ipairs, pairs, type, tostring, st
 
 local function bind(a, env)
   if a.kind == "param" then return env[a.value] end
+  if a.kind == "config" then return { config = a.value } end  -- resolved at start: dca.config.resolve_params
   return a.value
 end
 

@@ -12,7 +12,9 @@
 --     internal_connections(inst, label) { a, Out -> b, In; ... }     -- any number of these
 --     internal_event_actions { expression }               -- dca.algebra syntax, naming instances
 --   }
--- Arguments are parameter names, strings ("c1.example") or numbers (30, -0.5, 1e3). Comments: // and /* */.
+-- Arguments are parameter names, strings ("c1.example"), numbers (30, -0.5, 1e3) or configuration keys
+-- (config("door.stop_distance"): the value in the configuration repository, resolved when the system starts).
+-- Comments: // and /* */.
 -- Sections may come in any order; each but internal_connections at most once (dca.check reports repeats).
 --
 -- AST (every table with `line`, `col` also has `pos`, the byte offset):
@@ -38,7 +40,7 @@
 --     duplicate_sections = { { section = "host", line, col }, ... },
 --   }
 --   inst = { name = "hit", type = "HitDetector", line, col, type_line, type_col, args = { arg, ... } }
---   arg  = { kind = "param" | "string" | "number", value = <name | string | number>, line, col }
+--   arg  = { kind = "param" | "string" | "number" | "config", value = <name | string | number | key>, line, col }
 local lpeg = require "lpeg"
 local algebra = require "dca.algebra"
 local source = require "dca.source"
@@ -105,8 +107,10 @@ end
 
 local function pos(name) return Cg(Cp(), name or "pos") end
 
+local config_ref = kw"config" * tok"(" * string_lit * tok")"  -- config("door.stop_distance"): a repository key
 local arg = Ct(pos() * (Cg(string_lit, "value") * Cg(Cc"string", "kind") +
                         Cg(number, "value") * Cg(Cc"number", "kind") +
+                        Cg(config_ref, "value") * Cg(Cc"config", "kind") +
                         Cg(NAME, "value") * Cg(Cc"param", "kind")))
 
 local args = expect(tok"(", "args_open", "iname", "itype") *

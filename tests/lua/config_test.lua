@@ -289,8 +289,8 @@ suite:case("resolve_params_replaces_config_parameters_and_names_process_paramete
       { process = "main.door.det", host = "h2", params = { "threshold" } }, { "number" })
   end)
   T.eq(out, nil)
-  T.eq(err, "process main.door.det on host h2: parameter 1 'threshold' (config key 'door.name'): the value front is a "
-    .. "string, not a number")
+  T.eq(err, "process main.door.det on host h2: parameter 1 'threshold' (config key 'door.name'): the value \"front\" is "
+    .. "a string, not a number")
   out, err = call("resolve unknown", function(k)
     config.resolve_params({ 0, { config = "door.stop_distanse" } }, fake, k, { process = "main.x" })
   end)
@@ -299,6 +299,47 @@ suite:case("resolve_params_replaces_config_parameters_and_names_process_paramete
   -- Nothing to resolve: the same values, at once.
   out = call("resolve none", function(k) config.resolve_params({ 1, "x" }, fake, k) end)
   T.eq(out, { 1, "x" })
+end)
+
+suite:case("a_dca_parameter_config_key_is_read_from_a_daemon_at_start", function()
+  local parser = require "dca.parser"
+  local model = require "dca.model"
+  local text = [[
+process main() {
+  host { "h1" }
+  instantiated_processes {
+    det instof DistanceThreshold("h1", config("door.stop_distance"), 2);
+    cnt instof Counter("h1", config("door.period"));
+  }
+  internal_event_actions { det }
+}
+]]
+  local ast = assert(parser.parse(text, "cfg.dca"))
+  local manifest = { params = { { name = "threshold", type = "number" }, { name = "hold", type = "number" } } }
+  local tree, errs = model.build(ast, { manifest = function(t)
+    if t == "DistanceThreshold" then return manifest end
+    return { params = { { name = "period", type = "number" } } }
+  end })
+  T.ok(tree, errs and T.show(errs))
+  local det = tree.children.det
+  T.eq(det.params, { { config = "door.stop_distance" }, 2 })
+  with_cluster(function(ctx)
+    local A = ctx.start("A", "127.0.0.1:0")
+    local a = connect(A)
+    T.ok(call("set", function(k) a:set({ ["door.stop_distance"] = 0.45, ["door.period"] = "fast" }, k) end))
+    local out, err = call("resolve det", function(k)
+      config.resolve_params(det.params, a, k, { process = det.path, host = det.host, params = det.manifest.params })
+    end)
+    T.eq(err, nil)
+    T.eq(out, { 0.45, 2 })
+    local cnt = tree.children.cnt
+    out, err = call("resolve cnt", function(k)
+      config.resolve_params(cnt.params, a, k, { process = cnt.path, host = cnt.host, params = cnt.manifest.params })
+    end)
+    T.eq(out, nil)
+    T.eq(err, "process main.cnt on host h1: parameter 1 'period' (config key 'door.period'): the value \"fast\" is a "
+      .. "string, not a number")
+  end)
 end)
 
 return suite:run(...)
