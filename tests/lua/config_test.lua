@@ -37,11 +37,23 @@ local function start_daemon(host, listen, key_file, state_dir, peers)
   return { addr = addr, pid = tonumber(pid), pipe = p, host = host, dir = state_dir, key = key_file }
 end
 
+local function gone(pid)
+  local f = io.open("/proc/" .. pid .. "/stat", "r")
+  if not f then return true end
+  local st = f:read("l") or ""
+  f:close()
+  return st:match("^%d+ %b() Z") ~= nil
+end
+
+-- Stops a daemon and waits (bounded) until its process is gone, so that its state directory is free again.
 local function stop_daemon(d, signal)
   if d.stopped then return end
   d.stopped = true
   os.execute("kill -" .. (signal or "TERM") .. " " .. d.pid .. " 2>/dev/null")
   d.pipe:close()
+  local deadline = core.now() + 10
+  while not gone(d.pid) and core.now() < deadline do os.execute("sleep 0.02") end
+  T.ok(gone(d.pid), "daemon " .. d.host .. " (pid " .. d.pid .. ") did not exit within 10 s")
 end
 
 local function connect(d)
