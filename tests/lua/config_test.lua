@@ -205,7 +205,7 @@ suite:case("kill9_during_a_write_burst_every_acknowledged_write_is_there_after_r
       end)
     end
     for _ = 1, 4 do send_one() end  -- four writes in flight at any time
-    wait(function() return #acked >= 300 end, "300 acknowledged writes")
+    wait(function() return #acked >= 300 end, "300 acknowledged writes", 120)
     stop_daemon(A, "KILL")
     wait(function() return closed end, "the channel to close")
     T.ok(#acked >= 300 and sent > #acked, "writes were in flight when it died")
