@@ -21,6 +21,16 @@
 -- wait_state is met when the process has been in the state since the last run() (from the transition
 -- lines, so a short state is never missed).
 --
+-- Simulated time with a world (real backend only): S.system(file, { sim = "door", seed = N, door_width = W,
+-- jammed = true, world_host = NAME }) starts the daemons on the simulated clock and the world (`dca sim
+-- --serve`, as `dca run --sim` does, through the daemon of world_host, default the first host name) before the
+-- tree; run() sends the world `go` once the root's run has been answered. sys:world_status() is the world's
+-- `status {}` (t, door_angle, base_pose, latched, ...), sys:world_read(port) its `read {port}` (the latest
+-- base.cmd_vel / arm.cmd_qd it received, or a sensor output such as arm.q), sys:world_hold() / world_go()
+-- stop and restart its time, sys:wait_world(what, pred(status), t) waits for a condition on its status.
+-- A scenario that only makes sense on some backends says so: S.backends = {"real"} (the CMake then makes
+-- only those tests; another backend fails with a message saying so).
+--
 -- Backends: "memory" runs the tree in dca.supervisor_fake (simulated time, nodes whose behaviour follows
 -- their type: Timer, Deadline, Crash, Constant...; other types run until an event is injected or they are
 -- killed). The backend is chosen with `dca scenario --backend NAME` (default memory).
@@ -100,9 +110,22 @@ System.__index = System
 --- A system from a .dca file (or a ready spec with opts.spec), not started yet.
 function M.system(file, opts)
   opts = opts or {}
+  if M.backends then
+    local fits = false
+    for _, b in ipairs(M.backends) do fits = fits or b == M.backend end
+    if not fits then
+      error(sformat("this scenario runs on the backend(s) %s only (S.backends), not %s: run it with --backend %s",
+        table.concat(M.backends, ", "), M.backend, M.backends[1]), 0)
+    end
+  end
+  if opts.sim and M.backend ~= "real" then
+    error("a system in simulated time with a world (sim = " .. tostring(opts.sim) .. ") needs --backend real", 0)
+  end
   local spec = opts.spec or M.spec(file, opts.root)
   if M.backend == "real" then
-    local s = require("dca.scenario_real").system(spec, { file = file, root = opts.root })
+    local s = require("dca.scenario_real").system(spec, { file = file, root = opts.root, sim = opts.sim,
+      seed = opts.seed, door_width = opts.door_width, jammed = opts.jammed, world_host = opts.world_host,
+      record = opts.record })
     s.commands, s.host = System.commands, System.host
     systems[#systems + 1] = s
     return s
@@ -307,6 +330,6 @@ function M.finish()
 end
 
 --- Resets the step counters (for running several scenarios in one process).
-function M.reset() steps = { n = 0, failed = 0, lines = {} } systems = {} end
+function M.reset() steps = { n = 0, failed = 0, lines = {} } systems = {} M.backends = nil end
 
 return M

@@ -6,6 +6,7 @@ local supervisor = require "dca.supervisor"
 local spec_mod = require "dca.supervisor_spec"
 local srt = require "dca.supervisor_rt"
 local hosts_mod = require "dca.supervisor_hosts"
+local sim = require "dca.supervisor_sim"
 
 local M = {}
 
@@ -58,7 +59,8 @@ function System:start_hosts()
   local key, dir = hosts_mod.fresh_key()
   self.key, self.keydir = key, dir
   local names = spec_mod.hosts(self.spec)
-  local set, err = hosts_mod.start_local(names, { exe = hosts_mod.self_exe(), key = key, log_dir = dir })
+  local set, err = hosts_mod.start_local(names, { exe = hosts_mod.self_exe(), key = key, log_dir = dir,
+                                                  clock = self.opts.sim and "sim" or nil })
   if not set then return false, err end
   self.daemons = set
   return true
@@ -69,7 +71,22 @@ function System:try_up(timeout)
   local hok, herr = self:start_hosts()
   if not hok then return false, herr end
   local set, key = self.daemons, self.key
-  local rt = srt.new({ hosts = set.hosts, key = key, exe = "dca",
+  if self.opts.sim and not self.world then
+    -- the world first (the nodes on the simulated clock find it when they start), as `dca run --sim` does
+    local names = spec_mod.hosts(self.spec)
+    local wh = self.opts.world_host or names[1]
+    if not set.hosts[wh] then return false, "world_host " .. tostring(wh) .. " is not a host of the system" end
+    self.world_host = wh
+    local w = sim.new({ daemon = set.hosts[wh], host = wh, key = key, world = self.opts.sim, seed = self.opts.seed,
+                        door_width = self.opts.door_width, jammed = self.opts.jammed, record = self.opts.record,
+                        wait = bound(timeout) })
+    w.on_lost = function(reason) self.world_lost = reason end
+    local res = self:_ask(function(k) w:start(function(ok, werr) k({ ok, werr }) end) end, bound(timeout) + 5,
+      "the world")
+    self.world = w
+    if not res[1] then return false, res[2] end
+  end
+  local rt = srt.new({ hosts = set.hosts, key = key, exe = "dca", daemon_host = self.world_host,
     report = function(msg)
       if msg.type == "log" then
         self.lines[#self.lines + 1] = msg.line
@@ -105,7 +122,58 @@ end
 function System:run(init)
   self.outcome = nil
   self.seen = {}
-  self.sup:run_expr(init)
+  if not self.world then self.sup:run_expr(init) return end
+  -- simulated time starts once every process the start ran has its run (as `dca run --sim`)
+  local went
+  self.sup:run_expr(init, function()
+    self.world:go(function(r, err) went = { r, err } end)
+  end)
+  self:wait("the world's go", function() return went ~= nil end, 10)
+  if not went[1] then error("the world did not start its time: " .. tostring(went[2]), 2) end
+end
+
+-- The world (simulated time): its status, a port's latest value, hold / go. Raise without a world.
+function System:_world(msg, what)
+  if not self.world then error("this system has no world (S.system(file, { sim = WORLD }))", 3) end
+  local res = self:_ask(function(k) self.world:request(msg, 10, function(r, err) k({ r, err }) end) end, 25, what)
+  if not res[1] then error(what .. ": " .. tostring(res[2]) .. (self.world_lost and (" (" .. self.world_lost .. ")") or ""), 3) end
+  return res[1]
+end
+
+--- The world's `status {}`: t (s), door_angle, handle_angle, base_pose {x, y, yaw}, latched, ... 
+function System:world_status()
+  local r = self:_world({ type = "status" }, "the world's status")
+  r.t = tonumber(r.t)
+  return r
+end
+
+--- The latest value of the world's port `port` (an input such as base.cmd_vel: the last command it received;
+--- an output such as arm.q: the last sample it wrote). A vector as a Lua array.
+function System:world_read(port)
+  local r = self:_world({ type = "read", port = port }, "the world's " .. port)
+  return r.value
+end
+
+--- Stops the world's time after the current tick. --> the time it holds at (s)
+function System:world_hold()
+  local r = self:_world({ type = "hold" }, "the world's hold")
+  return (tonumber(r.now) or 0) / 1e9
+end
+
+--- Lets the world's time flow again.
+function System:world_go() self:_world({ type = "go" }, "the world's go") end
+
+--- Waits until pred(world status) holds (each check a status request), bounded. --> the status
+function System:wait_world(what, pred, timeout)
+  local b = bound(timeout)
+  local deadline, st = now() + b, nil
+  while true do
+    st = self:world_status()
+    if pred(st) then return st end
+    if now() > deadline then break end
+    self:settle(0.005)
+  end
+  error(sformat("timed out after %gs (wall clock) waiting for the world: %s (t=%s)", b, what, tostring(st and st.t)), 2)
 end
 
 function System:settle(s) self.loop:run_until(function() return false end, s or 0) end
@@ -274,6 +342,13 @@ end
 
 function System:stop()
   if self.sup then self:_ask(function(k) self.sup:shutdown(k) end, 100, "the stop") end
+  if self.world then
+    -- then the world (a child of its host's daemon, so counted by alive())
+    local stopped = false
+    self.world:stop(function() stopped = true end)
+    self:_until(function() return stopped end, 20)
+    self.world:close()
+  end
   -- the shutdown saw every exit event; the daemons reap their children just after: a bounded check
   local deadline = now() + 15
   local left = self:alive()

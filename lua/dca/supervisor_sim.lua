@@ -5,7 +5,7 @@
 --
 --   local sim = require "dca.supervisor_sim"
 --   local w = sim.new{ daemon = ADDR, host = NAME, key = FILE, world = "door", seed = N, door_width = W,
---                      record = FILE, wait = S }
+--                      record = FILE, jammed = true, wait = S }   -- jammed: the handle's latch never releases
 --   w:start(function(ok, err) end)     -- spawn `dca sim --serve`, wait until `world` is registered, connect
 --   w:go(cb)                           -- time starts flowing
 --   w:stamp(line, function(t, line) end, at) -- calls back in the order of the calls, with the world's time
@@ -31,6 +31,7 @@ function M.argv(o)
   if o.seed then argv[#argv + 1] = "--seed" argv[#argv + 1] = tostring(o.seed) end
   if o.door_width then argv[#argv + 1] = "--door-width" argv[#argv + 1] = tostring(o.door_width) end
   if o.record then argv[#argv + 1] = "--record" argv[#argv + 1] = o.record end
+  if o.jammed then argv[#argv + 1] = "--jammed" end
   return argv
 end
 
@@ -94,6 +95,8 @@ function W:request(msg, timeout, cb)
 end
 
 function W:go(cb) self:request({ type = "go" }, 10, cb or function() end) end
+--- Time stops after the current tick. cb(reply {now} | nil, err)
+function W:hold(cb) self:request({ type = "hold" }, 10, cb or function() end) end
 
 -- A transition line ("main.a: running") --> path, word
 local function transition(line)

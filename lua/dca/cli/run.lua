@@ -13,7 +13,7 @@ local M = {}
 
 M.summary = "run a .dca system: start its hosts and supervisor tree, run it, report each transition"
 M.usage = [=[usage: dca run FILE.dca [--root NAME] [--hosts FILE] [--repl] [--watch] [--timeout S] [--quiet]
-                    [--sim WORLD [--seed N] [--door-width W] [--record FILE.csv]]
+                    [--sim WORLD [--seed N] [--door-width W] [--record FILE.csv] [--jammed]]
 
 Checks FILE.dca (errors stop here, nothing is started), starts one local daemon per host name on 127.0.0.1
 (or uses the daemons named in --hosts, lines of "name address"), starts the supervisor tree, shows one line
@@ -26,6 +26,7 @@ per group as it comes up and one per process transition, and runs the root expre
                   lines carry the simulated time and the end prints the world's summary (door angle,
                   simulated and wall time, each step's start and end)
   --seed N, --door-width W, --record FILE.csv   passed to the world (see `dca sim --help`)
+  --jammed        passed to the world: the door handle's latch never releases (a fault to test against)
   --repl          open a console on the root supervisor once the system runs
   --watch         reload the system file when it is saved (inotify)
   --timeout S     stop with an error when the start does not finish within S seconds (default 30)
@@ -49,6 +50,7 @@ local function parse_args(args)
     elseif a == "--seed" then o.seed = tonumber(value(a)) or error("dca run: --seed needs a number", 0)
     elseif a == "--door-width" then o.door_width = tonumber(value(a)) or error("dca run: --door-width needs metres", 0)
     elseif a == "--record" then o.record = value(a)
+    elseif a == "--jammed" then o.jammed = true
     elseif a == "--timeout" then o.timeout = tonumber(value(a)) or error("dca run: --timeout needs seconds", 0)
     elseif a == "--repl" then o.repl = true
     elseif a == "--watch" then o.watch = true
@@ -58,8 +60,8 @@ local function parse_args(args)
     i = i + 1
   end
   if not o.file then error("dca run: which .dca file?", 0) end
-  if (o.seed or o.door_width or o.record) and not o.sim then
-    error("dca run: --seed, --door-width and --record go with --sim WORLD", 0)
+  if (o.seed or o.door_width or o.record or o.jammed) and not o.sim then
+    error("dca run: --seed, --door-width, --record and --jammed go with --sim WORLD", 0)
   end
   if o.record and o.record:sub(1, 1) ~= "/" then o.record = (os.getenv("PWD") or ".") .. "/" .. o.record end
   return o
@@ -278,7 +280,8 @@ function M.main(args)
     -- the world first (the nodes on the simulated clock find it when they start), through the first host
     local first = spec_mod.hosts(spec)[1]
     world = sim.new({ daemon = hosts[first], host = first, key = key, world = o.sim, seed = o.seed,
-                      door_width = o.door_width, record = o.record, wait = o.timeout })
+                      door_width = o.door_width, record = o.record, jammed = o.jammed,
+                      wait = o.timeout })
     say(string.format("world: starting `dca sim --serve --world %s` on host %s", o.sim, first))
     world.on_lost = function(reason)
       io.stderr:write("dca run: ", reason, " (the nodes on its clock stop with it)\n")

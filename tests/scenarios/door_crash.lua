@@ -1,0 +1,82 @@
+-- The door system in simulated time (real backend): VisualServoing crashes (SIGSEGV) mid-approach. The system
+-- aborts naming it and the signal, the running processes are stopped most recently started first, and the
+-- base and arm commands the world holds are zero within one control period (10 ms of simulated time) and stay
+-- zero: the base no longer moves.
+--
+-- The world's time is held at the crash (it would otherwise run on while the supervisors, which are not on
+-- the simulated clock, react in wall time): so the time the reaction takes in the world is exactly measured
+-- as the time that passed there until its commands are zero.
+local S = require "dca.scenario"
+S.backends = { "real" }
+local src = os.getenv("DCA_SOURCE_DIR") or "."
+local sys = S.system(src .. "/scripts/systems/door_open.dca", { sim = "door", seed = 1 })
+local VS = "main.dooropensyst.visualserv"
+
+local function norm(v)
+  local s = 0
+  for _, x in ipairs(type(v) == "table" and v or {}) do s = s + x * x end
+  return math.sqrt(s)
+end
+
+local t_crash, pose0
+S.step("the tree comes up on three hosts on the simulated clock, with the world", function()
+  sys:up(60)
+  S.eq(sys:world_status().t, 0)
+end)
+
+S.step("VisualServoing runs and the base moves", function()
+  sys:run()
+  sys:wait_state(VS, "running", 30)
+  local p0 = sys:world_status().base_pose
+  sys:wait_world("the base moving", function(st)
+    local p = st.base_pose
+    return math.abs(p[1] - p0[1]) + math.abs(p[2] - p0[2]) > 0.005 and norm(sys:world_read("base.cmd_vel")) > 1e-4
+  end, 30)
+end)
+
+S.step("VisualServoing crashes (SIGSEGV): ABORTED naming it and the signal", function()
+  t_crash = sys:world_hold()
+  sys:kill(VS, "SEGV")
+  local out = sys:wait_outcome(30)
+  S.eq(out.type, "aborted")
+  S.eq(out.path, VS)
+  S.contains(out.reason, "SIGSEGV")
+end)
+
+S.step("the stops: innermost cascade first (camera by ',', distdetect by '#'), the motion controller last; "
+  .. "each group's leaves LIFO", function()
+  local aborting, runs, stops = {}, {}, {}
+  for _, l in ipairs(sys:transitions()) do
+    local child = l:match("^main%.dooropensyst%.([%w_]+): aborting$")
+    if child then aborting[#aborting + 1] = child end
+    local g, leaf, what = l:match("^main%.dooropensyst%.([%w_]+)%.([%w_]+): (%a+)$")
+    if g and what == "running" then runs[g] = runs[g] or {} table.insert(runs[g], leaf) end
+    if g and what == "aborting" then stops[g] = stops[g] or {} table.insert(stops[g], leaf) end
+  end
+  S.eq(aborting, { "camera", "distdetect", "motionctrl" })
+  for _, g in ipairs({ "distdetect", "motionctrl" }) do
+    local rev = {}
+    for i = #runs[g], 1, -1 do rev[#rev + 1] = runs[g][i] end
+    S.eq(stops[g], rev, g .. ": stopped in reverse order of their start")
+  end
+end)
+
+S.step("the world holds zero base and arm commands within one control period (10 ms simulated)", function()
+  local st = sys:world_status()
+  S.ok(st.t - t_crash <= 0.010 + 1e-9, "time held: " .. tostring(st.t) .. " vs " .. tostring(t_crash))
+  S.ok(norm(sys:world_read("base.cmd_vel")) == 0, "base.cmd_vel " .. S.show(sys:world_read("base.cmd_vel")))
+  S.ok(norm(sys:world_read("arm.cmd_qd")) == 0, "arm.cmd_qd " .. S.show(sys:world_read("arm.cmd_qd")))
+end)
+
+S.step("time flows on: the commands stay zero and the base stops", function()
+  sys:world_go()
+  local st = sys:wait_world("0.1 s more", function(s) return s.t >= t_crash + 0.1 end, 30)
+  pose0 = st.base_pose
+  sys:wait_world("0.3 s more", function(s) return s.t >= t_crash + 0.3 end, 30)
+  local p = sys:world_status().base_pose
+  S.ok(math.abs(p[1] - pose0[1]) + math.abs(p[2] - pose0[2]) + math.abs(p[3] - pose0[3]) < 1e-4,
+    "base pose " .. S.show(pose0) .. " -> " .. S.show(p))
+  S.ok(norm(sys:world_read("base.cmd_vel")) == 0, "base.cmd_vel " .. S.show(sys:world_read("base.cmd_vel")))
+  S.ok(norm(sys:world_read("arm.cmd_qd")) == 0, "arm.cmd_qd " .. S.show(sys:world_read("arm.cmd_qd")))
+end)
+return S.finish()
