@@ -30,7 +30,7 @@ S.step("VisualServoing runs and the base moves", function()
   local p0 = sys:world_status().base_pose
   sys:wait_world("the base moving", function(st)
     local p = st.base_pose
-    return math.abs(p[1] - p0[1]) + math.abs(p[2] - p0[2]) > 0.005 and norm(sys:world_read("base.cmd_vel")) > 1e-4
+    return math.abs(p[1] - p0[1]) + math.abs(p[2] - p0[2]) > 0.05 and norm(sys:world_read("base.cmd_vel")) > 1e-4
   end, 30)
 end)
 
@@ -68,14 +68,15 @@ S.step("the world holds zero base and arm commands within one control period (10
   S.ok(norm(sys:world_read("arm.cmd_qd")) == 0, "arm.cmd_qd " .. S.show(sys:world_read("arm.cmd_qd")))
 end)
 
-S.step("time flows on: the commands stay zero and the base stops", function()
+S.step("time flows on: the commands stay zero and the base stops (no motion after a 0.5 s settle)", function()
   sys:world_go()
-  local st = sys:wait_world("0.1 s more", function(s) return s.t >= t_crash + 0.1 end, 30)
+  local st = sys:wait_world("0.5 s more", function(s) return s.t >= t_crash + 0.5 end, 30)
   pose0 = st.base_pose
-  sys:wait_world("0.3 s more", function(s) return s.t >= t_crash + 0.3 end, 30)
+  sys:wait_world("1 s more", function(s) return s.t >= t_crash + 1.0 end, 30)
   local p = sys:world_status().base_pose
-  S.ok(math.abs(p[1] - pose0[1]) + math.abs(p[2] - pose0[2]) + math.abs(p[3] - pose0[3]) < 1e-4,
+  S.ok(math.abs(p[1] - pose0[1]) + math.abs(p[2] - pose0[2]) + math.abs(p[3] - pose0[3]) < 1e-5,
     "base pose " .. S.show(pose0) .. " -> " .. S.show(p))
+  S.ok(norm(sys:world_read("base.vel")) < 1e-4, "base.vel " .. S.show(sys:world_read("base.vel")))
   S.ok(norm(sys:world_read("base.cmd_vel")) == 0, "base.cmd_vel " .. S.show(sys:world_read("base.cmd_vel")))
   S.ok(norm(sys:world_read("arm.cmd_qd")) == 0, "arm.cmd_qd " .. S.show(sys:world_read("arm.cmd_qd")))
 end)
