@@ -16,7 +16,7 @@ constexpr double kPi = 3.14159265358979323846;
 ParamSpec opt(std::string name, std::string type, std::string def, std::string doc) {
   return {std::move(name), std::move(type), std::move(def), false, false, std::move(doc)};
 }
-ParamSpec period_param() { return opt("period", "number", "0.001", "seconds between ticks"); }
+ParamSpec period_param() { return opt("period", "number", "0.01", "seconds between ticks"); }
 
 PortSpec device(PortSpec p, std::string signal) {
   p.device = std::move(signal);
@@ -57,6 +57,15 @@ kin::Chain robot_arm() {
     throw std::invalid_argument(robot_urdf_path() + ": the arm base_link -> tool0 has " +
                                 std::to_string(chain->dof()) + " movable joints, expected 6");
   return *chain;
+}
+
+Eigen::Isometry3d robot_camera() {
+  std::string error;
+  auto chain = kin::Chain::FromUrdfFile(robot_urdf_path(), "base_link", "camera_link", &error);
+  if (!chain) throw std::invalid_argument(error);
+  if (chain->dof() != 0)
+    throw std::invalid_argument(robot_urdf_path() + ": the camera base_link -> camera_link has movable joints");
+  return chain->Forward(kin::JointVector(0));
 }
 
 // ------------------------------------------------------------------------------------------ hardware-facing
@@ -274,21 +283,28 @@ void AddVelocity::MainCalc() {
 }
 
 Manifest VisualServoing::Describe() {
-  return {"VisualServoing", "drives the robot towards the handle, keeping it centred in the image",
+  return {"VisualServoing", "drives the robot towards the handle, lining the gripper up with it in the image",
           {vector_port("Feature", 3, "px, px, 1")},
           {vector_port("Vel", 9, "Vel")},
           {opt("speed", "number", "0.25", "forward speed, m/s"),
-           opt("gain", "number", "0.8", "turn rate per radian of bearing error, 1/s"),
+           opt("gain", "number", "1.5", "turn rate per radian of bearing error, 1/s"),
            opt("hfov", "number", "1.0471975511965976", "the camera's horizontal field of view, rad"),
            opt("width", "number", "640", "the image's width, px"),
-           opt("lost", "number", "0.5", "ABORTED when the handle is not seen for this long, s"), period_param()}};
+           opt("lost", "number", "0.5", "ABORTED when the handle is not seen for this long, s"),
+           opt("height", "number", "480", "the image's height, px"),
+           opt("handle_height", "number", "1", "the handle's height above the floor, m"),
+           opt("lateral", "number", "-0.075", "the gripper's lateral position in the base frame (left +), m"),
+           period_param()}};
 }
 VisualServoing::VisualServoing(const ControllerContext& ctx)
     : Controller(ctx), feature_(input("Feature")), vel_(output("Vel")), speed_(number("speed")),
-      gain_(number("gain")), lost_(positive(number("lost"), "lost")), period_(positive(number("period"), "period")) {
+      gain_(number("gain")), lost_(positive(number("lost"), "lost")),
+      handle_height_(number("handle_height")), lateral_(number("lateral")),
+      period_(positive(number("period"), "period")), camera_(robot_camera()) {
   const double width = positive(number("width"), "width");
   focal_ = (width / 2) / std::tan(positive(number("hfov"), "hfov") / 2);
   centre_u_ = width / 2;
+  centre_v_ = positive(number("height"), "height") / 2;
 }
 Vec9 VisualServoing::Law(double u, double speed, double gain, double focal_px, double centre_u) {
   // u grows to the right, which is -y of the base: a handle right of centre needs a negative yaw rate.
@@ -296,6 +312,24 @@ Vec9 VisualServoing::Law(double u, double speed, double gain, double focal_px, d
   Vec9 v = Vec9::Zero();
   v[6] = speed;
   v[8] = -gain * bearing;
+  return v;
+}
+std::optional<Eigen::Vector2d> VisualServoing::Locate(double u, double v, const Eigen::Isometry3d& camera,
+                                                      double focal_px, double centre_u, double centre_v,
+                                                      double height) {
+  // The pixel's ray in the camera frame (u right = -y, v down = -z), then in the base frame.
+  const Eigen::Vector3d ray = camera.linear() * Eigen::Vector3d(1, -(u - centre_u) / focal_px, -(v - centre_v) / focal_px);
+  const Eigen::Vector3d o = camera.translation();
+  if (!(ray.z() < -1e-6) || !(height < o.z())) return std::nullopt;
+  const double s = (height - o.z()) / ray.z();
+  const Eigen::Vector3d p = o + s * ray;
+  if (!(p.x() > 0)) return std::nullopt;
+  return Eigen::Vector2d(p.x(), p.y());
+}
+Vec9 VisualServoing::Steer(const Eigen::Vector2d& handle, double lateral, double speed, double gain) {
+  Vec9 v = Vec9::Zero();
+  v[6] = speed;
+  v[8] = gain * std::atan2(handle.y() - lateral, handle.x());
   return v;
 }
 void VisualServoing::Run(const msgpack::object&) {
@@ -306,7 +340,8 @@ void VisualServoing::Run(const msgpack::object&) {
 void VisualServoing::MainCalc() {
   if (fresh(feature_, f_) && f_[2] > 0.5) {
     last_seen_ = now();
-    v_ = Law(f_[0], speed_, gain_, focal_, centre_u_);
+    const auto handle = Locate(f_[0], f_[1], camera_, focal_, centre_u_, centre_v_, handle_height_);
+    v_ = handle ? Steer(*handle, lateral_, speed_, gain_) : Law(f_[0], speed_, gain_, focal_, centre_u_);
   } else if (to_seconds(now() - last_seen_) > lost_) {
     vel_.write(Vec9::Zero().eval());
     return Abort("lost sight of the handle for more than " + text("lost") + " s");
@@ -389,8 +424,8 @@ Manifest PressHandle::Describe() {
           {vector_port("Vel", 9, "Vel")},
           {opt("speed", "number", "0.03", "downward speed of the tool, m/s"),
            opt("force", "number", "30", "the force (N) at which the handle counts as stopped"),
-           opt("travel", "number", "0.04", "the travel (m) the handle must allow before it stops"),
-           opt("compliance", "number", "0.004", "sideways admittance, (m/s)/N"), period_param()}};
+           opt("travel", "number", "0.02", "the travel (m) the handle must allow before it stops"),
+           opt("compliance", "number", "0.002", "horizontal admittance, (m/s)/N"), period_param()}};
 }
 PressHandle::PressHandle(const ControllerContext& ctx)
     : Controller(ctx), wrench_(input("Wrench")), joints_(input("Joints")), vel_(output("Vel")), arm_(robot_arm()),
@@ -410,58 +445,64 @@ void PressHandle::MainCalc() {
     z0_ = tool_position(arm_, q_).z();
     have_start_ = true;
   }
+  kin::JointVector jq = q_;
+  const Eigen::Isometry3d tool = arm_.Forward(jq);
+  // The wrench in the base frame (tool0 and the sensor share their orientation).
+  const Eigen::Vector3d f = tool.linear() * w_.head<3>();
   if (!have_bias_) {
     if (!new_w) return;
-    bias_ = w_.head<3>();
+    bias_ = f;  // vertically: the tool's weight and whatever the grasp holds
     have_bias_ = true;
   }
-  // The wrench in the base frame (tool0 and the sensor share their orientation).
-  kin::JointVector jq = q_;
-  const Eigen::Matrix3d R = arm_.Forward(jq).linear();
-  const Eigen::Vector3d f = R * (w_.head<3>() - bias_);
-  const double travel = z0_ - arm_.Forward(jq).translation().z();
+  const double travel = z0_ - tool.translation().z();
   // The handle pushes the tool up as it is pressed: the tool feels +z from the lever.
-  if (f.z() >= force_) {
+  if (f.z() - bias_.z() >= force_) {
     vel_.write(Vec9::Zero().eval());
     if (travel >= travel_) return Done(travel);
     return Abort("handle jammed: " + text("force") + " N reached after " + std::to_string(travel) +
                  " m of travel (needs " + text("travel") + " m)");
   }
+  // Down at `speed`; horizontally the tool gives way to the lever (which swings in the door's plane), and to
+  // any push left from the approach.
   v_.setZero();
-  v_[2] = -speed_;
+  v_[0] = compliance_ * f.x();
   v_[1] = compliance_ * f.y();
+  v_[2] = -speed_;
   vel_.write(v_);
 }
 void PressHandle::Stop() { vel_.write(Vec9::Zero().eval()); }
 
 Manifest CompliantCtrl::Describe() {
-  return {"CompliantCtrl", "admittance: the tool gives way to the force it feels",
+  return {"CompliantCtrl", "admittance: the tool gives way to the horizontal force it feels",
           {vector_port("Wrench", 6, "N, N m"), vector_port("Joints", 6, "rad")},
           {vector_port("Vel", 9, "Vel")},
-          {opt("compliance", "number", "0.004", "(m/s)/N"), opt("deadband", "number", "1", "N"), period_param()}};
+          {opt("compliance", "number", "0.001", "(m/s)/N"), opt("deadband", "number", "1", "N"),
+           opt("max_speed", "number", "0.1", "m/s"), period_param()}};
 }
 CompliantCtrl::CompliantCtrl(const ControllerContext& ctx)
     : Controller(ctx), wrench_(input("Wrench")), joints_(input("Joints")), vel_(output("Vel")), arm_(robot_arm()),
-      compliance_(number("compliance")), deadband_(number("deadband")), period_(positive(number("period"), "period")) {}
+      compliance_(number("compliance")), deadband_(number("deadband")),
+      max_speed_(positive(number("max_speed"), "max_speed")), period_(positive(number("period"), "period")) {}
 void CompliantCtrl::Run(const msgpack::object&) {
-  have_bias_ = false;
+  have_q_ = have_w_ = false;
   v_.setZero();
   StartPeriodic(period_);
 }
 void CompliantCtrl::MainCalc() {
-  fresh(joints_, q_);
-  if (fresh(wrench_, w_) && !have_bias_) {
-    bias_ = w_.head<3>();
-    have_bias_ = true;
-  }
+  if (fresh(joints_, q_)) have_q_ = true;
+  if (fresh(wrench_, w_)) have_w_ = true;
   v_.setZero();
-  if (have_bias_) {
+  if (have_q_ && have_w_) {
+    // The force in the base frame (tool0 and the sensor share their orientation); its horizontal part is free of
+    // the tool's weight and is what the door and the handle push with.
     kin::JointVector jq = q_;
-    Eigen::Vector3d f = arm_.Forward(jq).linear() * (w_.head<3>() - bias_);
+    const Eigen::Vector3d f3 = arm_.Forward(jq).linear() * w_.head<3>();
+    Eigen::Vector2d f(f3.x(), f3.y());
     const double n = f.norm();
     if (n > deadband_) {
-      f *= (n - deadband_) / n;
-      v_.head<3>() = compliance_ * f;
+      Eigen::Vector2d v = compliance_ * (n - deadband_) / n * f;
+      if (v.norm() > max_speed_) v *= max_speed_ / v.norm();
+      v_.head<2>() = v;
     }
   }
   vel_.write(v_);
@@ -474,13 +515,16 @@ Manifest ModelBasedCtrl::Describe() {
           {vector_port("Vel", 9, "Vel")},
           {opt("speed", "number", "0.15", "the hand's speed along the circle, m/s"),
            opt("angle", "number", "75", "DONE when the door is open this far, degrees"),
-           opt("radius", "number", "0.9", "guessed distance from the hand to the hinge, m"),
-           opt("side", "string", "right", "the hinge's side seen from the robot: right or left"), period_param()}};
+           opt("radius", "number", "0.75", "guessed distance from the hand to the hinge, m"),
+           opt("side", "string", "right", "the hinge's side seen from the robot: right or left"),
+           opt("min_arc", "number", "0.1", "the arc (rad) the hand must sweep before the estimate is used"),
+           period_param()}};
 }
 ModelBasedCtrl::ModelBasedCtrl(const ControllerContext& ctx)
     : Controller(ctx), pose_(input("BasePose")), joints_(input("Joints")), vel_(output("Vel")), arm_(robot_arm()),
       speed_(positive(number("speed"), "speed")), target_(positive(number("angle"), "angle") * kPi / 180),
-      radius_(positive(number("radius"), "radius")), period_(positive(number("period"), "period")) {
+      radius_(positive(number("radius"), "radius")), min_arc_(positive(number("min_arc"), "min_arc")),
+      period_(positive(number("period"), "period")) {
   const std::string side = text("side");
   if (side != "right" && side != "left")
     throw std::invalid_argument("ModelBasedCtrl " + name() + ": side must be right or left, got '" + side + "'");
@@ -491,6 +535,9 @@ void ModelBasedCtrl::Run(const msgpack::object&) {
   est_.reset();
   v_.setZero();
   StartPeriodic(period_);
+}
+bool ModelBasedCtrl::Plausible(const kin::HingeEstimator& e, double prior_radius) {
+  return e.fitted() && e.radius() > 0.5 * prior_radius && e.radius() < 2.0 * prior_radius;
 }
 void ModelBasedCtrl::MainCalc() {
   if (fresh(pose_, base_)) have_pose_ = true;
@@ -507,16 +554,23 @@ void ModelBasedCtrl::MainCalc() {
     start_ = hand;
     push_ = Eigen::Vector2d(c, s);
     const Eigen::Vector2d left(-s, c);
-    est_.emplace(hand + side_ * radius_ * left, radius_, 0.08);
+    prior_centre_ = hand + side_ * radius_ * left;
+    est_.emplace(prior_centre_, radius_, min_arc_);
     started_ = true;
   }
   est_->Add(hand);
+  // The circle: the fitted one once the hand has swept enough arc and the fit is plausible, else the prior.
+  const bool fitted = Plausible(*est_, radius_);
+  const Eigen::Vector2d centre = fitted ? est_->centre() : prior_centre_;
   // Push direction: the circle's tangent whose sense agrees with the push at the start.
-  const bool ccw = est_->Tangent(start_, true).dot(push_) > 0;
-  const Eigen::Vector2d t = est_->fitted() ? est_->Tangent(hand, ccw) : push_;
-  const Eigen::Vector2d a = start_ - est_->centre(), b = hand - est_->centre();
-  const double opened = std::abs(std::atan2(a.x() * b.y() - a.y() * b.x(), a.dot(b)));
-  if (est_->fitted() && opened >= target_) {
+  Eigen::Vector2d r0 = start_ - centre, r = hand - centre;
+  Eigen::Vector2d t(-r.y(), r.x());
+  if (t.norm() < 1e-9) t = push_;
+  t.normalize();
+  if (Eigen::Vector2d(-r0.y(), r0.x()).dot(push_) < 0) t = -t;
+  if (!fitted && t.dot(push_) < 0.5) t = push_;
+  const double opened = std::abs(std::atan2(r0.x() * r.y() - r0.y() * r.x(), r0.dot(r)));
+  if (fitted && opened >= target_) {
     vel_.write(Vec9::Zero().eval());
     return Done(opened * 180 / kPi);
   }

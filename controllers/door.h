@@ -18,8 +18,9 @@
 // supervisor that owns the controller connects its device ports to those signals when it connects its group,
 // always active. Everything else reaches its inputs through the .dca file's connections.
 //
-// Every controller here runs periodically (parameter `period`, default 1 ms) and its MainCalc allocates
-// nothing. A command that has not been refreshed since the previous tick counts as zero (a crashed or
+// Every controller here runs periodically (parameter `period`, default 10 ms: in the distributed lock-step each
+// tick costs a round trip per node, and every connection delays a sample by one tick, which the gains here are
+// tuned for) and its MainCalc allocates nothing. A command that has not been refreshed since the previous tick counts as zero (a crashed or
 // stopped source leaves the robot still within one period), and Stop() writes zero to every actuator.
 #include <Eigen/Core>
 #include <optional>
@@ -40,6 +41,9 @@ using Vec9 = Eigen::Matrix<double, 9, 1>;
 std::string robot_urdf_path();
 /// The arm chain base_link -> tool0 of the robot's URDF. Throws std::invalid_argument naming the file.
 kin::Chain robot_arm();
+/// The camera's pose (camera_link: x along the optical axis, y left, z up) in base_link, from the robot's URDF.
+/// Throws std::invalid_argument naming the file.
+Eigen::Isometry3d robot_camera();
 
 /// Reads the newest sample of `in` into `v` when one arrived since the last call. Returns whether one did.
 template <int N>
@@ -53,7 +57,7 @@ bool fresh(Input& in, Eigen::Matrix<double, N, 1>& v) {
 
 // ------------------------------------------------------------------------------------------ hardware-facing
 
-/// XR4000Ctrl(host, period=0.001): the base's velocity drive.
+/// XR4000Ctrl(host, period=0.01): the base's velocity drive.
 ///   in  Vel     vector[3] base velocity command (m/s, m/s, rad/s), zero when not refreshed each tick
 ///   out Cmd     vector[3] device base.cmd_vel
 class XR4000Ctrl final : public Controller {
@@ -73,7 +77,7 @@ class XR4000Ctrl final : public Controller {
   Vec3 v_ = Vec3::Zero();
 };
 
-/// XR4000Odometry(host, period=0.001): the base's odometry.
+/// XR4000Odometry(host, period=0.01): the base's odometry.
 ///   in  Odom    vector[3] device base.pose
 ///   out Pose    vector[3] x, y (m), yaw (rad) in the world
 class XR4000Odometry final : public Controller {
@@ -92,7 +96,7 @@ class XR4000Odometry final : public Controller {
   Vec3 p_ = Vec3::Zero();
 };
 
-/// Puma560Ctrl(host, period=0.001): the arm's joint-velocity drive, which also publishes the joint angles.
+/// Puma560Ctrl(host, period=0.01): the arm's joint-velocity drive, which also publishes the joint angles.
 ///   in  Vel     vector[6] joint velocity command (rad/s), zero when not refreshed each tick
 ///   in  Q       vector[6] device arm.q
 ///   out Cmd     vector[6] device arm.cmd_qd
@@ -114,7 +118,7 @@ class Puma560Ctrl final : public Controller {
   Vec6 v_ = Vec6::Zero(), q_ = Vec6::Zero();
 };
 
-/// Puma560Joints(host, period=0.001): the arm's joint angles.
+/// Puma560Joints(host, period=0.01): the arm's joint angles.
 ///   in  Q       vector[6] device arm.q
 ///   out Joints  vector[6] joint angles (rad)
 class Puma560Joints final : public Controller {
@@ -133,7 +137,7 @@ class Puma560Joints final : public Controller {
   Vec6 q_ = Vec6::Zero();
 };
 
-/// ForceTorque(host, period=0.001): the wrist force/torque sensor.
+/// ForceTorque(host, period=0.01): the wrist force/torque sensor.
 ///   in  Raw     vector[6] device wrist.wrench
 ///   out Wrench  vector[6] N, N m (sensor frame)
 class ForceTorque final : public Controller {
@@ -152,7 +156,7 @@ class ForceTorque final : public Controller {
   Vec6 w_ = Vec6::Zero();
 };
 
-/// LaserSensor(host, period=0.001): the laser range finder facing forward from the base.
+/// LaserSensor(host, period=0.01): the laser range finder facing forward from the base.
 ///   in  Raw       vector[1] device laser.range
 ///   out Distance  scalar    m to the door's plane
 class LaserSensor final : public Controller {
@@ -170,7 +174,7 @@ class LaserSensor final : public Controller {
   double period_;
 };
 
-/// HandleCamera(host, period=0.001): the camera's handle-feature tracker.
+/// HandleCamera(host, period=0.01): the camera's handle-feature tracker.
 ///   in  Raw      vector[3] device camera.handle
 ///   out Feature  vector[3] u, v (pixels), visible (1/0)
 class HandleCamera final : public Controller {
@@ -189,7 +193,7 @@ class HandleCamera final : public Controller {
   Vec3 f_ = Vec3::Zero();
 };
 
-/// GripperControl(host, "open"|"close", timeout=3, period=0.001): opens or closes the gripper; DONE when it
+/// GripperControl(host, "open"|"close", timeout=3, period=0.01): opens or closes the gripper; DONE when it
 /// is open, or when it holds something ("close"); ABORTED when it closed on nothing or the timeout passed.
 ///   in  State  vector[1] device gripper.state (0 open, 1 closed on nothing, 2 moving, 3 grasping)
 ///   out Cmd    vector[1] device gripper.cmd (0 open, 1 close)
@@ -214,7 +218,7 @@ class GripperControl final : public Controller {
 
 // ------------------------------------------------------------------------------------------------ algorithms
 
-/// RedundancyResolution(host, base_weight=10, arm_weight=1, damping=0.02, period=0.001): distributes the
+/// RedundancyResolution(host, base_weight=10, arm_weight=1, damping=0.02, period=0.01): distributes the
 /// commanded tool twist over the base's 3 and the arm's 6 joints (weighted, damped least squares, joint-limit
 /// avoidance in the null space), after applying the command's own base velocity.
 ///   in  In       vector[9] Vel (see the header), zero when not refreshed each tick
@@ -247,7 +251,7 @@ class RedundancyResolution final : public Controller {
   bool have_q_ = false;
 };
 
-/// AddVelocity(host, period=0.001): Out = In1 + In2 + In3 (Vel signals; an input not refreshed counts zero).
+/// AddVelocity(host, period=0.01): Out = In1 + In2 + In3 (Vel signals; an input not refreshed counts zero).
 class AddVelocity final : public Controller {
  public:
   static Manifest Describe();
@@ -264,9 +268,13 @@ class AddVelocity final : public Controller {
   Vec9 v_[3];
 };
 
-/// VisualServoing(host, speed=0.25, gain=0.8, hfov=1.0472, width=640, lost=0.5, period=0.001): drives the
-/// robot towards the handle, turning to keep it centred horizontally in the image (image-based servoing of
-/// one point feature).
+/// VisualServoing(host, speed=0.25, gain=1.5, hfov=1.0472, width=640, lost=0.5, height=480, handle_height=1,
+/// lateral=-0.075, period=0.01): drives the robot towards the handle (servoing on one point feature). The handle's
+/// image point and its known height above the floor (`handle_height`, m) give its position in the base frame
+/// (the camera's pose comes from the robot's URDF); the robot moves forward at `speed` and turns so that the line
+/// straight ahead of the base at `lateral` m (where the gripper is: the approach that follows moves the tool
+/// straight ahead) passes through the handle. When the feature's ray does not reach that height it turns to
+/// centre the handle in the image instead.
 ///   in  Feature  vector[3] from HandleCamera
 ///   out Vel      vector[9] the whole robot moves rigidly (base velocity only)
 /// ABORTED when the handle has not been visible for `lost` seconds.
@@ -276,6 +284,14 @@ class VisualServoing final : public Controller {
   explicit VisualServoing(const ControllerContext& ctx);
   /// The command for a feature at column u: forward at `speed`, turning to centre u.
   static Vec9 Law(double u, double speed, double gain, double focal_px, double centre_u);
+  /// Where the handle is in the base frame (x, y), from its image point (u, v), the camera's pose in the base
+  /// frame (x along the optical axis, y left, z up), the focal length and image centre in pixels and the
+  /// handle's height above the floor; nothing when the pixel's ray does not go down to that height ahead.
+  static std::optional<Eigen::Vector2d> Locate(double u, double v, const Eigen::Isometry3d& camera, double focal_px,
+                                               double centre_u, double centre_v, double height);
+  /// The command for a handle at `handle` (base frame): forward at `speed`, turning (gain 1/s) so that the line
+  /// y = `lateral` ahead of the base passes through it.
+  static Vec9 Steer(const Eigen::Vector2d& handle, double lateral, double speed, double gain);
 
  protected:
   void Run(const msgpack::object& init) override;
@@ -285,13 +301,14 @@ class VisualServoing final : public Controller {
  private:
   Input& feature_;
   Output& vel_;
-  double speed_, gain_, focal_, centre_u_, lost_, period_;
+  double speed_, gain_, focal_, centre_u_, centre_v_, lost_, handle_height_, lateral_, period_;
+  Eigen::Isometry3d camera_ = Eigen::Isometry3d::Identity();
   Vec3 f_ = Vec3::Zero();
   Nanos last_seen_ = 0;
   Vec9 v_ = Vec9::Zero();
 };
 
-/// DistanceThreshold(host, distance=0.7, period=0.001): DONE(distance) when Distance <= `distance` (m).
+/// DistanceThreshold(host, distance=0.7, period=0.01): DONE(distance) when Distance <= `distance` (m).
 class DistanceThreshold final : public Controller {
  public:
   static Manifest Describe();
@@ -306,7 +323,7 @@ class DistanceThreshold final : public Controller {
   double level_, period_;
 };
 
-/// ForceThreshold(host, force=6, samples=3, period=0.001): DONE(|f - f0|) when the force differs from the one
+/// ForceThreshold(host, force=6, samples=3, period=0.01): DONE(|f - f0|) when the force differs from the one
 /// measured at the start of the run (the tool's own weight) by more than `force` N for `samples` ticks in a row.
 class ForceThreshold final : public Controller {
  public:
@@ -327,7 +344,7 @@ class ForceThreshold final : public Controller {
   Eigen::Vector3d bias_ = Eigen::Vector3d::Zero();
 };
 
-/// LinearTrajectory(host, speed=0.05, distance=0.4, period=0.001): moves the tool straight ahead (base x) at
+/// LinearTrajectory(host, speed=0.05, distance=0.4, period=0.01): moves the tool straight ahead (base x) at
 /// `speed` m/s; ABORTED after `distance` m (nothing was hit). Out: Vel.
 class LinearTrajectory final : public Controller {
  public:
@@ -346,10 +363,10 @@ class LinearTrajectory final : public Controller {
   Vec9 v_ = Vec9::Zero();
 };
 
-/// PressHandle(host, speed=0.03, force=30, travel=0.04, compliance=0.004, period=0.001): presses the grasped
-/// handle down (the tool moves down; a sideways admittance lets it follow the lever's arc) until the force
-/// along the press reaches `force` N. DONE(travel) when the tool had moved at least `travel` m down by then;
-/// ABORTED "handle jammed" otherwise.
+/// PressHandle(host, speed=0.03, force=30, travel=0.02, compliance=0.002, period=0.01): presses the grasped
+/// handle down (the tool moves down at `speed`; a horizontal admittance lets it follow the lever's arc) until
+/// the vertical force (beyond the one at the start: the tool's weight) reaches `force` N. DONE(travel) when the
+/// tool had moved at least `travel` m down by then; ABORTED "handle jammed: <force> N reached ..." otherwise.
 ///   in  Wrench  vector[6] ;  in Joints vector[6] ;  out Vel vector[9]
 class PressHandle final : public Controller {
  public:
@@ -373,9 +390,10 @@ class PressHandle final : public Controller {
   Vec9 v_ = Vec9::Zero();
 };
 
-/// CompliantCtrl(host, compliance=0.004, deadband=1, period=0.001): an admittance: the tool moves along the
-/// force it feels (minus the force at the start of the run), so the closed chain through the door stays
-/// free of large internal forces.  in Wrench, Joints ; out Vel.
+/// CompliantCtrl(host, compliance=0.001, deadband=1, max_speed=0.1, period=0.01): an admittance in the floor
+/// plane: the tool moves along the horizontal force it feels (in the base frame, where the tool's weight has no
+/// horizontal part; beyond `deadband` N, at most `max_speed`), so the closed chain through the door stays free of
+/// large internal forces. Vertically it holds still (the handle stays pressed).  in Wrench, Joints ; out Vel.
 class CompliantCtrl final : public Controller {
  public:
   static Manifest Describe();
@@ -390,22 +408,25 @@ class CompliantCtrl final : public Controller {
   Input &wrench_, &joints_;
   Output& vel_;
   kin::Chain arm_;
-  double compliance_, deadband_, period_;
+  double compliance_, deadband_, max_speed_, period_;
   Vec6 w_ = Vec6::Zero(), q_ = Vec6::Zero();
-  bool have_bias_ = false;
-  Eigen::Vector3d bias_ = Eigen::Vector3d::Zero();
+  bool have_q_ = false, have_w_ = false;
   Vec9 v_ = Vec9::Zero();
 };
 
-/// ModelBasedCtrl(host, speed=0.15, angle=75, radius=0.9, side="right", period=0.001): estimates the hinge
-/// and the door's radius online from the hand's path (HingeEstimator; until enough arc is swept, the guess is
-/// a hinge `radius` m to the `side` of the hand in the door's plane) and moves the hand along the circle,
-/// pushing the door open; DONE(angle in degrees) when the estimated opening reaches `angle` degrees.
+/// ModelBasedCtrl(host, speed=0.15, angle=75, radius=0.75, side="right", min_arc=0.1, period=0.01): estimates
+/// the hinge and the door's radius online from the hand's path (HingeEstimator) and moves the hand along the
+/// circle, pushing the door open. Until the hand has swept `min_arc` rad, or while the fitted radius is not
+/// within [0.5, 2] x `radius`, the circle is the guess: a hinge `radius` m to the `side` of the hand in the door's
+/// plane (across the robot's heading at the start). DONE(angle in degrees) when the opening measured on the
+/// fitted circle reaches `angle` degrees.
 ///   in  BasePose vector[3] ;  in Joints vector[6] ;  out Vel vector[9]
 class ModelBasedCtrl final : public Controller {
  public:
   static Manifest Describe();
   explicit ModelBasedCtrl(const ControllerContext& ctx);
+  /// Whether a fit is to be trusted: fitted, with a radius within [0.5, 2] x the guess.
+  static bool Plausible(const kin::HingeEstimator& e, double prior_radius);
 
  protected:
   void Run(const msgpack::object& init) override;
@@ -416,16 +437,17 @@ class ModelBasedCtrl final : public Controller {
   Input &pose_, &joints_;
   Output& vel_;
   kin::Chain arm_;
-  double speed_, target_, radius_, side_, period_;
+  double speed_, target_, radius_, min_arc_, side_, period_;
   Vec3 base_ = Vec3::Zero();
   Vec6 q_ = Vec6::Zero();
   bool have_pose_ = false, have_q_ = false, started_ = false;
   std::optional<kin::HingeEstimator> est_;
-  Eigen::Vector2d start_ = Eigen::Vector2d::Zero(), push_ = Eigen::Vector2d::Zero();
+  Eigen::Vector2d start_ = Eigen::Vector2d::Zero(), push_ = Eigen::Vector2d::Zero(),
+                  prior_centre_ = Eigen::Vector2d::Zero();
   Vec9 v_ = Vec9::Zero();
 };
 
-/// ConfigCtrl(host, reach=0.55, gain=1.5, max_speed=0.2, period=0.001): keeps the arm away from singular,
+/// ConfigCtrl(host, reach=0.55, gain=1.5, max_speed=0.2, period=0.01): keeps the arm away from singular,
 /// stretched or folded configurations by moving the base under the still tool so that the tool stays `reach` m
 /// ahead of the shoulder axis and straight in front of it.  in Joints ; out Vel.
 class ConfigCtrl final : public Controller {

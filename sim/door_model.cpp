@@ -7,6 +7,8 @@
 namespace dca::sim {
 namespace {
 
+constexpr double kJammedHandleMax = 0.005;  // rad: a seized handle's whole travel
+
 // Inertia of a solid box about its centre.
 std::string box_inertia(double m, double x, double y, double z) {
   std::ostringstream s;
@@ -45,7 +47,8 @@ std::string door_urdf(const DoorParams& p) {
     << "    <parent link=\"door_leaf\"/>\n    <child link=\"door_handle\"/>\n"
     << "    <origin xyz=\"0 " << pivot_y << " " << p.handle_height << "\" rpy=\"0 0 0\"/>\n"
     << "    <axis xyz=\"1 0 0\"/>\n"
-    << "    <limit lower=\"0\" upper=\"" << p.handle_max << "\" effort=\"50\" velocity=\"10\"/>\n"
+    << "    <limit lower=\"0\" upper=\"" << (p.handle_jammed ? kJammedHandleMax : p.handle_max)
+    << "\" effort=\"50\" velocity=\"10\"/>\n"
     << "    <dynamics damping=\"" << p.handle_damping << "\"/>\n"
     << "  </joint>\n"
     << "  <link name=\"door_handle\">\n"

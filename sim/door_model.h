@@ -32,6 +32,8 @@ struct DoorParams {
   double latch_stiffness = 5000;   ///< N m/rad of the latch bolt against the strike
   double latch_damping = 200;      ///< N m s/rad
   bool latch_jammed = false;       ///< a fault: the latch never releases, whatever the handle does
+  bool handle_jammed = false;      ///< a fault: the handle is seized (its stop at 0.005 rad instead of
+                                   ///< handle_max), so it cannot be pressed and the latch never releases
 };
 
 /// URDF text of a door: links door_frame (root, massless), door_leaf (joint "door_hinge", revolute about -z so

@@ -17,6 +17,7 @@ using dca::door::Vec3;
 using dca::door::Vec6;
 using dca::door::Vec9;
 constexpr dca::Nanos kMs = 1'000'000;
+constexpr dca::Nanos kTick = 10 * kMs;  // the controllers' default period
 constexpr double kPi = 3.14159265358979323846;
 
 std::string unpack_string(const std::string& packed) {
@@ -54,6 +55,7 @@ class DoorTest : public ::testing::Test {
   static Eigen::VectorXd latest(const dca::Controller& c, const std::string& port) {
     const auto* out = const_cast<dca::Controller&>(c).ports().find_output(port);
     EXPECT_NE(out, nullptr);
+    if (!out->has_latest()) return Eigen::VectorXd::Zero(out->spec().size);  // not written yet
     msgpack::sbuffer sb;
     msgpack::packer<msgpack::sbuffer> pk(sb);
     out->pack_latest(pk);
@@ -130,6 +132,53 @@ TEST_F(DoorTest, VisualServoingTurnsTowardsTheHandle) {
   EXPECT_TRUE(right.head<6>().isZero());  // the arm does not move relative to the base
 }
 
+// The handle's image point and its height give its position in the base frame (the world's pinhole camera).
+TEST_F(DoorTest, VisualServoingLocatesTheHandleFromItsImagePoint) {
+  const Eigen::Isometry3d camera = dca::door::robot_camera();
+  const double f = 320 / std::tan(kPi / 6);
+  for (const Eigen::Vector3d& p : {Eigen::Vector3d(1.9, 0.0, 1.0), Eigen::Vector3d(1.2, -0.3, 1.0),
+                                  Eigen::Vector3d(0.9, 0.2, 1.0)}) {
+    const Eigen::Vector3d c = camera.inverse() * p;
+    const double u = 320 - f * c.y() / c.x(), v = 240 - f * c.z() / c.x();
+    const auto at = dca::door::VisualServoing::Locate(u, v, camera, f, 320, 240, 1.0);
+    ASSERT_TRUE(at.has_value());
+    EXPECT_NEAR(at->x(), p.x(), 1e-9);
+    EXPECT_NEAR(at->y(), p.y(), 1e-9);
+  }
+  // A pixel above the horizon never reaches the handle's height.
+  EXPECT_FALSE(dca::door::VisualServoing::Locate(320, 0, camera, f, 320, 240, 1.0).has_value());
+  // Steering lines the gripper (at y = -0.075) up with the handle: no turn when it is on that line.
+  EXPECT_NEAR(dca::door::VisualServoing::Steer({1.0, -0.075}, -0.075, 0.25, 1.5)[8], 0, 1e-15);
+  EXPECT_GT(dca::door::VisualServoing::Steer({1.0, 0.1}, -0.075, 0.25, 1.5)[8], 0);  // handle left: turn left
+  EXPECT_DOUBLE_EQ(dca::door::VisualServoing::Steer({1.0, 0.1}, -0.075, 0.25, 1.5)[6], 0.25);
+}
+
+// The admittance acts on the horizontal force only: the tool's weight does not move it.
+TEST_F(DoorTest, CompliantCtrlGivesWayToTheHorizontalForceOnly) {
+  auto& c = make("CompliantCtrl", {}, "/c");
+  auto& w = feed("W", 6, "/c", "Wrench");
+  auto& j = feed("J", 6, "/c", "Joints");
+  ep.activate("s");
+  ASSERT_EQ(c.run({}), "");
+  const auto arm = dca::door::robot_arm();
+  dca::kin::JointVector q = ReadyPose();
+  const Eigen::Matrix3d R = arm.Forward(q).linear();
+  Vec6 wrench = Vec6::Zero();
+  wrench.head<3>() = R.transpose() * Eigen::Vector3d(0, 0, -9.3);
+  w.write(wrench);
+  j.write(ReadyPose());
+  timers.advance_to(1 * kTick);
+  EXPECT_TRUE(latest(c, "Vel").isZero(1e-12));
+  wrench.head<3>() = R.transpose() * Eigen::Vector3d(5, 0, -30);
+  w.write(wrench);
+  j.write(ReadyPose());
+  timers.advance_to(2 * kTick);
+  const Eigen::VectorXd v = latest(c, "Vel");
+  EXPECT_NEAR(v[0], 0.001 * (5 - 1), 1e-9);  // along the force, beyond the 1 N deadband
+  EXPECT_NEAR(v[1], 0, 1e-9);
+  EXPECT_NEAR(v[2], 0, 1e-12);
+}
+
 TEST_F(DoorTest, VisualServoingAbortsWhenTheHandleIsLost) {
   auto& vs = make("VisualServoing", {}, "/vs");
   auto& f = feed("F", 3, "/vs", "Feature");
@@ -137,7 +186,7 @@ TEST_F(DoorTest, VisualServoingAbortsWhenTheHandleIsLost) {
   ASSERT_EQ(vs.init(), "");
   ASSERT_EQ(vs.run({}), "");
   f.write((Vec3() << 330, 240, 1).finished());
-  timers.advance_to(1 * kMs);
+  timers.advance_to(1 * kTick);
   EXPECT_GT(latest(vs, "Vel")[6], 0);
   f.write((Vec3() << 0, 0, 0).finished());  // not visible
   timers.advance_to(400 * kMs);
@@ -155,12 +204,12 @@ TEST_F(DoorTest, StaleCommandsStopTheRobotWithinOnePeriod) {
   ep.activate("s");
   ASSERT_EQ(xr.run({}), "");
   v.write((Vec3() << 0.2, 0, 0.1).finished());
-  timers.advance_to(1 * kMs);
+  timers.advance_to(1 * kTick);
   EXPECT_DOUBLE_EQ(latest(xr, "Cmd")[0], 0.2);
-  timers.advance_to(2 * kMs);  // no new command: zero
+  timers.advance_to(2 * kTick);  // no new command: zero
   EXPECT_TRUE(latest(xr, "Cmd").isZero());
   v.write((Vec3() << 0.2, 0, 0.1).finished());
-  timers.advance_to(3 * kMs);
+  timers.advance_to(3 * kTick);
   xr.stop();
   EXPECT_TRUE(latest(xr, "Cmd").isZero());
 }
@@ -175,7 +224,7 @@ TEST_F(DoorTest, DistanceThresholdIsDoneAtTheDistance) {
   ASSERT_EQ(d.run({}), "");
   for (int i = 0; i < 10; ++i) {
     s.write(1.0 - 0.05 * i);
-    timers.advance_to((i + 1) * kMs);
+    timers.advance_to((i + 1) * kTick);
   }
   ASSERT_EQ(events.size(), 1u);
   EXPECT_NEAR(unpack_double(events[0].second.value), 0.7, 1e-12);
@@ -191,7 +240,7 @@ TEST_F(DoorTest, ForceThresholdIgnoresTheToolsWeightAndBriefSpikes) {
   int tick = 0;
   auto step = [&](const Vec6& x) {
     w.write(x);
-    timers.advance_to(++tick * kMs);
+    timers.advance_to(++tick * kTick);
   };
   for (int i = 0; i < 20; ++i) step(weight);
   Vec6 spike = weight;
@@ -214,10 +263,10 @@ TEST_F(DoorTest, GripperCloseIsDoneWhenGraspingAndAbortsOnNothing) {
   ASSERT_EQ(g.run({}), "");
   EXPECT_DOUBLE_EQ(latest(g, "Cmd")[0], 1.0);
   s.write((Eigen::VectorXd(1) << 2).finished());
-  timers.advance_to(1 * kMs);
+  timers.advance_to(1 * kTick);
   EXPECT_TRUE(events.empty());
   s.write((Eigen::VectorXd(1) << 3).finished());
-  timers.advance_to(2 * kMs);
+  timers.advance_to(2 * kTick);
   ASSERT_EQ(events.size(), 1u);
   EXPECT_EQ(unpack_string(events[0].second.value), "grasping");
 
@@ -225,7 +274,7 @@ TEST_F(DoorTest, GripperCloseIsDoneWhenGraspingAndAbortsOnNothing) {
   auto& s2 = feed("S2", 1, "/g2", "State");
   ASSERT_EQ(g2.run({}), "");
   s2.write((Eigen::VectorXd(1) << 1).finished());
-  timers.advance_to(3 * kMs);
+  timers.advance_to(3 * kTick);
   ASSERT_EQ(events.size(), 2u);
   EXPECT_EQ(events[1].second.reason, "the gripper closed on nothing: no handle between the fingers");
 }
@@ -314,7 +363,7 @@ TEST_F(DoorTest, ConfigCtrlMovesTheBaseUnderTheStillTool) {
   ep.activate("s");
   ASSERT_EQ(c.run({}), "");
   j.write(ReadyPose());
-  timers.advance_to(1 * kMs);
+  timers.advance_to(1 * kTick);
   const Eigen::VectorXd v = latest(c, "Vel");
   ASSERT_EQ(v.size(), 9);
   EXPECT_NEAR(v[0], -v[6], 1e-12);  // the tool's twist cancels the base's motion
@@ -330,10 +379,10 @@ TEST_F(DoorTest, AddVelocitySumsFreshInputsOnly) {
   ASSERT_EQ(a.run({}), "");
   i1.write(Vec9::Constant(1.0));
   i2.write(Vec9::Constant(2.0));
-  timers.advance_to(1 * kMs);
+  timers.advance_to(1 * kTick);
   EXPECT_TRUE(latest(a, "Out").isApprox(Eigen::VectorXd::Constant(9, 3.0)));
   i1.write(Vec9::Constant(1.0));
-  timers.advance_to(2 * kMs);  // In2 went quiet: it counts zero
+  timers.advance_to(2 * kTick);  // In2 went quiet: it counts zero
   EXPECT_TRUE(latest(a, "Out").isApprox(Eigen::VectorXd::Constant(9, 1.0)));
 }
 
