@@ -13,7 +13,8 @@
 //   - the task is sequenced as the algebra runs it: MotionControl throughout; each step starts by activating its
 //     connection sets and running (Init + Run) its controllers, ends on its deciding controller's DONE (then
 //     its other controllers are stopped and its sets deactivated) and fails on any of its controllers'
-//     ABORTED. The next step starts at the same tick, so its first ticks are one period later.
+//     ABORTED. The next step starts at the same tick (or `reaction` later), so its first ticks are one period
+//     later.
 // Controllers use only their ports; the harness reads the world's ground truth only to record and report.
 #include <algorithm>
 #include <cmath>
@@ -161,6 +162,8 @@ class DoorHarness {
   double seconds() const { return to_seconds(timers_.now()); }
   /// The commands the world acts on in the coming step.
   const sim::Commands& applied() const { return applied_; }
+  /// How long the supervisor takes to end a step after its deciding event (0: at the same tick).
+  Nanos reaction = 0;
   /// Called after every world step (for recording and fault injection).
   std::function<void(DoorHarness&)> on_tick;
 
@@ -190,6 +193,13 @@ class DoorHarness {
             break;
           }
         }
+        events_.clear();
+        track(r);
+      }
+      // The supervisor reacts after `reaction` (the event's trip to it and its orders' trip back): until then
+      // the step's other controllers keep running.
+      for (const Nanos until = now_ + reaction; now_ < until;) {
+        tick();
         events_.clear();
         track(r);
       }
