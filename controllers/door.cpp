@@ -370,24 +370,34 @@ Manifest ForceThreshold::Describe() {
   return {"ForceThreshold", "DONE(|f - f0|) when the force departs from its value at the start",
           {vector_port("Wrench", 6, "N, N m")}, {},
           {opt("force", "number", "6", "the threshold, N"),
-           opt("samples", "integer", "3", "consecutive samples above the threshold"), period_param()}};
+           opt("samples", "integer", "3", "consecutive samples above the threshold"),
+           opt("settle", "number", "0.3", "s after the start during which f0 is learnt (smoothed) and nothing fires"),
+           period_param()}};
 }
 ForceThreshold::ForceThreshold(const ControllerContext& ctx)
     : Controller(ctx), wrench_(input("Wrench")), level_(positive(number("force"), "force")),
-      period_(positive(number("period"), "period")), need_(integer("samples")) {
+      period_(positive(number("period"), "period")), settle_(number("settle")), need_(integer("samples")) {
   if (need_ < 1) throw std::invalid_argument("ForceThreshold " + name() + ": samples must be at least 1");
+  if (!(settle_ >= 0)) throw std::invalid_argument("ForceThreshold " + name() + ": settle must be >= 0 s");
 }
 void ForceThreshold::Run(const msgpack::object&) {
   above_ = 0;
   have_bias_ = false;
+  started_ = now();
   StartPeriodic(period_);
 }
+// The reference f0 is learnt while the run settles: the step that starts this detector often starts with a
+// jolt (the base stopping when the previous step ends, the gripper opening), and a reference taken from one
+// sample of that jolt fires at once. It is smoothed over the settle time and frozen after it.
 void ForceThreshold::MainCalc() {
   if (!fresh(wrench_, w_)) return;
   const Eigen::Vector3d f = w_.head<3>();
   if (!have_bias_) {
     bias_ = f;
     have_bias_ = true;
+  }
+  if (to_seconds(now() - started_) < settle_) {
+    bias_ += 0.2 * (f - bias_);
     return;
   }
   const double d = (f - bias_).norm();

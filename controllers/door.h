@@ -323,8 +323,10 @@ class DistanceThreshold final : public Controller {
   double level_, period_;
 };
 
-/// ForceThreshold(host, force=6, samples=3, period=0.01): DONE(|f - f0|) when the force differs from the one
-/// measured at the start of the run (the tool's own weight) by more than `force` N for `samples` ticks in a row.
+/// ForceThreshold(host, force=6, samples=3, settle=0.3, period=0.01): DONE(|f - f0|) when the force differs
+/// from the one measured at the start of the run (the tool's own weight) by more than `force` N for `samples`
+/// ticks in a row. f0 is learnt (smoothed) during the first `settle` seconds, when nothing fires: the step
+/// that starts a hit detector often starts with a jolt (the base stopping as the previous step ends).
 class ForceThreshold final : public Controller {
  public:
   static Manifest Describe();
@@ -336,9 +338,10 @@ class ForceThreshold final : public Controller {
 
  private:
   Input& wrench_;
-  double level_, period_;
+  double level_, period_, settle_;
   long need_;
   long above_ = 0;
+  Nanos started_ = 0;
   bool have_bias_ = false;
   Vec6 w_ = Vec6::Zero();
   Eigen::Vector3d bias_ = Eigen::Vector3d::Zero();

@@ -25,6 +25,7 @@ namespace {
 constexpr const char* kUsage =
     "usage: dca sim [--world door] [--seed N] [--door-width W] [--duration S] [--period S] [--script FILE]\n"
     "               [--record FILE.csv] [--record-period S] [--realtime] [--visualize]\n"
+    "               [--jammed]\n"
     "               [--print-door-urdf]\n"
     "       dca sim --serve --daemon ADDR [--name world] [--key FILE] [--host NAME] [--go] [--sync S]\n"
     "               [--command-timeout S] [--tick-timeout MS] [world options as above]\n\n"
@@ -41,6 +42,7 @@ constexpr const char* kUsage =
     "  --record FILE.csv record time, joint angles, base pose, wrench, door and handle angles (see\n"
     "                    `dca plot`), every --record-period seconds (default 0.01)\n"
     "  --visualize       show the world in Simbody's 3-D visualizer where a display exists (else a warning)\n"
+    "  --jammed          a fault: the handle is seized and the latch never releases\n"
     "  --print-door-urdf print the door's URDF for the chosen width and exit\n\n"
     "--serve: the world as a process (sim/world_node.h): registers NAME (default `world`) with the daemon at\n"
     "ADDR, its ports are the world's signals (sim/world.h), and it is the clock master of every node on\n"
@@ -60,7 +62,7 @@ struct Options {
   std::uint64_t seed = 0;
   double door_width = 0, duration = -1, period = 1e-3, record_period = 0.01;
   std::string script, record;
-  bool realtime = false, print_urdf = false, visualize = false;
+  bool realtime = false, print_urdf = false, visualize = false, jammed = false;
 };
 
 int usage_error(const std::string& why) {
@@ -195,6 +197,8 @@ int cmd_sim(std::span<char* const> args) {
       double ms = 0;
       if (!positive(ms, false)) return usage_error("--tick-timeout needs positive milliseconds");
       o.node.tick_timeout_ms = static_cast<int>(ms);
+    } else if (a == "--jammed") {
+      o.jammed = true;
     } else if (a == "--print-door-urdf") {
       o.print_urdf = true;
     } else {
@@ -204,6 +208,7 @@ int cmd_sim(std::span<char* const> args) {
 
   dca::sim::WorldConfig config = dca::sim::door_world(o.seed, o.door_width);
   config.period = o.period;
+  if (o.jammed) config.door.handle_jammed = config.door.latch_jammed = true;
   if (o.print_urdf) {
     std::fputs(dca::sim::door_urdf(config.door).c_str(), stdout);
     return 0;
