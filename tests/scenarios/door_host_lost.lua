@@ -1,0 +1,56 @@
+-- The door system in simulated time (real backend): the host running manipulation (the arm's controller,
+-- the DoorOpenSystem supervisor) is lost mid-approach, its daemon and processes killed by SIGKILL. The root
+-- ends ABORTED naming that host, and the arm stops: with no controller left to refresh it, the world's drive
+-- watchdog takes the arm command as zero (after 50 ms), so the joints stop moving. The world runs on host
+-- platform here, so that it outlives the loss.
+local S = require "dca.scenario"
+S.backends = { "real" }
+local src = os.getenv("DCA_SOURCE_DIR") or "."
+local sys = S.system(src .. "/scripts/systems/door_open.dca", { sim = "door", seed = 1, world_host = "platform" })
+local VS = "main.dooropensyst.visualserv"
+
+local function norm(v)
+  local s = 0
+  for _, x in ipairs(type(v) == "table" and v or {}) do s = s + x * x end
+  return math.sqrt(s)
+end
+local function dist(a, b)
+  local s = 0
+  for i = 1, math.max(#a, #b) do s = s + math.abs((a[i] or 0) - (b[i] or 0)) end
+  return s
+end
+
+local t_loss
+S.step("the tree comes up on three hosts on the simulated clock, the world on platform", function()
+  sys:up(60)
+  S.eq(sys:host("main.dooropensyst.motionctrl.puma"), "manipulation")
+end)
+
+S.step("the approach runs and the arm moves", function()
+  sys:run()
+  sys:wait_state(VS, "running", 30)
+  sys:wait_world("the arm commanded and moving", function()
+    return norm(sys:world_read("arm.cmd_qd")) > 1e-3 and norm(sys:world_read("arm.qd")) > 1e-3
+  end, 30)
+end)
+
+S.step("host manipulation is lost: the root ends ABORTED naming it", function()
+  sys:lose_host("manipulation")
+  t_loss = sys:world_status().t
+  local out = sys:wait_outcome(30)
+  S.eq(out.type, "aborted")
+  S.eq(sys:host(out.path), "manipulation", "the process named runs on manipulation: " .. tostring(out.path))
+  S.contains(out.reason, "host manipulation lost")
+end)
+
+S.step("the arm stops: its joint velocities go to zero and its joints no longer move (after a 0.5 s settle)", function()
+  sys:wait_world("0.5 s of simulated time after the loss", function(st) return st.t >= t_loss + 0.5 end, 30)
+  local q0 = sys:world_read("arm.q")
+  local t1 = sys:world_status().t
+  S.ok(norm(sys:world_read("arm.qd")) < 1e-4, "arm.qd " .. S.show(sys:world_read("arm.qd")))
+  sys:wait_world("0.5 s more", function(st) return st.t >= t1 + 0.5 end, 30)
+  local q1 = sys:world_read("arm.q")
+  S.ok(dist(q0, q1) < 1e-5, "arm.q " .. S.show(q0) .. " -> " .. S.show(q1))
+  S.ok(norm(sys:world_read("arm.qd")) < 1e-4, "arm.qd " .. S.show(sys:world_read("arm.qd")))
+end)
+return S.finish()
