@@ -104,6 +104,12 @@ struct WorldNode::Impl {
   Nanos base_at = -1, arm_at = -1;  // when the last base / arm command arrived
   std::chrono::steady_clock::time_point wall0;
   double wall_s = 0;  // wall time while running
+  // Wall time of each lock-step round (advances sent -> last reply, drained): what a simulated control period
+  // costs in real time.
+  LatenessHistogram rounds;
+  std::chrono::steady_clock::time_point round0;
+  Nanos round_sim = 0;      // simulated time of the rounds' ticks
+  std::uint64_t ticked = 0;  // subscriber advances answered
 
   Nanos now() const { return steps * period; }
 
@@ -194,6 +200,7 @@ struct WorldNode::Impl {
     }
     if (due.empty()) return after_tick();
     waiting = static_cast<int>(due.size()) + 1;
+    round0 = std::chrono::steady_clock::now();
     const auto timeout = std::chrono::milliseconds(opts.tick_timeout_ms);
     std::weak_ptr<bool> a = alive;
     for (const auto id : due) {
@@ -208,11 +215,17 @@ struct WorldNode::Impl {
           drop(id, r.replied() ? "advance to " + std::to_string(to_seconds(t)) + " s refused: " + r.error
                                : "did not answer the advance to " + std::to_string(to_seconds(t)) + " s (" +
                                      r.error + ")");
-        } else if (auto it2 = subs.find(id); it2 != subs.end()) {
-          const auto& n = r.message.payload["next"];
-          it2->second.next = n.is_nil() ? std::nullopt : std::optional<Nanos>(n.as_int(0));
+        } else {
+          ++ticked;
+          if (auto it2 = subs.find(id); it2 != subs.end()) {
+            const auto& n = r.message.payload["next"];
+            it2->second.next = n.is_nil() ? std::nullopt : std::optional<Nanos>(n.as_int(0));
+          }
         }
-        if (--waiting == 0) after_tick();
+        if (--waiting == 0) {
+          rounds.record(std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - round0).count());
+          after_tick();
+        }
       });
     }
     if (--waiting == 0) after_tick();
@@ -254,6 +267,11 @@ struct WorldNode::Impl {
         .set("handle_angle", s.handle_angle)
         .set("gripper_state", static_cast<std::int64_t>(static_cast<int>(s.gripper)))
         .set("base_pose", array_of(pose, 3))
+        .set("rounds", static_cast<std::int64_t>(rounds.count()))
+        .set("advances", static_cast<std::int64_t>(ticked))
+        .set("round_p50_us", static_cast<double>(rounds.quantile(0.5)) / 1000.0)
+        .set("round_p99_us", static_cast<double>(rounds.quantile(0.99)) / 1000.0)
+        .set("round_max_us", static_cast<double>(rounds.max()) / 1000.0)
         .set("latched", world.latched())
         .set("grasping", world.grasping());
   }

@@ -16,7 +16,9 @@
 //   go {}         -> ok {now}   time starts (or resumes) flowing
 //   hold {}       -> ok {now}   time stops after the current tick
 //   status {}     -> ok {now, t, running, steps, wall_s, subscribers = [names], dropped = [reasons],
-//                       door_angle, handle_angle, gripper_state, base_pose = [x, y, yaw], latched, grasping}
+//                       door_angle, handle_angle, gripper_state, base_pose = [x, y, yaw], latched, grasping,
+//                       rounds, advances, round_p50_us, round_p99_us, round_max_us}: a round is one lock-step
+//                       tick with subscribers due (advances sent -> last reply), in wall time
 //
 // Each tick: the commands that arrived are applied (base and arm commands older than command_timeout count
 // as zero, as a drive's watchdog would; the gripper keeps its last command), the world steps one period to t;

@@ -144,6 +144,11 @@ function W:summary(wall, cb)
     if r.door_angle then lines[#lines + 1] = sformat("door opened to %.1f deg", math.deg(tonumber(r.door_angle) or 0)) end
     local t = tonumber(r.t) or 0
     lines[#lines + 1] = sformat("simulated %.3f s in %.3f s of wall-clock time", t, wall)
+    if tonumber(r.rounds) and r.rounds > 0 then
+      lines[#lines + 1] = sformat("lock-step: %d rounds, %d advances; wall time per round p50 %.0f us, p99 %.0f us, max %.0f us",
+        r.rounds, tonumber(r.advances) or 0, tonumber(r.round_p50_us) or 0, tonumber(r.round_p99_us) or 0,
+        tonumber(r.round_max_us) or 0)
+    end
     for _, d in ipairs(r.dropped or {}) do lines[#lines + 1] = "dropped from the clock: " .. tostring(d) end
     if #self.order > 0 then
       lines[#lines + 1] = "steps (simulated time, s):"
