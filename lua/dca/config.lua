@@ -266,4 +266,193 @@ function M.resolve_params(args, client, cb, what, expect)
   finish()
 end
 
+-- ------------------------------------------------------------------------------------ defaults files and seeding
+
+--- Reads a file of configuration defaults: one `key = value` per line, the value a Lua literal (0.45, 75,
+--- true, "right", {1, 2}); `#` or `--` starts a comment. --> { { key =, value =, line = }, ... } (in file
+--- order) | nil, "FILE:LINE:COL: what is wrong".
+function M.read_file(path)
+  local f, ferr = io.open(path, "r")
+  if not f then return nil, sformat("cannot read configuration file %s", tostring(ferr)) end
+  local out, seen, n = {}, {}, 0
+  for line in f:lines() do
+    n = n + 1
+    local text = line:match("^%s*[#-]") and (line:match("^%s*#") or line:match("^%s*%-%-")) and "" or line
+    if text:match("%S") then
+      local lead, key, eq, raw = text:match("^(%s*)([%w_%.%-]+)(%s*=%s*)(.-)%s*$")
+      local function fail(col, msg)
+        f:close()
+        return nil, sformat("%s:%d:%d: %s", path, n, col, msg)
+      end
+      if not key then
+        return fail(#text:match("^%s*") + 1, "expected `key = value`, got '" .. text:gsub("^%s+", "") .. "'")
+      end
+      local col = #lead + #key + #eq + 1
+      if key:sub(1, 1) == "." or key:sub(-1) == "." or key:find("..", 1, true) then
+        return fail(#lead + 1, "'" .. key .. "' is not a dotted key (like door.stop_distance)")
+      end
+      if raw == "" then return fail(col, "no value for " .. key) end
+      -- the value, else the value before a trailing `# comment` (a `#` inside a string is kept)
+      local ok, v = false, nil
+      for _, candidate in ipairs({ raw, (raw:gsub("%s+#[^\"']*$", "")), (raw:gsub("%s*#.*$", "")) }) do
+        local chunk = load("return " .. candidate, "=value", "t", {})
+        if chunk then ok, v = pcall(chunk) end
+        if ok and v ~= nil then raw = candidate break end
+      end
+      if not ok or v == nil or type(v) == "function" then
+        return fail(col, "the value of " .. key .. " is not a Lua literal (a number, true/false, a \"string\" or a {table}): " .. raw)
+      end
+      if seen[key] then return fail(#lead + 1, sformat("%s is set twice (first at line %d)", key, seen[key])) end
+      seen[key] = n
+      out[#out + 1] = { key = key, value = v, line = n }
+    end
+  end
+  f:close()
+  return out
+end
+
+local function same(a, b)
+  if type(a) ~= type(b) then return false end
+  if type(a) ~= "table" then return a == b end  -- 6.0 may come back as 6 (msgpack keeps the smaller form)
+  for k, v in pairs(a) do if not same(v, b[k]) then return false end end
+  for k in pairs(b) do if a[k] == nil then return false end end
+  return true
+end
+M.same = same
+
+--- Seeds a repository through the blocking client `c` (M.sync): each entry of `defaults` ({ { key, value } })
+--- whose key the repository lacks, and every key of `overrides` ({ key = value }) whatever it holds, written
+--- as one transaction. --> { seeded = n, kept = n, set = n, values = { key = value written } } | nil, err
+function M.seed(c, defaults, overrides)
+  local have, err = c:list("")
+  if not have then return nil, err end
+  local present = {}
+  for _, e in ipairs(have) do present[e.key] = true end
+  local values, r = {}, { seeded = 0, kept = 0, set = 0, values = {} }
+  for _, d in ipairs(defaults or {}) do
+    if present[d.key] then r.kept = r.kept + 1
+    elseif values[d.key] == nil then values[d.key] = d.value r.seeded = r.seeded + 1 end
+  end
+  for k, v in pairs(overrides or {}) do
+    if values[k] ~= nil then r.seeded = r.seeded - 1 elseif present[k] then r.kept = r.kept - 1 end
+    values[k] = v
+    r.set = r.set + 1
+  end
+  if next(values) == nil then return r end
+  local ok, serr = c:set(values)
+  if not ok then return nil, serr end
+  r.values = values
+  return r
+end
+
+--- Waits until the replica behind the blocking client `c` holds every key of `values` with that value
+--- (replication from the daemon that took the write), polling every 20 ms for at most `seconds`.
+--- --> true | nil, err naming the keys still missing
+function M.wait_for(c, values, seconds)
+  local deadline = core.now() + (seconds or 10)
+  local missing
+  repeat
+    missing = {}
+    local entries = c:list("")
+    local got = {}
+    for _, e in ipairs(entries or {}) do got[e.key] = e.value end
+    for k, v in pairs(values) do
+      if not same(got[k], v) then missing[#missing + 1] = k end
+    end
+    if #missing == 0 then return true end
+    c:wait(function() return false end, 0.02)
+  until core.now() > deadline
+  table.sort(missing)
+  return nil, sformat("%d key%s not replicated within %gs: %s", #missing, #missing == 1 and "" or "s",
+    seconds or 10, table.concat(missing, ", ", 1, math.min(#missing, 5)))
+end
+
+--- The defaults file of a system: FILE.config beside FILE.dca (door_open.dca -> door_open.config), when it
+--- exists. --> path | nil
+function M.defaults_file(dca_file)
+  if not dca_file then return nil end
+  local path = dca_file:gsub("%.dca$", "") .. ".config"
+  local f = io.open(path, "r")
+  if not f then return nil end
+  f:close()
+  return path
+end
+
+--- Seeds the repository of a run before its tree starts: the defaults file's keys the repository lacks and
+--- the `set` keys, written as one transaction on the daemon of `origin` (a host name of `hosts`, a map
+--- name -> address), then waits until the replica of every other host holds them (a controller's
+--- config("key") is read from its own host's replica). opts = { key_file =, file = defaults file | nil,
+--- set = { key = value } | nil, timeout = s (default 10) }. --> a line saying what was done | nil, err
+function M.seed_run(hosts, origin, opts)
+  local defaults = {}
+  if opts.file then
+    local d, err = M.read_file(opts.file)
+    if not d then return nil, err end
+    defaults = d
+  end
+  if #defaults == 0 and not (opts.set and next(opts.set)) then return nil end
+  local copts = { key_file = opts.key_file, timeout = opts.timeout }
+  local c, err = M.sync(hosts[origin], copts)
+  if not c then return nil, sformat("configuration repository of host %s: %s", tostring(origin), tostring(err)) end
+  local r, serr = M.seed(c, defaults, opts.set)
+  c:close()
+  if not r then return nil, sformat("configuration repository of host %s: %s", tostring(origin), tostring(serr)) end
+  local names = {}
+  for name in pairs(hosts) do if name ~= origin then names[#names + 1] = name end end
+  table.sort(names)
+  if next(r.values) then
+    for _, name in ipairs(names) do
+      local o, oerr = M.sync(hosts[name], copts)
+      if not o then return nil, sformat("configuration repository of host %s: %s", name, tostring(oerr)) end
+      local ok, werr = M.wait_for(o, r.values, opts.timeout or 10)
+      o:close()
+      if not ok then return nil, sformat("configuration repository of host %s: %s", name, werr) end
+    end
+  end
+  local parts = {}
+  if opts.file then
+    parts[#parts + 1] = sformat("%s: %d key%s seeded, %d already set", opts.file, r.seeded, r.seeded == 1 and "" or "s",
+      r.kept)
+  end
+  if r.set > 0 then parts[#parts + 1] = sformat("%d key%s set", r.set, r.set == 1 and "" or "s") end
+  return sformat("config: %s (on host %s%s)", table.concat(parts, "; "), tostring(origin),
+    #names > 0 and (", replicated to " .. table.concat(names, ", ")) or "")
+end
+
+--- Checks every config("key") argument of a supervisor spec (dca.supervisor_spec) against the repository of
+--- host `origin` before anything starts: the key exists and its value fits the parameter. The supervisors
+--- read them again at start from each leaf's own host. --> true | nil, the errors (one line each, naming the
+--- process, its host, the parameter and the key)
+function M.check_spec(hosts, origin, spec, opts)
+  local leaves = {}
+  local function walk(g)
+    for _, ch in ipairs(g.children or {}) do
+      if ch.kind == "group" then walk(ch.spec)
+      else
+        for _, a in ipairs(ch.args or {}) do
+          if M.param_key(a) then leaves[#leaves + 1] = ch break end
+        end
+      end
+    end
+  end
+  walk(spec)
+  if #leaves == 0 then return true end
+  local c, err = M.sync(hosts[origin], { key_file = opts and opts.key_file })
+  if not c then return nil, sformat("configuration repository of host %s: %s", tostring(origin), tostring(err)) end
+  local errors, left = {}, #leaves
+  for _, leaf in ipairs(leaves) do
+    M.resolve_params(leaf.args, c.client, function(_, rerr)
+      if rerr then errors[#errors + 1] = rerr end
+      left = left - 1
+    end, { process = leaf.path, host = leaf.host, params = leaf.params })
+  end
+  local finished = c:wait(function() return left == 0 end, c.client.timeout + 1)
+  c:close()
+  if not finished then
+    return nil, sformat("configuration repository of host %s: no answer within %gs", tostring(origin), c.client.timeout)
+  end
+  if #errors > 0 then table.sort(errors) return nil, table.concat(errors, "\n") end
+  return true
+end
+
 return M

@@ -28,6 +28,10 @@
 -- `status {}` (t, door_angle, base_pose, latched, ...), sys:world_read(port) its `read {port}` (the latest
 -- base.cmd_vel / arm.cmd_qd it received, or a sensor output such as arm.q), sys:world_hold() / world_go()
 -- stop and restart its time, sys:wait_world(what, pred(status), t) waits for a condition on its status.
+--
+-- Configuration: a system's config("key") parameters read the repository; S.system(file, { config = FILE,
+-- set = { key = value } }) seeds it as `dca run --config FILE --set KEY=VALUE` does (default: FILE.config
+-- beside the .dca file, when there is one). The memory backend reads the same values.
 -- A scenario that only makes sense on some backends says so: S.backends = {"real"} (the CMake then makes
 -- only those tests; another backend fails with a message saying so).
 --
@@ -122,17 +126,29 @@ function M.system(file, opts)
     error("a system in simulated time with a world (sim = " .. tostring(opts.sim) .. ") needs --backend real", 0)
   end
   local spec = opts.spec or M.spec(file, opts.root)
+  -- the configuration repository: opts.config (a defaults file; default FILE.config beside FILE.dca), then
+  -- opts.set = { key = value } over it, as `dca run --config/--set`
+  local cfg = require "dca.config"
+  local cfile = opts.config or (file and cfg.defaults_file(file)) or nil
   if M.backend == "real" then
     local s = require("dca.scenario_real").system(spec, { file = file, root = opts.root, sim = opts.sim,
       seed = opts.seed, door_width = opts.door_width, jammed = opts.jammed, world_host = opts.world_host,
-      record = opts.record })
+      record = opts.record, config = cfile, set = opts.set })
     s.commands, s.host = System.commands, System.host
     systems[#systems + 1] = s
     return s
   end
   local fake = require "dca.supervisor_fake"
   local behave = setmetatable(opts.behave or {}, { __index = M.behave })
-  local c = fake.cluster{ behave = behave, timeouts = opts.timeouts, heartbeat = opts.heartbeat or { 1, 5 } }
+  local repo = {}
+  if cfile then
+    local entries, cerr = cfg.read_file(cfile)
+    if not entries then error(cerr, 0) end
+    for _, e in ipairs(entries) do repo[e.key] = e.value end
+  end
+  for k, v in pairs(opts.set or {}) do repo[k] = v end
+  local c = fake.cluster{ behave = behave, timeouts = opts.timeouts, heartbeat = opts.heartbeat or { 1, 5 },
+                          config = repo }
   local s = setmetatable({ spec = spec, c = c, file = file, root = opts.root, backend = "memory" }, System)
   c:root(spec, { timeouts = opts.timeouts })
   systems[#systems + 1] = s
@@ -286,6 +302,49 @@ function System:alive() return self.c:alive() end
 
 
 function System:now() return self.c.t end
+
+--- The configuration repository as a host sees it (memory backend: one content shared by every host, a write
+--- seen at once everywhere): get(key), set(key, value) or set{ key = value }, list(prefix), watch(prefix)
+--- --> a list the changes below prefix are appended to ({ key, value, origin }). Errors raise.
+function System:config(host)
+  local c = self.c
+  c.config = c.config or {}
+  c.config_watchers = c.config_watchers or {}
+  local repo = {}
+  function repo.get(_, key)
+    local v = c.config[key]
+    if v == nil then error(sformat("unknown key '%s' on host %s", tostring(key), tostring(host)), 2) end
+    return v
+  end
+  function repo.set(_, key, value)
+    local values = type(key) == "table" and key or { [key] = value }
+    for k, v in pairs(values) do
+      c.config[k] = v
+      for _, w in ipairs(c.config_watchers) do
+        if k == w.prefix or w.prefix == "" or k:sub(1, #w.prefix + 1) == w.prefix .. "." then
+          w.events[#w.events + 1] = { key = k, value = v, origin = host }
+        end
+      end
+    end
+    return true
+  end
+  function repo.list(_, prefix)
+    local out = {}
+    for k, v in pairs(c.config) do
+      if not prefix or prefix == "" or k == prefix or k:sub(1, #prefix + 1) == prefix .. "." then
+        out[#out + 1] = { key = k, value = v }
+      end
+    end
+    table.sort(out, function(a, b) return a.key < b.key end)
+    return out
+  end
+  function repo.watch(_, prefix)
+    local w = { prefix = prefix or "", events = {} }
+    c.config_watchers[#c.config_watchers + 1] = w
+    return w.events
+  end
+  return repo
+end
 
 --- Stops the whole tree (LIFO) and checks nothing is left.
 function System:stop()

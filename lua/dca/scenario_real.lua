@@ -63,6 +63,14 @@ function System:start_hosts()
                                                   clock = self.opts.sim and "sim" or nil })
   if not set then return false, err end
   self.daemons = set
+  -- the configuration repository, as `dca run` seeds it (defaults file, then `set`)
+  local used = {}
+  for _, h in ipairs(names) do used[h] = set.hosts[h] end
+  local config = require "dca.config"
+  local origin = (self.spec.host and used[self.spec.host]) and self.spec.host or names[1]
+  local line, cerr = config.seed_run(used, origin, { key_file = key, file = self.opts.config, set = self.opts.set })
+  if cerr then return false, cerr end
+  if line then self.lines[#self.lines + 1] = line end
   return true
 end
 
@@ -248,6 +256,39 @@ function System:_daemon(host)
   return ch
 end
 
+--- The configuration repository of `host`'s daemon (default: the first host): get(key), set(key, value) or
+--- set{ key = value } (one transaction), list(prefix), log(n), watch(prefix) --> a list the changes below
+--- prefix are appended to ({ key, value, origin }), local or replicated (sys:wait lets them arrive). Errors raise.
+function System:config(host)
+  host = host or spec_mod.hosts(self.spec)[1]
+  self.configs = self.configs or {}
+  if self.configs[host] then return self.configs[host] end
+  local addr = self.daemons and self.daemons.hosts[host]
+  if not addr then error("no daemon for host " .. tostring(host) .. " (is the system up?)", 2) end
+  local config = require "dca.config"
+  local c, err = config.sync(addr, { key_file = self.key })
+  if not c then error("configuration repository of host " .. host .. ": " .. tostring(err), 2) end
+  local function check(v, e)
+    if e then error("configuration repository of host " .. host .. ": " .. tostring(e), 3) end
+    return v
+  end
+  local repo = {}
+  function repo.get(_, key) return check(c:get(key)) end
+  function repo.set(_, key, value)
+    return check(c:set(type(key) == "table" and key or { [key] = value }))
+  end
+  function repo.list(_, prefix) return check(c:list(prefix)) end
+  function repo.log(_, n) return check(c:log(n)) end
+  function repo.watch(_, prefix)
+    local events = {}
+    check(c:watch(prefix or "", function(ev) events[#events + 1] = ev end))
+    return events
+  end
+  repo.client = c
+  self.configs[host] = repo
+  return repo
+end
+
 -- The pid of the process registered as `path` (node or supervisor), from its host's daemon.
 function System:pid(path)
   local host
@@ -341,6 +382,8 @@ function System:reload(file)
 end
 
 function System:stop()
+  for _, r in pairs(self.configs or {}) do r.client:close() end
+  self.configs = nil
   if self.sup then self:_ask(function(k) self.sup:shutdown(k) end, 100, "the stop") end
   if self.world then
     -- then the world (a child of its host's daemon, so counted by alive())

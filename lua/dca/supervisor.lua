@@ -149,58 +149,77 @@ local function countdown(n, done)
 end
 
 -- Phase 1: every child process started (inactive); groups configured (their subtree up and wired).
+-- A failure is reported (cb(false, reason), the first one) only once every spawn in flight has answered or
+-- timed out, so that the shutdown which follows finds every process that was started; a handle that still
+-- arrives after that (a spawn answered after its timeout) is killed on arrival.
 function Sup:_start_children(cb)
-  local failed = false
+  local failed, reason, finished = false, nil, false
   local names = {}
   for _, c in ipairs(self.spec.children) do names[#names + 1] = c.name end
-  local tick = countdown(#names, function() if not failed then cb(true) end end)
+  local outstanding = #names
+  local function settle_one()
+    outstanding = outstanding - 1
+    if outstanding == 0 and not finished then
+      finished = true
+      if failed then cb(false, reason) else cb(true) end
+    end
+  end
+  local function fail(why)
+    if not failed then failed, reason = true, why end
+  end
+  if outstanding == 0 then finished = true cb(true) return end
   for _, name in ipairs(names) do
     local ch = self.children[name]
     ch.state = "starting"
-    local timer
+    local timer, answered = nil, false
     timer = self.rt.after(self.timeouts.spawn, function()
-      if ch.state == "starting" and not failed then
-        failed = true
-        cb(false, sformat("%s (%s on host %s) did not start within %gs", ch.path, ch.kind == "group" and "supervisor"
+      if ch.state == "starting" and not answered then
+        answered = true
+        fail(sformat("%s (%s on host %s) did not start within %gs", ch.path, ch.kind == "group" and "supervisor"
           or "node", tostring(ch.host), self.timeouts.spawn))
+        settle_one()
       end
     end)
     self.rt.spawn(ch.spec, function(handle, err)
       if timer then timer:cancel() end
-      if failed then
-        if handle then ch.handle = handle self.order[#self.order + 1] = name ch.state = "inactive" end
+      if answered then
+        -- too late: the start already failed; whatever started is stopped at once
+        if handle then handle.kill("KILL") end
         return
       end
       if not handle then
+        answered = true
         ch.state = "failed"
-        failed = true
-        cb(false, sformat("%s: could not start on host %s: %s", ch.path, tostring(ch.host), tostring(err)))
+        fail(sformat("%s: could not start on host %s: %s", ch.path, tostring(ch.host), tostring(err)))
+        settle_one()
         return
       end
       ch.handle = handle
       self.order[#self.order + 1] = name
-      if ch.kind == "leaf" then
+      if ch.kind == "leaf" or failed then
+        -- (a group is not configured once the start has failed: the shutdown stops its supervisor)
+        answered = true
         ch.state = "inactive"
-        tick()
-      else
-        ch.state = "configuring"
-        handle.request({ type = "configure", spec = ch.spec.spec, progress = self.progress, hosts = self.hosts,
-                         timeouts = self.timeouts_override },
-          self.timeouts.configure, function(reply, rerr, error_reply)
-            if failed then return end
-            if not reply or reply.type == "error" then
-              ch.state = "failed"
-              failed = true
-              -- an error reply carries the child's own reason (naming what failed below it); else no answer
-              cb(false, reply and reply.reason or (error_reply and rerr) or
-                sformat("%s (supervisor on host %s) did not answer: %s", ch.path, tostring(ch.host), tostring(rerr)))
-              return
-            end
+        settle_one()
+        return
+      end
+      ch.state = "configuring"
+      handle.request({ type = "configure", spec = ch.spec.spec, progress = self.progress, hosts = self.hosts,
+                       timeouts = self.timeouts_override },
+        self.timeouts.configure, function(reply, rerr, error_reply)
+          if answered then return end
+          answered = true
+          if not reply or reply.type == "error" then
+            ch.state = "failed"
+            -- an error reply carries the child's own reason (naming what failed below it); else no answer
+            fail(reply and reply.reason or (error_reply and rerr) or
+              sformat("%s (supervisor on host %s) did not answer: %s", ch.path, tostring(ch.host), tostring(rerr)))
+          else
             ch.state = "inactive"
             self:_watch(name, handle)
-            tick()
-          end)
-      end
+          end
+          settle_one()
+        end)
     end)
   end
 end

@@ -13,8 +13,10 @@
 --   c:settle(max_t)                         -- processes events (and virtual time up to max_t)
 --   c:node(path):done(v) / :aborted(reason) -- a leaf's events
 --   c:kill(path, "SEGV") ; c:lose_host("h3") ; c:fail_spawn[path] = "reason" | "silent" ; c:freeze(path)
+--   c.spawn_delay[path] = seconds            -- that process starts only after this much virtual time
 --   fake.cluster{ heartbeat = { period, silence } }  -- supervisors ping their child supervisors
 --   fake.cluster{ types = { T = manifest }, world = true }  -- device ports, wired to the fake `world` node
+--   fake.cluster{ config = { ["door.stop_distance"] = 0.45 } } -- the repository config("key") arguments read
 --   c.trace      -- every delivered message: { from =, to =, type = , kind = "request"|"reply"|"event" }
 --   c.commands   -- every command a node received: "path type [set]"
 local supervisor = require "dca.supervisor"
@@ -53,9 +55,9 @@ function M.cluster(opts)
   local c = setmetatable({
     t = 0, queue = {}, qhead = 1, qtail = 0, timers = {}, tseq = 0,
     behave = opts.behave or {}, nodes = {}, sups = {}, procs = {},
-    trace = {}, commands = {}, reports = {}, fail_spawn = {}, lost_hosts = {},
+    trace = {}, commands = {}, reports = {}, fail_spawn = {}, spawn_delay = {}, lost_hosts = {},
     outcome = nil, timeouts = opts.timeouts, lines = {}, pid = 100, heartbeat = opts.heartbeat,
-    types = opts.types,
+    types = opts.types, config = opts.config,
   }, Cluster)
   if opts.world then c:add_world(opts.world_host) end
   return c
@@ -204,7 +206,32 @@ function Cluster:_spawn(owner_sup, child, cb)
   local mode = c.fail_spawn[child.path]
   if c.lost_hosts[child.host] then mode = "host " .. child.host .. " unreachable" end
   if mode == "silent" then return end
+  local delay = c.spawn_delay[child.path]
+  if delay and not child.delayed then
+    c:after(delay, function() c:_spawn(owner_sup, setmetatable({ delayed = true }, { __index = child }), cb) end)
+    return
+  end
   if mode then c:push(function() cb(nil, mode) end) return end
+  if child.kind == "leaf" and not child.resolved then
+    -- config("key") arguments: read from the cluster's repository (opts.config, one content for every host)
+    local cfg = require "dca.config"
+    local needs = false
+    for _, a in ipairs(child.args or {}) do if cfg.param_key(a) then needs = true end end
+    if needs then
+      local repo = c.config or {}
+      local client = { get = function(_, key, k)
+        c:push(function()
+          if repo[key] == nil then k(nil, sformat("unknown key '%s' on host %s", key, tostring(child.host)))
+          else k(copy(repo[key])) end
+        end)
+      end }
+      cfg.resolve_params(child.args, client, function(args, err)
+        if not args then cb(nil, err) return end
+        c:_spawn(owner_sup, setmetatable({ args = args, resolved = true }, { __index = child }), cb)
+      end, { params = child.params })
+      return
+    end
+  end
   local p = c:_proc(child.path, child.host, child.kind)
   p.on_exit = function(reason) owner_sup:child_exit(child.name, reason) end
   if child.kind == "leaf" then

@@ -3,7 +3,9 @@
 --   local hosts = require "dca.supervisor_hosts"
 --   local map, err = hosts.read_file(path)            -- "name address" per line, # comments
 --   local key = hosts.fresh_key()                      -- a new 0600 key file in a fresh 0700 temp dir
---   local set = hosts.start_local(names, { exe =, key =, clock = "wall"|"sim", log_dir = })
+--   local set = hosts.start_local(names, { exe =, key =, clock = "wall"|"sim", log_dir =, state_dir = })
+--   -- state_dir: each daemon's configuration replica in STATE_DIR/<name> (default: a fresh directory, removed
+--   -- by set:stop())
 --   -- set.hosts = { name = "127.0.0.1:PORT" }, set.pids = { name = pid }; set:stop() (LIFO, waits for /proc)
 local M = {}
 
@@ -95,6 +97,15 @@ Set.__index = Set
 function M.start_local(names, opts)
   local ports = M.free_ports(#names)
   local set = setmetatable({ hosts = {}, pids = {}, order = {}, logs = {}, opts = opts }, Set)
+  -- the configuration replicas: DIR/<host> under opts.state_dir (kept), else a fresh directory of this set
+  -- (removed by stop): a run never shares, nor finds, the repository of another run unless asked to
+  local state = opts.state_dir
+  if not state then
+    state = os.tmpname()
+    os.remove(state)
+    set.own_state = state
+  end
+  set.state_dir = state
   for i, name in ipairs(names) do set.hosts[name] = "127.0.0.1:" .. ports[i] end
   for _, name in ipairs(names) do
     local argv = { opts.exe, "daemon", "--host", name, "--listen", set.hosts[name], "--key", opts.key }
@@ -102,6 +113,8 @@ function M.start_local(names, opts)
       if other ~= name then argv[#argv + 1] = "--peer" argv[#argv + 1] = set.hosts[other] end
     end
     if opts.clock then argv[#argv + 1] = "--clock" argv[#argv + 1] = opts.clock end
+    argv[#argv + 1] = "--state-dir"
+    argv[#argv + 1] = state .. "/" .. name
     local q = {}
     for i, a in ipairs(argv) do q[i] = sh_quote(a) end
     local log = (opts.log_dir or "/tmp") .. "/" .. name .. ".log"
@@ -156,6 +169,7 @@ function Set:stop(signal)
     if pid and M.alive(pid) then os.execute("kill -KILL " .. pid .. " 2>/dev/null") end
   end
   self.order = {}
+  if self.own_state then os.execute("rm -rf " .. sh_quote(self.own_state)) self.own_state = nil end
 end
 
 return M

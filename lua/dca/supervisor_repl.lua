@@ -28,6 +28,11 @@ restart(path)                 abort a group's expression and start it again (new
 activate(path, label)         activate / deactivate a connection set of a process
 deactivate(path, label)
 reload()                      re-read the system file (and reload("modules") the supervisor's Lua)
+config.get(key)               the configuration repository of this supervisor's host (replicated to all):
+config.set(key, value)          a value; write one key (or config.set{ key = value, ... }: one transaction)
+config.list(prefix)             the keys below prefix; the last n transactions and the conflicts (the
+config.log(n)                   losing writes); print each change below prefix, local or replicated, as
+config.watch(prefix)            a console line (config.unwatch(prefix) stops)
 help()                        this text
 Any other Lua is evaluated here, in the supervisor; `return` is implied for expressions.
 Paths are full (main.door.hit) or any unique suffix (door.hit).]]
@@ -178,6 +183,54 @@ function Repl:_env()
     local lines = await(function(k) repl.opts.reload(what, k) end)
     say(concat(lines, "\n"))
   end
+  -- the configuration repository of this supervisor's host
+  local cli_config = require "dca.cli.config"
+  local function repo()
+    if not sup.rt.config_client then error("this supervisor has no configuration repository", 0) end
+    local c, err = await(function(k) sup.rt.config_client(k) end)
+    if not c then error(err, 0) end
+    return c
+  end
+  local function ask(fn)
+    local r, err = await(fn)
+    if err then error(err, 0) end
+    return r
+  end
+  env.config = {
+    get = function(key)
+      local c = repo()
+      return ask(function(k) c:get(key, k) end)
+    end,
+    set = function(key, value)
+      local values = type(key) == "table" and key or { [key] = value }
+      local c = repo()
+      local r = ask(function(k) c:set(values, k) end)
+      return sformat("set %d key%s: transaction %d of %s", r.keys, r.keys == 1 and "" or "s", r.seq, r.origin)
+    end,
+    list = function(prefix)
+      local c = repo()
+      local entries = ask(function(k) c:list(prefix, k) end)
+      local lines = {}
+      for _, e in ipairs(entries) do lines[#lines + 1] = e.key .. " = " .. cli_config.render(e.value) end
+      return #lines > 0 and concat(lines, "\n") or "(no keys)"
+    end,
+    log = function(n)
+      local c = repo()
+      return cli_config.format_log(ask(function(k) c:log(n or 20, k) end))
+    end,
+    watch = function(prefix)
+      local c = repo()
+      ask(function(k) c:watch(prefix or "", function(ev)
+        sup:say("config: %s = %s (written on %s)", tostring(ev.key), cli_config.render(ev.value), tostring(ev.origin))
+      end, k) end)
+      return sformat("watching %s on host %s", prefix and prefix ~= "" and prefix or "every key", tostring(c.host))
+    end,
+    unwatch = function(prefix)
+      local c = repo()
+      ask(function(k) c:unwatch(prefix or "", k) end)
+      return "stopped watching " .. (prefix and prefix ~= "" and prefix or "every key")
+    end,
+  }
   env.sup = sup
   return setmetatable(env, { __index = _G })
 end

@@ -11,6 +11,7 @@
 --   rt.bind(sup)           -- the supervisor whose children this runtime starts (after supervisor.new)
 --   rt.reply(ch, req, msg) -- answers a request that arrived on a channel
 local core = require "dca.core"
+local config = require "dca.config"
 
 local M = {}
 
@@ -145,6 +146,7 @@ function M.new(opts)
       end
       d.ch = ch
       ch:on_message(function(msg)
+        if d.config and d.config:event(msg) then return end
         if msg.type == "exit" then
           local rec = rt.by_child[host .. ":" .. tostring(msg.child)]
           if rec and not rec.exited then
@@ -180,10 +182,34 @@ function M.new(opts)
     end)
   end
 
-  --- Starts `child` (a spec child) inactive on its host; cb(handle) | cb(nil, reason).
+  --- Starts `child` (a spec child) inactive on its host; cb(handle) | cb(nil, reason). A leaf's
+  --- `config("key")` arguments are read first from the configuration replica of its host's daemon (and
+  --- checked against the parameter's type): a missing key or a wrong type fails the start, naming the
+  --- parameter and the key.
   function rt.spawn(child, cb)
     daemon(child.host, function(dch, err)
       if not dch then cb(nil, err) return end
+      if child.kind == "leaf" and not child.resolved then
+        local needs = false
+        for _, a in ipairs(child.args or {}) do if config.param_key(a) then needs = true end end
+        if needs then
+          config.resolve_params(child.args, config.over_channel(dch, timeouts.lookup), function(args, rerr)
+            if not args then cb(nil, rerr) return end
+            for i, a in ipairs(args) do
+              local key = config.param_key(child.args[i])
+              local t = type(a)
+              if key and t ~= "number" and t ~= "string" and t ~= "boolean" then
+                cb(nil, sformat("parameter %d (config key '%s'): the value is a %s; a controller parameter is a "
+                  .. "number, a string or a boolean", i, key, t))
+                return
+              end
+            end
+            local c2 = setmetatable({ args = args, resolved = true }, { __index = child })
+            rt.spawn(c2, cb)
+          end, { params = child.params })
+          return
+        end
+      end
       local addr = opts.hosts[child.host]
       local argv
       if child.kind == "leaf" then
@@ -305,6 +331,24 @@ function M.new(opts)
         end)
       end)
     end
+  end
+
+  --- The configuration repository of this supervisor's host (opts.daemon_host, else the first host): a
+  --- dca.config client over that daemon's channel, its watch events delivered. cb(client) | cb(nil, err)
+  function rt.config_client(cb)
+    local host = opts.daemon_host
+    if not host then
+      local names = {}
+      for h in pairs(opts.hosts or {}) do names[#names + 1] = h end
+      table.sort(names)
+      host = names[1]
+    end
+    daemon(host, function(dch, derr)
+      if not dch then cb(nil, derr) return end
+      local d = rt.daemons[host]
+      if not d.config then d.config = config.over_channel(dch) d.config.host = host end
+      cb(d.config)
+    end)
   end
 
   --- A request to the robot process registered as `world` (dca sim --serve, or a robot's driver), looked up

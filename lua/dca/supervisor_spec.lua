@@ -9,7 +9,10 @@
 --     expr = "MotionControl , (...)", expr_line = 40, expr_col = 5, -- internal_event_actions (nil: none)
 --     children = {                                                  -- in declaration order
 --       { name = "hit", path = "main.door.hit", kind = "leaf", type = "Threshold", host = "h1",
---         args = { 2.5 } },                                         -- the .dca arguments after the host
+--         args = { 2.5 },                                           -- the .dca arguments after the host;
+--                                                                   -- { config = "door.stop_distance" }
+--                                                                   -- for config("door.stop_distance")
+--         params = { { name = "distance", type = "number" } } },    -- the manifest's parameters (if known)
 --       { name = "mc", path = "main.door.mc", kind = "group", type = "MotionControl", host = "h3",
 --         spec = <the child's group spec> },
 --     },
@@ -149,8 +152,17 @@ function M.from_model(node, file, default_host)
     else
       local args = {}
       for i, v in ipairs(c.params or {}) do args[i] = v end
+      -- the type's parameter names and types, when its manifest is known: a `config("key")` argument is
+      -- resolved at start and its value checked against them (errors name the parameter)
+      local info
+      if c.manifest and c.manifest.params then
+        info = {}
+        for i, pm in ipairs(c.manifest.params) do
+          info[i] = type(pm) == "table" and { name = pm.name, type = pm.type } or { name = tostring(pm) }
+        end
+      end
       spec.children[#spec.children + 1] = { name = c.name, path = c.path, kind = "leaf", type = c.type,
-                                            host = c.host, args = args }
+                                            host = c.host, args = args, params = info }
     end
   end
   for _, x in ipairs(proc.external_io or {}) do

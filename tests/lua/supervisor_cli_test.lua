@@ -130,6 +130,16 @@ process main() {
   T.eq(rc, 0, out)
   T.contains(out, "Threshold@h2")
   T.contains(out, "running")
+  -- the configuration repository of the supervisor's host (h2), from its console
+  out, rc = T.sh(string.format("printf '%%s\n' 'config.set(\"door.width\", 0.9)' 'config.get(\"door.width\")' "
+    .. "'config.list(\"door\")' 'config.log(1)' 'config.get(\"door.widht\")' | %s repl main.g --daemon %s --key %s",
+    dca, h2, key))
+  T.eq(rc, 0, out)
+  T.contains(out, "set 1 key: transaction")
+  T.contains(out, "\n0.9\n")
+  T.contains(out, "door.width = 0.9")
+  T.contains(out, "(host h2,")
+  T.contains(out, "unknown key 'door.widht' (did you mean door.width?)")
   -- the root, at the address dca run printed
   local root = text:match("console: dca repl main %-%-daemon (%S+)")
   out, rc = T.sh(string.format("printf 'tree()\n' | %s repl main --daemon %s --key %s", dca, root, key))
@@ -172,6 +182,80 @@ suite:case("run_sim_starts_the_world_wires_device_ports_stamps_simulated_time_an
   T.eq(tonumber(a), 0)
   T.ok(tonumber(b) >= 0.5 - 1e-9, "0.5 s of simulated time at least: " .. a .. " - " .. b)
   T.ok(out:find("main%.laser  stopped") or out:find("main%.laser  aborted"), out)
+  os.remove(path)
+end)
+
+-- A Timer on h2 whose seconds come from the configuration repository (the root's defaults are written on h1's
+-- replica: h2's must have them before the start); the step's end in simulated time shows the value used.
+local CONFIGURED = [[
+process main() {
+  instantiated_processes {
+    laser instof LaserSensor("h1");
+    stop  instof Timer("h2", config("test.wait"));
+  }
+  internal_event_actions { stop # laser }
+}
+]]
+
+local function timer_end(out)
+  local a, b = out:match("(%d+%.%d+) %-  *(%d+%.%d+)  main%.stop  done")
+  return tonumber(b)
+end
+
+suite:case("run_reads_config_parameters_from_the_defaults_file_and_set_and_keeps_them_in_a_state_dir", function()
+  local path = tmpfile(CONFIGURED)
+  local defaults = path:gsub("%.dca$", ".config")
+  local f = assert(io.open(defaults, "w"))
+  f:write("# the Timer's wait\ntest.wait = 0.3\n")
+  f:close()
+  -- the defaults file beside the system
+  local out, rc = T.sh(dca .. " run " .. path .. " --sim door")
+  T.eq(rc, 0, out)
+  T.contains(out, "config: " .. defaults .. ": 1 key seeded, 0 already set (on host h1, replicated to h2)")
+  local t = timer_end(out)
+  T.ok(t and t >= 0.3 - 1e-9 and t < 0.45, "the Timer waited test.wait = 0.3 s: " .. tostring(t) .. "\n" .. out)
+  -- --set wins over the defaults; a state dir keeps the repository for the next run, whose defaults then
+  -- do not overwrite it
+  local state = os.tmpname()
+  os.remove(state)
+  out, rc = T.sh(dca .. " run " .. path .. " --sim door --state-dir " .. state .. " --set test.wait=0.6")
+  T.eq(rc, 0, out)
+  T.contains(out, "0 keys seeded, 0 already set; 1 key set")
+  t = timer_end(out)
+  T.ok(t and t >= 0.6 - 1e-9 and t < 0.75, "--set test.wait=0.6: " .. tostring(t) .. "\n" .. out)
+  out, rc = T.sh(dca .. " run " .. path .. " --sim door --state-dir " .. state)
+  T.eq(rc, 0, out)
+  T.contains(out, "0 keys seeded, 1 already set")
+  t = timer_end(out)
+  T.ok(t and t >= 0.6 - 1e-9 and t < 0.75, "the kept repository's 0.6: " .. tostring(t) .. "\n" .. out)
+  T.ok(io.open(state .. "/h2/config.db", "r") ~= nil, "h2's replica is in the state dir")
+  os.execute("rm -rf " .. state)
+  os.remove(path)
+  os.remove(defaults)
+end)
+
+suite:case("run_with_an_unknown_config_key_or_a_wrong_type_names_process_parameter_and_key_and_starts_nothing", function()
+  local path = tmpfile((CONFIGURED:gsub('config%("test.wait"%)', 'config("test.wiat")')))
+  local out, rc = T.sh(dca .. " run " .. path .. " --sim door --set test.wait=0.3")
+  T.eq(rc, 2, out)
+  T.contains(out, "process main.stop on host h2: parameter 1 'seconds' (config key 'test.wiat'): unknown key "
+    .. "'test.wiat' (did you mean test.wait?)")
+  T.ok(not out:find("starting", 1, true), "nothing started:\n" .. out)
+  os.remove(path)
+  path = tmpfile(CONFIGURED)
+  out, rc = T.sh(dca .. " run " .. path .. " --sim door --set 'test.wait=\"soon\"'")
+  T.eq(rc, 2, out)
+  T.contains(out, "process main.stop on host h2: parameter 1 'seconds' (config key 'test.wait'): the value \"soon\" "
+    .. "is a string, not a number")
+  -- a defaults file that is not `key = value` is named with its line and column
+  local defaults = path:gsub("%.dca$", ".config")
+  local f = assert(io.open(defaults, "w"))
+  f:write("test.wait = 0.3\ntest.other 2\n")
+  f:close()
+  out, rc = T.sh(dca .. " run " .. path .. " --sim door")
+  T.eq(rc, 2, out)
+  T.contains(out, defaults .. ":2:1: expected `key = value`")
+  os.remove(defaults)
   os.remove(path)
 end)
 

@@ -175,6 +175,63 @@ suite:case("a_part_that_fails_to_start_fails_the_start_by_name_and_nothing_is_le
   T.eq(c:alive(), {}, "everything already started is stopped")
 end)
 
+-- The door tree with `config("key")` arguments in a leaf two groups down (the hit threshold's force).
+local function door_with_config(key)
+  local s = door()
+  local hitg = spec_mod.child(spec_mod.child(s, "door").spec, "hitg").spec
+  local hit = spec_mod.child(hitg, "hit")
+  hit.args = { { config = key }, 3 }
+  hit.params = { { name = "force", type = "number" }, { name = "samples", type = "integer" } }
+  return s
+end
+
+suite:case("config_parameters_are_read_from_the_repository_at_start", function()
+  local c = fake.cluster{ behave = behave, config = { ["door.hit_force"] = 6.5 } }
+  c:root(door_with_config("door.hit_force"))
+  T.eq(c:configure(), true)
+  T.eq(c:node("main.door.hitg.hit").args, { 6.5, 3 }, "the node starts with the repository's value")
+end)
+
+suite:case("an_unknown_config_key_fails_the_start_naming_process_parameter_and_key", function()
+  local c = fake.cluster{ behave = behave, config = { ["door.hit_force"] = 6.5 } }
+  c:root(door_with_config("door.hit_forse"))
+  local ok, err = c:configure()
+  T.eq(ok, false)
+  T.contains(err, "main.door.hitg.hit")
+  T.contains(err, "parameter 1 'force'")
+  T.contains(err, "config key 'door.hit_forse'")
+  T.contains(err, "unknown key")
+  c:settle()
+  T.eq(c:alive(), {}, "everything already started is stopped")
+end)
+
+suite:case("a_config_value_of_the_wrong_type_fails_the_start_naming_the_parameter", function()
+  local c = fake.cluster{ behave = behave, config = { ["door.hit_force"] = "strong" } }
+  c:root(door_with_config("door.hit_force"))
+  local ok, err = c:configure()
+  T.eq(ok, false)
+  T.contains(err, "main.door.hitg.hit")
+  T.contains(err, "parameter 1 'force' (config key 'door.hit_force'): the value \"strong\" is a string, not a number")
+  c:settle()
+  T.eq(c:alive(), {})
+end)
+
+suite:case("a_failed_start_waits_for_the_spawns_in_flight_and_stops_them_too", function()
+  local s = root("main", "h1", "a , b , c", {
+    leaf("a", "Timer", "h1", { 1 }), leaf("b", "Timer", "h2", { 1 }), leaf("c", "Timer", "h3", { 1 }) })
+  local c = fake.cluster{ behave = behave, timeouts = { spawn = 2 } }
+  c.fail_spawn["main.a"] = "no such controller type 'Timer'"
+  c.spawn_delay["main.b"] = 1     -- answers after a's failure, within the spawn timeout
+  c.spawn_delay["main.c"] = 3     -- answers after the spawn timeout: killed when it arrives
+  c:root(s, { timeouts = { spawn = 2 } })
+  local ok, err = c:configure()
+  T.eq(ok, false)
+  T.contains(err, "main.a: could not start on host h1: no such controller type 'Timer'")
+  c:settle(10)
+  T.eq(c:alive(), {}, "b, started after a failed, and c, started after its timeout, are stopped")
+  T.ok(c:node("main.b") ~= nil and c:node("main.c") ~= nil, "both did start")
+end)
+
 suite:case("a_part_that_does_not_answer_times_out_by_name", function()
   local c = fake.cluster{ behave = behave, timeouts = { spawn = 2 } }
   c.fail_spawn["main.door.mc.base"] = "silent"

@@ -53,7 +53,10 @@ function M.tree_text(tree)
     if n.host ~= nil then parts[#parts + 1] = " @" .. tostring(n.host) end
     if n.kind == "leaf" and #n.params > 0 then
       local ps = {}
-      for i, v in ipairs(n.params) do ps[i] = type(v) == "string" and string.format("%q", v) or tostring(v) end
+      for i, v in ipairs(n.params) do
+        ps[i] = type(v) == "string" and string.format("%q", v)
+          or (type(v) == "table" and v.config and string.format("config(%q)", v.config)) or tostring(v)
+      end
       parts[#parts + 1] = " (" .. table.concat(ps, ", ") .. ")"
     elseif n.kind == "group" and n.process.actions and n.process.actions.expr then
       parts[#parts + 1] = "  { " .. algebra.tostring(n.process.actions.expr) .. " }"

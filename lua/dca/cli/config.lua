@@ -49,6 +49,23 @@ local function stamp_text(s)
 end
 M.stamp_text = stamp_text
 
+--- The text of a `config_log` reply: the replica, its transactions and its conflicts, newest first.
+function M.format_log(log)
+  local out = { string.format("replica %s (host %s, %s): %d transactions", log.replica, log.host, log.path,
+    log.transactions), "transactions, newest first:" }
+  for _, t in ipairs(log.txns or {}) do
+    local ws = {}
+    for _, w in ipairs(t.writes or {}) do ws[#ws + 1] = w.key .. " = " .. render(w.value) end
+    out[#out + 1] = string.format("  %s #%d  %s  %s", t.origin, t.seq, stamp_text(t.stamp), table.concat(ws, ", "))
+  end
+  out[#out + 1] = "conflicts, newest first:" .. (#(log.conflicts or {}) == 0 and " none" or "")
+  for _, x in ipairs(log.conflicts or {}) do
+    out[#out + 1] = string.format("  %s: %s (%s) won over %s (%s)", x.key, render(x.winner.value),
+      stamp_text(x.winner.stamp), render(x.loser.value), stamp_text(x.loser.stamp))
+  end
+  return table.concat(out, "\n")
+end
+
 --- Parses "KEY=VALUE": the key, and the value as a Lua literal (else the text itself). nil, err when no '='.
 function M.parse_assignment(text)
   local key, raw = text:match("^([^=]+)=(.*)$")
@@ -131,19 +148,7 @@ function M.main(args)
   elseif cmd == "log" then
     local log, e = c:log(tonumber(words[2]) or 20)
     if not log then return fail(e) end
-    io.write(string.format("replica %s (host %s, %s): %d transactions\n", log.replica, log.host, log.path,
-      log.transactions))
-    io.write("transactions, newest first:\n")
-    for _, t in ipairs(log.txns or {}) do
-      local ws = {}
-      for _, w in ipairs(t.writes or {}) do ws[#ws + 1] = w.key .. " = " .. render(w.value) end
-      io.write(string.format("  %s #%d  %s  %s\n", t.origin, t.seq, stamp_text(t.stamp), table.concat(ws, ", ")))
-    end
-    io.write("conflicts, newest first:", #(log.conflicts or {}) == 0 and " none\n" or "\n")
-    for _, x in ipairs(log.conflicts or {}) do
-      io.write(string.format("  %s: %s (%s) won over %s (%s)\n", x.key, render(x.winner.value),
-        stamp_text(x.winner.stamp), render(x.loser.value), stamp_text(x.loser.stamp)))
-    end
+    io.write(M.format_log(log), "\n")
   elseif cmd == "status" then
     local s, e = c:status()
     if not s then return fail(e) end

@@ -13,6 +13,7 @@ local M = {}
 
 M.summary = "run a .dca system: start its hosts and supervisor tree, run it, report each transition"
 M.usage = [=[usage: dca run FILE.dca [--root NAME] [--hosts FILE] [--repl] [--watch] [--timeout S] [--quiet]
+                    [--config FILE | --no-config] [--set KEY=VALUE]... [--state-dir DIR]
                     [--sim WORLD [--seed N] [--door-width W] [--record FILE.csv] [--jammed]]
 
 Checks FILE.dca (errors stop here, nothing is started), starts one local daemon per host name on 127.0.0.1
@@ -20,6 +21,13 @@ Checks FILE.dca (errors stop here, nothing is started), starts one local daemon 
 per group as it comes up and one per process transition, and runs the root expression.
   --root NAME     the root process (default: main)
   --hosts FILE    daemons already running: "name address" per line
+  --config FILE   the system's configuration defaults (`key = value` lines, Lua literals): the keys the
+                  repository lacks are written to it before the start (default: FILE.config beside
+                  FILE.dca, when there is one); a parameter config("key") reads the repository of its host
+  --no-config     no defaults file
+  --set KEY=VALUE write KEY into the repository before the start, whatever it holds (repeatable)
+  --state-dir DIR the local daemons keep their repositories in DIR/<host> and find them there next time
+                  (default: a fresh directory for this run, removed at the end)
   --sim WORLD     run in simulated time: the daemons on the simulated clock, the world (`dca sim --serve
                   --world WORLD`, e.g. door) started through the first host's daemon before the tree, its
                   device ports wired to the leaves that have them, time started when the root runs; the
@@ -55,6 +63,14 @@ local function parse_args(args)
     elseif a == "--repl" then o.repl = true
     elseif a == "--watch" then o.watch = true
     elseif a == "--quiet" then o.quiet = true
+    elseif a == "--config" then o.config = value(a)
+    elseif a == "--no-config" then o.no_config = true
+    elseif a == "--state-dir" then o.state_dir = value(a)
+    elseif a == "--set" then
+      local k, v = require("dca.cli.config").parse_assignment(value(a))
+      if not k then error("dca run: --set: " .. v, 0) end
+      o.set = o.set or {}
+      o.set[k] = v
     elseif a:sub(1, 1) == "-" or o.file then error("dca run: unexpected argument '" .. a .. "'", 0)
     else o.file = a end
     i = i + 1
@@ -63,6 +79,8 @@ local function parse_args(args)
   if (o.seed or o.door_width or o.record or o.jammed) and not o.sim then
     error("dca run: --seed, --door-width, --record and --jammed go with --sim WORLD", 0)
   end
+  if o.config and o.no_config then error("dca run: --config and --no-config exclude each other", 0) end
+  if o.state_dir and o.hosts then error("dca run: --state-dir is for the local daemons, not those of --hosts", 0) end
   if o.record and o.record:sub(1, 1) ~= "/" then o.record = (os.getenv("PWD") or ".") .. "/" .. o.record end
   return o
 end
@@ -120,13 +138,35 @@ function M.main(args)
     if not key then key, keydir = hosts_mod.fresh_key() end
     local names = spec_mod.hosts(spec)
     daemons, err = hosts_mod.start_local(names, { exe = exe, key = key, clock = o.sim and "sim" or nil,
-                                                   log_dir = keydir or os.getenv("TMPDIR") or "/tmp" })
+                                                   log_dir = keydir or os.getenv("TMPDIR") or "/tmp",
+                                                   state_dir = o.state_dir })
     if not daemons then io.stderr:write("dca run: ", err, "\n") return 3 end
     hosts = daemons.hosts
     for _, name in ipairs(names) do say(string.format("host %s: daemon at %s (pid %d)", name, hosts[name], daemons.pids[name])) end
   end
   for _, h in ipairs(spec_mod.hosts(spec)) do
     if not hosts[h] then io.stderr:write("dca run: no daemon for host '", h, "' in ", tostring(o.hosts), "\n") return 2 end
+  end
+  local function give_up(c)
+    if daemons then daemons:stop() end
+    if keydir then os.execute("rm -rf " .. hosts_mod.sh_quote(keydir)) end
+    return c
+  end
+
+  -- the configuration repository: the system's defaults and --set, on the root's host, replicated to all
+  do
+    local config = require "dca.config"
+    local used = {}
+    for _, h in ipairs(spec_mod.hosts(spec)) do used[h] = hosts[h] end
+    local file = o.config or (not o.no_config and config.defaults_file(o.file)) or nil
+    local origin = (spec.host and used[spec.host]) and spec.host or spec_mod.hosts(spec)[1]
+    local line, cerr = config.seed_run(used, origin, { key_file = key, file = file, set = o.set })
+    if cerr then io.stderr:write("dca run: ", cerr, "\n") return give_up(file and cerr:find(file, 1, true) == 1 and 2 or 3) end
+    if line then say(line) end
+    -- every config("key") parameter read once here: a missing key or a wrong type stops the run before
+    -- anything is started (all of them listed)
+    local okc, kerr = config.check_spec(used, origin, spec, { key_file = key })
+    if not okc then io.stderr:write("dca run: ", kerr, "\n") return give_up(2) end
   end
 
   local loop = core.loop()
