@@ -333,16 +333,19 @@ function M.new(opts)
     end
   end
 
+  -- This supervisor's host: opts.daemon_host, else the first host name.
+  local function own_host()
+    if opts.daemon_host then return opts.daemon_host end
+    local names = {}
+    for h in pairs(opts.hosts or {}) do names[#names + 1] = h end
+    table.sort(names)
+    return names[1]
+  end
+
   --- The configuration repository of this supervisor's host (opts.daemon_host, else the first host): a
   --- dca.config client over that daemon's channel, its watch events delivered. cb(client) | cb(nil, err)
   function rt.config_client(cb)
-    local host = opts.daemon_host
-    if not host then
-      local names = {}
-      for h in pairs(opts.hosts or {}) do names[#names + 1] = h end
-      table.sort(names)
-      host = names[1]
-    end
+    local host = own_host()
     daemon(host, function(dch, derr)
       if not dch then cb(nil, derr) return end
       local d = rt.daemons[host]
@@ -369,13 +372,7 @@ function M.new(opts)
       if ch then w.ch = ch else rt._world = nil end
       for _, f in ipairs(ws) do f(ch, err, missing) end
     end
-    local host = opts.daemon_host
-    if not host then
-      local names = {}
-      for h in pairs(opts.hosts or {}) do names[#names + 1] = h end
-      table.sort(names)
-      host = names[1]
-    end
+    local host = own_host()
     daemon(host, function(dch, derr)
       if not dch then finish(nil, derr) return end
       local wait_ms = math.floor((opts.world_wait or 5) * 1000)
