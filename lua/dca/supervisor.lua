@@ -655,7 +655,13 @@ function Sup:child_message(name, msg)
     self.event_at = saved_at
     return
   end
-  if t == "broken" or t == "overflow" then
+  if t == "broken" and (self.shutdown_waiters or self.state == "stopping" or self.state == "stopped"
+                        or ch.state ~= "running") then
+    -- the tree is being stopped (the process at the other end was stopped first, LIFO), or this leaf does not
+    -- run: nothing flows on it now; kept in the log only (log() in the REPL)
+    self:log("%s: broken %s%s: %s (%s)", ch.path, tostring(msg.port), msg.peer and (" <-> " .. tostring(msg.peer)) or "",
+      tostring(msg.reason), self.shutdown_waiters and "while stopping" or ("while " .. tostring(ch.state)))
+  elseif t == "broken" or t == "overflow" then
     -- a data connection of this leaf broke or overflowed: worth a line, not an event of the algebra (the
     -- process at the other end, if it died, is reported by its own owner)
     self:say("%s: %s %s%s: %s", ch.path, t, tostring(msg.port), msg.peer and (" <-> " .. tostring(msg.peer)) or "",
