@@ -31,6 +31,47 @@ suite:case("paper_systems_pass_dca_check", function()
   end
 end)
 
+suite:case("config_parameters_are_checked_against_the_defaults_file", function()
+  local path = tmpfile([[
+process main() {
+  instantiated_processes {
+    det instof DistanceThreshold("h1", config("door.stop_distanse"));
+    hit instof ForceThreshold("h1", config("door.hit_force"));
+  }
+  internal_event_actions { det , hit }
+}
+]])
+  local defaults = path:gsub("%.dca$", ".config")
+  local f = assert(io.open(defaults, "w"))
+  f:write("door.stop_distance = 0.7\ndoor.hit_force = 6.0\n")
+  f:close()
+  -- a key the defaults lack: a warning at the config( literal, with the close name
+  local out, rc = T.sh(dca .. " check " .. path)
+  T.eq(rc, 0, out)
+  T.contains(out, path .. ":3:40: warning: main.det parameter 1 'distance': config key 'door.stop_distanse' is not in "
+    .. defaults .. " (did you mean door.stop_distance?)")
+  T.contains(out, path .. ": ok:")
+  -- a default of the wrong type for the parameter: an error
+  f = assert(io.open(defaults, "w"))
+  f:write("door.stop_distanse = 0.7\ndoor.hit_force = \"six\"\n")
+  f:close()
+  out, rc = T.sh(dca .. " check " .. path)
+  T.eq(rc, 1, out)
+  T.contains(out, path .. ":4:37: main.hit parameter 1 'force': config key 'door.hit_force' defaults to \"six\" in "
+    .. defaults .. ", not a number")
+  -- a defaults file that does not read: an error at its line and column; --no-config skips it
+  f = assert(io.open(defaults, "w"))
+  f:write("door.hit_force 6\n")
+  f:close()
+  out, rc = T.sh(dca .. " check " .. path)
+  T.eq(rc, 1, out)
+  T.contains(out, defaults .. ":1:1: expected `key = value`")
+  out, rc = T.sh(dca .. " check --no-config " .. path)
+  T.eq(rc, 0, out)
+  os.remove(defaults)
+  os.remove(path)
+end)
+
 suite:case("tree_option_prints_the_instances", function()
   local path = src .. "/scripts/systems/compliant_motion.dca"
   local out, rc = T.sh(dca .. " check --no-registry --tree " .. path)

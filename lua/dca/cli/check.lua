@@ -6,14 +6,18 @@ local model = require "dca.model"
 local M = {}
 
 M.summary = "check a .dca system file (syntax, instances, ports, expressions) without starting anything"
-M.usage = [[usage: dca check FILE.dca [--root NAME] [--no-registry] [--tree]
+M.usage = [[usage: dca check FILE.dca [--root NAME] [--no-registry] [--tree] [--config FILE | --no-config]
 
 Parses FILE.dca and runs every static check, printing all errors (file:line:col, the instance path, the
 source line and a caret); exits 1 when there are errors, else prints a one-line summary and exits 0.
   --root NAME     the root process (default: main)
   --no-registry   do not ask the controller registry (dca.core.types) for port manifests; undefined
                   process types are then taken as leaves
-  --tree          also print the instance tree (type, host, parameters) after the summary]]
+  --tree          also print the instance tree (type, host, parameters) after the summary
+  --config FILE   the system's configuration defaults (default FILE.config beside FILE.dca, when there is
+                  one): a config("key") parameter whose key it lacks is a warning (the repository may hold
+                  it; with a close name: a likely typo), a default of the wrong type for the parameter is an
+                  error, and so is a defaults file that does not read]]
 
 --- The controller registry's manifests, when dca.core provides them (nil otherwise).
 function M.registry()
@@ -66,10 +70,52 @@ function M.tree_text(tree)
   return table.concat(out, "\n") .. "\n"
 end
 
+--- The config("key") parameters of FILE against its defaults file: { warnings = {...}, errors = {...} }, each a
+--- "FILE:LINE:COL: ..." line. registry: the controller manifests (parameter names and types), or nil.
+function M.config_notes(ast, config_path, registry)
+  local config = require "dca.config"
+  local source = require "dca.source"
+  local out = { warnings = {}, errors = {} }
+  local defaults, err = config.read_file(config_path)
+  if not defaults then out.errors[1] = err return out end
+  local values, keys = {}, {}
+  for _, d in ipairs(defaults) do values[d.key] = d.value keys[#keys + 1] = d.key end
+  for _, p in ipairs(ast.processes) do
+    for _, inst in ipairs(p.instances) do
+      local manifest = registry and registry[inst.type]
+      for i, a in ipairs(inst.args or {}) do
+        if a.kind == "config" then
+          local pm = manifest and manifest.params and manifest.params[i - 1]  -- the first argument is the host
+          local pname = pm and pm.name and (" '" .. pm.name .. "'") or ""
+          local at = string.format("%s:%d:%d: ", ast.file, a.line or 0, a.col or 0)
+          local what = string.format("%s.%s parameter %d%s", p.name, inst.name, i - 1, pname)
+          local v = values[a.value]
+          if v == nil then
+            local guess = source.closest(a.value, keys)
+            out.warnings[#out.warnings + 1] = string.format("%swarning: %s: config key '%s' is not in %s%s", at, what,
+              a.value, config_path, guess and string.format(" (did you mean %s?)", guess) or
+              " (the repository must hold it when the system starts)")
+          elseif pm and (pm.type == "number" or pm.type == "integer" or pm.type == "string" or pm.type == "boolean") then
+            local fits = pm.type == "integer" and math.type(v) == "integer" or
+              (pm.type ~= "integer" and type(v) == pm.type)
+            if not fits then
+              out.errors[#out.errors + 1] = string.format("%s%s: config key '%s' defaults to %s in %s, not %s", at, what,
+                a.value, type(v) == "string" and string.format("%q", v) or tostring(v), config_path,
+                pm.type == "integer" and "an integer" or ("a " .. pm.type))
+            end
+          end
+        end
+      end
+    end
+  end
+  return out
+end
+
 local function plural(n, one) return n == 1 and ("1 " .. one) or (n .. " " .. one .. "s") end
 
 function M.main(args)
   local file, root, use_registry, show_tree = nil, nil, true, false
+  local config_file, no_config = nil, false
   local i = 1
   while i <= args.n do
     local a = args[i]
@@ -81,6 +127,12 @@ function M.main(args)
       use_registry = false
     elseif a == "--tree" then
       show_tree = true
+    elseif a == "--config" then
+      config_file = args[i + 1]
+      if not config_file then io.stderr:write("dca check: --config needs a file\n", M.usage, "\n"); return 2 end
+      i = i + 1
+    elseif a == "--no-config" then
+      no_config = true
     elseif a:sub(1, 1) == "-" or file then
       io.stderr:write("dca check: unexpected argument '", a, "'\n", M.usage, "\n")
       return 2
@@ -99,6 +151,17 @@ function M.main(args)
     io.stdout:write(string.format("%s: ok: %s, no root process 'main'\n", file,
                                   plural(#ast.processes, "process definition")))
     return 0
+  end
+  -- the config("key") parameters against the system's defaults file
+  config_file = config_file or (not no_config and require("dca.config").defaults_file(file)) or nil
+  if config_file then
+    local notes = M.config_notes(ast, config_file, use_registry and M.registry() or nil)
+    for _, w in ipairs(notes.warnings) do io.stderr:write(w, "\n") end
+    if #notes.errors > 0 then
+      io.stderr:write(table.concat(notes.errors, "\n"), "\n")
+      io.stderr:write(string.format("%s: %s\n", file, plural(#notes.errors, "error")))
+      return 1
+    end
   end
   local s = model.summary(tree)
   io.stdout:write(string.format("%s: ok: %s, %s (%s), %s, %s (%s)\n", file, plural(s.groups, "group"),
