@@ -344,7 +344,24 @@ Value Node::Impl::stats() const {
                                  .set("p50_us", s.p50_us)
                                  .set("p99_us", s.p99_us)
                                  .set("max_us", s.max_us));
-  return Value::map().set("timers", ts).set("clock", to_string(timers->kind()));
+  auto summary = [](const IntervalSummary& i) {
+    return Value::map()
+        .set("n", i.n)
+        .set("p50_us", i.p50_us)
+        .set("p99_us", i.p99_us)
+        .set("p999_us", i.p999_us)
+        .set("max_us", i.max_us)
+        .set("min_us", i.min_us)
+        .set("mean_us", i.mean_us);
+  };
+  Value iv = Value::array();
+  for (const auto& s : timers->interval_stats())
+    iv.array_ref().push_back(Value::map()
+                                 .set("name", s.name)
+                                 .set("period_s", to_seconds(s.period))
+                                 .set("clock", summary(s.clock))
+                                 .set("wall", summary(s.wall)));
+  return Value::map().set("timers", ts).set("intervals", iv).set("clock", to_string(timers->kind()));
 }
 
 void Node::Impl::connect(const Channel::Ptr& ch, const Message& m) {

@@ -24,8 +24,12 @@
 //                                                their latest sample; answers when it has arrived
 //   ports {}                                  -> ok {inputs = [...], outputs = [...], links = [...]} with
 //                                                counters (samples, dropped, queued, rejected, skipped, sent)
-//   stats {}                                  -> ok {timers = [{name, period, count, missed, p50_us, p99_us,
-//                                                max_us}], clock, reentries}
+//   stats {}                                  -> ok {timers = [{name, period_s, active, count, missed, p50_us,
+//                                                p99_us, max_us}] (lateness), intervals = [{name, period_s,
+//                                                clock = {n, p50_us, p99_us, p999_us, max_us, min_us, mean_us},
+//                                                wall = {...}}] (the periods achieved: time between
+//                                                consecutive MainCalc calls of each periodic timer, on the
+//                                                node's clock and on the wall clock; host/timers.h), clock
 //   advance {t}  (--clock sim only)           -> ok {now, next}  t in ns; first drains the data sockets
 //                                                (every sample already sent to this node is taken in), runs
 //                                                every timer due (host/timers.h), flushes what they wrote, then

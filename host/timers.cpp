@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <bit>
 #include <cerrno>
 #include <cmath>
 #include <stdexcept>
@@ -64,7 +65,69 @@ Nanos LatenessHistogram::quantile(double q) const {
   return max_;
 }
 
+std::size_t IntervalHistogram::index(Nanos v) {
+  const auto u = static_cast<std::uint64_t>(v);
+  if (u < 2 * kSub) return static_cast<std::size_t>(u);
+  if (u >> kTopBit) return kBuckets - 1;
+  const int g = std::bit_width(u) - 1 - kSubBits;  // >= 1
+  return static_cast<std::size_t>(kSub) * static_cast<std::size_t>(g) + static_cast<std::size_t>(u >> g);
+}
+
+Nanos IntervalHistogram::upper(std::size_t i) {
+  if (i < 2 * kSub) return static_cast<Nanos>(i);
+  const std::size_t g = i / kSub - 1, sub = i - kSub * g;
+  return static_cast<Nanos>(((sub + 1) << g) - 1);
+}
+
+void IntervalHistogram::record(Nanos v) {
+  if (v < 0) v = 0;
+  min_ = count_ ? std::min(min_, v) : v;
+  max_ = std::max(max_, v);
+  ++count_;
+  sum_ += static_cast<double>(v);
+  ++buckets_[index(v)];
+}
+
+void IntervalHistogram::merge(const IntervalHistogram& o) {
+  if (!o.count_) return;
+  min_ = count_ ? std::min(min_, o.min_) : o.min_;
+  max_ = std::max(max_, o.max_);
+  count_ += o.count_;
+  sum_ += o.sum_;
+  for (int i = 0; i < kBuckets; ++i) buckets_[i] += o.buckets_[i];
+}
+
+Nanos IntervalHistogram::quantile(double q) const {
+  if (count_ == 0) return 0;
+  const auto want = std::max<std::uint64_t>(1, static_cast<std::uint64_t>(std::ceil(q * static_cast<double>(count_))));
+  std::uint64_t seen = 0;
+  for (int b = 0; b < kBuckets; ++b) {
+    seen += buckets_[b];
+    if (seen >= want) return b == kBuckets - 1 ? max_ : std::clamp(upper(static_cast<std::size_t>(b)), min_, max_);
+  }
+  return max_;
+}
+
+IntervalSummary summarize(const IntervalHistogram& h) {
+  IntervalSummary s;
+  s.n = h.count();
+  s.p50_us = static_cast<double>(h.quantile(0.5)) / 1000.0;
+  s.p99_us = static_cast<double>(h.quantile(0.99)) / 1000.0;
+  s.p999_us = static_cast<double>(h.quantile(0.999)) / 1000.0;
+  s.max_us = static_cast<double>(h.max()) / 1000.0;
+  s.min_us = static_cast<double>(h.min()) / 1000.0;
+  s.mean_us = h.mean() / 1000.0;
+  return s;
+}
+
 namespace {
+// The intervals of the periodic timers of one (name, period) (see timers.h).
+struct Intervals {
+  std::string name;
+  Nanos period = 0;
+  IntervalHistogram clock, wall;
+};
+
 struct Entry {
   TimerServer::Id id = 0;
   std::string name;
@@ -74,6 +137,8 @@ struct Entry {
   bool active = true;
   std::uint64_t missed = 0;
   LatenessHistogram hist;
+  Intervals* intervals = nullptr;     // periodic timers: where their intervals go (nullptr: not measured)
+  Nanos last_clock = -1, last_wall = -1;  // when the previous callback ran
 };
 
 constexpr std::size_t kKeepFinished = 256;
@@ -90,6 +155,7 @@ struct TimerServer::Impl {
   }
   asio::posix::stream_descriptor fd;
   std::vector<std::unique_ptr<Entry>> entries;  // stable addresses: callbacks may add timers
+  std::vector<std::unique_ptr<Intervals>> intervals;  // per (name, period), at most kMaxIntervalKeys
   Id next_id = 1;
   Nanos sim_now = 0;
   Nanos armed = -1;  // the deadline the timerfd is set for (-1: disarmed)
@@ -124,9 +190,26 @@ struct TimerServer::Impl {
       return false;
     });
   }
-  // Runs one due entry; `now` is the time it runs at.
-  void fire(Entry& e, Nanos now, TimerServer& ts) {
+  Intervals* intervals_for(const std::string& name, Nanos period) {
+    for (auto& i : intervals)
+      if (i->period == period && i->name == name) return i.get();
+    if (intervals.size() >= kMaxIntervalKeys) return nullptr;
+    intervals.push_back(std::make_unique<Intervals>());
+    intervals.back()->name = name;
+    intervals.back()->period = period;
+    return intervals.back().get();
+  }
+  // Runs one due entry; `now` is the time it runs at on the server's clock, `wall` on the wall clock.
+  void fire(Entry& e, Nanos now, Nanos wall, TimerServer& ts) {
     e.hist.record(now - e.deadline);
+    if (e.intervals) {
+      if (e.last_clock >= 0) {
+        e.intervals->clock.record(now - e.last_clock);
+        e.intervals->wall.record(wall - e.last_wall);
+      }
+      e.last_clock = now;
+      e.last_wall = wall;
+    }
     const Nanos deadline = e.deadline;
     if (e.period > 0) {
       e.deadline += e.period;
@@ -186,7 +269,7 @@ void TimerServer::Impl::on_ready(TimerServer& ts) {
     const Nanos now = monotonic_now();
     Entry* e = due(now);
     if (!e) break;
-    fire(*e, now, ts);
+    fire(*e, now, now, ts);
   }
   cleanup();
   arm(ts);
@@ -210,6 +293,7 @@ TimerServer::Id TimerServer::every(Nanos period, std::function<void()> fn, std::
   const Nanos t = now();
   e->deadline = first >= 0 ? first : aligned_ ? (t / period + 1) * period : t + period;
   e->fn = std::move(fn);
+  e->intervals = impl_->intervals_for(e->name, period);
   const Id id = e->id;
   impl_->entries.push_back(std::move(e));
   if (kind_ == ClockKind::Wall && !impl_->firing) impl_->arm(*this);
@@ -274,6 +358,12 @@ std::optional<TimerStats> TimerServer::stats(Id id) const {
   return std::nullopt;
 }
 
+std::vector<IntervalStats> TimerServer::interval_stats() const {
+  std::vector<IntervalStats> v;
+  for (const auto& i : impl_->intervals) v.push_back({i->name, i->period, summarize(i->clock), summarize(i->wall)});
+  return v;
+}
+
 std::optional<Nanos> TimerServer::next_deadline() const { return impl_->next(); }
 
 std::size_t TimerServer::advance_to(Nanos t) {
@@ -284,7 +374,7 @@ std::size_t TimerServer::advance_to(Nanos t) {
   std::size_t n = 0;
   while (Entry* e = impl_->due(t)) {
     impl_->sim_now = e->deadline;
-    impl_->fire(*e, e->deadline, *this);
+    impl_->fire(*e, e->deadline, monotonic_now(), *this);
     ++n;
   }
   impl_->sim_now = t;

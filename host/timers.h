@@ -25,6 +25,14 @@
 //
 // Lateness: for every timer, how late each callback started (now - deadline when it ran), as count, p50, p99
 // and max (a histogram, no allocation per tick); the node reports them to its supervisor (`stats {}`).
+//
+// Intervals (the periods achieved): for every periodic timer, the time between consecutive callbacks (for a
+// controller, between consecutive MainCalc calls), both on the server's clock (simulated time on a Simulated
+// clock, where it is the period unless ticks were skipped) and on the wall clock (CLOCK_MONOTONIC: what a
+// period costs in real time; in a lock-stepped run paced to the wall clock, the real control period). They
+// are kept per (timer name, period), so a controller that is stopped and run again adds to the same figures
+// (the gap between its runs is not an interval); two IntervalHistograms each, made when the timer is made,
+// never per tick. At most kMaxIntervalKeys distinct (name, period) pairs are kept per server.
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -76,6 +84,58 @@ class LatenessHistogram {
   Nanos max_ = 0;
 };
 
+/// A histogram of non-negative durations in nanoseconds, log-linear: exact below 1024 ns, then 512 buckets per
+/// power of two (a bucket is at most 1/512 of its value wide: 1.024 µs around 1 ms, 16 µs around 10 ms), up
+/// to 2^37 ns (137 s; longer ones share the last bucket). Exact count, min, max and mean; about 59 KB, no
+/// allocation when recording.
+class IntervalHistogram {
+ public:
+  /// Records one duration (negative values count as 0).
+  void record(Nanos v);
+  /// Adds every record of `other`.
+  void merge(const IntervalHistogram& other);
+  /// Number of records.
+  std::uint64_t count() const { return count_; }
+  /// The q-quantile (0..1): the upper edge of its bucket, clamped to [min(), max()] (so exact when every
+  /// record is the same; the last bucket's is max()); 0 when empty.
+  Nanos quantile(double q) const;
+  /// The smallest record (0 when empty).
+  Nanos min() const { return count_ ? min_ : 0; }
+  /// The largest record.
+  Nanos max() const { return max_; }
+  /// The mean of the records (0 when empty).
+  double mean() const { return count_ ? sum_ / static_cast<double>(count_) : 0.0; }
+
+ private:
+  static constexpr int kSubBits = 9;                 // 512 sub-buckets per power of two
+  static constexpr int kSub = 1 << kSubBits;
+  static constexpr int kTopBit = 37;                 // values up to 2^37 ns
+  static constexpr int kBuckets = 2 * kSub + (kTopBit - kSubBits - 1) * kSub;
+  static std::size_t index(Nanos v);
+  static Nanos upper(std::size_t i);  // the largest value of bucket i
+  std::uint32_t buckets_[kBuckets] = {};
+  std::uint64_t count_ = 0;
+  Nanos min_ = 0, max_ = 0;
+  double sum_ = 0;
+};
+
+/// An IntervalHistogram's figures, in microseconds.
+struct IntervalSummary {
+  std::uint64_t n = 0;  ///< intervals recorded
+  double p50_us = 0, p99_us = 0, p999_us = 0, max_us = 0, min_us = 0, mean_us = 0;
+};
+
+/// The periods achieved by the periodic timers of one (name, period): intervals between consecutive callbacks.
+struct IntervalStats {
+  std::string name;
+  Nanos period = 0;
+  IntervalSummary clock;  ///< on the server's clock (simulated time on a Simulated clock)
+  IntervalSummary wall;   ///< on the wall clock (CLOCK_MONOTONIC)
+};
+
+/// An IntervalHistogram's figures.
+IntervalSummary summarize(const IntervalHistogram& h);
+
 /// One timer's statistics (what the supervisor sees).
 struct TimerStats {
   std::uint64_t id = 0;
@@ -123,6 +183,10 @@ class TimerServer {
   std::vector<TimerStats> stats() const;
   /// Statistics of one timer.
   std::optional<TimerStats> stats(Id id) const;
+  /// The periods achieved by the periodic timers, per (name, period), in the order first made.
+  std::vector<IntervalStats> interval_stats() const;
+  /// The most distinct (name, period) pairs whose intervals are kept; timers beyond are not measured.
+  static constexpr std::size_t kMaxIntervalKeys = 64;
 
   /// The earliest deadline among active timers, if any.
   std::optional<Nanos> next_deadline() const;

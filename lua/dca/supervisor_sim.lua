@@ -10,7 +10,13 @@
 --   w:go(cb)                           -- time starts flowing
 --   w:stamp(line, function(t, line) end, at) -- calls back in the order of the calls, with the world's time
 --                                      -- (when it answered: at or after the event), or `at` when given
---   w:summary(cb(lines))               -- "door opened to NN.N deg", times, the steps
+--   w:summary(cb(lines))               -- "door opened to NN.N deg", times, the steps, and with o.periods
+--                                      -- (leaf paths, e.g. M.period_leaves(spec)) the control periods they
+--                                      -- achieved (their nodes' `stats`, asked before the tree stops):
+--     MotionControl period PATH: nominal 1.000 ms; sim n N p50 .. ms p99 .. ms max .. ms;
+--       wall n N p50 .. ms p99 .. ms p999 .. ms max .. ms        (one line: intervals between MainCalc calls)
+--   o.realtime: the world paces simulated time to the wall clock (`dca sim --serve --realtime`); the nodes
+--   stay in lock-step with it, so a wall interval is then the real control period
 --   w:stop(cb)                         -- `exit` to the world, then waits for its exit (SIGKILL after a grace)
 --   w.on_lost = function(reason) end   -- the world exited by itself (every node on its clock stops)
 local core = require "dca.core"
@@ -32,7 +38,75 @@ function M.argv(o)
   if o.door_width then argv[#argv + 1] = "--door-width" argv[#argv + 1] = tostring(o.door_width) end
   if o.record then argv[#argv + 1] = "--record" argv[#argv + 1] = o.record end
   if o.jammed then argv[#argv + 1] = "--jammed" end
+  if o.realtime then argv[#argv + 1] = "--realtime" end
   return argv
+end
+
+--- The leaves whose control periods the summary reports: those of every group of type `group_type`
+--- (default "MotionControl", the paper's motion controller) in `spec`, in declaration order.
+function M.period_leaves(spec, group_type)
+  group_type = group_type or "MotionControl"
+  local list = {}
+  require("dca.supervisor_spec").walk(spec, function(n)
+    if n.kind == "group" and n.type == group_type then
+      for _, c in ipairs(n.spec.children) do
+        if c.kind == "leaf" then list[#list + 1] = c.path end
+      end
+    end
+  end)
+  return list
+end
+
+local function ms(us) return (tonumber(us) or 0) / 1000 end
+
+--- The summary line of one leaf's period figures (an `intervals` entry of its node's `stats` reply).
+function M.period_line(path, iv)
+  local c, w = iv.clock or {}, iv.wall or {}
+  return sformat("MotionControl period %s: nominal %.3f ms; sim n %d p50 %.3f ms p99 %.3f ms max %.3f ms; "
+    .. "wall n %d p50 %.3f ms p99 %.3f ms p999 %.3f ms max %.3f ms", path, (tonumber(iv.period_s) or 0) * 1000,
+    tonumber(c.n) or 0, ms(c.p50_us), ms(c.p99_us), ms(c.max_us), tonumber(w.n) or 0, ms(w.p50_us), ms(w.p99_us),
+    ms(w.p999_us), ms(w.max_us))
+end
+
+--- Asks each leaf of o.periods for its node's stats (found through the daemon; one at a time, each bounded)
+--- and calls back with the lines: one per periodic timer of the leaf, or why there is none.
+function W:periods(cb)
+  local paths, lines, i = self.o.periods or {}, {}, 0
+  local function next_leaf()
+    i = i + 1
+    local path = paths[i]
+    if not path then cb(lines) return end
+    local function say(line) lines[#lines + 1] = line next_leaf() end
+    if not self.dch then say(sformat("MotionControl period %s: no daemon to ask", path)) return end
+    self.dch:request({ type = "lookup", name = path, wait_ms = 2000 }, 5, function(lr, lerr)
+      local ep = lr and lr.type ~= "error" and (lr.endpoints or lr)
+      if not ep or not ep.control then
+        say(sformat("MotionControl period %s: not found (%s)", path, tostring(lr and lr.reason or lerr)))
+        return
+      end
+      core.connect(ep.control, srt.key_opts(self.o.key), function(ch, cerr)
+        if not ch then say(sformat("MotionControl period %s: %s", path, tostring(cerr))) return end
+        ch:on_message(function() end)
+        ch:request({ type = "stats" }, 5, function(r, serr)
+          ch:close()
+          if not r or r.type == "error" then
+            say(sformat("MotionControl period %s: no stats (%s)", path, tostring(r and r.reason or serr)))
+            return
+          end
+          local found = false
+          for _, iv in ipairs(r.intervals or {}) do
+            if iv.name == path or #(r.intervals) == 1 then
+              found = true
+              lines[#lines + 1] = M.period_line(path, iv)
+            end
+          end
+          if not found then lines[#lines + 1] = sformat("MotionControl period %s: it ran no periodic timer", path) end
+          next_leaf()
+        end)
+      end)
+    end)
+  end
+  next_leaf()
 end
 
 function M.new(o)
@@ -158,7 +232,10 @@ function W:summary(wall, cb)
           path, s.how and ("  " .. s.how) or "")
       end
     end
-    cb(lines, r)
+    self:periods(function(plines)
+      for _, l in ipairs(plines) do lines[#lines + 1] = l end
+      cb(lines, r)
+    end)
   end)
 end
 

@@ -10,7 +10,9 @@
 -- The latency fields of door_demo are the wall time of each lock-step round: one control period of simulated
 -- time (10 ms, the controllers' period; MotionControl runs at it) with every due node advanced, answered and
 -- drained. In simulated time every controller, MotionControl included, runs at exactly its period (the clock
--- waits for it), so the period achieved is the nominal one; its cost in real time is the round.
+-- waits for it), so the period achieved is the nominal one; its cost in real time is the round. The periods
+-- MotionControl achieves on both clocks, at 10 ms and 1 ms, lock-step and paced to the wall clock, against a
+-- plain 1 ms timer: tests/bench/motion_period_bench.lua.
 -- Usage: dca lua tests/bench/door_bench.lua [SEEDS...]   (default: 0 3)
 local exe = os.getenv("DCA_EXE") or "dca"
 local src = os.getenv("DCA_SOURCE_DIR") or "."

@@ -37,9 +37,14 @@ class TestComponent final : public dca::Component {
   std::string run(dca::Bytes init_value) override {
     running = true;
     last_init = dca::value_from_msgpack(init_value);
+    if (timers && period > 0) timer = timers->every(period, [this] { ++ticks; }, name_);
     return "";
   }
-  void stop() override { running = false; }
+  void stop() override {
+    running = false;
+    if (timer) timers->cancel(timer);
+    timer = 0;
+  }
   void finish(dca::ComponentEvent e) {
     if (!running) return;
     running = false;
@@ -50,6 +55,10 @@ class TestComponent final : public dca::Component {
   int inits = 0;
   bool fail_init = false, running = false;
   Value last_init;
+  dca::TimerServer* timers = nullptr;  // with a period: a periodic component (ticks while running)
+  dca::Nanos period = 0;
+  dca::TimerServer::Id timer = 0;
+  int ticks = 0;
 
  private:
   std::string name_;
@@ -98,19 +107,27 @@ class NodeTest : public ::testing::Test {
   bool run_until(const std::function<bool()>& pred) { return loop.run_until(pred, 5s); }
 
   // Starts a node hosting a TestComponent named `name`; returns the component.
-  TestComponent* start_node(const std::string& name) {
+  // With a period, the component ticks on a periodic timer while it runs; with `sim`, the node is on a
+  // simulated clock with no master (any control channel advances it).
+  TestComponent* start_node(const std::string& name, dca::Nanos period = 0, bool sim = false) {
     dca::NodeOptions o;
     o.type = "Test";
     o.name = name;
     o.daemon = daemon->address().str();
     o.key_file = key_file;
+    if (sim) {
+      o.clock = dca::ClockKind::Simulated;
+      o.world = "";
+    }
     TestComponent* made = nullptr;
     nodes.push_back(std::make_unique<dca::Node>(
         loop, o,
-        [&made](const std::string&, const std::string& n, const std::string& host, const std::vector<std::string>&,
-                dca::TimerServer&) {
+        [&made, period](const std::string&, const std::string& n, const std::string& host,
+                        const std::vector<std::string>&, dca::TimerServer& ts) {
           EXPECT_EQ(host, "h");  // learnt from the daemon's ping
           auto c = std::make_unique<TestComponent>(n);
+          c->timers = &ts;
+          c->period = period;
           made = c.get();
           return c;
         }));
@@ -286,6 +303,37 @@ TEST_F(NodeTest, LosingTheDaemonStopsTheNode) {
   ASSERT_TRUE(run_until([&] { return nodes[0]->finished(); }));
   EXPECT_FALSE(c->running);  // stopped: actuators safe
   EXPECT_EQ(nodes[0]->exit_code(), 1);
+}
+
+TEST_F(NodeTest, StatsReportThePeriodsAchievedOnTheNodesClockAndTheWallClock) {
+  constexpr dca::Nanos kMs = 1'000'000;
+  auto* c = start_node("/sys/motion", kMs, true);
+  auto sup = supervise("/sys/motion");
+  ASSERT_TRUE(call(sup, "run").ok());
+  for (int k = 1; k <= 50; ++k) {  // the master's lock-step, one millisecond a round
+    const auto r = call(sup, "advance", Value::map().set("t", k * kMs));
+    ASSERT_TRUE(r.ok()) << r.error;
+    EXPECT_EQ(r.message.payload["next"].as_int(), (k + 1) * kMs);
+  }
+  EXPECT_EQ(c->ticks, 50);
+  ASSERT_TRUE(call(sup, "stop").ok());  // figures stay after the run
+  const auto r = call(sup, "stats");
+  ASSERT_TRUE(r.ok()) << r.error;
+  const auto& p = r.message.payload;
+  EXPECT_EQ(p["clock"].as_string(), "sim");
+  ASSERT_EQ(p["intervals"].as_array().size(), 1u);
+  const auto& iv = p["intervals"].as_array()[0];
+  EXPECT_EQ(iv["name"].as_string(), "/sys/motion");
+  EXPECT_DOUBLE_EQ(iv["period_s"].as_float(), 0.001);
+  EXPECT_EQ(iv["clock"]["n"].as_int(), 49);
+  for (const char* q : {"p50_us", "p99_us", "p999_us", "max_us", "min_us", "mean_us"})
+    EXPECT_DOUBLE_EQ(iv["clock"][q].as_float(), 1000.0) << q;
+  EXPECT_EQ(iv["wall"]["n"].as_int(), 49);
+  EXPECT_LE(iv["wall"]["p50_us"].as_float(), iv["wall"]["p99_us"].as_float());
+  EXPECT_LE(iv["wall"]["p99_us"].as_float(), iv["wall"]["max_us"].as_float());
+  EXPECT_GT(iv["wall"]["min_us"].as_float(), 0.0);
+  ASSERT_EQ(p["timers"].as_array().size(), 1u);  // the lateness of the same timer, as before
+  EXPECT_EQ(p["timers"].as_array()[0]["count"].as_int(), 50);
 }
 
 TEST_F(NodeTest, ValuesConvertBetweenMsgpackAndWire) {

@@ -160,6 +160,132 @@ TEST_F(TimersTest, WallOneShotFiresOnceNotBeforeItsDelay) {
   EXPECT_FALSE(ts.next_deadline());
 }
 
+TEST_F(TimersTest, IntervalHistogramIsExactForEqualRecordsAndWithinItsBucketOtherwise) {
+  dca::IntervalHistogram h;
+  EXPECT_EQ(h.quantile(0.5), 0);
+  EXPECT_EQ(h.min(), 0);
+  for (int i = 0; i < 1000; ++i) h.record(kMs);
+  EXPECT_EQ(h.count(), 1000u);
+  EXPECT_EQ(h.quantile(0.5), kMs);
+  EXPECT_EQ(h.quantile(0.99), kMs);
+  EXPECT_EQ(h.quantile(0.999), kMs);
+  EXPECT_EQ(h.min(), kMs);
+  EXPECT_EQ(h.max(), kMs);
+  EXPECT_DOUBLE_EQ(h.mean(), 1e6);
+  // small values are exact; larger ones are reported at most one bucket (1/512 of the value) high
+  dca::IntervalHistogram g;
+  for (dca::Nanos v : {dca::Nanos{0}, dca::Nanos{1}, dca::Nanos{1023}}) {
+    g = {};
+    g.record(v);
+    g.record(2 * v + 5'000'000);  // a larger max, so the quantile is not clamped to it
+    EXPECT_EQ(g.quantile(0.5), v);
+  }
+  for (dca::Nanos v : {dca::Nanos{1024}, dca::Nanos{1'000'123}, dca::Nanos{10'000'000}, dca::Nanos{123'456'789'012}}) {
+    g = {};
+    g.record(v);
+    g.record(2 * v + 5'000'000);
+    EXPECT_GE(g.quantile(0.5), v);
+    EXPECT_LE(g.quantile(0.5), v + v / 512) << v;
+  }
+  g = {};
+  g.record(-7);  // negative: 0
+  g.record(dca::Nanos{1} << 40);  // beyond the top bucket: counted, its max exact
+  EXPECT_EQ(g.min(), 0);
+  EXPECT_EQ(g.max(), dca::Nanos{1} << 40);
+  EXPECT_EQ(g.quantile(1.0), dca::Nanos{1} << 40);
+  // 99 intervals of 1 ms and one of 3 ms: p50 and p99 1 ms (the upper edge of its 1.024 µs bucket), p999 and
+  // max 3 ms
+  dca::IntervalHistogram m, other;
+  for (int i = 0; i < 60; ++i) m.record(kMs);
+  for (int i = 0; i < 39; ++i) other.record(kMs);
+  other.record(3 * kMs);
+  m.merge(other);
+  EXPECT_EQ(m.count(), 100u);
+  EXPECT_EQ(m.min(), kMs);
+  EXPECT_GE(m.quantile(0.5), kMs);
+  EXPECT_LT(m.quantile(0.5), kMs + 1024);
+  EXPECT_EQ(m.quantile(0.99), m.quantile(0.5));
+  EXPECT_EQ(m.quantile(0.999), 3 * kMs);
+  EXPECT_EQ(m.max(), 3 * kMs);
+  EXPECT_DOUBLE_EQ(m.mean(), 1.02e6);
+}
+
+TEST_F(TimersTest, PeriodicTimerAt1msOnASimulatedClockAchievesExactly1ms) {
+  dca::TimerServer ts(io, dca::ClockKind::Simulated);
+  ts.set_aligned(true);
+  int n = 0;
+  ts.every(kMs, [&] { ++n; }, "main.motion.redundancy");
+  ts.after(5 * kMs, [] {}, "one-shot");  // one-shot timers have no period to measure
+  for (int k = 1; k <= 100; ++k) ts.advance_to(k * kMs);  // as the master does, one tick at a time
+  ASSERT_EQ(n, 100);
+  const auto iv = ts.interval_stats();
+  ASSERT_EQ(iv.size(), 1u);
+  EXPECT_EQ(iv[0].name, "main.motion.redundancy");
+  EXPECT_EQ(iv[0].period, kMs);
+  EXPECT_EQ(iv[0].clock.n, 99u);  // 100 calls, 99 intervals between them
+  EXPECT_DOUBLE_EQ(iv[0].clock.p50_us, 1000.0);
+  EXPECT_DOUBLE_EQ(iv[0].clock.p99_us, 1000.0);
+  EXPECT_DOUBLE_EQ(iv[0].clock.p999_us, 1000.0);
+  EXPECT_DOUBLE_EQ(iv[0].clock.max_us, 1000.0);
+  EXPECT_DOUBLE_EQ(iv[0].clock.min_us, 1000.0);
+  EXPECT_DOUBLE_EQ(iv[0].clock.mean_us, 1000.0);
+  // the same calls, timed on the wall clock (how long each simulated millisecond took here)
+  EXPECT_EQ(iv[0].wall.n, 99u);
+  EXPECT_LE(iv[0].wall.min_us, iv[0].wall.p50_us);
+  EXPECT_LE(iv[0].wall.p50_us, iv[0].wall.p99_us);
+  EXPECT_LE(iv[0].wall.p99_us, iv[0].wall.max_us);
+}
+
+TEST_F(TimersTest, IntervalsSpanOnlyConsecutiveCallsOfOneRun) {
+  dca::TimerServer ts(io, dca::ClockKind::Simulated);
+  ts.set_aligned(true);
+  auto id = ts.every(kMs, [] {}, "ctrl");
+  ts.advance_to(10 * kMs);  // calls at 1..10 ms: 9 intervals
+  ts.cancel(id);
+  ts.advance_to(50 * kMs);
+  id = ts.every(kMs, [] {}, "ctrl");  // run again: 51..60 ms, 9 more; the 41 ms gap is no period
+  ts.advance_to(60 * kMs);
+  ts.every(2 * kMs, [] {}, "ctrl");  // another period: its own figures
+  ts.advance_to(64 * kMs);  // ctrl@1ms: 61..64 (4 more); ctrl@2ms: 62, 64 (1)
+  const auto iv = ts.interval_stats();
+  ASSERT_EQ(iv.size(), 2u);
+  EXPECT_EQ(iv[0].clock.n, 22u);
+  EXPECT_DOUBLE_EQ(iv[0].clock.max_us, 1000.0);
+  EXPECT_EQ(iv[1].period, 2 * kMs);
+  EXPECT_EQ(iv[1].clock.n, 1u);
+  EXPECT_DOUBLE_EQ(iv[1].clock.p50_us, 2000.0);
+}
+
+TEST_F(TimersTest, ASimulatedClockRunsEveryTickAtItsOwnTime) {
+  dca::TimerServer ts(io, dca::ClockKind::Simulated);
+  int n = 0;
+  ts.every(kMs, [&] { ++n; }, "slow", kMs);
+  ts.advance_to(kMs);
+  // a master that steps straight to 4 ms runs the calls due at 2, 3 and 4 ms (none is lost on a simulated
+  // clock), each at its own deadline: still 1 ms apart on the clock
+  ts.advance_to(4 * kMs);
+  EXPECT_EQ(n, 4);
+  const auto iv = ts.interval_stats();
+  ASSERT_EQ(iv.size(), 1u);
+  EXPECT_EQ(iv[0].clock.n, 3u);
+  EXPECT_DOUBLE_EQ(iv[0].clock.max_us, 1000.0);
+}
+
+TEST_F(TimersTest, WallIntervalsAreTheClocksOnTheWallClock) {
+  dca::TimerServer ts(io, dca::ClockKind::Wall);
+  int n = 0;
+  const auto id = ts.every(kMs, [&] { ++n; }, "tick");
+  ASSERT_TRUE(run_until(io, [&] { return n >= 20; }));
+  ts.cancel(id);
+  const auto iv = ts.interval_stats();
+  ASSERT_EQ(iv.size(), 1u);
+  EXPECT_EQ(iv[0].clock.n, static_cast<std::uint64_t>(n - 1));
+  EXPECT_EQ(iv[0].wall.n, iv[0].clock.n);
+  EXPECT_DOUBLE_EQ(iv[0].wall.p50_us, iv[0].clock.p50_us);  // one clock, the same samples
+  EXPECT_DOUBLE_EQ(iv[0].wall.max_us, iv[0].clock.max_us);
+  EXPECT_GT(iv[0].wall.min_us, 0.0);
+}
+
 }  // namespace
 
 TEST_F(TimersTest, AlignedPeriodicTimersStartOnMultiplesOfTheirPeriod) {

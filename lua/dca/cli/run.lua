@@ -14,7 +14,7 @@ local M = {}
 M.summary = "run a .dca system: start its hosts and supervisor tree, run it, report each transition"
 M.usage = [=[usage: dca run FILE.dca [--root NAME] [--hosts FILE] [--repl] [--watch] [--timeout S] [--quiet]
                     [--config FILE | --no-config] [--set KEY=VALUE]... [--state-dir DIR]
-                    [--sim WORLD [--seed N] [--door-width W] [--record FILE.csv] [--jammed]]
+                    [--sim WORLD [--seed N] [--door-width W] [--record FILE.csv] [--jammed] [--realtime]]
 
 Checks FILE.dca (errors stop here, nothing is started), starts one local daemon per host name on 127.0.0.1
 (or uses the daemons named in --hosts, lines of "name address"), starts the supervisor tree, shows one line
@@ -32,9 +32,13 @@ per group as it comes up and one per process transition, and runs the root expre
                   --world WORLD`, e.g. door) started through the first host's daemon before the tree, its
                   device ports wired to the leaves that have them, time started when the root runs; the
                   lines carry the simulated time and the end prints the world's summary (door angle,
-                  simulated and wall time, each step's start and end)
+                  simulated and wall time, each step's start and end, and the control periods achieved
+                  by the leaves of every MotionControl group: intervals between their MainCalc calls on the
+                  simulated and on the wall clock, p50/p99/max)
   --seed N, --door-width W, --record FILE.csv   passed to the world (see `dca sim --help`)
   --jammed        passed to the world: the door handle's latch never releases (a fault to test against)
+  --realtime      passed to the world: simulated time is paced to the wall clock (the nodes stay in
+                  lock-step with it), so the wall-clock periods in the summary are the real control periods
   --repl          open a console on the root supervisor once the system runs
   --watch         reload the system file when it is saved (inotify)
   --timeout S     stop with an error when the start does not finish within S seconds (default 30)
@@ -59,6 +63,7 @@ local function parse_args(args)
     elseif a == "--door-width" then o.door_width = tonumber(value(a)) or error("dca run: --door-width needs metres", 0)
     elseif a == "--record" then o.record = value(a)
     elseif a == "--jammed" then o.jammed = true
+    elseif a == "--realtime" then o.realtime = true
     elseif a == "--timeout" then o.timeout = tonumber(value(a)) or error("dca run: --timeout needs seconds", 0)
     elseif a == "--repl" then o.repl = true
     elseif a == "--watch" then o.watch = true
@@ -81,6 +86,7 @@ local function parse_args(args)
   end
   if o.config and o.no_config then error("dca run: --config and --no-config exclude each other", 0) end
   if o.state_dir and o.hosts then error("dca run: --state-dir is for the local daemons, not those of --hosts", 0) end
+  if o.realtime and not o.sim then error("dca run: --realtime goes with --sim WORLD", 0) end
   if o.record and o.record:sub(1, 1) ~= "/" then o.record = (os.getenv("PWD") or ".") .. "/" .. o.record end
   return o
 end
@@ -321,7 +327,7 @@ function M.main(args)
     local first = spec_mod.hosts(spec)[1]
     world = sim.new({ daemon = hosts[first], host = first, key = key, world = o.sim, seed = o.seed,
                       door_width = o.door_width, record = o.record, jammed = o.jammed,
-                      wait = o.timeout })
+                      wait = o.timeout, realtime = o.realtime, periods = sim.period_leaves(spec) })
     say(string.format("world: starting `dca sim --serve --world %s` on host %s", o.sim, first))
     world.on_lost = function(reason)
       io.stderr:write("dca run: ", reason, " (the nodes on its clock stop with it)\n")

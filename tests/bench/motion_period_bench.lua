@@ -1,0 +1,133 @@
+-- The control periods achieved by MotionControl during the door demo (issue 7), BENCHMARKS.md format, against
+-- a plain 1 ms timer measured in the same run, alternated A B A B.
+--
+-- The figures come from the source: every node records the intervals between consecutive MainCalc calls of
+-- its periodic timer, on its own clock and on the wall clock (host/timers.h, the node's `stats`), and
+-- `dca run --sim` prints them for the leaves of MotionControl (RedundancyResolution, XR4000Ctrl,
+-- Puma560Ctrl) before it stops the tree. Variants:
+--   sim_10ms       the demo as written (MotionControl at 10 ms), lock-step as fast as the machine allows: the
+--                  wall interval is the real time one 10 ms control period costs (no wall-clock target)
+--   sim_1ms        MotionControl at 1 ms, lock-step as fast as possible: likewise, per 1 ms period
+--   realtime_1ms   MotionControl at 1 ms with the world paced to the wall clock (`dca run --realtime`; the
+--                  nodes stay in lock-step): the wall interval is the real control period, against 1 ms
+-- and the baseline, a Boost.Asio steady_timer at 1 ms in a plain process (tests/bench/raw_timer_bench.cpp).
+--
+--   RESULT bench=motioncontrol_period variant=<v> leaf=<name> n=.. p50_us=.. p99_us=.. p999_us=.. max_us=..
+--          (wall-clock intervals) nominal_us=.. sim_p50_us=.. sim_p99_us=.. sim_max_us=.. door_deg=..
+--          opened=yes|no rtf=.. wall_s=.. sim_s=.. seed=..
+--   RESULT bench=raw_timer_baseline variant=1ms n=.. p50_us=.. p99_us=.. p999_us=.. max_us=.. min_us=..
+--
+-- MotionControl at 1 ms: with the configuration repository's door system (`config("motion.period")` in
+-- door_open.dca), `--set motion.period=0.001`; otherwise a copy of door_open.dca with the period written
+-- into MotionControl's three instances.
+-- Usage: dca lua tests/bench/motion_period_bench.lua [ROUNDS] [VARIANTS...]   (default: 2 rounds, all three)
+-- Env: DCA_EXE, DCA_SOURCE_DIR, DCA_BENCH_DIR (where bench_raw_timer is; default <exe>/../../bench),
+--      MOTION_BENCH_SEED (default 0), MOTION_BENCH_BASELINE_TICKS (default 5000)
+local exe = os.getenv("DCA_EXE") or "dca"
+local src = os.getenv("DCA_SOURCE_DIR") or "."
+local bench_dir = os.getenv("DCA_BENCH_DIR") or ((exe:match("^(.*)/bin/[^/]+$") or ".") .. "/bench")
+local seed = math.tointeger(tonumber(os.getenv("MOTION_BENCH_SEED") or "0")) or 0
+local baseline_ticks = math.tointeger(tonumber(os.getenv("MOTION_BENCH_BASELINE_TICKS") or "5000")) or 5000
+local sformat = string.format
+
+local function log(fmt, ...) io.stderr:write(sformat(fmt, ...), "\n") end
+
+local function run(cmd)
+  local p = assert(io.popen(cmd .. " 2>&1"))
+  local out = p:read("a")
+  local ok, _, code = p:close()
+  return out, ok and 0 or code
+end
+
+local function q(s) return "'" .. tostring(s):gsub("'", "'\\''") .. "'" end
+
+local door = src .. "/scripts/systems/door_open.dca"
+
+-- The door system with MotionControl at `period` s: extra arguments for `dca run`, and the file to run.
+local copies = {}
+local function door_at(period)
+  local f = assert(io.open(door))
+  local text = f:read("a")
+  f:close()
+  if text:find('config("motion.period")', 1, true) then
+    return door, sformat("--set motion.period=%g", period)
+  end
+  if copies[period] then return copies[period], "" end
+  -- the period is the controllers' last parameter (after RedundancyResolution's weights and damping, whose
+  -- defaults are written out here: base_weight 10, arm_weight 1, damping 0.02; `dca types` lists them)
+  local n
+  text, n = text:gsub("instof XR4000Ctrl%(host2%)", sformat("instof XR4000Ctrl(host2, %g)", period))
+  local n2, n3
+  text, n2 = text:gsub("instof Puma560Ctrl%(host1%)", sformat("instof Puma560Ctrl(host1, %g)", period))
+  text, n3 = text:gsub("instof RedundancyResolution%(host1%)",
+    sformat("instof RedundancyResolution(host1, 10, 1, 0.02, %g)", period))
+  assert(n == 1 and n2 == 1 and n3 == 1, "door_open.dca: MotionControl's instances are not as this bench expects")
+  local base = os.tmpname()
+  os.remove(base)
+  local path = base .. "_door_open.dca"
+  local w = assert(io.open(path, "w"))
+  w:write(text)
+  w:close()
+  copies[period] = path
+  return path, ""
+end
+
+local VARIANTS = {
+  sim_10ms = { period = 0.01 },
+  sim_1ms = { period = 0.001 },
+  realtime_1ms = { period = 0.001, realtime = true },
+}
+local ORDER = { "sim_10ms", "sim_1ms", "realtime_1ms" }
+
+local function baseline()
+  local out, code = run(sformat("%s %d 1", q(bench_dir .. "/bench_raw_timer"), baseline_ticks))
+  local line = out:match("(RESULT bench=raw_timer_baseline[^\n]*)")
+  if code ~= 0 or not line then log("raw timer baseline failed (exit %s):\n%s", tostring(code), out) return end
+  print(line)
+  io.stdout:flush()
+end
+
+local function door_run(name)
+  local v = VARIANTS[name]
+  local file, extra
+  if v.period == 0.01 then file, extra = door, "" else file, extra = door_at(v.period) end
+  local cmd = sformat("%s run %s --sim door --seed %d --quiet%s %s", q(exe), q(file), seed,
+    v.realtime and " --realtime" or "", extra)
+  log("motion_period_bench: %s", cmd)
+  local out, code = run(cmd)
+  local deg = tonumber(out:match("door opened to ([%d.%-]+) deg"))
+  local sim, wall = out:match("simulated ([%d.]+) s in ([%d.]+) s of wall%-clock time")
+  local lines = 0
+  for path, nominal, sn, s50, s99, smax, wn, w50, w99, w999, wmax in out:gmatch(
+      "MotionControl period ([%w_.]+): nominal ([%d.]+) ms; sim n (%d+) p50 ([%d.]+) ms p99 ([%d.]+) ms max ([%d.]+) ms; "
+      .. "wall n (%d+) p50 ([%d.]+) ms p99 ([%d.]+) ms p999 ([%d.]+) ms max ([%d.]+) ms") do
+    lines = lines + 1
+    local us = function(x) return tonumber(x) * 1000 end
+    print(sformat("RESULT bench=motioncontrol_period variant=%s leaf=%s n=%s p50_us=%.1f p99_us=%.1f p999_us=%.1f "
+      .. "max_us=%.1f nominal_us=%.0f sim_n=%s sim_p50_us=%.1f sim_p99_us=%.1f sim_max_us=%.1f door_deg=%s opened=%s "
+      .. "rtf=%.2f wall_s=%s sim_s=%s seed=%d exit=%s",
+      name, path:match("[^.]+$"), wn, us(w50), us(w99), us(w999), us(wmax), us(nominal), sn, us(s50), us(s99),
+      us(smax), deg and sformat("%.1f", deg) or "?", (deg and deg >= 70) and "yes" or "no",
+      (tonumber(sim) or 0) / math.max(tonumber(wall) or 1, 1e-9), wall or "?", sim or "?", seed, tostring(code)))
+  end
+  io.stdout:flush()
+  if lines == 0 or code ~= 0 then
+    log("door run %s: exit %s, %d period lines; its output:\n%s", name, tostring(code), lines, out)
+  end
+end
+
+local rounds = math.tointeger(tonumber(arg and arg[1] or "2")) or 2
+local chosen = {}
+for i = 2, #(arg or {}) do
+  if not VARIANTS[arg[i]] then error("motion_period_bench: unknown variant " .. arg[i]) end
+  chosen[#chosen + 1] = arg[i]
+end
+if #chosen == 0 then chosen = ORDER end
+for r = 1, rounds do
+  for _, name in ipairs(chosen) do
+    log("motion_period_bench: round %d: raw 1 ms timer, then the door (%s)", r, name)
+    baseline()
+    door_run(name)
+  end
+end
+for _, path in pairs(copies) do os.remove(path) end
