@@ -17,9 +17,8 @@
 --          opened=yes|no rtf=.. wall_s=.. sim_s=.. seed=..
 --   RESULT bench=raw_timer_baseline variant=1ms n=.. p50_us=.. p99_us=.. p999_us=.. max_us=.. min_us=..
 --
--- MotionControl at 1 ms: with the configuration repository's door system (`config("motion.period")` in
--- door_open.dca), `--set motion.period=0.001`; otherwise a copy of door_open.dca with the period written
--- into MotionControl's three instances.
+-- MotionControl's period is the configuration key motion.period (door_open.config; 0.01 by default): the
+-- 1 ms variants run `dca run door_open.dca --set motion.period=0.001`.
 -- Usage: dca lua tests/bench/motion_period_bench.lua [ROUNDS] [VARIANTS...]   (default: 2 rounds, all three)
 -- Env: DCA_EXE, DCA_SOURCE_DIR, DCA_BENCH_DIR (where bench_raw_timer is; default <exe>/../../bench),
 --      MOTION_BENCH_SEED (default 0), MOTION_BENCH_BASELINE_TICKS (default 5000)
@@ -43,35 +42,6 @@ local function q(s) return "'" .. tostring(s):gsub("'", "'\\''") .. "'" end
 
 local door = src .. "/scripts/systems/door_open.dca"
 
--- The door system with MotionControl at `period` s: extra arguments for `dca run`, and the file to run.
-local copies = {}
-local function door_at(period)
-  local f = assert(io.open(door))
-  local text = f:read("a")
-  f:close()
-  if text:find('config("motion.period")', 1, true) then
-    return door, sformat("--set motion.period=%g", period)
-  end
-  if copies[period] then return copies[period], "" end
-  -- the period is the controllers' last parameter (after RedundancyResolution's weights and damping, whose
-  -- defaults are written out here: base_weight 10, arm_weight 1, damping 0.02; `dca types` lists them)
-  local n
-  text, n = text:gsub("instof XR4000Ctrl%(host2%)", sformat("instof XR4000Ctrl(host2, %g)", period))
-  local n2, n3
-  text, n2 = text:gsub("instof Puma560Ctrl%(host1%)", sformat("instof Puma560Ctrl(host1, %g)", period))
-  text, n3 = text:gsub("instof RedundancyResolution%(host1%)",
-    sformat("instof RedundancyResolution(host1, 10, 1, 0.02, %g)", period))
-  assert(n == 1 and n2 == 1 and n3 == 1, "door_open.dca: MotionControl's instances are not as this bench expects")
-  local base = os.tmpname()
-  os.remove(base)
-  local path = base .. "_door_open.dca"
-  local w = assert(io.open(path, "w"))
-  w:write(text)
-  w:close()
-  copies[period] = path
-  return path, ""
-end
-
 local VARIANTS = {
   sim_10ms = { period = 0.01 },
   sim_1ms = { period = 0.001 },
@@ -89,10 +59,8 @@ end
 
 local function door_run(name)
   local v = VARIANTS[name]
-  local file, extra
-  if v.period == 0.01 then file, extra = door, "" else file, extra = door_at(v.period) end
-  local cmd = sformat("%s run %s --sim door --seed %d --quiet%s %s", q(exe), q(file), seed,
-    v.realtime and " --realtime" or "", extra)
+  local cmd = sformat("%s run %s --sim door --seed %d --quiet%s --set motion.period=%g", q(exe), q(door), seed,
+    v.realtime and " --realtime" or "", v.period)
   log("motion_period_bench: %s", cmd)
   local out, code = run(cmd)
   local deg = tonumber(out:match("door opened to ([%d.%-]+) deg"))
@@ -130,4 +98,3 @@ for r = 1, rounds do
     door_run(name)
   end
 end
-for _, path in pairs(copies) do os.remove(path) end
