@@ -295,6 +295,12 @@ function Repl:complete(prefix)
   local function add(s) if s:sub(1, #prefix) == prefix and not seen[s] then seen[s] = true out[#out + 1] = s end end
   for k in pairs(self.env) do if type(k) == "string" then add(k) end end
   for k in pairs(_G) do if type(k) == "string" then add(k) end end
+  -- fields of a table: config.g -> config.get
+  local tname = prefix:match("^([%a_][%w_]*)%.")
+  local t = tname and (rawget(self.env, tname) or _G[tname])
+  if type(t) == "table" then
+    for k in pairs(t) do if type(k) == "string" then add(tname .. "." .. k) end end
+  end
   spec_mod.walk(self.sup.spec, function(n)
     add(n.path)
     local rel = n.path:sub(#self.sup.path + 2)

@@ -99,6 +99,10 @@ suite:case("log_shows_recent_events_and_completion_offers_commands_and_paths", f
   local cands = repl:complete("hitg.f")
   T.eq(cands, { "hitg.ft" })
   T.ok(#repl:complete("tre") >= 1 and repl:complete("tre")[1] == "tree")
+  T.eq(repl:complete("config.w"), { "config.watch" })
+  T.eq(repl:complete("config.l"), { "config.list", "config.log" })
+  -- without a repository (the in-memory runtime) config says so and the console goes on
+  T.contains(eval(c, repl, "config.get('door.width')"), "no configuration repository")
 end)
 
 suite:case("reload_of_event_actions_takes_effect_at_the_next_start_and_restart_applies_it_now", function()
