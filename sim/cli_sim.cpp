@@ -95,18 +95,12 @@ int serve(const Options& o, const dca::sim::WorldConfig& config) {
     wo.record_period = o.record_period;
     dca::sim::WorldNode wn(loop, world, wo);
     dca::NodeOptions no;
-    no.type = "World";
     no.name = o.name;
     no.daemon = o.daemon;
     no.key_file = o.key;
     no.host = o.host;
-    no.world.clear();
-    dca::Node node(loop, no,
-                   [&wn](const std::string&, const std::string& name, const std::string&,
-                         const std::vector<std::string>&, dca::TimerServer&) { return wn.make_component(name); });
-    node.on_request([&wn](const std::shared_ptr<dca::Channel>& ch, const dca::wire::Message& m) {
-      return wn.handle(ch, m);
-    });
+    auto hosted = wn.make_node(no);
+    dca::Node& node = *hosted;
     loop.on_signals({SIGTERM, SIGINT}, [&](int) { loop.stop(); });
     std::string failure;
     node.start([&](const std::string& error) {

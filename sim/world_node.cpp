@@ -306,6 +306,17 @@ void WorldNode::go() {
 
 std::int64_t WorldNode::now() const { return impl_->now(); }
 
+std::unique_ptr<Node> WorldNode::make_node(NodeOptions options) {
+  if (options.type.empty()) options.type = "World";
+  options.world.clear();  // the clock master is not on anyone's clock
+  auto node = std::make_unique<Node>(
+      impl_->loop, std::move(options),
+      [this](const std::string&, const std::string& name, const std::string&, const std::vector<std::string>&,
+             TimerServer&) { return make_component(name); });
+  node->on_request([this](const std::shared_ptr<Channel>& ch, const Message& m) { return handle(ch, m); });
+  return node;
+}
+
 bool WorldNode::handle(const std::shared_ptr<Channel>& ch, const Message& m) {
   auto& I = *impl_;
   if (m.type == "clock") {

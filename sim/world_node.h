@@ -35,6 +35,7 @@
 
 #include "host/component.h"
 #include "host/loop.h"
+#include "host/node.h"
 #include "host/wire.h"
 #include "sim/world.h"
 
@@ -67,6 +68,10 @@ class WorldNode {
   std::unique_ptr<Component> make_component(const std::string& name);
   /// The node's request hook (Node::on_request): clock, go, hold, status.
   bool handle(const std::shared_ptr<Channel>& ch, const wire::Message& m);
+  /// The node that hosts this world: `options` (name, daemon, key_file, host) with type "World" when empty and
+  /// no clock master of its own; its component is make_component's and its requests go to handle first.
+  /// Start it with Node::start; it must not outlive this WorldNode.
+  std::unique_ptr<Node> make_node(NodeOptions options);
   /// Starts time flowing (as `go`).
   void go();
   /// Simulated time in nanoseconds.

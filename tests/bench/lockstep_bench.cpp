@@ -71,14 +71,11 @@ double lockstep(int nodes, double period, double seconds, const dca::auth::Key& 
   bool held = false;
   wn.on_duration = [&] { held = true; };
   dca::NodeOptions no;
-  no.type = "World";
   no.name = "world";
   no.daemon = addr;
   no.key_file = key_file;
-  no.world.clear();
-  dca::Node wnode(loop, no, [&](const std::string&, const std::string& n, const std::string&,
-                                const std::vector<std::string>&, dca::TimerServer&) { return wn.make_component(n); });
-  wnode.on_request([&](const std::shared_ptr<dca::Channel>& ch, const Message& m) { return wn.handle(ch, m); });
+  auto hosted = wn.make_node(no);
+  dca::Node& wnode = *hosted;
   std::optional<std::string> started;
   wnode.start([&](const std::string& e) { started = e; });
   loop.run_until([&] { return started.has_value(); }, std::chrono::seconds(10));
