@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "host/channel.h"
+#include "tests/bench/bench_util.h"
 
 namespace {
 
@@ -156,18 +157,8 @@ void raw_block(dca::Loop& loop, Socket& s, int n, Stats* out) {
   loop.run_until([&] { return done >= n; }, std::chrono::seconds(120));
 }
 
-double pct(std::vector<double>& v, double p) {
-  if (v.empty()) return 0;
-  const std::size_t i = std::min(v.size() - 1, static_cast<std::size_t>(p * static_cast<double>(v.size())));
-  return v[i];
-}
-
 void print(const char* bench, const std::string& variant, Stats& s, const std::string& extra = "") {
-  std::sort(s.us.begin(), s.us.end());
-  std::printf("RESULT bench=%s variant=%s n=%zu p50_us=%.1f p99_us=%.1f p999_us=%.1f max_us=%.1f%s\n", bench,
-              variant.c_str(), s.us.size(), pct(s.us, 0.5), pct(s.us, 0.99), pct(s.us, 0.999),
-              s.us.empty() ? 0.0 : s.us.back(), extra.c_str());
-  std::fflush(stdout);
+  dca::bench::result(bench, variant, s.us, extra);
 }
 
 void run_variant(bool tcp, const char* placement, int server_cpu, int client_cpu, int n, int blocks) {
@@ -234,7 +225,7 @@ void run_variant(bool tcp, const char* placement, int server_cpu, int client_cpu
   std::sort(dca_stats.us.begin(), dca_stats.us.end());
   std::sort(raw_stats.us.begin(), raw_stats.us.end());
   char ratio[64];
-  std::snprintf(ratio, sizeof ratio, " ratio_p50=%.2f", pct(dca_stats.us, 0.5) / std::max(1e-9, pct(raw_stats.us, 0.5)));
+  std::snprintf(ratio, sizeof ratio, " ratio_p50=%.2f", dca::bench::quantile(dca_stats.us, 0.5) / std::max(1e-9, dca::bench::quantile(raw_stats.us, 0.5)));
   print("dca_channel_pingpong", variant, dca_stats, ratio);
   print(tcp ? "raw_tcp_pingpong" : "raw_uds_pingpong", variant, raw_stats);
   std::error_code ec;

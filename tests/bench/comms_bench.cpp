@@ -29,6 +29,7 @@
 #include "controllers/registry.h"
 #include "host/comms.h"
 #include "host/timers.h"
+#include "tests/bench/bench_util.h"
 
 namespace asio = boost::asio;
 using Clock = std::chrono::steady_clock;
@@ -51,13 +52,7 @@ struct Samples {
 };
 
 void print(const char* bench, const std::string& variant, Samples& s, const std::string& extra = "") {
-  auto& v = s.us;
-  if (v.empty()) return;
-  std::sort(v.begin(), v.end());
-  auto q = [&](double p) { return v[std::min(v.size() - 1, static_cast<std::size_t>(p * static_cast<double>(v.size())))]; };
-  std::printf("RESULT bench=%s variant=%s n=%zu p50_us=%.2f p99_us=%.2f p999_us=%.2f max_us=%.2f%s\n", bench,
-              variant.c_str(), v.size(), q(0.5), q(0.99), q(0.999), v.back(), extra.c_str());
-  std::fflush(stdout);
+  dca::bench::result(bench, variant, s.us, extra, 2);
 }
 
 bool run_until(asio::io_context& io, const std::function<bool()>& pred, std::chrono::seconds timeout = std::chrono::seconds(10)) {

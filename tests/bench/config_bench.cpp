@@ -25,6 +25,7 @@
 
 #include "host/config_store.h"
 #include "host/daemon.h"
+#include "tests/bench/bench_util.h"
 
 namespace {
 
@@ -39,12 +40,7 @@ const std::string kKey = "benchmark key, 32 bytes long....";
 double us_since(Clock::time_point t0) { return std::chrono::duration<double, std::micro>(Clock::now() - t0).count(); }
 
 void report(const std::string& bench, const std::string& variant, std::vector<double> us, const std::string& extra) {
-  if (us.empty()) return;
-  std::sort(us.begin(), us.end());
-  const auto at = [&](double q) { return us[std::min(us.size() - 1, static_cast<std::size_t>(q * static_cast<double>(us.size())))]; };
-  std::printf("RESULT bench=%s variant=%s n=%zu p50_us=%.1f p99_us=%.1f p999_us=%.1f max_us=%.1f%s\n", bench.c_str(),
-              variant.c_str(), us.size(), at(0.5), at(0.99), at(0.999), us.back(), extra.c_str());
-  std::fflush(stdout);
+  dca::bench::result(bench, variant, us, extra);
 }
 
 std::string rate(const std::vector<double>& us, const char* name) {

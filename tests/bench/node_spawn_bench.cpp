@@ -21,6 +21,7 @@
 #include "host/auth.h"
 #include "host/channel.h"
 #include "host/loop.h"
+#include "tests/bench/bench_util.h"
 
 using Clock = std::chrono::steady_clock;
 using dca::wire::Message;
@@ -28,14 +29,7 @@ using dca::wire::Value;
 
 namespace {
 
-void print(const char* bench, const char* variant, std::vector<double>& v) {
-  if (v.empty()) return;
-  std::sort(v.begin(), v.end());
-  auto q = [&](double p) { return v[std::min(v.size() - 1, static_cast<std::size_t>(p * static_cast<double>(v.size())))]; };
-  std::printf("RESULT bench=%s variant=%s n=%zu p50_us=%.1f p99_us=%.1f p999_us=%.1f max_us=%.1f\n", bench, variant,
-              v.size(), q(0.5), q(0.99), q(0.999), v.back());
-  std::fflush(stdout);
-}
+void print(const char* bench, const char* variant, std::vector<double>& v) { dca::bench::result(bench, variant, v); }
 
 }  // namespace
 

@@ -20,6 +20,7 @@
 #include <boost/asio/steady_timer.hpp>
 
 #include "host/timers.h"
+#include "tests/bench/bench_util.h"
 
 int main(int argc, char** argv) {
   const int ticks = argc > 1 ? std::max(100, std::atoi(argv[1])) : 5000;
@@ -46,9 +47,10 @@ int main(int argc, char** argv) {
   timer.expires_at(deadline);
   timer.async_wait(tick);
   io.run();
-  std::sort(iv.begin(), iv.end());
-  auto q = [&](double p) { return iv[std::min(iv.size() - 1, static_cast<std::size_t>(p * static_cast<double>(iv.size())))]; };
-  std::printf("RESULT bench=raw_timer_baseline variant=%gms n=%zu p50_us=%.1f p99_us=%.1f p999_us=%.1f max_us=%.1f min_us=%.1f\n",
-              period_ms, iv.size(), q(0.5), q(0.99), q(0.999), iv.back(), iv.front());
+  if (iv.empty()) return 1;
+  char variant[32], extra[32];
+  std::snprintf(variant, sizeof variant, "%gms", period_ms);
+  std::snprintf(extra, sizeof extra, " min_us=%.1f", *std::min_element(iv.begin(), iv.end()));
+  dca::bench::result("raw_timer_baseline", variant, iv, extra);
   return 0;
 }

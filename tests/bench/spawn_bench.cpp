@@ -17,6 +17,7 @@
 
 #include "host/daemon.h"
 #include "host/exec.h"
+#include "tests/bench/bench_util.h"
 
 extern char** environ;
 
@@ -84,15 +85,8 @@ void daemon_block(dca::Loop& loop, dca::Channel& ch, int n, std::vector<double>*
   loop.run_until([&] { return done >= n; }, std::chrono::seconds(120));
 }
 
-double pct(const std::vector<double>& v, double p) {
-  if (v.empty()) return 0;
-  return v[std::min(v.size() - 1, static_cast<std::size_t>(p * static_cast<double>(v.size())))];
-}
-
 void print(const char* bench, std::vector<double>& v, const std::string& extra = "") {
-  std::sort(v.begin(), v.end());
-  std::printf("RESULT bench=%s variant=bin_true n=%zu p50_us=%.1f p99_us=%.1f p999_us=%.1f max_us=%.1f%s\n", bench,
-              v.size(), pct(v, 0.5), pct(v, 0.99), pct(v, 0.999), v.empty() ? 0.0 : v.back(), extra.c_str());
+  dca::bench::result(bench, "bin_true", v, extra);
 }
 
 }  // namespace
@@ -135,8 +129,8 @@ int main(int argc, char** argv) {
   std::sort(exec.begin(), exec.end());
   std::sort(via_daemon.begin(), via_daemon.end());
   char r1[64], r2[64];
-  std::snprintf(r1, sizeof r1, " ratio_p50=%.2f", pct(exec, 0.5) / std::max(1e-9, pct(raw, 0.5)));
-  std::snprintf(r2, sizeof r2, " ratio_p50=%.2f", pct(via_daemon, 0.5) / std::max(1e-9, pct(raw, 0.5)));
+  std::snprintf(r1, sizeof r1, " ratio_p50=%.2f", dca::bench::quantile(exec, 0.5) / std::max(1e-9, dca::bench::quantile(raw, 0.5)));
+  std::snprintf(r2, sizeof r2, " ratio_p50=%.2f", dca::bench::quantile(via_daemon, 0.5) / std::max(1e-9, dca::bench::quantile(raw, 0.5)));
   print("dca_executer_spawn_exit", exec, r1);
   print("dca_daemon_spawn_exit", via_daemon, r2);
   print("raw_posix_spawn_exit", raw);

@@ -16,17 +16,14 @@
 #include <boost/asio/io_context.hpp>
 
 #include "host/timers.h"
+#include "tests/bench/bench_util.h"
 
 namespace {
 
 constexpr dca::Nanos kPeriod = 1'000'000;
 
 void print(const char* bench, std::vector<double>& v, const std::string& extra = "") {
-  std::sort(v.begin(), v.end());
-  auto q = [&](double p) { return v[std::min(v.size() - 1, static_cast<std::size_t>(p * static_cast<double>(v.size())))]; };
-  std::printf("RESULT bench=%s variant=1kHz n=%zu p50_us=%.2f p99_us=%.2f p999_us=%.2f max_us=%.2f%s\n", bench, v.size(),
-              q(0.5), q(0.99), q(0.999), v.back(), extra.c_str());
-  std::fflush(stdout);
+  dca::bench::result(bench, "1kHz", v, extra, 2);
 }
 
 void dca_round(int ticks, std::vector<double>& out, dca::TimerStats& stats) {

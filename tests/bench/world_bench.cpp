@@ -12,6 +12,7 @@
 #include "sim/door_script.h"
 #include "sim/simbody_check.h"
 #include "sim/world.h"
+#include "tests/bench/bench_util.h"
 
 namespace {
 
@@ -27,16 +28,15 @@ double cpu_seconds() {
 // an idle machine gives); rtf_cpu: simulated time over this thread's CPU time (preemption excluded).
 void report(const std::string& bench, const std::string& variant, std::vector<double> us, double period,
             double cpu) {
+  if (us.empty()) return;
   std::sort(us.begin(), us.end());
-  const auto at = [&](double p) { return us[std::min(us.size() - 1, static_cast<size_t>(p * us.size()))]; };
   double total = 0;
   for (double u : us) total += u;
   const double simulated = period * static_cast<double>(us.size());
-  std::printf("RESULT bench=%s variant=%s n=%zu p50_us=%.2f p99_us=%.2f p999_us=%.2f max_us=%.2f rtf=%.2f "
-              "rtf_p50=%.2f rtf_cpu=%.2f\n",
-              bench.c_str(), variant.c_str(), us.size(), at(0.5), at(0.99), at(0.999), us.back(),
-              simulated * 1e6 / total, period * 1e6 / at(0.5), simulated / cpu);
-  std::fflush(stdout);
+  char extra[128];
+  std::snprintf(extra, sizeof extra, " rtf=%.2f rtf_p50=%.2f rtf_cpu=%.2f", simulated * 1e6 / total,
+                period * 1e6 / dca::bench::quantile(us, 0.5), simulated / cpu);
+  dca::bench::result(bench, variant, us, extra, 2);
 }
 
 template <typename F>

@@ -1,0 +1,34 @@
+#pragma once
+// What every C++ benchmark prints (../shared/BENCHMARKS.md): one RESULT line per measured variant, with the
+// same quantile rule everywhere.
+//   RESULT bench=<name> variant=<variant> n=<samples> p50_us=.. p99_us=.. p999_us=.. max_us=..[ k=v...]
+#include <algorithm>
+#include <cstddef>
+#include <cstdio>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace dca::bench {
+
+/// The q-quantile (0..1) of ascending samples: the sample at rank floor(q * n), clamped to the last; 0 for none.
+inline double quantile(const std::vector<double>& sorted, double q) {
+  if (sorted.empty()) return 0;
+  const auto i = static_cast<std::size_t>(q * static_cast<double>(sorted.size()));
+  return sorted[std::min(sorted.size() - 1, i)];
+}
+
+/// Sorts the samples (microseconds) and prints their RESULT line with `digits` decimals, then `extra` (which
+/// starts with a space: " rtf=2.1"); flushed at once. Prints nothing when there are no samples.
+inline void result(std::string_view bench, std::string_view variant, std::vector<double>& us,
+                   std::string_view extra = "", int digits = 1) {
+  if (us.empty()) return;
+  std::sort(us.begin(), us.end());
+  std::printf("RESULT bench=%.*s variant=%.*s n=%zu p50_us=%.*f p99_us=%.*f p999_us=%.*f max_us=%.*f%.*s\n",
+              static_cast<int>(bench.size()), bench.data(), static_cast<int>(variant.size()), variant.data(),
+              us.size(), digits, quantile(us, 0.5), digits, quantile(us, 0.99), digits, quantile(us, 0.999), digits,
+              us.back(), static_cast<int>(extra.size()), extra.data());
+  std::fflush(stdout);
+}
+
+}  // namespace dca::bench
