@@ -17,6 +17,9 @@ ParamSpec opt(std::string name, std::string type, std::string def, std::string d
   return {std::move(name), std::move(type), std::move(def), false, false, std::move(doc)};
 }
 ParamSpec period_param() { return opt("period", "number", "0.01", "seconds between ticks"); }
+ParamSpec hold_param() {
+  return opt("hold", "number", "0.01", "a command older than this (s) counts as zero (a drive's deadman)");
+}
 
 PortSpec device(PortSpec p, std::string signal) {
   p.device = std::move(signal);
@@ -74,15 +77,16 @@ Manifest XR4000Ctrl::Describe() {
   return {"XR4000Ctrl", "the base's velocity drive (Nomad XR4000)",
           {vector_port("Vel", 3, "m/s, m/s, rad/s")},
           {device(vector_port("Cmd", 3, "m/s, m/s, rad/s"), "base.cmd_vel")},
-          {period_param()}};
+          {period_param(), hold_param()}};
 }
 XR4000Ctrl::XR4000Ctrl(const ControllerContext& ctx)
-    : Controller(ctx), vel_(input("Vel")), cmd_(output("Cmd")), period_(positive(number("period"), "period")) {}
-void XR4000Ctrl::Run(const msgpack::object&) { StartPeriodic(period_); }
-void XR4000Ctrl::MainCalc() {
-  if (!fresh(vel_, v_)) v_.setZero();
-  cmd_.write(v_);
+    : Controller(ctx), vel_(input("Vel")), cmd_(output("Cmd")), period_(positive(number("period"), "period")),
+      v_(positive(number("hold"), "hold")) {}
+void XR4000Ctrl::Run(const msgpack::object&) {
+  v_.reset();
+  StartPeriodic(period_);
 }
+void XR4000Ctrl::MainCalc() { cmd_.write(v_.update(vel_, now())); }
 void XR4000Ctrl::Stop() { cmd_.write(Vec3::Zero().eval()); }
 
 Manifest XR4000Odometry::Describe() {
@@ -102,16 +106,18 @@ Manifest Puma560Ctrl::Describe() {
   return {"Puma560Ctrl", "the arm's joint-velocity drive (Puma 560); also publishes the joint angles",
           {vector_port("Vel", 6, "rad/s"), device(vector_port("Q", 6, "rad"), "arm.q")},
           {device(vector_port("Cmd", 6, "rad/s"), "arm.cmd_qd"), vector_port("Joints", 6, "rad")},
-          {period_param()}};
+          {period_param(), hold_param()}};
 }
 Puma560Ctrl::Puma560Ctrl(const ControllerContext& ctx)
     : Controller(ctx), vel_(input("Vel")), q_in_(input("Q")), cmd_(output("Cmd")), joints_(output("Joints")),
-      period_(positive(number("period"), "period")) {}
-void Puma560Ctrl::Run(const msgpack::object&) { StartPeriodic(period_); }
+      period_(positive(number("period"), "period")), v_(positive(number("hold"), "hold")) {}
+void Puma560Ctrl::Run(const msgpack::object&) {
+  v_.reset();
+  StartPeriodic(period_);
+}
 void Puma560Ctrl::MainCalc() {
   if (fresh(q_in_, q_)) joints_.write(q_);
-  if (!fresh(vel_, v_)) v_.setZero();
-  cmd_.write(v_);
+  cmd_.write(v_.update(vel_, now()));
 }
 void Puma560Ctrl::Stop() { cmd_.write(Vec6::Zero().eval()); }
 
@@ -213,11 +219,13 @@ Manifest RedundancyResolution::Describe() {
           {vector_port("BaseVel", 3, "m/s, m/s, rad/s"), vector_port("ArmVel", 6, "rad/s")},
           {opt("base_weight", "number", "10", "cost of base motion (higher: the arm does more)"),
            opt("arm_weight", "number", "1", "cost of arm motion"),
-           opt("damping", "number", "0.02", "least-squares damping near singularities"), period_param()}};
+           opt("damping", "number", "0.02", "least-squares damping near singularities"), period_param(),
+           hold_param()}};
 }
 RedundancyResolution::RedundancyResolution(const ControllerContext& ctx)
     : Controller(ctx), in_(input("In")), joints_(input("Joints")), base_out_(output("BaseVel")),
-      arm_out_(output("ArmVel")), arm_(robot_arm()), period_(positive(number("period"), "period")) {
+      arm_out_(output("ArmVel")), arm_(robot_arm()), period_(positive(number("period"), "period")),
+      cmd_(positive(number("hold"), "hold")) {
   weights_.resize(9);
   weights_.head<3>().setConstant(positive(number("base_weight"), "base_weight"));
   weights_.tail<6>().setConstant(positive(number("arm_weight"), "arm_weight"));
@@ -246,15 +254,15 @@ void RedundancyResolution::Solve(const kin::Chain& arm, const Vec9& cmd, const V
 }
 
 void RedundancyResolution::Run(const msgpack::object&) {
-  cmd_.setZero();
+  cmd_.reset();
   StartPeriodic(period_);
 }
 void RedundancyResolution::MainCalc() {
   if (fresh(joints_, q_)) have_q_ = true;
-  if (!fresh(in_, cmd_)) cmd_.setZero();
+  const Vec9& cmd = cmd_.update(in_, now());
   Vec3 base = Vec3::Zero();
   Vec6 arm = Vec6::Zero();
-  if (have_q_ && !cmd_.isZero()) Solve(arm_, cmd_, q_, weights_, params_, &base, &arm);
+  if (have_q_ && !cmd.isZero()) Solve(arm_, cmd, q_, weights_, params_, &base, &arm);
   base_out_.write(base);
   arm_out_.write(arm);
 }

@@ -20,8 +20,11 @@
 //
 // Every controller here runs periodically (parameter `period`, default 10 ms: in the distributed lock-step each
 // tick costs a round trip per node, and every connection delays a sample by one tick, which the gains here are
-// tuned for) and its MainCalc allocates nothing. A command that has not been refreshed since the previous tick counts as zero (a crashed or
-// stopped source leaves the robot still within one period), and Stop() writes zero to every actuator.
+// tuned for) and its MainCalc allocates nothing. The drives (XR4000Ctrl, Puma560Ctrl, RedundancyResolution) use
+// a command while it is younger than `hold` (default 0.01 s, the period of the controllers that command them),
+// then count it as zero: at 10 ms a command not refreshed since the previous tick is zero, and a drive faster
+// than its source (MotionControl at 1 ms) holds each sample until the next one is due. A crashed or stopped
+// source leaves the robot still within `hold`. Stop() writes zero to every actuator.
 #include <Eigen/Core>
 #include <optional>
 
@@ -55,10 +58,35 @@ bool fresh(Input& in, Eigen::Matrix<double, N, 1>& v) {
   return true;
 }
 
+/// A drive's command: the newest sample of its input, used for `hold` after it arrived, then zero (a deadman).
+template <int N>
+class HeldCommand {
+ public:
+  using Vec = Eigen::Matrix<double, N, 1>;
+  explicit HeldCommand(double hold_s) : hold_(static_cast<Nanos>(hold_s * 1e9)) {}
+  /// The command at `now`: a sample that arrived since the last call, else the last one while it is younger
+  /// than `hold`, else zero.
+  const Vec& update(Input& in, Nanos now) {
+    if (fresh(in, v_)) at_ = now;
+    else if (at_ < 0 || now - at_ >= hold_) v_.setZero();
+    return v_;
+  }
+  /// Forgets the last command (Run: a new run starts from zero).
+  void reset() {
+    v_.setZero();
+    at_ = -1;
+  }
+
+ private:
+  Nanos hold_;
+  Nanos at_ = -1;
+  Vec v_ = Vec::Zero();
+};
+
 // ------------------------------------------------------------------------------------------ hardware-facing
 
-/// XR4000Ctrl(host, period=0.01): the base's velocity drive.
-///   in  Vel     vector[3] base velocity command (m/s, m/s, rad/s), zero when not refreshed each tick
+/// XR4000Ctrl(host, period=0.01, hold=0.01): the base's velocity drive.
+///   in  Vel     vector[3] base velocity command (m/s, m/s, rad/s), zero once `hold` s old (HeldCommand)
 ///   out Cmd     vector[3] device base.cmd_vel
 class XR4000Ctrl final : public Controller {
  public:
@@ -74,7 +102,7 @@ class XR4000Ctrl final : public Controller {
   Input& vel_;
   Output& cmd_;
   double period_;
-  Vec3 v_ = Vec3::Zero();
+  HeldCommand<3> v_;
 };
 
 /// XR4000Odometry(host, period=0.01): the base's odometry.
@@ -96,8 +124,9 @@ class XR4000Odometry final : public Controller {
   Vec3 p_ = Vec3::Zero();
 };
 
-/// Puma560Ctrl(host, period=0.01): the arm's joint-velocity drive, which also publishes the joint angles.
-///   in  Vel     vector[6] joint velocity command (rad/s), zero when not refreshed each tick
+/// Puma560Ctrl(host, period=0.01, hold=0.01): the arm's joint-velocity drive, which also publishes the joint
+/// angles.
+///   in  Vel     vector[6] joint velocity command (rad/s), zero once `hold` s old (HeldCommand)
 ///   in  Q       vector[6] device arm.q
 ///   out Cmd     vector[6] device arm.cmd_qd
 ///   out Joints  vector[6] joint angles (rad)
@@ -115,7 +144,8 @@ class Puma560Ctrl final : public Controller {
   Input &vel_, &q_in_;
   Output &cmd_, &joints_;
   double period_;
-  Vec6 v_ = Vec6::Zero(), q_ = Vec6::Zero();
+  HeldCommand<6> v_;
+  Vec6 q_ = Vec6::Zero();
 };
 
 /// Puma560Joints(host, period=0.01): the arm's joint angles.
@@ -218,10 +248,10 @@ class GripperControl final : public Controller {
 
 // ------------------------------------------------------------------------------------------------ algorithms
 
-/// RedundancyResolution(host, base_weight=10, arm_weight=1, damping=0.02, period=0.01): distributes the
+/// RedundancyResolution(host, base_weight=10, arm_weight=1, damping=0.02, period=0.01, hold=0.01): distributes the
 /// commanded tool twist over the base's 3 and the arm's 6 joints (weighted, damped least squares, joint-limit
 /// avoidance in the null space), after applying the command's own base velocity.
-///   in  In       vector[9] Vel (see the header), zero when not refreshed each tick
+///   in  In       vector[9] Vel (see the header), zero once `hold` s old (HeldCommand)
 ///   in  Joints   vector[6] arm joint angles
 ///   out BaseVel  vector[3] to XR4000Ctrl
 ///   out ArmVel   vector[6] to Puma560Ctrl
@@ -246,7 +276,7 @@ class RedundancyResolution final : public Controller {
   kin::JointVector weights_;
   kin::RedundancyParams params_;
   double period_;
-  Vec9 cmd_ = Vec9::Zero();
+  HeldCommand<9> cmd_;
   Vec6 q_ = Vec6::Zero();
   bool have_q_ = false;
 };

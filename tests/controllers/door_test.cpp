@@ -199,7 +199,7 @@ TEST_F(DoorTest, VisualServoingAbortsWhenTheHandleIsLost) {
 }
 
 TEST_F(DoorTest, StaleCommandsStopTheRobotWithinOnePeriod) {
-  auto& xr = make("XR4000Ctrl", {}, "/xr");
+  auto& xr = make("XR4000Ctrl", {}, "/xr");  // period 10 ms, hold 10 ms
   auto& v = feed("V", 3, "/xr", "Vel");
   ep.activate("s");
   ASSERT_EQ(xr.run({}), "");
@@ -210,8 +210,43 @@ TEST_F(DoorTest, StaleCommandsStopTheRobotWithinOnePeriod) {
   EXPECT_TRUE(latest(xr, "Cmd").isZero());
   v.write((Vec3() << 0.2, 0, 0.1).finished());
   timers.advance_to(3 * kTick);
+  EXPECT_DOUBLE_EQ(latest(xr, "Cmd")[0], 0.2);
   xr.stop();
   EXPECT_TRUE(latest(xr, "Cmd").isZero());
+}
+
+TEST_F(DoorTest, ADriveHoldsItsCommandForHoldThenStopsTheRobot) {
+  auto& xr = make("XR4000Ctrl", {"0.01", "0.03"}, "/xr");  // period 10 ms, hold 30 ms
+  auto& v = feed("V", 3, "/xr", "Vel");
+  ep.activate("s");
+  ASSERT_EQ(xr.run({}), "");
+  v.write((Vec3() << 0.2, 0, 0.1).finished());
+  timers.advance_to(1 * kTick);
+  EXPECT_DOUBLE_EQ(latest(xr, "Cmd")[0], 0.2);
+  timers.advance_to(3 * kTick);  // 20 ms old: still held
+  EXPECT_DOUBLE_EQ(latest(xr, "Cmd")[0], 0.2);
+  timers.advance_to(4 * kTick);  // 30 ms old: zero
+  EXPECT_TRUE(latest(xr, "Cmd").isZero());
+  v.write((Vec3() << 0.3, 0, 0.1).finished());
+  timers.advance_to(6 * kTick);
+  EXPECT_DOUBLE_EQ(latest(xr, "Cmd")[0], 0.3);
+  xr.stop();
+  EXPECT_TRUE(latest(xr, "Cmd").isZero());
+}
+
+TEST_F(DoorTest, ADriveFasterThanItsSourceHoldsTheCommandBetweenSamples) {
+  // MotionControl at 1 ms fed by a 10 ms source: every tick commands the last sample, none is zero
+  auto& puma = make("Puma560Ctrl", {"0.001"}, "/puma");
+  auto& v = feed("V", 6, "/puma", "Vel");
+  ep.activate("s");
+  ASSERT_EQ(puma.run({}), "");
+  for (int k = 0; k < 30; ++k) {
+    if (k % 10 == 0) v.write((Vec6() << 0.1, 0, 0, 0, 0, 0).finished());
+    timers.advance_to((k + 1) * kMs);
+    EXPECT_DOUBLE_EQ(latest(puma, "Cmd")[0], 0.1) << "tick " << k;
+  }
+  timers.advance_to(40 * kMs);  // the last sample (at 21 ms) held until it is 10 ms old
+  EXPECT_TRUE(latest(puma, "Cmd").isZero());
 }
 
 TEST_F(DoorTest, DistanceThresholdIsDoneAtTheDistance) {
