@@ -25,6 +25,12 @@ local function result(bench, variant, samples, extra)
   io.stdout:flush()
 end
 
+-- The door-opening system's configuration defaults (its config("key") parameters), for the in-memory cluster.
+local door_config = {}
+for _, e in ipairs(assert(require("dca.config").read_file(src .. "/scripts/systems/door_open.config"))) do
+  door_config[e.key] = e.value
+end
+
 -- The door-opening system (scripts/systems/door_open.dca) as a spec.
 local function door_spec()
   local loader = require "dca.cli.check"
@@ -64,7 +70,7 @@ local function bringup(name, make, reps)
     -- A: the supervisor tree (start, connect, confirm, run)
     local spec = make()
     local t0 = clock()
-    local c = fake.cluster{}
+    local c = fake.cluster{ config = door_config }
     c:root(spec)
     assert(c:configure())
     c:start()
