@@ -266,6 +266,31 @@ function M.resolve_params(args, client, cb, what, expect)
   finish()
 end
 
+--- Whether any of a controller's arguments names a configuration key (M.param_key).
+function M.has_params(args)
+  for _, a in ipairs(args or {}) do
+    if M.param_key(a) then return true end
+  end
+  return false
+end
+
+--- resolve_params for a controller's arguments (what a node's command line carries): besides, a value read for
+--- a key must be a number, a string or a boolean. cb(resolved) | cb(nil, err naming the parameter and the key).
+function M.resolve_controller_params(args, client, cb, what)
+  M.resolve_params(args, client, function(out, err)
+    if not out then return cb(nil, err) end
+    for i = 1, (args.n or #args) do
+      local key, t = M.param_key(args[i]), type(out[i])
+      if key and t ~= "number" and t ~= "string" and t ~= "boolean" then
+        return cb(nil, sformat("%sparameter %d (config key '%s'): the value is a %s; a controller parameter is a "
+          .. "number, a string or a boolean", what and what.process and ("process " .. what.process .. ": ") or "",
+          i, key, t))
+      end
+    end
+    cb(out)
+  end, what)
+end
+
 -- ------------------------------------------------------------------------------------ defaults files and seeding
 
 --- Reads a file of configuration defaults: one `key = value` per line, the value a Lua literal (0.45, 75,
@@ -277,7 +302,7 @@ function M.read_file(path)
   local out, seen, n = {}, {}, 0
   for line in f:lines() do
     n = n + 1
-    local text = line:match("^%s*[#-]") and (line:match("^%s*#") or line:match("^%s*%-%-")) and "" or line
+    local text = (line:match("^%s*#") or line:match("^%s*%-%-")) and "" or line
     if text:match("%S") then
       local lead, key, eq, raw = text:match("^(%s*)([%w_%.%-]+)(%s*=%s*)(.-)%s*$")
       local function fail(col, msg)
@@ -428,11 +453,7 @@ function M.check_spec(hosts, origin, spec, opts)
   local function walk(g)
     for _, ch in ipairs(g.children or {}) do
       if ch.kind == "group" then walk(ch.spec)
-      else
-        for _, a in ipairs(ch.args or {}) do
-          if M.param_key(a) then leaves[#leaves + 1] = ch break end
-        end
-      end
+      elseif M.has_params(ch.args) then leaves[#leaves + 1] = ch end
     end
   end
   walk(spec)
@@ -441,7 +462,7 @@ function M.check_spec(hosts, origin, spec, opts)
   if not c then return nil, sformat("configuration repository of host %s: %s", tostring(origin), tostring(err)) end
   local errors, left = {}, #leaves
   for _, leaf in ipairs(leaves) do
-    M.resolve_params(leaf.args, c.client, function(_, rerr)
+    M.resolve_controller_params(leaf.args, c.client, function(_, rerr)
       if rerr then errors[#errors + 1] = rerr end
       left = left - 1
     end, { process = leaf.path, host = leaf.host, params = leaf.params })

@@ -212,25 +212,21 @@ function Cluster:_spawn(owner_sup, child, cb)
     return
   end
   if mode then c:push(function() cb(nil, mode) end) return end
-  if child.kind == "leaf" and not child.resolved then
+  local cfg = require "dca.config"
+  if child.kind == "leaf" and not child.resolved and cfg.has_params(child.args) then
     -- config("key") arguments: read from the cluster's repository (opts.config, one content for every host)
-    local cfg = require "dca.config"
-    local needs = false
-    for _, a in ipairs(child.args or {}) do if cfg.param_key(a) then needs = true end end
-    if needs then
-      local repo = c.config or {}
-      local client = { get = function(_, key, k)
-        c:push(function()
-          if repo[key] == nil then k(nil, sformat("unknown key '%s' on host %s", key, tostring(child.host)))
-          else k(copy(repo[key])) end
-        end)
-      end }
-      cfg.resolve_params(child.args, client, function(args, err)
-        if not args then cb(nil, err) return end
-        c:_spawn(owner_sup, setmetatable({ args = args, resolved = true }, { __index = child }), cb)
-      end, { params = child.params })
-      return
-    end
+    local repo = c.config or {}
+    local client = { get = function(_, key, k)
+      c:push(function()
+        if repo[key] == nil then k(nil, sformat("unknown key '%s' on host %s", key, tostring(child.host)))
+        else k(copy(repo[key])) end
+      end)
+    end }
+    cfg.resolve_controller_params(child.args, client, function(args, err)
+      if not args then cb(nil, err) return end
+      c:_spawn(owner_sup, setmetatable({ args = args, resolved = true }, { __index = child }), cb)
+    end, { params = child.params })
+    return
   end
   local p = c:_proc(child.path, child.host, child.kind)
   p.on_exit = function(reason) owner_sup:child_exit(child.name, reason) end

@@ -189,26 +189,12 @@ function M.new(opts)
   function rt.spawn(child, cb)
     daemon(child.host, function(dch, err)
       if not dch then cb(nil, err) return end
-      if child.kind == "leaf" and not child.resolved then
-        local needs = false
-        for _, a in ipairs(child.args or {}) do if config.param_key(a) then needs = true end end
-        if needs then
-          config.resolve_params(child.args, config.over_channel(dch, timeouts.lookup), function(args, rerr)
-            if not args then cb(nil, rerr) return end
-            for i, a in ipairs(args) do
-              local key = config.param_key(child.args[i])
-              local t = type(a)
-              if key and t ~= "number" and t ~= "string" and t ~= "boolean" then
-                cb(nil, sformat("parameter %d (config key '%s'): the value is a %s; a controller parameter is a "
-                  .. "number, a string or a boolean", i, key, t))
-                return
-              end
-            end
-            local c2 = setmetatable({ args = args, resolved = true }, { __index = child })
-            rt.spawn(c2, cb)
-          end, { params = child.params })
-          return
-        end
+      if child.kind == "leaf" and not child.resolved and config.has_params(child.args) then
+        config.resolve_controller_params(child.args, config.over_channel(dch, timeouts.lookup), function(args, rerr)
+          if not args then cb(nil, rerr) return end
+          rt.spawn(setmetatable({ args = args, resolved = true }, { __index = child }), cb)
+        end, { params = child.params })
+        return
       end
       local addr = opts.hosts[child.host]
       local argv

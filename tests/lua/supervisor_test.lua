@@ -205,6 +205,20 @@ suite:case("an_unknown_config_key_fails_the_start_naming_process_parameter_and_k
   T.eq(c:alive(), {}, "everything already started is stopped")
 end)
 
+suite:case("a_config_value_that_is_a_table_fails_the_start_a_parameter_is_a_scalar", function()
+  local c = fake.cluster{ behave = behave, config = { ["door.hit_force"] = { 1, 2 } } }
+  local s = door_with_config("door.hit_force")
+  spec_mod.child(spec_mod.child(spec_mod.child(s, "door").spec, "hitg").spec, "hit").params = nil  -- no manifest
+  c:root(s)
+  local ok, err = c:configure()
+  T.eq(ok, false)
+  T.contains(err, "main.door.hitg.hit")
+  T.contains(err, "parameter 1 (config key 'door.hit_force'): the value is a table; a controller parameter is a "
+    .. "number, a string or a boolean")
+  c:settle()
+  T.eq(c:alive(), {})
+end)
+
 suite:case("a_config_value_of_the_wrong_type_fails_the_start_naming_the_parameter", function()
   local c = fake.cluster{ behave = behave, config = { ["door.hit_force"] = "strong" } }
   c:root(door_with_config("door.hit_force"))
