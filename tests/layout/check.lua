@@ -1,0 +1,160 @@
+-- The layout rules of ARCHITECTURE.md, measured: run by CTest as layout.<case>, and by hand as
+--   scripts/layout-check            every case, naming each offender
+--   scripts/layout-check --report   the figures: longest functions, files per folder
+-- It reads the tree as text; C++ functions are found by universal-ctags, Lua functions by luac5.4's listing.
+local T = require "dca.testing"
+
+local fmt, concat, sort = string.format, table.concat, table.sort
+
+local MAX_LINES = 80
+local root = os.getenv("DCA_SOURCE_DIR") or "."
+
+--- The lines a shell command prints (it must succeed).
+local function lines_of(cmd)
+  local p = assert(io.popen(cmd))
+  local out = {}
+  for l in p:lines() do out[#out + 1] = l end
+  local ok, _, code = p:close()
+  if not ok then error(fmt("'%s' failed (exit %s)", cmd, tostring(code)), 2) end
+  return out
+end
+
+--- The files git tracks under the folders given, matching a Lua pattern on the path.
+local function files(folders, pattern)
+  local list = {}
+  for _, f in ipairs(lines_of(fmt("cd '%s' && git ls-files -- %s", root, concat(folders, " ")))) do
+    if f:match(pattern) then list[#list + 1] = f end
+  end
+  return list
+end
+
+--- Every C++ function definition (lambdas too) in the files: {file, name, first, last}.
+local function cxx_functions(paths)
+  local out = {}
+  if #paths == 0 then return out end
+  local cmd = fmt("cd '%s' && ctags --output-format=json --fields=+ne --kinds-C++=f --language-force=C++ -o - %s",
+                  root, concat(paths, " "))
+  for _, l in ipairs(lines_of(cmd)) do
+    local path, name = l:match('"path": "([^"]+)"'), l:match('"name": "([^"]+)"')
+    local first, last = tonumber(l:match('"line": (%d+)')), tonumber(l:match('"end": (%d+)'))
+    if path and first and last then
+      local scope = l:match('"scope": "([^"]+)"')
+      if name:match("^__anon") then name = "lambda in " .. (scope or "?")
+      elseif scope then name = scope:gsub("__anon%w+::", "") .. "::" .. name end
+      out[#out + 1] = { file = path, name = name, first = first, last = last }
+    end
+  end
+  return out
+end
+
+--- Every Lua function in the files: {file, name, first, last} (luac names none: the first line stands in).
+local function lua_functions(paths)
+  local out = {}
+  for _, path in ipairs(paths) do
+    for _, l in ipairs(lines_of(fmt("cd '%s' && luac5.4 -p -l '%s'", root, path))) do
+      local first, last = l:match("^function <[^:]+:(%d+),(%d+)>")
+      if first then
+        out[#out + 1] = { file = path, name = "function", first = tonumber(first), last = tonumber(last) }
+      end
+    end
+  end
+  return out
+end
+
+--- The functions of the measured folders, longest first.
+local function measured_functions()
+  local all = cxx_functions(files({ "host", "app", "bindings" }, "%.[ch]p?p?$"))
+  for _, f in ipairs(lua_functions(files({ "lua/dca" }, "%.lua$"))) do all[#all + 1] = f end
+  for _, f in ipairs(all) do f.lines = f.last - f.first + 1 end
+  sort(all, function(a, b) return a.lines > b.lines end)
+  return all
+end
+
+local function describe(f) return fmt("%s:%d-%d %s (%d lines)", f.file, f.first, f.last, f.name, f.lines) end
+
+--- Fails listing every offender, one per line.
+local function none(offenders, what)
+  if #offenders > 0 then error(fmt("%d %s:\n  %s", #offenders, what, concat(offenders, "\n  ")), 0) end
+end
+
+--- The `require`d module names of a Lua file.
+local function requires(path)
+  local fh = assert(io.open(root .. "/" .. path))
+  local src = fh:read("a")
+  fh:close()
+  local mods = {}
+  for m in src:gmatch("require%s*%(?%s*[\"']([%w%._]+)[\"']") do mods[#mods + 1] = m end
+  for m in src:gmatch("pcall%s*%(%s*require%s*,%s*[\"']([%w%._]+)[\"']") do mods[#mods + 1] = m end
+  return mods
+end
+
+local suite = T.suite("layout")
+
+suite:case("no_function_longer_than_80_lines", function()
+  local long = {}
+  for _, f in ipairs(measured_functions()) do
+    if f.lines > MAX_LINES then long[#long + 1] = describe(f) end
+  end
+  none(long, fmt("functions in host/, app/, bindings/ and lua/dca/ are longer than %d lines", MAX_LINES))
+end)
+
+suite:case("host_includes_only_host", function()
+  local bad = {}
+  for _, path in ipairs(files({ "host" }, "%.[ch]p?p?$")) do
+    local n = 0
+    for l in io.lines(root .. "/" .. path) do
+      n = n + 1
+      local inc = l:match('^%s*#%s*include%s*"([^"]+)"')
+      if inc and (inc:match("^bindings/") or inc:match("^controllers/") or inc:match("^sim/") or inc:match("^app/")) then
+        bad[#bad + 1] = fmt("%s:%d: %s", path, n, inc)
+      end
+    end
+  end
+  none(bad, "includes in host/ reach outside it")
+end)
+
+suite:case("only_the_cli_requires_dca_cli", function()
+  local bad = {}
+  for _, path in ipairs(files({ "lua/dca" }, "%.lua$")) do
+    if not path:match("^lua/dca/cli/") then
+      for _, m in ipairs(requires(path)) do
+        if m:match("^dca%.cli%.") then bad[#bad + 1] = path .. " requires " .. m end
+      end
+    end
+  end
+  none(bad, "modules outside lua/dca/cli/ require dca.cli.*")
+end)
+
+suite:case("the_supervisor_engine_needs_no_core_and_no_console", function()
+  local engine = files({ "lua/dca/supervisor" }, "^lua/dca/supervisor/init%.lua$")[1]
+                 or files({ "lua/dca" }, "^lua/dca/supervisor%.lua$")[1]
+  T.ok(engine, "the supervisor engine's file")
+  local bad = {}
+  for _, m in ipairs(requires(engine)) do
+    if m == "dca.core" or m:match("console") or m:match("repl") then bad[#bad + 1] = engine .. " requires " .. m end
+  end
+  none(bad, "requires in the supervisor engine")
+end)
+
+--- The figures for a note: the longest functions and the files per folder.
+local function report()
+  local fs = measured_functions()
+  local over = 0
+  for _, f in ipairs(fs) do if f.lines > MAX_LINES then over = over + 1 end end
+  print(fmt("functions measured: %d; longer than %d lines: %d", #fs, MAX_LINES, over))
+  for i = 1, math.min(10, #fs) do print("  " .. describe(fs[i])) end
+  local per = {}
+  for _, f in ipairs(files({ "." }, ".")) do
+    local dir = f:match("^(.*)/[^/]+$") or "."
+    per[dir] = (per[dir] or 0) + 1
+  end
+  local dirs = {}
+  for d in pairs(per) do dirs[#dirs + 1] = d end
+  sort(dirs)
+  print("files per folder:")
+  for _, d in ipairs(dirs) do print(fmt("  %4d %s", per[d], d)) end
+  return 0
+end
+
+if ... == "--report" then return report() end
+return suite:run(...)
