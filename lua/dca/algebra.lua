@@ -80,6 +80,30 @@ local function is_digit(b) return b and b >= 48 and b <= 57 end
 -- Token kinds
 local T_NAME, T_OP, T_LPAR, T_RPAR = 1, 2, 3, 4
 
+-- Scans the label `[name]` whose '[' is at `j`, after the process name `name`; returns the label and the
+-- position after its ']'.
+local function scan_label(text, name, j)
+  local len = #text
+  local k = sfind(text, "[^ \t\r\n\f\v]", j + 1)
+  local c = k and sbyte(text, k)
+  if c == B_RBR then fail(j, "empty label in '" .. name .. "[]'") end
+  if not c then fail(j, "unterminated label after '" .. name .. "' (no ']')") end
+  if not is_name_start(c) then
+    if is_digit(c) or c == 95 then
+      local e = sfind(text, "[^A-Za-z0-9_]", k) or len + 1
+      fail(k, "invalid label name '" .. ssub(text, k, e - 1) .. "'")
+    end
+    fail(k, "unterminated label after '" .. name .. "' (expected a label name and ']')")
+  end
+  local e = sfind(text, "[^A-Za-z0-9_]", k) or len + 1
+  local label = ssub(text, k, e - 1)
+  local r = sfind(text, "[^ \t\r\n\f\v]", e)
+  if not r or sbyte(text, r) ~= B_RBR then
+    fail(j, "unterminated label '" .. name .. "[" .. label .. "' (no ']')")
+  end
+  return label, r + 1
+end
+
 -- Scans `text` into token arrays while checking the grammar with a two-state machine (expecting an
 -- operand / expecting an operator), so that every error of SEMANTICS.md §2.3 gets its own message at the
 -- right column. Returns kinds, values, labels, positions, count.
@@ -101,26 +125,7 @@ local function scan(text)
       local name = ssub(text, i, j - 1)
       if not want_operand then fail(i, "missing operator before '" .. name .. "'") end
       local label
-      if sbyte(text, j) == B_LBR then
-        local k = sfind(text, "[^ \t\r\n\f\v]", j + 1)
-        local c = k and sbyte(text, k)
-        if c == B_RBR then fail(j, "empty label in '" .. name .. "[]'") end
-        if not c then fail(j, "unterminated label after '" .. name .. "' (no ']')") end
-        if not is_name_start(c) then
-          if is_digit(c) or c == 95 then
-            local e = sfind(text, "[^A-Za-z0-9_]", k) or len + 1
-            fail(k, "invalid label name '" .. ssub(text, k, e - 1) .. "'")
-          end
-          fail(k, "unterminated label after '" .. name .. "' (expected a label name and ']')")
-        end
-        local e = sfind(text, "[^A-Za-z0-9_]", k) or len + 1
-        label = ssub(text, k, e - 1)
-        local r = sfind(text, "[^ \t\r\n\f\v]", e)
-        if not r or sbyte(text, r) ~= B_RBR then
-          fail(j, "unterminated label '" .. name .. "[" .. label .. "' (no ']')")
-        end
-        j = r + 1
-      end
+      if sbyte(text, j) == B_LBR then label, j = scan_label(text, name, j) end
       n = n + 1
       kinds[n], vals[n], labels[n], poss[n], ends[n] = T_NAME, name, label, i, j - 1
       want_operand, prev, i = false, T_NAME, j
