@@ -25,6 +25,13 @@ local function drive(c)
   local before = {}
   for _, n in ipairs(c.running_before or {}) do before[n] = true end
   local current_label = {}
+  -- A label set switched on ("+") or off ("-"), recorded in both logs.
+  local function switch(sign, name, label)
+    current_label[name] = sign == "+" and label or nil
+    local s = sign .. name .. "[" .. label .. "]"
+    seen.labels[#seen.labels + 1] = s
+    seen.order[#seen.order + 1] = s
+  end
   local run = algebra.new(expr, {
     start = function(name, init)
       local lb = current_label[name]
@@ -37,18 +44,8 @@ local function drive(c)
       seen.aborted[#seen.aborted + 1] = name
       seen.order[#seen.order + 1] = "abort " .. name
     end,
-    activate = function(name, label)
-      current_label[name] = label
-      local s = "+" .. name .. "[" .. label .. "]"
-      seen.labels[#seen.labels + 1] = s
-      seen.order[#seen.order + 1] = s
-    end,
-    deactivate = function(name, label)
-      current_label[name] = nil
-      local s = "-" .. name .. "[" .. label .. "]"
-      seen.labels[#seen.labels + 1] = s
-      seen.order[#seen.order + 1] = s
-    end,
+    activate = function(name, label) switch("+", name, label) end,
+    deactivate = function(name, label) switch("-", name, label) end,
     is_running = function(name) return before[name] == true end,
   })
   run:start()

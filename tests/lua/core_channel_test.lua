@@ -39,6 +39,17 @@ local function connect(addr, opts)
   return got, err
 end
 
+-- A case body run with a channel to a fresh echo server; both are closed after it.
+local function with_echo_channel(body)
+  return function()
+    local s = echo_server()
+    local ch = T.ok(connect(s.listener:address()))
+    body(ch, s)
+    ch:close()
+    s.listener:close()
+  end
+end
+
 local function call(ch, msg, timeout)
   local r, done = nil, false
   ch:request(msg, timeout or 5, function(...) r, done = table.pack(...), true end)
@@ -46,9 +57,7 @@ local function call(ch, msg, timeout)
   return table.unpack(r, 1, r.n)
 end
 
-suite:case("tables_cross_as_msgpack_maps", function()
-  local s = echo_server()
-  local ch = T.ok(connect(s.listener:address()))
+suite:case("tables_cross_as_msgpack_maps", with_echo_channel(function(ch)
   T.contains(tostring(ch), "dca.Channel(127.0.0.1:")
   local msg = {
     type = "echo", int = 42, neg = -7, big = math.maxinteger, float = 2.5, str = "a\0b", yes = true, no = false,
@@ -62,33 +71,23 @@ suite:case("tables_cross_as_msgpack_maps", function()
   T.eq(math.type(reply.int), "integer")
   T.eq(math.type(reply.float), "float")
   T.eq(reply.holes[2], nil)
-  ch:close()
-  s.listener:close()
-end)
+end))
 
-suite:case("unsendable_values_are_refused_with_their_path", function()
-  local s = echo_server()
-  local ch = T.ok(connect(s.listener:address()))
+suite:case("unsendable_values_are_refused_with_their_path", with_echo_channel(function(ch)
   T.contains(T.raises(ch.send, ch, { type = "x", f = print }), "msg.f: cannot send a function")
   T.contains(T.raises(ch.send, ch, { type = "x", list = { 1, { coroutine.create(print) } } }), "msg.list[2][1]")
   local cyc = { type = "x" }
   cyc.self = cyc
   T.contains(T.raises(ch.send, ch, cyc), "nested deeper")
   T.contains(T.raises(ch.send, ch, { no_type = 1 }), "needs a non-empty string field 'type'")
-  ch:close()
-  s.listener:close()
-end)
+end))
 
-suite:case("request_times_out_and_channel_stays_open", function()
-  local s = echo_server()
-  local ch = T.ok(connect(s.listener:address()))
+suite:case("request_times_out_and_channel_stays_open", with_echo_channel(function(ch)
   local reply, err = call(ch, { type = "silent" }, 0.05)
   T.eq(reply, nil)
   T.contains(err, "timeout: no reply to 'silent'")
   T.ok(ch:is_open())
-  ch:close()
-  s.listener:close()
-end)
+end))
 
 suite:case("error_replies_give_nil_reason_and_reply", function()
   local l = T.ok(core.listen("127.0.0.1:0", { key = KEY }, function(ch)

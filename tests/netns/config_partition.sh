@@ -7,61 +7,14 @@
 #   tests/netns/config_partition.sh [DCA_EXE]
 set -uo pipefail
 dca="${1:-${DCA_EXE:-dca}}"
+src="${DCA_SOURCE_DIR:-$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)}"
 tag="dcc$$"
-ns=("${tag}a" "${tag}b" "${tag}c")
 names=(A B C)
-addrs=(10.214.0.2 10.214.0.3 10.214.0.4)
-br="${tag}br"
-work="$(mktemp -d)"
-pids=()
+subnet=10.214.0
+. "$src/tests/netns/lib.sh"
 
-skip() { echo "SKIP: $*"; exit 77; }
-fail() {
-  echo "FAIL: $*"
-  for i in 0 1 2; do echo "--- daemon ${names[$i]}:"; tail -20 "$work/${names[$i]}.log" 2>/dev/null; done
-  exit 1
-}
-
-cleanup() {
-  for p in "${pids[@]}"; do kill -TERM "$p" 2>/dev/null; done
-  for p in "${pids[@]}"; do
-    for _ in $(seq 1 100); do kill -0 "$p" 2>/dev/null || break; sleep 0.02; done
-    kill -KILL "$p" 2>/dev/null
-  done
-  for n in "${ns[@]}"; do ip netns del "$n" 2>/dev/null; done
-  ip link del "$br" 2>/dev/null
-  rm -rf "$work"
-}
-trap cleanup EXIT
-
-[ "$(id -u)" -eq 0 ] || skip "network namespaces need root (uid $(id -u))"
-command -v ip >/dev/null || skip "no 'ip' command (iproute2)"
-ip netns add "${ns[0]}" 2>"$work/err" || skip "cannot create a network namespace: $(cat "$work/err")"
-ip netns add "${ns[1]}" && ip netns add "${ns[2]}" || fail "ip netns add"
-ip link add "$br" type bridge || skip "cannot create a bridge: $(ip link add "$br" type bridge 2>&1)"
-ip link set "$br" up || fail "bridge up"
-for i in 0 1 2; do
-  v="${tag}v$i"
-  ip link add "$v" type veth peer name "${v}p" || fail "veth"
-  ip link set "${v}p" netns "${ns[$i]}" || fail "veth into ${ns[$i]}"
-  ip link set "$v" master "$br" && ip link set "$v" up || fail "veth on bridge"
-  ip -n "${ns[$i]}" addr add "${addrs[$i]}/24" dev "${v}p" || fail "address in ${ns[$i]}"
-  ip -n "${ns[$i]}" link set "${v}p" up && ip -n "${ns[$i]}" link set lo up || fail "links up in ${ns[$i]}"
-done
-
-key="$work/key"
-(umask 077; od -An -tx1 -N32 /dev/urandom | tr -d ' \n' > "$key")
-for i in 0 1 2; do
-  peers=()
-  for j in 0 1 2; do [ "$j" -ne "$i" ] && peers+=(--peer "${addrs[$j]}:7412"); done
-  ip netns exec "${ns[$i]}" "$dca" daemon --host "${names[$i]}" --listen "${addrs[$i]}:7412" "${peers[@]}" \
-    --key "$key" --state-dir "$work/state${names[$i]}" --sync-ms 200 >"$work/${names[$i]}.log" 2>&1 &
-  pids+=($!)
-done
-for i in 0 1 2; do
-  for _ in $(seq 1 500); do grep -q "listening on" "$work/${names[$i]}.log" && break; sleep 0.01; done
-  grep -q "listening on" "$work/${names[$i]}.log" || fail "daemon ${names[$i]} did not start"
-done
+netns_up
+daemons_up 7412 --state-dir "$work/state{host}" --sync-ms 200
 
 # `cfg I ARGS...`: dca config against daemon I, from inside its namespace
 cfg() { local i=$1; shift; ip netns exec "${ns[$i]}" "$dca" config "$@" --daemon "${addrs[$i]}:7412" --key "$key"; }

@@ -1,0 +1,69 @@
+# Shared by the tests/netns/*.sh tests: three network namespaces on a bridge, one dca daemon in each.
+# Source it after setting: dca (the executable), tag (unique, short), names (three host names),
+# subnet (e.g. 10.213.0: the bridge is .1, the hosts .2 .3 .4). It sets ns, addrs, br, work, key, pids,
+# installs the cleanup trap and defines skip/fail. Needs root: without it, skip (exit 77, CTest's skipped).
+ns=("${tag}a" "${tag}b" "${tag}c")
+addrs=("$subnet.2" "$subnet.3" "$subnet.4")
+br="${tag}br"
+work="$(mktemp -d)"
+key="$work/key"
+pids=()
+
+skip() { echo "SKIP: $*"; exit 77; }
+# Fails naming why, with the end of each daemon's log.
+fail() {
+  echo "FAIL: $*"
+  for n in "${names[@]}"; do echo "--- daemon $n:"; tail -20 "$work/$n.log" 2>/dev/null; done
+  exit 1
+}
+
+# Stops the daemons (TERM, then KILL after 2 s) and removes the namespaces, the bridge and the work dir.
+cleanup() {
+  for p in "${pids[@]}"; do kill -TERM "$p" 2>/dev/null; done
+  for p in "${pids[@]}"; do
+    for _ in $(seq 1 100); do kill -0 "$p" 2>/dev/null || break; sleep 0.02; done
+    kill -KILL "$p" 2>/dev/null
+  done
+  for n in "${ns[@]}"; do ip netns del "$n" 2>/dev/null; done
+  ip link del "$br" 2>/dev/null
+  rm -rf "$work"
+}
+trap cleanup EXIT
+
+# Makes the three namespaces, each with a veth on the bridge and its address, and a fresh cluster key.
+netns_up() {
+  [ "$(id -u)" -eq 0 ] || skip "network namespaces need root (uid $(id -u))"
+  command -v ip >/dev/null || skip "no 'ip' command (iproute2)"
+  ip netns add "${ns[0]}" 2>"$work/err" || skip "cannot create a network namespace: $(cat "$work/err")"
+  ip netns add "${ns[1]}" && ip netns add "${ns[2]}" || fail "ip netns add"
+  ip link add "$br" type bridge || skip "cannot create a bridge: $(ip link add "$br" type bridge 2>&1)"
+  ip addr add "$subnet.1/24" dev "$br" && ip link set "$br" up || fail "bridge address"
+  local i v
+  for i in 0 1 2; do
+    v="${tag}v$i"
+    ip link add "$v" type veth peer name "${v}p" || fail "veth"
+    ip link set "${v}p" netns "${ns[$i]}" || fail "veth into ${ns[$i]}"
+    ip link set "$v" master "$br" && ip link set "$v" up || fail "veth on bridge"
+    ip -n "${ns[$i]}" addr add "${addrs[$i]}/24" dev "${v}p" || fail "address in ${ns[$i]}"
+    ip -n "${ns[$i]}" link set "${v}p" up && ip -n "${ns[$i]}" link set lo up || fail "links up in ${ns[$i]}"
+  done
+  (umask 077; od -An -tx1 -N32 /dev/urandom | tr -d ' \n' > "$key")
+}
+
+# `daemons_up PORT [ARG...]`: a daemon in each namespace listening on its address:PORT, the others as peers,
+# with ARGs (where "{host}" stands for the daemon's host name); returns when all three listen.
+daemons_up() {
+  local port=$1 i j n; shift
+  for i in 0 1 2; do
+    local peers=() args=()
+    for j in 0 1 2; do [ "$j" -ne "$i" ] && peers+=(--peer "${addrs[$j]}:$port"); done
+    for a in "$@"; do args+=("${a//\{host\}/${names[$i]}}"); done
+    ip netns exec "${ns[$i]}" "$dca" daemon --host "${names[$i]}" --listen "${addrs[$i]}:$port" "${peers[@]}" \
+      --key "$key" "${args[@]}" >"$work/${names[$i]}.log" 2>&1 &
+    pids+=($!)
+  done
+  for n in "${names[@]}"; do
+    for _ in $(seq 1 500); do grep -q "listening on" "$work/$n.log" && break; sleep 0.01; done
+    grep -q "listening on" "$work/$n.log" || fail "daemon $n did not start"
+  done
+}
