@@ -2,12 +2,12 @@
 -- generated 1,000-leaf / 100-group tree on 3 hosts, and preemption latency (a leaf's DONE to the last sibling
 -- abort acknowledged) for a `#` three supervisor levels down.
 --
--- variant *_memory: the supervisor tree in one process on dca.supervisor_fake (every message deep-copied as
+-- variant *_memory: the supervisor tree in one process on dca.supervisor.memory (every message deep-copied as
 -- for the wire, no sockets): the cost of the supervisor's own logic. Baseline: dca.algebra alone driving the
 -- same expressions (start, and the preempting event), which any supervisor must pay.
-local fake = require "dca.supervisor_fake"
+local fake = require "dca.supervisor.memory"
 local algebra = require "dca.algebra"
-local spec_mod = require "dca.supervisor_spec"
+local spec_mod = require "dca.supervisor.spec"
 
 local clock = os.clock
 local sformat = string.format
@@ -130,7 +130,7 @@ for _ = 1, 2 do -- A B A B
 end
 
 ---------------------------------------------------------------------------------------------- real processes
--- variant *_loopback: local daemons, real `dca node` and `dca supervise` processes (dca.scenario_real),
+-- variant *_loopback: local daemons, real `dca node` and `dca supervise` processes (dca.scenario.real),
 -- measured with the wall clock. Baseline: a ping round trip to a daemon over the same authenticated
 -- loopback channel, the least any supervisor-to-process exchange costs.
 local core = require "dca.core"
@@ -145,7 +145,7 @@ if not (core.loop and core.connect and has_node()) then
   io.stderr:write("supervisor_bench: no control plane or no `dca node` in this build: loopback variants not run\n")
   return 0
 end
-local real = require "dca.scenario_real"
+local real = require "dca.scenario.real"
 local wall = core.now
 
 -- Every leaf a Gain (In -> Out, periodic, runs until stopped); ports renamed to In/Out.

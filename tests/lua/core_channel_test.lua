@@ -1,8 +1,8 @@
 -- dca.core's channels from Lua: core.listen / core.connect, messages as tables, request/reply with timeouts,
--- close events, refused keys; and dca.daemon_client against a real `dca daemon`.
+-- close events, refused keys; and dca.clients.daemon against a real `dca daemon`.
 local T = require "dca.testing"
 local core = require "dca.core"
-local daemon_client = require "dca.daemon_client"
+local daemon_client = require "dca.clients.daemon"
 local suite = T.suite("core_channel")
 
 local loop = core.loop()

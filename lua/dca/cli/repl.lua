@@ -1,5 +1,5 @@
 -- `dca repl PATH|ADDR`: a console on a running supervisor over the authenticated control plane.
--- The supervisor evaluates each line (dca.supervisor_repl: Lua like the `lua` console, plus tree(), status(),
+-- The supervisor evaluates each line (dca.supervisor.console: Lua like the `lua` console, plus tree(), status(),
 -- expr(), log(), event(), abort(), restart(), activate(), deactivate(), reload(), help()). Line editing,
 -- history (~/.dca_history) and Tab completion of commands and process paths come from libedit.
 local core = require "dca.core"

@@ -4,10 +4,10 @@
 -- 2 on bad usage or check errors, 3 when the start fails, 130 after Ctrl-C.
 local core = require "dca.core"
 local supervisor = require "dca.supervisor"
-local spec_mod = require "dca.supervisor_spec"
-local srt = require "dca.supervisor_rt"
-local hosts_mod = require "dca.supervisor_hosts"
-local sim = require "dca.supervisor_sim"
+local spec_mod = require "dca.supervisor.spec"
+local srt = require "dca.supervisor.net"
+local hosts_mod = require "dca.launch.hosts"
+local sim = require "dca.clients.world"
 
 local M = {}
 
@@ -113,7 +113,7 @@ function M.main(args)
   -- consoles following the root's lines; with --repl the console owns the terminal once it follows, and
   -- prints these lines above its prompt (redrawn), so this process no longer writes them itself
   local followers = {}
-  local world  -- with --sim: the world process (dca.supervisor_sim)
+  local world  -- with --sim: the world process (dca.clients.world)
   local function emit(text)
     if srt.to_followers(followers, text) > 0 and o.repl then return end
     io.stdout:write(text, "\n")
@@ -250,7 +250,7 @@ function M.main(args)
   local function reload(what, cb)
     if what == "modules" then
       local lines = {}
-      for _, name in ipairs({ "dca.supervisor", "dca.supervisor_repl" }) do
+      for _, name in ipairs({ "dca.supervisor", "dca.supervisor.console" }) do
         local path = package.searchpath(name, package.path)
         local fn, lerr = loadfile(path)
         if not fn then lines[#lines + 1] = lerr

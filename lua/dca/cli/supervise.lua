@@ -5,7 +5,7 @@
 -- asks (shutdown) or goes away (everything it started is stopped first).
 local core = require "dca.core"
 local supervisor = require "dca.supervisor"
-local srt = require "dca.supervisor_rt"
+local srt = require "dca.supervisor.net"
 
 local USAGE = "dca supervise --name PATH --daemon ADDR [--key FILE] [--listen ADDR]"
 

@@ -1,12 +1,12 @@
--- dca.scenario_real: the "real" backend of dca.scenario: local daemons (one per host name, loopback), the
+-- dca.scenario.real: the "real" backend of dca.scenario: local daemons (one per host name, loopback), the
 -- root DCAS in this process, nodes and sub-supervisors as real processes. Same methods as the memory backend
 -- (see dca.scenario); waits run this process's event loop with a wall-clock timeout.
 local core = require "dca.core"
 local supervisor = require "dca.supervisor"
-local spec_mod = require "dca.supervisor_spec"
-local srt = require "dca.supervisor_rt"
-local hosts_mod = require "dca.supervisor_hosts"
-local sim = require "dca.supervisor_sim"
+local spec_mod = require "dca.supervisor.spec"
+local srt = require "dca.supervisor.net"
+local hosts_mod = require "dca.launch.hosts"
+local sim = require "dca.clients.world"
 
 local M = {}
 

@@ -1,9 +1,9 @@
--- dca.supervisor_sim: a run in simulated time (`dca run FILE --sim WORLD`): the world process, started
+-- dca.clients.world: a run in simulated time (`dca run FILE --sim WORLD`): the world process, started
 -- through a host's daemon before the tree (its nodes, on the simulated clock, subscribe to it when they
 -- start), time started when the root runs, progress lines stamped with the simulated time, and the summary
 -- read from the world at the end (ARCHITECTURE.md, "Time" and "The robot: device ports").
 --
---   local sim = require "dca.supervisor_sim"
+--   local sim = require "dca.clients.world"
 --   local w = sim.new{ daemon = ADDR, host = NAME, key = FILE, world = "door", seed = N, door_width = W,
 --                      record = FILE, jammed = true, wait = S }   -- jammed: the handle's latch never releases
 --   w:start(function(ok, err) end)     -- spawn `dca sim --serve`, wait until `world` is registered, connect
@@ -20,7 +20,7 @@
 --   w:stop(cb)                         -- `exit` to the world, then waits for its exit (SIGKILL after a grace)
 --   w.on_lost = function(reason) end   -- the world exited by itself (every node on its clock stops)
 local core = require "dca.core"
-local srt = require "dca.supervisor_rt"
+local srt = require "dca.supervisor.net"
 
 local M = {}
 
@@ -47,7 +47,7 @@ end
 function M.period_leaves(spec, group_type)
   group_type = group_type or "MotionControl"
   local list = {}
-  require("dca.supervisor_spec").walk(spec, function(n)
+  require("dca.supervisor.spec").walk(spec, function(n)
     if n.kind == "group" and n.type == group_type then
       for _, c in ipairs(n.spec.children) do
         if c.kind == "leaf" then list[#list + 1] = c.path end

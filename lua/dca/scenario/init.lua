@@ -35,10 +35,10 @@
 -- A scenario that only makes sense on some backends says so: S.backends = {"real"} (the CMake then makes
 -- only those tests; another backend fails with a message saying so).
 --
--- Backends: "memory" runs the tree in dca.supervisor_fake (simulated time, nodes whose behaviour follows
+-- Backends: "memory" runs the tree in dca.supervisor.memory (simulated time, nodes whose behaviour follows
 -- their type: Timer, Deadline, Crash, Constant...; other types run until an event is injected or they are
 -- killed). The backend is chosen with `dca scenario --backend NAME` (default memory).
-local spec_mod = require "dca.supervisor_spec"
+local spec_mod = require "dca.supervisor.spec"
 local T = require "dca.testing"
 
 local M = {}
@@ -131,14 +131,14 @@ function M.system(file, opts)
   local cfg = require "dca.config"
   local cfile = opts.config or (file and cfg.defaults_file(file)) or nil
   if M.backend == "real" then
-    local s = require("dca.scenario_real").system(spec, { file = file, root = opts.root, sim = opts.sim,
+    local s = require("dca.scenario.real").system(spec, { file = file, root = opts.root, sim = opts.sim,
       seed = opts.seed, door_width = opts.door_width, jammed = opts.jammed, world_host = opts.world_host,
       record = opts.record, config = cfile, set = opts.set })
     s.commands, s.host = System.commands, System.host
     systems[#systems + 1] = s
     return s
   end
-  local fake = require "dca.supervisor_fake"
+  local fake = require "dca.supervisor.memory"
   local behave = setmetatable(opts.behave or {}, { __index = M.behave })
   local repo = {}
   if cfile then

@@ -1,6 +1,6 @@
--- dca.daemon_client: a thin client of a `dca daemon` over a control channel (dca.core).
+-- dca.clients.daemon: a thin client of a `dca daemon` over a control channel (dca.core).
 --
---   local daemon = require "dca.daemon_client"
+--   local daemon = require "dca.clients.daemon"
 --   daemon.connect("127.0.0.1:4000", { timeout = 5 }, function(d, err)
 --     if not d then error(err) end
 --     d:spawn({ "dca", "node", "--type", "Gain" }, { name = "/sys/g", on_exit = function(ev) ... end },

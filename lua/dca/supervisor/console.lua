@@ -1,14 +1,14 @@
--- dca.supervisor_repl: the console that runs inside a supervisor (server side of `dca repl`).
+-- dca.supervisor.console: the console that runs inside a supervisor (server side of `dca repl`).
 --
 -- Evaluates Lua like lua.c: `return <line>` first, then the line itself; a chunk whose parse ends at <eof>
 -- waits for more lines. Each evaluation runs in a coroutine so that commands which ask other supervisors
 -- (tree(), status(), expr() of a sub-group) wait for their answers without blocking the loop.
 --
---   local repl = require("dca.supervisor_repl").new(sup, { reload = function(what) return lines end })
+--   local repl = require("dca.supervisor.console").new(sup, { reload = function(what) return lines end })
 --   repl:eval(line, function(output, more) end)   -- output: text to print; more: the chunk is incomplete
 --   repl:complete(prefix)                          --> { candidates }
 local supervisor = require "dca.supervisor"
-local spec_mod = require "dca.supervisor_spec"
+local spec_mod = require "dca.supervisor.spec"
 
 local M = {}
 

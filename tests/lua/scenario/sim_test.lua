@@ -15,7 +15,7 @@ local function tmpfile(text)
 end
 
 suite:case("world_argv_carries_seed_width_and_the_jam", function()
-  local sim = require "dca.supervisor_sim"
+  local sim = require "dca.clients.world"
   local argv = sim.argv({ daemon = "127.0.0.1:1", host = "h", world = "door", seed = 3, door_width = 0.9, jammed = true })
   T.eq(argv, { "dca", "sim", "--serve", "--daemon", "127.0.0.1:1", "--host", "h", "--world", "door",
                "--seed", "3", "--door-width", "0.9", "--jammed" })

@@ -1,4 +1,4 @@
--- dca.supervisor_spec: the group spec a supervisor receives, and the pure walks over it.
+-- dca.supervisor.spec: the group spec a supervisor receives, and the pure walks over it.
 --
 -- A group spec is a plain table that survives msgpack (strings, numbers, booleans, lists, maps): the parent
 -- hands it to a child supervisor over the control plane (never a file path).

@@ -1,6 +1,6 @@
--- The console inside a supervisor (dca.supervisor_repl) and reload (Sup:update), on the in-memory cluster.
+-- The console inside a supervisor (dca.supervisor.console) and reload (Sup:update), on the in-memory cluster.
 local T = require "dca.testing"
-local fake = require "dca.supervisor_fake"
+local fake = require "dca.supervisor.memory"
 local suite = T.suite("supervisor_repl")
 
 local leaf, group, root, set = fake.leaf, fake.group, fake.root, fake.set
@@ -29,7 +29,7 @@ local function running_system()
   assert(c:configure())
   c:start()
   c:settle(1)
-  return c, require("dca.supervisor_repl").new(sup)
+  return c, require("dca.supervisor.console").new(sup)
 end
 
 suite:case("expressions_print_like_the_lua_console_and_statements_run", function()

@@ -269,7 +269,7 @@ suite:case("a_device_leaf_without_a_world_fails_the_start_naming_it_and_its_port
 end)
 
 suite:case("run_sim_with_a_hosts_file_refuses_a_daemon_on_the_wall_clock", function()
-  local hosts = require "dca.supervisor_hosts"
+  local hosts = require "dca.launch.hosts"
   local key, dir = hosts.fresh_key()
   local set = assert(hosts.start_local({ "h1" }, { exe = dca, key = key, log_dir = dir }))
   local hf = tmpfile("h1 " .. set.hosts.h1 .. "\n", ".hosts")

@@ -8,7 +8,7 @@ local dca = os.getenv("DCA_EXE") or "dca"
 local src = os.getenv("DCA_SOURCE_DIR") or "."
 
 suite:case("the_world_argv_carries_realtime_only_when_asked", function()
-  local sim = require "dca.supervisor_sim"
+  local sim = require "dca.clients.world"
   local argv = sim.argv({ daemon = "127.0.0.1:1", host = "h", world = "door", realtime = true })
   T.eq(argv, { "dca", "sim", "--serve", "--daemon", "127.0.0.1:1", "--host", "h", "--world", "door", "--realtime" })
   for _, a in ipairs(sim.argv({ daemon = "127.0.0.1:1", host = "h" })) do
@@ -18,7 +18,7 @@ end)
 
 suite:case("the_period_leaves_of_the_door_are_motioncontrols_three_controllers", function()
   local run = require "dca.cli.run"
-  local sim = require "dca.supervisor_sim"
+  local sim = require "dca.clients.world"
   local spec, err = run.load(src .. "/scripts/systems/door_open.dca")
   T.ok(spec, tostring(err))
   T.eq(sim.period_leaves(spec), { "main.dooropensyst.motionctrl.xr4000", "main.dooropensyst.motionctrl.puma",
@@ -27,7 +27,7 @@ suite:case("the_period_leaves_of_the_door_are_motioncontrols_three_controllers",
 end)
 
 suite:case("the_period_line_gives_both_clocks_in_ms", function()
-  local sim = require "dca.supervisor_sim"
+  local sim = require "dca.clients.world"
   local line = sim.period_line("main.m.redundancy", {
     name = "main.m.redundancy", period_s = 0.001,
     clock = { n = 999, p50_us = 1000, p99_us = 1000, p999_us = 1000, max_us = 1000 },

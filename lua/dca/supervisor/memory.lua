@@ -1,11 +1,11 @@
--- dca.supervisor_fake: an in-memory cluster for the supervisor's logic (no sockets, no clock).
+-- dca.supervisor.memory: an in-memory cluster for the supervisor's logic (no sockets, no clock).
 --
 -- Every message between processes goes through one FIFO queue and is deep-copied (it must survive
 -- serialisation); time is virtual and only advances when the queue is empty. Leaves are fake nodes whose
 -- behaviour a test scripts; groups are real dca.supervisor objects on fake runtimes, so a whole tree runs
 -- exactly as it would across daemons, only in one Lua state and deterministically.
 --
---   local fake = require "dca.supervisor_fake"
+--   local fake = require "dca.supervisor.memory"
 --   local c = fake.cluster{ behave = { Timer = function(node, init) node:after(1, function() node:done("timeout") end) end } }
 --   local root = c:root(spec)           -- the root DCAS (its parent is the test: c.outcome, c.reports)
 --   c:configure()  --> true | false, reason   (runs the start protocol to the end)

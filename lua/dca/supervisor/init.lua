@@ -1,11 +1,11 @@
 -- dca.supervisor: the DCAS of the paper (section 4.1), one per process-group instance.
 --
--- Pure logic: every effect goes through a runtime `rt` (real: dca.supervisor_rt over dca.core; tests:
--- dca.supervisor_fake, in memory). The supervisor owns its group's children and nothing else: its leaves'
+-- Pure logic: every effect goes through a runtime `rt` (real: dca.supervisor.net over dca.core; tests:
+-- dca.supervisor.memory, in memory). The supervisor owns its group's children and nothing else: its leaves'
 -- events and its child supervisors' outcomes come to it only, and it reports to its parent only when its
 -- expression ends (plus progress/log lines when the parent asked for them).
 --
---   local sup = require("dca.supervisor").new(spec, rt, opts)   -- spec: dca.supervisor_spec
+--   local sup = require("dca.supervisor").new(spec, rt, opts)   -- spec: dca.supervisor.spec
 --   sup:configure(cb)         -- start children inactive, connect, cb(true) | cb(false, reason)  (start+connect)
 --   sup:run(init)             -- runs the expression; the outcome goes to rt.report{type="done"|"aborted"}
 --   sup:abort(cb)             -- aborts the running expression (LIFO), cb() once every stop is acknowledged
@@ -34,7 +34,7 @@
 -- State lives in the object (a plain table); the methods live in M.Sup, which a reload of this module
 -- updates in place, so running supervisors pick up new code and keep their state.
 local algebra = require "dca.algebra"
-local spec_mod = require "dca.supervisor_spec"
+local spec_mod = require "dca.supervisor.spec"
 
 local previous = package.loaded["dca.supervisor"]
 local M = type(previous) == "table" and previous or {}
@@ -803,7 +803,7 @@ function Sup:handle(msg, reply)
   elseif t == "repl" or t == "complete" then
     local repl = self.repl
     if not repl then
-      repl = require("dca.supervisor_repl").new(self, { reload = self.reload_hook })
+      repl = require("dca.supervisor.console").new(self, { reload = self.reload_hook })
       self.repl = repl
     end
     if t == "complete" then reply({ type = "ok", candidates = repl:complete(msg.prefix or "") })

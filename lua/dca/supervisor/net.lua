@@ -1,4 +1,4 @@
--- dca.supervisor_rt: the real runtime of a supervisor, over `dca.core` channels and the hosts' daemons.
+-- dca.supervisor.net: the real runtime of a supervisor, over `dca.core` channels and the hosts' daemons.
 --
 -- argv[1] is "dca": the daemon starts its own executable (its allow-list admits `dca node|supervise|sim`).
 -- Leaves start as `dca node --type T --name PATH --daemon ADDR -- ARGS` and sub-groups as
@@ -6,7 +6,7 @@
 -- looks the new process up by its path (NameServer) and opens a channel to its `control` endpoint.
 -- Exit events from a daemon and closed channels become child_exit(name, reason) on the owning supervisor.
 --
---   local rt = require("dca.supervisor_rt").new{ hosts = { h1 = "127.0.0.1:7001" }, key = FILE, exe = DCA,
+--   local rt = require("dca.supervisor.net").new{ hosts = { h1 = "127.0.0.1:7001" }, key = FILE, exe = DCA,
 --                                                report = function(msg) end, log = function(line) end }
 --   rt.bind(sup)           -- the supervisor whose children this runtime starts (after supervisor.new)
 --   rt.reply(ch, req, msg) -- answers a request that arrived on a channel

@@ -1,8 +1,8 @@
--- The supervisor's logic (dca.supervisor) on the in-memory cluster (dca.supervisor_fake): the start protocol,
+-- The supervisor's logic (dca.supervisor) on the in-memory cluster (dca.supervisor.memory): the start protocol,
 -- local event handling, LIFO aborts, faults, and that events stay with their owner.
 local T = require "dca.testing"
-local fake = require "dca.supervisor_fake"
-local spec_mod = require "dca.supervisor_spec"
+local fake = require "dca.supervisor.memory"
+local spec_mod = require "dca.supervisor.spec"
 local suite = T.suite("supervisor")
 
 local leaf, group, root, set = fake.leaf, fake.group, fake.root, fake.set

@@ -1,9 +1,9 @@
--- dca.node_client against real processes: three `dca daemon`s on loopback acting as three hosts (A, B, C on
+-- dca.clients.node against real processes: three `dca daemon`s on loopback acting as three hosts (A, B, C on
 -- 127.0.0.1, .2, .3), nodes spawned from A's side on B and C, data flowing B -> C directly.
 local T = require "dca.testing"
 local core = require "dca.core"
-local daemon_client = require "dca.daemon_client"
-local node_client = require "dca.node_client"
+local daemon_client = require "dca.clients.daemon"
+local node_client = require "dca.clients.node"
 local suite = T.suite("node_client")
 
 local loop = core.loop()

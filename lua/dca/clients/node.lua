@@ -1,6 +1,6 @@
--- dca.node_client: drives a `dca node` over its control channel (dca.core), as a supervisor does.
+-- dca.clients.node: drives a `dca node` over its control channel (dca.core), as a supervisor does.
 --
---   local node_client = require "dca.node_client"
+--   local node_client = require "dca.clients.node"
 --   node_client.connect(endpoints.control, { key_file = KEY }, function(n, err)
 --     if not n then error(err) end
 --     n:on_done(function(value, msg) ... end)          -- DONE(value) of the node's controller

@@ -1,6 +1,6 @@
--- dca.supervisor_hosts: the hosts of a run: a hosts file, or one local daemon per host name on loopback.
+-- dca.launch.hosts: the hosts of a run: a hosts file, or one local daemon per host name on loopback.
 --
---   local hosts = require "dca.supervisor_hosts"
+--   local hosts = require "dca.launch.hosts"
 --   local map, err = hosts.read_file(path)            -- "name address" per line, # comments
 --   local key = hosts.fresh_key()                      -- a new 0600 key file in a fresh 0700 temp dir
 --   local set = hosts.start_local(names, { exe =, key =, clock = "wall"|"sim", log_dir =, state_dir = })
