@@ -218,7 +218,7 @@ end
 --- err names the process, the parameter and the key. `expect` (optional) maps an index to the Lua type the value
 --- must have ("number", "string", "boolean", "table"); without it a manifest entry's type "number"/"integer"
 --- expects a number (an integer for "integer") and "string" a string.
---- For a leaf of dca.model: resolve_params(leaf.params, client, cb, { process = leaf.path, host = leaf.host,
+--- For a leaf of dca.lang.model: resolve_params(leaf.params, client, cb, { process = leaf.path, host = leaf.host,
 --- params = leaf.manifest and leaf.manifest.params }) -- leaf.params are the arguments after the host.
 function M.resolve_params(args, client, cb, what, expect)
   what = what or {}

@@ -1,9 +1,9 @@
 -- Parse + check time of a generated 1,000-instance .dca file (target < 100 ms), beside the baselines of the
 -- same run: an empty Lua loop of the same iteration count, and one raw LPeg pass over the same text.
 --   dca lua tests/bench/parse_bench.lua [iterations]
-local parser = require "dca.parser"
-local check = require "dca.check"
-local model = require "dca.model"
+local parser = require "dca.lang.parser"
+local check = require "dca.lang.check"
+local model = require "dca.lang.model"
 local lpeg = require "lpeg"
 
 local ITER = tonumber((...)) or 30

@@ -1,7 +1,7 @@
--- dca.check beyond the golden texts: registry modes, builtins, group ports, the paper systems.
+-- dca.lang.check beyond the golden texts: registry modes, builtins, group ports, the paper systems.
 local T = require "dca.testing"
-local parser = require "dca.parser"
-local check = require "dca.check"
+local parser = require "dca.lang.parser"
+local check = require "dca.lang.check"
 local suite = T.suite("check")
 
 local src = os.getenv("DCA_SOURCE_DIR") or "."

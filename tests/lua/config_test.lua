@@ -314,8 +314,8 @@ suite:case("resolve_params_replaces_config_parameters_and_names_process_paramete
 end)
 
 suite:case("a_dca_parameter_config_key_is_read_from_a_daemon_at_start", function()
-  local parser = require "dca.parser"
-  local model = require "dca.model"
+  local parser = require "dca.lang.parser"
+  local model = require "dca.lang.model"
   local text = [[
 process main() {
   host { "h1" }

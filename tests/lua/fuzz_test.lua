@@ -2,9 +2,9 @@
 -- files and generated expressions) never raise a Lua error and never hang (an instruction budget per input),
 -- and generated expressions keep the interpreter's invariants under random event sequences.
 local T = require "dca.testing"
-local parser = require "dca.parser"
-local check = require "dca.check"
-local model = require "dca.model"
+local parser = require "dca.lang.parser"
+local check = require "dca.lang.check"
+local model = require "dca.lang.model"
 local algebra = require "dca.algebra"
 local suite = T.suite("fuzz")
 

@@ -3,9 +3,9 @@
 -- exactly. A first line "// golden: registry" checks against the fixed registry below; "// golden: root=X"
 -- names the root. DCA_GOLDEN_UPDATE=1 rewrites the .err files (review the diff!).
 local T = require "dca.testing"
-local parser = require "dca.parser"
-local check = require "dca.check"
-local model = require "dca.model"
+local parser = require "dca.lang.parser"
+local check = require "dca.lang.check"
+local model = require "dca.lang.model"
 local suite = T.suite("golden")
 
 local here = debug.getinfo(1, "S").source:match("^@(.*)/[^/]*$") or "."
@@ -47,7 +47,7 @@ local function output(text, filename)
   end
   local errors
   if ast.by_name[opts.root or "main"] then
-    -- with a root, exactly what `dca check` does: dca.model checks, binds the arguments and checks again
+    -- with a root, exactly what `dca check` does: dca.lang.model checks, binds the arguments and checks again
     local tree, errs = model.build(ast, opts)
     errors = tree and {} or errs
   else

@@ -1,7 +1,7 @@
--- dca.model: the instantiated tree the supervisor uses (paths, kinds, hosts, bound arguments).
+-- dca.lang.model: the instantiated tree the supervisor uses (paths, kinds, hosts, bound arguments).
 local T = require "dca.testing"
-local parser = require "dca.parser"
-local model = require "dca.model"
+local parser = require "dca.lang.parser"
+local model = require "dca.lang.model"
 local suite = T.suite("model")
 
 local src = os.getenv("DCA_SOURCE_DIR") or "."

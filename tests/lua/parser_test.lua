@@ -1,7 +1,7 @@
--- dca.parser: the AST's shape and positions, comments, expressions mapped to file positions, and that
+-- dca.lang.parser: the AST's shape and positions, comments, expressions mapped to file positions, and that
 -- parse never raises. (Exact error texts are golden tests: golden_test.lua.)
 local T = require "dca.testing"
-local parser = require "dca.parser"
+local parser = require "dca.lang.parser"
 local algebra = require "dca.algebra"
 local suite = T.suite("parser")
 

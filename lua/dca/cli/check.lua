@@ -1,7 +1,7 @@
 -- `dca check FILE.dca`: parse and statically check a DCA system; nothing is started.
-local parser = require "dca.parser"
-local check = require "dca.check"
-local model = require "dca.model"
+local parser = require "dca.lang.parser"
+local check = require "dca.lang.check"
+local model = require "dca.lang.model"
 
 local M = {}
 
@@ -74,7 +74,7 @@ end
 --- "FILE:LINE:COL: ..." line. registry: the controller manifests (parameter names and types), or nil.
 function M.config_notes(ast, config_path, registry)
   local config = require "dca.config"
-  local source = require "dca.source"
+  local source = require "dca.lang.source"
   local out = { warnings = {}, errors = {} }
   local defaults, err = config.read_file(config_path)
   if not defaults then out.errors[1] = err return out end

@@ -1,5 +1,5 @@
 -- `dca graph FILE.dca`: the process tree and each group's expression as Graphviz DOT (or SVG).
-local graph = require "dca.graph"
+local graph = require "dca.lang.graph"
 local cli_check = require "dca.cli.check"
 
 local M = {}

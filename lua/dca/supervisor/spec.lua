@@ -21,7 +21,7 @@
 --                connections = { { from = "forcedata", out = "Out1", to = "hit", ["in"] = "In1" } } } },
 --   }
 --
---   spec_mod.from_model(tree, file, default_host) --> spec (tree: dca.model.build's checked instance tree)
+--   spec_mod.from_model(tree, file, default_host) --> spec (tree: dca.lang.model.build's checked instance tree)
 --   spec_mod.validate(spec)                       --> { message, ... } (connections that do not resolve)
 --   spec_mod.set_id(group_path, instance, label)  --> "<group path>:<instance>[<label>]"
 --   spec_mod.endpoint(spec, instance, port)       --> leaf path, port | nil, err  (follows external_io)
@@ -128,7 +128,7 @@ end
 
 ---------------------------------------------------------------------------------------------- from the model
 
---- The spec of a dca.model tree (checked, arguments bound, hosts resolved). `file` names the source for
+--- The spec of a dca.lang.model tree (checked, arguments bound, hosts resolved). `file` names the source for
 --- messages. A group without a host (the root of a file without host { }) gets `default_host`.
 function M.from_model(node, file, default_host)
   local proc = node.process or {}

@@ -1,4 +1,4 @@
--- dca.check: static checks over a parsed DCA file (dca.parser), every error at once.
+-- dca.lang.check: static checks over a parsed DCA file (dca.lang.parser), every error at once.
 --
 --   local errors = check.check(ast, {
 --     root = "main",              -- the root process (default: "main" when the file has one)
@@ -17,7 +17,7 @@
 -- Leaves take their host as the first argument, then their parameters. Groups bind their arguments to
 -- their declared parameters; a group's supervisor runs on its `host { }` (or its parent's host).
 -- The expression of internal_event_actions names *instances* (motionctrl), never types (MotionControl).
-local source = require "dca.source"
+local source = require "dca.lang.source"
 
 local M = {}
 

@@ -1,4 +1,4 @@
--- dca.source: positions in source text and the error format every dca language tool uses:
+-- dca.lang.source: positions in source text and the error format every dca language tool uses:
 --   file:line:col: message
 --   <the source line>
 --   <a caret under the column>

@@ -1,9 +1,9 @@
--- dca.model: a checked DCA file instantiated as a tree of instances with bound arguments, for the
+-- dca.lang.model: a checked DCA file instantiated as a tree of instances with bound arguments, for the
 -- supervisor (and for `dca check` / `dca graph`).
 --
---   local model = require "dca.model"
+--   local model = require "dca.lang.model"
 --   local tree, errors = model.build(ast, { root = "main", args = {}, host = nil, types = core.types() })
---   -- errors: the list from dca.check (plus binding errors), each { line, col, path, msg }; nil tree then.
+--   -- errors: the list from dca.lang.check (plus binding errors), each { line, col, path, msg }; nil tree then.
 --
 -- Every node of the tree:
 --   { path = "main.dooropensyst.hit", name = "hit", type = "HitDetector",
@@ -25,7 +25,7 @@
 --   model.connections(tree)         every connection resolved to leaf ports, with its set name
 --                                   "<group path>:<instance>[<label>]" (ARCHITECTURE.md, nodes)
 --   model.summary(tree)             counts for `dca check`'s summary line
-local check = require "dca.check"
+local check = require "dca.lang.check"
 
 local M = {}
 
@@ -37,7 +37,7 @@ local function bind(a, env)
   return a.value
 end
 
---- Checks `ast` (dca.check, same opts) and instantiates the tree rooted at opts.root (default "main").
+--- Checks `ast` (dca.lang.check, same opts) and instantiates the tree rooted at opts.root (default "main").
 --- Returns the root node, or nil and the list of errors.
 function M.build(ast, opts)
   opts = opts or {}

@@ -1,7 +1,7 @@
--- dca.graph: a checked DCA model (dca.model) as Graphviz DOT: the process tree, each group's
+-- dca.lang.graph: a checked DCA model (dca.lang.model) as Graphviz DOT: the process tree, each group's
 -- expression, and the connections inside each group (dotted, labelled with ports and label set).
 local algebra = require "dca.algebra"
-local model = require "dca.model"
+local model = require "dca.lang.model"
 
 local M = {}
 
@@ -14,7 +14,7 @@ end
 
 local function id(node) return q(node.path) end
 
---- The DOT text of the tree rooted at `tree` (a dca.model node).
+--- The DOT text of the tree rooted at `tree` (a dca.lang.model node).
 function M.dot(tree)
   local out = { "digraph dca {", "  rankdir=TB;", "  compound=true;",
                 '  node [fontname="Helvetica", fontsize=10];', '  edge [fontname="Helvetica", fontsize=9];' }

@@ -1,6 +1,6 @@
--- dca.parser: the DCA process-definition language (DCA paper, section 2.1 and appendix), an LPeg grammar.
+-- dca.lang.parser: the DCA process-definition language (DCA paper, section 2.1 and appendix), an LPeg grammar.
 --
---   local parser = require "dca.parser"
+--   local parser = require "dca.lang.parser"
 --   local ast, err = parser.parse(text, "door.dca")
 --   -- err: "door.dca:12:7: message\n<source line>\n<caret>"; parse never raises, whatever the input.
 --
@@ -15,10 +15,10 @@
 -- Arguments are parameter names, strings ("c1.example"), numbers (30, -0.5, 1e3) or configuration keys
 -- (config("door.stop_distance"): the value in the configuration repository, resolved when the system starts).
 -- Comments: // and /* */.
--- Sections may come in any order; each but internal_connections at most once (dca.check reports repeats).
+-- Sections may come in any order; each but internal_connections at most once (dca.lang.check reports repeats).
 --
 -- AST (every table with `line`, `col` also has `pos`, the byte offset):
---   ast = { file = <name>, source = <text>, index = <dca.source index>,
+--   ast = { file = <name>, source = <text>, index = <dca.lang.source index>,
 --           processes = { proc, ... }, by_name = { [name] = proc } (first definition wins) }
 --   proc = {
 --     name = "DoorOpenSystem", line, col,
@@ -32,7 +32,7 @@
 --                                                        --   connections = { { from, out, to, ["in"], line, col,
 --                                                        --     out_line/col, to_line/col, in_line/col }, ... } }
 --     actions = { text, line, col, expr = <dca.algebra expression> | nil,
---                 error = { msg, line, col } | nil } | nil,   -- expression errors are left to dca.check
+--                 error = { msg, line, col } | nil } | nil,   -- expression errors are left to dca.lang.check
 --       text: everything between the braces, as written; expr.text: the same with comments blanked out
 --       (same length, newlines kept); text_line/text_col: where the text begins (just after '{');
 --       line/col: the expression's first token; section_line/section_col: the keyword.
@@ -43,7 +43,7 @@
 --   arg  = { kind = "param" | "string" | "number" | "config", value = <name | string | number | key>, line, col }
 local lpeg = require "lpeg"
 local algebra = require "dca.algebra"
-local source = require "dca.source"
+local source = require "dca.lang.source"
 
 local M = {}
 
