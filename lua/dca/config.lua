@@ -191,6 +191,58 @@ function M.sync(addr, opts)
   return setmetatable({ client = client, loop = loop }, Sync)
 end
 
+-- ------------------------------------------------------------------------------------------- values as text
+
+--- A value as Lua-like text: strings quoted, whole floats with ".0", tables with sorted keys.
+local function render(v, depth)
+  depth = depth or 0
+  local t = type(v)
+  if t == "string" then return sformat("%q", v) end
+  if t == "number" then
+    if math.type(v) == "float" and v == math.floor(v) and v >= -1e15 and v <= 1e15 then return sformat("%.1f", v) end
+    return tostring(v)
+  end
+  if t ~= "table" then return tostring(v) end
+  if depth > 8 then return "{...}" end
+  local parts, n = {}, #v
+  for i = 1, n do parts[#parts + 1] = render(v[i], depth + 1) end
+  local keys = {}
+  for k in pairs(v) do
+    if not (math.type(k) == "integer" and k >= 1 and k <= n) then keys[#keys + 1] = k end
+  end
+  table.sort(keys, function(a, b) return tostring(a) < tostring(b) end)
+  for _, k in ipairs(keys) do
+    local ks = type(k) == "string" and k:match("^[%a_][%w_]*$") and k or ("[" .. render(k, depth + 1) .. "]")
+    parts[#parts + 1] = ks .. " = " .. render(v[k], depth + 1)
+  end
+  return "{ " .. table.concat(parts, ", ") .. " }"
+end
+
+local function stamp_text(s)
+  if type(s) ~= "table" then return "?" end
+  return sformat("%s.%d@%s", os.date("!%Y-%m-%dT%H:%M:%S", math.floor(s.ms / 1000)) ..
+    sformat(".%03dZ", s.ms % 1000), s.n or 0, tostring(s.origin))
+end
+
+--- The text of a `config_log` reply: the replica, its transactions and its conflicts, newest first.
+function M.format_log(log)
+  local out = { sformat("replica %s (host %s, %s): %d transactions", log.replica, log.host, log.path,
+    log.transactions), "transactions, newest first:" }
+  for _, t in ipairs(log.txns or {}) do
+    local ws = {}
+    for _, w in ipairs(t.writes or {}) do ws[#ws + 1] = w.key .. " = " .. render(w.value) end
+    out[#out + 1] = sformat("  %s #%d  %s  %s", t.origin, t.seq, stamp_text(t.stamp), table.concat(ws, ", "))
+  end
+  out[#out + 1] = "conflicts, newest first:" .. (#(log.conflicts or {}) == 0 and " none" or "")
+  for _, x in ipairs(log.conflicts or {}) do
+    out[#out + 1] = sformat("  %s: %s (%s) won over %s (%s)", x.key, render(x.winner.value),
+      stamp_text(x.winner.stamp), render(x.loser.value), stamp_text(x.loser.stamp))
+  end
+  return table.concat(out, "\n")
+end
+
+M.render = render
+
 -- ------------------------------------------------------------------------------- controller parameters
 
 local function fits(value, want)
@@ -198,10 +250,6 @@ local function fits(value, want)
   return type(value) == want
 end
 
-local function render(v)
-  if type(v) == "string" then return sformat("%q", v) end
-  return tostring(v)
-end
 
 --- Whether `v` is a parameter naming a configuration key: the table { config = "door.stop_distance" } (what a
 --- .dca file's `config("door.stop_distance")` becomes), or the string "config:door.stop_distance".
@@ -293,6 +341,25 @@ end
 
 -- ------------------------------------------------------------------------------------ defaults files and seeding
 
+--- The value of a Lua literal (0.45, true, "text", {1, 2}), or nil when text is not one.
+local function literal(text)
+  local chunk = load("return " .. text, "=value", "t", {})
+  if not chunk then return nil end
+  local ok, v = pcall(chunk)
+  if ok and v ~= nil and type(v) ~= "function" then return v end
+  return nil
+end
+
+--- Parses "KEY=VALUE" (`dca config set`, `dca run --set`, the console's `set`): the key, and the value as a Lua
+--- literal (else the text itself). --> key, value | nil, err when there is no '='.
+function M.parse_assignment(text)
+  local key, raw = text:match("^([^=]+)=(.*)$")
+  if not key then return nil, "expected KEY=VALUE, got '" .. text .. "'" end
+  local v = literal(raw)
+  if v == nil then return key, raw end
+  return key, v
+end
+
 --- Reads a file of configuration defaults: one `key = value` per line, the value a Lua literal (0.45, 75,
 --- true, "right", {1, 2}); `#` or `--` starts a comment. --> { { key =, value =, line = }, ... } (in file
 --- order) | nil, "FILE:LINE:COL: what is wrong".
@@ -318,13 +385,12 @@ function M.read_file(path)
       end
       if raw == "" then return fail(col, "no value for " .. key) end
       -- the value, else the value before a trailing `# comment` (a `#` inside a string is kept)
-      local ok, v = false, nil
+      local v
       for _, candidate in ipairs({ raw, (raw:gsub("%s+#[^\"']*$", "")), (raw:gsub("%s*#.*$", "")) }) do
-        local chunk = load("return " .. candidate, "=value", "t", {})
-        if chunk then ok, v = pcall(chunk) end
-        if ok and v ~= nil then raw = candidate break end
+        v = literal(candidate)
+        if v ~= nil then raw = candidate break end
       end
-      if not ok or v == nil or type(v) == "function" then
+      if v == nil then
         return fail(col, "the value of " .. key .. " is not a Lua literal (a number, true/false, a \"string\" or a {table}): " .. raw)
       end
       if seen[key] then return fail(#lead + 1, sformat("%s is set twice (first at line %d)", key, seen[key])) end

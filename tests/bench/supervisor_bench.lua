@@ -33,8 +33,7 @@ end
 
 -- The door-opening system (scripts/systems/door_open.dca) as a spec.
 local function door_spec()
-  local loader = require "dca.cli.check"
-  local ast, tree = loader.load(src .. "/scripts/systems/door_open.dca", nil, false)
+  local ast, tree = require("dca.load").file(src .. "/scripts/systems/door_open.dca", { registry = false })
   assert(ast and tree, tree)
   return spec_mod.from_model(tree, "door_open.dca")
 end

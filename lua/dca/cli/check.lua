@@ -1,6 +1,6 @@
 -- `dca check FILE.dca`: parse and statically check a DCA system; nothing is started.
-local parser = require "dca.lang.parser"
-local check = require "dca.lang.check"
+local args = require "dca.cli.args"
+local load = require "dca.load"
 local model = require "dca.lang.model"
 
 local M = {}
@@ -19,34 +19,9 @@ source line and a caret); exits 1 when there are errors, else prints a one-line 
                   it; with a close name: a likely typo), a default of the wrong type for the parameter is an
                   error, and so is a defaults file that does not read]]
 
---- The controller registry's manifests, when dca.core provides them (nil otherwise).
-function M.registry()
-  local ok, core = pcall(require, "dca.core")
-  if ok and type(core) == "table" and type(core.types) == "function" then
-    local ok2, types = pcall(core.types)
-    if ok2 and type(types) == "table" then return types end
-  end
-  return nil
-end
-
---- Reads, parses, checks and builds FILE; returns ast, tree (tree nil when there is no root), or nil, text.
-function M.load(path, root, use_registry)
-  local f, ferr = io.open(path, "rb")
-  if not f then return nil, "dca: cannot read " .. tostring(ferr) end
-  local text = f:read("a")
-  f:close()
-  local ast, perr = parser.parse(text, path)
-  if not ast then return nil, perr end
-  local opts = { root = root, types = use_registry and M.registry() or nil }
-  if not root and not ast.by_name.main then
-    local errors = check.check(ast, opts)
-    if #errors > 0 then return nil, check.format_all(ast, errors) end
-    return ast, nil
-  end
-  local tree, errors = model.build(ast, opts)
-  if not tree then return nil, check.format_all(ast, errors) end
-  return ast, tree
-end
+--- Kept for callers not yet on dca.load: load.registry() and load.file(path, { root, registry }).
+M.registry = load.registry
+function M.load(path, root, use_registry) return load.file(path, { root = root, registry = use_registry == true }) end
 
 --- The instance tree as indented text: "name : Type @host (params)" per line; groups show their expression.
 function M.tree_text(tree)
@@ -113,36 +88,13 @@ end
 
 local function plural(n, one) return n == 1 and ("1 " .. one) or (n .. " " .. one .. "s") end
 
-function M.main(args)
-  local file, root, use_registry, show_tree = nil, nil, true, false
-  local config_file, no_config = nil, false
-  local i = 1
-  while i <= args.n do
-    local a = args[i]
-    if a == "--root" then
-      root = args[i + 1]
-      if not root then io.stderr:write("dca check: --root needs a process name\n", M.usage, "\n"); return 2 end
-      i = i + 1
-    elseif a == "--no-registry" then
-      use_registry = false
-    elseif a == "--tree" then
-      show_tree = true
-    elseif a == "--config" then
-      config_file = args[i + 1]
-      if not config_file then io.stderr:write("dca check: --config needs a file\n", M.usage, "\n"); return 2 end
-      i = i + 1
-    elseif a == "--no-config" then
-      no_config = true
-    elseif a:sub(1, 1) == "-" or file then
-      io.stderr:write("dca check: unexpected argument '", a, "'\n", M.usage, "\n")
-      return 2
-    else
-      file = a
-    end
-    i = i + 1
-  end
+function M.main(argv)
+  local o, err = args.parse(argv, "dca check", { ["--root"] = "value", ["--no-registry"] = "flag",
+    ["--tree"] = "flag", ["--config"] = "value", ["--no-config"] = "flag" })
+  if not o then return args.usage_error(err, M.usage) end
+  local file, root, use_registry = o[1], o.root, not o.no_registry
   if not file then io.stderr:write(M.usage, "\n"); return 2 end
-  local ast, tree = M.load(file, root, use_registry)
+  local ast, tree = load.file(file, { root = root, registry = use_registry })
   if not ast then
     io.stderr:write(tree, "\n")
     return 1
@@ -153,9 +105,9 @@ function M.main(args)
     return 0
   end
   -- the config("key") parameters against the system's defaults file
-  config_file = config_file or (not no_config and require("dca.config").defaults_file(file)) or nil
+  local config_file = o.config or (not o.no_config and require("dca.config").defaults_file(file)) or nil
   if config_file then
-    local notes = M.config_notes(ast, config_file, use_registry and M.registry() or nil)
+    local notes = M.config_notes(ast, config_file, use_registry and load.registry() or nil)
     for _, w in ipairs(notes.warnings) do io.stderr:write(w, "\n") end
     if #notes.errors > 0 then
       io.stderr:write(table.concat(notes.errors, "\n"), "\n")
@@ -168,7 +120,7 @@ function M.main(args)
                                 plural(s.instances, "instance"), plural(s.leaves, "leaf"):gsub("leafs", "leaves"),
                                 plural(s.connections, "connection"), plural(#s.hosts, "host"),
                                 table.concat(s.hosts, ", ")))
-  if show_tree then io.stdout:write(M.tree_text(tree)) end
+  if o.tree then io.stdout:write(M.tree_text(tree)) end
   return 0
 end
 

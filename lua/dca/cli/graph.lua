@@ -1,6 +1,7 @@
 -- `dca graph FILE.dca`: the process tree and each group's expression as Graphviz DOT (or SVG).
+local args = require "dca.cli.args"
 local graph = require "dca.lang.graph"
-local cli_check = require "dca.cli.check"
+local load = require "dca.load"
 
 local M = {}
 
@@ -14,37 +15,20 @@ the controller registry's manifests).]]
 
 local function shell_quote(s) return "'" .. s:gsub("'", "'\\''") .. "'" end
 
-function M.main(args)
-  local file, root, svg, out, use_registry = nil, nil, false, nil, true
-  local i = 1
-  while i <= args.n do
-    local a = args[i]
-    if a == "--root" or a == "-o" then
-      local v = args[i + 1]
-      if not v then io.stderr:write("dca graph: ", a, " needs a value\n", M.usage, "\n"); return 2 end
-      if a == "--root" then root = v else out = v end
-      i = i + 1
-    elseif a == "--svg" then
-      svg = true
-    elseif a == "--no-registry" then
-      use_registry = false
-    elseif a:sub(1, 1) == "-" or file then
-      io.stderr:write("dca graph: unexpected argument '", a, "'\n", M.usage, "\n")
-      return 2
-    else
-      file = a
-    end
-    i = i + 1
-  end
+function M.main(argv)
+  local o, err = args.parse(argv, "dca graph", { ["--root"] = "value", ["-o"] = "value:out", ["--svg"] = "flag",
+    ["--no-registry"] = "flag" })
+  if not o then return args.usage_error(err, M.usage) end
+  local file, out, svg = o[1], o.out, o.svg
   if not file then io.stderr:write(M.usage, "\n"); return 2 end
-  local ast, tree = cli_check.load(file, root, use_registry)
+  local ast, tree = load.file(file, { root = o.root, registry = not o.no_registry })
   if not ast then io.stderr:write(tree, "\n"); return 1 end
   if not tree then io.stderr:write("dca graph: ", file, " has no root process 'main' (use --root NAME)\n"); return 1 end
   local dot = graph.dot(tree)
   if not svg then
     if out then
-      local f, err = io.open(out, "w")
-      if not f then io.stderr:write("dca graph: cannot write ", tostring(err), "\n"); return 1 end
+      local f, werr = io.open(out, "w")
+      if not f then io.stderr:write("dca graph: cannot write ", tostring(werr), "\n"); return 1 end
       f:write(dot)
       f:close()
     else

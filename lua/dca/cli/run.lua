@@ -72,7 +72,7 @@ local function parse_args(args)
     elseif a == "--no-config" then o.no_config = true
     elseif a == "--state-dir" then o.state_dir = value(a)
     elseif a == "--set" then
-      local k, v = require("dca.cli.config").parse_assignment(value(a))
+      local k, v = require("dca.config").parse_assignment(value(a))
       if not k then error("dca run: --set: " .. v, 0) end
       o.set = o.set or {}
       o.set[k] = v
@@ -93,14 +93,7 @@ end
 
 --- Reads, parses and checks FILE and builds the spec of its root. --> spec | nil, error text
 function M.load(file, root)
-  local loader = require "dca.cli.check"
-  local ast, tree = loader.load(file, root, true)
-  if not ast then return nil, tree end
-  if not tree then return nil, file .. ": no process '" .. (root or "main") .. "' to run" end
-  local spec = spec_mod.from_model(tree, file)
-  local errs = spec_mod.validate(spec)
-  if #errs > 0 then return nil, table.concat(errs, "\n") end
-  return spec
+  return require("dca.load").spec(file, { root = root })
 end
 
 function M.main(args)

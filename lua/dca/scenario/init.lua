@@ -98,13 +98,8 @@ local systems = {}
 
 --- Loads, checks and builds the system in FILE (root opts.root or "main"). Errors stop the scenario.
 function M.spec(file, root)
-  local loader = require "dca.cli.check"
-  local ast, tree = loader.load(file, root, true)
-  if not ast then error(tree, 0) end
-  if not tree then error(file .. ": no root process to run", 0) end
-  local spec = spec_mod.from_model(tree, file)
-  local errs = spec_mod.validate(spec)
-  if #errs > 0 then error(table.concat(errs, "\n"), 0) end
+  local spec, err = require("dca.load").spec(file, { root = root })
+  if not spec then error(err, 0) end
   return spec
 end
 

@@ -184,7 +184,7 @@ function Repl:_env()
     say(concat(lines, "\n"))
   end
   -- the configuration repository of this supervisor's host
-  local cli_config = require "dca.cli.config"
+  local config_text = require "dca.config"  -- render, format_log
   local function repo()
     if not sup.rt.config_client then error("this supervisor has no configuration repository", 0) end
     local c, err = await(function(k) sup.rt.config_client(k) end)
@@ -211,17 +211,17 @@ function Repl:_env()
       local c = repo()
       local entries = ask(function(k) c:list(prefix, k) end)
       local lines = {}
-      for _, e in ipairs(entries) do lines[#lines + 1] = e.key .. " = " .. cli_config.render(e.value) end
+      for _, e in ipairs(entries) do lines[#lines + 1] = e.key .. " = " .. config_text.render(e.value) end
       return #lines > 0 and concat(lines, "\n") or "(no keys)"
     end,
     log = function(n)
       local c = repo()
-      return cli_config.format_log(ask(function(k) c:log(n or 20, k) end))
+      return config_text.format_log(ask(function(k) c:log(n or 20, k) end))
     end,
     watch = function(prefix)
       local c = repo()
       ask(function(k) c:watch(prefix or "", function(ev)
-        sup:say("config: %s = %s (written on %s)", tostring(ev.key), cli_config.render(ev.value), tostring(ev.origin))
+        sup:say("config: %s = %s (written on %s)", tostring(ev.key), config_text.render(ev.value), tostring(ev.origin))
       end, k) end)
       return sformat("watching %s on host %s", prefix and prefix ~= "" and prefix or "every key", tostring(c.host))
     end,
