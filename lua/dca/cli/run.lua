@@ -3,13 +3,12 @@
 -- Exit code: 0 when the root expression ends DONE, 1 when it ends ABORTED (with the path and reason),
 -- 2 on bad usage or check errors, 3 when the start fails, 130 after Ctrl-C.
 local core = require "dca.core"
-local supervisor = require "dca.supervisor"
-local spec_mod = require "dca.supervisor.spec"
-local srt = require "dca.supervisor.net"
-local hosts_mod = require "dca.launch.hosts"
-local sim = require "dca.clients.world"
+local supervisor, spec_mod, srt = require "dca.supervisor", require "dca.supervisor.spec", require "dca.supervisor.net"
+local hosts_mod, start = require "dca.launch.hosts", require "dca.launch.start"
 
 local M = {}
+
+local ipairs, tostring, tonumber, sformat = ipairs, tostring, tonumber, string.format
 
 M.summary = "run a .dca system: start its hosts and supervisor tree, run it, report each transition"
 M.usage = [=[usage: dca run FILE.dca [--root NAME] [--hosts FILE] [--repl] [--watch] [--timeout S] [--quiet]
@@ -96,290 +95,240 @@ function M.load(file, root)
   return require("dca.load").spec(file, { root = root })
 end
 
+-- A run: its options, spec, start context (dca.launch.start), the consoles following its lines, its exit code.
+local Run = {}
+Run.__index = Run
+
+local function err_line(...) io.stderr:write("dca run: ", ...) io.stderr:write("\n") end
+
+-- Writes a line for the person: to the consoles following the root (with --repl they own the terminal and
+-- print it above their prompt), else to stdout.
+function Run:emit(text)
+  if srt.to_followers(self.followers, text) > 0 and self.o.repl then return end
+  io.stdout:write(text, "\n")
+  io.stdout:flush()
+end
+
+-- A progress line, stamped with the world's time (with --sim, in order) or the wall time since the start.
+function Run:say(line, at)
+  local s = self.ctx.sim
+  if s and s.world:connected() then
+    s:stamp(line, function(t, l) if not self.o.quiet then self:emit(sformat("[sim %8.3f] %s", t, l)) end end, at)
+  elseif not self.o.quiet then
+    self:emit(sformat("[%7.3f] %s", core.now() - self.t0, line))
+  end
+end
+
+-- The root's outcome line to stderr (or the consoles), in order with the stamped lines.
+function Run:say_aborted(msg)
+  local text = sformat("%s: ABORTED at %s: %s", self.spec.path, tostring(msg.path), tostring(msg.reason))
+  local function out(t)
+    if not (self.o.repl and srt.to_followers(self.followers, t) > 0) then io.stderr:write(t, "\n") end
+  end
+  local s = self.ctx.sim
+  if s and s.world:connected() then s:stamp(text, function(t) out(sformat("[sim %8.3f] %s", t, text)) end)
+  else out(text) end
+end
+
+-- What the root reports: its lines and its outcome (which ends the run unless a console holds it).
+function Run:report(msg)
+  if msg.type == "log" then self:say(msg.line, msg.at)
+  elseif msg.type == "done" then
+    self:say(sformat("%s: DONE %s", self.spec.path, supervisor.show(msg.value)))
+    if not self.o.repl then self.code = 0 self:wind_up() end
+  elseif msg.type == "aborted" then
+    self:say_aborted(msg)
+    if not self.o.repl then self.code = 1 self:wind_up() end
+  end
+end
+
+-- The tree, then the world stopped, then the loop.
+function Run:down()
+  local s = self.ctx.sim
+  self.sup:shutdown(function()
+    if s then s.world:stop(function() self.loop:stop() end) else self.loop:stop() end
+  end)
+end
+
+-- The end of a run: the world's summary (with --sim), then down.
+function Run:wind_up()
+  local s = self.ctx.sim
+  if not s then self:down() return end
+  s:summary(core.now() - self.t0, function(lines)
+    for _, l in ipairs(lines) do self:emit(l) end
+    self:down()
+  end)
+end
+
+-- Stops everything with exit code `c` (unless one is set), bounded: the daemons are killed after the loop.
+function Run:stop_all(c)
+  if self.code == nil then self.code = c end
+  self:down()
+  core.after(15, function() self.loop:stop() end)
+end
+
+-- The root listens for consoles (`dca repl main`) and registers its path with its host's daemon.
+function Run:listen()
+  local key, hosts, spec = self.ctx.key, self.ctx.hosts, self.spec
+  self.listener = core.listen("127.0.0.1:0", srt.key_opts(key), function(ch)
+    ch:on_message(function(msg, id) srt.console(ch, id, msg, self.sup, self.followers) end)
+    ch:on_close(function() self.followers[ch] = nil end)
+  end)
+  local root_daemon = hosts[spec.host]
+  if not (self.listener and root_daemon) then return end
+  require("dca.clients.daemon").connect(root_daemon, srt.key_opts(key), function(d)
+    if not d then return end
+    self.ctx.rt.root_daemon = d
+    d:register(spec.path, { control = self.listener:address() })
+    self:say(sformat("console: dca repl %s --daemon %s --key %s", spec.path, root_daemon, tostring(key)))
+  end)
+end
+
+-- Reloads the modules of the supervisor and its console in place (state kept). --> lines
+local function reload_modules()
+  local lines = {}
+  for _, name in ipairs({ "dca.supervisor", "dca.supervisor.console" }) do
+    local path = package.searchpath(name, package.path)
+    local fn, lerr = loadfile(path)
+    if not fn then lines[#lines + 1] = lerr
+    else
+      local okm, merr = pcall(fn, name)
+      if okm then package.loaded[name] = merr lines[#lines + 1] = name .. ": reloaded (state kept)"
+      else lines[#lines + 1] = name .. ": " .. tostring(merr) end
+    end
+  end
+  return lines
+end
+
+-- reload: the file again (validated first; on an error the old version keeps running), or the modules.
+function Run:reload(what, cb)
+  if what == "modules" then cb(reload_modules()) return end
+  local new, lerr = M.load(what or self.o.file, self.o.root)
+  if not new then cb({ "reload refused, the running version is kept:", lerr }) return end
+  self.sup:update(new, function(lines)
+    if #lines == 0 then lines = { "no change" } end
+    cb(lines)
+  end)
+end
+
+-- --watch: the file reloaded when it is saved.
+function Run:watch()
+  local w, werr = core.watch_file(self.o.file)
+  if not w then err_line("--watch: ", werr) return end
+  core.every(0.2, function()
+    if w:changed() then
+      self:reload(nil, function(lines) for _, l in ipairs(lines) do self:say("reload: " .. l) end end)
+    end
+  end)
+end
+
+-- --repl: `dca repl` on the root's console endpoint, in its own process on this terminal (line editing owns
+-- the terminal while this loop keeps the system running); its exit ends the run.
+function Run:open_console()
+  local key = self.ctx.key
+  local cmd = sformat("%s repl %s%s </dev/tty >/dev/tty 2>&1 & echo $!", hosts_mod.sh_quote(self.ctx.exe),
+    hosts_mod.sh_quote(self.listener:address()), key and (" --key " .. hosts_mod.sh_quote(key)) or "")
+  local p = io.popen(cmd, "r")
+  local pid = p and tonumber((p:read("a") or ""):match("%d+"))
+  if p then p:close() end
+  if not pid then err_line("could not start the console") return end
+  local watch
+  watch = core.every(0.1, function()
+    if hosts_mod.alive(pid) then return end
+    watch:cancel()
+    local st = self.sup.outcome and self.sup.outcome.status
+    self:stop_all(st == "done" and 0 or (st == "aborted" and 1 or 130))
+  end)
+end
+
+-- The root runs; simulated time starts once every process the start ran has its run (a repeatable start).
+function Run:run_root()
+  self:say(self.spec.path .. ": the whole tree is configured: run")
+  self.sup:run_expr(nil, function()
+    local s = self.ctx.sim
+    if not s then return end
+    s.world:go(function(r, gerr)
+      if not r then err_line("the world did not start its time: ", tostring(gerr)) self:stop_all(3) end
+    end)
+  end)
+  if self.o.repl and self.listener then self:open_console() end
+end
+
+-- The tree comes up (start, connect, confirm) within --timeout, then runs.
+function Run:bring_up()
+  local deadline = core.after(self.o.timeout, function()
+    if self.sup.state == "starting" or self.sup.state == "new" then
+      err_line(sformat("the start did not finish within %gs", self.o.timeout))
+      self:stop_all(3)
+    end
+  end)
+  self.sup:configure(function(ok, err)
+    if not ok then err_line("start failed: ", tostring(err)) self:stop_all(3) return end
+    deadline:cancel()
+    self:run_root()
+  end)
+end
+
+-- With --sim: the daemons' clock checked (a hosts file), the world started, then the tree. Without: the tree.
+function Run:start_world()
+  local ctx = self.ctx
+  start.sim_clock(ctx, function(ok, err)
+    if not ok then err_line(err) self.code = 2 self.loop:stop() return end
+    start.world(ctx, function(wok, werr)
+      if not wok then
+        err_line(tostring(werr))
+        self.code = 3
+        if ctx.sim then ctx.sim.world:stop(function() self.loop:stop() end) else self.loop:stop() end
+        return
+      end
+      if ctx.sim then
+        ctx.sim.world.on_lost = function(reason)
+          err_line(reason, " (the nodes on its clock stop with it)")
+          if self.code == nil then self.code = 1 end
+        end
+      end
+      self:bring_up()
+    end)
+  end)
+end
+
+-- Hosts and configuration (dca.launch.start). --> true | nil, exit code
+function Run:prepare()
+  local o, ctx = self.o, self.ctx
+  if not core.loop or not core.connect then
+    io.stderr:write("dca run: this dca has no control plane (dca.core.loop/connect)\n")
+    return nil, 3
+  end
+  local ok, err = start.hosts(ctx)
+  if not ok then err_line(err) return nil, (o.hosts and 2 or 3) end
+  local kind
+  ok, err, kind = start.config(ctx)
+  if not ok then err_line(err) start.cleanup(ctx) return nil, kind and 2 or 3 end
+  return true
+end
+
 function M.main(args)
   local ok, o = pcall(parse_args, args)
   if not ok then io.stderr:write(o, "\n", M.usage, "\n") return 2 end
   local spec, err = M.load(o.file, o.root)
   if not spec then io.stderr:write(err, "\n") return 2 end
-
-  local t0 = core.now()
-  -- consoles following the root's lines; with --repl the console owns the terminal once it follows, and
-  -- prints these lines above its prompt (redrawn), so this process no longer writes them itself
-  local followers = {}
-  local world  -- with --sim: the world process (dca.clients.world)
-  local function emit(text)
-    if srt.to_followers(followers, text) > 0 and o.repl then return end
-    io.stdout:write(text, "\n")
-    io.stdout:flush()
-  end
-  local function say(line, at)
-    if world and world.ch then
-      -- stamped with the world's time (in order); the transitions are the steps of the summary
-      world:stamp(line, function(t, l) if not o.quiet then emit(string.format("[sim %8.3f] %s", t, l)) end end, at)
-    elseif not o.quiet then
-      emit(string.format("[%7.3f] %s", core.now() - t0, line))
-    end
-  end
-
-  -- hosts: a file of running daemons, or one fresh local daemon per host name
-  local exe = hosts_mod.self_exe()
-  local key, keydir = os.getenv("DCA_KEY_FILE"), nil
-  local daemons, hosts
-  if o.hosts then
-    hosts, err = hosts_mod.read_file(o.hosts)
-    if not hosts then io.stderr:write(err, "\n") return 2 end
-  end
-  if not core.loop or not core.connect then
-    io.stderr:write("dca run: this dca has no control plane (dca.core.loop/connect)\n")
-    return 3
-  end
-  if not o.hosts then
-    if not key then key, keydir = hosts_mod.fresh_key() end
-    local names = spec_mod.hosts(spec)
-    daemons, err = hosts_mod.start_local(names, { exe = exe, key = key, clock = o.sim and "sim" or nil,
-                                                   log_dir = keydir or os.getenv("TMPDIR") or "/tmp",
-                                                   state_dir = o.state_dir })
-    if not daemons then io.stderr:write("dca run: ", err, "\n") return 3 end
-    hosts = daemons.hosts
-    for _, name in ipairs(names) do say(string.format("host %s: daemon at %s (pid %d)", name, hosts[name], daemons.pids[name])) end
-  end
-  for _, h in ipairs(spec_mod.hosts(spec)) do
-    if not hosts[h] then io.stderr:write("dca run: no daemon for host '", h, "' in ", tostring(o.hosts), "\n") return 2 end
-  end
-  local function give_up(c)
-    if daemons then daemons:stop() end
-    if keydir then os.execute("rm -rf " .. hosts_mod.sh_quote(keydir)) end
-    return c
-  end
-
-  -- the configuration repository: the system's defaults and --set, on the root's host, replicated to all
-  do
-    local config = require "dca.config"
-    local used = {}
-    for _, h in ipairs(spec_mod.hosts(spec)) do used[h] = hosts[h] end
-    local file = o.config or (not o.no_config and config.defaults_file(o.file)) or nil
-    local origin = (spec.host and used[spec.host]) and spec.host or spec_mod.hosts(spec)[1]
-    local line, cerr = config.seed_run(used, origin, { key_file = key, file = file, set = o.set })
-    if cerr then io.stderr:write("dca run: ", cerr, "\n") return give_up(file and cerr:find(file, 1, true) == 1 and 2 or 3) end
-    if line then say(line) end
-    -- every config("key") parameter read once here: a missing key or a wrong type stops the run before
-    -- anything is started (all of them listed)
-    local okc, kerr = config.check_spec(used, origin, spec, { key_file = key })
-    if not okc then io.stderr:write("dca run: ", kerr, "\n") return give_up(2) end
-  end
-
-  local loop = core.loop()
-  local code
-  local sup
-  -- the end of a run: the world's summary (with --sim), then the tree, then the world stopped
-  local function wind_up()
-    local function down()
-      sup:shutdown(function()
-        if world then world:stop(function() loop:stop() end) else loop:stop() end
-      end)
-    end
-    if not world then down() return end
-    world:summary(core.now() - t0, function(lines)
-      for _, l in ipairs(lines) do emit(l) end
-      down()
-    end)
-  end
-  local rt = srt.new({ hosts = hosts, key = key, exe = exe, daemon_host = spec.host,
-    report = function(msg)
-      if msg.type == "log" then say(msg.line, msg.at)
-      elseif msg.type == "done" then
-        say(string.format("%s: DONE %s", spec.path, supervisor.show(msg.value)))
-        if not o.repl then code = 0 wind_up() end
-      elseif msg.type == "aborted" then
-        local text = string.format("%s: ABORTED at %s: %s", spec.path, tostring(msg.path), tostring(msg.reason))
-        local function out(t)
-          if not (o.repl and srt.to_followers(followers, t) > 0) then io.stderr:write(t, "\n") end
-        end
-        -- in order with the stamped lines (with --sim)
-        if world and world.ch then world:stamp(text, function(t) out(string.format("[sim %8.3f] %s", t, text)) end)
-        else out(text) end
-        if not o.repl then code = 1 wind_up() end
-      end
-    end,
-    log = say })
-  sup = supervisor.new(spec, rt, { progress = true })
-  sup.hosts = hosts
-  rt.bind(sup)
-  local function stop_all(c)
-    if code == nil then code = c end
-    sup:shutdown(function()
-      if world then world:stop(function() loop:stop() end) else loop:stop() end
-    end)
-    core.after(15, function() loop:stop() end) -- a bounded stop: daemons are killed below in any case
-  end
-  core.on_signal(function(sig) say("interrupted (SIG" .. tostring(sig) .. "): stopping") stop_all(130) end)
-
-  -- the start must finish within --timeout (from the moment the tree starts coming up)
-  local deadline
-  local function arm_deadline()
-    deadline = core.after(o.timeout, function()
-      if sup.state == "starting" or sup.state == "new" then
-        io.stderr:write(string.format("dca run: the start did not finish within %gs\n", o.timeout))
-        stop_all(3)
-      end
-    end)
-  end
-  -- the root listens for consoles (`dca repl main`) and registers its path with its host's daemon
-  local listener = core.listen("127.0.0.1:0", srt.key_opts(key), function(ch)
-    ch:on_message(function(msg, id) srt.console(ch, id, msg, sup, followers) end)
-    ch:on_close(function() followers[ch] = nil end)
-  end)
-  local root_daemon = hosts[spec.host]
-  if listener and root_daemon then
-    core.connect(root_daemon, srt.key_opts(key), function(dch)
-      if not dch then return end
-      rt.root_daemon = dch
-      dch:request({ type = "register", name = spec.path, endpoints = { control = listener:address() } }, 5, function() end)
-      say(string.format("console: dca repl %s --daemon %s --key %s", spec.path, root_daemon, tostring(key)))
-    end)
-  end
-
-  -- reload: the file again (validated first; on an error the old version keeps running), or the modules
-  local function reload(what, cb)
-    if what == "modules" then
-      local lines = {}
-      for _, name in ipairs({ "dca.supervisor", "dca.supervisor.console" }) do
-        local path = package.searchpath(name, package.path)
-        local fn, lerr = loadfile(path)
-        if not fn then lines[#lines + 1] = lerr
-        else
-          local okm, merr = pcall(fn, name)
-          if okm then package.loaded[name] = merr lines[#lines + 1] = name .. ": reloaded (state kept)"
-          else lines[#lines + 1] = name .. ": " .. tostring(merr) end
-        end
-      end
-      cb(lines)
-      return
-    end
-    local new, lerr = M.load(what or o.file, o.root)
-    if not new then cb({ "reload refused, the running version is kept:", lerr }) return end
-    sup:update(new, function(lines)
-      if #lines == 0 then lines = { "no change" } end
-      cb(lines)
-    end)
-  end
-  sup.reload_hook = reload
-  if o.watch then
-    local w, werr = core.watch_file(o.file)
-    if not w then io.stderr:write("dca run: --watch: ", werr, "\n")
-    else
-      core.every(0.2, function()
-        if w:changed() then
-          reload(nil, function(lines) for _, l in ipairs(lines) do say("reload: " .. l) end end)
-        end
-      end)
-    end
-  end
-
-  local function bring_up()
-    arm_deadline()
-    sup:configure(function(cok, cerr)
-      if not cok then
-        io.stderr:write("dca run: start failed: ", tostring(cerr), "\n")
-        stop_all(3)
-        return
-      end
-      deadline:cancel()
-      say(spec.path .. ": the whole tree is configured: run")
-      -- simulated time starts once every process the start ran has its run (a repeatable start)
-      sup:run_expr(nil, function()
-        if not world then return end
-        world:go(function(r, gerr)
-          if not r then io.stderr:write("dca run: the world did not start its time: ", tostring(gerr), "\n") stop_all(3) end
-        end)
-      end)
-      if o.repl and listener then
-        -- the console is `dca repl` on the root's console endpoint, in its own process on this terminal, so
-        -- that line editing owns the terminal while this process's loop keeps the system running
-        local cmd = string.format("%s repl %s%s </dev/tty >/dev/tty 2>&1 & echo $!", hosts_mod.sh_quote(exe),
-          hosts_mod.sh_quote(listener:address()), key and (" --key " .. hosts_mod.sh_quote(key)) or "")
-        local p = io.popen(cmd, "r")
-        local pid = p and tonumber((p:read("a") or ""):match("%d+"))
-        if p then p:close() end
-        if not pid then io.stderr:write("dca run: could not start the console\n")
-        else
-          local watch
-          watch = core.every(0.1, function()
-            if not hosts_mod.alive(pid) then
-              watch:cancel()
-              local st = sup.outcome and sup.outcome.status
-              stop_all(st == "done" and 0 or (st == "aborted" and 1 or 130))
-            end
-          end)
-        end
-      end
-    end)
-  end
-  if o.sim then
-    -- the world first (the nodes on the simulated clock find it when they start), through the first host
-    local first = spec_mod.hosts(spec)[1]
-    world = sim.new({ daemon = hosts[first], host = first, key = key, world = o.sim, seed = o.seed,
-                      door_width = o.door_width, record = o.record, jammed = o.jammed,
-                      wait = o.timeout, realtime = o.realtime, periods = sim.period_leaves(spec) })
-    say(string.format("world: starting `dca sim --serve --world %s` on host %s", o.sim, first))
-    world.on_lost = function(reason)
-      io.stderr:write("dca run: ", reason, " (the nodes on its clock stop with it)\n")
-      if code == nil then code = 1 end
-    end
-    local function start_world()
-      world:start(function(wok, werr)
-        if not wok then
-          io.stderr:write("dca run: ", tostring(werr), "\n")
-          code = 3
-          world:stop(function() loop:stop() end)
-          return
-        end
-        say("world: ready; time stands at 0 until the root runs")
-        bring_up()
-      end)
-    end
-    if not o.hosts then
-      start_world()
-    else
-      -- daemons of a hosts file must be on the simulated clock (their ping says so)
-      local names, left, bad = spec_mod.hosts(spec), 0, {}
-      left = #names
-      for _, h in ipairs(names) do
-        core.connect(hosts[h], srt.key_opts(key), function(ch, cerr)
-          local function one(reason)
-            if reason then bad[#bad + 1] = reason end
-            left = left - 1
-            if left > 0 then return end
-            if #bad > 0 then
-              io.stderr:write("dca run: --sim needs every daemon on the simulated clock: ", table.concat(bad, "; "), "\n")
-              code = 2
-              loop:stop()
-            else
-              start_world()
-            end
-          end
-          if not ch then one(string.format("host %s at %s: %s", h, hosts[h], tostring(cerr))) return end
-          ch:on_message(function() end)
-          ch:request({ type = "ping" }, 10, function(r, perr)
-            ch:close()
-            if not r then one(string.format("host %s: %s", h, tostring(perr)))
-            elseif r.clock ~= "sim" then
-              one(string.format("the daemon of host %s runs on the %s clock (start it with --clock sim)", h,
-                tostring(r.clock or "wall")))
-            else one(nil) end
-          end)
-        end)
-      end
-    end
-  else
-    bring_up()
-  end
-  loop:run()
-  rt.close()
-  if world then world:close() end
-  if daemons then daemons:stop() end
-  if keydir then os.execute("rm -rf " .. hosts_mod.sh_quote(keydir)) end
-  return code or 1
+  o.config = o.config or (not o.no_config and require("dca.config").defaults_file(o.file)) or nil
+  o.check, o.summary, o.wait = true, true, o.timeout
+  local r = setmetatable({ o = o, spec = spec, followers = {}, t0 = core.now() }, Run)
+  r.ctx = start.context(spec, o, { say = function(line) r:say(line) end, report = function(msg) r:report(msg) end,
+                                   log = function(line, at) r:say(line, at) end })
+  local pok, code = r:prepare()
+  if not pok then return code end
+  r.loop = core.loop()
+  r.sup = start.tree(r.ctx, spec.host)
+  core.on_signal(function(sig) r:say("interrupted (SIG" .. tostring(sig) .. "): stopping") r:stop_all(130) end)
+  r:listen()
+  r.sup.reload_hook = function(what, cb) r:reload(what, cb) end
+  if o.watch then r:watch() end
+  r:start_world()
+  r.loop:run()
+  start.cleanup(r.ctx)
+  return r.code or 1
 end
 
 return M

@@ -1,7 +1,7 @@
--- dca.clients.daemon: a thin client of a `dca daemon` over a control channel (dca.core).
+-- dca.clients.daemon: the client of a `dca daemon` over a control channel (dca.core).
 --
 --   local daemon = require "dca.clients.daemon"
---   daemon.connect("127.0.0.1:4000", { timeout = 5 }, function(d, err)
+--   daemon.connect("127.0.0.1:4000", { key_file = KEY }, function(d, err)
 --     if not d then error(err) end
 --     d:spawn({ "dca", "node", "--type", "Gain" }, { name = "/sys/g", on_exit = function(ev) ... end },
 --       function(reply, err) ... end)          -- reply = { child =, pid =, host = }
@@ -10,58 +10,64 @@
 --
 -- Every call takes a callback cb(reply, err) that runs exactly once, from the loop: the reply table, or nil and
 -- the reason (the daemon's error, a timeout, or the channel's close). A nil callback ignores the result.
--- Exit events: { child =, pid =, name =, host =, code = N } or { ..., signal = "SIGSEGV" }; given to the
--- spawn's on_exit and to the handler set with client:on_exit(fn).
-local core = require "dca.core"
+-- Timeouts follow dca.clients (request_timeout, default clients.TIMEOUT). Exit events: { child =, pid =,
+-- name =, host =, code = N } or { ..., signal = "SIGSEGV" }; given to the spawn's on_exit and to the handler
+-- set with client:on_exit(fn). dca.clients.lookup(d, name, wait, cb) is the lookup production code uses.
+local clients = require "dca.clients"
 
-local setmetatable, type = setmetatable, type
+local tonumber, tostring, sformat = tonumber, tostring, string.format
 
 local M = {}
 
-local Client = {}
-Client.__index = Client
-
-local function ignore() end
-
---- Connects to the daemon at `addr`. `opts`: those of core.connect (key, key_file, timeout for the handshake)
---- plus `request_timeout` (seconds, default 5) for each request. Calls cb(client) or cb(nil, err).
-function M.connect(addr, opts, cb)
-  opts = opts or {}
-  core.connect(addr, opts, function(ch, err)
-    if not ch then return cb(nil, err) end
-    local self = setmetatable({
-      channel = ch,
-      address = addr,
-      timeout = opts.request_timeout or 5,
-      exit_handlers = {},
-    }, Client)
-    ch:on_message(function(msg)
-      if msg.type == "exit" then
-        local h = self.exit_handlers[msg.child]
-        self.exit_handlers[msg.child] = nil
-        if h then h(msg) end
-        if self.exit_fn then self.exit_fn(msg) end
-      elseif self.event_fn then
-        self.event_fn(msg)
-      end
-    end)
-    ch:on_close(function(reason)
-      self.closed = reason
-      if self.close_fn then self.close_fn(reason) end
-    end)
-    cb(self)
-  end)
+local SIGNAMES = { [1] = "HUP", [2] = "INT", [3] = "QUIT", [4] = "ILL", [6] = "ABRT", [7] = "BUS", [8] = "FPE",
+                   [9] = "KILL", [11] = "SEGV", [13] = "PIPE", [14] = "ALRM", [15] = "TERM" }
+--- An exit event as words: "killed by SIGSEGV on host h1" | "exited with code 1 on host h1".
+function M.describe_exit(msg, host)
+  if msg.signal then
+    local s = tonumber(msg.signal) and SIGNAMES[tonumber(msg.signal)] or tostring(msg.signal)
+    return sformat("killed by SIG%s on host %s", tostring(s):gsub("^SIG", ""), host)
+  end
+  return sformat("exited with code %s on host %s", tostring(msg.code), host)
 end
 
-function Client:request(msg, timeout, cb)
-  self.channel:request(msg, timeout or self.timeout, cb or ignore)
+
+local Client = clients.class({})
+M.Client = Client
+
+function Client:_event(msg)
+  if msg.type == "exit" then
+    local h = self.exit_handlers[msg.child]
+    self.exit_handlers[msg.child] = nil
+    if h then h(msg) end
+    if self.exit_fn then self.exit_fn(msg) end
+  elseif self.event_fn then
+    self.event_fn(msg)
+  end
+end
+
+--- Wraps an open channel to a daemon. opts.request_timeout: seconds per request.
+function M.wrap(ch, opts)
+  local self = clients.wrap(ch, Client, opts)
+  self.exit_handlers = {}
+  return self
+end
+
+--- Connects to the daemon at `addr`. `opts`: those of core.connect (key, key_file, timeout for the handshake)
+--- plus `request_timeout`. Calls cb(client) or cb(nil, err).
+function M.connect(addr, opts, cb)
+  require("dca.core").connect(addr, opts or {}, function(ch, err)
+    if not ch then cb(nil, err) return end
+    local self = M.wrap(ch, opts)
+    self.address = addr
+    cb(self)
+  end)
 end
 
 --- Starts argv on the daemon's host. opts: name (for reports), on_exit(ev), timeout (s).
 function Client:spawn(argv, opts, cb)
   opts = opts or {}
   self:request({ type = "spawn", argv = argv, name = opts.name }, opts.timeout, function(reply, err, full)
-    if reply and opts.on_exit then self.exit_handlers[reply.child] = opts.on_exit end
+    if reply and reply.child and opts.on_exit then self.exit_handlers[reply.child] = opts.on_exit end
     if cb then cb(reply, err, full) end
   end)
 end
@@ -72,7 +78,7 @@ function Client:kill(child, signal, cb)
 end
 
 --- Looks `name` up here and at the daemon's peers. opts: wait_ms (wait that long for it to be registered),
---- timeout (s; default: wait_ms plus the client's request timeout).
+--- timeout (s; default: the wait plus the client's request timeout).
 function Client:lookup(name, opts, cb)
   opts = opts or {}
   local wait_ms = opts.wait_ms or 0
@@ -95,16 +101,5 @@ function Client:status(cb) self:request({ type = "status" }, nil, cb) end
 function Client:on_exit(fn) self.exit_fn = fn end
 --- fn(msg) for any other event the daemon sends.
 function Client:on_event(fn) self.event_fn = fn end
---- fn(reason) when the channel closes.
-function Client:on_close(fn)
-  if self.closed and type(fn) == "function" then
-    core.after(0, function() fn(self.closed) end)
-  else
-    self.close_fn = fn
-  end
-end
-
-function Client:close(reason) self.channel:close(reason) end
-function Client:is_open() return self.channel:is_open() end
 
 return M

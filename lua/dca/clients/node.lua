@@ -1,7 +1,7 @@
 -- dca.clients.node: drives a `dca node` over its control channel (dca.core), as a supervisor does.
 --
---   local node_client = require "dca.clients.node"
---   node_client.connect(endpoints.control, { key_file = KEY }, function(n, err)
+--   local node = require "dca.clients.node"
+--   node.connect(endpoints.control, { key_file = KEY }, function(n, err)
 --     if not n then error(err) end
 --     n:on_done(function(value, msg) ... end)          -- DONE(value) of the node's controller
 --     n:on_aborted(function(reason, msg) ... end)      -- ABORTED(reason)
@@ -14,52 +14,30 @@
 --
 -- Every call takes a callback cb(reply, err) that runs exactly once, from the loop: the reply table, or nil and
 -- the reason (the node's error, a timeout, or the channel's close). A nil callback ignores the result. The
--- requests and replies are those of host/node.h.
-local core = require "dca.core"
-
-local setmetatable = setmetatable
+-- requests and replies are those of host/node.h; timeouts follow dca.clients.
+local clients = require "dca.clients"
 
 local M = {}
 
-local Client = {}
-Client.__index = Client
+local Client = clients.class({})
+M.Client = Client
 
-local function ignore() end
-
---- Wraps an open control channel `ch` (from core.connect). `opts.request_timeout`: seconds per request (5).
-function M.wrap(ch, opts)
-  opts = opts or {}
-  local self = setmetatable({ channel = ch, timeout = opts.request_timeout or 5 }, Client)
-  ch:on_message(function(msg)
-    if msg.type == "done" then
-      if self.done_fn then self.done_fn(msg.value, msg) end
-    elseif msg.type == "aborted" then
-      if self.aborted_fn then self.aborted_fn(msg.reason, msg) end
-    elseif self.event_fn then
-      self.event_fn(msg)
-    end
-  end)
-  ch:on_close(function(reason)
-    self.closed = reason
-    if self.close_fn then self.close_fn(reason) end
-  end)
-  return self
+function Client:_event(msg)
+  if msg.type == "done" then
+    if self.done_fn then self.done_fn(msg.value, msg) end
+  elseif msg.type == "aborted" then
+    if self.aborted_fn then self.aborted_fn(msg.reason, msg) end
+  elseif self.event_fn then
+    self.event_fn(msg)
+  end
 end
+
+--- Wraps an open control channel `ch` (from core.connect). `opts.request_timeout`: seconds per request.
+function M.wrap(ch, opts) return clients.wrap(ch, Client, opts) end
 
 --- Connects to a node's `control` address. `opts`: those of core.connect (key, key_file, timeout for the
 --- handshake) plus `request_timeout`. Calls cb(client) or cb(nil, err).
-function M.connect(addr, opts, cb)
-  opts = opts or {}
-  core.connect(addr, opts, function(ch, err)
-    if not ch then return cb(nil, err) end
-    cb(M.wrap(ch, opts))
-  end)
-end
-
---- Any request {type = ..., ...}; `timeout` in seconds (nil: the client's).
-function Client:request(msg, timeout, cb)
-  self.channel:request(msg, timeout or self.timeout, cb or ignore)
-end
+function M.connect(addr, opts, cb) clients.connect(addr, opts, Client, cb) end
 
 --- Acquires and resets the controller.
 function Client:init(cb) self:request({ type = "init" }, nil, cb) end
@@ -85,7 +63,7 @@ function Client:read(port, cb) self:request({ type = "read", port = port }, nil,
 --- Asks an input's pull connections for their latest sample; the reply comes when it has arrived.
 function Client:pull(port, timeout, cb)
   timeout = timeout or self.timeout
-  self:request({ type = "pull", port = port, timeout_ms = math.floor(timeout * 1000) }, timeout + 1, cb)
+  self:request({ type = "pull", port = port, timeout_ms = math.floor(timeout * 1000) }, timeout + self.timeout, cb)
 end
 --- Ports with counters, and connections: reply = { inputs =, outputs =, links =, accepted =, bytes_received = }.
 function Client:ports(cb) self:request({ type = "ports" }, nil, cb) end
@@ -100,13 +78,5 @@ function Client:exit(cb) self:request({ type = "exit" }, nil, cb) end
 function Client:on_done(fn) self.done_fn = fn end
 function Client:on_aborted(fn) self.aborted_fn = fn end
 function Client:on_event(fn) self.event_fn = fn end
---- Called once when the channel closes (at once, from the loop, if it already has).
-function Client:on_close(fn)
-  self.close_fn = fn
-  if self.closed then core.after(0, function() fn(self.closed) end) end
-end
-
-function Client:close(reason) self.channel:close(reason) end
-function Client:is_open() return self.channel:is_open() end
 
 return M

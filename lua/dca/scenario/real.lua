@@ -1,12 +1,9 @@
 -- dca.scenario.real: the "real" backend of dca.scenario: local daemons (one per host name, loopback), the
 -- root DCAS in this process, nodes and sub-supervisors as real processes. Same methods as the memory backend
 -- (see dca.scenario); waits run this process's event loop with a wall-clock timeout.
-local core = require "dca.core"
-local supervisor = require "dca.supervisor"
+local core, clients = require "dca.core", require "dca.clients"
 local spec_mod = require "dca.supervisor.spec"
-local srt = require "dca.supervisor.net"
-local hosts_mod = require "dca.launch.hosts"
-local sim = require "dca.clients.world"
+local hosts_mod, start = require "dca.launch.hosts", require "dca.launch.start"
 
 local M = {}
 
@@ -53,65 +50,58 @@ function System:_ask(fn, timeout, what)
   return table.unpack(res, 1, res.n)
 end
 
---- Starts one local daemon per host name (done by try_up when not yet). --> true | false, reason
+--- Starts one local daemon per host name and seeds their configuration repository as `dca run` does
+--- (done by try_up when not yet). --> true | nil, reason
 function System:start_hosts()
-  if self.daemons then return true end
-  local key, dir = hosts_mod.fresh_key()
-  self.key, self.keydir = key, dir
-  local names = spec_mod.hosts(self.spec)
-  local set, err = hosts_mod.start_local(names, { exe = hosts_mod.self_exe(), key = key, log_dir = dir,
-                                                  clock = self.opts.sim and "sim" or nil })
-  if not set then return false, err end
-  self.daemons = set
-  -- the configuration repository, as `dca run` seeds it (defaults file, then `set`)
-  local used = {}
-  for _, h in ipairs(names) do used[h] = set.hosts[h] end
-  local config = require "dca.config"
-  local origin = (self.spec.host and used[self.spec.host]) and self.spec.host or names[1]
-  local line, cerr = config.seed_run(used, origin, { key_file = key, file = self.opts.config, set = self.opts.set })
-  if cerr then return false, cerr end
-  if line then self.lines[#self.lines + 1] = line end
-  return true
+  if self.ctx then return true end
+  local o = self.opts
+  local ctx = start.context(self.spec, { fresh_key = true, sim = o.sim, config = o.config, set = o.set,
+    seed = o.seed, door_width = o.door_width, jammed = o.jammed, record = o.record, world_host = o.world_host },
+    { report = function(msg) self:_report(msg) end })
+  self.ctx = ctx
+  local ok, err = start.hosts(ctx)
+  if not ok then return nil, err end
+  self.daemons, self.key, self.keydir = ctx.daemons, ctx.key, ctx.keydir
+  ctx.say = function(line) self.lines[#self.lines + 1] = line end
+  ok, err = start.config(ctx)
+  ctx.say = function() end
+  return ok, err
 end
 
+-- A report of the root: transition lines (kept, and the states seen per path) and the outcome.
+function System:_report(msg)
+  if msg.type == "log" then
+    self.lines[#self.lines + 1] = msg.line
+    local path, state = transition(msg.line)
+    if state then
+      self.seen[path] = self.seen[path] or {}
+      self.seen[path][state] = true
+    end
+  elseif msg.type == "done" or msg.type == "aborted" then
+    -- the outcome as in the memory backend ({type, value} | {type, path, reason}); `now` is kept apart
+    self.outcome = { type = msg.type, value = msg.value, path = msg.path, reason = msg.reason }
+    self.outcome_now = msg.now
+  end
+end
+
+--- Brings the system up (hosts, world, tree: dca.launch.start). --> true | false, reason
 function System:try_up(timeout)
   timeout = timeout or 30
   local hok, herr = self:start_hosts()
   if not hok then return false, herr end
-  local set, key = self.daemons, self.key
+  local ctx = self.ctx
   if self.opts.sim and not self.world then
-    -- the world first (the nodes on the simulated clock find it when they start), as `dca run --sim` does
-    local names = spec_mod.hosts(self.spec)
-    local wh = self.opts.world_host or names[1]
-    if not set.hosts[wh] then return false, "world_host " .. tostring(wh) .. " is not a host of the system" end
-    self.world_host = wh
-    local w = sim.new({ daemon = set.hosts[wh], host = wh, key = key, world = self.opts.sim, seed = self.opts.seed,
-                        door_width = self.opts.door_width, jammed = self.opts.jammed, record = self.opts.record,
-                        wait = bound(timeout) })
-    w.on_lost = function(reason) self.world_lost = reason end
-    local res = self:_ask(function(k) w:start(function(ok, werr) k({ ok, werr }) end) end, bound(timeout) + 5,
-      "the world")
-    self.world = w
+    ctx.o.wait = bound(timeout)
+    local res = self:_ask(function(k) start.world(ctx, function(ok, werr) k({ ok, werr }) end) end,
+      bound(timeout) + 5, "the world")
+    if ctx.sim then
+      self.world, self.world_host = ctx.sim.world, ctx.world_host
+      self.world.on_lost = function(reason) self.world_lost = reason end
+    end
     if not res[1] then return false, res[2] end
   end
-  local rt = srt.new({ hosts = set.hosts, key = key, exe = "dca", daemon_host = self.world_host,
-    report = function(msg)
-      if msg.type == "log" then
-        self.lines[#self.lines + 1] = msg.line
-        local path, state = transition(msg.line)
-        if state then
-          self.seen[path] = self.seen[path] or {}
-          self.seen[path][state] = true
-        end
-      elseif msg.type == "done" or msg.type == "aborted" then
-        -- the outcome as in the memory backend ({type, value} | {type, path, reason}); `now` is kept apart
-        self.outcome = { type = msg.type, value = msg.value, path = msg.path, reason = msg.reason }
-        self.outcome_now = msg.now
-      end
-    end })
-  self.rt = rt
-  self.sup = supervisor.new(self.spec, rt, { progress = true, hosts = set.hosts })
-  rt.bind(self.sup)
+  self.sup = start.tree(ctx, self.world_host)
+  self.rt = ctx.rt
   local res = self:_ask(function(k) self.sup:configure(function(ok, cerr) k({ ok, cerr }) end) end, bound(timeout),
     "the start")
   if not res[1] then
@@ -248,12 +238,12 @@ end
 function System:_daemon(host)
   self.dchs = self.dchs or {}
   if self.dchs[host] then return self.dchs[host] end
-  local ch, err = self:_ask(function(k) core.connect(self.daemons.hosts[host], srt.key_opts(self.key), k) end, 25,
-    "the daemon of " .. host)
-  if not ch then error("daemon " .. host .. ": " .. tostring(err), 3) end
-  ch:on_message(function() end)
-  self.dchs[host] = ch
-  return ch
+  local d, err = self:_ask(function(k)
+    require("dca.clients.daemon").connect(self.daemons.hosts[host], clients.key_opts(self.key), k)
+  end, 25, "the daemon of " .. host)
+  if not d then error("daemon " .. host .. ": " .. tostring(err), 3) end
+  self.dchs[host] = d
+  return d
 end
 
 --- The configuration repository of `host`'s daemon (default: the first host): get(key), set(key, value) or
@@ -294,7 +284,8 @@ function System:pid(path)
   local host
   spec_mod.walk(self.spec, function(n) if n.path == path then host = n.host end end)
   if not host then error("no process " .. path, 3) end
-  local r = self:_ask(function(k) self:_daemon(host):request({ type = "status" }, 20, k) end, 25, "the daemon's status")
+  local r = self:_ask(function(k) self:_daemon(host):request({ type = "status" }, 20, k) end, 25,
+    "the daemon's status of host " .. host)
   for _, c in ipairs(r and r.children or {}) do
     if c.name == path then return c.pid end
   end

@@ -20,6 +20,7 @@
 --   c.trace      -- every delivered message: { from =, to =, type = , kind = "request"|"reply"|"event" }
 --   c.commands   -- every command a node received: "path type [set]"
 local supervisor = require "dca.supervisor"
+local spec_mod = require "dca.supervisor.spec"
 
 local M = {}
 
@@ -212,8 +213,7 @@ function Cluster:_spawn(owner_sup, child, cb)
     return
   end
   if mode then c:push(function() cb(nil, mode) end) return end
-  local cfg = require "dca.config"
-  if child.kind == "leaf" and not child.resolved and cfg.has_params(child.args) then
+  if not child.resolved then
     -- config("key") arguments: read from the cluster's repository (opts.config, one content for every host)
     local repo = c.config or {}
     local client = { get = function(_, key, k)
@@ -222,10 +222,10 @@ function Cluster:_spawn(owner_sup, child, cb)
         else k(copy(repo[key])) end
       end)
     end }
-    cfg.resolve_controller_params(child.args, client, function(args, err)
-      if not args then cb(nil, err) return end
-      c:_spawn(owner_sup, setmetatable({ args = args, resolved = true }, { __index = child }), cb)
-    end, { params = child.params })
+    spec_mod.resolve_leaf(child, client, function(resolved, err)
+      if not resolved then cb(nil, err) return end
+      c:_spawn(owner_sup, setmetatable({ resolved = true }, { __index = resolved }), cb)
+    end)
     return
   end
   local p = c:_proc(child.path, child.host, child.kind)

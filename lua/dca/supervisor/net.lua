@@ -10,8 +10,9 @@
 --                                                report = function(msg) end, log = function(line) end }
 --   rt.bind(sup)           -- the supervisor whose children this runtime starts (after supervisor.new)
 --   rt.reply(ch, req, msg) -- answers a request that arrived on a channel
-local core = require "dca.core"
-local config = require "dca.config"
+local core, config = require "dca.core", require "dca.config"
+local clients, daemon_client = require "dca.clients", require "dca.clients.daemon"
+local spec_mod = require "dca.supervisor.spec"
 
 local M = {}
 
@@ -58,19 +59,9 @@ function M.to_followers(followers, line)
 end
 
 --- Connection options for `core.connect`/`core.listen` from a key file path (nil: dca.core's default).
-function M.key_opts(key_file)
-  return { key_file = key_file }
-end
+M.key_opts = clients.key_opts
 
-local SIGNAMES = { [1] = "HUP", [2] = "INT", [3] = "QUIT", [4] = "ILL", [6] = "ABRT", [7] = "BUS", [8] = "FPE",
-                   [9] = "KILL", [11] = "SEGV", [13] = "PIPE", [14] = "ALRM", [15] = "TERM" }
-function M.describe_exit(msg, host)
-  if msg.signal then
-    local s = tonumber(msg.signal) and SIGNAMES[tonumber(msg.signal)] or tostring(msg.signal)
-    return sformat("killed by SIG%s on host %s", tostring(s):gsub("^SIG", ""), host)
-  end
-  return sformat("exited with code %s on host %s", tostring(msg.code), host)
-end
+M.describe_exit = daemon_client.describe_exit
 
 local function argstr(v)
   if type(v) == "number" then
@@ -80,313 +71,346 @@ local function argstr(v)
   return tostring(v)
 end
 
-function M.new(opts)
-  local rt = { opts = opts, daemons = {}, by_child = {}, closing = false }
-  local sup
-  local timeouts = opts.timeouts or { spawn = 10, lookup = 10 }
-
-  function rt.bind(s) sup = s end
-  function rt.now() return core.now() end
-  function rt.defer(fn) return core.after(0, fn) end
-  function rt.after(s, fn) return core.after(s, fn) end
-  function rt.every(s, fn) return core.every(s, fn) end
-  function rt.report(msg) if opts.report then opts.report(msg) end end
-  function rt.log(line) if opts.log then opts.log(line) end end
-
-  --- The heartbeat period and the silence after which a daemon or a child supervisor is lost (seconds):
-  --- opts.heartbeat = { period, timeout }, default 1 and 5 (generous: a loaded machine answers late, a
-  --- stopped process never).
-  function rt.heartbeat()
-    local hb = opts.heartbeat or {}
-    return hb.period or hb[1] or 1, hb.timeout or hb[2] or 5
+-- The argv that starts `child` (a spec child) through the daemon at `addr`.
+local function child_argv(child, addr, key)
+  local argv
+  if child.kind == "leaf" then
+    argv = { "dca", "node", "--type", child.type, "--name", child.path, "--daemon", addr }
+  else
+    argv = { "dca", "supervise", "--name", child.path, "--daemon", addr }
   end
-
-  -- A child process is gone (its exit event, or its host lost): whoever waits for it hears it once.
-  function rt._gone(rec)
-    if rec.kill_timer then rec.kill_timer:cancel() rec.kill_timer = nil end
-    local waiters = rec.on_exit
-    rec.on_exit = nil
-    for _, w in ipairs(waiters or {}) do w(true) end
+  if key then argv[#argv + 1] = "--key" argv[#argv + 1] = key end
+  if child.kind == "leaf" then
+    argv[#argv + 1] = "--"
+    for _, a in ipairs(child.args or {}) do argv[#argv + 1] = argstr(a) end
   end
+  return argv
+end
+M.child_argv = child_argv
 
-  -- Every child on `host` is lost (its daemon closed or stopped answering).
-  function rt._host_lost(host, reason)
-    for _, rec in pairs(rt.by_child) do
-      if rec.host == host then
-        if not rec.exited then
-          rec.exited = true
-          if rec.lost_timer then rec.lost_timer:cancel() end
-          if sup and not rt.closing then sup:child_exit(rec.name, reason) end
-          if rec.ch and not rec.ch_closed then rec.ch:close() end
-        end
-        rt._gone(rec)
+-- ---------------------------------------------------------------------------------------------------------
+-- A started process: its daemon's child id, its exit, the bounded kill.
+-- ---------------------------------------------------------------------------------------------------------
+local Proc = {}
+Proc.__index = Proc
+
+-- Its exit (event or host lost) is heard by every waiter once.
+function Proc:gone()
+  if self.kill_timer then self.kill_timer:cancel() self.kill_timer = nil end
+  local waiters = self.on_exit
+  self.on_exit = nil
+  for _, w in ipairs(waiters or {}) do w(true) end
+end
+
+-- Marks it exited and tells its supervisor (unless the runtime is closing); closes its channel.
+function Proc:exited_with(rt, reason)
+  if self.exited then return end
+  self.exited = true
+  if self.lost_timer then self.lost_timer:cancel() end
+  if rt.sup and not rt.closing then rt.sup:child_exit(self.name, reason) end
+  if self.ch and not self.ch_closed then self.ch:close() end
+end
+
+function Proc:kill(sig)
+  if self.exited then return end
+  local rt = self.rt
+  self.daemon:kill(self.child, sig or "TERM", function(_, kerr)
+    if kerr and not self.exited and not rt.closing then rt.log(sformat("kill %s: %s", self.path, tostring(kerr))) end
+  end)
+end
+
+-- Kills, then waits for the exit event (bounded): SIGKILL after `stop_grace` seconds, gives up after as many
+-- again. cb(true) once gone | cb(false, reason)
+function Proc:kill_wait(sig, cb)
+  if cb then
+    if self.exited then cb(true) return end
+    self.on_exit = self.on_exit or {}
+    self.on_exit[#self.on_exit + 1] = cb
+  end
+  if self.exited or self.kill_timer then return end
+  self:kill(sig)
+  local grace = self.rt.opts.stop_grace or 5
+  self.kill_timer = core.after(grace, function()
+    if self.exited then return end
+    self:kill("KILL")
+    self.kill_timer = core.after(grace, function()
+      self.kill_timer = nil
+      if self.exited then return end
+      local waiters = self.on_exit
+      self.on_exit = nil
+      for _, w in ipairs(waiters or {}) do
+        w(false, sformat("%s (pid %s on host %s) did not exit within %gs of SIGKILL", self.path,
+          tostring(self.pid), self.host, grace))
       end
+    end)
+  end)
+end
+
+-- Its control channel closed while it should run: its exit event (with its signal) follows from its daemon,
+-- or the daemon's loss does; this bound covers a process that closed its channel and lives on.
+function Proc:channel_closed(reason)
+  self.ch_closed = true
+  local rt = self.rt
+  if rt.closing or self.exited or self.stopping or not rt.sup then return end
+  self.lost_timer = core.after(rt.opts.exit_grace or 10, function()
+    if self.exited or rt.closing then return end
+    self.exited = true
+    rt.sup:child_exit(self.name, sformat("%s lost on host %s: %s", self.kind == "group" and "supervisor" or "node",
+      self.host, tostring(reason)))
+  end)
+end
+
+-- The handle the supervisor holds (see dca.supervisor: request, send, kill, lost, pid, host).
+function Proc:handle()
+  local ch, h = self.ch, { pid = self.pid, host = self.host }
+  function h.request(msg, timeout, rcb) ch:request(msg, timeout, rcb) end
+  function h.send(msg) ch:send(msg) end
+  function h.kill(sig, kcb)
+    self.stopping = true
+    if self.lost_timer then self.lost_timer:cancel() end
+    self:kill_wait(sig, kcb)
+    ch:close()
+  end
+  function h.lost()
+    self.exited = true
+    if self.lost_timer then self.lost_timer:cancel() end
+  end
+  return h
+end
+
+-- ---------------------------------------------------------------------------------------------------------
+-- The runtime: new(opts) binds these methods as rt.name(...) (the supervisor calls them so).
+-- ---------------------------------------------------------------------------------------------------------
+local Net = {}
+
+function Net:bind(s) self.sup = s end
+function Net:now() return core.now() end
+function Net:defer(fn) return core.after(0, fn) end
+function Net:after(s, fn) return core.after(s, fn) end
+function Net:every(s, fn) return core.every(s, fn) end
+function Net:report(msg) if self.opts.report then self.opts.report(msg) end end
+function Net:log(line) if self.opts.log then self.opts.log(line) end end
+
+--- The heartbeat period and the silence after which a daemon or a child supervisor is lost (seconds):
+--- opts.heartbeat = { period, timeout }, default 1 and 5 (generous: a loaded machine answers late, a stopped
+--- process never).
+function Net:heartbeat()
+  local hb = self.opts.heartbeat or {}
+  return hb.period or hb[1] or 1, hb.timeout or hb[2] or 5
+end
+
+-- Every child on `host` is lost (its daemon closed or stopped answering).
+function Net:_host_lost(host, reason)
+  for _, p in pairs(self.by_child) do
+    if p.host == host then
+      p:exited_with(self, reason)
+      p:gone()
     end
   end
+end
 
-  -- The channel to the daemon of `host` (opened once; its loss loses every child on that host).
-  local function daemon(host, cb)
-    local d = rt.daemons[host]
-    if d and d.ch then cb(d.ch) return end
-    if d then d.waiters[#d.waiters + 1] = cb return end
-    local addr = opts.hosts[host]
-    if not addr then cb(nil, sformat("no daemon for host '%s' (hosts: %s)", tostring(host),
-      concat((function() local t = {} for k in pairs(opts.hosts) do t[#t + 1] = k end table.sort(t) return t end)(), ", ")))
+local function host_names(hosts)
+  local t = {}
+  for k in pairs(hosts) do t[#t + 1] = k end
+  table.sort(t)
+  return concat(t, ", ")
+end
+
+-- The client of `host`'s daemon (connected once; its loss loses every child on that host). cb(d) | cb(nil, err)
+function Net:daemon(host, cb)
+  local d = self.daemons[host]
+  if d and d.client then cb(d.client) return end
+  if d then d.waiters[#d.waiters + 1] = cb return end
+  local addr = self.opts.hosts[host]
+  if not addr then
+    cb(nil, sformat("no daemon for host '%s' (hosts: %s)", tostring(host), host_names(self.opts.hosts)))
+    return
+  end
+  d = { waiters = { cb } }
+  self.daemons[host] = d
+  daemon_client.connect(addr, M.key_opts(self.opts.key), function(dc, err)
+    local waiters = d.waiters
+    d.waiters = {}
+    if not dc then
+      self.daemons[host] = nil
+      for _, w in ipairs(waiters) do w(nil, sformat("daemon of host %s at %s: %s", host, addr, tostring(err))) end
       return
     end
-    d = { waiters = { cb }, children = {} }
-    rt.daemons[host] = d
-    core.connect(addr, M.key_opts(opts.key), function(ch, err)
-      local waiters = d.waiters
-      d.waiters = {}
-      if not ch then
-        rt.daemons[host] = nil
-        for _, w in ipairs(waiters) do w(nil, sformat("daemon of host %s at %s: %s", host, addr, tostring(err))) end
-        return
-      end
-      d.ch = ch
-      ch:on_message(function(msg)
-        if d.config and d.config:event(msg) then return end
-        if msg.type == "exit" then
-          local rec = rt.by_child[host .. ":" .. tostring(msg.child)]
-          if rec and not rec.exited then
-            rec.exited = true
-            if rec.lost_timer then rec.lost_timer:cancel() end
-            if sup then sup:child_exit(rec.name, M.describe_exit(msg, host)) end
-            if rec.ch and not rec.ch_closed then rec.ch:close() end
-          end
-          if rec then rt._gone(rec) end
+    d.client = dc
+    self._watch_daemon(host, d, dc)
+    for _, w in ipairs(waiters) do w(dc) end
+  end)
+end
+
+-- A daemon's events (exits, configuration changes), its close and its heartbeat: one that does not answer a
+-- ping within the silence bound is lost (a stopped or wedged daemon keeps its socket open: only silence tells).
+function Net:_watch_daemon(host, d, dc)
+  dc:on_event(function(msg) if d.config then d.config:event(msg) end end)
+  dc:on_exit(function(msg)
+    local p = self.by_child[host .. ":" .. tostring(msg.child)]
+    if not p then return end
+    p:exited_with(self, M.describe_exit(msg, host))
+    p:gone()
+  end)
+  dc:on_close(function(reason)
+    if self.daemons[host] == d then self.daemons[host] = nil end
+    self._host_lost(host, sformat("host %s lost (daemon gone: %s)", host, tostring(reason)))
+  end)
+  local hb, hb_timeout = self.heartbeat()
+  local beat
+  beat = core.every(hb, function()
+    if self.closing or d.client ~= dc then beat:cancel() return end
+    dc:request({ type = "ping" }, hb_timeout, function(r, perr)
+      if r or d.client ~= dc or self.closing then return end
+      beat:cancel()
+      self.daemons[host] = nil
+      self._host_lost(host, sformat("host %s lost (its daemon did not answer for %gs: %s)", host, hb_timeout,
+        tostring(perr)))
+      dc:close()
+    end)
+  end)
+end
+
+--- Starts `child` (a spec child) inactive on its host; cb(handle) | cb(nil, reason). A leaf's `config("key")`
+--- arguments are read first from the configuration replica of its host's daemon (dca.config), checked against
+--- the parameter's type: a missing key or a wrong type fails the start, naming the parameter and the key.
+function Net:spawn(child, cb)
+  self.daemon(child.host, function(dc, err)
+    if not dc then cb(nil, err) return end
+    spec_mod.resolve_leaf(child, config.over_channel(dc.channel, self.timeouts.lookup), function(c, rerr)
+      if not c then cb(nil, rerr) return end
+      self._start(c, dc, cb)
+    end)
+  end)
+end
+
+-- Spawns the resolved `child` through its daemon `dc`, then reaches it (see _reach).
+function Net:_start(child, dc, cb)
+  local argv = child_argv(child, self.opts.hosts[child.host], self.opts.key)
+  dc:spawn(argv, { name = child.path, timeout = self.timeouts.spawn }, clients.result(function(r, err)
+    if not r then cb(nil, err) return end
+    local p = setmetatable({ rt = self, daemon = dc, name = child.name, host = child.host, kind = child.kind,
+                             child = r.child, pid = r.pid, path = child.path }, Proc)
+    self.by_child[child.host .. ":" .. tostring(r.child)] = p  -- child ids are per daemon
+    self._reach(p, dc, cb)
+  end))
+end
+
+-- Looks the started process up by its path and connects to its control endpoint; a process that cannot be
+-- reached is killed. cb(handle) | cb(nil, reason)
+function Net:_reach(p, dc, cb)
+  clients.open(dc, p.path, self.timeouts.lookup, M.key_opts(self.opts.key), clients.Plain, function(c, err)
+    if not c then p:kill_wait("KILL") cb(nil, err) return end
+    p.ch = c.channel
+    c.channel:on_message(function(msg, id)
+      if (id or 0) == 0 and self.sup then self.sup:child_message(p.name, msg) end
+    end)
+    c:on_close(function(reason) p:channel_closed(reason) end)
+    cb(p:handle())
+  end)
+end
+
+--- Kills (SIGKILL) every process the lost child supervisor of `group` had started: the daemons of its
+--- subtree's hosts are asked which of their children bear a path below it. Best effort, nothing awaited.
+function Net:reap(group)
+  local prefix = group.path .. "."
+  local seen = {}
+  local function visit(spec)
+    for _, c in ipairs(spec.children or {}) do
+      if c.host then seen[c.host] = true end
+      if c.kind == "group" and c.spec then visit(c.spec) end
+    end
+  end
+  visit(group.spec or group)
+  for host in pairs(seen) do
+    self.daemon(host, function(dc)
+      if not dc then return end
+      dc:status(function(r)
+        for _, c in ipairs(r and r.children or {}) do
+          if type(c.name) == "string" and c.name:sub(1, #prefix) == prefix then dc:kill(c.child, "KILL") end
         end
       end)
-      ch:on_close(function(reason)
-        if rt.daemons[host] == d then rt.daemons[host] = nil end
-        rt._host_lost(host, sformat("host %s lost (daemon gone: %s)", host, tostring(reason)))
-      end)
-      -- heartbeat: a daemon that does not answer a ping within `hb_timeout` seconds is lost (a stopped or
-      -- wedged daemon keeps its socket open: only the silence tells)
-      local hb, hb_timeout = rt.heartbeat()
-      local beat
-      beat = core.every(hb, function()
-        if rt.closing or d.ch ~= ch then beat:cancel() return end
-        ch:request({ type = "ping" }, hb_timeout, function(r, perr)
-          if not r and d.ch == ch and not rt.closing then
-            beat:cancel()
-            rt.daemons[host] = nil
-            rt._host_lost(host, sformat("host %s lost (its daemon did not answer for %gs: %s)", host, hb_timeout,
-              tostring(perr)))
-            ch:close()
-          end
-        end)
-      end)
-      for _, w in ipairs(waiters) do w(ch) end
     end)
   end
+end
 
-  --- Starts `child` (a spec child) inactive on its host; cb(handle) | cb(nil, reason). A leaf's
-  --- `config("key")` arguments are read first from the configuration replica of its host's daemon (and
-  --- checked against the parameter's type): a missing key or a wrong type fails the start, naming the
-  --- parameter and the key.
-  function rt.spawn(child, cb)
-    daemon(child.host, function(dch, err)
-      if not dch then cb(nil, err) return end
-      if child.kind == "leaf" and not child.resolved and config.has_params(child.args) then
-        config.resolve_controller_params(child.args, config.over_channel(dch, timeouts.lookup), function(args, rerr)
-          if not args then cb(nil, rerr) return end
-          rt.spawn(setmetatable({ args = args, resolved = true }, { __index = child }), cb)
-        end, { params = child.params })
-        return
-      end
-      local addr = opts.hosts[child.host]
-      local argv
-      if child.kind == "leaf" then
-        argv = { "dca", "node", "--type", child.type, "--name", child.path, "--daemon", addr }
-        if opts.key then argv[#argv + 1] = "--key" argv[#argv + 1] = opts.key end
-        argv[#argv + 1] = "--"
-        for _, a in ipairs(child.args or {}) do argv[#argv + 1] = argstr(a) end
-      else
-        argv = { "dca", "supervise", "--name", child.path, "--daemon", addr }
-        if opts.key then argv[#argv + 1] = "--key" argv[#argv + 1] = opts.key end
-      end
-      dch:request({ type = "spawn", argv = argv, name = child.path }, timeouts.spawn, function(r, rerr)
-        if not r or r.type == "error" then cb(nil, r and r.reason or rerr) return end
-        local rec = { name = child.name, host = child.host, child = r.child, pid = r.pid, path = child.path }
-        rt.by_child[child.host .. ":" .. tostring(r.child)] = rec  -- child ids are per daemon
-        local function kill(sig)
-          if rec.exited then return end
-          dch:request({ type = "kill", child = r.child, signal = sig or "TERM" }, 5, function(_, kerr)
-            if kerr and not rec.exited and not rt.closing and rt.opts.log then
-              rt.opts.log(sformat("kill %s: %s", child.path, tostring(kerr)))
-            end
-          end)
+-- This supervisor's host: opts.daemon_host, else the first host name.
+function Net:own_host()
+  if self.opts.daemon_host then return self.opts.daemon_host end
+  local names = {}
+  for h in pairs(self.opts.hosts or {}) do names[#names + 1] = h end
+  table.sort(names)
+  return names[1]
+end
+
+--- The configuration repository of this supervisor's host (opts.daemon_host, else the first host): a
+--- dca.config client over that daemon's channel, its watch events delivered. cb(client) | cb(nil, err)
+function Net:config_client(cb)
+  local host = self.own_host()
+  self.daemon(host, function(dc, derr)
+    if not dc then cb(nil, derr) return end
+    local d = self.daemons[host]
+    if not d.config then d.config = config.over_channel(dc.channel) d.config.host = host end
+    cb(d.config)
+  end)
+end
+
+--- A request to the robot process registered as `world` (dca sim --serve, or a robot's driver), looked up at
+--- the daemon of this supervisor's host (lookups reach the peers) and reached on its control channel (opened
+--- once). cb(reply) | cb(nil, err, missing)
+function Net:world(msg, timeout, cb)
+  local w = self._world
+  if w and w.client then w.client:request(msg, timeout, cb) return end
+  local function go(c, err, missing)
+    if c then c:request(msg, timeout, cb) else cb(nil, err, missing) end
+  end
+  if w then w.waiters[#w.waiters + 1] = go return end
+  w = { waiters = { go } }
+  self._world = w
+  local function finish(c, err, missing)
+    local ws = w.waiters
+    w.waiters = {}
+    if c then w.client = c else self._world = nil end
+    for _, f in ipairs(ws) do f(c, err, missing) end
+  end
+  self._open_world(w, finish)
+end
+
+-- Looks the world up and connects to it: finish(client) | finish(nil, err, missing).
+function Net:_open_world(w, finish)
+  local host, name = self.own_host(), self.opts.world_name or "world"
+  self.daemon(host, function(dc, derr)
+    if not dc then finish(nil, derr) return end
+    clients.open(dc, name, self.opts.world_wait or 5, M.key_opts(self.opts.key), clients.Plain,
+      function(c, err, missing)
+        if missing then
+          finish(nil, sformat("no process is registered as `%s` (asked the daemon of host %s: %s)", name, host,
+            tostring(err)), true)
+          return
         end
-        -- kill, then wait for the exit event (bounded): SIGKILL after `stop_grace` seconds, give up after as
-        -- many again. cb(true) once gone | cb(false, reason)
-        local function kill_wait(sig, cb)
-          if cb then
-            if rec.exited then cb(true) return end
-            rec.on_exit = rec.on_exit or {}
-            rec.on_exit[#rec.on_exit + 1] = cb
-          end
-          if rec.exited or rec.kill_timer then return end
-          kill(sig)
-          local grace = opts.stop_grace or 5
-          rec.kill_timer = core.after(grace, function()
-            if rec.exited then return end
-            kill("KILL")
-            rec.kill_timer = core.after(grace, function()
-              rec.kill_timer = nil
-              if rec.exited then return end
-              local waiters = rec.on_exit
-              rec.on_exit = nil
-              for _, w in ipairs(waiters or {}) do
-                w(false, sformat("%s (pid %s on host %s) did not exit within %gs of SIGKILL", child.path,
-                  tostring(rec.pid), child.host, grace))
-              end
-            end)
-          end)
-        end
-        dch:request({ type = "lookup", name = child.path, wait_ms = math.floor(timeouts.lookup * 1000) },
-          timeouts.lookup + 1, function(lr, lerr)
-            if not lr or lr.type == "error" then kill_wait("KILL") cb(nil, lr and lr.reason or lerr) return end
-            local ep = lr.endpoints or lr
-            local control = ep.control
-            if not control then kill_wait("KILL") cb(nil, child.path .. " registered no control endpoint") return end
-            core.connect(control, M.key_opts(opts.key), function(ch, cerr)
-              if not ch then kill_wait("KILL") cb(nil, sformat("%s at %s: %s", child.path, control, tostring(cerr))) return end
-              rec.ch = ch
-              ch:on_message(function(msg, id)
-                if (id or 0) == 0 and sup then sup:child_message(child.name, msg) end
-              end)
-              ch:on_close(function(reason)
-                rec.ch_closed = true
-                if rt.closing or rec.exited or rec.stopping or not sup then return end
-                -- the process's exit event (with its signal) follows from its daemon (or the daemon's loss
-                -- does, or its heartbeat): this bound only covers a process that closed its channel and lives on
-                rec.lost_timer = core.after(opts.exit_grace or 10, function()
-                  if rec.exited or rt.closing then return end
-                  rec.exited = true
-                  sup:child_exit(child.name, sformat("%s lost on host %s: %s", child.kind == "group" and "supervisor"
-                    or "node", child.host, tostring(reason)))
-                end)
-              end)
-              local h = {}
-              function h.request(msg, timeout, rcb) ch:request(msg, timeout, rcb) end
-              function h.send(msg) ch:send(msg) end
-              --- Sends `sig` (via the daemon); cb(true) once the process has exited, cb(false, reason) when
-              --- it outlives SIGKILL (bounded).
-              function h.kill(sig, kcb)
-                rec.stopping = true
-                if rec.lost_timer then rec.lost_timer:cancel() end
-                kill_wait(sig, kcb)
-                ch:close()
-              end
-              --- Marks the process as gone for its owner (heartbeat lost): no further exit reports.
-              function h.lost()
-                rec.exited = true
-                if rec.lost_timer then rec.lost_timer:cancel() end
-              end
-              h.pid, h.host = rec.pid, child.host
-              cb(h)
-            end)
-          end)
+        if not c then finish(nil, err) return end
+        c:on_close(function() if self._world == w then self._world = nil end end)
+        finish(c)
       end)
-    end)
-  end
+  end)
+end
 
-  --- Kills (SIGKILL) every process the lost child supervisor of `group` had started: the daemons of its
-  --- subtree's hosts are asked which of their children bear a path below it. Best effort, nothing awaited.
-  function rt.reap(group)
-    local prefix = group.path .. "."
-    local seen = {}
-    local function visit(spec)
-      for _, c in ipairs(spec.children or {}) do
-        if c.host and not seen[c.host] then seen[c.host] = true end
-        if c.kind == "group" and c.spec then visit(c.spec) end
-      end
-    end
-    visit(group.spec or group)
-    for host in pairs(seen) do
-      daemon(host, function(dch)
-        if not dch then return end
-        dch:request({ type = "status" }, 5, function(r)
-          for _, c in ipairs(r and r.children or {}) do
-            if type(c.name) == "string" and c.name:sub(1, #prefix) == prefix then
-              dch:request({ type = "kill", child = c.child, signal = "KILL" }, 5, function() end)
-            end
-          end
-        end)
-      end)
-    end
-  end
+--- Closes every daemon channel (after shutdown).
+function Net:close()
+  self.closing = true
+  for _, d in pairs(self.daemons) do if d.client then d.client:close() end end
+  if self._world and self._world.client then self._world.client:close() end
+end
 
-  -- This supervisor's host: opts.daemon_host, else the first host name.
-  local function own_host()
-    if opts.daemon_host then return opts.daemon_host end
-    local names = {}
-    for h in pairs(opts.hosts or {}) do names[#names + 1] = h end
-    table.sort(names)
-    return names[1]
+--- The runtime over the hosts' daemons. opts: hosts = { name = addr }, key, exe, daemon_host, timeouts,
+--- heartbeat, report(msg), log(line), stop_grace, exit_grace, world_name, world_wait (see the header).
+function M.new(opts)
+  local t = opts.timeouts or {}
+  local rt = { opts = opts, daemons = {}, by_child = {}, closing = false,
+               timeouts = { spawn = t.spawn or 10, lookup = t.lookup or 10 } }
+  for name, f in pairs(Net) do
+    rt[name] = function(...) return f(rt, ...) end
   end
-
-  --- The configuration repository of this supervisor's host (opts.daemon_host, else the first host): a
-  --- dca.config client over that daemon's channel, its watch events delivered. cb(client) | cb(nil, err)
-  function rt.config_client(cb)
-    local host = own_host()
-    daemon(host, function(dch, derr)
-      if not dch then cb(nil, derr) return end
-      local d = rt.daemons[host]
-      if not d.config then d.config = config.over_channel(dch) d.config.host = host end
-      cb(d.config)
-    end)
-  end
-
-  --- A request to the robot process registered as `world` (dca sim --serve, or a robot's driver), looked up
-  --- at the daemon of this supervisor's host (opts.daemon_host, else the first host; lookups reach the
-  --- peers) and reached on its control channel (opened once). cb(reply) | cb(nil, err, missing)
-  function rt.world(msg, timeout, cb)
-    local w = rt._world
-    if w and w.ch then w.ch:request(msg, timeout, cb) return end
-    local function go(ch, err, missing)
-      if ch then ch:request(msg, timeout, cb) else cb(nil, err, missing) end
-    end
-    if w then w.waiters[#w.waiters + 1] = go return end
-    w = { waiters = { go } }
-    rt._world = w
-    local function finish(ch, err, missing)
-      local ws = w.waiters
-      w.waiters = {}
-      if ch then w.ch = ch else rt._world = nil end
-      for _, f in ipairs(ws) do f(ch, err, missing) end
-    end
-    local host = own_host()
-    daemon(host, function(dch, derr)
-      if not dch then finish(nil, derr) return end
-      local wait_ms = math.floor((opts.world_wait or 5) * 1000)
-      dch:request({ type = "lookup", name = opts.world_name or "world", wait_ms = wait_ms }, wait_ms / 1000 + 2,
-        function(lr, lerr)
-          local ep = lr and lr.type ~= "error" and (lr.endpoints or lr)
-          if not ep or not ep.control then
-            finish(nil, sformat("no process is registered as `%s` (asked the daemon of host %s: %s)",
-              opts.world_name or "world", host, tostring(lr and lr.reason or lerr)), true)
-            return
-          end
-          core.connect(ep.control, M.key_opts(opts.key), function(ch, cerr)
-            if not ch then finish(nil, sformat("world at %s: %s", ep.control, tostring(cerr))) return end
-            ch:on_message(function() end)
-            ch:on_close(function() if rt._world == w then rt._world = nil end end)
-            finish(ch)
-          end)
-        end)
-    end)
-  end
-
-  --- Closes every daemon channel (after shutdown).
-  function rt.close()
-    rt.closing = true
-    for _, d in pairs(rt.daemons) do if d.ch then d.ch:close() end end
-    if rt._world and rt._world.ch then rt._world.ch:close() end
-  end
-
   return rt
 end
 

@@ -29,6 +29,7 @@
 --   spec_mod.route(spec, leaf_path)               --> the direct child (table) whose subtree holds the leaf
 --   spec_mod.walk(spec, fn)                       -- fn(node, depth) for the group and every descendant
 --   spec_mod.hosts(spec)                          --> sorted list of the host names used in the tree
+--   spec_mod.resolve_leaf(child, client, cb)      -- cb(child with its config("key") arguments read) | cb(nil, err)
 local M = {}
 
 local ipairs, pairs, type, tostring, sformat = ipairs, pairs, type, tostring, string.format
@@ -200,6 +201,19 @@ function M.validate(spec)
     end
   end)
   return errs
+end
+
+--- A child ready to start: a leaf's `config("key")` arguments read through `client` (a dca.config client, or
+--- anything with get(self, key, cb)) and checked against its parameters (dca.config.resolve_controller_params),
+--- the one way both runtimes resolve them. cb(child) unchanged when it has none, cb(a view of child with the
+--- read `args`), or cb(nil, err naming the parameter and the key).
+function M.resolve_leaf(child, client, cb)
+  local config = require "dca.config"
+  if child.kind ~= "leaf" or not config.has_params(child.args) then cb(child) return end
+  config.resolve_controller_params(child.args, client, function(args, err)
+    if not args then cb(nil, err) return end
+    cb(setmetatable({ args = args }, { __index = child }))
+  end, { params = child.params })
 end
 
 return M

@@ -1,5 +1,5 @@
--- Simulated-time systems in scenarios and `dca run --sim`: the options that reach the world, and the
--- refusals that name what is wrong (the runs themselves are tests/scenarios/door_*.lua, scenario_real.door_*).
+-- Simulated-time systems in scenarios: the refusals that name what is wrong (the runs themselves are
+-- tests/scenarios/door_*.lua, scenario_real.door_*; the world's argv is tests/lua/clients/world_test.lua).
 local T = require "dca.testing"
 local suite = T.suite("scenario_sim")
 
@@ -13,21 +13,6 @@ local function tmpfile(text)
   f:close()
   return path
 end
-
-suite:case("world_argv_carries_seed_width_and_the_jam", function()
-  local sim = require "dca.clients.world"
-  local argv = sim.argv({ daemon = "127.0.0.1:1", host = "h", world = "door", seed = 3, door_width = 0.9, jammed = true })
-  T.eq(argv, { "dca", "sim", "--serve", "--daemon", "127.0.0.1:1", "--host", "h", "--world", "door",
-               "--seed", "3", "--door-width", "0.9", "--jammed" })
-  argv = sim.argv({ daemon = "127.0.0.1:1", host = "h" })
-  for _, a in ipairs(argv) do T.ok(a ~= "--jammed", "no --jammed unless asked") end
-end)
-
-suite:case("run_jammed_needs_sim", function()
-  local out, rc = T.sh(dca .. " run " .. src .. "/scripts/systems/door_open.dca --jammed")
-  T.eq(rc, 2, "exit code")
-  T.contains(out, "--jammed go with --sim WORLD")
-end)
 
 suite:case("a_real_only_scenario_refuses_the_memory_backend", function()
   local path = tmpfile('local S = require "dca.scenario"\nS.backends = { "real" }\n'

@@ -1,0 +1,138 @@
+-- dca.launch.start: the one start-up sequence of a system, shared by `dca run` (cli/run.lua), `dca scenario`
+-- (dca.scenario.real) and, for its own tree, `dca supervise` (cli/supervise.lua). Named steps, each a
+-- function of one context that returns true or nil, err (the world's step calls back, as it waits on it):
+--
+--   hosts   the daemons: a hosts file (o.hosts), or one fresh local daemon per host name (a fresh key)
+--   config  the configuration repository: the defaults file and o.set, on the root's host, replicated
+--   world   with o.sim: the world process (dca.launch.sim) through o.world_host (default the first host)
+--   tree    the root supervisor (dca.supervisor) on the network runtime (dca.supervisor.net)
+--
+--   local ctx = start.context(spec, o, { say = fn(line), report = fn(msg), log = fn(line) })
+--   local ok, err = start.hosts(ctx)  ok, err = start.config(ctx)
+--   start.world(ctx, function(ok, err) ... end)
+--   local sup = start.tree(ctx, daemon_host)
+--   start.cleanup(ctx)                        -- the world's channels, the runtime, the daemons, the key dir
+local config = require "dca.config"
+local supervisor, net = require "dca.supervisor", require "dca.supervisor.net"
+local hosts_mod, sim = require "dca.launch.hosts", require "dca.launch.sim"
+
+local M = {}
+
+local ipairs, sformat = ipairs, string.format
+
+--- The context of a start: spec, options `o` (hosts, state_dir, sim, seed, door_width, record, jammed,
+--- realtime, wait, world_host, config, set, check) and the hooks say(line), report(msg), log(line).
+function M.context(spec, o, hooks)
+  return { spec = spec, o = o, names = require("dca.supervisor.spec").hosts(spec), exe = hosts_mod.self_exe(),
+           say = hooks.say or function() end, report = hooks.report, log = hooks.log }
+end
+
+--- The daemons: ctx.hosts = { name = addr }; with local daemons also ctx.daemons, ctx.key, ctx.keydir.
+function M.hosts(ctx)
+  local o = ctx.o
+  ctx.key = o.key or os.getenv("DCA_KEY_FILE")
+  if o.hosts then
+    local hosts, err = hosts_mod.read_file(o.hosts)
+    if not hosts then return nil, err end
+    ctx.hosts = hosts
+  else
+    if not ctx.key or o.fresh_key then ctx.key, ctx.keydir = hosts_mod.fresh_key() end
+    local set, err = hosts_mod.start_local(ctx.names, { exe = ctx.exe, key = ctx.key, clock = o.sim and "sim" or nil,
+      log_dir = ctx.keydir or os.getenv("TMPDIR") or "/tmp", state_dir = o.state_dir })
+    if not set then return nil, err end
+    ctx.daemons, ctx.hosts = set, set.hosts
+    for _, name in ipairs(ctx.names) do
+      ctx.say(sformat("host %s: daemon at %s (pid %d)", name, set.hosts[name], set.pids[name]))
+    end
+  end
+  for _, h in ipairs(ctx.names) do
+    if not ctx.hosts[h] then return nil, sformat("no daemon for host '%s' in %s", h, tostring(o.hosts)) end
+  end
+  return true
+end
+
+--- The configuration repository: the defaults file (o.config) and o.set written on the root's host and
+--- replicated to the others; with o.check every config("key") parameter is read once (all errors listed).
+--- nil, err, "file" when the defaults file is wrong.
+function M.config(ctx)
+  local used = {}
+  for _, h in ipairs(ctx.names) do used[h] = ctx.hosts[h] end
+  local spec, o = ctx.spec, ctx.o
+  local origin = (spec.host and used[spec.host]) and spec.host or ctx.names[1]
+  local line, err = config.seed_run(used, origin, { key_file = ctx.key, file = o.config, set = o.set })
+  if err then return nil, err, o.config and err:find(o.config, 1, true) == 1 and "file" or nil end
+  if line then ctx.say(line) end
+  if not o.check then return true end
+  local ok, kerr = config.check_spec(used, origin, spec, { key_file = ctx.key })
+  if not ok then return nil, kerr, "params" end
+  return true
+end
+
+--- With o.sim, the world first (the nodes on the simulated clock find it when they start): ctx.sim (a
+--- dca.launch.sim) once it is registered. cb(true) | cb(nil, err)
+function M.world(ctx, cb)
+  local o = ctx.o
+  if not o.sim then cb(true) return end
+  local wh = o.world_host or ctx.names[1]
+  if not ctx.hosts[wh] then cb(nil, "world_host " .. tostring(wh) .. " is not a host of the system") return end
+  ctx.world_host = wh
+  ctx.sim = sim.new({ daemon = ctx.hosts[wh], host = wh, key = ctx.key, world = o.sim, seed = o.seed,
+                      door_width = o.door_width, record = o.record, jammed = o.jammed, realtime = o.realtime,
+                      wait = o.wait }, o.summary and ctx.spec or nil)
+  ctx.say(sformat("world: starting `dca sim --serve --world %s` on host %s", o.sim, wh))
+  ctx.sim.world:start(function(ok, err)
+    if not ok then cb(nil, err) return end
+    ctx.say("world: ready; time stands at 0 until the root runs")
+    cb(true)
+  end)
+end
+
+--- The root supervisor of ctx.spec on the network runtime over ctx.hosts; its own host (configuration, world
+--- lookups) is `daemon_host` (nil: the first host). --> sup (ctx.sup, ctx.rt)
+function M.tree(ctx, daemon_host)
+  local rt = net.new({ hosts = ctx.hosts, key = ctx.key, exe = ctx.exe, daemon_host = daemon_host,
+                       report = ctx.report, log = ctx.log })
+  local sup = supervisor.new(ctx.spec, rt, { progress = true, hosts = ctx.hosts })
+  sup.hosts = ctx.hosts
+  rt.bind(sup)
+  ctx.rt, ctx.sup = rt, sup
+  return sup
+end
+
+--- With o.sim and a hosts file: every daemon must be on the simulated clock (its ping says so). cb(true) |
+--- cb(nil, err naming each host that is not)
+function M.sim_clock(ctx, cb)
+  if not (ctx.o.sim and ctx.o.hosts) then cb(true) return end
+  local daemon_client = require "dca.clients.daemon"
+  local left, bad = #ctx.names, {}
+  local function one(reason)
+    if reason then bad[#bad + 1] = reason end
+    left = left - 1
+    if left > 0 then return end
+    if #bad > 0 then cb(nil, "--sim needs every daemon on the simulated clock: " .. table.concat(bad, "; "))
+    else cb(true) end
+  end
+  for _, h in ipairs(ctx.names) do
+    daemon_client.connect(ctx.hosts[h], net.key_opts(ctx.key), function(d, err)
+      if not d then one(sformat("host %s at %s: %s", h, ctx.hosts[h], tostring(err))) return end
+      d:request({ type = "ping" }, 10, function(r, perr)
+        d:close()
+        if not r then one(sformat("host %s: %s", h, tostring(perr)))
+        elseif r.clock ~= "sim" then
+          one(sformat("the daemon of host %s runs on the %s clock (start it with --clock sim)", h,
+            tostring(r.clock or "wall")))
+        else one(nil) end
+      end)
+    end)
+  end
+end
+
+--- Everything the start opened, closed: the runtime, the world's channels, the local daemons, the key dir.
+function M.cleanup(ctx)
+  if ctx.rt then ctx.rt.close() end
+  if ctx.sim then ctx.sim.world:close() end
+  if ctx.daemons then ctx.daemons:stop() end
+  if ctx.keydir then os.execute("rm -rf " .. hosts_mod.sh_quote(ctx.keydir)) ctx.keydir = nil end
+end
+
+return M
