@@ -3,7 +3,7 @@
 -- Exit code: 0 when the root expression ends DONE, 1 when it ends ABORTED (with the path and reason),
 -- 2 on bad usage or check errors, 3 when the start fails, 130 after Ctrl-C.
 local core = require "dca.core"
-local supervisor, spec_mod, srt = require "dca.supervisor", require "dca.supervisor.spec", require "dca.supervisor.net"
+local supervisor, srt = require "dca.supervisor", require "dca.supervisor.net"
 local hosts_mod, start = require "dca.launch.hosts", require "dca.launch.start"
 
 local M = {}
