@@ -24,7 +24,10 @@ local M = {}
 local sformat, concat, sort = string.format, table.concat, table.sort
 local ipairs, pairs, type, tostring = ipairs, pairs, type, tostring
 
---- Manifests of the built-in leaf types.
+--- Manifests of the built-in leaf types, for a check without the registry. The registry (dca.core.types(),
+--- from the C++ controllers) is the source: its Timer and Deadline win whenever opts.types has them. These
+--- stay because dca.lang runs without dca.core (plain Lua, `dca check --no-registry`, the golden tests, whose
+--- texts name the parameter 'duration'); tests/lua/lang/check_test.lua holds them to the registry's shape.
 M.builtins = {
   Timer = { inputs = {}, outputs = {}, params = { { name = "duration", type = "number" } }, builtin = true },
   Deadline = { inputs = {}, outputs = {}, params = { { name = "duration", type = "number" } }, builtin = true },
@@ -43,15 +46,21 @@ end
 
 local function plural(n, one, many) return n == 1 and (n .. " " .. one) or (n .. " " .. (many or (one .. "s"))) end
 
---- Runs every static check; returns the list of errors (empty when the file is correct).
-function M.check(ast, opts)
-  opts = opts or {}
-  local errors = {}
-  local defs = ast.by_name
-  local registry = opts.types
-  local manifest_fn = opts.manifest
-  local registry_known = registry ~= nil or manifest_fn ~= nil
-  local function manifest(t)
+-- ----------------------------------------------------------------------------------------- the context
+-- Every pass reads and extends one context:
+--   ctx = { ast, defs = ast.by_name, opts, errors = {...},
+--           manifest = function(type) -> manifest | nil, registry_known, known_types = { sorted names },
+--           path_of = { [process] = "main.inst..." }, first_def = { [name] = first process of that name },
+--           scope = { [process] = { base, params = {[name]=true}, param_list, signature, first = {[inst]=inst},
+--                                   inst_names = { sorted }, sets = {[instance\0label] = first set} } } }
+-- A check is one pass (M.passes): a function(ctx) over the whole file, or each(function(ctx, p, sc)) run for
+-- each process definition p with its scope sc. Errors are sorted by position at the end, so the order of the
+-- passes that only report is free; those that fill the context come first.
+
+--- The manifest lookup of check's opts: the registry (opts.types), then opts.manifest, then the builtins.
+function M.manifests(opts)
+  local registry, manifest_fn = opts.types, opts.manifest
+  return function(t)
     if registry and registry[t] then return registry[t] end
     if manifest_fn then
       local m = manifest_fn(t)
@@ -59,344 +68,401 @@ function M.check(ast, opts)
     end
     return M.builtins[t]
   end
-  -- every type name anyone knows, for "did you mean"
-  local known_types = {}
-  for _, p in ipairs(ast.processes) do known_types[#known_types + 1] = p.name end
-  for t in pairs(M.builtins) do known_types[#known_types + 1] = t end
-  if registry then for t in pairs(registry) do known_types[#known_types + 1] = t end end
-  for _, t in ipairs(opts.type_names or {}) do known_types[#known_types + 1] = t end
-  sort(known_types)
+end
 
-  -- paths: the first instance path of each process definition, from the root
-  local root_name = opts.root
+local function err(ctx, path, line, col, fmt, ...)
+  ctx.errors[#ctx.errors + 1] = { line = line, col = col, path = path, msg = sformat(fmt, ...) }
+end
+
+local function guess_text(name, candidates)
+  local guess = source.closest(name, candidates)
+  return guess and sformat(" (did you mean '%s'?)", guess), guess
+end
+
+--- Calls report(item, first) for each item of list whose key(item) an earlier item already had.
+local function each_repeat(list, key, report)
+  local first = {}
+  for _, item in ipairs(list) do
+    local k = key(item)
+    if first[k] then report(item, first[k]) else first[k] = item end
+  end
+  return first
+end
+
+-- ------------------------------------------------------------------------------------------ port lookup
+
+local port_info
+-- The export names of group `d`, without those known to go the other way than `want` ("input"/"output").
+local function names_of_exports(ctx, d, want, depth)
+  local out, seen = {}, {}
+  for _, x in ipairs(d.external_io) do
+    if not seen[x.alias] then
+      seen[x.alias] = true
+      local dir = want and port_info(ctx, d, x.instance, x.port, depth + 1) or "unknown"
+      if dir == "unknown" or dir == want then out[#out + 1] = x.alias end
+    end
+  end
+  return out
+end
+
+-- Direction of `port` on instance `iname` of process `proc`: "input" | "output" | "unknown" (no manifest)
+-- or nil when the port does not exist; the second result lists the valid names for messages.
+function port_info(ctx, proc, iname, port, depth, want)
+  depth = depth or 0
+  local inst = proc.instances[iname]
+  if not inst or depth > 50 then return "unknown" end
+  local d = ctx.defs[inst.type]
+  if d then
+    local x = d.external_io[port]
+    if not x then return nil, { exports = names_of_exports(ctx, d, want, depth) } end
+    return port_info(ctx, d, x.instance, x.port, depth + 1) or "unknown"
+  end
+  local m = ctx.manifest(inst.type)
+  if not m then return "unknown" end
+  for _, p in ipairs(m.inputs or {}) do if p.name == port then return "input" end end
+  for _, p in ipairs(m.outputs or {}) do if p.name == port then return "output" end end
+  return nil, { inputs = names_of(m.inputs), outputs = names_of(m.outputs) }
+end
+
+--- Reports an instance name that process p lacks, naming the instance whose type it is, or the likely one.
+local function unknown_instance(ctx, p, sc, path, line, col, name, where)
+  for _, inst in ipairs(p.instances) do
+    if inst.type == name then
+      return err(ctx, path, line, col, "unknown instance '%s' %s: '%s' is the type of instance '%s' (name the instance)",
+                 name, where, name, inst.name)
+    end
+  end
+  err(ctx, path, line, col, "unknown instance '%s' %s%s", name, where,
+      guess_text(name, sc.inst_names) or sformat(" (instances: %s)", listing(sc.inst_names)))
+end
+
+-- ------------------------------------------------------------------------------------- the file's passes
+
+--- The manifest lookup and every type name anyone knows (for "did you mean").
+local function known_types(ctx)
+  local opts = ctx.opts
+  ctx.manifest = M.manifests(opts)
+  ctx.registry_known = opts.types ~= nil or opts.manifest ~= nil
+  local names = {}
+  for _, p in ipairs(ctx.ast.processes) do names[#names + 1] = p.name end
+  for t in pairs(M.builtins) do names[#names + 1] = t end
+  for t in pairs(opts.types or {}) do names[#names + 1] = t end
+  for _, t in ipairs(opts.type_names or {}) do names[#names + 1] = t end
+  sort(names)
+  ctx.known_types = names
+end
+
+--- The path of the first instance of each process definition from the root; a missing root is an error.
+local function instance_paths(ctx)
+  local defs, root_name = ctx.defs, ctx.opts.root
   if not root_name and defs.main then root_name = "main" end
-  local path_of = {}
-  if root_name then
-    local root = defs[root_name]
-    if root then
-      path_of[root] = root_name
-      local queue, qi = { root }, 1
-      while queue[qi] do
-        local p = queue[qi]
-        qi = qi + 1
-        for _, inst in ipairs(p.instances) do
-          local d = defs[inst.type]
-          if d and not path_of[d] then
-            path_of[d] = path_of[p] .. "." .. inst.name
-            queue[#queue + 1] = d
-          end
-        end
-      end
-    else
-      local msg = sformat("no process '%s' to run as the root", root_name)
-      local guess = source.closest(root_name, names_of(ast.processes))
-      if guess then msg = msg .. sformat(" (did you mean '%s'?)", guess) end
-      errors[#errors + 1] = { line = 1, col = 1, path = root_name, msg = msg }
-    end
+  ctx.path_of = {}
+  if not root_name then return end
+  local root = defs[root_name]
+  if not root then
+    return err(ctx, root_name, 1, 1, "no process '%s' to run as the root%s", root_name,
+               guess_text(root_name, names_of(ctx.ast.processes)) or "")
   end
-
-  local function err(path, line, col, fmt, ...)
-    errors[#errors + 1] = { line = line, col = col, path = path, msg = sformat(fmt, ...) }
-  end
-
-  local port_info
-  -- The export names of group `d`, without those known to go the other way than `want` ("input"/"output").
-  local function names_of_exports(d, want, depth)
-    local out, seen = {}, {}
-    for _, x in ipairs(d.external_io) do
-      if not seen[x.alias] then
-        seen[x.alias] = true
-        local dir = want and port_info(d, x.instance, x.port, depth + 1) or "unknown"
-        if dir == "unknown" or dir == want then out[#out + 1] = x.alias end
-      end
-    end
-    return out
-  end
-  -- Direction of `port` on instance `iname` of process `proc`: "input" | "output" | "unknown" (no manifest)
-  -- or nil when the port does not exist; the second result lists the valid names for messages.
-  function port_info(proc, iname, port, depth, want)
-    depth = depth or 0
-    local inst = proc.instances[iname]
-    if not inst or depth > 50 then return "unknown" end
-    local d = defs[inst.type]
-    if d then
-      local x = d.external_io[port]
-      if not x then return nil, { exports = names_of_exports(d, want, depth) } end
-      local dir = port_info(d, x.instance, x.port, depth + 1)
-      return dir or "unknown"
-    end
-    local m = manifest(inst.type)
-    if not m then return "unknown" end
-    for _, p in ipairs(m.inputs or {}) do if p.name == port then return "input" end end
-    for _, p in ipairs(m.outputs or {}) do if p.name == port then return "output" end end
-    return nil, { inputs = names_of(m.inputs), outputs = names_of(m.outputs) }
-  end
-
-  -- duplicate process definitions
-  local first_def = {}
-  for _, p in ipairs(ast.processes) do
-    if first_def[p.name] then
-      err(p.name, p.line, p.col, "process '%s' is defined twice (first at line %d)", p.name, first_def[p.name].line)
-    else
-      first_def[p.name] = p
-    end
-  end
-
-  for _, p in ipairs(ast.processes) do
-    local base = path_of[p] or p.name
-    local function ipath(name) return base .. "." .. name end
-    -- parameters
-    local params = {}
-    for _, prm in ipairs(p.params) do
-      if params[prm.name] then
-        err(base, prm.line, prm.col, "parameter '%s' is declared twice in process '%s'", prm.name, p.name)
-      end
-      params[prm.name] = true
-    end
-    local param_list = names_of(p.params)
-    local signature = sformat("%s(%s)", p.name, concat(param_list, ", "))
-    local function check_param_arg(a, path)
-      if a.kind == "param" and not params[a.value] then
-        local guess = source.closest(a.value, param_list)
-        err(path, a.line, a.col, "parameter '%s' is not declared: process %s%s", a.value, signature,
-            guess and sformat(" (did you mean '%s'?)", guess) or "")
-      end
-    end
-    for _, d in ipairs(p.duplicate_sections) do
-      err(base, d.line, d.col, "section '%s' appears twice in process '%s' (first at line %d)", d.section, p.name,
-          d.first_line)
-    end
-    -- host
-    if p.host then
-      check_param_arg(p.host, base)
-      if p.host.kind == "number" then
-        err(base, p.host.line, p.host.col, "the host of process '%s' must be a parameter or a string, not a number",
-            p.name)
-      end
-    end
-    -- instances
-    local seen = {}
+  local path_of, queue, qi = ctx.path_of, { root }, 1
+  path_of[root] = root_name
+  while queue[qi] do
+    local p = queue[qi]
+    qi = qi + 1
     for _, inst in ipairs(p.instances) do
-      local path = ipath(inst.name)
-      if seen[inst.name] then
-        err(path, inst.line, inst.col, "duplicate instance '%s' in process '%s' (first at line %d)", inst.name,
-            p.name, seen[inst.name].line)
-      else
-        seen[inst.name] = inst
-      end
-      for _, a in ipairs(inst.args) do check_param_arg(a, path) end
       local d = defs[inst.type]
-      local nargs = #inst.args
-      if d then
-        if nargs ~= #d.params then
-          err(path, inst.type_line, inst.type_col, "%s takes %s (%s); instance '%s' gives %d",
-              inst.type, plural(#d.params, "argument"), concat(names_of(d.params), ", "), inst.name, nargs)
-        end
-      else
-        local m = manifest(inst.type)
-        if not m and registry_known then
-          local guess = source.closest(inst.type, known_types)
-          err(path, inst.type_line, inst.type_col, "unknown process type '%s'%s", inst.type,
-              guess and sformat(" (did you mean '%s'?)", guess) or
-              " (not defined in this file, not built in, not in the controller registry)")
-        end
-        if nargs == 0 then
-          err(path, inst.line, inst.col, "leaf '%s' (%s) has no host: its first argument names the host it runs on",
-              inst.name, inst.type)
-        else
-          local h = inst.args[1]
-          if h.kind == "number" then
-            err(path, h.line, h.col, "the host of leaf '%s' must be a parameter or a string, not a number", inst.name)
-          end
-          if m then
-            local ps = m.params or {}
-            local min, max = 0, #ps
-            local shown = {}
-            for i, prm in ipairs(ps) do
-              if prm.variadic then
-                max = math.huge
-                shown[i] = prm.name .. "..."
-              elseif prm.required == false then
-                shown[i] = prm.name .. (prm.default and prm.default ~= "" and ("=" .. tostring(prm.default)) or "")
-              else
-                min = i
-                shown[i] = prm.name
-              end
-            end
-            local given = nargs - 1
-            if given < min or given > max then
-              local range
-              if min == max then range = plural(min, "parameter")
-              elseif max == math.huge then range = sformat("at least %s", plural(min, "parameter"))
-              else range = sformat("%d to %d parameters", min, max) end
-              err(path, inst.type_line, inst.type_col, "%s takes the host and %s (%s); instance '%s' has %s",
-                  inst.type, range, listing(shown), inst.name, plural(given, "parameter"))
-            end
-            for i = 2, nargs do
-              local prm = ps[i - 1]
-              if not prm and #ps > 0 and ps[#ps].variadic then prm = ps[#ps] end
-              local a = inst.args[i]
-              if prm and (prm.type == "number" or prm.type == "integer") and a.kind == "string" then
-                err(path, a.line, a.col, "parameter '%s' of %s is a number, got the string \"%s\"", prm.name,
-                    inst.type, a.value)
-              elseif prm and prm.type == "integer" and a.kind == "number" and math.type(a.value) ~= "integer" then
-                err(path, a.line, a.col, "parameter '%s' of %s is an integer, got %s", prm.name, inst.type,
-                    tostring(a.value))
-              end
-            end
-          end
-        end
+      if d and not path_of[d] then
+        path_of[d] = path_of[p] .. "." .. inst.name
+        queue[#queue + 1] = d
       end
     end
-    local inst_names = {}
-    for name in pairs(seen) do inst_names[#inst_names + 1] = name end
-    sort(inst_names)
-    local function unknown_instance(path, line, col, name, where)
-      local guess = source.closest(name, inst_names)
-      for _, inst in ipairs(p.instances) do
-        if inst.type == name then
-          return err(path, line, col, "unknown instance '%s' %s: '%s' is the type of instance '%s' (name the instance)",
-                     name, where, name, inst.name)
-        end
-      end
-      err(path, line, col, "unknown instance '%s' %s%s", name, where,
-          guess and sformat(" (did you mean '%s'?)", guess) or sformat(" (instances: %s)", listing(inst_names)))
-    end
-    -- external_io
-    local aliases = {}
-    for _, x in ipairs(p.external_io) do
-      if aliases[x.alias] then
-        err(base, x.line, x.col, "external port '%s' is declared twice (first at line %d)", x.alias,
-            aliases[x.alias].line)
-      else
-        aliases[x.alias] = x
-      end
-      if not p.instances[x.instance] then
-        unknown_instance(base, x.instance_line, x.instance_col, x.instance, "in external_io")
-      else
-        local dir, valid = port_info(p, x.instance, x.port)
-        if not dir then
-          local inst = p.instances[x.instance]
-          if valid.exports then
-            err(ipath(x.instance), x.port_line, x.port_col, "no port '%s' on %s (%s); its external_io: %s", x.port,
-                x.instance, inst.type, listing(valid.exports))
-          else
-            err(ipath(x.instance), x.port_line, x.port_col, "no port '%s' on %s (%s); inputs are: %s; outputs are: %s", x.port,
-                x.instance, inst.type, listing(valid.inputs), listing(valid.outputs))
-          end
-        end
+  end
+end
+
+local function duplicate_definitions(ctx)
+  ctx.first_def = each_repeat(ctx.ast.processes, function(p) return p.name end, function(p, first)
+    err(ctx, p.name, p.line, p.col, "process '%s' is defined twice (first at line %d)", p.name, first.line)
+  end)
+end
+
+--- What the per-process passes share about each process definition (see the context above).
+local function scopes(ctx)
+  ctx.scope = {}
+  for _, p in ipairs(ctx.ast.processes) do
+    local sc = { base = ctx.path_of[p] or p.name, params = {}, param_list = names_of(p.params),
+                 first = {}, inst_names = {}, sets = {} }
+    for _, prm in ipairs(p.params) do sc.params[prm.name] = true end
+    sc.signature = sformat("%s(%s)", p.name, concat(sc.param_list, ", "))
+    for _, inst in ipairs(p.instances) do
+      if not sc.first[inst.name] then
+        sc.first[inst.name] = inst
+        sc.inst_names[#sc.inst_names + 1] = inst.name
       end
     end
-    -- internal_connections
-    local sets = {}
+    sort(sc.inst_names)
     for _, set in ipairs(p.internal_connections) do
       local key = set.instance .. "\0" .. set.label
-      if sets[key] then
-        err(base, set.line, set.col, "internal_connections(%s, %s) is defined twice (first at line %d)", set.instance,
-            set.label, sets[key].line)
-      else
-        sets[key] = set
-      end
-      if not p.instances[set.instance] then
-        unknown_instance(base, set.instance_line, set.instance_col, set.instance, "in internal_connections")
-      end
-      for _, cn in ipairs(set.connections) do
-        local ok_from, ok_to = p.instances[cn.from], p.instances[cn.to]
-        if not ok_from then unknown_instance(base, cn.line, cn.col, cn.from, "in a connection") end
-        if not ok_to then unknown_instance(base, cn.to_line, cn.to_col, cn.to, "in a connection") end
-        if p.instances[set.instance] and ok_from and ok_to and cn.from ~= set.instance and cn.to ~= set.instance then
-          err(ipath(set.instance), cn.line, cn.col,
-              "connection %s, %s -> %s, %s does not involve %s: a connection set of %s connects its ports",
-              cn.from, cn.out, cn.to, cn["in"], set.instance, set.instance)
-        end
-        if ok_from then
-          local dir, valid = port_info(p, cn.from, cn.out, 0, "output")
-          local ty = ok_from.type
-          if not dir then
-            if valid.exports then
-              err(ipath(cn.from), cn.out_line, cn.out_col, "no output '%s' on %s (%s); its external_io: %s", cn.out, cn.from,
-                  ty, listing(valid.exports))
-            else
-              err(ipath(cn.from), cn.out_line, cn.out_col, "no output '%s' on %s (%s); outputs are: %s", cn.out, cn.from, ty,
-                  listing(valid.outputs))
-            end
-          elseif dir == "input" then
-            err(ipath(cn.from), cn.out_line, cn.out_col,
-                "'%s' is an input of %s (%s): a connection goes from an output to an input", cn.out, cn.from, ty)
-          end
-        end
-        if ok_to then
-          local dir, valid = port_info(p, cn.to, cn["in"], 0, "input")
-          local ty = ok_to.type
-          if not dir then
-            if valid.exports then
-              err(ipath(cn.to), cn.in_line, cn.in_col, "no input '%s' on %s (%s); its external_io: %s", cn["in"], cn.to, ty,
-                  listing(valid.exports))
-            else
-              err(ipath(cn.to), cn.in_line, cn.in_col, "no input '%s' on %s (%s); inputs are: %s", cn["in"], cn.to, ty,
-                  listing(valid.inputs))
-            end
-          elseif dir == "output" then
-            err(ipath(cn.to), cn.in_line, cn.in_col,
-                "'%s' is an output of %s (%s): a connection goes from an output to an input", cn["in"], cn.to, ty)
-          end
-        end
-      end
+      sc.sets[key] = sc.sets[key] or set
     end
-    -- internal_event_actions
-    local act = p.actions
-    if not act then
-      err(base, p.line, p.col, "process '%s' has no internal_event_actions: nothing of it would ever run", p.name)
-    elseif act.error then
-      err(base, act.error.line, act.error.col, "in internal_event_actions: %s", act.error.msg)
-    else
-      for _, leaf in ipairs(act.expr.leaves) do
-        if not p.instances[leaf.name] then
-          unknown_instance(base, leaf.line, leaf.col, leaf.name, "in internal_event_actions")
-        elseif leaf.label and not sets[leaf.name .. "\0" .. leaf.label] then
-          err(ipath(leaf.name), leaf.line, leaf.col, "label '%s' of '%s' has no internal_connections(%s, %s)",
-              leaf.label, leaf.name, leaf.name, leaf.label)
-        end
-      end
-    end
+    ctx.scope[p] = sc
   end
+end
 
-  -- recursion between process types (each cycle reported once, at the instance that closes it)
-  local state = {}   -- nil: unvisited, 1: on the stack, 2: done
-  local stack = {}
+--- Recursion between process types: each cycle reported once, at the instance that closes it.
+local function recursion(ctx)
+  local state, stack = {}, {}   -- state: nil unvisited, 1 on the stack, 2 done
   local function visit(p)
     state[p] = 1
     stack[#stack + 1] = p
     for _, inst in ipairs(p.instances) do
-      local d = defs[inst.type]
-      if d then
-        if state[d] == 1 then
-          local chain, on = {}, false
-          for _, q in ipairs(stack) do
-            if q == d then on = true end
-            if on then chain[#chain + 1] = q.name end
-          end
-          chain[#chain + 1] = d.name
-          err(path_of[p] and (path_of[p] .. "." .. inst.name) or (p.name .. "." .. inst.name), inst.type_line,
-              inst.type_col, "recursive process types: %s (a process cannot contain itself)", concat(chain, " -> "))
-        elseif not state[d] then
-          visit(d)
+      local d = ctx.defs[inst.type]
+      if d and state[d] == 1 then
+        local chain, on = {}, false
+        for _, q in ipairs(stack) do
+          on = on or q == d
+          if on then chain[#chain + 1] = q.name end
         end
+        chain[#chain + 1] = d.name
+        err(ctx, (ctx.path_of[p] or p.name) .. "." .. inst.name, inst.type_line, inst.type_col,
+            "recursive process types: %s (a process cannot contain itself)", concat(chain, " -> "))
+      elseif d and not state[d] then
+        visit(d)
       end
     end
     stack[#stack] = nil
     state[p] = 2
   end
-  for _, p in ipairs(ast.processes) do
-    if not state[p] and first_def[p.name] == p then visit(p) end
+  for _, p in ipairs(ctx.ast.processes) do
+    if not state[p] and ctx.first_def[p.name] == p then visit(p) end
   end
+end
 
-  sort(errors, function(a, b)
-    if a.line ~= b.line then return a.line < b.line end
-    if a.col ~= b.col then return a.col < b.col end
-    return a.msg < b.msg
+-- ------------------------------------------------------------------------------ each process's passes
+
+local function check_param_arg(ctx, p, sc, a, path)
+  if a.kind == "param" and not sc.params[a.value] then
+    err(ctx, path, a.line, a.col, "parameter '%s' is not declared: process %s%s", a.value, sc.signature,
+        guess_text(a.value, sc.param_list) or "")
+  end
+end
+
+local function parameters(ctx, p, sc)
+  each_repeat(p.params, function(prm) return prm.name end, function(prm)
+    err(ctx, sc.base, prm.line, prm.col, "parameter '%s' is declared twice in process '%s'", prm.name, p.name)
   end)
-  return errors
+  for _, d in ipairs(p.duplicate_sections) do
+    err(ctx, sc.base, d.line, d.col, "section '%s' appears twice in process '%s' (first at line %d)", d.section,
+        p.name, d.first_line)
+  end
+end
+
+local function process_host(ctx, p, sc)
+  if not p.host then return end
+  check_param_arg(ctx, p, sc, p.host, sc.base)
+  if p.host.kind == "number" then
+    err(ctx, sc.base, p.host.line, p.host.col, "the host of process '%s' must be a parameter or a string, not a number",
+        p.name)
+  end
+end
+
+local function instances(ctx, p, sc)
+  for _, inst in ipairs(p.instances) do
+    local path = sc.base .. "." .. inst.name
+    local first = sc.first[inst.name]
+    if first ~= inst then
+      err(ctx, path, inst.line, inst.col, "duplicate instance '%s' in process '%s' (first at line %d)", inst.name,
+          p.name, first.line)
+    end
+    for _, a in ipairs(inst.args) do check_param_arg(ctx, p, sc, a, path) end
+    local d = ctx.defs[inst.type]
+    if d and #inst.args ~= #d.params then
+      err(ctx, path, inst.type_line, inst.type_col, "%s takes %s (%s); instance '%s' gives %d", inst.type,
+          plural(#d.params, "argument"), concat(names_of(d.params), ", "), inst.name, #inst.args)
+    end
+  end
+end
+
+--- The leaves: a known type, a host first, then the parameters the manifest asks for.
+local function leaves(ctx, p, sc)
+  for _, inst in ipairs(p.instances) do
+    if not ctx.defs[inst.type] then
+      local path, m = sc.base .. "." .. inst.name, ctx.manifest(inst.type)
+      if not m and ctx.registry_known then
+        err(ctx, path, inst.type_line, inst.type_col, "unknown process type '%s'%s", inst.type,
+            guess_text(inst.type, ctx.known_types) or
+            " (not defined in this file, not built in, not in the controller registry)")
+      end
+      local h = inst.args[1]
+      if not h then
+        err(ctx, path, inst.line, inst.col, "leaf '%s' (%s) has no host: its first argument names the host it runs on",
+            inst.name, inst.type)
+      elseif h.kind == "number" then
+        err(ctx, path, h.line, h.col, "the host of leaf '%s' must be a parameter or a string, not a number", inst.name)
+      end
+      if h and m then M.leaf_parameters(ctx, path, inst, m) end
+    end
+  end
+end
+
+--- The range of parameter counts a manifest accepts, and the parameters as shown in messages.
+local function parameter_range(ps)
+  local min, max, shown = 0, #ps, {}
+  for i, prm in ipairs(ps) do
+    if prm.variadic then
+      max = math.huge
+      shown[i] = prm.name .. "..."
+    elseif prm.required == false then
+      shown[i] = prm.name .. (prm.default and prm.default ~= "" and ("=" .. tostring(prm.default)) or "")
+    else
+      min = i
+      shown[i] = prm.name
+    end
+  end
+  return min, max, shown
+end
+
+--- A leaf's parameters (its arguments after the host) against its manifest: how many, and their types.
+function M.leaf_parameters(ctx, path, inst, m)
+  local ps, given = m.params or {}, #inst.args - 1
+  local min, max, shown = parameter_range(ps)
+  if given < min or given > max then
+    local range = min == max and plural(min, "parameter")
+      or max == math.huge and sformat("at least %s", plural(min, "parameter"))
+      or sformat("%d to %d parameters", min, max)
+    err(ctx, path, inst.type_line, inst.type_col, "%s takes the host and %s (%s); instance '%s' has %s", inst.type,
+        range, listing(shown), inst.name, plural(given, "parameter"))
+  end
+  for i = 2, #inst.args do
+    local prm = ps[i - 1] or (#ps > 0 and ps[#ps].variadic and ps[#ps]) or nil
+    local a = inst.args[i]
+    if prm and (prm.type == "number" or prm.type == "integer") and a.kind == "string" then
+      err(ctx, path, a.line, a.col, "parameter '%s' of %s is a number, got the string \"%s\"", prm.name, inst.type,
+          a.value)
+    elseif prm and prm.type == "integer" and a.kind == "number" and math.type(a.value) ~= "integer" then
+      err(ctx, path, a.line, a.col, "parameter '%s' of %s is an integer, got %s", prm.name, inst.type,
+          tostring(a.value))
+    end
+  end
+end
+
+--- "no output 'X' on inst (Type); outputs are: ..." (or its external_io, for a group).
+local function no_port(ctx, path, line, col, what, port, iname, ty, valid, list)
+  if valid.exports then
+    return err(ctx, path, line, col, "no %s '%s' on %s (%s); its external_io: %s", what, port, iname, ty,
+               listing(valid.exports))
+  end
+  if not list then
+    return err(ctx, path, line, col, "no port '%s' on %s (%s); inputs are: %s; outputs are: %s", port, iname, ty,
+               listing(valid.inputs), listing(valid.outputs))
+  end
+  err(ctx, path, line, col, "no %s '%s' on %s (%s); %ss are: %s", what, port, iname, ty, what, listing(list))
+end
+
+local function external_io(ctx, p, sc)
+  each_repeat(p.external_io, function(x) return x.alias end, function(x, first)
+    err(ctx, sc.base, x.line, x.col, "external port '%s' is declared twice (first at line %d)", x.alias, first.line)
+  end)
+  for _, x in ipairs(p.external_io) do
+    local inst = p.instances[x.instance]
+    if not inst then
+      unknown_instance(ctx, p, sc, sc.base, x.instance_line, x.instance_col, x.instance, "in external_io")
+    else
+      local dir, valid = port_info(ctx, p, x.instance, x.port)
+      if not dir then
+        no_port(ctx, sc.base .. "." .. x.instance, x.port_line, x.port_col, "port", x.port, x.instance, inst.type, valid)
+      end
+    end
+  end
+end
+
+local function connection_sets(ctx, p, sc)
+  each_repeat(p.internal_connections, function(set) return set.instance .. "\0" .. set.label end, function(set, first)
+    err(ctx, sc.base, set.line, set.col, "internal_connections(%s, %s) is defined twice (first at line %d)",
+        set.instance, set.label, first.line)
+  end)
+  for _, set in ipairs(p.internal_connections) do
+    if not p.instances[set.instance] then
+      unknown_instance(ctx, p, sc, sc.base, set.instance_line, set.instance_col, set.instance, "in internal_connections")
+    end
+  end
+end
+
+--- One end of a connection: the port exists on the instance and goes the way the connection needs.
+local function connection_end(ctx, p, sc, iname, port, line, col, want)
+  local inst = p.instances[iname]
+  local dir, valid = port_info(ctx, p, iname, port, 0, want)
+  local path, other = sc.base .. "." .. iname, want == "input" and "output" or "input"
+  if not dir then
+    no_port(ctx, path, line, col, want, port, iname, inst.type, valid, valid.exports or valid[want .. "s"])
+  elseif dir == other then
+    err(ctx, path, line, col, "'%s' is an %s of %s (%s): a connection goes from an output to an input", port, other,
+        iname, inst.type)
+  end
+end
+
+local function connections(ctx, p, sc)
+  for _, set in ipairs(p.internal_connections) do
+    for _, cn in ipairs(set.connections) do
+      local ok_from, ok_to = p.instances[cn.from], p.instances[cn.to]
+      if not ok_from then unknown_instance(ctx, p, sc, sc.base, cn.line, cn.col, cn.from, "in a connection") end
+      if not ok_to then unknown_instance(ctx, p, sc, sc.base, cn.to_line, cn.to_col, cn.to, "in a connection") end
+      if p.instances[set.instance] and ok_from and ok_to and cn.from ~= set.instance and cn.to ~= set.instance then
+        err(ctx, sc.base .. "." .. set.instance, cn.line, cn.col,
+            "connection %s, %s -> %s, %s does not involve %s: a connection set of %s connects its ports",
+            cn.from, cn.out, cn.to, cn["in"], set.instance, set.instance)
+      end
+      if ok_from then connection_end(ctx, p, sc, cn.from, cn.out, cn.out_line, cn.out_col, "output") end
+      if ok_to then connection_end(ctx, p, sc, cn.to, cn["in"], cn.in_line, cn.in_col, "input") end
+    end
+  end
+end
+
+--- internal_event_actions: present, well-formed, naming instances and labels that have connection sets.
+local function actions(ctx, p, sc)
+  local act = p.actions
+  if not act then
+    return err(ctx, sc.base, p.line, p.col, "process '%s' has no internal_event_actions: nothing of it would ever run",
+               p.name)
+  end
+  if act.error then return err(ctx, sc.base, act.error.line, act.error.col, "in internal_event_actions: %s", act.error.msg) end
+  for _, leaf in ipairs(act.expr.leaves) do
+    if not p.instances[leaf.name] then
+      unknown_instance(ctx, p, sc, sc.base, leaf.line, leaf.col, leaf.name, "in internal_event_actions")
+    elseif leaf.label and not sc.sets[leaf.name .. "\0" .. leaf.label] then
+      err(ctx, sc.base .. "." .. leaf.name, leaf.line, leaf.col, "label '%s' of '%s' has no internal_connections(%s, %s)",
+          leaf.label, leaf.name, leaf.name, leaf.label)
+    end
+  end
+end
+
+-- -------------------------------------------------------------------------------------------- the pipeline
+
+--- A pass run for each process definition p, with its scope sc: fn(ctx, p, sc).
+local function each(fn)
+  return function(ctx)
+    for _, p in ipairs(ctx.ast.processes) do fn(ctx, p, ctx.scope[p]) end
+  end
+end
+
+--- The passes, in order, each a function(ctx); a new check is one more entry.
+M.passes = {
+  known_types, instance_paths, duplicate_definitions, scopes,              -- the context
+  each(parameters), each(process_host), each(instances), each(leaves),     -- each process definition
+  each(external_io), each(connection_sets), each(connections), each(actions),
+  recursion,                                                               -- between process types
+}
+
+local function by_position(a, b)
+  if a.line ~= b.line then return a.line < b.line end
+  if a.col ~= b.col then return a.col < b.col end
+  return a.msg < b.msg
+end
+
+--- Runs every pass; returns the list of errors in file order (empty when the file is correct).
+function M.check(ast, opts)
+  local ctx = { ast = ast, defs = ast.by_name, opts = opts or {}, errors = {} }
+  for _, pass in ipairs(M.passes) do pass(ctx) end
+  sort(ctx.errors, by_position)
+  return ctx.errors
 end
 
 --- "file:line:col: path: message", the source line and a caret.

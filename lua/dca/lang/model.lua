@@ -49,15 +49,7 @@ function M.build(ast, opts)
   if #errors > 0 then return nil, errors end
   local defs = ast.by_name
   local rootdef = defs[root_name]
-  local registry, manifest_fn = opts.types, opts.manifest
-  local function manifest(t)
-    if registry and registry[t] then return registry[t] end
-    if manifest_fn then
-      local m = manifest_fn(t)
-      if m then return m end
-    end
-    return check.builtins[t]
-  end
+  local manifest = check.manifests(opts)
   local args = opts.args or {}
   if #args ~= #rootdef.params then
     return nil, { { line = rootdef.line, col = rootdef.col, path = root_name,
