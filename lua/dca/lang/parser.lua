@@ -207,116 +207,118 @@ end
 
 local function line_of(idx, p) return (idx:at(p)) end
 
+local function open_line(idx, op) return op and sformat(" (opened at line %d)", line_of(idx, op)) or "" end
+
+-- A '}' missing or a word that is no section, where process `e[1]` (opened at e[2]) should close.
+local function process_close(e, f, s, p, idx)
+  local shown, guess = suggest_section(s, p)
+  if p > #s then return sformat("missing '}' to close process '%s'%s", e[1], open_line(idx, e[2])) end
+  if shown == "process" then
+    return sformat("missing '}' to close process '%s'%s before the next 'process'", e[1], open_line(idx, e[2]))
+  end
+  if shown and guess and shown ~= guess and shown:find("[ \t]") then
+    return sformat("unknown section '%s': did you mean '%s'? (section names are written with '_')", shown, guess)
+  end
+  if shown and guess then return sformat("unknown section '%s': did you mean '%s'?", shown, guess) end
+  if shown then
+    return sformat("unknown section '%s' in process '%s' (sections are: %s)", shown, e[1], table.concat(M.sections, ", "))
+  end
+  return sformat("expected a section or '}' to close process '%s', found %s", e[1], f)
+end
+
+local SECTION_ITEM = {
+  instantiated_processes = "expected an instance ('name instof Type(args);') or '}', found ",
+  external_io = "expected an export ('Name = instance, Port;') or '}', found ",
+  internal_connections = "expected a connection ('a, Out -> b, In;') or '}', found ",
+}
+
+-- A '}' missing at the end of section `sec` (opened at op), or an item it cannot hold.
+local function section_close(sec, op, f, s, p, idx)
+  local shown, guess = suggest_section(s, p)
+  if p > #s then return sformat("missing '}' to close '%s'%s", sec, open_line(idx, op)) end
+  if shown == "process" or (shown and guess) then
+    return sformat("missing '}' to close '%s'%s before '%s'", sec, open_line(idx, op), shown)
+  end
+  if SECTION_ITEM[sec] then return SECTION_ITEM[sec] .. f end
+  return sformat("expected '}' to close '%s', found %s", sec, f)
+end
+
+-- Text before the top-level process that cannot start one.
+local function toplevel(f, s, p)
+  local shown, guess = suggest_section(s, p)
+  if shown and (SECTION[guess] or guess) then
+    return sformat("'%s' outside a process: a '}' closes the process too early", shown)
+  end
+  if shown and source.closest(shown, { "process" }) then
+    return sformat("expected 'process', found '%s' (did you mean 'process'?)", shown)
+  end
+  return "expected 'process' to start a process definition, found " .. f
+end
+
+local IC = " in internal_connections(instance, label), found "
+local CONN = "expected ',' between instance and port (write 'a, Out -> b, In;'), found "
+
+-- The message of each label: function(e, found, text, pos, idx) -> message. e[1], e[2]: the label's captures.
+local MESSAGES = {
+  comment = function() return "unterminated comment: '/*' without '*/'" end,
+  string = function() return "unterminated string: '\"' without a closing '\"' on the same line" end,
+  toplevel = function(_, f, s, p) return toplevel(f, s, p) end,
+  process_name = function(_, f) return "expected the process name after 'process', found " .. f end,
+  params_open = function(e, f) return sformat("expected '(' after 'process %s', found %s", e[1], f) end,
+  param = function(e, f) return sformat("expected a parameter name after ',' in process '%s', found %s", e[1], f) end,
+  params_close = function(e, f)
+    return sformat("expected ',' or ')' in the parameters of process '%s', found %s", e[1], f)
+  end,
+  process_open = function(e, f) return sformat("expected '{' to open process '%s', found %s", e[1], f) end,
+  process_close = process_close,
+  host_open = function(_, f, s, p)
+    if ssub(s, p, p) ~= "(" then return "expected '{' after 'host', found " .. f end
+    return sformat("'host' takes braces, not parentheses: write 'host { %s }'", smatch(s, "^%(%s*([^%s%)]*)", p) or "")
+  end,
+  host_arg = function(_, f) return "expected the host in 'host { }': a parameter name or a string, found " .. f end,
+  host_close = function(_, f) return "expected '}' after the host (one argument), found " .. f end,
+  section_open = function(e, f) return sformat("expected '{' after '%s', found %s", e[1], f) end,
+  section_close = function(e, f, s, p, idx) return section_close(e[1], e[2], f, s, p, idx) end,
+  actions_close = function(e, f, s, p, idx) return section_close("internal_event_actions", e[1], f, s, p, idx) end,
+  instof = function(e, f) return sformat("expected 'instof' after the instance name '%s', found %s", e[1], f) end,
+  type_name = function(e, f) return sformat("expected a process type after '%s instof', found %s", e[1], f) end,
+  args_open = function(e, f)
+    return sformat("expected '(' after the type '%s' of instance '%s' (write %s() when there are no arguments), found %s",
+                   e[2], e[1], e[2], f)
+  end,
+  arg = function(_, f) return "expected an argument after ',' (a parameter name, a string or a number), found " .. f end,
+  args_close = function(e, f) return sformat("expected ',' or ')' in the arguments of instance '%s', found %s", e[1], f) end,
+  instance_semi = function(e, f) return sformat("expected ';' after the instance '%s', found %s", e[1], f) end,
+  xio_eq = function(e, f) return sformat("expected '=' after the exported name '%s', found %s", e[1], f) end,
+  xio_instance = function(e, f) return sformat("expected an instance name after '%s =', found %s", e[1], f) end,
+  xio_comma = function(e, f)
+    return sformat("expected ',' between the instance and the port (write '%s = instance, Port;'), found %s", e[1], f)
+  end,
+  xio_port = function(e, f) return sformat("expected a port name in the export '%s', found %s", e[1], f) end,
+  xio_semi = function(e, f) return sformat("expected ';' after the export '%s', found %s", e[1], f) end,
+  ic_paren = function(_, f)
+    return "expected '(' after 'internal_connections' (write internal_connections(instance, label) { ... }), found " .. f
+  end,
+  ic_instance = function(_, f) return "expected the instance name" .. IC .. f end,
+  ic_comma = function(_, f) return "expected ',' between the instance and the label" .. IC .. f end,
+  ic_label = function(_, f) return "expected the label" .. IC .. f end,
+  ic_close_paren = function(_, f) return "expected ')' after the label" .. IC .. f end,
+  conn_comma_out = function(_, f) return CONN .. f end,
+  conn_comma_in = function(_, f) return CONN .. f end,
+  conn_port_out = function(_, f) return "expected a port name, found " .. f end,
+  conn_port_in = function(_, f) return "expected a port name, found " .. f end,
+  conn_arrow = function(_, f)
+    return "expected '->' between the output and the input (write 'a, Out -> b, In;'), found " .. f
+  end,
+  conn_instance_in = function(_, f) return "expected the destination instance after '->', found " .. f end,
+  conn_semi = function(_, f) return "expected ';' after the connection, found " .. f end,
+}
+
 -- Builds the message of a labelled error: returns message, position.
 local function message(e, s, idx)
-  local l, p = e.label, e.pos
-  local f = found(s, p)
-  local function open_line(op) return op and sformat(" (opened at line %d)", line_of(idx, op)) or "" end
-  if l == "comment" then return "unterminated comment: '/*' without '*/'", p end
-  if l == "string" then return "unterminated string: '\"' without a closing '\"' on the same line", p end
-  if l == "toplevel" then
-    local shown, guess = suggest_section(s, p)
-    if shown and (SECTION[guess] or guess) then
-      return sformat("'%s' outside a process: a '}' closes the process too early", shown), p
-    end
-    if shown then
-      local close = source.closest(shown, { "process" })
-      if close then return sformat("expected 'process', found '%s' (did you mean 'process'?)", shown), p end
-    end
-    return "expected 'process' to start a process definition, found " .. f, p
-  end
-  if l == "process_name" then return "expected the process name after 'process', found " .. f, p end
-  if l == "params_open" then return sformat("expected '(' after 'process %s', found %s", e[1], f), p end
-  if l == "param" then return sformat("expected a parameter name after ',' in process '%s', found %s", e[1], f), p end
-  if l == "params_close" then
-    return sformat("expected ',' or ')' in the parameters of process '%s', found %s", e[1], f), p
-  end
-  if l == "process_open" then return sformat("expected '{' to open process '%s', found %s", e[1], f), p end
-  if l == "process_close" then
-    local shown, guess = suggest_section(s, p)
-    if p > #s then
-      return sformat("missing '}' to close process '%s'%s", e[1], open_line(e[2])), p
-    end
-    if shown == "process" then
-      return sformat("missing '}' to close process '%s'%s before the next 'process'", e[1], open_line(e[2])), p
-    end
-    if shown and guess then
-      if shown ~= guess and shown:find("[ \t]") then
-        return sformat("unknown section '%s': did you mean '%s'? (section names are written with '_')",
-                       shown, guess), p
-      end
-      return sformat("unknown section '%s': did you mean '%s'?", shown, guess), p
-    end
-    if shown then
-      return sformat("unknown section '%s' in process '%s' (sections are: %s)", shown, e[1],
-                     table.concat(M.sections, ", ")), p
-    end
-    return sformat("expected a section or '}' to close process '%s', found %s", e[1], f), p
-  end
-  if l == "host_open" then
-    if ssub(s, p, p) == "(" then
-      local a = smatch(s, "^%(%s*([^%s%)]*)", p) or ""
-      return sformat("'host' takes braces, not parentheses: write 'host { %s }'", a), p
-    end
-    return "expected '{' after 'host', found " .. f, p
-  end
-  if l == "host_arg" then return "expected the host in 'host { }': a parameter name or a string, found " .. f, p end
-  if l == "host_close" then return "expected '}' after the host (one argument), found " .. f, p end
-  if l == "section_open" then return sformat("expected '{' after '%s', found %s", e[1], f), p end
-  if l == "section_close" or l == "actions_close" then
-    local sec, op = e[1], e[2]
-    if l == "actions_close" then sec, op = "internal_event_actions", e[1] end
-    local shown, guess = suggest_section(s, p)
-    if p > #s then return sformat("missing '}' to close '%s'%s", sec, open_line(op)), p end
-    if shown == "process" or (shown and guess) then
-      return sformat("missing '}' to close '%s'%s before '%s'", sec, open_line(op), shown), p
-    end
-    if sec == "instantiated_processes" then
-      return "expected an instance ('name instof Type(args);') or '}', found " .. f, p
-    elseif sec == "external_io" then
-      return "expected an export ('Name = instance, Port;') or '}', found " .. f, p
-    elseif sec == "internal_connections" then
-      return "expected a connection ('a, Out -> b, In;') or '}', found " .. f, p
-    end
-    return sformat("expected '}' to close '%s', found %s", sec, f), p
-  end
-  if l == "instof" then
-    return sformat("expected 'instof' after the instance name '%s', found %s", e[1], f), p
-  end
-  if l == "type_name" then return sformat("expected a process type after '%s instof', found %s", e[1], f), p end
-  if l == "args_open" then
-    return sformat("expected '(' after the type '%s' of instance '%s' (write %s() when there are no arguments), found %s",
-                   e[2], e[1], e[2], f), p
-  end
-  if l == "arg" then return "expected an argument after ',' (a parameter name, a string or a number), found " .. f, p end
-  if l == "args_close" then
-    return sformat("expected ',' or ')' in the arguments of instance '%s', found %s", e[1], f), p
-  end
-  if l == "instance_semi" then
-    return sformat("expected ';' after the instance '%s', found %s", e[1], f), p
-  end
-  if l == "xio_eq" then return sformat("expected '=' after the exported name '%s', found %s", e[1], f), p end
-  if l == "xio_instance" then return sformat("expected an instance name after '%s =', found %s", e[1], f), p end
-  if l == "xio_comma" then
-    return sformat("expected ',' between the instance and the port (write '%s = instance, Port;'), found %s", e[1], f), p
-  end
-  if l == "xio_port" then return sformat("expected a port name in the export '%s', found %s", e[1], f), p end
-  if l == "xio_semi" then return sformat("expected ';' after the export '%s', found %s", e[1], f), p end
-  if l == "ic_paren" then
-    return "expected '(' after 'internal_connections' (write internal_connections(instance, label) { ... }), found " .. f, p
-  end
-  if l == "ic_instance" then return "expected the instance name in internal_connections(instance, label), found " .. f, p end
-  if l == "ic_comma" then return "expected ',' between the instance and the label in internal_connections(instance, label), found " .. f, p end
-  if l == "ic_label" then return "expected the label in internal_connections(instance, label), found " .. f, p end
-  if l == "ic_close_paren" then return "expected ')' after the label in internal_connections(instance, label), found " .. f, p end
-  if l == "conn_comma_out" or l == "conn_comma_in" then
-    return "expected ',' between instance and port (write 'a, Out -> b, In;'), found " .. f, p
-  end
-  if l == "conn_port_out" or l == "conn_port_in" then return "expected a port name, found " .. f, p end
-  if l == "conn_arrow" then return "expected '->' between the output and the input (write 'a, Out -> b, In;'), found " .. f, p end
-  if l == "conn_instance_in" then return "expected the destination instance after '->', found " .. f, p end
-  if l == "conn_semi" then return "expected ';' after the connection, found " .. f, p end
-  return "syntax error (" .. tostring(l) .. "), found " .. f, p
+  local f, build = found(s, e.pos), MESSAGES[e.label]
+  if not build then return "syntax error (" .. tostring(e.label) .. "), found " .. f, e.pos end
+  return build(e, f, s, e.pos, idx), e.pos
 end
 
 ---------------------------------------------------------------------------------------------- AST
@@ -326,87 +328,104 @@ local function clean(t, keys)
   for _, k in ipairs(keys) do t[k] = nil end
 end
 
-local function build_process(raw, idx, text)
+-- Each section kind into the process's fields: BUILD[kind](proc, sec, idx) (positions as line/col by idx.set).
+local BUILD = {}
+
+function BUILD.host(proc, sec, idx)
+  proc.host = sec.arg
+  idx.set(sec.arg, sec.arg.pos)
+  proc.host_line, proc.host_col = idx:at(sec.pos)
+end
+
+-- Line and column of each position field of t: pos -> line, col; X_pos -> X_line, X_col.
+local function locate(idx, t, ...)
+  for _, field in ipairs({ ... }) do
+    local stem = field:match("^(.*)_pos$")
+    idx.set(t, t[field], stem and stem .. "_line" or "line", stem and stem .. "_col" or "col")
+  end
+end
+
+-- Appends item to list, reachable by name too (the first of a name wins).
+local function add_named(list, item, name)
+  list[#list + 1] = item
+  if list[name] == nil then list[name] = item end
+end
+
+function BUILD.instantiated_processes(proc, sec, idx)
+  for _, inst in ipairs(sec.items) do
+    clean(inst, { "iname", "itype" })
+    locate(idx, inst, "pos", "type_pos")
+    for _, a in ipairs(inst.args) do locate(idx, a, "pos") end
+    add_named(proc.instances, inst, inst.name)
+  end
+end
+
+function BUILD.external_io(proc, sec, idx)
+  for _, x in ipairs(sec.items) do
+    clean(x, { "xalias" })
+    locate(idx, x, "pos", "instance_pos", "port_pos")
+    add_named(proc.external_io, x, x.alias)
+  end
+end
+
+function BUILD.internal_connections(proc, sec, idx)
+  local set = { instance = sec.instance, label = sec.label, pos = sec.pos, connections = {} }
+  locate(idx, set, "pos")
+  set.instance_line, set.instance_col = idx:at(sec.ipos)
+  for i, cn in ipairs(sec.items) do
+    locate(idx, cn, "pos", "out_pos", "to_pos", "in_pos")
+    set.connections[i] = cn
+  end
+  proc.internal_connections[#proc.internal_connections + 1] = set
+end
+
+-- The expression's nodes moved to file coordinates (the text starts at offset `base` of the file).
+local function place(nd, base, idx)
+  nd.pos = nd.pos + base - 1
+  if nd.stop then nd.stop = nd.stop + base - 1 end
+  nd.line, nd.col = idx:at(nd.pos)
+  if nd.kids then for _, k in ipairs(nd.kids) do place(k, base, idx) end end
+end
+
+function BUILD.internal_event_actions(proc, sec, idx)
   local at = idx.set
+  local act = { text = sec.text, pos = sec.text_pos }
+  at(act, sec.pos, "section_line", "section_col")
+  at(act, sec.text_pos, "text_line", "text_col")
+  -- the expression's position: its first token (or the text start when blank)
+  local body = blank:match(sec.text)
+  local lead = sfind(body, "[^%s]")
+  at(act, sec.text_pos + ((lead or 1) - 1))
+  local expr, _, info = algebra.parse(body)
+  if expr then
+    place(expr.root, sec.text_pos, idx)
+    act.expr = expr
+  else
+    local p = info.msg == "empty expression" and sec.pos or sec.text_pos + info.pos - 1
+    local l, c = idx:at(p)
+    act.error = { msg = info.msg, pos = p, line = l, col = c }
+  end
+  proc.actions = act
+end
+
+local function build_process(raw, idx)
   local proc = { name = raw.name, pos = raw.pos, params = {}, instances = {}, external_io = {},
                  internal_connections = {}, duplicate_sections = {} }
-  at(proc, raw.pos)
+  idx.set(proc, raw.pos)
   for i, prm in ipairs(raw.params) do
     proc.params[i] = prm
-    at(prm, prm.pos)
+    idx.set(prm, prm.pos)
   end
   local seen = {}
   for _, sec in ipairs(raw.sections) do
-    local kind = sec.section
-    local spos = sec.pos
+    local kind, spos = sec.section, sec.pos
     if kind ~= "internal_connections" and seen[kind] then
       local l, c = idx:at(spos)
       proc.duplicate_sections[#proc.duplicate_sections + 1] = { section = kind, pos = spos, line = l, col = c,
                                                                  first_line = seen[kind] }
     else
       seen[kind] = (idx:at(spos))
-      if kind == "host" then
-        proc.host = sec.arg
-        at(sec.arg, sec.arg.pos)
-        proc.host_line, proc.host_col = idx:at(spos)
-      elseif kind == "instantiated_processes" then
-        for _, inst in ipairs(sec.items) do
-          clean(inst, { "iname", "itype" })
-          at(inst, inst.pos)
-          at(inst, inst.type_pos, "type_line", "type_col")
-          for _, a in ipairs(inst.args) do at(a, a.pos) end
-          proc.instances[#proc.instances + 1] = inst
-          if proc.instances[inst.name] == nil then proc.instances[inst.name] = inst end
-        end
-      elseif kind == "external_io" then
-        for _, x in ipairs(sec.items) do
-          clean(x, { "xalias" })
-          at(x, x.pos)
-          at(x, x.instance_pos, "instance_line", "instance_col")
-          at(x, x.port_pos, "port_line", "port_col")
-          proc.external_io[#proc.external_io + 1] = x
-          if proc.external_io[x.alias] == nil then proc.external_io[x.alias] = x end
-        end
-      elseif kind == "internal_connections" then
-        local set = { instance = sec.instance, label = sec.label, pos = sec.pos, connections = {} }
-        at(set, sec.pos)
-        set.instance_line, set.instance_col = idx:at(sec.ipos)
-        for i, cn in ipairs(sec.items) do
-          at(cn, cn.pos)
-          at(cn, cn.out_pos, "out_line", "out_col")
-          at(cn, cn.to_pos, "to_line", "to_col")
-          at(cn, cn.in_pos, "in_line", "in_col")
-          set.connections[i] = cn
-        end
-        proc.internal_connections[#proc.internal_connections + 1] = set
-      elseif kind == "internal_event_actions" then
-        local act = { text = sec.text, pos = sec.text_pos }
-        at(act, sec.pos, "section_line", "section_col")
-        at(act, sec.text_pos, "text_line", "text_col")
-        -- the expression's position: its first token (or the text start when blank)
-        local body = blank:match(sec.text)
-        local lead = sfind(body, "[^%s]")
-        local p0 = sec.text_pos + ((lead or 1) - 1)
-        at(act, p0)
-        local expr, _, info = algebra.parse(body)
-        if expr then
-          -- positions of the expression's nodes, in file coordinates
-          local function walk(nd)
-            nd.pos = nd.pos + sec.text_pos - 1
-            if nd.stop then nd.stop = nd.stop + sec.text_pos - 1 end
-            nd.line, nd.col = idx:at(nd.pos)
-            if nd.kids then for _, k in ipairs(nd.kids) do walk(k) end end
-          end
-          walk(expr.root)
-          act.expr = expr
-        else
-          local p = sec.text_pos + info.pos - 1
-          if info.msg == "empty expression" then p = sec.pos end
-          local l, c = idx:at(p)
-          act.error = { msg = info.msg, pos = p, line = l, col = c }
-        end
-        proc.actions = act
-      end
+      if BUILD[kind] then BUILD[kind](proc, sec, idx) end
     end
   end
   return proc
@@ -442,7 +461,7 @@ function M.parse(text, filename)
   local ast = { file = filename, source = text, index = idx, processes = {}, by_name = {} }
   local okb, err = pcall(function()
     for i, rp in ipairs(raw) do
-      local proc = build_process(rp, idx, text)
+      local proc = build_process(rp, idx)
       ast.processes[i] = proc
       if ast.by_name[proc.name] == nil then ast.by_name[proc.name] = proc end
     end
