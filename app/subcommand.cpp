@@ -1,4 +1,4 @@
-#include "host/cli/subcommand.h"
+#include "app/subcommand.h"
 
 #include <algorithm>
 #include <cstring>

@@ -11,7 +11,7 @@
 
 #include <csignal>
 
-#include "host/cli/subcommand.h"
+#include "app/subcommand.h"
 #include "host/loop.h"
 #include "host/node.h"
 #include "sim/door_script.h"

@@ -2,7 +2,7 @@
 #include <cstdio>
 
 #include "bindings/lua_runtime.h"
-#include "host/cli/subcommand.h"
+#include "app/subcommand.h"
 
 namespace {
 

@@ -3,7 +3,7 @@
 #include <string>
 
 #include "controllers/registry.h"
-#include "host/cli/subcommand.h"
+#include "app/subcommand.h"
 
 namespace {
 

@@ -8,7 +8,7 @@
 #include <string>
 
 #include "bindings/lua_runtime.h"
-#include "host/cli/subcommand.h"
+#include "app/subcommand.h"
 #include "host/version.h"
 
 namespace {

@@ -6,7 +6,7 @@
 #include <span>
 #include <string>
 
-#include "host/cli/subcommand.h"
+#include "app/subcommand.h"
 
 int main(int argc, char** argv) {
   const auto* node = dca::cli::find("node");

@@ -7,7 +7,7 @@
 #include <cstring>
 #include <string>
 
-#include "host/cli/subcommand.h"
+#include "app/subcommand.h"
 #include "host/daemon.h"
 #include "host/loop.h"
 

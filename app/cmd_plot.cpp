@@ -3,7 +3,7 @@
 #include <span>
 #include <string>
 
-#include "host/cli/subcommand.h"
+#include "app/subcommand.h"
 #include "sim/recorder.h"
 
 namespace {

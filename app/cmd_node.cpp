@@ -5,7 +5,7 @@
 #include <string>
 
 #include "controllers/registry.h"
-#include "host/cli/subcommand.h"
+#include "app/subcommand.h"
 #include "host/loop.h"
 #include "host/node.h"
 
