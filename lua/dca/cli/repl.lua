@@ -3,6 +3,7 @@
 -- expr(), log(), event(), abort(), restart(), activate(), deactivate(), reload(), help()). Line editing,
 -- history (~/.dca_history) and Tab completion of commands and process paths come from libedit.
 local core = require "dca.core"
+local clients, args_mod = require "dca.clients", require "dca.cli.args"
 
 local M = {}
 
@@ -19,124 +20,133 @@ local function looks_like_address(s)
   return s:match("^unix:") or s:match("^/") or s:match("^[%w%.%-%[%]:]+:%d+$")
 end
 
-function M.main(args)
+-- Runs the loop until fn's callback has been called (bounded by `timeout`). --> what it was called with
+local function await(loop, timeout, fn)
+  local res
+  fn(function(...) res = table.pack(...) end)
+  loop:run_until(function() return res ~= nil end, timeout)
+  if not res then return nil, "no answer within " .. timeout .. "s" end
+  return table.unpack(res, 1, res.n)
+end
+
+-- The control address of the supervisor `target` (an address, or a path looked up at `daemon`).
+-- --> addr | nil, error line, exit code
+local function find(loop, target, daemon, key)
+  if looks_like_address(target) then return target end
+  if not daemon then return nil, "to find '" .. target .. "' give --daemon ADDR (or $DCA_DAEMON)", 2 end
+  local d, derr = await(loop, 10, function(k) require("dca.clients.daemon").connect(daemon, { key_file = key }, k) end)
+  if not d then return nil, "daemon " .. daemon .. ": " .. tostring(derr), 1 end
+  local ep, lerr = await(loop, 5 + clients.TIMEOUT, function(k) clients.lookup(d, target, 2, k) end)
+  d:close()
+  if not ep or not ep.control then return nil, "no supervisor '" .. target .. "': " .. tostring(lerr), 1 end
+  return ep.control
+end
+
+-- A console session on the supervisor's channel.
+local Session = {}
+Session.__index = Session
+
+-- A request answered before the loop returns (bounded). --> reply | nil, err
+function Session:ask(msg, timeout)
+  return await(self.loop, timeout + 1, function(k) self.client:request(msg, timeout, k) end)
+end
+
+-- stdin is a pipe or a file: one answer per line, in order, nothing asynchronous.
+function Session:lines()
+  local prompt = "dca> "
+  while true do
+    local line = core.readline(prompt)
+    if line == nil then break end
+    core.add_history(line)
+    local r, e = self:ask({ type = "repl", line = line }, 60)
+    if not r then
+      io.stderr:write("no answer: ", tostring(e), "\n")
+      if self.closed then break end
+    else
+      if r.output and r.output ~= "" then io.stdout:write(r.output, "\n") end
+      prompt = r.more and "  >> " or "dca> "
+    end
+  end
+end
+
+-- One line typed at the terminal: evaluated (no prompt meanwhile; lines arriving simply print), the answer,
+-- then a fresh prompt. nil (Ctrl-D) leaves.
+function Session:on_line(line)
+  if line == nil then self.quit = true return end
+  core.readline_remove()
+  if line:match("%S") then core.add_history(line) end
+  self.client:request({ type = "repl", line = line }, 60, function(r, e)
+    if not r then io.stdout:write("no answer: ", tostring(e), "\n")
+    else
+      self.prompt = r.more and "  >> " or "dca> "
+      if r.output and r.output ~= "" then io.stdout:write(r.output, "\n") end
+    end
+    io.stdout:flush()
+    core.readline_install(self.prompt, function(l) self:on_line(l) end)
+  end)
+end
+
+-- A terminal: the supervisor's transition lines arrive while a line is being typed; each is printed above the
+-- prompt, which is drawn again with the typed text (core.readline_print).
+function Session:terminal()
+  self.prompt = "dca> "
+  self.client.channel:on_message(function(msg)
+    if msg.type == "log" and msg.line then core.readline_print(msg.line) end
+  end)
+  self.client:request({ type = "follow" }, 10)
+  core.readline_install(self.prompt, function(l) self:on_line(l) end)
+  -- the loop runs in slices; between them the terminal's input is fed to the line editor (a person's
+  -- keystrokes: 20 ms is below what anyone notices)
+  while not self.quit and not self.closed do
+    self.loop:run_until(function() return self.quit or self.closed ~= nil end, 0.02)
+    core.readline_poll()
+  end
+  core.readline_remove()
+  if self.closed then io.stderr:write("\nthe supervisor closed the console: ", tostring(self.closed), "\n") end
+end
+
+-- Connects to the console at `addr`. --> session | nil, err
+local function open(loop, addr, key)
+  local c, err = await(loop, 10, function(k) clients.connect(addr, { key_file = key }, clients.Plain, k) end)
+  if not c then return nil, err end
+  local s = setmetatable({ loop = loop, client = c }, Session)
+  c:on_close(function(reason) s.closed = reason or "closed" end)
+  return s
+end
+
+-- The console, from the first line to Ctrl-D (or the supervisor's leaving). --> exit code
+function Session:run(target, addr)
+  core.read_history(HISTORY)
+  -- Tab: asked from inside the line editor, outside the loop (never a nested run of it)
+  core.set_completer(function(word)
+    local r = self:ask({ type = "complete", prefix = word }, 2)
+    return r and r.candidates or {}
+  end)
+  io.stdout:write("connected to ", target, " (", addr, "); help() lists the commands, Ctrl-D leaves\n")
+  if core.readline_install and core.readline_print and os.execute("test -t 0 && test -t 1") then self:terminal()
+  else self:lines() end
+  core.write_history(HISTORY)
+  local lost = self.closed  -- the supervisor went away (1), or the person left (0)
+  self.client:close()
+  io.stdout:write("\n")
+  return lost and 1 or 0
+end
+
+function M.main(argv)
   if not core.loop or not core.connect then
     io.stderr:write("dca repl: this dca has no control plane (dca.core.loop/connect)\n")
     return 3
   end
-  local target, daemon, key
-  local i, n = 1, args.n or #args
-  while i <= n do
-    local a = args[i]
-    if a == "--daemon" then daemon = args[i + 1] i = i + 1
-    elseif a == "--key" then key = args[i + 1] i = i + 1
-    elseif a:sub(1, 1) == "-" or target then io.stderr:write("dca repl: unexpected argument '", a, "'\n", M.usage, "\n") return 2
-    else target = a end
-    i = i + 1
-  end
+  local o, err = args_mod.parse(argv, "dca repl", { ["--daemon"] = "value", ["--key"] = "value" })
+  if not o then io.stderr:write(err, "\n", M.usage, "\n") return 2 end
+  local target = o[1]
   if not target then io.stderr:write(M.usage, "\n") return 2 end
-  key = key or os.getenv("DCA_KEY_FILE")
-  daemon = daemon or os.getenv("DCA_DAEMON")
-  local loop = core.loop()
-  local function wait(pred, timeout)
-    return loop:run_until(pred, timeout)
-  end
-
-  local addr = looks_like_address(target) and target or nil
-  if not addr then
-    if not daemon then io.stderr:write("dca repl: to find '", target, "' give --daemon ADDR (or $DCA_DAEMON)\n") return 2 end
-    local dch, derr
-    core.connect(daemon, { key_file = key }, function(c, e) dch, derr = c, e or "" end)
-    wait(function() return dch or derr end, 10)
-    if not dch then io.stderr:write("dca repl: daemon ", daemon, ": ", tostring(derr), "\n") return 1 end
-    local r, rerr
-    dch:request({ type = "lookup", name = target, wait_ms = 2000 }, 3, function(m, e) r, rerr = m, e or "" end)
-    wait(function() return r or rerr end, 5)
-    local ep = r and (r.endpoints or r)
-    if not ep or not ep.control then
-      io.stderr:write("dca repl: no supervisor '", target, "': ", tostring(r and r.reason or rerr), "\n")
-      return 1
-    end
-    addr = ep.control
-    dch:close()
-  end
-  local ch, cerr
-  core.connect(addr, { key_file = key }, function(c, e) ch, cerr = c, e or "" end)
-  wait(function() return ch or cerr end, 10)
-  if not ch then io.stderr:write("dca repl: ", addr, ": ", tostring(cerr), "\n") return 1 end
-  local closed
-  ch:on_close(function(reason) closed = reason or "closed" end)
-  ch:on_message(function() end)
-
-  local function ask(msg, timeout)
-    local r, e
-    ch:request(msg, timeout, function(m, err) r, e = m, err or "" end)
-    wait(function() return r or e end, timeout + 1)
-    return r, e
-  end
-  core.read_history(HISTORY)
-  -- Tab: asked from inside the line editor, outside the loop (never a nested run of it)
-  core.set_completer(function(word)
-    local r = ask({ type = "complete", prefix = word }, 2)
-    return r and r.candidates or {}
-  end)
-  io.stdout:write("connected to ", target, " (", addr, "); help() lists the commands, Ctrl-D leaves\n")
-  local interactive = core.readline_install and core.readline_print and os.execute("test -t 0 && test -t 1")
-  if not interactive then
-    -- stdin is a pipe or a file: one answer per line, in order, nothing asynchronous
-    local prompt = "dca> "
-    while true do
-      local line = core.readline(prompt)
-      if line == nil then break end
-      core.add_history(line)
-      local r, e = ask({ type = "repl", line = line }, 60)
-      if not r then
-        io.stderr:write("no answer: ", tostring(e), "\n")
-        if closed then break end
-      else
-        if r.output and r.output ~= "" then io.stdout:write(r.output, "\n") end
-        prompt = r.more and "  >> " or "dca> "
-      end
-    end
-  else
-    -- a terminal: the supervisor's transition lines arrive while a line is being typed; each is printed
-    -- above the prompt, which is drawn again with the typed text (core.readline_print)
-    local quit = false
-    local prompt = "dca> "
-    ch:on_message(function(msg) if msg.type == "log" and msg.line then core.readline_print(msg.line) end end)
-    ch:request({ type = "follow" }, 10, function() end)
-    -- while a line is evaluated there is no prompt (lines arriving meanwhile simply print); the answer,
-    -- then a fresh prompt
-    local on_line
-    function on_line(line)
-      if line == nil then quit = true return end
-      core.readline_remove()
-      if line:match("%S") then core.add_history(line) end
-      ch:request({ type = "repl", line = line }, 60, function(r, e)
-        if not r then io.stdout:write("no answer: ", tostring(e), "\n")
-        else
-          prompt = r.more and "  >> " or "dca> "
-          if r.output and r.output ~= "" then io.stdout:write(r.output, "\n") end
-        end
-        io.stdout:flush()
-        core.readline_install(prompt, on_line)
-      end)
-    end
-    core.readline_install(prompt, on_line)
-    -- the loop runs in slices; between them the terminal's input is fed to the line editor (a person's
-    -- keystrokes: 20 ms is below what anyone notices)
-    while not quit and not closed do
-      loop:run_until(function() return quit or closed ~= nil end, 0.02)
-      core.readline_poll()
-    end
-    core.readline_remove()
-    if closed then io.stderr:write("\nthe supervisor closed the console: ", tostring(closed), "\n") end
-  end
-  core.write_history(HISTORY)
-  local lost = closed  -- the supervisor went away (1), or the person left (0)
-  ch:close()
-  io.stdout:write("\n")
-  return lost and 1 or 0
+  local key, loop = o.key or os.getenv("DCA_KEY_FILE"), core.loop()
+  local addr, ferr, code = find(loop, target, o.daemon or os.getenv("DCA_DAEMON"), key)
+  if not addr then io.stderr:write("dca repl: ", ferr, "\n") return code end
+  local session, cerr = open(loop, addr, key)
+  if not session then io.stderr:write("dca repl: ", addr, ": ", tostring(cerr), "\n") return 1 end
+  return session:run(target, addr)
 end
 
 return M

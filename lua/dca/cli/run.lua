@@ -5,6 +5,7 @@
 local core = require "dca.core"
 local supervisor, srt = require "dca.supervisor", require "dca.supervisor.net"
 local hosts_mod, start = require "dca.launch.hosts", require "dca.launch.start"
+local args_mod = require "dca.cli.args"
 
 local M = {}
 
@@ -45,47 +46,37 @@ per group as it comes up and one per process transition, and runs the root expre
 Exit code 0 when the root expression ends DONE, 1 when ABORTED, 2 for usage or check errors, 3 when the
 start fails, 130 after Ctrl-C. Ctrl-C stops the whole tree, most recently started first.]=]
 
-local function parse_args(args)
-  local o = { timeout = 30 }
-  local i, n = 1, args.n or #args
-  local function value(name)
-    i = i + 1
-    if not args[i] then error("dca run: " .. name .. " needs a value", 0) end
-    return args[i]
-  end
-  while i <= n do
-    local a = args[i]
-    if a == "--root" then o.root = value(a)
-    elseif a == "--hosts" then o.hosts = value(a)
-    elseif a == "--sim" then o.sim = value(a)
-    elseif a == "--seed" then o.seed = tonumber(value(a)) or error("dca run: --seed needs a number", 0)
-    elseif a == "--door-width" then o.door_width = tonumber(value(a)) or error("dca run: --door-width needs metres", 0)
-    elseif a == "--record" then o.record = value(a)
-    elseif a == "--jammed" then o.jammed = true
-    elseif a == "--realtime" then o.realtime = true
-    elseif a == "--timeout" then o.timeout = tonumber(value(a)) or error("dca run: --timeout needs seconds", 0)
-    elseif a == "--repl" then o.repl = true
-    elseif a == "--watch" then o.watch = true
-    elseif a == "--quiet" then o.quiet = true
-    elseif a == "--config" then o.config = value(a)
-    elseif a == "--no-config" then o.no_config = true
-    elseif a == "--state-dir" then o.state_dir = value(a)
-    elseif a == "--set" then
-      local k, v = require("dca.config").parse_assignment(value(a))
-      if not k then error("dca run: --set: " .. v, 0) end
-      o.set = o.set or {}
-      o.set[k] = v
-    elseif a:sub(1, 1) == "-" or o.file then error("dca run: unexpected argument '" .. a .. "'", 0)
-    else o.file = a end
-    i = i + 1
-  end
-  if not o.file then error("dca run: which .dca file?", 0) end
+local OPTIONS = {
+  ["--root"] = "value", ["--hosts"] = "value", ["--sim"] = "value", ["--seed"] = "number",
+  ["--door-width"] = "number", ["--record"] = "value", ["--jammed"] = "flag", ["--realtime"] = "flag",
+  ["--timeout"] = "number", ["--repl"] = "flag", ["--watch"] = "flag", ["--quiet"] = "flag",
+  ["--config"] = "value", ["--no-config"] = "flag", ["--state-dir"] = "value", ["--set"] = "list:sets",
+}
+
+-- The options that exclude each other or need another: the first broken rule. --> error text | nil
+local function rule_broken(o)
+  if not o.file then return "which .dca file?" end
   if (o.seed or o.door_width or o.record or o.jammed) and not o.sim then
-    error("dca run: --seed, --door-width, --record and --jammed go with --sim WORLD", 0)
+    return "--seed, --door-width, --record and --jammed go with --sim WORLD"
   end
-  if o.config and o.no_config then error("dca run: --config and --no-config exclude each other", 0) end
-  if o.state_dir and o.hosts then error("dca run: --state-dir is for the local daemons, not those of --hosts", 0) end
-  if o.realtime and not o.sim then error("dca run: --realtime goes with --sim WORLD", 0) end
+  if o.config and o.no_config then return "--config and --no-config exclude each other" end
+  if o.state_dir and o.hosts then return "--state-dir is for the local daemons, not those of --hosts" end
+  if o.realtime and not o.sim then return "--realtime goes with --sim WORLD" end
+end
+
+--- The options of argv. --> o | nil, error text
+local function parse_args(args)
+  local o, err = args_mod.parse(args, "dca run", OPTIONS)
+  if not o then return nil, err end
+  o.file, o.timeout = o[1], o.timeout or 30
+  for _, a in ipairs(o.sets or {}) do
+    local k, v = require("dca.config").parse_assignment(a)
+    if not k then return nil, "dca run: --set: " .. v end
+    o.set = o.set or {}
+    o.set[k] = v
+  end
+  local broken = rule_broken(o)
+  if broken then return nil, "dca run: " .. broken end
   if o.record and o.record:sub(1, 1) ~= "/" then o.record = (os.getenv("PWD") or ".") .. "/" .. o.record end
   return o
 end
@@ -308,8 +299,8 @@ function Run:prepare()
 end
 
 function M.main(args)
-  local ok, o = pcall(parse_args, args)
-  if not ok then io.stderr:write(o, "\n", M.usage, "\n") return 2 end
+  local o, perr = parse_args(args)
+  if not o then return args_mod.usage_error(perr, M.usage) end
   local spec, err = M.load(o.file, o.root)
   if not spec then io.stderr:write(err, "\n") return 2 end
   o.config = o.config or (not o.no_config and require("dca.config").defaults_file(o.file)) or nil

@@ -1,6 +1,7 @@
 -- `dca scenario [--backend memory] FILE.lua`: runs a scripted test scenario (see dca.scenario) and exits 0
 -- when every step passed, 1 when one failed, 2 on bad usage.
 local scenario = require "dca.scenario"
+local args_mod = require "dca.cli.args"
 
 local USAGE = [[usage: dca scenario [--backend memory|real] FILE.lua
 
@@ -9,25 +10,16 @@ and asserts; each step prints one line (ok/FAIL, with the system's time). Exit c
   --backend memory   the supervisor tree in memory with simulated time and the test controllers' behaviour
   --backend real     local daemons on loopback, real nodes and supervisors (wall-clock time)]]
 
-local function main(args)
-  local file
-  local i = 1
-  while i <= (args.n or #args) do
-    local a = args[i]
-    if a == "--backend" then
-      scenario.backend = args[i + 1]
-      i = i + 1
-      if scenario.backend ~= "memory" and scenario.backend ~= "real" then
-        io.stderr:write("dca scenario: unknown backend '", tostring(scenario.backend), "' (memory, real)\n")
-        return 2
-      end
-    elseif a:sub(1, 1) == "-" or file then
-      io.stderr:write("dca scenario: unexpected argument '", a, "'\n", USAGE, "\n")
+local function main(argv)
+  local o, perr = args_mod.parse(argv, "dca scenario", { ["--backend"] = "value" })
+  if not o then return args_mod.usage_error(perr, USAGE) end
+  local file = o[1]
+  if o.backend then
+    if o.backend ~= "memory" and o.backend ~= "real" then
+      io.stderr:write("dca scenario: unknown backend '", tostring(o.backend), "' (memory, real)\n")
       return 2
-    else
-      file = a
     end
-    i = i + 1
+    scenario.backend = o.backend
   end
   if not file then io.stderr:write(USAGE, "\n") return 2 end
   local chunk, err = loadfile(file)

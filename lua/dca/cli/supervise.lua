@@ -4,22 +4,95 @@
 -- request, starts and connects its children, and runs its expression on "run". It exits when its parent
 -- asks (shutdown) or goes away (everything it started is stopped first).
 local core = require "dca.core"
-local supervisor = require "dca.supervisor"
-local srt = require "dca.supervisor.net"
+local supervisor, srt = require "dca.supervisor", require "dca.supervisor.net"
+local start = require "dca.launch.start"
+local args_mod = require "dca.cli.args"
 
 local USAGE = "dca supervise --name PATH --daemon ADDR [--key FILE] [--listen ADDR]"
 
 local function parse(args)
-  local o = {}
-  local i = 1
-  while i <= #args do
-    local a = args[i]
-    local k = a:match("^%-%-(%w+)$")
-    if k and args[i + 1] then o[k] = args[i + 1] i = i + 2
-    else return nil, "unexpected argument '" .. a .. "'" end
-  end
+  local o, err = args_mod.parse(args, "dca supervise",
+    { ["--name"] = "value", ["--daemon"] = "value", ["--key"] = "value", ["--listen"] = "value" }, 0)
+  if not o then return nil, err end
   if not o.name or not o.daemon then return nil, "--name and --daemon are required" end
   return o
+end
+
+-- One supervisor process: its options, loop, parent channel, consoles following it, supervisor and runtime.
+local Proc = {}
+Proc.__index = Proc
+
+function Proc:finish(code)
+  if self.exit_code then return end
+  self.exit_code = code
+  if self.rt then self.rt.close() end
+  self.loop:stop()
+end
+
+-- Everything this supervisor started is stopped, then it exits with `code` (with 1 when that takes 30 s).
+function Proc:wind_down(code)
+  if self.sup then self.sup:shutdown(function() self:finish(code) end) else self:finish(code) end
+  core.after(30, function() self:finish(1) end)
+end
+
+-- The tree of this group, on the "configure" request of the parent channel `ch` (dca.launch.start.tree).
+function Proc:configure(ch, msg)
+  local own_host
+  for h, a in pairs(msg.hosts or {}) do if a == self.o.daemon then own_host = h end end
+  local ctx = { spec = msg.spec, hosts = msg.hosts, key = self.key, exe = "dca",
+    report = function(m)
+      ch:send(m)
+      if m.type == "log" then srt.to_followers(self.followers, m.line) end
+    end,
+    log = function(line)
+      srt.to_followers(self.followers, line)
+      if os.getenv("DCA_SUPERVISE_VERBOSE") then io.stderr:write(line, "\n") end
+    end }
+  self.sup = start.tree(ctx, own_host, { progress = msg.progress, timeouts = msg.timeouts })
+  self.rt = ctx.rt
+end
+
+-- A request on channel `ch`: the first channel whose first request is "configure" is the parent; any other
+-- is a console.
+function Proc:on_request(ch, msg, id)
+  if (id or 0) == 0 then return end
+  if ch ~= self.parent then
+    if self.parent or msg.type ~= "configure" then srt.console(ch, id, msg, self.sup, self.followers) return end
+    self.parent = ch
+    ch:on_close(function() self:wind_down(1) end)  -- the parent is gone
+  end
+  if msg.type == "configure" and not self.sup then self:configure(ch, msg) end
+  if not self.sup then srt.reply(ch, id, { type = "error", reason = "not configured yet" }) return end
+  self.sup:handle(msg, function(r)
+    srt.reply(ch, id, r)
+    if msg.type == "shutdown" then core.after(0.05, function() self:finish(0) end) end
+  end)
+end
+
+-- Listens on the daemon's IP (another host's supervisor must reach it), a free port. --> listener | nil, err
+function Proc:listen()
+  local d = self.o.daemon
+  local ip = d:match("^%[(.-)%]:%d+$") and ("[" .. d:match("^%[(.-)%]") .. "]") or d:match("^([%d%.]+):%d+$")
+    or "127.0.0.1"
+  return core.listen(self.o.listen or (ip .. ":0"), srt.key_opts(self.key), function(ch)
+    ch:on_message(function(msg, id) self:on_request(ch, msg, id) end)
+    ch:on_close(function() self.followers[ch] = nil end)
+  end)
+end
+
+-- Registers this supervisor's path with its daemon; the daemon's loss ends it.
+function Proc:register(listener)
+  local o = self.o
+  require("dca.clients.daemon").connect(o.daemon, srt.key_opts(self.key), function(d, cerr)
+    if not d then io.stderr:write("dca supervise: daemon ", o.daemon, ": ", tostring(cerr), "\n") self:finish(1) return end
+    d:register(o.name, { control = listener:address(), pid = core.pid() }, function(r, rerr)
+      if not r or r.type == "error" then
+        io.stderr:write("dca supervise: register ", o.name, ": ", tostring(r and r.reason or rerr), "\n")
+        self:finish(1)
+      end
+    end)
+    d:on_close(function() if self.sup then self.sup:shutdown(function() self:finish(1) end) else self:finish(1) end end)
+  end)
 end
 
 local function main(args)
@@ -28,87 +101,17 @@ local function main(args)
     return 3
   end
   local o, err = parse(args)
-  if not o then io.stderr:write("dca supervise: ", err, "\nusage: ", USAGE, "\n") return 2 end
-  local key = o.key or os.getenv("DCA_KEY_FILE")
-  local loop = core.loop()
-  local exit_code
-  local sup, parent, rt
-  local function finish(code)
-    if exit_code then return end
-    exit_code = code
-    if rt then rt.close() end
-    loop:stop()
-  end
-  local followers = {}   -- consoles (`dca repl PATH`) following this supervisor's transition lines
-  local function line_out(line)
-    srt.to_followers(followers, line)
-    if os.getenv("DCA_SUPERVISE_VERBOSE") then io.stderr:write(line, "\n") end
-  end
-  -- The first channel whose first request is "configure" is the parent; any other is a console.
-  local function on_channel(ch)
-    ch:on_message(function(msg, id)
-      if (id or 0) == 0 then return end
-      if ch ~= parent then
-        if parent or msg.type ~= "configure" then srt.console(ch, id, msg, sup, followers) return end
-        parent = ch
-        ch:on_close(function()
-          -- the parent is gone: stop everything this supervisor started, then exit
-          if sup then sup:shutdown(function() finish(1) end) else finish(1) end
-          core.after(30, function() finish(1) end)
-        end)
-      end
-      if msg.type == "configure" and not sup then
-        local own_host
-        for h, a in pairs(msg.hosts or {}) do if a == o.daemon then own_host = h end end
-        rt = srt.new({ hosts = msg.hosts, key = key, exe = "dca", daemon_host = own_host,
-          timeouts = msg.timeouts,
-          report = function(m)
-            ch:send(m)
-            if m.type == "log" then srt.to_followers(followers, m.line) end
-          end,
-          log = line_out })
-        sup = supervisor.new(msg.spec, rt, { progress = msg.progress, timeouts = msg.timeouts, hosts = msg.hosts })
-        sup.hosts = msg.hosts
-        rt.bind(sup)
-      end
-      if not sup then srt.reply(ch, id, { type = "error", reason = "not configured yet" }) return end
-      if msg.type == "configure" then
-        sup:handle(msg, function(r) srt.reply(ch, id, r) end)
-        return
-      end
-      sup:handle(msg, function(r)
-        srt.reply(ch, id, r)
-        if msg.type == "shutdown" then core.after(0.05, function() finish(0) end) end
-      end)
-    end)
-    ch:on_close(function() followers[ch] = nil end)
-  end
-  -- listen on the daemon's IP (another host's supervisor must reach it), a free port
-  local ip = o.daemon:match("^%[(.-)%]:%d+$") and ("[" .. o.daemon:match("^%[(.-)%]") .. "]")
-    or o.daemon:match("^([%d%.]+):%d+$") or "127.0.0.1"
-  local listener, lerr = core.listen(o.listen or (ip .. ":0"), srt.key_opts(key), on_channel)
+  if not o then io.stderr:write("dca supervise: ", (err:gsub("^dca supervise: ", "")), "\nusage: ", USAGE, "\n") return 2 end
+  local p = setmetatable({ o = o, key = o.key or os.getenv("DCA_KEY_FILE"), loop = core.loop(), followers = {} }, Proc)
+  local listener, lerr = p:listen()
   if not listener then io.stderr:write("dca supervise: listen: ", tostring(lerr), "\n") return 1 end
-  core.connect(o.daemon, srt.key_opts(key), function(dch, cerr)
-    if not dch then io.stderr:write("dca supervise: daemon ", o.daemon, ": ", tostring(cerr), "\n") finish(1) return end
-    dch:request({ type = "register", name = o.name,
-                  endpoints = { control = listener:address(), pid = core.pid() } }, 5,
-      function(r, rerr)
-        if not r or r.type == "error" then
-          io.stderr:write("dca supervise: register ", o.name, ": ", tostring(r and r.reason or rerr), "\n")
-          finish(1)
-        end
-      end)
-    dch:on_close(function() if sup then sup:shutdown(function() finish(1) end) else finish(1) end end)
-  end)
+  p:register(listener)
   -- SIGTERM (its daemon stopping it, or a person): what it started goes first, then it exits (bounded)
-  core.on_signal(function()
-    if sup then sup:shutdown(function() finish(0) end) else finish(0) end
-    core.after(30, function() finish(1) end)
-  end)
+  core.on_signal(function() p:wind_down(0) end)
   -- a parent that never comes is a failed start: give up after the configure timeout
-  core.after(supervisor.timeouts.configure, function() if not parent then finish(1) end end)
-  loop:run()
-  return exit_code or 0
+  core.after(supervisor.timeouts.configure, function() if not p.parent then p:finish(1) end end)
+  p.loop:run()
+  return p.exit_code or 0
 end
 
 return { summary = "run one supervisor (DCAS) of a process group; started by a daemon", usage = USAGE, main = main }

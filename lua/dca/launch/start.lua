@@ -10,9 +10,9 @@
 --   local ctx = start.context(spec, o, { say = fn(line), report = fn(msg), log = fn(line) })
 --   local ok, err = start.hosts(ctx)  ok, err = start.config(ctx)
 --   start.world(ctx, function(ok, err) ... end)
---   local sup = start.tree(ctx, daemon_host)
+--   local sup = start.tree(ctx, daemon_host, opts)
 --   start.cleanup(ctx)                        -- the world's channels, the runtime, the daemons, the key dir
-local config = require "dca.config"
+local config, console = require "dca.config", require "dca.supervisor.console"
 local supervisor, net = require "dca.supervisor", require "dca.supervisor.net"
 local hosts_mod, sim = require "dca.launch.hosts", require "dca.launch.sim"
 
@@ -87,12 +87,15 @@ function M.world(ctx, cb)
   end)
 end
 
---- The root supervisor of ctx.spec on the network runtime over ctx.hosts; its own host (configuration, world
---- lookups) is `daemon_host` (nil: the first host). --> sup (ctx.sup, ctx.rt)
-function M.tree(ctx, daemon_host)
+--- The supervisor of ctx.spec on the network runtime over ctx.hosts (the root of `dca run` and scenarios, or a
+--- group's in `dca supervise`); its own host (configuration, world lookups) is `daemon_host` (nil: the first
+--- host). opts: progress (default true), timeouts. --> sup (also ctx.sup, ctx.rt)
+function M.tree(ctx, daemon_host, opts)
+  opts = opts or { progress = true }
   local rt = net.new({ hosts = ctx.hosts, key = ctx.key, exe = ctx.exe, daemon_host = daemon_host,
-                       report = ctx.report, log = ctx.log })
-  local sup = supervisor.new(ctx.spec, rt, { progress = true, hosts = ctx.hosts })
+                       timeouts = opts.timeouts, report = ctx.report, log = ctx.log })
+  local sup = supervisor.new(ctx.spec, rt, { progress = opts.progress, timeouts = opts.timeouts, hosts = ctx.hosts,
+                                             console = console.hook })
   sup.hosts = ctx.hosts
   rt.bind(sup)
   ctx.rt, ctx.sup = rt, sup

@@ -113,31 +113,22 @@ local function await(fn)
   return coyield()
 end
 
-function Repl:_env()
-  local repl, sup = self, self.sup
-  local env = {}
-  local function path_of(p)
-    if p == nil then return sup.path end
-    local r, err = M.resolve(sup.spec, p)
-    if not r then error(err, 0) end
-    return r
-  end
-  local function get_tree() return await(function(k) sup:tree(k) end) end
-  local function say(...) repl:_print(...) end
-  env.print = say
+-- The commands that show the tree: tree, status, expr, log. c: { sup, say, path_of, get_tree }
+local function view_commands(env, c)
+  local sup, say = c.sup, c.say
   function env.help() say(HELP) end
   function env.tree()
-    say(concat(render_tree(get_tree(), {}), "\n"))
+    say(concat(render_tree(c.get_tree(), {}), "\n"))
   end
   function env.status(p)
-    local path = path_of(p)
-    local n = find(get_tree(), path)
+    local path = c.path_of(p)
+    local n = find(c.get_tree(), path)
     if not n then error("no process " .. path, 0) end
     return sformat("%s: %s %s on host %s, %s", n.path, n.kind, n.type, tostring(n.host), n.state)
   end
   function env.expr(p)
-    local path = path_of(p)
-    local n = find(get_tree(), path)
+    local path = c.path_of(p)
+    local n = find(c.get_tree(), path)
     if not n or n.kind ~= "group" then error(path .. " is not a group", 0) end
     if not n.expr then return "(no internal_event_actions)" end
     return (n.expr:gsub("^%s+", ""):gsub("%s+$", ""))
@@ -145,11 +136,19 @@ function Repl:_env()
   function env.log(n)
     say(concat(sup:recent(n or 20), "\n"))
   end
+end
+
+-- The commands that act: event, abort, restart, activate, deactivate, reload.
+local function action_commands(env, c, reload)
+  local sup, path_of = c.sup, c.path_of
+  local function done(ok, err, text)
+    if not ok then error(err, 0) end
+    return text
+  end
   local function inject(p, msg)
     local path = path_of(p)
     local ok, err = await(function(k) sup:inject(path, msg, k) end)
-    if not ok then error(err, 0) end
-    return sformat("%s: %s injected", path, msg.type)
+    return done(ok, err, sformat("%s: %s injected", path, msg.type))
   end
   function env.event(p, kind, value)
     if kind ~= "done" and kind ~= "aborted" then error("event kind is \"done\" or \"aborted\"", 0) end
@@ -167,23 +166,23 @@ function Repl:_env()
   function env.restart(p)
     local path = path_of(p)
     local ok, err = await(function(k) sup:restart(path, k) end)
-    if not ok then error(err, 0) end
-    return path .. ": restarted"
+    return done(ok, err, path .. ": restarted")
   end
   local function set(p, label, what)
     local path = path_of(p)
     local ok, err = await(function(k) sup:switch(path, label, what, k) end)
-    if not ok then error(err, 0) end
-    return sformat("%s[%s]: %sd", path, tostring(label), what)
+    return done(ok, err, sformat("%s[%s]: %sd", path, tostring(label), what))
   end
   function env.activate(p, label) return set(p, label, "activate") end
   function env.deactivate(p, label) return set(p, label, "deactivate") end
   function env.reload(what)
-    if not repl.opts.reload then error("reload is offered by the root supervisor (dca run)", 0) end
-    local lines = await(function(k) repl.opts.reload(what, k) end)
-    say(concat(lines, "\n"))
+    if not reload then error("reload is offered by the root supervisor (dca run)", 0) end
+    c.say(concat(await(function(k) reload(what, k) end), "\n"))
   end
-  -- the configuration repository of this supervisor's host
+end
+
+-- config.get/set/list/log/watch/unwatch: the configuration repository of this supervisor's host.
+local function config_commands(sup)
   local config_text = require "dca.config"  -- render, format_log
   local function repo()
     if not sup.rt.config_client then error("this supervisor has no configuration repository", 0) end
@@ -191,47 +190,57 @@ function Repl:_env()
     if not c then error(err, 0) end
     return c
   end
+  -- calls fn(c, k) on the repository's client and waits for k's answer; an error raises
   local function ask(fn)
-    local r, err = await(fn)
+    local c = repo()
+    local r, err = await(function(k) fn(c, k) end)
     if err then error(err, 0) end
+    return r, c
+  end
+  local function what(prefix) return prefix and prefix ~= "" and prefix or "every key" end
+  local cmd = {}
+  function cmd.get(key) return (ask(function(c, k) c:get(key, k) end)) end
+  function cmd.set(key, value)
+    local values = type(key) == "table" and key or { [key] = value }
+    local r = ask(function(c, k) c:set(values, k) end)
+    return sformat("set %d key%s: transaction %d of %s", r.keys, r.keys == 1 and "" or "s", r.seq, r.origin)
+  end
+  function cmd.list(prefix)
+    local lines = {}
+    for _, e in ipairs(ask(function(c, k) c:list(prefix, k) end)) do
+      lines[#lines + 1] = e.key .. " = " .. config_text.render(e.value)
+    end
+    return #lines > 0 and concat(lines, "\n") or "(no keys)"
+  end
+  function cmd.log(n) return config_text.format_log((ask(function(c, k) c:log(n or 20, k) end))) end
+  function cmd.watch(prefix)
+    local _, c = ask(function(c, k) c:watch(prefix or "", function(ev)
+      sup:say("config: %s = %s (written on %s)", tostring(ev.key), config_text.render(ev.value), tostring(ev.origin))
+    end, k) end)
+    return sformat("watching %s on host %s", what(prefix), tostring(c.host))
+  end
+  function cmd.unwatch(prefix)
+    ask(function(c, k) c:unwatch(prefix or "", k) end)
+    return "stopped watching " .. what(prefix)
+  end
+  return cmd
+end
+
+-- The console's environment: the commands above, print, sup, and the globals.
+function Repl:_env()
+  local repl, sup = self, self.sup
+  local c = { sup = sup }
+  function c.path_of(p)
+    if p == nil then return sup.path end
+    local r, err = M.resolve(sup.spec, p)
+    if not r then error(err, 0) end
     return r
   end
-  env.config = {
-    get = function(key)
-      local c = repo()
-      return ask(function(k) c:get(key, k) end)
-    end,
-    set = function(key, value)
-      local values = type(key) == "table" and key or { [key] = value }
-      local c = repo()
-      local r = ask(function(k) c:set(values, k) end)
-      return sformat("set %d key%s: transaction %d of %s", r.keys, r.keys == 1 and "" or "s", r.seq, r.origin)
-    end,
-    list = function(prefix)
-      local c = repo()
-      local entries = ask(function(k) c:list(prefix, k) end)
-      local lines = {}
-      for _, e in ipairs(entries) do lines[#lines + 1] = e.key .. " = " .. config_text.render(e.value) end
-      return #lines > 0 and concat(lines, "\n") or "(no keys)"
-    end,
-    log = function(n)
-      local c = repo()
-      return config_text.format_log(ask(function(k) c:log(n or 20, k) end))
-    end,
-    watch = function(prefix)
-      local c = repo()
-      ask(function(k) c:watch(prefix or "", function(ev)
-        sup:say("config: %s = %s (written on %s)", tostring(ev.key), config_text.render(ev.value), tostring(ev.origin))
-      end, k) end)
-      return sformat("watching %s on host %s", prefix and prefix ~= "" and prefix or "every key", tostring(c.host))
-    end,
-    unwatch = function(prefix)
-      local c = repo()
-      ask(function(k) c:unwatch(prefix or "", k) end)
-      return "stopped watching " .. (prefix and prefix ~= "" and prefix or "every key")
-    end,
-  }
-  env.sup = sup
+  function c.get_tree() return await(function(k) sup:tree(k) end) end
+  function c.say(...) repl:_print(...) end
+  local env = { print = c.say, sup = sup, config = config_commands(sup) }
+  view_commands(env, c)
+  action_commands(env, c, repl.opts.reload)
   return setmetatable(env, { __index = _G })
 end
 
@@ -312,4 +321,10 @@ end
 
 M.HELP = HELP
 M.supervisor = supervisor
+--- The console hook of dca.supervisor (opts.console): the console of `sup`, reloading through
+--- sup.reload_hook (set by `dca run`).
+function M.hook(sup)
+  return M.new(sup, { reload = sup.reload_hook })
+end
+
 return M

@@ -6,6 +6,9 @@
 -- expression ends (plus progress/log lines when the parent asked for them).
 --
 --   local sup = require("dca.supervisor").new(spec, rt, opts)   -- spec: dca.supervisor.spec
+--     opts: progress, timeouts, hosts, and the hook console(sup) --> the console that answers `repl` and
+--     `complete` requests (dca.supervisor.console.hook; none: those requests are refused). The engine requires
+--     neither dca.core nor the console: its runtime and its hooks come from whoever creates it.
 --   sup:configure(cb)         -- start children inactive, connect, cb(true) | cb(false, reason)  (start+connect)
 --   sup:run(init)             -- runs the expression; the outcome goes to rt.report{type="done"|"aborted"}
 --   sup:abort(cb)             -- aborts the running expression (LIFO), cb() once every stop is acknowledged
@@ -27,7 +30,8 @@
 --   rt.reap(group_spec)       -- optional: kills what a lost child supervisor had started (by path)
 --   rt.world(msg, timeout_s, cb(reply|nil, err, missing)) -- a request to the robot process `world`
 --                             --   (missing = true when no world is registered)
---   rt.types()                -- optional: the controller manifests (default dca.core.types())
+--   rt.types()                -- optional: the controller manifests (default: none; the network runtime's
+--                             --   are dca.core.types())
 --   rt.report(msg)            -- to the parent ({type="done", value=}, {type="aborted", path=, reason=}, log)
 --   rt.log(line)              -- a line for this process's own output
 --   rt.now()                  --> seconds
@@ -76,6 +80,7 @@ function M.new(spec, rt, opts)
     timeouts_override = opts.timeouts,     -- handed down to child supervisors
     hosts = opts.hosts,                    -- host name -> daemon address (handed down too)
     progress = opts.progress or false,     -- send progress/transition lines up (dca run asked for them)
+    console = opts.console,                -- hook: console(sup) --> the console of `repl` requests
     children = {},                         -- name -> child state (below)
     order = {},                            -- names in the order their processes started (LIFO teardown)
     state = "new",                         -- new | starting | configured | running | done | aborted | failed | stopped
@@ -302,15 +307,6 @@ function Sup:_connect(cb)
   end
 end
 
---- The controller types' manifests (dca.core.types(), once per process; {} without a registry).
-function M.types()
-  if not M._types then
-    local ok, core = pcall(require, "dca.core")
-    M._types = ok and type(core) == "table" and core.types and core.types() or {}
-  end
-  return M._types
-end
-
 --- The device ports of the group's own leaves, in declaration order:
 --- { { leaf = path, type = T, port = name, signal = "arm.q", dir = "in" | "out" }, ... }
 function M.device_ports(spec, types)
@@ -350,7 +346,7 @@ end
 -- robot: device ports"): an input's signal world -> leaf, an output leaf -> world, in the set
 -- "<leaf path>:device", activated at once and for good (the algebra never touches these sets).
 function Sup:_wire_devices(cb)
-  local types = self.rt.types and self.rt.types() or M.types()
+  local types = self.rt.types and self.rt.types() or {}
   local ports = M.device_ports(self.spec, types)
   self.device_ports = ports
   if #ports == 0 then cb(true) return end
@@ -803,7 +799,8 @@ function Sup:handle(msg, reply)
   elseif t == "repl" or t == "complete" then
     local repl = self.repl
     if not repl then
-      repl = require("dca.supervisor.console").new(self, { reload = self.reload_hook })
+      if not self.console then reply({ type = "error", reason = self.path .. " has no console" }) return end
+      repl = self.console(self)
       self.repl = repl
     end
     if t == "complete" then reply({ type = "ok", candidates = repl:complete(msg.prefix or "") })

@@ -190,6 +190,7 @@ function Net:after(s, fn) return core.after(s, fn) end
 function Net:every(s, fn) return core.every(s, fn) end
 function Net:report(msg) if self.opts.report then self.opts.report(msg) end end
 function Net:log(line) if self.opts.log then self.opts.log(line) end end
+function Net:types() return core.types and core.types() or {} end
 
 --- The heartbeat period and the silence after which a daemon or a child supervisor is lost (seconds):
 --- opts.heartbeat = { period, timeout }, default 1 and 5 (generous: a loaded machine answers late, a stopped
