@@ -10,23 +10,14 @@
 // `connect {out = "arm.q", to = LEAF, in = "Q", set}` sent to the world, `connect {out = "Cmd", to = "world",
 // in = "base.cmd_vel", set}` sent to the leaf, then `activate`.
 //
-// Clock master requests (besides the node's own):
-//   clock {name}  -> ok {now}   the channel's node subscribes to `advance` (host/node.h); dropped when its
-//                                channel closes or it does not answer an advance in time
-//   go {}         -> ok {now}   time starts (or resumes) flowing
-//   hold {}       -> ok {now}   time stops after the current tick
-//   status {}     -> ok {now, t, running, steps, wall_s, subscribers = [names], dropped = [reasons],
-//                       door_angle, handle_angle, gripper_state, base_pose = [x, y, yaw], latched, grasping,
-//                       rounds, advances, round_p50_us, round_p99_us, round_max_us}: a round is one lock-step
-//                       tick with subscribers due (advances sent -> last reply), in wall time
+// The clock master is host/lockstep.h (requests clock, go, hold, status); the world is what it steps. The
+// world's `status {}` adds its state to the clock's: door_angle, handle_angle, gripper_state,
+// base_pose = [x, y, yaw], latched, grasping.
 //
-// Each tick: the commands that arrived are applied (base and arm commands older than command_timeout count
-// as zero, as a drive's watchdog would; the gripper keeps its last command), the world steps one period to t;
-// then, if any subscriber is due (its next deadline <= t, or t is a multiple of sync_period, when every
-// subscriber is advanced so that one whose timers were just made is woken), the sensors are written to the
-// outputs and flushed, `advance {t}` goes to each due subscriber, and the next tick waits for all replies
-// (each reply's `next` is remembered), after which the commands they wrote are drained. A subscriber that
-// does not answer within tick_timeout is dropped with a message naming it.
+// Each tick (host/lockstep.h): the commands that arrived are applied (base and arm commands older than
+// command_timeout count as zero, as a drive's watchdog would; the gripper keeps its last command) and the world
+// steps one period to t; when subscribers are due, the sensors are written to the outputs and flushed before
+// they are advanced, and the commands they wrote are drained after their replies.
 #include <cstdint>
 #include <functional>
 #include <memory>

@@ -1,0 +1,229 @@
+// The lock-step clock master's core (host/lockstep.h) with fake subscribers: no sockets, no clock, no loop.
+// The test is the process around it: it counts steps and publishes, runs scheduled ticks by hand, and answers
+// each fake subscriber's advances itself.
+#include "host/lockstep.h"
+
+#include <gtest/gtest.h>
+
+#include <deque>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace {
+
+using dca::ClockLink;
+using dca::LockstepCore;
+using dca::Nanos;
+
+constexpr Nanos kMs = 1'000'000;
+
+// A subscriber whose advances wait in a queue until the test answers them.
+class FakeLink final : public ClockLink {
+ public:
+  void advance(Nanos t, AdvanceFn done) override { pending.push_back({t, std::move(done)}); }
+  // Answers the oldest advance: ok with `next`, or `error` (replied or not).
+  void answer(std::optional<Nanos> next) { pop()("", true, next); }
+  void fail(const std::string& error, bool replied) { pop()(error, replied, std::nullopt); }
+  struct Pending {
+    Nanos t;
+    AdvanceFn done;
+  };
+  std::deque<Pending> pending;
+  std::vector<Nanos> seen() const {
+    std::vector<Nanos> ts;
+    for (const auto& p : pending) ts.push_back(p.t);
+    return ts;
+  }
+
+ private:
+  AdvanceFn pop() {
+    auto done = std::move(pending.front().done);
+    pending.pop_front();
+    return done;
+  }
+};
+
+class LockstepTest : public ::testing::Test {
+ protected:
+  // A 1 ms owner, sync every 10 ms; `duration` in seconds (-1: none).
+  void make(double duration = -1, bool realtime = false) {
+    dca::LockstepOptions o;
+    o.period = kMs;
+    o.sync_period = 0.01;
+    o.duration = duration;
+    o.realtime = realtime;
+    dca::LockstepHooks h;
+    h.step = [this] { ++steps; };
+    h.publish = [this] { ++publishes; };
+    h.settle = [this] { ++settles; };
+    h.schedule = [this](std::optional<Nanos> due) {
+      ++scheduled;
+      wall_due = due;
+    };
+    h.wall_now = [this] { return wall; };
+    core = std::make_unique<LockstepCore>(o, h);
+    core->on_duration = [this] { ++durations; };
+  }
+  // Runs the scheduled ticks while one is asked for and no round is open, at most `max` of them.
+  int run_ticks(int max) {
+    int n = 0;
+    while (scheduled > 0 && n < max) {
+      --scheduled;
+      core->tick();
+      ++n;
+    }
+    return n;
+  }
+  std::shared_ptr<FakeLink> subscribe(const std::string& name, const void* origin) {
+    auto link = std::make_shared<FakeLink>();
+    core->subscribe(origin, name, link);
+    return link;
+  }
+
+  std::unique_ptr<LockstepCore> core;
+  int steps = 0, publishes = 0, settles = 0, scheduled = 0, durations = 0;
+  std::optional<Nanos> wall_due;
+  Nanos wall = 5'000 * kMs;
+  int origin_a = 0, origin_b = 0;
+};
+
+TEST_F(LockstepTest, TimeStandsStillUntilGo) {
+  make();
+  EXPECT_EQ(scheduled, 0);
+  EXPECT_EQ(core->now(), 0);
+  EXPECT_TRUE(core->go());
+  EXPECT_FALSE(core->go());  // already running: no second schedule
+  EXPECT_EQ(scheduled, 1);
+  EXPECT_FALSE(wall_due.has_value());  // not paced: at once
+}
+
+TEST_F(LockstepTest, WithoutSubscribersTheOwnerStepsAndPublishesAtSyncTicks) {
+  make();
+  core->go();
+  EXPECT_EQ(run_ticks(25), 25);
+  EXPECT_EQ(steps, 25);
+  EXPECT_EQ(core->now(), 25 * kMs);
+  EXPECT_EQ(publishes, 2);  // at 10 and 20 ms
+}
+
+TEST_F(LockstepTest, EverySubscriberIsAdvancedAtASyncTickAndTheNextWaitsForAllAnswers) {
+  make();
+  auto a = subscribe("/a", &origin_a);
+  auto b = subscribe("/b", &origin_b);
+  core->go();
+  EXPECT_EQ(run_ticks(100), 10);  // ticks 1..10 ms; the 10 ms one opens a round
+  EXPECT_EQ(a->seen(), std::vector<Nanos>{10 * kMs});
+  EXPECT_EQ(b->seen(), std::vector<Nanos>{10 * kMs});
+  EXPECT_EQ(scheduled, 0);
+  a->answer(std::nullopt);
+  EXPECT_EQ(scheduled, 0);  // b has not answered
+  b->answer(std::nullopt);
+  EXPECT_EQ(scheduled, 1);
+  const auto st = core->status();
+  EXPECT_EQ(st["rounds"].as_int(0), 1);
+  EXPECT_EQ(st["advances"].as_int(0), 2);
+  EXPECT_EQ(st["subscribers"].as_array().size(), 2u);
+}
+
+TEST_F(LockstepTest, ASubscriberIsAdvancedAtItsNextDeadline) {
+  make();
+  auto a = subscribe("/a", &origin_a);
+  core->go();
+  run_ticks(100);
+  a->answer(13 * kMs);  // its next timer is at 13 ms
+  EXPECT_EQ(run_ticks(100), 3);
+  EXPECT_EQ(a->seen(), std::vector<Nanos>{13 * kMs});
+  EXPECT_EQ(publishes, 2);  // published before each advance
+  a->answer(std::nullopt);
+  EXPECT_EQ(run_ticks(100), 7);  // nothing due until the next sync tick at 20 ms
+  EXPECT_EQ(a->seen(), std::vector<Nanos>{20 * kMs});
+}
+
+TEST_F(LockstepTest, AStalledSubscriberIsDroppedByNameAndTheOthersGoOn) {
+  make();
+  auto a = subscribe("/a", &origin_a);
+  auto stalled = subscribe("/stalled", &origin_b);
+  core->go();
+  run_ticks(100);
+  a->answer(std::nullopt);
+  stalled->fail("timed out after 300 ms", false);
+  const auto st = core->status();
+  ASSERT_EQ(st["dropped"].as_array().size(), 1u);
+  EXPECT_EQ(st["dropped"].as_array()[0].as_string(), "/stalled: did not answer the advance to 0.010000 s (timed out after 300 ms)");
+  EXPECT_EQ(st["subscribers"].as_array().size(), 1u);
+  EXPECT_EQ(run_ticks(100), 10);
+  EXPECT_EQ(a->seen(), std::vector<Nanos>{20 * kMs});
+  EXPECT_TRUE(stalled->pending.empty());
+}
+
+TEST_F(LockstepTest, ARefusedAdvanceDropsTheSubscriberWithTheReason) {
+  make();
+  auto a = subscribe("/a", &origin_a);
+  core->go();
+  run_ticks(100);
+  a->fail("not on simulated time", true);
+  const auto st = core->status();
+  const auto& dropped = st["dropped"].as_array();
+  ASSERT_EQ(dropped.size(), 1u);
+  EXPECT_EQ(dropped[0].as_string(), "/a: advance to 0.010000 s refused: not on simulated time");
+}
+
+TEST_F(LockstepTest, ASecondClockFromTheSameOriginReplacesTheFirst) {
+  make();
+  subscribe("/old", &origin_a);
+  subscribe("/other", &origin_b);
+  subscribe("/new", &origin_a);
+  const auto st = core->status();
+  const auto& names = st["subscribers"].as_array();
+  ASSERT_EQ(names.size(), 2u);
+  EXPECT_EQ(names[0].as_string(), "/other");
+  EXPECT_EQ(names[1].as_string(), "/new");
+}
+
+TEST_F(LockstepTest, HoldStopsTimeAfterTheCurrentTick) {
+  make();
+  core->go();
+  run_ticks(3);
+  core->hold();
+  EXPECT_EQ(run_ticks(100), 1);  // the tick already asked for finds time held
+  EXPECT_EQ(core->now(), 3 * kMs);
+  EXPECT_FALSE(core->status()["running"].as_bool());
+  EXPECT_TRUE(core->go());
+  EXPECT_EQ(run_ticks(2), 2);
+  EXPECT_EQ(core->now(), 5 * kMs);
+}
+
+TEST_F(LockstepTest, TimeHoldsAtTheDurationAndSaysSoOnce) {
+  make(0.005);
+  core->go();
+  EXPECT_EQ(run_ticks(100), 5);
+  EXPECT_EQ(core->now(), 5 * kMs);
+  EXPECT_EQ(durations, 1);
+  EXPECT_TRUE(core->go());
+  EXPECT_EQ(run_ticks(3), 3);  // resumed past the duration: no second call
+  EXPECT_EQ(durations, 1);
+}
+
+TEST_F(LockstepTest, PacedToTheWallClockEachTickIsDueOnePeriodLater) {
+  make(-1, true);
+  core->go();
+  ASSERT_TRUE(wall_due.has_value());
+  EXPECT_EQ(*wall_due, wall + kMs);  // time 0 is the wall time of `go`
+  run_ticks(1);
+  EXPECT_EQ(*wall_due, wall + 2 * kMs);
+}
+
+TEST_F(LockstepTest, RoundsAreTimedOnTheWallClock) {
+  make();
+  auto a = subscribe("/a", &origin_a);
+  core->go();
+  run_ticks(100);
+  wall += 250'000;  // the answer takes 250 µs
+  a->answer(std::nullopt);
+  const auto st = core->status();
+  EXPECT_EQ(st["rounds"].as_int(0), 1);
+  EXPECT_NEAR(st["round_max_us"].as_float(), 250.0, 1.0);
+}
+
+}  // namespace
