@@ -28,7 +28,7 @@
 
 #include <msgpack.hpp>
 
-#include "host/comms.h"
+#include "host/port.h"
 #include "host/component.h"
 #include "host/timers.h"
 

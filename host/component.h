@@ -6,7 +6,7 @@
 #include <functional>
 #include <string>
 
-#include "host/comms.h"
+#include "host/port.h"
 
 namespace dca {
 

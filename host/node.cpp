@@ -16,7 +16,7 @@
 
 #include "host/auth.h"
 #include "host/channel.h"
-#include "host/comms.h"
+#include "host/endpoint.h"
 
 namespace dca {
 
@@ -24,32 +24,6 @@ using wire::Message;
 using wire::Value;
 
 namespace {
-
-Value from_object(const msgpack::object& o, int depth = 0) {
-  if (depth > wire::kMaxDepth) return {};
-  switch (o.type) {
-    case msgpack::type::NIL: return {};
-    case msgpack::type::BOOLEAN: return Value(o.via.boolean);
-    case msgpack::type::POSITIVE_INTEGER: return Value(o.via.u64);
-    case msgpack::type::NEGATIVE_INTEGER: return Value(o.via.i64);
-    case msgpack::type::FLOAT32:
-    case msgpack::type::FLOAT64: return Value(o.via.f64);
-    case msgpack::type::STR: return Value(std::string(o.via.str.ptr, o.via.str.size));
-    case msgpack::type::BIN: return Value(std::string(o.via.bin.ptr, o.via.bin.size));
-    case msgpack::type::ARRAY: {
-      Value::Array a;
-      for (std::uint32_t i = 0; i < o.via.array.size; ++i) a.push_back(from_object(o.via.array.ptr[i], depth + 1));
-      return Value(std::move(a));
-    }
-    case msgpack::type::MAP: {
-      Value::Map m;
-      for (std::uint32_t i = 0; i < o.via.map.size; ++i)
-        m.emplace_back(from_object(o.via.map.ptr[i].key, depth + 1), from_object(o.via.map.ptr[i].val, depth + 1));
-      return Value(std::move(m));
-    }
-    default: return {};
-  }
-}
 
 std::string runtime_dir() {
   if (const char* x = std::getenv("XDG_RUNTIME_DIR"); x && *x && ::access(x, W_OK) == 0) return x;
@@ -78,13 +52,9 @@ Value latest_value(const Port& p) {
 }  // namespace
 
 Value value_from_msgpack(Bytes b) {
-  if (b.empty()) return {};
-  try {
-    auto oh = msgpack::unpack(reinterpret_cast<const char*>(b.data()), b.size());
-    return from_object(oh.get());
-  } catch (const std::exception&) {
-    return {};
-  }
+  Value v;
+  if (!wire::decode_value({reinterpret_cast<const char*>(b.data()), b.size()}, v)) return {};
+  return v;
 }
 
 std::string msgpack_from_value(const Value& v) {

@@ -27,7 +27,7 @@
 #include <boost/asio.hpp>
 
 #include "controllers/registry.h"
-#include "host/comms.h"
+#include "host/endpoint.h"
 #include "host/timers.h"
 #include "tests/bench/bench_util.h"
 

@@ -10,6 +10,7 @@
 #include <boost/asio/io_context.hpp>
 
 #include "controllers/registry.h"
+#include "host/endpoint.h"
 
 namespace {
 

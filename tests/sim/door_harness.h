@@ -32,7 +32,7 @@
 
 #include "controllers/controller.h"
 #include "controllers/registry.h"
-#include "host/comms.h"
+#include "host/endpoint.h"
 #include "host/timers.h"
 #include "sim/world.h"
 

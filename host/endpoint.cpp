@@ -4,7 +4,7 @@
 #pragma GCC diagnostic ignored "-Wnull-dereference"
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 
-#include "host/comms.h"
+#include "host/endpoint.h"
 
 #include <netinet/in.h>
 #include <netinet/tcp.h>
@@ -25,267 +25,27 @@
 #include <boost/asio/steady_timer.hpp>
 #include <boost/asio/write.hpp>
 
-#include "host/comms_internal.h"
+#include "host/data_frame.h"
 
 namespace asio = boost::asio;
 
 namespace dca {
+namespace endpoint_detail {
 
-// ---------------------------------------------------------------------------------------------- names ---
-
-std::string_view to_string(PortType t) {
-  switch (t) {
-    case PortType::Scalar: return "scalar";
-    case PortType::Vector: return "vector";
-    case PortType::VectorX: return "vectorx";
-    case PortType::Value: return "value";
-  }
-  return "?";
-}
-
-std::optional<PortType> port_type_from(std::string_view s) {
-  for (auto t : {PortType::Scalar, PortType::Vector, PortType::VectorX, PortType::Value})
-    if (to_string(t) == s) return t;
-  return std::nullopt;
-}
-
-std::string_view to_string(Mode m) { return m == Mode::Push ? "push" : "pull"; }
-
-std::optional<Mode> mode_from(std::string_view s) {
-  if (s == "push") return Mode::Push;
-  if (s == "pull") return Mode::Pull;
-  return std::nullopt;
-}
-
-std::string_view to_string(Transport t) {
-  switch (t) {
-    case Transport::InProcess: return "inprocess";
-    case Transport::Unix: return "unix";
-    case Transport::Tcp: return "tcp";
-  }
-  return "?";
-}
-
-PortSpec scalar_port(std::string name, std::string units) {
-  return {std::move(name), PortType::Scalar, 1, std::move(units), {}};
-}
-PortSpec vector_port(std::string name, std::uint32_t size, std::string units) {
-  return {std::move(name), PortType::Vector, size, std::move(units), {}};
-}
-PortSpec vectorx_port(std::string name, std::string units) {
-  return {std::move(name), PortType::VectorX, 0, std::move(units), {}};
-}
-PortSpec value_port(std::string name, std::string units) {
-  return {std::move(name), PortType::Value, 0, std::move(units), {}};
-}
-
-namespace {
-std::string describe(const PortSpec& s) {
-  std::string d(to_string(s.type));
-  if (s.type == PortType::Vector) d += "[" + std::to_string(s.size) + "]";
-  return d;
-}
-}  // namespace
-
-std::string compatibility_error(const PortSpec& out, const PortSpec& in) {
-  const bool ok = out.type == in.type && (out.type != PortType::Vector || out.size == in.size);
-  if (ok) return "";
-  return "output '" + out.name + "' is " + describe(out) + " but input '" + in.name + "' is " + describe(in);
-}
-
-Transport choose_transport(std::string_view my_host, bool dest_local, const Location& dest) {
-  if (dest_local) return Transport::InProcess;
-  if (dest.host == my_host && !dest.data_uds.empty()) return Transport::Unix;
-  return Transport::Tcp;
-}
-
-// ---------------------------------------------------------------------------------------------- ports ---
-
-Port::Port(PortSpec spec) : spec_(std::move(spec)) {
-  if (spec_.type == PortType::Scalar) spec_.size = 1;
-  if (spec_.type == PortType::VectorX || spec_.type == PortType::Value) spec_.size = 0;
-  latest_.resize(std::max<std::size_t>(spec_.size, 1) * sizeof(double));
-}
-
-void Port::set_latest(Bytes b) {
-  if (latest_.size() < b.size()) latest_.resize(b.size());
-  if (!b.empty()) std::memcpy(latest_.data(), b.data(), b.size());
-  latest_size_ = b.size();
-  has_latest_ = true;
-}
-
-bool Port::accepts(Bytes b) {
-  bool ok = false;
-  switch (spec_.type) {
-    case PortType::Scalar: ok = b.size() == sizeof(double); break;
-    case PortType::Vector: ok = b.size() == spec_.size * sizeof(double); break;
-    case PortType::VectorX: ok = b.size() % sizeof(double) == 0; break;
-    case PortType::Value: ok = !b.empty(); break;
-  }
-  if (!ok) ++stats_.rejected;
-  return ok;
-}
-
-namespace {
-void pack_sample(msgpack::packer<msgpack::sbuffer>& pk, PortType type, Bytes b, bool present) {
-  if (!present) {
-    pk.pack_nil();
-    return;
-  }
-  if (type == PortType::Value) {
-    try {
-      auto oh = msgpack::unpack(reinterpret_cast<const char*>(b.data()), b.size());
-      pk.pack(oh.get());
-    } catch (const std::exception&) {
-      pk.pack_nil();
-    }
-    return;
-  }
-  const std::size_t n = b.size() / sizeof(double);
-  auto at = [&](std::size_t i) {
-    double d;
-    std::memcpy(&d, b.data() + i * sizeof(double), sizeof d);
-    return d;
-  };
-  if (type == PortType::Scalar) {
-    pk.pack_double(n ? at(0) : 0.0);
-    return;
-  }
-  pk.pack_array(static_cast<std::uint32_t>(n));
-  for (std::size_t i = 0; i < n; ++i) pk.pack_double(at(i));
-}
-}  // namespace
-
-void Port::pack_latest(msgpack::packer<msgpack::sbuffer>& pk) const {
-  pack_sample(pk, spec_.type, latest_bytes(), has_latest_);
-}
-
-Input::Input(PortSpec spec, std::size_t queue) : Port(std::move(spec)) {
-  current_.resize(latest_.size());
-  reserve_queue(std::max<std::size_t>(queue, 1));
-}
-
-Input::~Input() {
-  for (auto* f : std::vector<InputFeeder*>(feeders_)) f->input_gone();
-}
-
-void Input::add_feeder(InputFeeder* f) { feeders_.push_back(f); }
-void Input::remove_feeder(InputFeeder* f) { std::erase(feeders_, f); }
-
-void Input::reserve_queue(std::size_t n) {
-  if (n <= slots_.size()) return;
-  // Re-linearise the ring into the new, larger one.
-  std::vector<std::vector<std::byte>> slots(n, std::vector<std::byte>(latest_.size()));
-  std::vector<std::size_t> sizes(n, 0);
-  for (std::size_t i = 0; i < count_; ++i) {
-    const std::size_t j = (head_ + i) % slots_.size();
-    slots[i] = std::move(slots_[j]);
-    sizes[i] = sizes_[j];
-  }
-  slots_ = std::move(slots);
-  sizes_ = std::move(sizes);
-  head_ = 0;
-}
-
-void Input::deliver(Bytes b) {
-  if (!accepts(b)) return;
-  ++stats_.samples;
-  set_latest(b);
-  const std::size_t cap = slots_.size();
-  if (count_ == cap) {  // drop-oldest
-    head_ = (head_ + 1) % cap;
-    --count_;
-    ++stats_.dropped;
-    if (!warned_drop_) {
-      warned_drop_ = true;
-      if (on_overflow) on_overflow();
-    }
-  }
-  const std::size_t tail = (head_ + count_) % cap;
-  auto& slot = slots_[tail];
-  if (slot.size() < b.size()) slot.resize(b.size());
-  if (!b.empty()) std::memcpy(slot.data(), b.data(), b.size());
-  sizes_[tail] = b.size();
-  ++count_;
-  if (on_sample) on_sample();
-}
-
-void Input::deliver_pulled(Bytes b) {
-  if (!accepts(b)) return;
-  ++stats_.samples;
-  set_latest(b);
-  if (current_.size() < b.size()) current_.resize(b.size());
-  if (!b.empty()) std::memcpy(current_.data(), b.data(), b.size());
-  current_size_ = b.size();
-  has_current_ = true;
-  if (on_sample) on_sample();
-}
-
-void Input::make_current(const std::vector<std::byte>& b, std::size_t n) {
-  if (current_.size() < n) current_.resize(n);
-  if (n) std::memcpy(current_.data(), b.data(), n);
-  current_size_ = n;
-  has_current_ = true;
-}
-
-bool Input::pop() {
-  if (count_ == 0) return false;
-  make_current(slots_[head_], sizes_[head_]);
-  head_ = (head_ + 1) % slots_.size();
-  --count_;
-  return true;
-}
-
-bool Input::take_latest() {
-  if (count_ == 0) return false;
-  const std::size_t last = (head_ + count_ - 1) % slots_.size();
-  make_current(slots_[last], sizes_[last]);
-  head_ = 0;
-  count_ = 0;
-  return true;
-}
-
-void Input::request() {
-  for (auto* s : pull_sources_) s->request();
-}
-
-double Input::scalar() const {
-  if (current_size_ < sizeof(double)) return 0.0;
-  double d;
-  std::memcpy(&d, current_.data(), sizeof d);
-  return d;
-}
-
-Eigen::Map<const Eigen::VectorXd> Input::vector() const {
-  return {reinterpret_cast<const double*>(current_.data()),
-          static_cast<Eigen::Index>(current_size_ / sizeof(double))};
-}
-
-msgpack::object_handle Input::value() const {
-  if (!has_current_ || current_size_ == 0) return msgpack::object_handle();
-  return msgpack::unpack(reinterpret_cast<const char*>(current_.data()), current_size_);
-}
-
-void Input::add_pull_source(PullSource* s) { pull_sources_.push_back(s); }
-void Input::remove_pull_source(PullSource* s) { std::erase(pull_sources_, s); }
-
-// A connection's sending side: gets every sample written to its output.
-class Link {
+// A connection's sending side, whatever its transport: gets every sample written to its output.
+class Connection : public Link {
  public:
-  Link(ConnectRequest r, Transport t, Output* out, std::shared_ptr<bool> active)
+  Connection(ConnectRequest r, Transport t, Output* out, std::shared_ptr<bool> active)
       : out_(out), active_(std::move(active)) {
     info_.request = std::move(r);
     info_.transport = t;
   }
-  virtual ~Link() = default;
-  Link(const Link&) = delete;
-  Link& operator=(const Link&) = delete;
-  /// A sample was written to the output.
-  virtual void on_write(Bytes b) = 0;
+  Connection(const Connection&) = delete;
+  Connection& operator=(const Connection&) = delete;
   /// The set became active.
   virtual void on_activate() {}
   /// Detaches from both ends and closes any socket.
-  virtual void close() {
+  void close() override {
     if (out_) out_->detach(this);
     out_ = nullptr;
   }
@@ -302,189 +62,14 @@ class Link {
   LinkInfo info_;
 };
 
-Output::Output(PortSpec spec) : Port(std::move(spec)) {}
-
-Output::~Output() {
-  for (auto* l : std::vector<Link*>(links_)) l->close();
-}
-
-bool Output::write(double v) {
-  if (spec_.type != PortType::Scalar) {
-    ++stats_.rejected;
-    return false;
-  }
-  return write_bytes({reinterpret_cast<const std::byte*>(&v), sizeof v});
-}
-
-bool Output::write(const Eigen::Ref<const Eigen::VectorXd>& v) {
-  if (spec_.type != PortType::Vector && spec_.type != PortType::VectorX) {
-    ++stats_.rejected;
-    return false;
-  }
-  return write_bytes({reinterpret_cast<const std::byte*>(v.data()), static_cast<std::size_t>(v.size()) * sizeof(double)});
-}
-
-bool Output::write_bytes(Bytes b) {
-  if (!accepts(b)) return false;
-  ++stats_.samples;
-  set_latest(b);
-  for (std::size_t i = 0; i < links_.size(); ++i) links_[i]->on_write(b);
-  return true;
-}
-
-void Output::attach(Link* l) { links_.push_back(l); }
-void Output::detach(Link* l) { std::erase(links_, l); }
-
-Input& PortSet::add_input(PortSpec spec, std::size_t queue) {
-  if (find_input(spec.name)) throw std::invalid_argument("input '" + spec.name + "' declared twice");
-  inputs_.push_back(std::make_unique<Input>(std::move(spec), queue));
-  return *inputs_.back();
-}
-
-Output& PortSet::add_output(PortSpec spec) {
-  if (find_output(spec.name)) throw std::invalid_argument("output '" + spec.name + "' declared twice");
-  outputs_.push_back(std::make_unique<Output>(std::move(spec)));
-  return *outputs_.back();
-}
-
-Input* PortSet::find_input(std::string_view name) const {
-  for (const auto& p : inputs_)
-    if (p->name() == name) return p.get();
-  return nullptr;
-}
-
-Output* PortSet::find_output(std::string_view name) const {
-  for (const auto& p : outputs_)
-    if (p->name() == name) return p.get();
-  return nullptr;
-}
-
-namespace {
-template <class V>
-std::string no_such(std::string_view what, std::string_view component, std::string_view name, const V& ports) {
-  std::string m = "no " + std::string(what) + " '" + std::string(name) + "' on " + std::string(component);
-  if (ports.empty()) return m + "; it has no " + std::string(what) + "s";
-  m += "; " + std::string(what) + "s are: ";
-  for (std::size_t i = 0; i < ports.size(); ++i) m += (i ? ", " : "") + ports[i]->name();
-  return m;
-}
-}  // namespace
-
-std::string PortSet::no_such_input(std::string_view component, std::string_view name) const {
-  return no_such("input", component, name, inputs_);
-}
-std::string PortSet::no_such_output(std::string_view component, std::string_view name) const {
-  return no_such("output", component, name, outputs_);
-}
-
-// ---------------------------------------------------------------------------------------------- frames ---
-
-namespace comms {
-
-void put_header(std::byte* h, Kind kind, std::size_t body_size) {
-  const auto len = static_cast<std::uint32_t>(body_size + 1);
-  h[0] = static_cast<std::byte>(len >> 24);
-  h[1] = static_cast<std::byte>(len >> 16);
-  h[2] = static_cast<std::byte>(len >> 8);
-  h[3] = static_cast<std::byte>(len);
-  h[4] = static_cast<std::byte>(kind);
-}
-
-Parse parse_frame(Bytes buf, Frame& f, std::size_t& used, std::string& error) {
-  used = 0;
-  if (buf.size() < 4) return Parse::NeedMore;
-  const std::uint32_t len = (std::to_integer<std::uint32_t>(buf[0]) << 24) |
-                            (std::to_integer<std::uint32_t>(buf[1]) << 16) |
-                            (std::to_integer<std::uint32_t>(buf[2]) << 8) | std::to_integer<std::uint32_t>(buf[3]);
-  if (len == 0) {
-    error = "empty data frame";
-    return Parse::Error;
-  }
-  if (len > kMaxFrame) {
-    error = "data frame of " + std::to_string(len) + " bytes exceeds the limit of " + std::to_string(kMaxFrame);
-    return Parse::Error;
-  }
-  if (buf.size() < 4 + static_cast<std::size_t>(len)) {
-    used = 4 + static_cast<std::size_t>(len);
-    return Parse::NeedMore;
-  }
-  const auto k = std::to_integer<std::uint8_t>(buf[4]);
-  if (k < 1 || k > 6) {
-    error = "unknown data frame kind " + std::to_string(k);
-    return Parse::Error;
-  }
-  f.kind = static_cast<Kind>(k);
-  f.body = buf.subspan(5, len - 1);
-  used = 4 + static_cast<std::size_t>(len);
-  return Parse::Ok;
-}
-
-std::string encode_hello(const Hello& h) {
-  msgpack::sbuffer sb;
-  msgpack::packer<msgpack::sbuffer> pk(sb);
-  const auto& r = h.request;
-  pk.pack_map(9);
-  pk.pack("from"), pk.pack(r.from);
-  pk.pack("out"), pk.pack(r.out);
-  pk.pack("to"), pk.pack(r.to);
-  pk.pack("in"), pk.pack(r.in);
-  pk.pack("set"), pk.pack(r.set);
-  pk.pack("mode"), pk.pack(std::string(to_string(r.mode)));
-  pk.pack("queue"), pk.pack(r.queue);
-  pk.pack("type"), pk.pack(std::string(to_string(h.out.type)));
-  pk.pack("size"), pk.pack(h.out.size);
-  return {sb.data(), sb.size()};
-}
-
-bool decode_hello(Bytes body, Hello& h, std::string& error) {
-  try {
-    auto oh = msgpack::unpack(reinterpret_cast<const char*>(body.data()), body.size());
-    const auto& o = oh.get();
-    if (o.type != msgpack::type::MAP) {
-      error = "hello is not a map";
-      return false;
-    }
-    std::string mode = "push", type;
-    bool have_type = false;
-    for (std::uint32_t i = 0; i < o.via.map.size; ++i) {
-      const auto& kv = o.via.map.ptr[i];
-      if (kv.key.type != msgpack::type::STR) continue;
-      const std::string k = kv.key.as<std::string>();
-      if (k == "from") h.request.from = kv.val.as<std::string>();
-      else if (k == "out") h.request.out = kv.val.as<std::string>();
-      else if (k == "to") h.request.to = kv.val.as<std::string>();
-      else if (k == "in") h.request.in = kv.val.as<std::string>();
-      else if (k == "set") h.request.set = kv.val.as<std::string>();
-      else if (k == "mode") mode = kv.val.as<std::string>();
-      else if (k == "queue") h.request.queue = kv.val.as<std::uint32_t>();
-      else if (k == "type") type = kv.val.as<std::string>(), have_type = true;
-      else if (k == "size") h.out.size = kv.val.as<std::uint32_t>();
-    }
-    const auto m = mode_from(mode);
-    const auto t = port_type_from(type);
-    if (!m) error = "hello: unknown mode '" + mode + "'";
-    else if (!have_type || !t) error = "hello: unknown port type '" + type + "'";
-    else if (h.request.to.empty() || h.request.in.empty()) error = "hello: no destination named";
-    if (!error.empty()) return false;
-    h.request.mode = *m;
-    h.out.type = *t;
-    h.out.name = h.request.out;
-    return true;
-  } catch (const std::exception& e) {
-    error = std::string("malformed hello: ") + e.what();
-    return false;
-  }
-}
-
-}  // namespace comms
-
-// ---------------------------------------------------------------------------------------------- endpoint ---
-
 using Socket = asio::generic::stream_protocol::socket;
-using comms::Kind;
-namespace comms {
+using data_frame::Kind;
 class Session;
-}
+
+}  // namespace endpoint_detail
+
+using endpoint_detail::Connection;
+using endpoint_detail::Socket;
 
 struct Endpoint::Impl {
   Impl(asio::io_context& io_, std::string host_) : io(io_), host(std::move(host_)) {}
@@ -492,8 +77,8 @@ struct Endpoint::Impl {
   std::string host;
   std::map<std::string, PortSet*, std::less<>> components;
   std::map<std::string, std::shared_ptr<bool>, std::less<>> sets;
-  std::vector<std::shared_ptr<Link>> links;
-  std::set<std::shared_ptr<comms::Session>> sessions;
+  std::vector<std::shared_ptr<Connection>> links;
+  std::set<std::shared_ptr<endpoint_detail::Session>> sessions;
   std::unique_ptr<asio::local::stream_protocol::acceptor> uds_acceptor;
   std::unique_ptr<asio::ip::tcp::acceptor> tcp_acceptor;
   std::string uds_path, tcp_address;
@@ -508,7 +93,7 @@ struct Endpoint::Impl {
   void report(CommsEvent e) {
     if (on_event && !closing) on_event(e);
   }
-  void remove_link(Link* l) {
+  void remove_link(Connection* l) {
     for (auto it = links.begin(); it != links.end(); ++it)
       if (it->get() == l) {
         auto keep = *it;  // the link may be running one of its own handlers
@@ -532,7 +117,7 @@ struct Endpoint::Impl {
   std::function<void(const CommsEvent&)> on_event;
 };
 
-namespace comms {
+namespace endpoint_detail {
 
 constexpr std::size_t kMaxBacklog = 8u << 20;  // bytes waiting on a backed-up socket before samples are dropped
 
@@ -547,8 +132,8 @@ class Wire : public std::enable_shared_from_this<Wire> {
   /// Sends a frame; false when the backlog is full (the frame is dropped) or the socket is closed.
   bool send(Kind kind, Bytes body) {
     if (closed_) return false;
-    std::array<std::byte, comms::kHeader> h;
-    comms::put_header(h.data(), kind, body.size());
+    std::array<std::byte, data_frame::kHeader> h;
+    data_frame::put_header(h.data(), kind, body.size());
     const std::size_t total = h.size() + body.size();
     if (!writing_ && pending_.empty()) {
       const std::array<asio::const_buffer, 2> bufs{asio::buffer(h.data(), h.size()), asio::buffer(body.data(), body.size())};
@@ -611,7 +196,7 @@ class Wire : public std::enable_shared_from_this<Wire> {
   Socket sock_;
 
  private:
-  void append_from(const std::array<std::byte, comms::kHeader>& h, Bytes body, std::size_t skip) {
+  void append_from(const std::array<std::byte, data_frame::kHeader>& h, Bytes body, std::size_t skip) {
     if (skip < h.size()) pending_.insert(pending_.end(), h.begin() + static_cast<std::ptrdiff_t>(skip), h.end());
     const std::size_t bskip = skip > h.size() ? skip - h.size() : 0;
     pending_.insert(pending_.end(), body.begin() + static_cast<std::ptrdiff_t>(bskip), body.end());
@@ -641,12 +226,12 @@ class Wire : public std::enable_shared_from_this<Wire> {
     on_bytes(n);
     std::size_t off = 0;
     for (;;) {
-      comms::Frame f;
+      data_frame::Frame f;
       std::size_t used = 0;
       std::string error;
-      const auto r = comms::parse_frame({rbuf_.data() + off, rlen_ - off}, f, used, error);
-      if (r == comms::Parse::Error) return fail("malformed data frame: " + error);
-      if (r == comms::Parse::NeedMore) {
+      const auto r = data_frame::parse_frame({rbuf_.data() + off, rlen_ - off}, f, used, &error);
+      if (r == data_frame::Parse::Error) return fail("malformed data frame: " + error);
+      if (r == data_frame::Parse::NeedMore) {
         if (used > rbuf_.size()) rbuf_.resize(used);
         break;
       }
@@ -671,10 +256,10 @@ class Wire : public std::enable_shared_from_this<Wire> {
 Bytes as_bytes(const std::string& s) { return {reinterpret_cast<const std::byte*>(s.data()), s.size()}; }
 
 // In-process connection: the sample is copied straight into the input.
-class LocalLink final : public Link, public PullSource, public InputFeeder {
+class LocalLink final : public Connection, public PullSource, public InputFeeder {
  public:
   LocalLink(ConnectRequest r, Output* out, Input* in, std::shared_ptr<bool> active)
-      : Link(std::move(r), Transport::InProcess, out, std::move(active)), in_(in) {
+      : Connection(std::move(r), Transport::InProcess, out, std::move(active)), in_(in) {
     in_->add_feeder(this);
     if (info_.request.mode == Mode::Pull) in_->add_pull_source(this);
     else in_->reserve_queue(info_.request.queue);
@@ -707,7 +292,7 @@ class LocalLink final : public Link, public PullSource, public InputFeeder {
       in_->remove_pull_source(this);
     }
     in_ = nullptr;
-    Link::close();
+    Connection::close();
   }
 
  private:
@@ -722,10 +307,10 @@ class LocalLink final : public Link, public PullSource, public InputFeeder {
 };
 
 // The sending side of a socket connection.
-class StreamLink final : public Link, public Wire {
+class StreamLink final : public Connection, public Wire {
  public:
   StreamLink(Endpoint::Impl& ep, ConnectRequest r, Transport t, Output* out, std::shared_ptr<bool> active)
-      : Link(std::move(r), t, out, std::move(active)), Wire(Socket(ep.io)), ep_(&ep), timer_(ep.io) {}
+      : Connection(std::move(r), t, out, std::move(active)), Wire(Socket(ep.io)), ep_(&ep), timer_(ep.io) {}
 
   void start(const Location& dest, Endpoint::ConnectDone done, int timeout_ms) {
     done_ = std::move(done);
@@ -761,8 +346,8 @@ class StreamLink final : public Link, public Wire {
         ::setsockopt(self->sock_.native_handle(), IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
       }
       self->sock_.non_blocking(true, ignored);
-      comms::Hello h{self->info_.request, self->out_ ? self->out_->spec() : PortSpec{}};
-      self->send(Kind::Hello, as_bytes(comms::encode_hello(h)));
+      data_frame::Hello h{self->info_.request, self->out_ ? self->out_->spec() : PortSpec{}};
+      self->send(Kind::Hello, as_bytes(data_frame::encode_hello(h)));
       self->start_read();
     });
   }
@@ -787,7 +372,7 @@ class StreamLink final : public Link, public Wire {
   }
 
   void close() override {
-    Link::close();
+    Connection::close();
     ep_ = nullptr;
     timer_.cancel();
     shut();
@@ -883,7 +468,7 @@ class Session final : public Wire, public PullSource, public InputFeeder {
     if (!in_) {
       std::string error;
       if (kind != Kind::Hello) error = "the first data frame must be a hello";
-      else if (comms::decode_hello(body, hello_, error)) error = ep_->check_destination(hello_.request, hello_.out, in_);
+      else if (data_frame::decode_hello(body, hello_, &error)) error = ep_->check_destination(hello_.request, hello_.out, in_);
       if (!error.empty()) {
         in_ = nullptr;
         send(Kind::HelloError, as_bytes(error));
@@ -914,15 +499,15 @@ class Session final : public Wire, public PullSource, public InputFeeder {
 
  private:
   Endpoint::Impl* ep_;
-  comms::Hello hello_;
+  data_frame::Hello hello_;
   Input* in_ = nullptr;
 };
 
-}  // namespace comms
+}  // namespace endpoint_detail
 
-using comms::LocalLink;
-using comms::Session;
-using comms::StreamLink;
+using endpoint_detail::LocalLink;
+using endpoint_detail::Session;
+using endpoint_detail::StreamLink;
 
 void Endpoint::Impl::start_session(Socket s) {
   auto session = std::make_shared<Session>(*this, std::move(s));
@@ -1011,7 +596,7 @@ void Endpoint::remove_component(const std::string& name) {
   auto it = impl_->components.find(name);
   if (it == impl_->components.end()) return;
   for (const auto& in : it->second->inputs()) in->on_overflow = nullptr;
-  std::vector<std::shared_ptr<Link>> keep;
+  std::vector<std::shared_ptr<Connection>> keep;
   for (auto& l : impl_->links) {
     if (l->request().from == name || (l->info().transport == Transport::InProcess && l->request().to == name)) l->close();
     else keep.push_back(l);
@@ -1055,7 +640,7 @@ void Endpoint::connect(const ConnectRequest& r, const Location& dest, ConnectDon
 }
 
 void Endpoint::disconnect_set(const std::string& set) {
-  std::vector<std::shared_ptr<Link>> keep;
+  std::vector<std::shared_ptr<Connection>> keep;
   for (auto& l : impl_->links) {
     if (l->request().set == set) l->close();
     else keep.push_back(l);

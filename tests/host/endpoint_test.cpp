@@ -1,36 +1,23 @@
-// Data plane: ports, in-process / Unix-socket / TCP connections, push and pull, sets, overflow, broken links.
-#include "host/comms.h"
+// Endpoint: in-process / Unix-socket / TCP connections, push and pull, sets, overflow, broken links.
+#include "host/endpoint.h"
 
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <chrono>
-#include <filesystem>
-#include <functional>
 #include <optional>
+#include <string>
+#include <vector>
 
 #include <boost/asio/io_context.hpp>
 
-#include "host/comms_internal.h"
+#include "tests/support/run_until.h"
 
 namespace {
 
 using namespace std::chrono_literals;
+using dca::test::run_until;
 
-// Runs the io_context until `pred` holds or `timeout` passes (event-driven: no sleeping).
-bool run_until(boost::asio::io_context& io, const std::function<bool()>& pred, std::chrono::milliseconds timeout = 5s) {
-  const auto deadline = std::chrono::steady_clock::now() + timeout;
-  while (!pred()) {
-    if (std::chrono::steady_clock::now() >= deadline) return false;
-    io.restart();
-    io.run_one_for(10ms);
-  }
-  return true;
-}
-
-std::string temp_socket(const std::string& tag) {
-  return (std::filesystem::temp_directory_path() / ("dca-comms-" + std::to_string(::getpid()) + "-" + tag + ".sock")).string();
-}
+std::string temp_socket(const std::string& tag) { return dca::test::temp_socket("comms", tag); }
 
 std::vector<double> drain(dca::Input& in) {
   std::vector<double> v;
@@ -38,7 +25,7 @@ std::vector<double> drain(dca::Input& in) {
   return v;
 }
 
-class CommsTest : public ::testing::Test {
+class EndpointTest : public ::testing::Test {
  protected:
   // Connects and waits for the answer; returns the error ("" on success).
   std::string connect(dca::Endpoint& ep, dca::ConnectRequest r, const dca::Location& dest) {
@@ -54,54 +41,26 @@ class CommsTest : public ::testing::Test {
   boost::asio::io_context io;
 };
 
-TEST_F(CommsTest, NamesTypesAndModes) {
-  EXPECT_EQ(dca::to_string(dca::PortType::VectorX), "vectorx");
-  EXPECT_EQ(dca::port_type_from("vector"), dca::PortType::Vector);
-  EXPECT_FALSE(dca::port_type_from("matrix"));
-  EXPECT_EQ(dca::mode_from("pull"), dca::Mode::Pull);
-  EXPECT_FALSE(dca::mode_from("poll"));
-}
-
-TEST_F(CommsTest, CompatibilityChecksTypeAndSize) {
-  EXPECT_EQ(dca::compatibility_error(dca::vector_port("A", 3), dca::vector_port("B", 3)), "");
-  EXPECT_EQ(dca::compatibility_error(dca::vector_port("A", 3), dca::vector_port("B", 4)),
-            "output 'A' is vector[3] but input 'B' is vector[4]");
-  EXPECT_EQ(dca::compatibility_error(dca::scalar_port("A"), dca::vectorx_port("B")),
-            "output 'A' is scalar but input 'B' is vectorx");
-}
-
-TEST_F(CommsTest, UnknownPortErrorListsTheValidNames) {
-  dca::PortSet ps;
-  ps.add_input(dca::scalar_port("In1"));
-  ps.add_input(dca::vector_port("Force", 6, "N"));
-  EXPECT_EQ(ps.no_such_input("compliant", "In2"), "no input 'In2' on compliant; inputs are: In1, Force");
-  EXPECT_EQ(ps.no_such_output("compliant", "Out"), "no output 'Out' on compliant; it has no outputs");
-  EXPECT_THROW(ps.add_input(dca::scalar_port("In1")), std::invalid_argument);
-}
-
-TEST_F(CommsTest, ChoosesTransportFromWhereTheEndsLive) {
-  const dca::Location there{"b", "/tmp/x.sock", "127.0.0.1:9"};
-  EXPECT_EQ(dca::choose_transport("a", true, there), dca::Transport::InProcess);
-  EXPECT_EQ(dca::choose_transport("b", false, there), dca::Transport::Unix);
-  EXPECT_EQ(dca::choose_transport("a", false, there), dca::Transport::Tcp);
-}
-
-TEST_F(CommsTest, WrongSizeSampleIsRejectedAndCounted) {
-  dca::Output out(dca::vector_port("Out", 3));
-  EXPECT_FALSE(out.write(Eigen::VectorXd::Zero(2)));
-  EXPECT_FALSE(out.write(1.0));
-  EXPECT_TRUE(out.write(Eigen::Vector3d(1, 2, 3)));
-  EXPECT_EQ(out.stats().rejected, 2u);
-  EXPECT_EQ(out.stats().samples, 1u);
-}
-
-TEST_F(CommsTest, InProcessPushDeliversOnlyWhileTheSetIsActive) {
-  dca::Endpoint ep(io, "a");
+// One endpoint holding /src (a scalar output Out) and /dst (a scalar input In).
+class EndpointInProcessTest : public EndpointTest {
+ protected:
+  // Declares the ports (In with room for `queue` samples) and registers both components.
+  void add_pair(std::size_t queue = 1) {
+    output = &src.add_output(dca::scalar_port("Out"));
+    input = &dst.add_input(dca::scalar_port("In"), queue);
+    ep.add_component("/src", src);
+    ep.add_component("/dst", dst);
+  }
+  dca::Endpoint ep{io, "a"};
   dca::PortSet src, dst;
-  auto& out = src.add_output(dca::scalar_port("Out"));
-  auto& in = dst.add_input(dca::scalar_port("In"));
-  ep.add_component("/src", src);
-  ep.add_component("/dst", dst);
+  dca::Output* output = nullptr;
+  dca::Input* input = nullptr;
+};
+
+TEST_F(EndpointInProcessTest, InProcessPushDeliversOnlyWhileTheSetIsActive) {
+  add_pair();
+  auto& out = *output;
+  auto& in = *input;
   EXPECT_EQ(connect(ep, req("/src", "Out", "/dst", "In", "g:s[a]"), {}), "");
   ASSERT_EQ(ep.links().size(), 1u);
   EXPECT_EQ(ep.links()[0].transport, dca::Transport::InProcess);
@@ -118,15 +77,12 @@ TEST_F(CommsTest, InProcessPushDeliversOnlyWhileTheSetIsActive) {
   EXPECT_EQ(drain(in), (std::vector<double>{2, 3, 5}));
 }
 
-TEST_F(CommsTest, PushOverflowDropsTheOldestAndCountsIt) {
-  dca::Endpoint ep(io, "a");
+TEST_F(EndpointInProcessTest, PushOverflowDropsTheOldestAndCountsIt) {
   std::vector<dca::CommsEvent> events;
   ep.on_event([&](const dca::CommsEvent& e) { events.push_back(e); });
-  dca::PortSet src, dst;
-  auto& out = src.add_output(dca::scalar_port("Out"));
-  auto& in = dst.add_input(dca::scalar_port("In"), 1);
-  ep.add_component("/src", src);
-  ep.add_component("/dst", dst);
+  add_pair(1);
+  auto& out = *output;
+  auto& in = *input;
   ASSERT_EQ(connect(ep, req("/src", "Out", "/dst", "In", "s", dca::Mode::Push, 4), {}), "");
   ep.activate("s");
   for (int i = 1; i <= 10; ++i) out.write(static_cast<double>(i));
@@ -138,13 +94,10 @@ TEST_F(CommsTest, PushOverflowDropsTheOldestAndCountsIt) {
   EXPECT_EQ(events[0].component, "/dst");
 }
 
-TEST_F(CommsTest, InProcessPullGivesTheLatestSampleOnRequest) {
-  dca::Endpoint ep(io, "a");
-  dca::PortSet src, dst;
-  auto& out = src.add_output(dca::scalar_port("Out"));
-  auto& in = dst.add_input(dca::scalar_port("In"));
-  ep.add_component("/src", src);
-  ep.add_component("/dst", dst);
+TEST_F(EndpointInProcessTest, InProcessPullGivesTheLatestSampleOnRequest) {
+  add_pair();
+  auto& out = *output;
+  auto& in = *input;
   ASSERT_EQ(connect(ep, req("/src", "Out", "/dst", "In", "s", dca::Mode::Pull), {}), "");
   ep.activate("s");
   out.write(1.0);
@@ -156,7 +109,7 @@ TEST_F(CommsTest, InProcessPullGivesTheLatestSampleOnRequest) {
   EXPECT_EQ(in.scalar(), 3.0);
 }
 
-TEST_F(CommsTest, FanOutAndFanIn) {
+TEST_F(EndpointTest, FanOutAndFanIn) {
   dca::Endpoint ep(io, "a");
   dca::PortSet a, b, c, d;
   auto& outa = a.add_output(dca::scalar_port("Out"));
@@ -177,7 +130,7 @@ TEST_F(CommsTest, FanOutAndFanIn) {
   EXPECT_EQ(drain(ind), (std::vector<double>{1}));
 }
 
-TEST_F(CommsTest, ConnectRefusesUnknownPortsAndMismatchedTypes) {
+TEST_F(EndpointTest, ConnectRefusesUnknownPortsAndMismatchedTypes) {
   dca::Endpoint ep(io, "a");
   dca::PortSet src, dst;
   src.add_output(dca::vector_port("Out", 3));
@@ -195,7 +148,7 @@ TEST_F(CommsTest, ConnectRefusesUnknownPortsAndMismatchedTypes) {
 }
 
 // Two endpoints in one process stand for two nodes; the host names choose the socket.
-class CommsSocketTest : public CommsTest, public ::testing::WithParamInterface<bool> {
+class EndpointSocketTest : public EndpointTest, public ::testing::WithParamInterface<bool> {
  protected:
   void SetUp() override {
     tcp_ = GetParam();
@@ -219,7 +172,7 @@ class CommsSocketTest : public CommsTest, public ::testing::WithParamInterface<b
   std::vector<dca::CommsEvent> src_events, dst_events;
 };
 
-TEST_P(CommsSocketTest, PushSamplesFlowOnlyWhileActiveAndSwitchingNeverReconnects) {
+TEST_P(EndpointSocketTest, PushSamplesFlowOnlyWhileActiveAndSwitchingNeverReconnects) {
   ASSERT_EQ(connect(*src_ep, req("/src", "Out", "/dst", "In", "s"), dst_ep->location()), "");
   ASSERT_EQ(src_ep->links().size(), 1u);
   EXPECT_EQ(src_ep->links()[0].transport, expected());
@@ -247,7 +200,7 @@ TEST_P(CommsSocketTest, PushSamplesFlowOnlyWhileActiveAndSwitchingNeverReconnect
   EXPECT_TRUE(dst_events.empty());
 }
 
-TEST_P(CommsSocketTest, PullAnswersWithTheLatestSample) {
+TEST_P(EndpointSocketTest, PullAnswersWithTheLatestSample) {
   ASSERT_EQ(connect(*src_ep, req("/src", "Out", "/dst", "In", "p", dca::Mode::Pull), dst_ep->location()), "");
   src_ep->activate("p");
   out->write(sample(1));
@@ -259,7 +212,7 @@ TEST_P(CommsSocketTest, PullAnswersWithTheLatestSample) {
   EXPECT_EQ(in->stats().samples, 1u);  // only the answer travelled
 }
 
-TEST_P(CommsSocketTest, PushOverflowIsCountedAtTheDestination) {
+TEST_P(EndpointSocketTest, PushOverflowIsCountedAtTheDestination) {
   ASSERT_EQ(connect(*src_ep, req("/src", "Out", "/dst", "In", "s", dca::Mode::Push, 2), dst_ep->location()), "");
   src_ep->activate("s");
   for (int i = 1; i <= 5; ++i) out->write(sample(i));
@@ -269,7 +222,7 @@ TEST_P(CommsSocketTest, PushOverflowIsCountedAtTheDestination) {
   EXPECT_EQ(dst_events[0].kind, dca::CommsEvent::Kind::Overflow);
 }
 
-TEST_P(CommsSocketTest, RefusalNamesTheValidPorts) {
+TEST_P(EndpointSocketTest, RefusalNamesTheValidPorts) {
   EXPECT_EQ(connect(*src_ep, req("/src", "Out", "/dst", "Inn", "s"), dst_ep->location()),
             "no input 'Inn' on /dst; inputs are: In");
   EXPECT_EQ(connect(*src_ep, req("/src", "Out", "/nobody", "In", "s"), dst_ep->location()),
@@ -277,7 +230,7 @@ TEST_P(CommsSocketTest, RefusalNamesTheValidPorts) {
   EXPECT_TRUE(src_ep->links().empty());
 }
 
-TEST_P(CommsSocketTest, BrokenConnectionIsReportedAsAnEvent) {
+TEST_P(EndpointSocketTest, BrokenConnectionIsReportedAsAnEvent) {
   ASSERT_EQ(connect(*src_ep, req("/src", "Out", "/dst", "In", "s"), dst_ep->location()), "");
   src_ep->activate("s");
   dst_ep.reset();  // the destination process goes away
@@ -290,7 +243,7 @@ TEST_P(CommsSocketTest, BrokenConnectionIsReportedAsAnEvent) {
   out->write(sample(1));  // never blocks, never throws
 }
 
-TEST_P(CommsSocketTest, SourceGoingAwayIsReportedAtTheDestination) {
+TEST_P(EndpointSocketTest, SourceGoingAwayIsReportedAtTheDestination) {
   ASSERT_EQ(connect(*src_ep, req("/src", "Out", "/dst", "In", "s"), dst_ep->location()), "");
   src_ep.reset();
   ASSERT_TRUE(run_until(io, [&] { return !dst_events.empty(); }));
@@ -299,10 +252,10 @@ TEST_P(CommsSocketTest, SourceGoingAwayIsReportedAtTheDestination) {
   EXPECT_EQ(dst_events[0].peer, "/src.Out");
 }
 
-INSTANTIATE_TEST_SUITE_P(Transports, CommsSocketTest, ::testing::Values(false, true),
+INSTANTIATE_TEST_SUITE_P(Transports, EndpointSocketTest, ::testing::Values(false, true),
                          [](const auto& p) { return p.param ? "Tcp" : "Unix"; });
 
-TEST_F(CommsTest, ConnectingToNothingFailsWithAReason) {
+TEST_F(EndpointTest, ConnectingToNothingFailsWithAReason) {
   dca::Endpoint ep(io, "a");
   dca::PortSet src;
   src.add_output(dca::scalar_port("Out"));
@@ -310,45 +263,6 @@ TEST_F(CommsTest, ConnectingToNothingFailsWithAReason) {
   const auto err = connect(ep, req("/src", "Out", "/dst", "In", "s"), {"b", "", "127.0.0.1:1"});
   EXPECT_NE(err.find("cannot connect to /dst.In at 127.0.0.1:1"), std::string::npos) << err;
   EXPECT_TRUE(ep.links().empty());
-}
-
-TEST_F(CommsTest, FrameParserRejectsBadFrames) {
-  using dca::comms::Parse;
-  std::vector<std::byte> buf(dca::comms::kHeader + 3);
-  dca::comms::put_header(buf.data(), dca::comms::Kind::Sample, 3);
-  dca::comms::Frame f;
-  std::size_t used = 0;
-  std::string err;
-  EXPECT_EQ(dca::comms::parse_frame(buf, f, used, err), Parse::Ok);
-  EXPECT_EQ(used, buf.size());
-  EXPECT_EQ(f.body.size(), 3u);
-  for (std::size_t n = 0; n < buf.size(); ++n)  // every truncation asks for more
-    EXPECT_EQ(dca::comms::parse_frame({buf.data(), n}, f, used, err), Parse::NeedMore) << n;
-  buf[4] = std::byte{99};
-  EXPECT_EQ(dca::comms::parse_frame(buf, f, used, err), Parse::Error);
-  EXPECT_EQ(err, "unknown data frame kind 99");
-  std::vector<std::byte> big(8);
-  dca::comms::put_header(big.data(), dca::comms::Kind::Sample, dca::comms::kMaxFrame);
-  EXPECT_EQ(dca::comms::parse_frame(big, f, used, err), Parse::Error);
-  std::vector<std::byte> empty(4, std::byte{0});
-  EXPECT_EQ(dca::comms::parse_frame(empty, f, used, err), Parse::Error);
-}
-
-TEST_F(CommsTest, HelloRoundTripsAndRejectsGarbage) {
-  dca::comms::Hello h{req("/a", "Out", "/b", "In", "g:x[l]", dca::Mode::Pull, 7), dca::vector_port("Out", 8)};
-  const auto body = dca::comms::encode_hello(h);
-  dca::comms::Hello back;
-  std::string err;
-  ASSERT_TRUE(dca::comms::decode_hello({reinterpret_cast<const std::byte*>(body.data()), body.size()}, back, err)) << err;
-  EXPECT_EQ(back.request.to, "/b");
-  EXPECT_EQ(back.request.set, "g:x[l]");
-  EXPECT_EQ(back.request.mode, dca::Mode::Pull);
-  EXPECT_EQ(back.request.queue, 7u);
-  EXPECT_EQ(back.out.type, dca::PortType::Vector);
-  EXPECT_EQ(back.out.size, 8u);
-  const std::string junk = "\x93\x01\x02";
-  EXPECT_FALSE(dca::comms::decode_hello({reinterpret_cast<const std::byte*>(junk.data()), junk.size()}, back, err));
-  EXPECT_FALSE(err.empty());
 }
 
 }  // namespace

@@ -1,33 +1,22 @@
 #pragma once
-// The data plane: named, typed ports and the connections between them (ARCHITECTURE.md, "Two planes").
+// Ports (pure: no I/O, no socket, no clock): named, typed inputs and outputs, what a connection between them
+// asks for, and how it would travel (ARCHITECTURE.md, "Two planes"; host/endpoint moves the samples).
 //
 // A port carries samples of one type: a scalar (double), a fixed-size vector of doubles (Eigen), a
 // dynamic-size vector of doubles (Eigen), or a msgpack value. An output feeds any number of inputs and an
-// input is fed by any number of outputs. A connection goes output -> input:
-//   - in the same process: a direct hand-off (the sample is copied into the input's queue, no socket);
-//   - on the same host: over a Unix stream socket;
-//   - across hosts: over TCP with TCP_NODELAY.
-// Endpoint::connect picks the transport from where the two ends live (choose_transport).
+// input is fed by any number of outputs, through the Links that host/endpoint attaches.
 //
-// Push connections deliver every sample into the input's bounded queue. Overflow policy: DROP-OLDEST — when
+// Push connections deliver every sample into the input's bounded queue. Overflow policy: DROP-OLDEST: when
 // the queue is full the oldest queued sample is discarded, counted in Input::dropped() and reported in the
-// port statistics (and once in the log of the process). Pull connections deliver nothing on their own: the
+// port statistics (and once through Input::on_overflow). Pull connections deliver nothing on their own: the
 // reader asks (Input::request()) and the source answers with its latest sample.
 //
-// Every connection belongs to a connection set (a name chosen by the supervisor) and is created inactive.
-// Activating or deactivating a set flips one flag: no socket is opened or closed. An inactive connection sends
-// nothing (its samples are skipped and counted). A broken connection (peer closed, reset) is reported to the
-// endpoint's event callback on both sides; it never blocks a writer.
-//
-// Threading: everything here runs on the process's one io_context thread; nothing takes a lock. The hot-path
-// calls (Output::write*, Input::pop/scalar/vector) do not allocate for scalar and fixed-size ports once the
+// Threading: one thread (the process's io_context thread); nothing takes a lock. The hot-path calls
+// (Output::write*, Input::pop/scalar/vector) do not allocate for scalar and fixed-size ports once the
 // connection is made (dynamic vectors allocate only when a sample is bigger than any before; values allocate).
-//
-// Data frames on sockets: a 4-byte big-endian length, a 1-byte kind, then the body (comms_internal.h).
 #include <cstddef>
 #include <cstdint>
 #include <functional>
-#include <map>
 #include <memory>
 #include <optional>
 #include <span>
@@ -36,7 +25,6 @@
 #include <vector>
 
 #include <Eigen/Core>
-#include <boost/asio/io_context.hpp>
 #include <msgpack.hpp>
 
 namespace dca {
@@ -103,7 +91,6 @@ using Bytes = std::span<const std::byte>;
 
 class Input;
 class Output;
-class Endpoint;
 
 /// Common to inputs and outputs: the spec, the latest sample and counters.
 class Port {
@@ -216,8 +203,15 @@ class Input final : public Port {
   bool warned_drop_ = false;
 };
 
-/// A connection's sending side, attached to an output (internal: see comms.cpp).
-class Link;
+/// A connection's sending side, attached to an output (host/endpoint implements it for each transport).
+class Link {
+ public:
+  virtual ~Link() = default;
+  /// A sample was written to the output. Real-time safe for the in-process transport.
+  virtual void on_write(Bytes b) = 0;
+  /// Detaches from both ends and closes any socket (also called when the output is destroyed).
+  virtual void close() = 0;
+};
 
 /// An output port: write() stores the latest sample and hands it to every active push connection.
 class Output final : public Port {
@@ -275,6 +269,8 @@ class PortSet {
   std::vector<std::unique_ptr<Output>> outputs_;
 };
 
+// ------------------------------------------------------------------------------------------ connections ---
+
 /// Where a destination component lives (from the NameServer's endpoints record).
 struct Location {
   std::string host;      ///< logical host name
@@ -294,89 +290,6 @@ struct ConnectRequest {
   std::string set;   ///< connection set
   Mode mode = Mode::Push;
   std::uint32_t queue = 16;  ///< the input's queue capacity for push connections (grown, never shrunk)
-};
-
-/// An event of the data plane, reported to Endpoint::on_event.
-struct CommsEvent {
-  enum class Kind : std::uint8_t { Broken, Overflow };
-  Kind kind = Kind::Broken;
-  std::string component;  ///< the local component concerned
-  std::string port;       ///< its port
-  std::string peer;       ///< the other end ("PATH.port" or an address)
-  std::string set;        ///< the connection's set ("" when unknown)
-  std::string reason;     ///< what happened
-};
-
-/// Statistics of one connection.
-struct LinkInfo {
-  ConnectRequest request;
-  Transport transport = Transport::InProcess;
-  bool active = false;
-  bool broken = false;
-  std::uint64_t sent = 0;     ///< samples handed to the transport
-  std::uint64_t skipped = 0;  ///< samples not sent while the set was inactive
-  std::uint64_t tx_dropped = 0;  ///< samples dropped because the socket was backed up beyond its limit
-  std::uint64_t bytes = 0;    ///< bytes written to the socket (0 in-process)
-};
-
-/// One per process: the components' ports, the data listeners (Unix socket and TCP), the connections and
-/// the connection sets. Runs on one io_context; not thread-safe (nothing in the data plane takes a lock).
-class Endpoint {
- public:
-  /// `host` is this process's logical host name (chooses Unix socket vs TCP).
-  Endpoint(boost::asio::io_context& io, std::string host);
-  ~Endpoint();
-  Endpoint(const Endpoint&) = delete;
-  Endpoint& operator=(const Endpoint&) = delete;
-
-  /// Listens for data connections on a Unix socket at `path` (removed first if stale) and on TCP at
-  /// `tcp_address` ("127.0.0.1:0" picks a free port). Throws std::runtime_error on failure.
-  void listen(const std::string& uds_path, const std::string& tcp_address = "127.0.0.1:0");
-  /// This endpoint's address, for the NameServer.
-  Location location() const;
-  /// The logical host name.
-  const std::string& host() const { return host_; }
-
-  /// Makes a component's ports reachable under `name` (PATH). Call remove_component before destroying the
-  /// PortSet (connections also survive a port destroyed first: they stop delivering).
-  void add_component(const std::string& name, PortSet& ports);
-  /// Removes a component: its connections (both directions) are closed.
-  void remove_component(const std::string& name);
-  /// The component registered as `name`, or nullptr.
-  PortSet* component(std::string_view name) const;
-
-  /// Result of connect: "" on success, else the reason (names the valid ports when one is unknown).
-  using ConnectDone = std::function<void(const std::string& error)>;
-  /// Connects `r.from`.`r.out` (local) to `r.to`.`r.in`, local or at `dest`. Created inactive (or active at
-  /// once if its set already is). `done` runs exactly once: on success, on refusal by the destination, or
-  /// after `timeout_ms` without an answer. In-process connections complete before connect returns.
-  void connect(const ConnectRequest& r, const Location& dest, ConnectDone done, int timeout_ms = 5000);
-  /// Removes every connection of set `set` from this endpoint's outputs (their sockets are closed).
-  void disconnect_set(const std::string& set);
-
-  /// Activates a set: a flag flip, no socket opened. Pending pull requests of the set are answered.
-  void activate(const std::string& set);
-  /// Deactivates a set: a flag flip, no socket closed.
-  void deactivate(const std::string& set);
-  /// True when `set` is active.
-  bool active(const std::string& set) const;
-
-  /// Sets the callback for data-plane events (broken connections, first overflow of an input).
-  void on_event(std::function<void(const CommsEvent&)> fn);
-
-  /// Every connection from this endpoint's outputs.
-  std::vector<LinkInfo> links() const;
-  /// Number of data connections accepted from other processes and still open.
-  std::size_t accepted() const;
-  /// Total bytes received on accepted data connections.
-  std::uint64_t bytes_received() const;
-
-  /// Internal state shared with connections (comms.cpp).
-  struct Impl;
-
- private:
-  std::unique_ptr<Impl> impl_;
-  std::string host_;
 };
 
 }  // namespace dca

@@ -1,5 +1,5 @@
 #pragma once
-// Data-plane frames (pure code, no I/O): what travels on a data socket between two nodes.
+// Data-plane frames (pure code, no I/O): what travels on a data socket between two endpoints (host/endpoint).
 //
 //   frame = length (4 bytes, big-endian, counts kind + body) | kind (1 byte) | body
 //
@@ -9,13 +9,15 @@
 //   Sample     source -> destination: body is the sample's bytes (push)
 //   PullRequest destination -> source: empty body; the source answers with Pulled
 //   Pulled     source -> destination: body is the latest sample (pull answer)
+//
+// Fuzzed: tests/fuzz/data_frame_fuzz.cpp.
 #include <cstddef>
 #include <cstdint>
 #include <string>
 
-#include "host/comms.h"
+#include "host/port.h"
 
-namespace dca::comms {
+namespace dca::data_frame {
 
 /// Frame kinds.
 enum class Kind : std::uint8_t { Hello = 1, HelloOk = 2, HelloError = 3, Sample = 4, PullRequest = 5, Pulled = 6 };
@@ -38,8 +40,9 @@ struct Frame {
 enum class Parse : std::uint8_t { Ok, NeedMore, Error };
 
 /// Parses the frame at the start of `buf`. Ok: `f` and `used` are set. NeedMore: `used` is the total size the
-/// frame will need (0 when even the header is incomplete). Error: `error` says why (oversize, empty, unknown kind).
-Parse parse_frame(Bytes buf, Frame& f, std::size_t& used, std::string& error);
+/// frame will need (0 when even the length is incomplete). Error: *error says why (oversize, empty, unknown
+/// kind).
+Parse parse_frame(Bytes buf, Frame& f, std::size_t& used, std::string* error);
 
 /// The Hello's fields.
 struct Hello {
@@ -49,7 +52,7 @@ struct Hello {
 
 /// Packs a Hello body (msgpack map).
 std::string encode_hello(const Hello& h);
-/// Decodes a Hello body; false with `error` on malformed input.
-bool decode_hello(Bytes body, Hello& h, std::string& error);
+/// Decodes a Hello body; false with *error on malformed input. Never throws.
+bool decode_hello(Bytes body, Hello& h, std::string* error);
 
-}  // namespace dca::comms
+}  // namespace dca::data_frame

@@ -1,0 +1,136 @@
+#include "host/data_frame.h"
+
+#include <limits>
+#include <utility>
+
+#include "host/wire.h"
+
+namespace dca::data_frame {
+
+void put_header(std::byte* h, Kind kind, std::size_t body_size) {
+  const auto len = static_cast<std::uint32_t>(body_size + 1);
+  h[0] = static_cast<std::byte>(len >> 24);
+  h[1] = static_cast<std::byte>(len >> 16);
+  h[2] = static_cast<std::byte>(len >> 8);
+  h[3] = static_cast<std::byte>(len);
+  h[4] = static_cast<std::byte>(kind);
+}
+
+namespace {
+
+// Sets *error (when given) and says Error.
+Parse fail(std::string* error, std::string why) {
+  if (error != nullptr) *error = std::move(why);
+  return Parse::Error;
+}
+
+}  // namespace
+
+Parse parse_frame(Bytes buf, Frame& f, std::size_t& used, std::string* error) {
+  used = 0;
+  if (buf.size() < 4) return Parse::NeedMore;
+  const std::uint32_t len = (std::to_integer<std::uint32_t>(buf[0]) << 24) |
+                            (std::to_integer<std::uint32_t>(buf[1]) << 16) |
+                            (std::to_integer<std::uint32_t>(buf[2]) << 8) | std::to_integer<std::uint32_t>(buf[3]);
+  if (len == 0) return fail(error, "empty data frame");
+  if (len > kMaxFrame)
+    return fail(error, "data frame of " + std::to_string(len) + " bytes exceeds the limit of " + std::to_string(kMaxFrame));
+  if (buf.size() < 4 + static_cast<std::size_t>(len)) {
+    used = 4 + static_cast<std::size_t>(len);
+    return Parse::NeedMore;
+  }
+  const auto k = std::to_integer<std::uint8_t>(buf[4]);
+  if (k < 1 || k > 6) return fail(error, "unknown data frame kind " + std::to_string(k));
+  f.kind = static_cast<Kind>(k);
+  f.body = buf.subspan(5, len - 1);
+  used = 4 + static_cast<std::size_t>(len);
+  return Parse::Ok;
+}
+
+std::string encode_hello(const Hello& h) {
+  const auto& r = h.request;
+  const auto v = wire::Value::map()
+                     .set("from", r.from)
+                     .set("out", r.out)
+                     .set("to", r.to)
+                     .set("in", r.in)
+                     .set("set", r.set)
+                     .set("mode", to_string(r.mode))
+                     .set("queue", static_cast<std::int64_t>(r.queue))
+                     .set("type", to_string(h.out.type))
+                     .set("size", static_cast<std::int64_t>(h.out.size));
+  std::string out;
+  wire::encode_value(v, out);
+  return out;
+}
+
+namespace {
+
+// The string fields of a Hello, by key.
+std::string* string_field(const std::string& key, Hello& h, std::string& mode, std::string& type) {
+  if (key == "from") return &h.request.from;
+  if (key == "out") return &h.request.out;
+  if (key == "to") return &h.request.to;
+  if (key == "in") return &h.request.in;
+  if (key == "set") return &h.request.set;
+  if (key == "mode") return &mode;
+  if (key == "type") return &type;
+  return nullptr;
+}
+
+// The unsigned 32-bit fields of a Hello, by key.
+std::uint32_t* count_field(const std::string& key, Hello& h) {
+  if (key == "queue") return &h.request.queue;
+  if (key == "size") return &h.out.size;
+  return nullptr;
+}
+
+// Sets the field `key` of `h` (unknown keys are ignored): "" or why the value does not fit.
+std::string set_field(const std::string& key, const wire::Value& val, Hello& h, std::string& mode, std::string& type) {
+  if (auto* s = string_field(key, h, mode, type)) {
+    if (!val.is_string()) return "hello: '" + key + "' is not a string";
+    *s = val.as_string();
+  } else if (auto* n = count_field(key, h)) {
+    if (!val.is_int() || val.as_int() < 0 || val.as_int() > std::numeric_limits<std::uint32_t>::max())
+      return "hello: '" + key + "' is not a count";
+    *n = static_cast<std::uint32_t>(val.as_int());
+  }
+  return "";
+}
+
+// Decodes the map `v` into `h`: "" or why not.
+std::string decode_map(const wire::Value& v, Hello& h) {
+  if (!v.is_map()) return "hello is not a map";
+  std::string mode = "push", type;
+  bool have_type = false;
+  for (const auto& [key, val] : v.as_map()) {
+    if (!key.is_string()) continue;
+    have_type = have_type || key.as_string() == "type";
+    if (auto why = set_field(key.as_string(), val, h, mode, type); !why.empty()) return why;
+  }
+  const auto m = mode_from(mode);
+  const auto t = port_type_from(type);
+  if (!m) return "hello: unknown mode '" + mode + "'";
+  if (!have_type || !t) return "hello: unknown port type '" + type + "'";
+  if (h.request.to.empty() || h.request.in.empty()) return "hello: no destination named";
+  h.request.mode = *m;
+  h.out.type = *t;
+  h.out.name = h.request.out;
+  return "";
+}
+
+}  // namespace
+
+bool decode_hello(Bytes body, Hello& h, std::string* error) {
+  wire::Value v;
+  std::string why;
+  if (!wire::decode_value({reinterpret_cast<const char*>(body.data()), body.size()}, v, &why))
+    why = "malformed hello: " + why;
+  else
+    why = decode_map(v, h);
+  if (why.empty()) return true;
+  if (error != nullptr) *error = std::move(why);
+  return false;
+}
+
+}  // namespace dca::data_frame

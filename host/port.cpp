@@ -1,0 +1,326 @@
+#include "host/port.h"
+
+#include <algorithm>
+#include <cstring>
+#include <stdexcept>
+
+namespace dca {
+
+// ---------------------------------------------------------------------------------------------- names ---
+
+std::string_view to_string(PortType t) {
+  switch (t) {
+    case PortType::Scalar: return "scalar";
+    case PortType::Vector: return "vector";
+    case PortType::VectorX: return "vectorx";
+    case PortType::Value: return "value";
+  }
+  return "?";
+}
+
+std::optional<PortType> port_type_from(std::string_view s) {
+  for (auto t : {PortType::Scalar, PortType::Vector, PortType::VectorX, PortType::Value})
+    if (to_string(t) == s) return t;
+  return std::nullopt;
+}
+
+std::string_view to_string(Mode m) { return m == Mode::Push ? "push" : "pull"; }
+
+std::optional<Mode> mode_from(std::string_view s) {
+  if (s == "push") return Mode::Push;
+  if (s == "pull") return Mode::Pull;
+  return std::nullopt;
+}
+
+std::string_view to_string(Transport t) {
+  switch (t) {
+    case Transport::InProcess: return "inprocess";
+    case Transport::Unix: return "unix";
+    case Transport::Tcp: return "tcp";
+  }
+  return "?";
+}
+
+PortSpec scalar_port(std::string name, std::string units) {
+  return {std::move(name), PortType::Scalar, 1, std::move(units), {}};
+}
+PortSpec vector_port(std::string name, std::uint32_t size, std::string units) {
+  return {std::move(name), PortType::Vector, size, std::move(units), {}};
+}
+PortSpec vectorx_port(std::string name, std::string units) {
+  return {std::move(name), PortType::VectorX, 0, std::move(units), {}};
+}
+PortSpec value_port(std::string name, std::string units) {
+  return {std::move(name), PortType::Value, 0, std::move(units), {}};
+}
+
+namespace {
+std::string describe(const PortSpec& s) {
+  std::string d(to_string(s.type));
+  if (s.type == PortType::Vector) {
+    d += '[';
+    d += std::to_string(s.size);
+    d += ']';
+  }
+  return d;
+}
+}  // namespace
+
+std::string compatibility_error(const PortSpec& out, const PortSpec& in) {
+  const bool ok = out.type == in.type && (out.type != PortType::Vector || out.size == in.size);
+  if (ok) return "";
+  return "output '" + out.name + "' is " + describe(out) + " but input '" + in.name + "' is " + describe(in);
+}
+
+Transport choose_transport(std::string_view my_host, bool dest_local, const Location& dest) {
+  if (dest_local) return Transport::InProcess;
+  if (dest.host == my_host && !dest.data_uds.empty()) return Transport::Unix;
+  return Transport::Tcp;
+}
+
+// ---------------------------------------------------------------------------------------------- ports ---
+
+Port::Port(PortSpec spec) : spec_(std::move(spec)) {
+  if (spec_.type == PortType::Scalar) spec_.size = 1;
+  if (spec_.type == PortType::VectorX || spec_.type == PortType::Value) spec_.size = 0;
+  latest_.resize(std::max<std::size_t>(spec_.size, 1) * sizeof(double));
+}
+
+void Port::set_latest(Bytes b) {
+  if (latest_.size() < b.size()) latest_.resize(b.size());
+  if (!b.empty()) std::memcpy(latest_.data(), b.data(), b.size());
+  latest_size_ = b.size();
+  has_latest_ = true;
+}
+
+bool Port::accepts(Bytes b) {
+  bool ok = false;
+  switch (spec_.type) {
+    case PortType::Scalar: ok = b.size() == sizeof(double); break;
+    case PortType::Vector: ok = b.size() == spec_.size * sizeof(double); break;
+    case PortType::VectorX: ok = b.size() % sizeof(double) == 0; break;
+    case PortType::Value: ok = !b.empty(); break;
+  }
+  if (!ok) ++stats_.rejected;
+  return ok;
+}
+
+namespace {
+void pack_sample(msgpack::packer<msgpack::sbuffer>& pk, PortType type, Bytes b, bool present) {
+  if (!present) {
+    pk.pack_nil();
+    return;
+  }
+  if (type == PortType::Value) {
+    try {
+      auto oh = msgpack::unpack(reinterpret_cast<const char*>(b.data()), b.size());
+      pk.pack(oh.get());
+    } catch (const std::exception&) {
+      pk.pack_nil();
+    }
+    return;
+  }
+  const std::size_t n = b.size() / sizeof(double);
+  auto at = [&](std::size_t i) {
+    double d;
+    std::memcpy(&d, b.data() + i * sizeof(double), sizeof d);
+    return d;
+  };
+  if (type == PortType::Scalar) {
+    pk.pack_double(n ? at(0) : 0.0);
+    return;
+  }
+  pk.pack_array(static_cast<std::uint32_t>(n));
+  for (std::size_t i = 0; i < n; ++i) pk.pack_double(at(i));
+}
+}  // namespace
+
+void Port::pack_latest(msgpack::packer<msgpack::sbuffer>& pk) const {
+  pack_sample(pk, spec_.type, latest_bytes(), has_latest_);
+}
+
+Input::Input(PortSpec spec, std::size_t queue) : Port(std::move(spec)) {
+  current_.resize(latest_.size());
+  reserve_queue(std::max<std::size_t>(queue, 1));
+}
+
+Input::~Input() {
+  for (auto* f : std::vector<InputFeeder*>(feeders_)) f->input_gone();
+}
+
+void Input::add_feeder(InputFeeder* f) { feeders_.push_back(f); }
+void Input::remove_feeder(InputFeeder* f) { std::erase(feeders_, f); }
+
+void Input::reserve_queue(std::size_t n) {
+  if (n <= slots_.size()) return;
+  // Re-linearise the ring into the new, larger one.
+  std::vector<std::vector<std::byte>> slots(n, std::vector<std::byte>(latest_.size()));
+  std::vector<std::size_t> sizes(n, 0);
+  for (std::size_t i = 0; i < count_; ++i) {
+    const std::size_t j = (head_ + i) % slots_.size();
+    slots[i] = std::move(slots_[j]);
+    sizes[i] = sizes_[j];
+  }
+  slots_ = std::move(slots);
+  sizes_ = std::move(sizes);
+  head_ = 0;
+}
+
+void Input::deliver(Bytes b) {
+  if (!accepts(b)) return;
+  ++stats_.samples;
+  set_latest(b);
+  const std::size_t cap = slots_.size();
+  if (count_ == cap) {  // drop-oldest
+    head_ = (head_ + 1) % cap;
+    --count_;
+    ++stats_.dropped;
+    if (!warned_drop_) {
+      warned_drop_ = true;
+      if (on_overflow) on_overflow();
+    }
+  }
+  const std::size_t tail = (head_ + count_) % cap;
+  auto& slot = slots_[tail];
+  if (slot.size() < b.size()) slot.resize(b.size());
+  if (!b.empty()) std::memcpy(slot.data(), b.data(), b.size());
+  sizes_[tail] = b.size();
+  ++count_;
+  if (on_sample) on_sample();
+}
+
+void Input::deliver_pulled(Bytes b) {
+  if (!accepts(b)) return;
+  ++stats_.samples;
+  set_latest(b);
+  if (current_.size() < b.size()) current_.resize(b.size());
+  if (!b.empty()) std::memcpy(current_.data(), b.data(), b.size());
+  current_size_ = b.size();
+  has_current_ = true;
+  if (on_sample) on_sample();
+}
+
+void Input::make_current(const std::vector<std::byte>& b, std::size_t n) {
+  if (current_.size() < n) current_.resize(n);
+  if (n) std::memcpy(current_.data(), b.data(), n);
+  current_size_ = n;
+  has_current_ = true;
+}
+
+bool Input::pop() {
+  if (count_ == 0) return false;
+  make_current(slots_[head_], sizes_[head_]);
+  head_ = (head_ + 1) % slots_.size();
+  --count_;
+  return true;
+}
+
+bool Input::take_latest() {
+  if (count_ == 0) return false;
+  const std::size_t last = (head_ + count_ - 1) % slots_.size();
+  make_current(slots_[last], sizes_[last]);
+  head_ = 0;
+  count_ = 0;
+  return true;
+}
+
+void Input::request() {
+  for (auto* s : pull_sources_) s->request();
+}
+
+double Input::scalar() const {
+  if (current_size_ < sizeof(double)) return 0.0;
+  double d;
+  std::memcpy(&d, current_.data(), sizeof d);
+  return d;
+}
+
+Eigen::Map<const Eigen::VectorXd> Input::vector() const {
+  return {reinterpret_cast<const double*>(current_.data()),
+          static_cast<Eigen::Index>(current_size_ / sizeof(double))};
+}
+
+msgpack::object_handle Input::value() const {
+  if (!has_current_ || current_size_ == 0) return msgpack::object_handle();
+  return msgpack::unpack(reinterpret_cast<const char*>(current_.data()), current_size_);
+}
+
+void Input::add_pull_source(PullSource* s) { pull_sources_.push_back(s); }
+void Input::remove_pull_source(PullSource* s) { std::erase(pull_sources_, s); }
+
+Output::Output(PortSpec spec) : Port(std::move(spec)) {}
+
+Output::~Output() {
+  for (auto* l : std::vector<Link*>(links_)) l->close();
+}
+
+bool Output::write(double v) {
+  if (spec_.type != PortType::Scalar) {
+    ++stats_.rejected;
+    return false;
+  }
+  return write_bytes({reinterpret_cast<const std::byte*>(&v), sizeof v});
+}
+
+bool Output::write(const Eigen::Ref<const Eigen::VectorXd>& v) {
+  if (spec_.type != PortType::Vector && spec_.type != PortType::VectorX) {
+    ++stats_.rejected;
+    return false;
+  }
+  return write_bytes({reinterpret_cast<const std::byte*>(v.data()), static_cast<std::size_t>(v.size()) * sizeof(double)});
+}
+
+bool Output::write_bytes(Bytes b) {
+  if (!accepts(b)) return false;
+  ++stats_.samples;
+  set_latest(b);
+  for (std::size_t i = 0; i < links_.size(); ++i) links_[i]->on_write(b);
+  return true;
+}
+
+void Output::attach(Link* l) { links_.push_back(l); }
+void Output::detach(Link* l) { std::erase(links_, l); }
+
+Input& PortSet::add_input(PortSpec spec, std::size_t queue) {
+  if (find_input(spec.name)) throw std::invalid_argument("input '" + spec.name + "' declared twice");
+  inputs_.push_back(std::make_unique<Input>(std::move(spec), queue));
+  return *inputs_.back();
+}
+
+Output& PortSet::add_output(PortSpec spec) {
+  if (find_output(spec.name)) throw std::invalid_argument("output '" + spec.name + "' declared twice");
+  outputs_.push_back(std::make_unique<Output>(std::move(spec)));
+  return *outputs_.back();
+}
+
+Input* PortSet::find_input(std::string_view name) const {
+  for (const auto& p : inputs_)
+    if (p->name() == name) return p.get();
+  return nullptr;
+}
+
+Output* PortSet::find_output(std::string_view name) const {
+  for (const auto& p : outputs_)
+    if (p->name() == name) return p.get();
+  return nullptr;
+}
+
+namespace {
+template <class V>
+std::string no_such(std::string_view what, std::string_view component, std::string_view name, const V& ports) {
+  std::string m = "no " + std::string(what) + " '" + std::string(name) + "' on " + std::string(component);
+  if (ports.empty()) return m + "; it has no " + std::string(what) + "s";
+  m += "; " + std::string(what) + "s are: ";
+  for (std::size_t i = 0; i < ports.size(); ++i) m += (i ? ", " : "") + ports[i]->name();
+  return m;
+}
+}  // namespace
+
+std::string PortSet::no_such_input(std::string_view component, std::string_view name) const {
+  return no_such("input", component, name, inputs_);
+}
+std::string PortSet::no_such_output(std::string_view component, std::string_view name) const {
+  return no_such("output", component, name, outputs_);
+}
+
+}  // namespace dca

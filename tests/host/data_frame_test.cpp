@@ -1,0 +1,52 @@
+// Data frames (pure): the frame parser and the Hello codec.
+#include "host/data_frame.h"
+
+#include <gtest/gtest.h>
+
+#include <string>
+#include <vector>
+
+namespace {
+
+namespace df = dca::data_frame;
+
+TEST(DataFrameTest, FrameParserRejectsBadFrames) {
+  using df::Parse;
+  std::vector<std::byte> buf(df::kHeader + 3);
+  df::put_header(buf.data(), df::Kind::Sample, 3);
+  df::Frame f;
+  std::size_t used = 0;
+  std::string err;
+  EXPECT_EQ(df::parse_frame(buf, f, used, &err), Parse::Ok);
+  EXPECT_EQ(used, buf.size());
+  EXPECT_EQ(f.body.size(), 3u);
+  for (std::size_t n = 0; n < buf.size(); ++n)  // every truncation asks for more
+    EXPECT_EQ(df::parse_frame({buf.data(), n}, f, used, &err), Parse::NeedMore) << n;
+  buf[4] = std::byte{99};
+  EXPECT_EQ(df::parse_frame(buf, f, used, &err), Parse::Error);
+  EXPECT_EQ(err, "unknown data frame kind 99");
+  std::vector<std::byte> big(8);
+  df::put_header(big.data(), df::Kind::Sample, df::kMaxFrame);
+  EXPECT_EQ(df::parse_frame(big, f, used, &err), Parse::Error);
+  std::vector<std::byte> empty(4, std::byte{0});
+  EXPECT_EQ(df::parse_frame(empty, f, used, &err), Parse::Error);
+}
+
+TEST(DataFrameTest, HelloRoundTripsAndRejectsGarbage) {
+  df::Hello h{{"/a", "Out", "/b", "In", "g:x[l]", dca::Mode::Pull, 7}, dca::vector_port("Out", 8)};
+  const auto body = df::encode_hello(h);
+  df::Hello back;
+  std::string err;
+  ASSERT_TRUE(df::decode_hello({reinterpret_cast<const std::byte*>(body.data()), body.size()}, back, &err)) << err;
+  EXPECT_EQ(back.request.to, "/b");
+  EXPECT_EQ(back.request.set, "g:x[l]");
+  EXPECT_EQ(back.request.mode, dca::Mode::Pull);
+  EXPECT_EQ(back.request.queue, 7u);
+  EXPECT_EQ(back.out.type, dca::PortType::Vector);
+  EXPECT_EQ(back.out.size, 8u);
+  const std::string junk = "\x93\x01\x02";
+  EXPECT_FALSE(df::decode_hello({reinterpret_cast<const std::byte*>(junk.data()), junk.size()}, back, &err));
+  EXPECT_FALSE(err.empty());
+}
+
+}  // namespace
