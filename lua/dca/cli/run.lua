@@ -175,29 +175,13 @@ function Run:listen()
   end)
 end
 
--- Reloads the modules of the supervisor and its console in place (state kept). --> lines
-local function reload_modules()
-  local lines = {}
-  for _, name in ipairs({ "dca.supervisor", "dca.supervisor.console" }) do
-    local path = package.searchpath(name, package.path)
-    local fn, lerr = loadfile(path)
-    if not fn then lines[#lines + 1] = lerr
-    else
-      local okm, merr = pcall(fn, name)
-      if okm then package.loaded[name] = merr lines[#lines + 1] = name .. ": reloaded (state kept)"
-      else lines[#lines + 1] = name .. ": " .. tostring(merr) end
-    end
-  end
-  return lines
-end
-
 -- reload: the file again (validated first; on an error the old version keeps running), or the modules.
 function Run:reload(what, cb)
-  if what == "modules" then cb(reload_modules()) return end
-  local new, lerr = M.load(what or self.o.file, self.o.root)
-  if not new then cb({ "reload refused, the running version is kept:", lerr }) return end
-  self.sup:update(new, function(lines)
-    if #lines == 0 then lines = { "no change" } end
+  local reload = require "dca.reload"
+  if what == "modules" then cb(reload.modules()) return end
+  reload.system(self.sup, what or self.o.file, { root = self.o.root }, function(lines, err)
+    if not lines then lines = { "reload refused, the running version is kept:", err }
+    elseif #lines == 0 then lines = { "no change" } end
     cb(lines)
   end)
 end

@@ -207,10 +207,10 @@ end
 --- Reloads the system file (parse + check first): the old version keeps running on an error.
 --- Returns the lines saying what changed, or nil and the error text (file:line:col).
 function System:reload(file)
-  local ok, spec = pcall(require("dca.scenario").spec, file or self.file, self.root)
-  if not ok then return nil, tostring(spec) end
-  local lines
-  self.c.root_sup:update(spec, function(l) lines = l end)
+  local lines, err
+  require("dca.reload").system(self.c.root_sup, file or self.file, { root = self.root },
+    function(l, e) lines, err = l, e end)
+  if err then return nil, err end
   self.c:settle(self.c.t, function() return lines ~= nil end)
   return lines or {}
 end

@@ -367,9 +367,8 @@ end
 function System:now() return now() - self.t0 end
 
 function System:reload(file)
-  local ok, new = pcall(require("dca.scenario").spec, file or self.file, self.root)
-  if not ok then return nil, tostring(new) end
-  return self:_ask(function(k) self.sup:update(new, k) end, 10, "the reload")
+  return self:_ask(function(k) require("dca.reload").system(self.sup, file or self.file, { root = self.root }, k) end,
+    10, "the reload")
 end
 
 function System:stop()
