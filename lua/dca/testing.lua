@@ -11,7 +11,7 @@
 local M = {}
 
 local fmt, concat, sort = string.format, table.concat, table.sort
-local type, pairs, tostring, pcall, xpcall = type, pairs, tostring, pcall, xpcall
+local type, pairs, ipairs, tostring, pcall, xpcall = type, pairs, ipairs, tostring, pcall, xpcall
 local traceback = debug.traceback
 
 --- A readable, deterministic rendering of any Lua value (tables with sorted keys).
@@ -93,6 +93,38 @@ function M.sh(cmd)
   p:close()
   local body, rc = out:match("^(.*)<<rc=(%d+)>>%s*$")
   return body or out, tonumber(rc)
+end
+
+--- The repository's root ($DCA_SOURCE_DIR, else ".") and the dca executable ($DCA_EXE, else "dca").
+M.src = os.getenv("DCA_SOURCE_DIR") or "."
+M.exe = os.getenv("DCA_EXE") or "dca"
+
+--- The whole text of the file at path (it must read).
+function M.read(path)
+  local f = assert(io.open(path, "rb"))
+  local text = f:read("a")
+  f:close()
+  return text
+end
+
+--- Writes text to the file at path (it must write). --> path
+function M.write(path, text)
+  local f = assert(io.open(path, "w"))
+  f:write(text)
+  f:close()
+  return path
+end
+
+--- A new temporary file holding text, its name ending in ext (default ".dca"). --> its path
+function M.tmpfile(text, ext) return M.write(os.tmpname() .. (ext or ".dca"), text) end
+
+--- Runs `dca ARGS` (M.exe); fails unless it exits with rc (unless nil) and its output (stdout and stderr)
+--- contains each fragment. --> output, exit code
+function M.dca(args, rc, ...)
+  local out, code = M.sh(M.exe .. " " .. args)
+  if rc ~= nil and code ~= rc then fail(fmt("dca %s: expected exit code %d, got %s:\n%s", args, rc, tostring(code), out)) end
+  for _, fragment in ipairs({ ... }) do M.contains(out, fragment, "dca " .. args) end
+  return out, code
 end
 
 local Suite = {}

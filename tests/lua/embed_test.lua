@@ -4,13 +4,7 @@ local suite = T.suite("embed")
 
 local dca = os.getenv("DCA_EXE") or "dca"
 
-local function tmpfile(text)
-  local path = os.tmpname() .. ".lua"
-  local f = assert(io.open(path, "w"))
-  f:write(text)
-  f:close()
-  return path
-end
+local function tmpfile(text) return T.tmpfile(text, ".lua") end
 
 suite:case("lpeg_loads_and_matches", function()
   local lpeg = require "lpeg"

@@ -3,8 +3,6 @@ local T = require "dca.testing"
 local core = require "dca.core"
 local suite = T.suite("types")
 
-local dca = os.getenv("DCA_EXE") or "dca"
-
 suite:case("types_lists_every_builtin", function()
   local types = core.types()
   for _, name in ipairs { "Timer", "Deadline", "Constant", "Gain", "Sum", "Threshold", "Counter", "Crash" } do
@@ -34,19 +32,22 @@ suite:case("params_are_listed_in_order", function()
 end)
 
 suite:case("dca_types_prints_signatures_and_ports", function()
-  local out, rc = T.sh(dca .. " types")
-  T.eq(rc, 0)
-  T.contains(out, "Gain(host, k, period=0)")
-  T.contains(out, "in     In1")
-  T.contains(out, "Timer(host, seconds)")
-  T.contains(out, "Constant(host, period, values...)")
+  T.dca("types", 0, "Gain(host, k, period=0)", "in     In1", "Timer(host, seconds)", "Constant(host, period, values...)")
 end)
 
 suite:case("dca_types_of_an_unknown_type_fails_listing_the_known", function()
-  local out, rc = T.sh(dca .. " types Gian")
-  T.eq(rc, 1)
-  T.contains(out, "unknown controller type 'Gian'; types are: ")
-  T.contains(out, "Gain")
+  T.dca("types Gian", 1, "unknown controller type 'Gian'; types are: ", "Gain")
+end)
+
+suite:case("the_language_fallback_manifests_match_the_registry", function()
+  -- dca.lang.check's Timer and Deadline, for a check without dca.core, take what the registry's take
+  local check = require "dca.lang.check"
+  for name, fallback in pairs(check.builtins) do
+    local m = T.ok(core.types()[name], "the registry has " .. name)
+    T.eq(#fallback.params, #m.params, name .. " parameters")
+    for i, p in ipairs(fallback.params) do T.eq(p.type, m.params[i].type, name .. " parameter " .. i) end
+    T.eq({ #fallback.inputs, #fallback.outputs }, { #m.inputs, #m.outputs }, name .. " ports")
+  end
 end)
 
 return suite:run(...)

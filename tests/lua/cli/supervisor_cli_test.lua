@@ -5,13 +5,7 @@ local suite = T.suite("supervisor_cli")
 local dca = os.getenv("DCA_EXE") or "dca"
 local src = os.getenv("DCA_SOURCE_DIR") or "."
 
-local function tmpfile(text, ext)
-  local path = os.tmpname() .. (ext or ".dca")
-  local f = assert(io.open(path, "w"))
-  f:write(text)
-  f:close()
-  return path
-end
+local tmpfile = T.tmpfile
 
 -- Processes whose command line mentions `needle` (the test's own temp file name makes it unique).
 local function procs_with(needle)

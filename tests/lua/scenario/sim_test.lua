@@ -6,13 +6,7 @@ local suite = T.suite("scenario_sim")
 local dca = os.getenv("DCA_EXE") or "dca"
 local src = os.getenv("DCA_SOURCE_DIR") or "."
 
-local function tmpfile(text)
-  local path = os.tmpname() .. ".lua"
-  local f = assert(io.open(path, "w"))
-  f:write(text)
-  f:close()
-  return path
-end
+local function tmpfile(text) return T.tmpfile(text, ".lua") end
 
 suite:case("a_real_only_scenario_refuses_the_memory_backend", function()
   local path = tmpfile('local S = require "dca.scenario"\nS.backends = { "real" }\n'

@@ -5,14 +5,7 @@ local parser = require "dca.lang.parser"
 local algebra = require "dca.algebra"
 local suite = T.suite("parser")
 
-local src = os.getenv("DCA_SOURCE_DIR") or "."
-
-local function read(path)
-  local f = assert(io.open(path, "rb"))
-  local s = f:read("a")
-  f:close()
-  return s
-end
+local src, read = T.src, T.read
 
 local CM = [[
 process CompliantMotion(host1, host2) {

@@ -8,15 +8,8 @@ local model = require "dca.lang.model"
 local algebra = require "dca.algebra"
 local suite = T.suite("fuzz")
 
-local src = os.getenv("DCA_SOURCE_DIR") or "."
+local src, read = T.src, T.read
 local here = debug.getinfo(1, "S").source:match("^@(.*)/[^/]*$") or "."
-
-local function read(path)
-  local f = assert(io.open(path, "rb"))
-  local s = f:read("a")
-  f:close()
-  return s
-end
 
 local function corpus()
   local files = {}

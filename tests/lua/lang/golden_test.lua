@@ -1,4 +1,4 @@
--- Golden tests of the language's messages: each tests/lua/golden/NAME.dca is parsed and checked, and the
+-- Golden tests of the language's messages: each tests/lua/lang/golden/NAME.dca is parsed and checked, and the
 -- full text printed for it (parse error, or every check error and the count line) must equal NAME.err
 -- exactly. A first line "// golden: registry" checks against the fixed registry below; "// golden: root=X"
 -- names the root. DCA_GOLDEN_UPDATE=1 rewrites the .err files (review the diff!).
@@ -27,12 +27,10 @@ local registry = {
                          { name = "limit", type = "integer", required = false, default = "0" } } },
 }
 
+--- The text of the file, or nil when there is none.
 local function read(path)
-  local f = io.open(path, "rb")
-  if not f then return nil end
-  local s = f:read("a")
-  f:close()
-  return s
+  local ok, text = pcall(T.read, path)
+  return ok and text or nil
 end
 
 --- What the language tools print for `text` (exactly what `dca check --no-registry` prints, registry aside).

@@ -4,13 +4,8 @@ local parser = require "dca.lang.parser"
 local model = require "dca.lang.model"
 local suite = T.suite("model")
 
-local src = os.getenv("DCA_SOURCE_DIR") or "."
-
 local function load(name)
-  local f = assert(io.open(src .. "/scripts/systems/" .. name .. ".dca", "rb"))
-  local text = f:read("a")
-  f:close()
-  return assert(parser.parse(text, name .. ".dca"))
+  return assert(parser.parse(T.read(T.src .. "/scripts/systems/" .. name .. ".dca"), name .. ".dca"))
 end
 
 suite:case("door_tree_paths_kinds_hosts_args", function()

@@ -4,14 +4,7 @@ local parser = require "dca.lang.parser"
 local check = require "dca.lang.check"
 local suite = T.suite("check")
 
-local src = os.getenv("DCA_SOURCE_DIR") or "."
-
-local function read(path)
-  local f = assert(io.open(path, "rb"))
-  local s = f:read("a")
-  f:close()
-  return s
-end
+local src, read = T.src, T.read
 
 local function errors(text, opts)
   local ast = assert(parser.parse(text, "t.dca"))

@@ -1,0 +1,96 @@
+-- `dca check` as a user runs it.
+local T = require "dca.testing"
+local suite = T.suite("check")
+
+local src, tmpfile = T.src, T.tmpfile
+
+suite:case("paper_systems_pass_dca_check", function()
+  local want = {
+    compliant_motion = "ok: 2 groups, 7 instances (6 leaves), 6 connections, 2 hosts (arm, control)",
+    door_open = "ok: 6 groups, 27 instances (22 leaves), 20 connections, 3 hosts (manipulation, platform, vision)",
+    tidy_up = "ok: 2 groups, 8 instances (7 leaves), 0 connections, 2 hosts (arm, robot)",
+  }
+  for name, summary in pairs(want) do
+    local path = src .. "/scripts/systems/" .. name .. ".dca"
+    -- the language-level check, and the full one against the controller registry
+    T.eq(T.dca("check --no-registry " .. path, 0), path .. ": " .. summary .. "\n")
+    T.eq(T.dca("check " .. path, 0), path .. ": " .. summary .. "\n")
+  end
+end)
+
+--- Writes the defaults file beside path. --> its path
+local function defaults(path, text) return T.write((path:gsub("%.dca$", ".config")), text) end
+
+suite:case("config_parameters_are_checked_against_the_defaults_file", function()
+  local path = tmpfile([[
+process main() {
+  instantiated_processes {
+    det instof DistanceThreshold("h1", config("door.stop_distanse"));
+    hit instof ForceThreshold("h1", config("door.hit_force"));
+  }
+  internal_event_actions { det , hit }
+}
+]])
+  -- a key the defaults lack: a warning at the config( literal, with the close name
+  local file = defaults(path, "door.stop_distance = 0.7\ndoor.hit_force = 6.0\n")
+  T.dca("check " .. path, 0, path .. ":3:40: warning: main.det parameter 1 'distance': config key " ..
+    "'door.stop_distanse' is not in " .. file .. " (did you mean door.stop_distance?)", path .. ": ok:")
+  -- a default of the wrong type for the parameter: an error
+  defaults(path, "door.stop_distanse = 0.7\ndoor.hit_force = \"six\"\n")
+  T.dca("check " .. path, 1, path .. ":4:37: main.hit parameter 1 'force': config key 'door.hit_force' defaults to " ..
+    "\"six\" in " .. file .. ", not a number")
+  -- a defaults file that does not read: an error at its line and column; --no-config skips it
+  defaults(path, "door.hit_force 6\n")
+  T.dca("check " .. path, 1, file .. ":1:1: expected `key = value`")
+  T.dca("check --no-config " .. path, 0)
+  os.remove(file)
+  os.remove(path)
+end)
+
+suite:case("tree_option_prints_the_instances", function()
+  local path = src .. "/scripts/systems/compliant_motion.dca"
+  T.eq(T.dca("check --no-registry --tree " .. path, 0),
+       path .. ": ok: 2 groups, 7 instances (6 leaves), 6 connections, 2 hosts (arm, control)\n" ..
+       "main : main  { motion }\n" ..
+       "  motion : CompliantMotion @control  { hit # (forcedata[lbl1], compliant[lbl1], joints, redundancy[lbl1], puma) }\n" ..
+       "    forcedata : ForceTorque @control\n" ..
+       "    compliant : CompliantCtrl @control\n" ..
+       "    joints : Puma560Joints @control\n" ..
+       "    redundancy : RedundancyResolution @arm\n" ..
+       "    puma : Puma560Ctrl @arm\n" ..
+       "    hit : ForceThreshold @control (40)\n")
+end)
+
+suite:case("errors_are_printed_and_exit_1", function()
+  local path = tmpfile("process main() {\n  instantiated_processes { a instof T(); }\n  internal_event_actions { a , b }\n}\n")
+  T.dca("check --no-registry " .. path, 1, path .. ":2:28: main.a: leaf 'a' (T) has no host",
+    path .. ":3:32: main: unknown instance 'b' in internal_event_actions (instances: a)", path .. ": 2 errors")
+  os.remove(path)
+end)
+
+suite:case("registry_is_used_when_dca_core_has_types", function()
+  local path = tmpfile("process main() {\n  instantiated_processes { t instof Timer(\"h\", 30); x instof NoSuchType(\"h\"); }\n" ..
+                       "  internal_event_actions { t # x }\n}\n")
+  T.dca("check --no-registry " .. path, 0)
+  if type(require("dca.core").types) == "function" then
+    T.dca("check " .. path, 1, ":2:62: main.x: unknown process type 'NoSuchType'")
+  else
+    T.dca("check " .. path, 0)  -- without dca.core.types undefined types are leaves
+  end
+  os.remove(path)
+end)
+
+suite:case("syntax_error_exit_1_with_caret", function()
+  local path = tmpfile("process main() {\n  host (h)\n}\n")
+  T.eq(T.dca("check " .. path, 1), path .. ":2:8: 'host' takes braces, not parentheses: write 'host { h }'\n  host (h)\n       ^\n")
+  os.remove(path)
+end)
+
+suite:case("usage_errors_exit_2", function()
+  T.dca("check", 2, "usage: dca check FILE.dca")
+  T.dca("check /nonexistent/x.dca", 1, "cannot read /nonexistent/x.dca")
+  T.dca("check a.dca b.dca", 2, "unexpected argument 'b.dca'")
+  T.dca("check --root", 2, "--root needs a value", "usage: dca check FILE.dca")
+end)
+
+return suite:run(...)

@@ -1,0 +1,38 @@
+-- `dca graph` as a user runs it.
+local T = require "dca.testing"
+local suite = T.suite("graph")
+
+local systems = T.src .. "/scripts/systems/"
+
+suite:case("graph_writes_dot", function()
+  local out = T.dca("graph --no-registry " .. systems .. "door_open.dca", 0,
+    '"main.dooropensyst" [shape=folder',
+    "motionctrl # ((visualserv[lbl1], camera) # distdetect ; (opengrip, approach[lbl1]) # hit",
+    '"main.dooropensyst" -> "main.dooropensyst.hit";',
+    '"main.dooropensyst.visualserv" -> "main.dooropensyst.motionctrl" [style=dotted',
+    '"main.dooropensyst.opengrip" [shape=box, label="opengrip : GripperControl\\n@manipulation\\n(\\"open\\")"];')
+  T.ok(out:match("^digraph dca {\n"), out)
+end)
+
+suite:case("graph_svg_when_dot_is_installed", function()
+  local _, has_dot = T.sh("command -v dot")
+  local out_path = os.tmpname() .. ".svg"
+  local args = "graph --no-registry --svg -o " .. out_path .. " " .. systems .. "tidy_up.dca"
+  if has_dot ~= 0 then
+    T.dca(args, 1, "not installed")
+    return
+  end
+  T.dca(args, 0)
+  local svg = T.read(out_path)
+  os.remove(out_path)
+  T.contains(svg, "<svg")
+  T.contains(svg, "main.tidy")
+end)
+
+suite:case("usage_errors_exit_2", function()
+  T.dca("graph", 2, "usage: dca graph FILE.dca")
+  T.dca("graph -o", 2, "dca graph: -o needs a value")
+  T.dca("graph --frob x.dca", 2, "dca graph: unexpected argument '--frob'")
+end)
+
+return suite:run(...)
