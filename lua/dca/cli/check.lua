@@ -1,6 +1,7 @@
 -- `dca check FILE.dca`: parse and statically check a DCA system; nothing is started.
 local args = require "dca.cli.args"
 local load = require "dca.load"
+local check = require "dca.lang.check"
 local model = require "dca.lang.model"
 
 local M = {}
@@ -18,10 +19,6 @@ source line and a caret); exits 1 when there are errors, else prints a one-line 
                   one): a config("key") parameter whose key it lacks is a warning (the repository may hold
                   it; with a close name: a likely typo), a default of the wrong type for the parameter is an
                   error, and so is a defaults file that does not read]]
-
---- Kept for callers not yet on dca.load: load.registry() and load.file(path, { root, registry }).
-M.registry = load.registry
-function M.load(path, root, use_registry) return load.file(path, { root = root, registry = use_registry == true }) end
 
 --- The instance tree as indented text: "name : Type @host (params)" per line; groups show their expression.
 function M.tree_text(tree)
@@ -45,45 +42,12 @@ function M.tree_text(tree)
   return table.concat(out, "\n") .. "\n"
 end
 
---- The config("key") parameters of FILE against its defaults file: { warnings = {...}, errors = {...} }, each a
---- "FILE:LINE:COL: ..." line. registry: the controller manifests (parameter names and types), or nil.
+--- The config("key") parameters of FILE against its defaults file (dca.lang.check.config_keys); a defaults
+--- file that does not read is an error. --> { warnings = {...}, errors = {...} }
 function M.config_notes(ast, config_path, registry)
-  local config = require "dca.config"
-  local source = require "dca.lang.source"
-  local out = { warnings = {}, errors = {} }
-  local defaults, err = config.read_file(config_path)
-  if not defaults then out.errors[1] = err return out end
-  local values, keys = {}, {}
-  for _, d in ipairs(defaults) do values[d.key] = d.value keys[#keys + 1] = d.key end
-  for _, p in ipairs(ast.processes) do
-    for _, inst in ipairs(p.instances) do
-      local manifest = registry and registry[inst.type]
-      for i, a in ipairs(inst.args or {}) do
-        if a.kind == "config" then
-          local pm = manifest and manifest.params and manifest.params[i - 1]  -- the first argument is the host
-          local pname = pm and pm.name and (" '" .. pm.name .. "'") or ""
-          local at = string.format("%s:%d:%d: ", ast.file, a.line or 0, a.col or 0)
-          local what = string.format("%s.%s parameter %d%s", p.name, inst.name, i - 1, pname)
-          local v = values[a.value]
-          if v == nil then
-            local guess = source.closest(a.value, keys)
-            out.warnings[#out.warnings + 1] = string.format("%swarning: %s: config key '%s' is not in %s%s", at, what,
-              a.value, config_path, guess and string.format(" (did you mean %s?)", guess) or
-              " (the repository must hold it when the system starts)")
-          elseif pm and (pm.type == "number" or pm.type == "integer" or pm.type == "string" or pm.type == "boolean") then
-            local fits = pm.type == "integer" and math.type(v) == "integer" or
-              (pm.type ~= "integer" and type(v) == pm.type)
-            if not fits then
-              out.errors[#out.errors + 1] = string.format("%s%s: config key '%s' defaults to %s in %s, not %s", at, what,
-                a.value, type(v) == "string" and string.format("%q", v) or tostring(v), config_path,
-                pm.type == "integer" and "an integer" or ("a " .. pm.type))
-            end
-          end
-        end
-      end
-    end
-  end
-  return out
+  local defaults, err = require("dca.config").read_file(config_path)
+  if not defaults then return { warnings = {}, errors = { err } } end
+  return check.config_keys(ast, defaults, config_path, registry)
 end
 
 local function plural(n, one) return n == 1 and ("1 " .. one) or (n .. " " .. one .. "s") end

@@ -19,80 +19,83 @@ transactions and the conflicts (concurrent writes to one key: the highest stamp 
 kept in the log). The key file is --key, else $DCA_KEY_FILE, else the user's default.]]
 
 local render = config.render
-M.render, M.format_log = config.render, config.format_log  -- kept for callers not yet on dca.config
 
-M.parse_assignment = config.parse_assignment  -- kept for callers not yet on dca.config.parse_assignment
-
-function M.main(argv)
-  local o, perr = args.parse(argv, "dca config", { ["--daemon"] = "value", ["--key"] = "value",
-    ["-h"] = "flag:help", ["--help"] = "flag:help" }, math.huge)
-  if not o then io.stderr:write(perr, "\n") return 2 end
-  if o.help then io.write(M.usage, "\n") return 0 end
-  local words, daemon, key = o, o.daemon, o.key
-  local cmd = words[1]
-  if not cmd then io.stderr:write(M.usage, "\n") return 2 end
-  daemon = daemon or os.getenv("DCA_DAEMON")
-  if not daemon then
-    io.stderr:write("dca config: give the daemon's address with --daemon ADDR (or $DCA_DAEMON)\n")
-    return 2
-  end
-  local usage_error
-  if cmd == "get" and #words ~= 2 then usage_error = "get takes one KEY"
-  elseif cmd == "set" and #words < 2 then usage_error = "set takes KEY=VALUE..."
-  elseif (cmd == "list" or cmd == "log") and #words > 2 then usage_error = cmd .. " takes at most one argument"
-  elseif cmd == "status" and #words ~= 1 then usage_error = "status takes no argument"
-  elseif cmd ~= "get" and cmd ~= "set" and cmd ~= "list" and cmd ~= "log" and cmd ~= "status" then
-    usage_error = "unknown command '" .. cmd .. "'"
-  end
-  local values = {}
-  if cmd == "set" and not usage_error then
-    for w = 2, #words do
-      local k, v = config.parse_assignment(words[w])
-      if not k then usage_error = v break end
-      values[k] = v
-    end
-  end
-  if usage_error then
-    io.stderr:write("dca config: ", usage_error, "\n", M.usage, "\n")
-    return 2
-  end
-
-  local c, err = config.sync(daemon, { key_file = key or os.getenv("DCA_KEY_FILE") })
-  if not c then
-    io.stderr:write("dca config: ", err, "\n")
-    return 1
-  end
-  local function fail(e)
-    io.stderr:write("dca config: ", tostring(e), "\n")
-    c:close()
-    return 1
-  end
-  if cmd == "get" then
+-- Each command: how many words it takes (the command included) and what it does with the client c.
+-- run(c, words, values) --> true | nil, err
+local COMMANDS = {
+  get = { min = 2, max = 2, usage = "get takes one KEY", run = function(c, words)
     local v, e = c:get(words[2])
-    if e then return fail(e) end
+    if e then return nil, e end
     io.write(render(v), "\n")
-  elseif cmd == "set" then
+    return true
+  end },
+  set = { min = 2, max = math.huge, usage = "set takes KEY=VALUE...", run = function(c, _, values)
     local r, e = c:set(values)
-    if not r then return fail(e) end
+    if not r then return nil, e end
     io.write(string.format("set %d key%s: transaction %d of %s\n", r.keys, r.keys == 1 and "" or "s", r.seq, r.origin))
-  elseif cmd == "list" then
+    return true
+  end },
+  list = { min = 1, max = 2, usage = "list takes at most one argument", run = function(c, words)
     local entries, e = c:list(words[2])
-    if not entries then return fail(e) end
+    if not entries then return nil, e end
     for _, x in ipairs(entries) do io.write(x.key, " = ", render(x.value), "\n") end
-  elseif cmd == "log" then
+    return true
+  end },
+  log = { min = 1, max = 2, usage = "log takes at most one argument", run = function(c, words)
     local log, e = c:log(tonumber(words[2]) or 20)
-    if not log then return fail(e) end
+    if not log then return nil, e end
     io.write(config.format_log(log), "\n")
-  elseif cmd == "status" then
+    return true
+  end },
+  status = { min = 1, max = 1, usage = "status takes no argument", run = function(c)
     local s, e = c:status()
-    if not s then return fail(e) end
+    if not s then return nil, e end
     io.write(string.format("replica %s (host %s, %s): %d transactions\n", s.replica, s.host, s.path, s.transactions))
     for _, p in ipairs(s.peers or {}) do
       io.write(string.format("  peer %s%s: %s, %d syncs%s\n", p.address, p.outbound and "" or " (asked us)",
         p.connected and "connected" or "not connected", p.syncs, p.error ~= "" and (", " .. p.error) or ""))
     end
+    return true
+  end },
+}
+
+--- The command of words and, for set, the values to write. --> command, values | nil, usage error
+local function command_of(words)
+  local cmd = COMMANDS[words[1]]
+  if not cmd then return nil, "unknown command '" .. words[1] .. "'" end
+  if #words < cmd.min or #words > cmd.max then return nil, cmd.usage end
+  local values = {}
+  if words[1] == "set" then
+    for w = 2, #words do
+      local k, v = config.parse_assignment(words[w])
+      if not k then return nil, v end
+      values[k] = v
+    end
   end
+  return cmd, values
+end
+
+function M.main(argv)
+  local words, perr = args.parse(argv, "dca config", { ["--daemon"] = "value", ["--key"] = "value",
+    ["-h"] = "flag:help", ["--help"] = "flag:help" }, math.huge)
+  if not words then io.stderr:write(perr, "\n") return 2 end
+  if words.help then io.write(M.usage, "\n") return 0 end
+  if not words[1] then io.stderr:write(M.usage, "\n") return 2 end
+  local daemon = words.daemon or os.getenv("DCA_DAEMON")
+  if not daemon then
+    io.stderr:write("dca config: give the daemon's address with --daemon ADDR (or $DCA_DAEMON)\n")
+    return 2
+  end
+  local cmd, values = command_of(words)
+  if not cmd then return args.usage_error("dca config: " .. values, M.usage) end
+  local c, err = config.sync(daemon, { key_file = words.key or os.getenv("DCA_KEY_FILE") })
+  if not c then
+    io.stderr:write("dca config: ", err, "\n")
+    return 1
+  end
+  local ok, cerr = cmd.run(c, words, values)
   c:close()
+  if not ok then io.stderr:write("dca config: ", tostring(cerr), "\n") return 1 end
   return 0
 end
 

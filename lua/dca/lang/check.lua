@@ -465,6 +465,49 @@ function M.check(ast, opts)
   return ctx.errors
 end
 
+-- ------------------------------------------------------------------------------ config("key") parameters
+
+--- Whether a default fits the type of the manifest parameter it is for.
+local function default_fits(pm, v)
+  if pm.type == "integer" then return math.type(v) == "integer" end
+  if pm.type == "number" or pm.type == "string" or pm.type == "boolean" then return type(v) == pm.type end
+  return true
+end
+
+--- The i-th argument `a` of inst (in process p), a config("key"), against the defaults d.
+local function config_arg(out, ast, p, inst, i, a, d, manifest)
+  local pm = manifest and manifest.params and manifest.params[i - 1]  -- the first argument is the host
+  local at = sformat("%s:%d:%d: ", ast.file, a.line or 0, a.col or 0)
+  local what = sformat("%s.%s parameter %d%s", p.name, inst.name, i - 1, pm and pm.name and (" '" .. pm.name .. "'") or "")
+  local v = d.values[a.value]
+  if v == nil then
+    local guess = source.closest(a.value, d.keys)
+    out.warnings[#out.warnings + 1] = sformat("%swarning: %s: config key '%s' is not in %s%s", at, what, a.value,
+      d.path, guess and sformat(" (did you mean %s?)", guess) or " (the repository must hold it when the system starts)")
+  elseif pm and not default_fits(pm, v) then
+    out.errors[#out.errors + 1] = sformat("%s%s: config key '%s' defaults to %s in %s, not %s", at, what, a.value,
+      type(v) == "string" and sformat("%q", v) or tostring(v), d.path,
+      pm.type == "integer" and "an integer" or ("a " .. pm.type))
+  end
+end
+
+--- The config("key") parameters of ast against a defaults file (the list dca.config.read_file gives, read from
+--- path): { warnings = {...}, errors = {...} }, each a "FILE:LINE:COL: ..." line. A key the defaults lack is a
+--- warning (the repository may hold it); a default of the wrong type for the parameter is an error.
+--- registry: the controller manifests (parameter names and types), or nil.
+function M.config_keys(ast, defaults, path, registry)
+  local out, d = { warnings = {}, errors = {} }, { values = {}, keys = {}, path = path }
+  for _, e in ipairs(defaults) do d.values[e.key], d.keys[#d.keys + 1] = e.value, e.key end
+  for _, p in ipairs(ast.processes) do
+    for _, inst in ipairs(p.instances) do
+      for i, a in ipairs(inst.args or {}) do
+        if a.kind == "config" then config_arg(out, ast, p, inst, i, a, d, registry and registry[inst.type]) end
+      end
+    end
+  end
+  return out
+end
+
 --- "file:line:col: path: message", the source line and a caret.
 function M.format(ast, e)
   return source.format(ast.file, ast.index, e.line, e.col, (e.path and (e.path .. ": ") or "") .. e.msg)
