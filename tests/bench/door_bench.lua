@@ -18,12 +18,7 @@ local exe = os.getenv("DCA_EXE") or "dca"
 local src = os.getenv("DCA_SOURCE_DIR") or "."
 local sformat = string.format
 
-local function run(cmd)
-  local p = assert(io.popen(cmd .. " 2>&1"))
-  local out = p:read("a")
-  local ok, _, code = p:close()
-  return out, ok and 0 or code
-end
+local run = require("dca.testing").sh  -- output (stdout and stderr), exit code
 
 local function num(s) return tonumber(s) or 0 end
 

@@ -31,12 +31,7 @@ local sformat = string.format
 
 local function log(fmt, ...) io.stderr:write(sformat(fmt, ...), "\n") end
 
-local function run(cmd)
-  local p = assert(io.popen(cmd .. " 2>&1"))
-  local out = p:read("a")
-  local ok, _, code = p:close()
-  return out, ok and 0 or code
-end
+local run = require("dca.testing").sh  -- output (stdout and stderr), exit code
 
 local function q(s) return "'" .. tostring(s):gsub("'", "'\\''") .. "'" end
 

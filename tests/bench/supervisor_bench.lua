@@ -25,6 +25,13 @@ local function result(bench, variant, samples, extra)
   io.stdout:flush()
 end
 
+-- The bring-up figures of one tree shape (`make` builds its spec) and, as variant too, its baseline's.
+local function bringup_results(make, variant, samples, baseline_bench, baseline)
+  local g, l, k = spec_mod.count(make())
+  result("supervisor_bringup", variant, samples, sformat(" groups=%d leaves=%d connections=%d", g, l, k))
+  result(baseline_bench, variant, baseline)
+end
+
 -- The door-opening system's configuration defaults (its config("key") parameters), for the in-memory cluster.
 local door_config = {}
 for _, e in ipairs(assert(require("dca.config").read_file(src .. "/scripts/systems/door_open.config"))) do
@@ -83,9 +90,7 @@ local function bringup(name, make, reps)
     end)
     base_t[#base_t + 1] = (clock() - t0) * 1e6
   end
-  local g, l, k = spec_mod.count(make())
-  result("supervisor_bringup", name .. "_memory", sup_t, sformat(" groups=%d leaves=%d connections=%d", g, l, k))
-  result("algebra_start_baseline", name .. "_memory", base_t)
+  bringup_results(make, name .. "_memory", sup_t, "algebra_start_baseline", base_t)
 end
 
 -- Preemption: root -> a -> b -> c, c runs `win # (s1, s2, s3)`. From win's DONE to the last abort ack.
@@ -195,9 +200,7 @@ local function real_bringup(name, make, reps)
     up_t[#up_t + 1] = (wall() - t0) * 1e6
     sys:stop()
   end
-  local g, l, k = spec_mod.count(make())
-  result("supervisor_bringup", name .. "_loopback", up_t, sformat(" groups=%d leaves=%d connections=%d", g, l, k))
-  result("daemon_ping_baseline", name .. "_loopback", base)
+  bringup_results(make, name .. "_loopback", up_t, "daemon_ping_baseline", base)
 end
 
 local function real_preemption(reps)

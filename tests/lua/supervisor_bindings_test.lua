@@ -1,6 +1,5 @@
 -- The bindings the supervisor's tools use: file watching (dca run --watch) and line reading (dca repl).
-local T = require "dca.testing"
-local core = require "dca.core"
+local T, core = require "dca.testing", require "dca.core"
 local suite = T.suite("supervisor_bindings")
 
 local dca = os.getenv("DCA_EXE") or "dca"

@@ -8,21 +8,13 @@
 -- as the time that passed there until its commands are zero.
 local S = require "dca.scenario"
 S.backends = { "real" }
-local src = os.getenv("DCA_SOURCE_DIR") or "."
-local sys = S.system(src .. "/scripts/systems/door_open.dca", { sim = "door", seed = 1 })
+local door = dofile((os.getenv("DCA_SOURCE_DIR") or ".") .. "/tests/support/door_scenario.lua")
+local sys = door.system(S)
 local VS = "main.dooropensyst.visualserv"
-
-local function norm(v)
-  local s = 0
-  for _, x in ipairs(type(v) == "table" and v or {}) do s = s + x * x end
-  return math.sqrt(s)
-end
+local norm = door.norm
 
 local t_crash, pose0
-S.step("the tree comes up on three hosts on the simulated clock, with the world", function()
-  sys:up(60)
-  S.eq(sys:world_status().t, 0)
-end)
+door.up(S, sys, "the tree comes up on three hosts on the simulated clock, with the world")
 
 S.step("VisualServoing runs and the base moves", function()
   sys:run()

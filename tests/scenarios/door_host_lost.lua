@@ -5,15 +5,10 @@
 -- platform here, so that it outlives the loss.
 local S = require "dca.scenario"
 S.backends = { "real" }
-local src = os.getenv("DCA_SOURCE_DIR") or "."
-local sys = S.system(src .. "/scripts/systems/door_open.dca", { sim = "door", seed = 1, world_host = "platform" })
+local door = dofile((os.getenv("DCA_SOURCE_DIR") or ".") .. "/tests/support/door_scenario.lua")
+local sys = door.system(S, { world_host = "platform" })
 local VS = "main.dooropensyst.visualserv"
-
-local function norm(v)
-  local s = 0
-  for _, x in ipairs(type(v) == "table" and v or {}) do s = s + x * x end
-  return math.sqrt(s)
-end
+local norm = door.norm
 local function dist(a, b)
   local s = 0
   for i = 1, math.max(#a, #b) do s = s + math.abs((a[i] or 0) - (b[i] or 0)) end

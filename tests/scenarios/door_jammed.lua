@@ -4,14 +4,11 @@
 -- the door stays shut.
 local S = require "dca.scenario"
 S.backends = { "real" }
-local src = os.getenv("DCA_SOURCE_DIR") or "."
-local sys = S.system(src .. "/scripts/systems/door_open.dca", { sim = "door", seed = 1, jammed = true })
+local door = dofile((os.getenv("DCA_SOURCE_DIR") or ".") .. "/tests/support/door_scenario.lua")
+local sys = door.system(S, { jammed = true })
 local PH = "main.dooropensyst.presshandle"
 
-S.step("the tree comes up on three hosts with the jammed world", function()
-  sys:up(60)
-  S.eq(sys:world_status().t, 0)
-end)
+door.up(S, sys, "the tree comes up on three hosts with the jammed world")
 
 S.step("the robot reaches and grasps the handle; PressHandle runs", function()
   sys:run()

@@ -189,17 +189,9 @@ function System:wait_outcome(timeout)
   return self.outcome
 end
 
-local function find(node, path)
-  if node.path == path then return node end
-  for _, c in ipairs(node.children or {}) do
-    local f = find(c, path)
-    if f then return f end
-  end
-end
-
 function System:state(path)
   local tree = self:_ask(function(k) self.sup:tree(k) end, 25, "the tree")
-  local n = find(tree, path)
+  local n = require("dca.supervisor").find(tree, path)
   return n and n.state
 end
 

@@ -60,13 +60,7 @@ local function render_tree(node, out, depth)
 end
 M.render_tree = render_tree
 
-local function find(node, path)
-  if node.path == path then return node end
-  for _, c in ipairs(node.children or {}) do
-    local f = find(c, path)
-    if f then return f end
-  end
-end
+local find = supervisor.find
 
 local function all_paths(node, list)
   list[#list + 1] = node.path

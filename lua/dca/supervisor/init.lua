@@ -929,6 +929,15 @@ function Sup:update(new, cb)
   fin()
 end
 
+--- The node of `path` in a tree (as Sup:tree gives it), or nil.
+function M.find(node, path)
+  if node.path == path then return node end
+  for _, c in ipairs(node.children or {}) do
+    local f = M.find(c, path)
+    if f then return f end
+  end
+end
+
 --- The tree below this group: { path, kind, type, host, state, children = {...}, expr = rendered }. Async.
 function Sup:tree(cb)
   local node = { path = self.path, kind = "group", type = self.spec.type, host = self.spec.host, state = self.state,

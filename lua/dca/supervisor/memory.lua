@@ -418,20 +418,17 @@ local function event(self, msg)
   end)
 end
 
---- The node ends its run DONE(value) (only while it runs, like a controller).
-function Node:done(v)
+-- The node's run ends with event `msg` (only while it runs, like a controller). --> whether it did
+local function finish_run(self, msg)
   if not self.running then return false end
   self.running = false
-  event(self, { type = "done", value = v })
+  event(self, msg)
   return true
 end
 
-function Node:aborted(reason)
-  if not self.running then return false end
-  self.running = false
-  event(self, { type = "aborted", reason = reason })
-  return true
-end
+--- The node ends its run DONE(value) or ABORTED(reason).
+function Node:done(v) return finish_run(self, { type = "done", value = v }) end
+function Node:aborted(reason) return finish_run(self, { type = "aborted", reason = reason }) end
 
 --- Writes `v` on output `port`: delivered to the input of every destination whose set is active here.
 function Node:write(port, v)

@@ -39,12 +39,11 @@ process main() {
 end)
 
 suite:case("run_without_a_file_prints_usage_and_exits_2", function()
-  local out, rc = T.sh(dca .. " run")
-  T.eq(rc, 2)
-  T.contains(out, "usage: dca run FILE.dca")
-  out, rc = T.sh(dca .. " run x.dca --frob")
-  T.eq(rc, 2)
-  T.contains(out, "unexpected argument '--frob'")
+  for args, says in pairs({ [""] = "usage: dca run FILE.dca", [" x.dca --frob"] = "unexpected argument '--frob'" }) do
+    local out, rc = T.sh(dca .. " run" .. args)
+    T.eq(rc, 2, "dca run" .. args)
+    T.contains(out, says)
+  end
 end)
 
 suite:case("run_with_a_bad_hosts_file_names_its_line", function()

@@ -1,14 +1,11 @@
 -- dca.clients.node against real processes: three `dca daemon`s on loopback acting as three hosts (A, B, C on
 -- 127.0.0.1, .2, .3), nodes spawned from A's side on B and C, data flowing B -> C directly.
-local T = require "dca.testing"
-local core = require "dca.core"
-local daemon_client = require "dca.clients.daemon"
-local node_client = require "dca.clients.node"
-local suite = T.suite("node_client")
-
-local loop = core.loop()
+local T, core = require "dca.testing", require "dca.core"
+local daemon_client, node_client = require "dca.clients.daemon", require "dca.clients.node"
 local DCA = os.getenv("DCA_EXE") or "dca"
+local suite, loop = T.suite("node_client"), core.loop()
 
+-- Runs the loop until pred() (bounded: 10 s unless said), failing the case when it never holds.
 local function wait(pred, what, seconds)
   T.ok(loop:run_until(pred, seconds or 10), "timed out waiting for " .. what)
 end

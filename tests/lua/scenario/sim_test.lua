@@ -3,28 +3,26 @@
 local T = require "dca.testing"
 local suite = T.suite("scenario_sim")
 
-local dca = os.getenv("DCA_EXE") or "dca"
 local src = os.getenv("DCA_SOURCE_DIR") or "."
 
-local function tmpfile(text) return T.tmpfile(text, ".lua") end
+-- Runs a scenario of one system (FILE under scripts/systems, its S.system options, the scenario's first line)
+-- with `dca scenario ARGS`: it must fail (exit 1) saying `why`. --> its output
+local function refused(system, options, first, args, why)
+  local path = T.tmpfile('local S = require "dca.scenario"\n' .. first .. 'local sys = S.system("' .. src
+    .. "/scripts/systems/" .. system .. '"' .. options .. ')\nreturn S.finish()\n', ".lua")
+  local out = T.dca("scenario " .. args .. path, 1, why)
+  os.remove(path)
+  return out
+end
 
 suite:case("a_real_only_scenario_refuses_the_memory_backend", function()
-  local path = tmpfile('local S = require "dca.scenario"\nS.backends = { "real" }\n'
-    .. 'local sys = S.system("' .. src .. '/scripts/systems/test_crash.dca")\nreturn S.finish()\n')
-  local out, rc = T.sh(dca .. " scenario --backend memory " .. path)
-  os.remove(path)
-  T.eq(rc, 1, "exit code")
-  T.contains(out, "runs on the backend(s) real only")
+  local out = refused("test_crash.dca", "", 'S.backends = { "real" }\n', "--backend memory ",
+    "runs on the backend(s) real only")
   T.ok(not out:find("0 failed"), "no summary of a pass: " .. out)
 end)
 
 suite:case("a_world_needs_the_real_backend", function()
-  local path = tmpfile('local S = require "dca.scenario"\n'
-    .. 'local sys = S.system("' .. src .. '/scripts/systems/door_open.dca", { sim = "door" })\nreturn S.finish()\n')
-  local out, rc = T.sh(dca .. " scenario " .. path)
-  os.remove(path)
-  T.eq(rc, 1, "exit code")
-  T.contains(out, "needs --backend real")
+  refused("door_open.dca", ', { sim = "door" }', "", "", "needs --backend real")
 end)
 
 return suite:run(...)

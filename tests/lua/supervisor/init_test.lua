@@ -14,6 +14,36 @@ local behave = {
   Fail = function(n) n:after(1, function() n:aborted("sensor fault") end) end,
 }
 
+-- The start of `spec` (root options `...`) on cluster `c` fails. --> its reason
+local function start_fails(c, spec, ...)
+  c:root(spec, ...)
+  local ok, err = c:configure()
+  T.eq(ok, false, "the start fails")
+  return err
+end
+
+-- A cluster (fake.cluster's options; the behaviours above unless given) running `spec`: started and run.
+local function running(spec, opts)
+  opts = opts or {}
+  opts.behave = opts.behave or behave
+  local c = fake.cluster(opts)
+  c:root(spec)
+  assert(c:configure())
+  c:start()
+  return c
+end
+
+-- `text` contains every fragment given.
+local function says(text, ...)
+  for _, f in ipairs({ ... }) do T.contains(text, f) end
+end
+
+-- Once `c` has settled no process is left.
+local function nothing_left(c)
+  c:settle()
+  T.eq(c:alive(), {})
+end
+
 local function compliant()
   return root("main", "h1", "hit # (forcedata[lbl1], compliant[lbl1], puma)", {
     leaf("forcedata", "ForceSensor", "h1"), leaf("compliant", "CompliantCtrl", "h1"),
@@ -44,10 +74,7 @@ suite:case("start_protocol_starts_everything_inactive_then_connects_before_any_r
 end)
 
 suite:case("compliant_motion_hit_ends_done_and_aborts_lifo", function()
-  local c = fake.cluster{ behave = behave }
-  c:root(compliant())
-  assert(c:configure())
-  c:start()
+  local c = running(compliant())
   local out = c:outcome_within(100)
   T.eq(out and out.type, "done")
   T.eq(out.value, 1.5)
@@ -93,10 +120,7 @@ suite:case("external_io_aliases_resolve_to_leaf_ports_and_connect_at_the_real_so
 end)
 
 suite:case("a_group_reports_to_its_parent_only_when_its_expression_ends", function()
-  local c = fake.cluster{ behave = behave }
-  c:root(door())
-  assert(c:configure())
-  c:start()
+  local c = running(door())
   c:settle(1.5)
   -- dist (a Threshold) is done at t=2: until then nothing went up from door to main
   for _, m in ipairs(c.trace) do
@@ -115,10 +139,7 @@ suite:case("a_group_reports_to_its_parent_only_when_its_expression_ends", functi
 end)
 
 suite:case("leaf_events_go_only_to_the_owning_supervisor", function()
-  local c = fake.cluster{ behave = behave }
-  c:root(door())
-  assert(c:configure())
-  c:start()
+  local c = running(door())
   c:settle(10)
   local owner = { ["main.door.hitg.hit"] = "main.door.hitg", ["main.door.hitg.ft"] = "main.door.hitg",
                   ["main.door.dist"] = "main.door", ["main.door.vs"] = "main.door" }
@@ -135,10 +156,7 @@ suite:case("leaf_events_go_only_to_the_owning_supervisor", function()
 end)
 
 suite:case("a_leaf_crash_mid_run_aborts_the_group_lifo_and_names_the_leaf", function()
-  local c = fake.cluster{ behave = behave }
-  c:root(compliant())
-  assert(c:configure())
-  c:start()
+  local c = running(compliant())
   c:settle(1)
   c:kill("main.compliant", "SEGV")
   local out = c:outcome_within(100)
@@ -151,10 +169,7 @@ suite:case("a_leaf_crash_mid_run_aborts_the_group_lifo_and_names_the_leaf", func
 end)
 
 suite:case("a_host_lost_mid_run_is_an_aborted_event_naming_the_host", function()
-  local c = fake.cluster{ behave = behave }
-  c:root(door())
-  assert(c:configure())
-  c:start()
+  local c = running(door())
   c:settle(2.5)
   c:lose_host("h3")
   local out = c:outcome_within(100)
@@ -166,11 +181,8 @@ end)
 suite:case("a_part_that_fails_to_start_fails_the_start_by_name_and_nothing_is_left", function()
   local c = fake.cluster{ behave = behave }
   c.fail_spawn["main.door.hitg.ft"] = "no such controller type 'ForceTorque'"
-  c:root(door())
-  local ok, err = c:configure()
-  T.eq(ok, false)
-  T.contains(err, "main.door.hitg.ft")
-  T.contains(err, "ForceTorque")
+  local err = start_fails(c, door())
+  says(err, "main.door.hitg.ft", "ForceTorque")
   c:settle()
   T.eq(c:alive(), {}, "everything already started is stopped")
 end)
@@ -194,13 +206,8 @@ end)
 
 suite:case("an_unknown_config_key_fails_the_start_naming_process_parameter_and_key", function()
   local c = fake.cluster{ behave = behave, config = { ["door.hit_force"] = 6.5 } }
-  c:root(door_with_config("door.hit_forse"))
-  local ok, err = c:configure()
-  T.eq(ok, false)
-  T.contains(err, "main.door.hitg.hit")
-  T.contains(err, "parameter 1 'force'")
-  T.contains(err, "config key 'door.hit_forse'")
-  T.contains(err, "unknown key")
+  local err = start_fails(c, door_with_config("door.hit_forse"))
+  says(err, "main.door.hitg.hit", "parameter 1 'force'", "config key 'door.hit_forse'", "unknown key")
   c:settle()
   T.eq(c:alive(), {}, "everything already started is stopped")
 end)
@@ -209,25 +216,19 @@ suite:case("a_config_value_that_is_a_table_fails_the_start_a_parameter_is_a_scal
   local c = fake.cluster{ behave = behave, config = { ["door.hit_force"] = { 1, 2 } } }
   local s = door_with_config("door.hit_force")
   spec_mod.child(spec_mod.child(spec_mod.child(s, "door").spec, "hitg").spec, "hit").params = nil  -- no manifest
-  c:root(s)
-  local ok, err = c:configure()
-  T.eq(ok, false)
+  local err = start_fails(c, s)
   T.contains(err, "main.door.hitg.hit")
   T.contains(err, "parameter 1 (config key 'door.hit_force'): the value is a table; a controller parameter is a "
     .. "number, a string or a boolean")
-  c:settle()
-  T.eq(c:alive(), {})
+  nothing_left(c)
 end)
 
 suite:case("a_config_value_of_the_wrong_type_fails_the_start_naming_the_parameter", function()
   local c = fake.cluster{ behave = behave, config = { ["door.hit_force"] = "strong" } }
-  c:root(door_with_config("door.hit_force"))
-  local ok, err = c:configure()
-  T.eq(ok, false)
-  T.contains(err, "main.door.hitg.hit")
-  T.contains(err, "parameter 1 'force' (config key 'door.hit_force'): the value \"strong\" is a string, not a number")
-  c:settle()
-  T.eq(c:alive(), {})
+  local err = start_fails(c, door_with_config("door.hit_force"))
+  says(err, "main.door.hitg.hit",
+    "parameter 1 'force' (config key 'door.hit_force'): the value \"strong\" is a string, not a number")
+  nothing_left(c)
 end)
 
 suite:case("a_failed_start_waits_for_the_spawns_in_flight_and_stops_them_too", function()
@@ -237,9 +238,7 @@ suite:case("a_failed_start_waits_for_the_spawns_in_flight_and_stops_them_too", f
   c.fail_spawn["main.a"] = "no such controller type 'Timer'"
   c.spawn_delay["main.b"] = 1     -- answers after a's failure, within the spawn timeout
   c.spawn_delay["main.c"] = 3     -- answers after the spawn timeout: killed when it arrives
-  c:root(s, { timeouts = { spawn = 2 } })
-  local ok, err = c:configure()
-  T.eq(ok, false)
+  local err = start_fails(c, s, { timeouts = { spawn = 2 } })
   T.contains(err, "main.a: could not start on host h1: no such controller type 'Timer'")
   c:settle(10)
   T.eq(c:alive(), {}, "b, started after a failed, and c, started after its timeout, are stopped")
@@ -249,13 +248,9 @@ end)
 suite:case("a_part_that_does_not_answer_times_out_by_name", function()
   local c = fake.cluster{ behave = behave, timeouts = { spawn = 2 } }
   c.fail_spawn["main.door.mc.base"] = "silent"
-  c:root(door(), { timeouts = { spawn = 2 } })
-  local ok, err = c:configure()
-  T.eq(ok, false)
-  T.contains(err, "main.door.mc.base")
-  T.contains(err, "did not start within")
-  c:settle()
-  T.eq(c:alive(), {})
+  local err = start_fails(c, door(), { timeouts = { spawn = 2 } })
+  says(err, "main.door.mc.base", "did not start within")
+  nothing_left(c)
 end)
 
 suite:case("tidy_up_timer_ends_the_task_and_aborts_the_finders", function()
@@ -263,10 +258,7 @@ suite:case("tidy_up_timer_ends_the_task_and_aborts_the_finders", function()
     leaf("Timeout", "Timer", "h1", { 5 }), leaf("FindA", "Finder", "h1"), leaf("PlaceA", "Placer", "h2"),
     leaf("FindB", "Finder", "h2"), leaf("PlaceB", "Placer", "h2"),
   })
-  local c = fake.cluster{ behave = behave }
-  c:root(s)
-  assert(c:configure())
-  c:start()
+  local c = running(s)
   c:settle(1)
   c:node("main.FindA"):done({ x = 1 })
   c:settle(2)
@@ -277,10 +269,7 @@ suite:case("tidy_up_timer_ends_the_task_and_aborts_the_finders", function()
 end)
 
 suite:case("shutdown_stops_every_process_lifo", function()
-  local c = fake.cluster{ behave = behave }
-  c:root(door())
-  assert(c:configure())
-  c:start()
+  local c = running(door())
   c:settle(1)
   local done = false
   c.root_sup:shutdown(function() done = true end)
@@ -290,10 +279,7 @@ suite:case("shutdown_stops_every_process_lifo", function()
 end)
 
 suite:case("a_silent_child_supervisor_is_lost_after_the_silence_naming_its_host_and_its_subtree_ends", function()
-  local c = fake.cluster{ behave = behave, heartbeat = { 1, 3 } }
-  c:root(door())
-  assert(c:configure())
-  c:start()
+  local c = running(door(), { behave = behave, heartbeat = { 1, 3 } })
   c:settle(0.5)
   T.ok(c:freeze("main.door.mc"), "mc's supervisor stops answering (SIGSTOP)")
   local out = c:outcome_within(30)
@@ -347,19 +333,14 @@ end)
 
 suite:case("a_missing_world_fails_the_start_naming_the_leaf_and_its_device_ports", function()
   local c = fake.cluster{ behave = behave, types = device_types }
-  c:root(robot())
-  local ok, err = c:configure()
-  T.eq(ok, false)
-  T.contains(err, "no world for the device ports of main.drive (Drive: Odom <- base.pose, Cmd -> base.cmd_vel)")
-  T.contains(err, "--sim")
+  local err = start_fails(c, robot())
+  says(err, "no world for the device ports of main.drive (Drive: Odom <- base.pose, Cmd -> base.cmd_vel)", "--sim")
   T.eq(c:alive(), {}, "nothing left running")
 end)
 
 suite:case("an_expression_naming_an_unknown_process_fails_before_anything_starts", function()
   local c = fake.cluster{ behave = behave }
-  c:root(root("main", "h1", "a ; nosuch", { leaf("a", "Timer", "h1") }))
-  local ok, err = c:configure()
-  T.eq(ok, false)
+  local err = start_fails(c, root("main", "h1", "a ; nosuch", { leaf("a", "Timer", "h1") }))
   T.contains(err, "unknown process 'nosuch'")
   T.eq(c:alive(), {})
 end)
@@ -382,10 +363,7 @@ suite:case("a_groups_init_value_binds_every_leaf_it_starts", function()
   local b = { Rec = function(n, init) seen[n.path] = init n:after(1, function() n:done(init) end) end,
               Finder = function(n) n:after(1, function() n:done({ x = 3 }) end) end }
   local sub = group("place", "Place", "h2", "grip ; move", { leaf("grip", "Rec", "h2"), leaf("move", "Rec", "h2") })
-  local c = fake.cluster{ behave = b }
-  c:root(root("main", "h1", "find : place", { leaf("find", "Finder", "h1"), sub }))
-  assert(c:configure())
-  c:start()
+  local c = running(root("main", "h1", "find : place", { leaf("find", "Finder", "h1"), sub }), { behave = b })
   local out = c:outcome_within(100)
   T.eq(out, { type = "done", value = { x = 3 } })
   T.eq(seen["main.place.grip"], { x = 3 })
@@ -393,10 +371,7 @@ suite:case("a_groups_init_value_binds_every_leaf_it_starts", function()
 end)
 
 suite:case("an_abort_from_the_parent_is_acknowledged_after_every_stop_below", function()
-  local c = fake.cluster{ behave = behave }
-  c:root(door())
-  assert(c:configure())
-  c:start()
+  local c = running(door())
   c:settle(2.5)
   local acked = false
   local door_sup = c.sups["main.door"]
@@ -427,10 +402,7 @@ suite:case("a_recurrent_group_restarts_its_sub_group_each_iteration", function()
 end)
 
 suite:case("preemption_latency_is_recorded_where_the_event_lands_and_read_through_the_tree", function()
-  local c = fake.cluster{ behave = behave }
-  c:root(door())
-  assert(c:configure())
-  c:start()
+  local c = running(door())
   c:settle(2.5) -- dist (Threshold, 2 s) preempted vs in main.door; hitg started
   local r
   c.root_sup:handle({ type = "stats", path = "main.door" }, function(m) r = m end)
