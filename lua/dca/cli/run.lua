@@ -244,41 +244,50 @@ function Run:bring_up()
   end)
 end
 
--- With --sim: the daemons' clock checked (a hosts file), the world started, then the tree. Without: the tree.
+-- The exit code when start step `step` failed (see dca.launch.start): usage and configuration errors 2.
+local function start_code(o, step, kind)
+  if step == "hosts" then return o.hosts and 2 or 3 end
+  if step == "config" then return kind and 2 or 3 end
+  if step == "sim_clock" then return 2 end
+  return 3
+end
+
+-- With --sim: the daemons' clock checked (a hosts file) and the world started, then the tree comes up.
 function Run:start_world()
   local ctx = self.ctx
-  start.sim_clock(ctx, function(ok, err)
-    if not ok then err_line(err) self.code = 2 self.loop:stop() return end
-    start.world(ctx, function(wok, werr)
-      if not wok then
-        err_line(tostring(werr))
-        self.code = 3
-        if ctx.sim then ctx.sim.world:stop(function() self.loop:stop() end) else self.loop:stop() end
-        return
+  start.sequence(ctx, { "sim_clock", "world" }, function(ok, err, step, kind)
+    if not ok then
+      err_line(tostring(err))
+      self.code = start_code(self.o, step, kind)
+      if ctx.sim then ctx.sim.world:stop(function() self.loop:stop() end) else self.loop:stop() end
+      return
+    end
+    if ctx.sim then
+      ctx.sim.world.on_lost = function(reason)
+        err_line(reason, " (the nodes on its clock stop with it)")
+        if self.code == nil then self.code = 1 end
       end
-      if ctx.sim then
-        ctx.sim.world.on_lost = function(reason)
-          err_line(reason, " (the nodes on its clock stop with it)")
-          if self.code == nil then self.code = 1 end
-        end
-      end
-      self:bring_up()
-    end)
+    end
+    self:bring_up()
   end)
 end
 
 -- Hosts and configuration (dca.launch.start). --> true | nil, exit code
 function Run:prepare()
-  local o, ctx = self.o, self.ctx
   if not core.loop or not core.connect then
     io.stderr:write("dca run: this dca has no control plane (dca.core.loop/connect)\n")
     return nil, 3
   end
-  local ok, err = start.hosts(ctx)
-  if not ok then err_line(err) return nil, (o.hosts and 2 or 3) end
-  local kind
-  ok, err, kind = start.config(ctx)
-  if not ok then err_line(err) start.cleanup(ctx) return nil, kind and 2 or 3 end
+  local done, code
+  start.sequence(self.ctx, { "hosts", "config" }, function(ok, err, step, kind)
+    done = true
+    if ok then return end
+    err_line(err)
+    start.cleanup(self.ctx)
+    code = start_code(self.o, step, kind)
+  end)
+  assert(done, "hosts and config do not wait")
+  if code then return nil, code end
   return true
 end
 

@@ -1,16 +1,21 @@
 -- dca.launch.start: the one start-up sequence of a system, shared by `dca run` (cli/run.lua), `dca scenario`
--- (dca.scenario.real) and, for its own tree, `dca supervise` (cli/supervise.lua). Named steps, each a
--- function of one context that returns true or nil, err (the world's step calls back, as it waits on it):
+-- (dca.scenario.real) and, for its own tree, `dca supervise` (cli/supervise.lua). Named steps over one
+-- context, run in this order by start.sequence:
 --
---   hosts   the daemons: a hosts file (o.hosts), or one fresh local daemon per host name (a fresh key)
---   config  the configuration repository: the defaults file and o.set, on the root's host, replicated
---   world   with o.sim: the world process (dca.launch.sim) through o.world_host (default the first host)
---   tree    the root supervisor (dca.supervisor) on the network runtime (dca.supervisor.net)
+--   hosts      the daemons: a hosts file (o.hosts), or one fresh local daemon per host name (a fresh key)
+--   config     the configuration repository: the defaults file and o.set, on the root's host, replicated
+--   tree       the root supervisor (dca.supervisor) on the network runtime (dca.supervisor.net)
+--   sim_clock  with o.sim and a hosts file: every daemon is on the simulated clock
+--   world      with o.sim: the world process (dca.launch.sim) through o.world_host (default the first host)
+--
+-- then the tree's own start (sup:configure) and run. A step returns true or nil, err (and a kind of error);
+-- sim_clock and world wait on the network, so start.sequence runs the steps in a coroutine that each such
+-- wait suspends: the sequence reads top to bottom and ends in cb(true) or cb(nil, err, step, kind).
 --
 --   local ctx = start.context(spec, o, { say = fn(line), report = fn(msg), log = fn(line) })
---   local ok, err = start.hosts(ctx)  ok, err = start.config(ctx)
---   start.world(ctx, function(ok, err) ... end)
+--   start.sequence(ctx, { "hosts", "config" }, cb)   -- (cb at once: neither waits)
 --   local sup = start.tree(ctx, daemon_host, opts)
+--   start.sequence(ctx, { "sim_clock", "world" }, function(ok, err, step, kind) ... end)
 --   start.cleanup(ctx)                        -- the world's channels, the runtime, the daemons, the key dir
 local config, console = require "dca.config", require "dca.supervisor.console"
 local supervisor, net = require "dca.supervisor", require "dca.supervisor.net"
@@ -128,6 +133,37 @@ function M.sim_clock(ctx, cb)
       end)
     end)
   end
+end
+
+-- The steps that wait on the network: step(ctx, cb) calls back cb(true) | cb(nil, err).
+local WAITS = { sim_clock = true, world = true }
+
+-- Runs step `name` to its end, suspending the running coroutine while it waits. --> ok, err, kind
+local function run_step(ctx, name)
+  if not WAITS[name] then return M[name](ctx) end
+  local co, res, waiting = coroutine.running(), nil, false
+  M[name](ctx, function(...)
+    res = table.pack(...)
+    if waiting then
+      local ok, err = coroutine.resume(co)
+      if not ok then error(err, 0) end
+    end
+  end)
+  if not res then waiting = true coroutine.yield() end
+  return table.unpack(res, 1, res.n)
+end
+
+--- Runs the named steps in order; cb(true) after the last, cb(nil, err, step, kind) at the first that fails.
+function M.sequence(ctx, names, cb)
+  local co = coroutine.create(function()
+    for _, name in ipairs(names) do
+      local ok, err, kind = run_step(ctx, name)
+      if not ok then return cb(nil, err, name, kind) end
+    end
+    cb(true)
+  end)
+  local ok, err = coroutine.resume(co)
+  if not ok then error(err, 0) end
 end
 
 --- Everything the start opened, closed: the runtime, the world's channels, the local daemons, the key dir.

@@ -58,11 +58,10 @@ function System:start_hosts()
   local ctx = start.context(self.spec, { fresh_key = true, sim = o.sim, config = o.config, set = o.set,
     seed = o.seed, door_width = o.door_width, jammed = o.jammed, record = o.record, world_host = o.world_host },
     { report = function(msg) self:_report(msg) end })
-  self.ctx = ctx
   local ok, err = start.hosts(ctx)
-  if not ok then return nil, err end
-  self.daemons, self.key, self.keydir = ctx.daemons, ctx.key, ctx.keydir
-  ctx.say = function(line) self.lines[#self.lines + 1] = line end
+  if not ok then start.cleanup(ctx) return nil, err end
+  self.ctx, self.daemons, self.key, self.keydir = ctx, ctx.daemons, ctx.key, ctx.keydir
+  ctx.say = function(line) self.lines[#self.lines + 1] = line end  -- the seeding's line (not the hosts')
   ok, err = start.config(ctx)
   ctx.say = function() end
   return ok, err
@@ -92,7 +91,7 @@ function System:try_up(timeout)
   local ctx = self.ctx
   if self.opts.sim and not self.world then
     ctx.o.wait = bound(timeout)
-    local res = self:_ask(function(k) start.world(ctx, function(ok, werr) k({ ok, werr }) end) end,
+    local res = self:_ask(function(k) start.sequence(ctx, { "world" }, function(ok, werr) k({ ok, werr }) end) end,
       bound(timeout) + 5, "the world")
     if ctx.sim then
       self.world, self.world_host = ctx.sim.world, ctx.world_host
