@@ -5,38 +5,32 @@
 //   RESULT bench=raw_world_rtf variant=step_1ms ... rtf=...
 // The latency fields are the wall time per simulated millisecond (one physics step), one sample per run.
 // Usage: bench_lockstep [SIM_SECONDS]   (default 2)
-#pragma GCC diagnostic ignored "-Wnull-dereference"
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-
-#include <unistd.h>
-
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
-#include <optional>
 #include <string>
 #include <vector>
 
-#include "host/auth.h"
-#include "host/channel.h"
-#include "host/daemon.h"
-#include "host/loop.h"
-#include "host/node.h"
+#include "host/loop.h"  // before any other Asio header
 #include "sim/world.h"
-#include "sim/world_node.h"
+#include "tests/bench/bench_util.h"
+#include "tests/support/key_dir.h"
+#include "tests/support/sim_world.h"
 
 using Clock = std::chrono::steady_clock;
-using dca::wire::Message;
 using dca::wire::Value;
 
 namespace {
 
+// The RESULT line of one run: the wall time per simulated millisecond, and the real-time factor.
 void result(const char* bench, const std::string& variant, double wall_s, double sim_s, const std::string& extra) {
-  const double per_ms_us = wall_s / (sim_s * 1000.0) * 1e6;
-  std::printf("RESULT bench=%s variant=%s n=1 p50_us=%.1f p99_us=%.1f p999_us=%.1f max_us=%.1f rtf=%.2f%s\n", bench,
-              variant.c_str(), per_ms_us, per_ms_us, per_ms_us, per_ms_us, sim_s / wall_s, extra.c_str());
-  std::fflush(stdout);
+  std::vector<double> per_ms_us{wall_s / (sim_s * 1000.0) * 1e6};
+  char rtf[32];
+  std::snprintf(rtf, sizeof rtf, " rtf=%.2f", sim_s / wall_s);
+  dca::bench::result(bench, variant, per_ms_us, rtf + extra);
 }
 
 double raw_world(double seconds) {
@@ -47,103 +41,71 @@ double raw_world(double seconds) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
-// One run: an in-process daemon on simulated time and the world, `nodes` spawned dca-node processes with
-// Counter(period) running, `seconds` of simulated time. Returns the wall time of the simulated part (-1 on error).
-double lockstep(int nodes, double period, double seconds, const dca::auth::Key& key, const std::string& key_file) {
-  dca::Loop loop;
-  dca::DaemonOptions dopts;
-  dopts.host = "bench";
-  dopts.key = key;
-  dopts.sim_clock = true;
-  const std::string lean = std::filesystem::path(DCA_EXE).parent_path() / "dca-node";
-  dopts.allow.allow(lean);
-  dca::Daemon daemon(loop.io(), dopts);
+// Spawns `nodes` dca-node processes with Counter(period) at the daemon and runs each; false on an error.
+bool spawn_counters(dca::test::SimWorld& sim, int nodes, double period, const std::string& lean,
+                    const std::string& key_file) {
+  const std::string addr = sim.daemon.address().str();
+  const auto wait = std::chrono::seconds(20);
   std::string error;
-  if (!daemon.start(&error)) {
-    std::fprintf(stderr, "daemon: %s\n", error.c_str());
-    return -1;
-  }
-  const std::string addr = daemon.address().str();
-  dca::sim::World world(dca::sim::door_world());
-  dca::sim::WorldNodeOptions wo;
-  wo.duration = seconds;
-  dca::sim::WorldNode wn(loop, world, wo);
-  bool held = false;
-  wn.on_duration = [&] { held = true; };
-  dca::NodeOptions no;
-  no.name = "world";
-  no.daemon = addr;
-  no.key_file = key_file;
-  auto hosted = wn.make_node(no);
-  dca::Node& wnode = *hosted;
-  std::optional<std::string> started;
-  wnode.start([&](const std::string& e) { started = e; });
-  loop.run_until([&] { return started.has_value(); }, std::chrono::seconds(10));
-  if (started.value_or("timeout") != "") {
-    std::fprintf(stderr, "world: %s\n", started.value_or("timeout").c_str());
-    return -1;
-  }
-  dca::ChannelOptions chopts{key};
-  auto open = [&](const std::string& a) {
-    dca::Channel::Ptr ch;
-    std::string err;
-    dca::Channel::connect(loop.io(), *dca::Address::parse(a), chopts, [&](dca::Channel::Ptr c, const std::string& e) {
-      ch = c;
-      err = e.empty() ? "connected" : e;
-    });
-    loop.run_until([&] { return !err.empty(); }, std::chrono::seconds(10));
-    return ch;
-  };
-  auto call = [&](const dca::Channel::Ptr& ch, Message m) {
-    std::optional<dca::Response> r;
-    ch->request(std::move(m), std::chrono::seconds(20), [&](dca::Response x) { r = std::move(x); });
-    loop.run_until([&] { return r.has_value(); }, std::chrono::seconds(25));
-    return r.value_or(dca::Response{{}, "no answer"});
-  };
-  auto to_daemon = open(addr);
-  if (!to_daemon) return -1;
+  auto to_daemon = sim.open(addr, &error);
+  if (!to_daemon) return false;
   char per[32];
   std::snprintf(per, sizeof per, "%g", period);
   for (int i = 0; i < nodes; ++i) {
     const std::string name = "/bench/c" + std::to_string(i);
-    auto s = call(to_daemon, {"spawn", 0,
-                              Value::map()
-                                  .set("argv", Value::Array{lean, "node", "--type", "Counter", "--name", name, "--daemon",
-                                                            addr, "--key", key_file, "--", per})
-                                  .set("name", name)});
-    auto l = call(to_daemon, {"lookup", 0, Value::map().set("name", name).set("wait_ms", 5000)});
+    const auto argv = Value::Array{lean, "node", "--type", "Counter", "--name", name, "--daemon", addr, "--key",
+                                   key_file, "--", per};
+    auto s = sim.call(to_daemon, "spawn", Value::map().set("argv", argv).set("name", name), wait);
+    auto l = sim.call(to_daemon, "lookup", Value::map().set("name", name).set("wait_ms", 5000), wait);
     if (!s.ok() || !l.ok()) {
       std::fprintf(stderr, "node %s: %s %s\n", name.c_str(), s.error.c_str(), l.error.c_str());
-      return -1;
+      return false;
     }
-    auto ctl = open(l.message.payload["endpoints"]["control"].as_string());
-    if (!ctl || !call(ctl, {"run", 0, Value::map()}).ok()) return -1;
+    auto ctl = sim.open(l.message.payload["endpoints"]["control"].as_string(), &error);
+    if (!ctl || !sim.call(ctl, "run", Value::map(), wait).ok()) return false;
   }
-  auto to_world = open(daemon.names().table().find("world")->endpoints["control"].as_string());
+  return true;
+}
+
+// One run: an in-process daemon on simulated time and the world, `nodes` spawned dca-node processes with
+// Counter(period) running, `seconds` of simulated time. Returns the wall time of the simulated part (-1 on error).
+double lockstep(int nodes, double period, double seconds, const dca::test::KeyDir& keys) {
+  dca::Loop loop;
+  dca::DaemonOptions dopts;
+  dopts.host = "bench";
+  dopts.key = keys.key;
+  dopts.sim_clock = true;
+  const std::string lean = std::filesystem::path(DCA_EXE).parent_path() / "dca-node";
+  dopts.allow.allow(lean);
+  dca::sim::WorldNodeOptions wo;
+  wo.duration = seconds;
+  dca::test::SimWorld sim(loop, dopts, wo, keys.key_file);
+  std::string error;
+  if (!sim.start(&error)) {
+    std::fprintf(stderr, "world: %s\n", error.c_str());
+    return -1;
+  }
+  if (!spawn_counters(sim, nodes, period, lean, keys.key_file)) return -1;
+  auto to_world = sim.open(sim.control_of("world"), &error);
   const auto t0 = Clock::now();
-  call(to_world, {"go", 0, Value::map()});
-  loop.run_until([&] { return held; }, std::chrono::seconds(600));
+  sim.call(to_world, "go", Value::map(), std::chrono::seconds(20));
+  loop.run_until([&] { return sim.held; }, std::chrono::seconds(600));
   const double wall = std::chrono::duration<double>(Clock::now() - t0).count();
-  const auto st = call(to_world, {"status", 0, Value::map()});
+  const auto st = sim.call(to_world, "status", Value::map(), std::chrono::seconds(20));
   if (st.message.payload["subscribers"].as_array().size() != static_cast<std::size_t>(nodes))
     std::fprintf(stderr, "warning: %zu subscribers, expected %d\n", st.message.payload["subscribers"].as_array().size(),
                  nodes);
-  wnode.shutdown("bench over");
-  daemon.stop();
-  return held ? wall : -1;
+  sim.stop("bench over");
+  return sim.held ? wall : -1;
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
   const double seconds = argc > 1 ? std::max(0.1, std::atof(argv[1])) : 2.0;
-  const std::string dir = std::filesystem::temp_directory_path() / ("dca-bench-lockstep-" + std::to_string(::getpid()));
-  std::filesystem::create_directories(dir);
-  const std::string key_file = dir + "/key";
-  std::string error;
-  auto key = dca::auth::load_or_create_key(key_file, &error);
-  if (!key) {
-    std::fprintf(stderr, "%s\n", error.c_str());
+  const dca::test::KeyDir keys("bench-lockstep");
+  if (!keys.ok()) {
+    std::fprintf(stderr, "%s\n", keys.error.c_str());
     return 1;
   }
   struct Variant {
@@ -155,7 +117,7 @@ int main(int argc, char** argv) {
     for (const auto& v : variants) {
       std::fprintf(stderr, "round %d: raw world, then %d nodes at %g s\n", round + 1, v.nodes, v.period);
       result("raw_world_rtf", "step_1ms", raw_world(seconds), seconds, "");
-      const double wall = lockstep(v.nodes, v.period, seconds, *key, key_file);
+      const double wall = lockstep(v.nodes, v.period, seconds, keys);
       if (wall < 0) {
         std::fprintf(stderr, "lock-step run failed\n");
         continue;
@@ -166,7 +128,5 @@ int main(int argc, char** argv) {
              wall, seconds, extra);
     }
   }
-  std::error_code ec;
-  std::filesystem::remove_all(dir, ec);
   return 0;
 }

@@ -5,23 +5,15 @@
 #include "sim/world_node.h"
 
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <chrono>
-#include <filesystem>
 #include <optional>
 
-#include "host/auth.h"
-#include "host/channel.h"
-#include "host/daemon.h"
-#include "host/node.h"
 #include "host/timers.h"
+#include "tests/support/key_dir.h"
+#include "tests/support/sim_world.h"
 
 namespace {
-
-using namespace std::chrono_literals;
-using dca::wire::Message;
-using dca::wire::Value;
 
 // Drives the base forward at 0.2 m/s every 10 ms and counts its ticks and the arm.q samples it saw.
 class Driver final : public dca::Component {
@@ -56,21 +48,13 @@ class Driver final : public dca::Component {
   dca::PortSet ports_;
 };
 
+using namespace std::chrono_literals;
+using dca::wire::Message;
+using dca::wire::Value;
+
 class WorldNodeTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir = std::filesystem::temp_directory_path() / ("dca-world-node-test-" + std::to_string(::getpid()));
-    std::filesystem::create_directories(dir);
-    key_file = (dir / "key").string();
-    std::string error;
-    auto key = dca::auth::load_or_create_key(key_file, &error);
-    ASSERT_TRUE(key) << error;
-    chopts.key = *key;
-  }
-  void TearDown() override {
-    std::error_code ec;
-    std::filesystem::remove_all(dir, ec);
-  }
+  void SetUp() override { ASSERT_TRUE(keys.ok()) << keys.error; }
 
   struct Run {
     double x = 0, y = 0, yaw = 0;
@@ -81,112 +65,102 @@ class WorldNodeTest : public ::testing::Test {
 
   // One run: daemon, world (duration `seconds`), driver node wired both ways, `go`, until the world holds.
   Run run_once(double seconds, bool with_stalled_subscriber = false) {
-    Run out;
     dca::Loop loop;
     dca::DaemonOptions dopts;
     dopts.host = "h";
-    dopts.key = chopts.key;
-    dca::Daemon daemon(loop.io(), dopts);
-    std::string error;
-    EXPECT_TRUE(daemon.start(&error)) << error;
-
-    dca::sim::World world(dca::sim::door_world());
+    dopts.key = keys.key;
     dca::sim::WorldNodeOptions wo;
     wo.duration = seconds;
     wo.tick_timeout_ms = 300;
-    dca::sim::WorldNode wn(loop, world, wo);
-    bool held = false;
-    wn.on_duration = [&] { held = true; };
-    dca::NodeOptions no;
-    no.name = "world";
-    no.daemon = daemon.address().str();
-    no.key_file = key_file;
-    auto hosted = wn.make_node(no);
-    dca::Node& wnode = *hosted;
-    std::optional<std::string> started;
-    wnode.start([&](const std::string& e) { started = e; });
-    EXPECT_TRUE(loop.run_until([&] { return started.has_value(); }, 10s));
-    EXPECT_EQ(started.value_or("timeout"), "");
+    dca::test::SimWorld sim(loop, dopts, wo, keys.key_file);
+    std::string error;
+    EXPECT_TRUE(sim.start(&error)) << error;
 
-    dca::NodeOptions dn;
-    dn.type = "Driver";
-    dn.name = "/drv";
-    dn.daemon = daemon.address().str();
-    dn.key_file = key_file;
-    dn.clock = dca::ClockKind::Simulated;
     Driver* drv = nullptr;
-    dca::Node dnode(loop, dn, [&](const std::string&, const std::string& n, const std::string&,
-                                  const std::vector<std::string>&, dca::TimerServer& t) {
-      auto c = std::make_unique<Driver>(n, t);
-      drv = c.get();
-      return c;
-    });
-    std::optional<std::string> dstarted;
-    dnode.start([&](const std::string& e) { dstarted = e; });
-    EXPECT_TRUE(loop.run_until([&] { return dstarted.has_value(); }, 10s));
-    EXPECT_EQ(dstarted.value_or("timeout"), "");
-    if (!drv) return out;
-
+    auto dnode = start_driver(sim, &drv);
+    if (!drv) return {};
     // The supervisor's side: channels to the world and to the driver, found by name at the daemon.
-    auto control_of = [&](const std::string& name) {
-      const auto* e = daemon.names().table().find(name);
-      return e ? e->endpoints["control"].as_string() : std::string();
-    };
-    auto open = [&](const std::string& addr) {
-      dca::Channel::Ptr ch;
-      std::string err = "pending";
-      dca::Channel::connect(loop.io(), *dca::Address::parse(addr), chopts, [&](dca::Channel::Ptr c, const std::string& e) {
-        ch = c;
-        err = e;
-      });
-      EXPECT_TRUE(loop.run_until([&] { return err != "pending"; }, 10s));
-      EXPECT_TRUE(ch) << err;
-      return ch;
-    };
-    auto call = [&](const dca::Channel::Ptr& ch, const std::string& type, Value payload = Value::map()) {
-      std::optional<dca::Response> r;
-      ch->request({type, 0, std::move(payload)}, 10s, [&](dca::Response x) { r = std::move(x); });
-      EXPECT_TRUE(loop.run_until([&] { return r.has_value(); }, 15s));
-      EXPECT_TRUE(r && r->ok()) << type << ": " << (r ? r->error : "no reply");
-      return r ? r->message.payload : Value();
-    };
-    auto to_world = open(control_of("world"));
-    auto to_drv = open(control_of("/drv"));
-    if (!to_world || !to_drv) return out;
-    call(to_world, "connect",
-         Value::map().set("out", "arm.q").set("to", "/drv").set("in", "Q").set("set", "/drv:device"));
-    call(to_world, "activate", Value::map().set("set", "/drv:device"));
-    call(to_drv, "connect",
-         Value::map().set("out", "Cmd").set("to", "world").set("in", "base.cmd_vel").set("set", "/drv:device"));
-    call(to_drv, "activate", Value::map().set("set", "/drv:device"));
-    call(to_drv, "run");
+    auto to_world = open(sim, sim.control_of("world"));
+    auto to_drv = open(sim, sim.control_of("/drv"));
+    if (!to_world || !to_drv) return {};
+    wire(sim, to_world, to_drv);
     dca::Channel::Ptr stalled;
     if (with_stalled_subscriber) {
-      stalled = open(control_of("world"));
+      stalled = open(sim, sim.control_of("world"));
       stalled->on_message([](const Message&) {});  // takes the advances and never answers
       stalled->request({"clock", 0, Value::map().set("name", "/stalled")}, 5s, [](dca::Response) {});
     }
-    call(to_world, "go");
-    EXPECT_TRUE(loop.run_until([&] { return held; }, 60s)) << "the world did not reach its duration";
-    out.status = call(to_world, "status");
+    call(sim, to_world, "go");
+    EXPECT_TRUE(loop.run_until([&] { return sim.held; }, 60s)) << "the world did not reach its duration";
+    Run out = result(*drv, call(sim, to_world, "status"));
+    dnode->shutdown("test over");
+    sim.stop("test over");
+    return out;
+  }
+
+  // The driver node on simulated time, started; *drv is its component (nullptr if it did not start).
+  std::unique_ptr<dca::Node> start_driver(dca::test::SimWorld& sim, Driver** drv) {
+    dca::NodeOptions dn;
+    dn.type = "Driver";
+    dn.name = "/drv";
+    dn.daemon = sim.daemon.address().str();
+    dn.key_file = keys.key_file;
+    dn.clock = dca::ClockKind::Simulated;
+    auto node = std::make_unique<dca::Node>(sim.loop, dn,
+                                            [drv](const std::string&, const std::string& n, const std::string&,
+                                                  const std::vector<std::string>&, dca::TimerServer& t) {
+                                              auto c = std::make_unique<Driver>(n, t);
+                                              *drv = c.get();
+                                              return c;
+                                            });
+    std::optional<std::string> started;
+    node->start([&](const std::string& e) { started = e; });
+    EXPECT_TRUE(sim.loop.run_until([&] { return started.has_value(); }, 10s));
+    EXPECT_EQ(started.value_or("timeout"), "");
+    return node;
+  }
+
+  // arm.q from the world to the driver's Q, the driver's Cmd to the world's base.cmd_vel, then run.
+  void wire(dca::test::SimWorld& sim, const dca::Channel::Ptr& to_world, const dca::Channel::Ptr& to_drv) {
+    call(sim, to_world, "connect",
+         Value::map().set("out", "arm.q").set("to", "/drv").set("in", "Q").set("set", "/drv:device"));
+    call(sim, to_world, "activate", Value::map().set("set", "/drv:device"));
+    call(sim, to_drv, "connect",
+         Value::map().set("out", "Cmd").set("to", "world").set("in", "base.cmd_vel").set("set", "/drv:device"));
+    call(sim, to_drv, "activate", Value::map().set("set", "/drv:device"));
+    call(sim, to_drv, "run");
+  }
+
+  static Run result(const Driver& drv, Value status) {
+    Run out;
+    out.status = std::move(status);
     const auto& p = out.status["base_pose"].as_array();
     if (p.size() == 3) {
       out.x = p[0].as_float();
       out.y = p[1].as_float();
       out.yaw = p[2].as_float();
     }
-    out.ticks = drv->ticks;
-    out.q_seen = drv->q_seen;
-    out.tick_times = drv->tick_times;
-    dnode.shutdown("test over");
-    wnode.shutdown("test over");
-    daemon.stop();
+    out.ticks = drv.ticks;
+    out.q_seen = drv.q_seen;
+    out.tick_times = drv.tick_times;
     return out;
   }
 
-  std::filesystem::path dir;
-  std::string key_file;
-  dca::ChannelOptions chopts;
+  static dca::Channel::Ptr open(dca::test::SimWorld& sim, const std::string& addr) {
+    std::string error;
+    auto ch = sim.open(addr, &error);
+    EXPECT_TRUE(ch) << error;
+    return ch;
+  }
+
+  static Value call(dca::test::SimWorld& sim, const dca::Channel::Ptr& ch, const std::string& type,
+                    Value payload = Value::map()) {
+    const auto r = sim.call(ch, type, std::move(payload));
+    EXPECT_TRUE(r.ok()) << type << ": " << r.error;
+    return r.message.payload;
+  }
+
+  dca::test::KeyDir keys{"world-node-test"};
 };
 
 TEST_F(WorldNodeTest, NodeTicksInLockStepAndItsCommandsMoveTheRobot) {
