@@ -45,7 +45,7 @@ S.step("a misspelt key fails the start naming process, parameter and key; nothin
   local bad = S.system(path, { config = src .. "/scripts/systems/test_config.config" })
   os.remove(path)
   local ok, err = bad:try_up(30)
-  S.eq(ok, false)
+  S.eq(ok, nil)
   S.ok(tostring(err):find("main.wait", 1, true), err)
   S.ok(tostring(err):find("parameter 1 'seconds' (config key 'test.wiat'): unknown key 'test.wiat'", 1, true), err)
   S.ok(bad:stop(), "nothing left running after the failed start")

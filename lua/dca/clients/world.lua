@@ -45,11 +45,11 @@ function W:_exit(msg, finish)
   local ws = self.exit_waiters or {}
   self.exit_waiters = nil
   for _, w in ipairs(ws) do w() end
-  finish(false, "the world (dca sim --serve) " .. self.exited)
+  finish(nil, "the world (dca sim --serve) " .. self.exited)
 end
 
 --- Spawns the world through the daemon at o.daemon and connects to it once it has registered.
---- cb(true) | cb(false, err naming the host)
+--- cb(true) | cb(nil, err naming the host)
 function W:start(cb)
   local o = self.o
   local done = false
@@ -60,11 +60,11 @@ function W:start(cb)
     cb(ok, err)
   end
   daemon_client.connect(o.daemon, clients.key_opts(o.key), function(dc, err)
-    if not dc then finish(false, sformat("the daemon of host %s at %s: %s", o.host, o.daemon, tostring(err))) return end
+    if not dc then finish(nil, sformat("the daemon of host %s at %s: %s", o.host, o.daemon, tostring(err))) return end
     self.daemon = dc
     dc:spawn(M.argv(o), { name = "world", timeout = 10, on_exit = function(msg) self:_exit(msg, finish) end },
       clients.result(function(r, serr)
-        if not r then finish(false, sformat("could not start the world on host %s: %s", o.host, tostring(serr))) return end
+        if not r then finish(nil, sformat("could not start the world on host %s: %s", o.host, tostring(serr))) return end
         self.child, self.pid = r.child, r.pid
         self:_connect(dc, finish)
       end))
@@ -76,7 +76,7 @@ function W:_connect(dc, finish)
   local wait = self.o.wait or 60
   clients.open(dc, "world", wait, clients.key_opts(self.o.key), clients.Plain, function(c, err, missing)
     if not c then
-      finish(false, missing and sformat("the world did not register within %gs: %s", wait, tostring(err)) or
+      finish(nil, missing and sformat("the world did not register within %gs: %s", wait, tostring(err)) or
         ("the " .. tostring(err)))
       return
     end

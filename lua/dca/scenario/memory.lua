@@ -114,7 +114,7 @@ function System:up(timeout)
   return true
 end
 
---- Like up(), but returns false, reason instead of raising.
+--- Like up(), but returns nil, reason instead of raising.
 function System:try_up(timeout)
   return self.c:configure(self.c.t + (timeout or 30))
 end

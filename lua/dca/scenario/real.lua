@@ -83,11 +83,11 @@ function System:_report(msg)
   end
 end
 
---- Brings the system up (hosts, world, tree: dca.launch.start). --> true | false, reason
+--- Brings the system up (hosts, world, tree: dca.launch.start). --> true | nil, reason
 function System:try_up(timeout)
   timeout = timeout or 30
   local hok, herr = self:start_hosts()
-  if not hok then return false, herr end
+  if not hok then return nil, herr end
   local ctx = self.ctx
   if self.opts.sim and not self.world then
     ctx.o.wait = bound(timeout)
@@ -97,7 +97,7 @@ function System:try_up(timeout)
       self.world, self.world_host = ctx.sim.world, ctx.world_host
       self.world.on_lost = function(reason) self.world_lost = reason end
     end
-    if not res[1] then return false, res[2] end
+    if not res[1] then return nil, res[2] end
   end
   self.sup = start.tree(ctx, self.world_host)
   self.rt = ctx.rt
@@ -105,7 +105,7 @@ function System:try_up(timeout)
     "the start")
   if not res[1] then
     self:_ask(function(k) self.sup:shutdown(k) end, 100, "the stop after a failed start")
-    return false, res[2]
+    return nil, res[2]
   end
   return true
 end

@@ -9,7 +9,7 @@
 --     opts: progress, timeouts, hosts, and the hook console(sup) --> the console that answers `repl` and
 --     `complete` requests (dca.supervisor.console.hook; none: those requests are refused). The engine requires
 --     neither dca.core nor the console: its runtime and its hooks come from whoever creates it.
---   sup:configure(cb)         -- start children inactive, connect, cb(true) | cb(false, reason)  (start+connect)
+--   sup:configure(cb)         -- start children inactive, connect, cb(true) | cb(nil, reason)  (start+connect)
 --   sup:run(init)             -- runs the expression; the outcome goes to rt.report{type="done"|"aborted"}
 --   sup:abort(cb)             -- aborts the running expression (LIFO), cb() once every stop is acknowledged
 --   sup:shutdown(cb)          -- aborts, then stops every child LIFO (processes gone), cb()
@@ -20,7 +20,7 @@
 -- The runtime:
 --   rt.spawn(child, cb)       -- child = a spec child (leaf or group); cb(handle) | cb(nil, reason). A handle
 --                             --   has request(msg, timeout_s, cb(reply|nil, err)), send(msg), kill(signal, cb)
---                             --   (cb(true) once the process has exited, cb(false, reason) if it outlived
+--                             --   (cb(true) once the process has exited, cb(nil, reason) if it outlived
 --                             --   SIGKILL), and optionally lost() (stop reporting its exit: it was declared lost).
 --                             --   A group's handle is a configured-to-be child DCAS: send it {type="configure"}.
 --   rt.defer(fn)              -- fn from the loop, soon
@@ -154,7 +154,7 @@ local function countdown(n, done)
 end
 
 -- Phase 1: every child process started (inactive); groups configured (their subtree up and wired).
--- A failure is reported (cb(false, reason), the first one) only once every spawn in flight has answered or
+-- A failure is reported (cb(nil, reason), the first one) only once every spawn in flight has answered or
 -- timed out, so that the shutdown which follows finds every process that was started; a handle that still
 -- arrives after that (a spawn answered after its timeout) is killed on arrival.
 function Sup:_start_children(cb)
@@ -166,7 +166,7 @@ function Sup:_start_children(cb)
     outstanding = outstanding - 1
     if outstanding == 0 and not finished then
       finished = true
-      if failed then cb(false, reason) else cb(true) end
+      if failed then cb(nil, reason) else cb(true) end
     end
   end
   local function fail(why)
@@ -282,7 +282,7 @@ end
 -- Phase 2: this group's own connections, resolved to leaf ports, created inactive at each source node.
 function Sup:_connect(cb)
   local wires, errs = spec_mod.wiring(self.spec)
-  if not wires then cb(false, concat(errs, "; ")) return end
+  if not wires then cb(nil, concat(errs, "; ")) return end
   self.wires = wires
   self.set_sources = {}
   for _, w in ipairs(wires) do
@@ -298,7 +298,7 @@ function Sup:_connect(cb)
         if failed then return end
         if not reply or reply.type == "error" then
           failed = true
-          cb(false, sformat("%s: connecting %s.%s -> %s.%s (set %s): %s", self.path, w.src, w.out, w.dst, w["in"], w.set,
+          cb(nil, sformat("%s: connecting %s.%s -> %s.%s (set %s): %s", self.path, w.src, w.out, w.dst, w["in"], w.set,
             reply and reply.reason or tostring(err)))
           return
         end
@@ -354,15 +354,15 @@ function Sup:_wire_devices(cb)
     return sformat("%s: no world for the device ports of %s (start it with `dca run --sim WORLD`, or a robot "
       .. "driver registered as `world`): %s", self.path, describe_devices(ports), tostring(err))
   end
-  if not self.rt.world then cb(false, no_world("this runtime reaches no world")) return end
+  if not self.rt.world then cb(nil, no_world("this runtime reaches no world")) return end
   local failed = false
   local activated = {}
   local tick = countdown(#ports, function() if not failed then cb(true) end end)
   local function fail(p, what, reply, err, missing)
     if failed then return end
     failed = true
-    if missing then cb(false, no_world(err)) return end
-    cb(false, sformat("%s: %s device port %s.%s (%s): %s", self.path, what, p.leaf, p.port, p.signal,
+    if missing then cb(nil, no_world(err)) return end
+    cb(nil, sformat("%s: %s device port %s.%s (%s): %s", self.path, what, p.leaf, p.port, p.signal,
       reply and reply.reason or tostring(err)))
   end
   for _, p in ipairs(ports) do
@@ -392,19 +392,19 @@ function Sup:_wire_devices(cb)
   end
 end
 
---- Start protocol below this group: children started inactive, then connected. cb(true) | cb(false, reason).
+--- Start protocol below this group: children started inactive, then connected. cb(true) | cb(nil, reason).
 function Sup:configure(cb)
-  if self.expr_error then self.state = "failed" cb(false, self.expr_error) return end
+  if self.expr_error then self.state = "failed" cb(nil, self.expr_error) return end
   self.state = "starting"
   self:say("%s: starting %d processes", self.path, #self.spec.children)
   self:_start_children(function(ok, err)
-    if not ok then self.state = "failed" cb(false, err) return end
+    if not ok then self.state = "failed" cb(nil, err) return end
     self:say("%s: started", self.path)
     self:_connect(function(ok2, err2)
-      if not ok2 then self.state = "failed" cb(false, err2) return end
+      if not ok2 then self.state = "failed" cb(nil, err2) return end
       self:say("%s: connected (%d connections)", self.path, #self.wires)
       self:_wire_devices(function(ok3, err3)
-        if not ok3 then self.state = "failed" cb(false, err3) return end
+        if not ok3 then self.state = "failed" cb(nil, err3) return end
         if #self.device_ports > 0 then
           self:say("%s: %d device ports wired to the world", self.path, #self.device_ports)
         end
@@ -561,7 +561,7 @@ end
 function Sup:run_expr(init, started)
   if self.state == "running" then
     if started then started(false) end
-    return false, self.path .. " is already running"
+    return nil, self.path .. " is already running"
   end
   if not self.expr then
     -- a group without event actions runs nothing and is done at once
@@ -690,7 +690,7 @@ function Sup:child_exit(name, reason)
   if self.starting_cb then
     local f = self.starting_cb
     self.starting_cb = nil
-    f(false, sformat("%s: %s", ch.path, reason))
+    f(nil, sformat("%s: %s", ch.path, reason))
   end
 end
 
@@ -714,7 +714,7 @@ function Sup:shutdown(cb)
     for i = #self.order, 1, -1 do names[#names + 1] = self.order[i] end
     local waiting, i = 1, 0
     local function gone(ok, err)
-      if ok == false then self:say("%s: %s", self.path, tostring(err)) end
+      if not ok and err then self:say("%s: %s", self.path, tostring(err)) end
       waiting = waiting - 1
       if waiting > 0 then return end
       self.state = "stopped"
@@ -790,7 +790,7 @@ function Sup:handle(msg, reply)
     reply({ type = "ok", path = self.path, state = self.state })
   elseif t == "stats" then
     if msg.path and msg.path ~= self.path then
-      self:_forward(msg.path, msg, function(ok, r) reply(ok and r or { type = "error", reason = r }) end)
+      self:_forward(msg.path, msg, function(r, err) reply(r or { type = "error", reason = err }) end)
     else
       reply({ type = "ok", stats = self.stats, path = self.path })
     end
@@ -821,10 +821,10 @@ end
 -- Forwards a request to the child DCAS on the way to `path`. cb(ok, err)
 function Sup:_forward(path, msg, cb)
   local ch = self:_via(path)
-  if not ch then cb(false, sformat("no process '%s' under %s", path, self.path)) return end
-  if ch.kind ~= "group" or not ch.handle then cb(false, sformat("%s is not reachable (%s)", ch.path, ch.state)) return end
+  if not ch then cb(nil, sformat("no process '%s' under %s", path, self.path)) return end
+  if ch.kind ~= "group" or not ch.handle then cb(nil, sformat("%s is not reachable (%s)", ch.path, ch.state)) return end
   ch.handle.request(msg, self.timeouts.request, function(r, err)
-    if r and r.type ~= "error" then cb(true, r) else cb(false, r and r.reason or tostring(err)) end
+    if r and r.type ~= "error" then cb(r) else cb(nil, r and r.reason or tostring(err)) end
   end)
 end
 
@@ -854,7 +854,7 @@ function Sup:restart(path, cb)
     return
   end
   local ch = self:_via(path)
-  if ch and ch.kind == "leaf" then cb(false, path .. " is a leaf: restart() is for groups") return end
+  if ch and ch.kind == "leaf" then cb(nil, path .. " is a leaf: restart() is for groups") return end
   self:_forward(path, { type = "restart", path = path }, cb)
 end
 
@@ -863,7 +863,7 @@ function Sup:switch(path, label, what, cb)
   local ch = self:_via(path)
   if ch and ch.path == path then
     local id = spec_mod.set_id(self.path, ch.name, label)
-    if not (self.set_sources and self.set_sources[id]) then cb(false, "no connection set " .. id) return end
+    if not (self.set_sources and self.set_sources[id]) then cb(nil, "no connection set " .. id) return end
     self:_set(ch.name, label, what)
     cb(true)
   else

@@ -8,7 +8,7 @@
 --   local fake = require "dca.supervisor.memory"
 --   local c = fake.cluster{ behave = { Timer = function(node, init) node:after(1, function() node:done("timeout") end) end } }
 --   local root = c:root(spec)           -- the root DCAS (its parent is the test: c.outcome, c.reports)
---   c:configure()  --> true | false, reason   (runs the start protocol to the end)
+--   c:configure()  --> true | nil, reason   (runs the start protocol to the end)
 --   c:start(init)                           -- "run" to the root
 --   c:settle(max_t)                         -- processes events (and virtual time up to max_t)
 --   c:node(path):done(v) / :aborted(reason) -- a leaf's events
@@ -313,16 +313,16 @@ function Cluster:root(spec, opts)
   return s
 end
 
---- Runs the root's start protocol to the end. --> true | false, reason
+--- Runs the root's start protocol to the end. --> true | nil, reason
 function Cluster:configure(max_t)
   local res
   self.root_sup:configure(function(ok, err)
     if ok then res = { true } else
-      self.root_sup:shutdown(function() res = { false, err } end)
+      self.root_sup:shutdown(function() res = { nil, err } end)
     end
   end)
   self:settle(max_t, function() return res ~= nil end)
-  if not res then return false, "configure did not finish" end
+  if not res then return nil, "configure did not finish" end
   return res[1], res[2]
 end
 

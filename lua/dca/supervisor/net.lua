@@ -120,7 +120,7 @@ function Proc:kill(sig)
 end
 
 -- Kills, then waits for the exit event (bounded): SIGKILL after `stop_grace` seconds, gives up after as many
--- again. cb(true) once gone | cb(false, reason)
+-- again. cb(true) once gone | cb(nil, reason)
 function Proc:kill_wait(sig, cb)
   if cb then
     if self.exited then cb(true) return end
@@ -139,7 +139,7 @@ function Proc:kill_wait(sig, cb)
       local waiters = self.on_exit
       self.on_exit = nil
       for _, w in ipairs(waiters or {}) do
-        w(false, sformat("%s (pid %s on host %s) did not exit within %gs of SIGKILL", self.path,
+        w(nil, sformat("%s (pid %s on host %s) did not exit within %gs of SIGKILL", self.path,
           tostring(self.pid), self.host, grace))
       end
     end)
