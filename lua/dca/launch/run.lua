@@ -1,0 +1,244 @@
+-- dca.launch.run: one run of a system, what `dca run` does without its argv and its terminal: the start
+-- (dca.launch.start), the progress lines (stamped with the world's time in simulated time), the consoles that
+-- follow the root, reloads (--watch too), the start's deadline, the end with the world's summary, Ctrl-C.
+--
+--   local code = require("dca.launch.run").main(spec, o, out)   -- o: the options of `dca run` (cli/run.lua)
+--   out = { line = fn(text),      -- a line for the person (progress, the summary)
+--           outcome = fn(text),   -- the root's ABORTED line
+--           error = fn(text),     -- what went wrong (the cli names itself before it)
+--           console = fn(exe, address, key) --> pid | nil }   -- with o.repl: a console process on the terminal
+-- The exit code: 0 when the root ends DONE, 1 ABORTED, 2 usage or configuration errors, 3 a failed start,
+-- 130 after Ctrl-C.
+local core = require "dca.core"
+local supervisor, srt = require "dca.supervisor", require "dca.supervisor.net"
+local hosts_mod, start = require "dca.launch.hosts", require "dca.launch.start"
+
+local M = {}
+
+local ipairs, tostring, sformat = ipairs, tostring, string.format
+
+-- A run: its options, spec, start context (dca.launch.start), the consoles following its lines, its exit code.
+local Run = {}
+Run.__index = Run
+
+-- An error line through the hook (the cli prefixes it with its name).
+local function err_line(self, ...)
+  local parts = table.pack(...)
+  for i = 1, parts.n do parts[i] = tostring(parts[i]) end
+  self.out.error(table.concat(parts, "", 1, parts.n))
+end
+
+-- Writes a line for the person: to the consoles following the root (with --repl they own the terminal and
+-- print it above their prompt), else to stdout.
+function Run:emit(text)
+  if srt.to_followers(self.followers, text) > 0 and self.o.repl then return end
+  self.out.line(text)
+end
+
+-- A progress line, stamped with the world's time (with --sim, in order) or the wall time since the start.
+function Run:say(line, at)
+  local s = self.ctx.sim
+  if s and s.world:connected() then
+    s:stamp(line, function(t, l) if not self.o.quiet then self:emit(sformat("[sim %8.3f] %s", t, l)) end end, at)
+  elseif not self.o.quiet then
+    self:emit(sformat("[%7.3f] %s", core.now() - self.t0, line))
+  end
+end
+
+-- The root's outcome line to stderr (or the consoles), in order with the stamped lines.
+function Run:say_aborted(msg)
+  local text = sformat("%s: ABORTED at %s: %s", self.spec.path, tostring(msg.path), tostring(msg.reason))
+  local function out(t)
+    if not (self.o.repl and srt.to_followers(self.followers, t) > 0) then self.out.outcome(t) end
+  end
+  local s = self.ctx.sim
+  if s and s.world:connected() then s:stamp(text, function(t) out(sformat("[sim %8.3f] %s", t, text)) end)
+  else out(text) end
+end
+
+-- What the root reports: its lines and its outcome (which ends the run unless a console holds it).
+function Run:report(msg)
+  if msg.type == "log" then self:say(msg.line, msg.at)
+  elseif msg.type == "done" then
+    self:say(sformat("%s: DONE %s", self.spec.path, supervisor.show(msg.value)))
+    if not self.o.repl then self.code = 0 self:wind_up() end
+  elseif msg.type == "aborted" then
+    self:say_aborted(msg)
+    if not self.o.repl then self.code = 1 self:wind_up() end
+  end
+end
+
+-- The tree, then the world stopped, then the loop.
+function Run:down()
+  local s = self.ctx.sim
+  self.sup:shutdown(function()
+    if s then s.world:stop(function() self.loop:stop() end) else self.loop:stop() end
+  end)
+end
+
+-- The end of a run: the world's summary (with --sim), then down.
+function Run:wind_up()
+  local s = self.ctx.sim
+  if not s then self:down() return end
+  s:summary(core.now() - self.t0, function(lines)
+    for _, l in ipairs(lines) do self:emit(l) end
+    self:down()
+  end)
+end
+
+-- Stops everything with exit code `c` (unless one is set), bounded: the daemons are killed after the loop.
+function Run:stop_all(c)
+  if self.code == nil then self.code = c end
+  self:down()
+  core.after(15, function() self.loop:stop() end)
+end
+
+-- The root listens for consoles (`dca repl main`) and registers its path with its host's daemon.
+function Run:listen()
+  local key, hosts, spec = self.ctx.key, self.ctx.hosts, self.spec
+  self.listener = core.listen("127.0.0.1:0", srt.key_opts(key), function(ch)
+    ch:on_message(function(msg, id) srt.console(ch, id, msg, self.sup, self.followers) end)
+    ch:on_close(function() self.followers[ch] = nil end)
+  end)
+  local root_daemon = hosts[spec.host]
+  if not (self.listener and root_daemon) then return end
+  require("dca.clients.daemon").connect(root_daemon, srt.key_opts(key), function(d)
+    if not d then return end
+    self.ctx.rt.root_daemon = d
+    d:register(spec.path, { control = self.listener:address() })
+    self:say(sformat("console: dca repl %s --daemon %s --key %s", spec.path, root_daemon, tostring(key)))
+  end)
+end
+
+-- reload: the file again (validated first; on an error the old version keeps running), or the modules.
+function Run:reload(what, cb)
+  local reload = require "dca.reload"
+  if what == "modules" then cb(reload.modules()) return end
+  reload.system(self.sup, what or self.o.file, { root = self.o.root }, function(lines, err)
+    if not lines then lines = { "reload refused, the running version is kept:", err }
+    elseif #lines == 0 then lines = { "no change" } end
+    cb(lines)
+  end)
+end
+
+-- --watch: the file reloaded when it is saved.
+function Run:watch()
+  local w, werr = core.watch_file(self.o.file)
+  if not w then err_line(self, "--watch: ", werr) return end
+  core.every(0.2, function()
+    if w:changed() then
+      self:reload(nil, function(lines) for _, l in ipairs(lines) do self:say("reload: " .. l) end end)
+    end
+  end)
+end
+
+-- --repl: a console on the root's console endpoint (the hook out.console starts it: `dca repl` on the terminal,
+-- in its own process, so that line editing owns the terminal while this loop keeps the system running); its
+-- exit ends the run.
+function Run:open_console()
+  local pid = self.out.console(self.ctx.exe, self.listener:address(), self.ctx.key)
+  if not pid then err_line(self, "could not start the console") return end
+  local watch
+  watch = core.every(0.1, function()
+    if hosts_mod.alive(pid) then return end
+    watch:cancel()
+    local st = self.sup.outcome and self.sup.outcome.status
+    self:stop_all(st == "done" and 0 or (st == "aborted" and 1 or 130))
+  end)
+end
+
+-- The root runs; simulated time starts once every process the start ran has its run (a repeatable start).
+function Run:run_root()
+  self:say(self.spec.path .. ": the whole tree is configured: run")
+  self.sup:run_expr(nil, function()
+    local s = self.ctx.sim
+    if not s then return end
+    s.world:go(function(r, gerr)
+      if not r then err_line(self, "the world did not start its time: ", tostring(gerr)) self:stop_all(3) end
+    end)
+  end)
+  if self.o.repl and self.listener then self:open_console() end
+end
+
+-- The tree comes up (start, connect, confirm) within --timeout, then runs.
+function Run:bring_up()
+  local deadline = core.after(self.o.timeout, function()
+    if self.sup.state == "starting" or self.sup.state == "new" then
+      err_line(self, sformat("the start did not finish within %gs", self.o.timeout))
+      self:stop_all(3)
+    end
+  end)
+  self.sup:configure(function(ok, err)
+    if not ok then err_line(self, "start failed: ", tostring(err)) self:stop_all(3) return end
+    deadline:cancel()
+    self:run_root()
+  end)
+end
+
+-- The exit code when start step `step` failed (see dca.launch.start): usage and configuration errors 2.
+local function start_code(o, step, kind)
+  if step == "hosts" then return o.hosts and 2 or 3 end
+  if step == "config" then return kind and 2 or 3 end
+  if step == "sim_clock" then return 2 end
+  return 3
+end
+
+-- With --sim: the daemons' clock checked (a hosts file) and the world started, then the tree comes up.
+function Run:start_world()
+  local ctx = self.ctx
+  start.sequence(ctx, { "sim_clock", "world" }, function(ok, err, step, kind)
+    if not ok then
+      err_line(self, tostring(err))
+      self.code = start_code(self.o, step, kind)
+      if ctx.sim then ctx.sim.world:stop(function() self.loop:stop() end) else self.loop:stop() end
+      return
+    end
+    if ctx.sim then
+      ctx.sim.world.on_lost = function(reason)
+        err_line(self, reason, " (the nodes on its clock stop with it)")
+        if self.code == nil then self.code = 1 end
+      end
+    end
+    self:bring_up()
+  end)
+end
+
+-- Hosts and configuration (dca.launch.start). --> true | nil, exit code
+function Run:prepare()
+  if not core.loop or not core.connect then
+    err_line(self, "this dca has no control plane (dca.core.loop/connect)")
+    return nil, 3
+  end
+  local done, code
+  start.sequence(self.ctx, { "hosts", "config" }, function(ok, err, step, kind)
+    done = true
+    if ok then return end
+    err_line(self, err)
+    start.cleanup(self.ctx)
+    code = start_code(self.o, step, kind)
+  end)
+  assert(done, "hosts and config do not wait")
+  if code then return nil, code end
+  return true
+end
+
+--- Runs the system of `spec` with options `o`, talking through `out` (see the header). --> exit code
+function M.main(spec, o, out)
+  local r = setmetatable({ o = o, spec = spec, out = out, followers = {}, t0 = core.now() }, Run)
+  r.ctx = start.context(spec, o, { say = function(line) r:say(line) end, report = function(msg) r:report(msg) end,
+                                   log = function(line, at) r:say(line, at) end })
+  local pok, code = r:prepare()
+  if not pok then return code end
+  r.loop = core.loop()
+  r.sup = start.tree(r.ctx, spec.host)
+  core.on_signal(function(sig) r:say("interrupted (SIG" .. tostring(sig) .. "): stopping") r:stop_all(130) end)
+  r:listen()
+  r.sup.reload_hook = function(what, cb) r:reload(what, cb) end
+  if o.watch then r:watch() end
+  r:start_world()
+  r.loop:run()
+  start.cleanup(r.ctx)
+  return r.code or 1
+end
+
+return M
