@@ -3,7 +3,7 @@
 -- expr(), log(), event(), abort(), restart(), activate(), deactivate(), reload(), help()). Line editing,
 -- history (~/.dca_history) and Tab completion of commands and process paths come from libedit.
 local core = require "dca.core"
-local clients, args_mod = require "dca.clients", require "dca.cli.args"
+local console, args_mod = require "dca.clients.console", require "dca.cli.args"
 
 local M = {}
 
@@ -34,21 +34,18 @@ end
 local function find(loop, target, daemon, key)
   if looks_like_address(target) then return target end
   if not daemon then return nil, "to find '" .. target .. "' give --daemon ADDR (or $DCA_DAEMON)", 2 end
-  local d, derr = await(loop, 10, function(k) require("dca.clients.daemon").connect(daemon, { key_file = key }, k) end)
-  if not d then return nil, "daemon " .. daemon .. ": " .. tostring(derr), 1 end
-  local ep, lerr = await(loop, 5 + clients.TIMEOUT, function(k) clients.lookup(d, target, 2, k) end)
-  d:close()
-  if not ep or not ep.control then return nil, "no supervisor '" .. target .. "': " .. tostring(lerr), 1 end
-  return ep.control
+  local addr, err = await(loop, 20, function(k) console.find(daemon, target, { key_file = key }, k) end)
+  if not addr then return nil, err, 1 end
+  return addr
 end
 
 -- A console session on the supervisor's channel.
 local Session = {}
 Session.__index = Session
 
--- A request answered before the loop returns (bounded). --> reply | nil, err
-function Session:ask(msg, timeout)
-  return await(self.loop, timeout + 1, function(k) self.client:request(msg, timeout, k) end)
+-- The evaluation of `line`, answered before the loop returns (bounded). --> reply | nil, err
+function Session:eval(line)
+  return await(self.loop, console.EVAL_TIMEOUT + 1, function(k) self.client:eval(line, k) end)
 end
 
 -- stdin is a pipe or a file: one answer per line, in order, nothing asynchronous.
@@ -58,7 +55,7 @@ function Session:lines()
     local line = core.readline(prompt)
     if line == nil then break end
     core.add_history(line)
-    local r, e = self:ask({ type = "repl", line = line }, 60)
+    local r, e = self:eval(line)
     if not r then
       io.stderr:write("no answer: ", tostring(e), "\n")
       if self.closed then break end
@@ -75,7 +72,7 @@ function Session:on_line(line)
   if line == nil then self.quit = true return end
   core.readline_remove()
   if line:match("%S") then core.add_history(line) end
-  self.client:request({ type = "repl", line = line }, 60, function(r, e)
+  self.client:eval(line, function(r, e)
     if not r then io.stdout:write("no answer: ", tostring(e), "\n")
     else
       self.prompt = r.more and "  >> " or "dca> "
@@ -90,10 +87,7 @@ end
 -- prompt, which is drawn again with the typed text (core.readline_print).
 function Session:terminal()
   self.prompt = "dca> "
-  self.client.channel:on_message(function(msg)
-    if msg.type == "log" and msg.line then core.readline_print(msg.line) end
-  end)
-  self.client:request({ type = "follow" }, 10)
+  self.client:follow(core.readline_print)
   core.readline_install(self.prompt, function(l) self:on_line(l) end)
   -- the loop runs in slices; between them the terminal's input is fed to the line editor (a person's
   -- keystrokes: 20 ms is below what anyone notices)
@@ -107,7 +101,7 @@ end
 
 -- Connects to the console at `addr`. --> session | nil, err
 local function open(loop, addr, key)
-  local c, err = await(loop, 10, function(k) clients.connect(addr, { key_file = key }, clients.Plain, k) end)
+  local c, err = await(loop, 10, function(k) console.connect(addr, { key_file = key }, k) end)
   if not c then return nil, err end
   local s = setmetatable({ loop = loop, client = c }, Session)
   c:on_close(function(reason) s.closed = reason or "closed" end)
@@ -119,7 +113,7 @@ function Session:run(target, addr)
   core.read_history(HISTORY)
   -- Tab: asked from inside the line editor, outside the loop (never a nested run of it)
   core.set_completer(function(word)
-    local r = self:ask({ type = "complete", prefix = word }, 2)
+    local r = await(self.loop, console.COMPLETE_TIMEOUT + 1, function(k) self.client:complete(word, k) end)
     return r and r.candidates or {}
   end)
   io.stdout:write("connected to ", target, " (", addr, "); help() lists the commands, Ctrl-D leaves\n")

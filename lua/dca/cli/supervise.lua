@@ -1,12 +1,7 @@
 -- `dca supervise --name PATH --daemon ADDR [--key FILE]`: one DCAS (a process-group instance), started by the
--- daemon of its group's host on behalf of the parent supervisor. It listens for its parent on a control
--- channel, registers PATH with its daemon (endpoint `control`), receives its group's spec in a "configure"
--- request, starts and connects its children, and runs its expression on "run". It exits when its parent
--- asks (shutdown) or goes away (everything it started is stopped first).
-local core = require "dca.core"
-local supervisor, srt = require "dca.supervisor", require "dca.supervisor.net"
-local start = require "dca.launch.start"
-local args_mod = require "dca.cli.args"
+-- daemon of its group's host on behalf of the parent supervisor (dca.launch.group does the work). It exits
+-- when its parent asks (shutdown) or goes away (everything it started is stopped first).
+local core, args_mod = require "dca.core", require "dca.cli.args"
 
 local USAGE = "dca supervise --name PATH --daemon ADDR [--key FILE] [--listen ADDR]"
 
@@ -18,82 +13,11 @@ local function parse(args)
   return o
 end
 
--- One supervisor process: its options, loop, parent channel, consoles following it, supervisor and runtime.
-local Proc = {}
-Proc.__index = Proc
-
-function Proc:finish(code)
-  if self.exit_code then return end
-  self.exit_code = code
-  if self.rt then self.rt.close() end
-  self.loop:stop()
-end
-
--- Everything this supervisor started is stopped, then it exits with `code` (with 1 when that takes 30 s).
-function Proc:wind_down(code)
-  if self.sup then self.sup:shutdown(function() self:finish(code) end) else self:finish(code) end
-  core.after(30, function() self:finish(1) end)
-end
-
--- The tree of this group, on the "configure" request of the parent channel `ch` (dca.launch.start.tree).
-function Proc:configure(ch, msg)
-  local own_host
-  for h, a in pairs(msg.hosts or {}) do if a == self.o.daemon then own_host = h end end
-  local ctx = { spec = msg.spec, hosts = msg.hosts, key = self.key, exe = "dca",
-    report = function(m)
-      ch:send(m)
-      if m.type == "log" then srt.to_followers(self.followers, m.line) end
-    end,
-    log = function(line)
-      srt.to_followers(self.followers, line)
-      if os.getenv("DCA_SUPERVISE_VERBOSE") then io.stderr:write(line, "\n") end
-    end }
-  self.sup = start.tree(ctx, own_host, { progress = msg.progress, timeouts = msg.timeouts })
-  self.rt = ctx.rt
-end
-
--- A request on channel `ch`: the first channel whose first request is "configure" is the parent; any other
--- is a console.
-function Proc:on_request(ch, msg, id)
-  if (id or 0) == 0 then return end
-  if ch ~= self.parent then
-    if self.parent or msg.type ~= "configure" then srt.console(ch, id, msg, self.sup, self.followers) return end
-    self.parent = ch
-    ch:on_close(function() self:wind_down(1) end)  -- the parent is gone
-  end
-  if msg.type == "configure" and not self.sup then self:configure(ch, msg) end
-  if not self.sup then srt.reply(ch, id, { type = "error", reason = "not configured yet" }) return end
-  self.sup:handle(msg, function(r)
-    srt.reply(ch, id, r)
-    if msg.type == "shutdown" then core.after(0.05, function() self:finish(0) end) end
-  end)
-end
-
--- Listens on the daemon's IP (another host's supervisor must reach it), a free port. --> listener | nil, err
-function Proc:listen()
-  local d = self.o.daemon
-  local ip = d:match("^%[(.-)%]:%d+$") and ("[" .. d:match("^%[(.-)%]") .. "]") or d:match("^([%d%.]+):%d+$")
-    or "127.0.0.1"
-  return core.listen(self.o.listen or (ip .. ":0"), srt.key_opts(self.key), function(ch)
-    ch:on_message(function(msg, id) self:on_request(ch, msg, id) end)
-    ch:on_close(function() self.followers[ch] = nil end)
-  end)
-end
-
--- Registers this supervisor's path with its daemon; the daemon's loss ends it.
-function Proc:register(listener)
-  local o = self.o
-  require("dca.clients.daemon").connect(o.daemon, srt.key_opts(self.key), function(d, cerr)
-    if not d then io.stderr:write("dca supervise: daemon ", o.daemon, ": ", tostring(cerr), "\n") self:finish(1) return end
-    d:register(o.name, { control = listener:address(), pid = core.pid() }, function(r, rerr)
-      if not r or r.type == "error" then
-        io.stderr:write("dca supervise: register ", o.name, ": ", tostring(r and r.reason or rerr), "\n")
-        self:finish(1)
-      end
-    end)
-    d:on_close(function() if self.sup then self.sup:shutdown(function() self:finish(1) end) else self:finish(1) end end)
-  end)
-end
+local OUT = {
+  error = function(text) io.stderr:write("dca supervise: ", text, "\n") end,
+  line = function(text) io.stderr:write(text, "\n") end,
+  verbose = os.getenv("DCA_SUPERVISE_VERBOSE") ~= nil,
+}
 
 local function main(args)
   if not core.loop or not core.connect then
@@ -102,16 +26,7 @@ local function main(args)
   end
   local o, err = parse(args)
   if not o then io.stderr:write("dca supervise: ", (err:gsub("^dca supervise: ", "")), "\nusage: ", USAGE, "\n") return 2 end
-  local p = setmetatable({ o = o, key = o.key or os.getenv("DCA_KEY_FILE"), loop = core.loop(), followers = {} }, Proc)
-  local listener, lerr = p:listen()
-  if not listener then io.stderr:write("dca supervise: listen: ", tostring(lerr), "\n") return 1 end
-  p:register(listener)
-  -- SIGTERM (its daemon stopping it, or a person): what it started goes first, then it exits (bounded)
-  core.on_signal(function() p:wind_down(0) end)
-  -- a parent that never comes is a failed start: give up after the configure timeout
-  core.after(supervisor.timeouts.configure, function() if not p.parent then p:finish(1) end end)
-  p.loop:run()
-  return p.exit_code or 0
+  return require("dca.launch.group").main(o, OUT)
 end
 
 return { summary = "run one supervisor (DCAS) of a process group; started by a daemon", usage = USAGE, main = main }
