@@ -22,6 +22,9 @@ local ipairs, tostring, sformat = ipairs, tostring, string.format
 local W = {}
 W.__index = W
 
+--- The options a world takes besides where it runs (see the header): what a system's start passes through.
+M.OPTIONS = { "world", "seed", "door_width", "record", "jammed", "realtime", "wait" }
+
 --- The argv of the world process for options `o` (see the header).
 function M.argv(o)
   local argv = { "dca", "sim", "--serve", "--daemon", o.daemon, "--host", o.host, "--world", o.world or "door" }

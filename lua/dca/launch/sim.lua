@@ -20,7 +20,7 @@ local S = {}
 S.__index = S
 
 function M.new(o, spec)
-  local hook = reports.for_world(o.world or "door")
+  local hook = reports.for_world(o.world)
   return setmetatable({ world = world_client.new(o), hook = hook, leaves = spec and hook.leaves(spec) or {},
                         steps = {}, order = {}, pending = {}, t_last = 0 }, S)
 end

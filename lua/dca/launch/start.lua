@@ -25,8 +25,9 @@ local M = {}
 
 local ipairs, sformat = ipairs, string.format
 
---- The context of a start: spec, options `o` (hosts, state_dir, sim, seed, door_width, record, jammed,
---- realtime, wait, world_host, config, set, check) and the hooks say(line), report(msg), log(line).
+--- The context of a start: spec, options `o` (hosts, state_dir, config, set, check, fresh_key, sim = the
+--- world's name, world_host, and the world's own options: dca.clients.world.OPTIONS) and the hooks say(line),
+--- report(msg), log(line).
 function M.context(spec, o, hooks)
   return { spec = spec, o = o, names = require("dca.supervisor.spec").hosts(spec), exe = hosts_mod.self_exe(),
            say = hooks.say or function() end, report = hooks.report, log = hooks.log }
@@ -81,9 +82,10 @@ function M.world(ctx, cb)
   local wh = o.world_host or ctx.names[1]
   if not ctx.hosts[wh] then cb(nil, "world_host " .. tostring(wh) .. " is not a host of the system") return end
   ctx.world_host = wh
-  ctx.sim = sim.new({ daemon = ctx.hosts[wh], host = wh, key = ctx.key, world = o.sim, seed = o.seed,
-                      door_width = o.door_width, record = o.record, jammed = o.jammed, realtime = o.realtime,
-                      wait = o.wait }, o.summary and ctx.spec or nil)
+  local wo = { daemon = ctx.hosts[wh], host = wh, key = ctx.key }
+  for _, k in ipairs(require("dca.clients.world").OPTIONS) do wo[k] = o[k] end
+  wo.world = o.sim
+  ctx.sim = sim.new(wo, o.summary and ctx.spec or nil)
   ctx.say(sformat("world: starting `dca sim --serve --world %s` on host %s", o.sim, wh))
   ctx.sim.world:start(function(ok, err)
     if not ok then cb(nil, err) return end

@@ -82,9 +82,9 @@ function M.system(file, opts)
   -- opts.set = { key = value } over it, as `dca run --config/--set`
   local cfile = opts.config or (file and require("dca.config").defaults_file(file)) or nil
   local backend = require(M.backend == "real" and "dca.scenario.real" or "dca.scenario.memory")
-  local s = backend.system(spec, { file = file, root = opts.root, sim = opts.sim, seed = opts.seed,
-    door_width = opts.door_width, jammed = opts.jammed, world_host = opts.world_host, record = opts.record,
-    config = cfile, set = opts.set, behave = opts.behave, timeouts = opts.timeouts, heartbeat = opts.heartbeat })
+  local bo = { file = file, config = cfile }
+  for k, v in pairs(opts) do if bo[k] == nil then bo[k] = v end end
+  local s = backend.system(spec, bo)
   s.commands, s.host = Shared.commands, Shared.host
   systems[#systems + 1] = s
   return s

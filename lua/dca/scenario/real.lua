@@ -55,9 +55,9 @@ end
 function System:start_hosts()
   if self.ctx then return true end
   local o = self.opts
-  local ctx = start.context(self.spec, { fresh_key = true, sim = o.sim, config = o.config, set = o.set,
-    seed = o.seed, door_width = o.door_width, jammed = o.jammed, record = o.record, world_host = o.world_host },
-    { report = function(msg) self:_report(msg) end })
+  local so = { fresh_key = true, sim = o.sim, config = o.config, set = o.set, world_host = o.world_host }
+  for _, k in ipairs(require("dca.clients.world").OPTIONS) do so[k] = so[k] or o[k] end
+  local ctx = start.context(self.spec, so, { report = function(msg) self:_report(msg) end })
   local ok, err = start.hosts(ctx)
   if not ok then start.cleanup(ctx) return nil, err end
   self.ctx, self.daemons, self.key, self.keydir = ctx, ctx.daemons, ctx.key, ctx.keydir
