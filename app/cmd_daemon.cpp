@@ -10,6 +10,7 @@
 #include "app/subcommand.h"
 #include "host/daemon.h"
 #include "host/loop.h"
+#include "host/paths.h"
 
 namespace {
 
@@ -118,13 +119,7 @@ int cmd_daemon(std::span<char* const> args) {
     }
   }
   if (!state_dir_given) {
-    const char* xdg = std::getenv("XDG_STATE_HOME");
-    const char* home = std::getenv("HOME");
-    if (xdg != nullptr && xdg[0] == '/') {
-      state_dir = std::string(xdg) + "/dca/" + o.host;
-    } else if (home != nullptr && home[0] != '\0') {
-      state_dir = std::string(home) + "/.local/state/dca/" + o.host;
-    }
+    state_dir = dca::state_dir(o.host);
     o.state_dir_is_default = true;
   }
   if (state_dir != "none") o.state_dir = state_dir;

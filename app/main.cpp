@@ -9,6 +9,7 @@
 
 #include "bindings/lua_runtime.h"
 #include "app/subcommand.h"
+#include "host/paths.h"
 #include "host/version.h"
 
 namespace {

@@ -3,6 +3,7 @@
 #include <lua.hpp>
 
 #include "bindings/lua_loop.h"
+#include "host/paths.h"
 #include "host/version.h"
 
 namespace dca::bindings {

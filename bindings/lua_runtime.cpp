@@ -7,7 +7,7 @@
 #include <stdexcept>
 
 #include "bindings/core.h"
-#include "host/version.h"
+#include "host/paths.h"
 
 namespace dca::lua {
 namespace {

@@ -17,6 +17,7 @@
 #include <system_error>
 
 #include "bindings/lua_loop.h"
+#include "host/paths.h"
 
 namespace dca::bindings {
 namespace {
@@ -34,14 +35,12 @@ int l_pid(lua_State* L) {
 }
 
 int l_exe_path(lua_State* L) {
-  std::error_code ec;
-  const auto p = std::filesystem::read_symlink("/proc/self/exe", ec);
-  if (ec) {
+  const std::string s = dca::exe_path();
+  if (s.empty()) {
     lua_pushnil(L);
-    lua_pushstring(L, ec.message().c_str());
+    lua_pushstring(L, "cannot resolve /proc/self/exe");
     return 2;
   }
-  const std::string s = p.string();
   lua_pushlstring(L, s.data(), s.size());
   return 1;
 }

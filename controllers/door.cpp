@@ -6,7 +6,7 @@
 #include <stdexcept>
 
 #include "controllers/registry.h"
-#include "host/version.h"
+#include "host/paths.h"
 
 namespace dca::door {
 namespace {

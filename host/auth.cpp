@@ -15,6 +15,8 @@
 #include <filesystem>
 #include <stdexcept>
 
+#include "host/paths.h"
+
 namespace dca::auth {
 namespace {
 
@@ -164,10 +166,7 @@ Handshake::Step Handshake::on_message(const wire::Message& m) {
 std::string key_file_path(const std::string& explicit_path) {
   if (!explicit_path.empty()) return explicit_path;
   if (const char* e = std::getenv("DCA_KEY_FILE"); e != nullptr && *e != '\0') return e;
-  if (const char* x = std::getenv("XDG_CONFIG_HOME"); x != nullptr && *x != '\0')
-    return std::string(x) + "/dca/key";
-  const char* home = std::getenv("HOME");
-  return std::string(home != nullptr ? home : ".") + "/.config/dca/key";
+  return dca::config_dir() + "/key";
 }
 
 std::optional<Key> load_key(const std::string& path, std::string* error) {

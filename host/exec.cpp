@@ -15,6 +15,8 @@
 #include <cstring>
 #include <filesystem>
 
+#include "host/paths.h"
+
 extern char** environ;
 
 namespace dca {
@@ -23,9 +25,8 @@ namespace asio = boost::asio;
 namespace {
 
 std::string self_exe() {
-  std::error_code ec;
-  auto p = std::filesystem::read_symlink("/proc/self/exe", ec);
-  return ec ? std::string("/proc/self/exe") : p.string();
+  const std::string p = exe_path();
+  return p.empty() ? std::string("/proc/self/exe") : p;
 }
 
 std::string real(const std::string& path) {

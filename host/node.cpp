@@ -17,6 +17,7 @@
 #include "host/auth.h"
 #include "host/channel.h"
 #include "host/endpoint.h"
+#include "host/paths.h"
 
 namespace dca {
 
@@ -24,15 +25,6 @@ using wire::Message;
 using wire::Value;
 
 namespace {
-
-std::string runtime_dir() {
-  if (const char* x = std::getenv("XDG_RUNTIME_DIR"); x && *x && ::access(x, W_OK) == 0) return x;
-  const auto d = std::filesystem::temp_directory_path() / ("dca-" + std::to_string(::getuid()));
-  std::error_code ec;
-  std::filesystem::create_directories(d, ec);
-  std::filesystem::permissions(d, std::filesystem::perms::owner_all, ec);
-  return d.string();
-}
 
 Value spec_value(const PortSpec& s) {
   return Value::map()

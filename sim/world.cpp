@@ -10,6 +10,7 @@
 #include <stdexcept>
 #include <unistd.h>
 
+#include "host/paths.h"
 #include "sim/urdf_loader.h"
 
 namespace dca::sim {
@@ -51,19 +52,6 @@ struct Sphere {
 };
 
 }  // namespace
-
-std::string models_dir() {
-  if (const char* env = std::getenv("DCA_MODELS_DIR"); env != nullptr && *env != '\0') return env;
-  std::error_code ec;
-  if (std::filesystem::is_directory(DCA_SIM_MODELS_DIR, ec)) return DCA_SIM_MODELS_DIR;
-  // Installed: <prefix>/bin/dca -> <prefix>/share/dca/models.
-  const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", ec);
-  if (!ec) {
-    const std::filesystem::path installed = exe.parent_path().parent_path() / "share" / "dca" / "models";
-    if (std::filesystem::is_directory(installed, ec)) return installed.string();
-  }
-  return DCA_SIM_MODELS_DIR;
-}
 
 Pose2 nominal_base_start() { return {0.0, 0.0, 0.0}; }
 
@@ -164,7 +152,7 @@ class WorldForces : public SimTK::Force::Custom::Implementation {
 
 World::Impl::Impl(const WorldConfig& c) : config(c) {
   if (!(config.period > 0 && config.period <= 0.01)) throw std::invalid_argument("period must be in (0, 10 ms]");
-  if (config.robot_urdf.empty()) config.robot_urdf = models_dir() + "/mobile_manipulator.urdf";
+  if (config.robot_urdf.empty()) config.robot_urdf = dca::models_dir() + "/mobile_manipulator.urdf";
   kp = config.servo_bandwidth * config.servo_bandwidth;
   kv = 2 * config.servo_bandwidth;
   build();

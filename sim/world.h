@@ -55,7 +55,7 @@ struct CameraParams {
 /// Everything that defines a world. door_world() gives the standard one.
 struct WorldConfig {
   double period = 1e-3;                    ///< control period = integration step (s)
-  std::string robot_urdf;                  ///< path of the robot's URDF ("" = models_dir()'s)
+  std::string robot_urdf;                  ///< path of the robot's URDF ("" = dca::models_dir()'s)
   DoorParams door;                         ///< the door (width etc.)
   Pose2 door_pose;                         ///< the door frame in the world (hinge axis at the floor)
   Pose2 base_start;                        ///< the robot's starting pose
@@ -67,10 +67,6 @@ struct WorldConfig {
   double door_start = 0;                   ///< the door's starting angle (rad)
   double handle_start = 0;                 ///< the handle's starting angle (rad)
 };
-
-/// Where the URDF models are: $DCA_MODELS_DIR (as controllers/door.h), else the source tree's sim/models, else the installed
-/// <prefix>/share/dca/models.
-std::string models_dir();
 
 /// The nominal start pose of the robot (base at the origin facing +x, the door plane 2 m ahead).
 Pose2 nominal_base_start();
