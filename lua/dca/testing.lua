@@ -127,6 +127,11 @@ function M.dca(args, rc, ...)
   return out, code
 end
 
+--- Runs loop (a dca.core loop) until pred() holds, at most `seconds` (default 10); fails naming `what` else.
+function M.wait(loop, pred, what, seconds)
+  if not loop:run_until(pred, seconds or 10) then fail("timed out waiting for " .. what) end
+end
+
 local Suite = {}
 Suite.__index = Suite
 

@@ -6,12 +6,8 @@ local core = require "dca.core"
 local config = require "dca.config"
 local suite = T.suite("config")
 
-local loop = core.loop()
-local DCA = os.getenv("DCA_EXE") or "dca"
-
-local function wait(pred, what, seconds)
-  T.ok(loop:run_until(pred, seconds or 20), "timed out waiting for " .. what)
-end
+local loop, DCA = core.loop(), T.exe
+local function wait(pred, what, seconds) T.wait(loop, pred, what, seconds or 20) end
 
 local function sh_quote(s) return "'" .. tostring(s):gsub("'", "'\\''") .. "'" end
 

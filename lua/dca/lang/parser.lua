@@ -255,70 +255,61 @@ local function toplevel(f, s, p)
   return "expected 'process' to start a process definition, found " .. f
 end
 
-local IC = " in internal_connections(instance, label), found "
-local CONN = "expected ',' between instance and port (write 'a, Out -> b, In;'), found "
+-- The message of each label: "label  text", where $1 and $2 stand for the label's captures and $f for what
+-- was found.
+local MESSAGES = {}
+for label, text in ([[
+comment           unterminated comment: '/*' without '*/'
+string            unterminated string: '"' without a closing '"' on the same line
+process_name      expected the process name after 'process', found $f
+params_open       expected '(' after 'process $1', found $f
+param             expected a parameter name after ',' in process '$1', found $f
+params_close      expected ',' or ')' in the parameters of process '$1', found $f
+process_open      expected '{' to open process '$1', found $f
+host_arg          expected the host in 'host { }': a parameter name or a string, found $f
+host_close        expected '}' after the host (one argument), found $f
+section_open      expected '{' after '$1', found $f
+instof            expected 'instof' after the instance name '$1', found $f
+type_name         expected a process type after '$1 instof', found $f
+args_open         expected '(' after the type '$2' of instance '$1' (write $2() when there are no arguments), found $f
+arg               expected an argument after ',' (a parameter name, a string or a number), found $f
+args_close        expected ',' or ')' in the arguments of instance '$1', found $f
+instance_semi     expected ';' after the instance '$1', found $f
+xio_eq            expected '=' after the exported name '$1', found $f
+xio_instance      expected an instance name after '$1 =', found $f
+xio_comma         expected ',' between the instance and the port (write '$1 = instance, Port;'), found $f
+xio_port          expected a port name in the export '$1', found $f
+xio_semi          expected ';' after the export '$1', found $f
+ic_paren          expected '(' after 'internal_connections' (write internal_connections(instance, label) { ... }), found $f
+ic_instance       expected the instance name in internal_connections(instance, label), found $f
+ic_comma          expected ',' between the instance and the label in internal_connections(instance, label), found $f
+ic_label          expected the label in internal_connections(instance, label), found $f
+ic_close_paren    expected ')' after the label in internal_connections(instance, label), found $f
+conn_comma_out    expected ',' between instance and port (write 'a, Out -> b, In;'), found $f
+conn_comma_in     expected ',' between instance and port (write 'a, Out -> b, In;'), found $f
+conn_port_out     expected a port name, found $f
+conn_port_in      expected a port name, found $f
+conn_arrow        expected '->' between the output and the input (write 'a, Out -> b, In;'), found $f
+conn_instance_in  expected the destination instance after '->', found $f
+conn_semi         expected ';' after the connection, found $f
+]]):gmatch("(%w[%w_]*) +([^\n]+)") do MESSAGES[label] = text end
 
--- The message of each label: function(e, found, text, pos, idx) -> message. e[1], e[2]: the label's captures.
-local MESSAGES = {
-  comment = function() return "unterminated comment: '/*' without '*/'" end,
-  string = function() return "unterminated string: '\"' without a closing '\"' on the same line" end,
-  toplevel = function(_, f, s, p) return toplevel(f, s, p) end,
-  process_name = function(_, f) return "expected the process name after 'process', found " .. f end,
-  params_open = function(e, f) return sformat("expected '(' after 'process %s', found %s", e[1], f) end,
-  param = function(e, f) return sformat("expected a parameter name after ',' in process '%s', found %s", e[1], f) end,
-  params_close = function(e, f)
-    return sformat("expected ',' or ')' in the parameters of process '%s', found %s", e[1], f)
-  end,
-  process_open = function(e, f) return sformat("expected '{' to open process '%s', found %s", e[1], f) end,
-  process_close = process_close,
-  host_open = function(_, f, s, p)
-    if ssub(s, p, p) ~= "(" then return "expected '{' after 'host', found " .. f end
-    return sformat("'host' takes braces, not parentheses: write 'host { %s }'", smatch(s, "^%(%s*([^%s%)]*)", p) or "")
-  end,
-  host_arg = function(_, f) return "expected the host in 'host { }': a parameter name or a string, found " .. f end,
-  host_close = function(_, f) return "expected '}' after the host (one argument), found " .. f end,
-  section_open = function(e, f) return sformat("expected '{' after '%s', found %s", e[1], f) end,
-  section_close = function(e, f, s, p, idx) return section_close(e[1], e[2], f, s, p, idx) end,
-  actions_close = function(e, f, s, p, idx) return section_close("internal_event_actions", e[1], f, s, p, idx) end,
-  instof = function(e, f) return sformat("expected 'instof' after the instance name '%s', found %s", e[1], f) end,
-  type_name = function(e, f) return sformat("expected a process type after '%s instof', found %s", e[1], f) end,
-  args_open = function(e, f)
-    return sformat("expected '(' after the type '%s' of instance '%s' (write %s() when there are no arguments), found %s",
-                   e[2], e[1], e[2], f)
-  end,
-  arg = function(_, f) return "expected an argument after ',' (a parameter name, a string or a number), found " .. f end,
-  args_close = function(e, f) return sformat("expected ',' or ')' in the arguments of instance '%s', found %s", e[1], f) end,
-  instance_semi = function(e, f) return sformat("expected ';' after the instance '%s', found %s", e[1], f) end,
-  xio_eq = function(e, f) return sformat("expected '=' after the exported name '%s', found %s", e[1], f) end,
-  xio_instance = function(e, f) return sformat("expected an instance name after '%s =', found %s", e[1], f) end,
-  xio_comma = function(e, f)
-    return sformat("expected ',' between the instance and the port (write '%s = instance, Port;'), found %s", e[1], f)
-  end,
-  xio_port = function(e, f) return sformat("expected a port name in the export '%s', found %s", e[1], f) end,
-  xio_semi = function(e, f) return sformat("expected ';' after the export '%s', found %s", e[1], f) end,
-  ic_paren = function(_, f)
-    return "expected '(' after 'internal_connections' (write internal_connections(instance, label) { ... }), found " .. f
-  end,
-  ic_instance = function(_, f) return "expected the instance name" .. IC .. f end,
-  ic_comma = function(_, f) return "expected ',' between the instance and the label" .. IC .. f end,
-  ic_label = function(_, f) return "expected the label" .. IC .. f end,
-  ic_close_paren = function(_, f) return "expected ')' after the label" .. IC .. f end,
-  conn_comma_out = function(_, f) return CONN .. f end,
-  conn_comma_in = function(_, f) return CONN .. f end,
-  conn_port_out = function(_, f) return "expected a port name, found " .. f end,
-  conn_port_in = function(_, f) return "expected a port name, found " .. f end,
-  conn_arrow = function(_, f)
-    return "expected '->' between the output and the input (write 'a, Out -> b, In;'), found " .. f
-  end,
-  conn_instance_in = function(_, f) return "expected the destination instance after '->', found " .. f end,
-  conn_semi = function(_, f) return "expected ';' after the connection, found " .. f end,
-}
+-- Those that look around the error: function(e, found, text, pos, idx) -> message.
+MESSAGES.toplevel = function(_, f, s, p) return toplevel(f, s, p) end
+MESSAGES.process_close = process_close
+MESSAGES.section_close = function(e, f, s, p, idx) return section_close(e[1], e[2], f, s, p, idx) end
+MESSAGES.actions_close = function(e, f, s, p, idx) return section_close("internal_event_actions", e[1], f, s, p, idx) end
+function MESSAGES.host_open(_, f, s, p)
+  if ssub(s, p, p) ~= "(" then return "expected '{' after 'host', found " .. f end
+  return sformat("'host' takes braces, not parentheses: write 'host { %s }'", smatch(s, "^%(%s*([^%s%)]*)", p) or "")
+end
 
 -- Builds the message of a labelled error: returns message, position.
 local function message(e, s, idx)
-  local f, build = found(s, e.pos), MESSAGES[e.label]
-  if not build then return "syntax error (" .. tostring(e.label) .. "), found " .. f, e.pos end
-  return build(e, f, s, e.pos, idx), e.pos
+  local f, text = found(s, e.pos), MESSAGES[e.label]
+  if not text then return "syntax error (" .. tostring(e.label) .. "), found " .. f, e.pos end
+  if type(text) == "function" then return text(e, f, s, e.pos, idx), e.pos end
+  return (text:gsub("%$(%w)", { ["1"] = tostring(e[1]), ["2"] = tostring(e[2]), f = f })), e.pos
 end
 
 ---------------------------------------------------------------------------------------------- AST
