@@ -40,8 +40,8 @@ int cmd_plot(std::span<char* const> args) {
     if (png.size() > 4 && png.compare(png.size() - 4, 4, ".csv") == 0) png.resize(png.size() - 4);
     png += ".png";
   }
-  const std::string error = dca::sim::plot_csv(csv, png);
-  if (!error.empty()) {
+  std::string error;
+  if (!dca::sim::plot_csv(csv, png, &error)) {
     std::fprintf(stderr, "dca plot: %s\n", error.c_str());
     return 1;
   }

@@ -84,8 +84,9 @@ int serve(const Options& o, const dca::sim::WorldConfig& config) {
   try {
     dca::sim::World world(config);
     if (o.visualize) {
-      const std::string why = world.start_visualizer();
-      if (!why.empty()) std::fprintf(stderr, "dca sim: --visualize: %s; running without it\n", why.c_str());
+      std::string why;
+      if (!world.start_visualizer(&why))
+        std::fprintf(stderr, "dca sim: --visualize: %s; running without it\n", why.c_str());
     }
     dca::Loop loop;
     dca::sim::WorldNodeOptions wo = o.node;
@@ -213,8 +214,9 @@ int cmd_sim(std::span<char* const> args) {
     if (!o.script.empty()) script = dca::sim::Script::load(o.script);
     dca::sim::World world(config);
     if (o.visualize) {
-      const std::string why = world.start_visualizer();
-      if (!why.empty()) std::fprintf(stderr, "dca sim: --visualize: %s; running without it\n", why.c_str());
+      std::string why;
+      if (!world.start_visualizer(&why))
+        std::fprintf(stderr, "dca sim: --visualize: %s; running without it\n", why.c_str());
     }
     std::optional<dca::sim::Recorder> recorder;
     if (!o.record.empty()) recorder.emplace(o.record);
@@ -264,7 +266,11 @@ int cmd_sim(std::span<char* const> args) {
                                                   std::chrono::duration<double>(world.time())));
     }
     const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
-    if (recorder) recorder->close();
+    std::string error;
+    if (recorder && !recorder->close(&error)) {
+      std::fprintf(stderr, "dca sim: %s\n", error.c_str());
+      return 1;
+    }
     const auto& s = world.sensors();
     std::printf("door opened to %.1f deg\n", s.door_angle * 180 / M_PI);
     std::printf("simulated %.3f s in %.3f s wall (%.1fx real time), %ld steps\n", world.time(), wall,

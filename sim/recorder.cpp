@@ -5,6 +5,8 @@
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
+#include <utility>
+
 #include <sys/wait.h>
 
 namespace dca::sim {
@@ -21,10 +23,8 @@ Recorder::Recorder(const std::string& path) : path_(path) {
 }
 
 Recorder::~Recorder() {
-  try {
-    close();
-  } catch (const std::exception&) {
-  }
+  std::string ignored;
+  close(&ignored);
 }
 
 void Recorder::record(const Sensors& s, int phase) {
@@ -37,12 +37,14 @@ void Recorder::record(const Sensors& s, int phase) {
                static_cast<int>(s.gripper), s.laser_range, phase);
 }
 
-void Recorder::close() {
-  if (!f_) return;
+bool Recorder::close(std::string* error) {
+  if (!f_) return true;
   std::FILE* f = f_;
   f_ = nullptr;
   const bool bad = std::ferror(f) != 0;
-  if (std::fclose(f) != 0 || bad) throw std::runtime_error(path_ + ": error writing the recording");
+  if (std::fclose(f) == 0 && !bad) return true;
+  *error = path_ + ": error writing the recording";
+  return false;
 }
 
 namespace {
@@ -56,56 +58,72 @@ std::string quote(const std::string& s) {
   return out + "'";
 }
 
-}  // namespace
+bool fail(std::string* error, std::string why) {
+  *error = std::move(why);
+  return false;
+}
 
-std::string plot_csv(const std::string& csv, const std::string& png) {
-  {
-    std::ifstream in(csv);
-    if (!in) return csv + ": cannot open the recording";
-    std::string header;
-    std::getline(in, header);
-    if (header != csv_header()) return csv + ":1: not a dca sim recording (unexpected header)";
-    std::string row;
-    if (!std::getline(in, row)) return csv + ":2: the recording has no data";
-  }
-  const std::string script_path = png + ".gnuplot";
-  {
-    std::ofstream g(script_path);
-    if (!g) return script_path + ": cannot write the gnuplot script";
-    const std::string d = quote(csv);
-    g << "set terminal pngcairo size 1400,1000 font ',10' noenhanced\n"
-      << "set output " << quote(png) << "\n"
-      << "set datafile separator ','\n"
-      << "set key autotitle columnhead\n"
-      << "set grid\n"
-      << "set multiplot layout 2,2 title " << quote("dca sim: " + csv) << "\n"
-      << "set title 'door and handle angles'\nset xlabel 'time (s)'\nset ylabel 'degrees'\n"
-      << "plot " << d << " using 1:($17*180/pi) with lines lw 2 title 'door', '' using 1:($18*180/pi) with lines"
-      << " lw 2 title 'handle'\n"
-      << "set title 'wrist force (sensor frame)'\nset ylabel 'N'\n"
-      << "plot " << d << " using 1:11 with lines title 'fx', '' using 1:12 with lines title 'fy', '' using 1:13"
-      << " with lines title 'fz', '' using 1:(sqrt($11**2+$12**2+$13**2)) with lines lw 2 title '|f|'\n"
-      << "set title 'base position'\nset ylabel 'm, rad'\n"
-      << "plot " << d << " using 1:8 with lines title 'x', '' using 1:9 with lines title 'y', '' using 1:10 with"
-      << " lines title 'yaw'\n"
-      << "set title 'base path (world)'\nset xlabel 'x (m)'\nset ylabel 'y (m)'\n"
-      << "plot " << d << " using 8:9 with lines lw 2 title 'base'\n"
-      << "unset multiplot\n";
-  }
-  const std::string command = "gnuplot " + quote(script_path) + " 2>&1";
+// The recording has dca sim's header and at least one row.
+bool check_recording(const std::string& csv, std::string* error) {
+  std::ifstream in(csv);
+  if (!in) return fail(error, csv + ": cannot open the recording");
+  std::string header;
+  std::getline(in, header);
+  if (header != csv_header()) return fail(error, csv + ":1: not a dca sim recording (unexpected header)");
+  std::string row;
+  if (!std::getline(in, row)) return fail(error, csv + ":2: the recording has no data");
+  return true;
+}
+
+// The gnuplot script that draws `csv` to `png`: four panels (angles, wrist force, base position, base path).
+bool write_script(const std::string& csv, const std::string& png, const std::string& path, std::string* error) {
+  std::ofstream g(path);
+  if (!g) return fail(error, path + ": cannot write the gnuplot script");
+  const std::string d = quote(csv);
+  g << "set terminal pngcairo size 1400,1000 font ',10' noenhanced\n"
+    << "set output " << quote(png) << "\n"
+    << "set datafile separator ','\n"
+    << "set key autotitle columnhead\n"
+    << "set grid\n"
+    << "set multiplot layout 2,2 title " << quote("dca sim: " + csv) << "\n"
+    << "set title 'door and handle angles'\nset xlabel 'time (s)'\nset ylabel 'degrees'\n"
+    << "plot " << d << " using 1:($17*180/pi) with lines lw 2 title 'door', '' using 1:($18*180/pi) with lines"
+    << " lw 2 title 'handle'\n"
+    << "set title 'wrist force (sensor frame)'\nset ylabel 'N'\n"
+    << "plot " << d << " using 1:11 with lines title 'fx', '' using 1:12 with lines title 'fy', '' using 1:13"
+    << " with lines title 'fz', '' using 1:(sqrt($11**2+$12**2+$13**2)) with lines lw 2 title '|f|'\n"
+    << "set title 'base position'\nset ylabel 'm, rad'\n"
+    << "plot " << d << " using 1:8 with lines title 'x', '' using 1:9 with lines title 'y', '' using 1:10 with"
+    << " lines title 'yaw'\n"
+    << "set title 'base path (world)'\nset xlabel 'x (m)'\nset ylabel 'y (m)'\n"
+    << "plot " << d << " using 8:9 with lines lw 2 title 'base'\n"
+    << "unset multiplot\n";
+  return true;
+}
+
+// Runs gnuplot on `script` (then removes it); true when it made a non-empty `png`.
+bool run_gnuplot(const std::string& script, const std::string& png, std::string* error) {
+  const char* missing = "cannot run gnuplot (is it installed? scripts/setup installs gnuplot-nox)";
+  const std::string command = "gnuplot " + quote(script) + " 2>&1";
   std::FILE* p = popen(command.c_str(), "r");
-  if (!p) return "cannot run gnuplot (is it installed? scripts/setup installs gnuplot-nox)";
+  if (!p) return fail(error, missing);
   std::string output;
   char buf[256];
   while (std::fgets(buf, sizeof buf, p)) output += buf;
   const int status = pclose(p);
-  std::remove(script_path.c_str());
-  if (WIFEXITED(status) && WEXITSTATUS(status) == 127)
-    return "cannot run gnuplot (is it installed? scripts/setup installs gnuplot-nox)";
+  std::remove(script.c_str());
+  if (WIFEXITED(status) && WEXITSTATUS(status) == 127) return fail(error, missing);
   std::ifstream made(png, std::ios::binary);
   if (status != 0 || !made || made.peek() == std::ifstream::traits_type::eof())
-    return png + ": gnuplot failed: " + output;
-  return "";
+    return fail(error, png + ": gnuplot failed: " + output);
+  return true;
+}
+
+}  // namespace
+
+bool plot_csv(const std::string& csv, const std::string& png, std::string* error) {
+  const std::string script = png + ".gnuplot";
+  return check_recording(csv, error) && write_script(csv, png, script, error) && run_gnuplot(script, png, error);
 }
 
 }  // namespace dca::sim

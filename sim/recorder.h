@@ -13,8 +13,8 @@ namespace dca::sim {
 /// the scripted DoorPhase, -1 if none).
 const char* csv_header();
 
-/// Writes one row per call of record() to a CSV file. Throws std::runtime_error("FILE: reason") if the file
-/// cannot be written.
+/// Writes one row per call of record() to a CSV file. The constructor throws std::runtime_error("FILE: reason")
+/// if the file cannot be written.
 class Recorder {
  public:
   explicit Recorder(const std::string& path);
@@ -23,8 +23,9 @@ class Recorder {
   Recorder& operator=(const Recorder&) = delete;
   /// Appends the world's current sensors (and `phase`).
   void record(const Sensors& s, int phase = -1);
-  /// Flushes and closes; throws on a write error. Called by the destructor (which does not throw).
-  void close();
+  /// Flushes and closes. False with *error ("FILE: reason") on a write error. The destructor closes too, and
+  /// ignores the error.
+  bool close(std::string* error);
   const std::string& path() const { return path_; }
 
  private:
@@ -33,7 +34,7 @@ class Recorder {
 };
 
 /// Draws a recording: door and handle angles, wrist force, base position against time, and the base's path,
-/// to a PNG (gnuplot's pngcairo or png terminal). Returns "" on success, else the reason (naming the file).
-std::string plot_csv(const std::string& csv, const std::string& png);
+/// to a PNG (gnuplot's pngcairo terminal). False with *error (naming the file) when it cannot.
+bool plot_csv(const std::string& csv, const std::string& png, std::string* error);
 
 }  // namespace dca::sim

@@ -8,14 +8,13 @@
 
 namespace dca::sim {
 
-/// A URDF file as Simbody bodies on Ground (the root link at the origin). Throws UrdfError on bad input.
+/// A URDF file as Simbody bodies on Ground (the root link at the origin). Throws UrdfError on bad input. Not
+/// copyable (it owns its Simbody system through impl_).
 class UrdfBodies {
  public:
   /// Loads and validates `path` and builds the Simbody system.
   explicit UrdfBodies(const std::string& path);
   ~UrdfBodies();
-  UrdfBodies(const UrdfBodies&) = delete;
-  UrdfBodies& operator=(const UrdfBodies&) = delete;
 
   /// Names of the moving joints, parents first.
   std::vector<std::string> joints() const;

@@ -518,9 +518,9 @@ void World::step() {
   if (w.visualizer && ++w.steps % std::max(1L, std::lround(1.0 / (30 * h))) == 0) w.visualizer->report(s);
 }
 
-std::string World::start_visualizer() {
+bool World::start_visualizer(std::string* error) {
   const char* display = std::getenv("DISPLAY");
-  if (!display || !*display) return "no display (DISPLAY is not set)";
+  if (!display || !*display) return *error = "no display (DISPLAY is not set)", false;
   namespace fs = std::filesystem;
   // Debian's libsimbody ships the visualizer as simbody-visualizer; Simbody looks for simbody-visualizer_d.
   const fs::path shipped = "/usr/lib/x86_64-linux-gnu/simbody/libexec/simbody-visualizer";
@@ -538,9 +538,10 @@ std::string World::start_visualizer() {
     impl_->visualizer->report(impl_->state);
   } catch (const std::exception& e) {
     impl_->visualizer.reset();
-    return std::string("the visualizer did not start: ") + e.what();
+    *error = std::string("the visualizer did not start: ") + e.what();
+    return false;
   }
-  return "";
+  return true;
 }
 
 const Sensors& World::sensors() const { return impl_->sensors; }

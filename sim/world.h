@@ -134,9 +134,9 @@ class World {
   void set_disturbance(double hinge_torque, double handle_torque);
 
   /// Shows the world in Simbody's 3-D visualizer (about 30 frames per simulated second) from now on. Needs a
-  /// display; Debian's simbody-visualizer is found through a SIMBODY_HOME made for it. Returns "" when it
-  /// started, else why not (the world runs on either way).
-  std::string start_visualizer();
+  /// display; Debian's simbody-visualizer is found through a SIMBODY_HOME made for it. False with *error
+  /// saying why it did not start (the world runs on either way).
+  bool start_visualizer(std::string* error);
 
   /// The Simbody side (defined in world.cpp only).
   struct Impl;

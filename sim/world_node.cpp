@@ -154,13 +154,8 @@ WorldNode::WorldNode(Loop& loop, World& world, WorldNodeOptions options)
 }
 
 WorldNode::~WorldNode() {
-  if (impl_->recorder) {
-    try {
-      impl_->recorder->close();
-    } catch (const std::exception& e) {
-      std::fprintf(stderr, "dca sim: %s\n", e.what());
-    }
-  }
+  std::string error;
+  if (impl_->recorder && !impl_->recorder->close(&error)) std::fprintf(stderr, "dca sim: %s\n", error.c_str());
 }
 
 std::unique_ptr<Component> WorldNode::make_component(const std::string& name) {

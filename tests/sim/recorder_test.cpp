@@ -39,7 +39,8 @@ fs::path record_run() {
     w.step();
     if (i % 10 == 0) r.record(w.sensors(), 0);
   }
-  r.close();
+  std::string error;
+  EXPECT_TRUE(r.close(&error)) << error;
   return csv;
 }
 
@@ -72,7 +73,9 @@ TEST(RecorderTest, UnwritableFileIsNamed) {
 TEST(RecorderTest, PlotMakesAPng) {
   const fs::path csv = record_run(), png = temp("run.png");
   fs::remove(png);
-  EXPECT_EQ(dca::sim::plot_csv(csv.string(), png.string()), "");
+  std::string error;
+  EXPECT_TRUE(dca::sim::plot_csv(csv.string(), png.string(), &error)) << error;
+  EXPECT_EQ(error, "");
   std::ifstream in(png, std::ios::binary);
   char magic[8] = {};
   in.read(magic, 8);
@@ -84,9 +87,11 @@ TEST(RecorderTest, PlotMakesAPng) {
 TEST(RecorderTest, PlotRejectsWhatIsNotARecording) {
   const fs::path bad = temp("bad.csv");
   std::ofstream(bad) << "a,b\n1,2\n";
-  EXPECT_EQ(dca::sim::plot_csv(bad.string(), temp("bad.png").string()),
-            bad.string() + ":1: not a dca sim recording (unexpected header)");
-  EXPECT_EQ(dca::sim::plot_csv("/nonexistent.csv", temp("x.png").string()), "/nonexistent.csv: cannot open the recording");
+  std::string error;
+  EXPECT_FALSE(dca::sim::plot_csv(bad.string(), temp("bad.png").string(), &error));
+  EXPECT_EQ(error, bad.string() + ":1: not a dca sim recording (unexpected header)");
+  EXPECT_FALSE(dca::sim::plot_csv("/nonexistent.csv", temp("x.png").string(), &error));
+  EXPECT_EQ(error, "/nonexistent.csv: cannot open the recording");
 }
 
 TEST(RecorderTest, DcaSimRecordsAndDcaPlotDraws) {

@@ -240,7 +240,9 @@ namespace {
 TEST_F(WorldTest, VisualizerWithoutADisplaySaysWhyAndTheWorldRunsOn) {
   unsetenv("DISPLAY");
   World w(dca::sim::door_world());
-  EXPECT_EQ(w.start_visualizer(), "no display (DISPLAY is not set)");
+  std::string error;
+  EXPECT_FALSE(w.start_visualizer(&error));
+  EXPECT_EQ(error, "no display (DISPLAY is not set)");
   run(w, 0.01);
   EXPECT_NEAR(w.time(), 0.01, 1e-12);
 }
