@@ -6,12 +6,10 @@
 # exits 77, which CTest reports as skipped (SKIP_RETURN_CODE), never as passed.
 #   tests/netns/config_partition.sh [DCA_EXE]
 set -uo pipefail
-dca="${1:-${DCA_EXE:-dca}}"
-src="${DCA_SOURCE_DIR:-$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)}"
 tag="dcc$$"
 names=(A B C)
 subnet=10.214.0
-. "$src/tests/netns/lib.sh"
+. "$(dirname "${BASH_SOURCE[0]}")/lib.sh"  # sets dca ($1 or $DCA_EXE), src, ns, addrs, work, key
 
 netns_up
 daemons_up 7412 --state-dir "$work/state{host}" --sync-ms 200

@@ -1,7 +1,10 @@
 # Shared by the tests/netns/*.sh tests: three network namespaces on a bridge, one dca daemon in each.
-# Source it after setting: dca (the executable), tag (unique, short), names (three host names),
-# subnet (e.g. 10.213.0: the bridge is .1, the hosts .2 .3 .4). It sets ns, addrs, br, work, key, pids,
-# installs the cleanup trap and defines skip/fail. Needs root: without it, skip (exit 77, CTest's skipped).
+# Source it after setting: tag (unique, short), names (three host names), subnet (e.g. 10.213.0: the bridge
+# is .1, the hosts .2 .3 .4). It sets dca (the script's $1, else $DCA_EXE), src (the source tree), ns, addrs,
+# br, work, key, pids, installs the cleanup trap and defines skip/fail. Needs root: without it, skip (exit 77,
+# CTest's skipped).
+dca="${1:-${DCA_EXE:-dca}}"
+src="${DCA_SOURCE_DIR:-$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)}"
 ns=("${tag}a" "${tag}b" "${tag}c")
 addrs=("$subnet.2" "$subnet.3" "$subnet.4")
 br="${tag}br"

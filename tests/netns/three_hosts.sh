@@ -7,12 +7,10 @@
 # (SKIP_RETURN_CODE), never as passed.
 #   tests/netns/three_hosts.sh [DCA_EXE]
 set -uo pipefail
-dca="${1:-${DCA_EXE:-dca}}"
-src="${DCA_SOURCE_DIR:-$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)}"
 tag="dca$$"
 names=(vision platform manip)
 subnet=10.213.0
-. "$src/tests/netns/lib.sh"
+. "$(dirname "${BASH_SOURCE[0]}")/lib.sh"  # sets dca ($1 or $DCA_EXE), src, ns, addrs, work, key
 
 netns_up
 hosts="$work/hosts"
