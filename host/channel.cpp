@@ -1,119 +1,21 @@
 #include "host/channel.h"
 
-#include <arpa/inet.h>
-#include <netinet/in.h>
 #include <sys/socket.h>
-#include <sys/stat.h>
-#include <sys/un.h>
 #include <unistd.h>
 
 #include <boost/asio/ip/tcp.hpp>
-#include <boost/asio/local/stream_protocol.hpp>
 #include <boost/asio/post.hpp>
-#include <boost/asio/write.hpp>
-#include <charconv>
 #include <cstdio>
-#include <cstring>
 
 namespace dca {
 namespace asio = boost::asio;
 using generic_stream = asio::generic::stream_protocol;
 using boost::system::error_code;
 
-namespace {
-
-constexpr std::size_t kReadChunk = 64 * 1024;
-
-std::string endpoint_str(const generic_stream::endpoint& ep) {
-  const auto* sa = ep.data();
-  if (ep.size() >= sizeof(sa_family_t) && sa->sa_family == AF_INET && ep.size() >= sizeof(sockaddr_in)) {
-    sockaddr_in in{};
-    std::memcpy(&in, sa, sizeof in);
-    char buf[INET_ADDRSTRLEN] = {};
-    ::inet_ntop(AF_INET, &in.sin_addr, buf, sizeof buf);
-    return std::string(buf) + ":" + std::to_string(ntohs(in.sin_port));
-  }
-  if (ep.size() >= sizeof(sa_family_t) && sa->sa_family == AF_INET6 && ep.size() >= sizeof(sockaddr_in6)) {
-    sockaddr_in6 in{};
-    std::memcpy(&in, sa, sizeof in);
-    char buf[INET6_ADDRSTRLEN] = {};
-    ::inet_ntop(AF_INET6, &in.sin6_addr, buf, sizeof buf);
-    return "[" + std::string(buf) + "]:" + std::to_string(ntohs(in.sin6_port));
-  }
-  return "unix:(peer)";
-}
-
-std::optional<generic_stream::endpoint> to_endpoint(const Address& a, std::string* error) {
-  if (a.kind == Address::Kind::kUnix) {
-    if (a.path.size() >= sizeof(sockaddr_un::sun_path)) {
-      if (error != nullptr) *error = "socket path too long: " + a.path;
-      return std::nullopt;
-    }
-    return generic_stream::endpoint(asio::local::stream_protocol::endpoint(a.path));
-  }
-  error_code ec;
-  const auto ip = asio::ip::make_address(a.host, ec);
-  if (ec) {
-    if (error != nullptr) *error = "bad IP address '" + a.host + "'";
-    return std::nullopt;
-  }
-  return generic_stream::endpoint(asio::ip::tcp::endpoint(ip, a.port));
-}
-
-}  // namespace
-
-// ---------------------------------------------------------------------------------------------------- Address
-
-std::optional<Address> Address::parse(std::string_view text, std::string* error) {
-  const auto bad = [&](const char* why) -> std::optional<Address> {
-    if (error != nullptr) *error = "bad address '" + std::string(text) + "': " + why;
-    return std::nullopt;
-  };
-  Address a;
-  std::string_view t = text;
-  if (t.substr(0, 5) == "unix:" || (!t.empty() && t[0] == '/')) {
-    a.kind = Kind::kUnix;
-    a.path = std::string(t[0] == '/' ? t : t.substr(5));
-    if (a.path.empty()) return bad("empty socket path");
-    if (a.path.size() >= sizeof(sockaddr_un::sun_path)) return bad("socket path too long");
-    return a;
-  }
-  if (t.substr(0, 4) == "tcp:") t = t.substr(4);
-  std::string_view host, port;
-  if (!t.empty() && t[0] == '[') {
-    const auto close = t.find(']');
-    if (close == std::string_view::npos || close + 1 >= t.size() || t[close + 1] != ':')
-      return bad("expected [IPv6]:PORT");
-    host = t.substr(1, close - 1);
-    port = t.substr(close + 2);
-  } else {
-    const auto colon = t.rfind(':');
-    if (colon == std::string_view::npos) return bad("expected HOST:PORT, unix:PATH or /PATH");
-    host = t.substr(0, colon);
-    port = t.substr(colon + 1);
-  }
-  unsigned p = 0;
-  const auto [end, ec] = std::from_chars(port.data(), port.data() + port.size(), p);
-  if (ec != std::errc() || end != port.data() + port.size() || p > 65535 || port.empty())
-    return bad("the port is not a number from 0 to 65535");
-  a.port = static_cast<std::uint16_t>(p);
-  a.host = host == "localhost" ? "127.0.0.1" : std::string(host);
-  error_code ip_ec;
-  asio::ip::make_address(a.host, ip_ec);
-  if (ip_ec) return bad("the host is not a numeric IP address (or localhost)");
-  return a;
-}
-
-std::string Address::str() const {
-  if (kind == Kind::kUnix) return "unix:" + path;
-  if (host.find(':') != std::string::npos) return "[" + host + "]:" + std::to_string(port);
-  return host + ":" + std::to_string(port);
-}
-
 // ---------------------------------------------------------------------------------------------------- Channel
 
 Channel::Channel(asio::io_context& io, ChannelOptions options, std::string peer)
-    : io_(io), options_(std::move(options)), socket_(io), deadline_(io), peer_(std::move(peer)) {}
+    : io_(io), options_(std::move(options)), framed_(FramedSocket::Socket(io), *this), deadline_(io), peer_(std::move(peer)) {}
 
 Channel::~Channel() = default;
 
@@ -140,12 +42,12 @@ void Channel::connect(asio::io_context& io, const Address& to, ChannelOptions op
   };
   ch->handshake_done_ = finish;
   error_code ec;
-  ch->socket_.open(ep->protocol(), ec);
+  ch->socket().open(ep->protocol(), ec);
   if (ec) {
     ch->fail_handshake("cannot open a socket to " + to.str() + ": " + ec.message());
     return;
   }
-  ch->socket_.async_connect(*ep, [ch, finish](const error_code& cec) {
+  ch->socket().async_connect(*ep, [ch, finish](const error_code& cec) {
     if (ch->state_ != State::kHandshake) return;  // timed out meanwhile
     if (cec) {
       ch->fail_handshake("cannot connect to " + ch->peer_ + ": " + cec.message());
@@ -158,7 +60,7 @@ void Channel::connect(asio::io_context& io, const Address& to, ChannelOptions op
 void Channel::start(auth::Handshake::Role role, std::function<void(const std::string&)> done) {
   handshake_done_ = std::move(done);
   error_code ec;
-  if (socket_.local_endpoint(ec).protocol().family() != AF_UNIX) socket_.set_option(asio::ip::tcp::no_delay(true), ec);
+  if (socket().local_endpoint(ec).protocol().family() != AF_UNIX) socket().set_option(asio::ip::tcp::no_delay(true), ec);
   if (role == auth::Handshake::Role::kServer) {
     deadline_.expires_after(options_.handshake_timeout);
     deadline_.async_wait([w = weak_from_this()](const error_code& tec) {
@@ -168,7 +70,6 @@ void Channel::start(auth::Handshake::Role role, std::function<void(const std::st
     });
   }
   handshake_ = std::make_unique<auth::Handshake>(role, options_.key);
-  in_.resize(kReadChunk);
   read();
   handshake_step(handshake_->start());
 }
@@ -208,71 +109,41 @@ void Channel::handshake_step(auth::Handshake::Step step) {
   if (done) done("");
 }
 
-void Channel::read() {
-  if (in_end_ == in_.size()) {
-    // Compact, then grow if a frame needs more room.
-    if (in_begin_ > 0) {
-      std::memmove(in_.data(), in_.data() + in_begin_, in_end_ - in_begin_);
-      in_end_ -= in_begin_;
-      in_begin_ = 0;
+void Channel::read() { framed_.read(shared_from_this()); }
+
+void Channel::on_read(const error_code& ec, std::size_t n) {
+  if (state_ == State::kClosed || state_ == State::kClosing) return;
+  if (ec) {
+    const std::string why = ec == asio::error::eof ? "connection closed by the peer" : "connection lost: " + ec.message();
+    if (state_ == State::kHandshake) {
+      fail_handshake(why + " during the handshake with " + peer_);
+    } else {
+      close(why + (framed_.unread().empty() ? "" : " (in the middle of a frame)"));
     }
-    if (in_end_ == in_.size()) in_.resize(in_.size() * 2);
+    return;
   }
-  socket_.async_read_some(asio::buffer(in_.data() + in_end_, in_.size() - in_end_),
-                          [self = shared_from_this()](const error_code& ec, std::size_t n) {
-                            if (self->state_ == State::kClosed || self->state_ == State::kClosing) return;
-                            if (ec) {
-                              const std::string why = ec == asio::error::eof ? "connection closed by the peer"
-                                                                              : "connection lost: " + ec.message();
-                              if (self->state_ == State::kHandshake) {
-                                self->fail_handshake(why + " during the handshake with " + self->peer_);
-                              } else {
-                                self->close(why + (self->in_end_ > self->in_begin_ ? " (in the middle of a frame)" : ""));
-                              }
-                              return;
-                            }
-                            self->on_read(n);
-                          });
+  stats_.bytes_in += n;
+  on_frames();
 }
 
-void Channel::on_read(std::size_t n) {
-  stats_.bytes_in += n;
-  in_end_ += n;
+// Handles every whole frame read, then reads on (unless the channel closed meanwhile).
+void Channel::on_frames() {
   auto self = shared_from_this();  // a handler may drop the last other reference
   while (state_ == State::kHandshake || state_ == State::kOpen) {
-    auto d = wire::decode_frame(std::string_view(in_.data() + in_begin_, in_end_ - in_begin_), options_.max_frame);
-    if (d.status == wire::Decoded::Status::kNeedMore) {
-      // Make room for the whole frame when its length is known.
-      if (in_end_ - in_begin_ >= wire::kHeaderSize) {
-        const auto* p = reinterpret_cast<const unsigned char*>(in_.data() + in_begin_);
-        const std::size_t need = wire::kHeaderSize + ((std::size_t{p[0]} << 24) | (std::size_t{p[1]} << 16) |
-                                                      (std::size_t{p[2]} << 8) | std::size_t{p[3]});
-        if (need > in_.size() - in_begin_) {
-          std::memmove(in_.data(), in_.data() + in_begin_, in_end_ - in_begin_);
-          in_end_ -= in_begin_;
-          in_begin_ = 0;
-          if (need > in_.size()) in_.resize(need);
-        }
-      }
-      if (in_begin_ == in_end_) in_begin_ = in_end_ = 0;
-      read();
-      return;
-    }
+    auto d = wire::decode_frame(framed_.unread(), options_.max_frame);
+    if (d.status == wire::Decoded::Status::kNeedMore) return read();
     if (d.status == wire::Decoded::Status::kError) {
       const std::string reason = "malformed frame from " + peer_ + ": " + d.error;
-      if (state_ == State::kHandshake) {
-        enqueue(wire::Message{"error", 0, wire::Value::map().set("reason", reason)});
-        auto done = std::move(handshake_done_);
-        handshake_done_ = nullptr;
-        state_ = State::kOpen;
-        close(reason, false);
-        if (done) done(reason);
-      } else {
-        close(reason, true);
-      }
+      if (state_ != State::kHandshake) return close(reason, true);
+      enqueue(wire::Message{"error", 0, wire::Value::map().set("reason", reason)});
+      auto done = std::move(handshake_done_);
+      handshake_done_ = nullptr;
+      state_ = State::kOpen;
+      close(reason, false);
+      if (done) done(reason);
       return;
     }
-    in_begin_ += d.consumed;
+    framed_.consume(d.consumed);
     ++stats_.frames_in;
     if (state_ == State::kHandshake) {
       handshake_step(handshake_->on_message(d.message));
@@ -318,7 +189,7 @@ bool Channel::dispatch(wire::Message& m) {
 
 void Channel::enqueue(const wire::Message& m) {
   std::string error;
-  if (!wire::encode(m, out_, &error)) {
+  if (!wire::encode(m, framed_.queue(), &error)) {
     std::fprintf(stderr, "dca: cannot send '%s' to %s: %s\n", m.type.c_str(), peer_.c_str(), error.c_str());
     return;
   }
@@ -326,31 +197,24 @@ void Channel::enqueue(const wire::Message& m) {
 }
 
 void Channel::flush() {
-  if (write_in_flight_ || out_.empty() || state_ == State::kClosed) return;
-  writing_.swap(out_);
-  out_.clear();
-  write_in_flight_ = true;
-  asio::async_write(socket_, asio::buffer(writing_), [self = shared_from_this()](const error_code& ec, std::size_t n) {
-    self->write_in_flight_ = false;
-    self->stats_.bytes_out += n;
-    self->writing_.clear();
-    if (self->state_ == State::kClosed) return;
-    if (ec) {
-      if (self->state_ == State::kClosing) {
-        self->finish_close();
-      } else if (self->state_ == State::kHandshake) {
-        self->fail_handshake("connection lost during the handshake with " + self->peer_ + ": " + ec.message());
-      } else {
-        self->close("connection lost: " + ec.message());
-      }
-      return;
+  if (state_ == State::kClosed) return;
+  framed_.flush(shared_from_this());
+}
+
+void Channel::on_written(const error_code& ec, std::size_t n) {
+  stats_.bytes_out += n;
+  if (state_ == State::kClosed) return;
+  if (ec) {
+    if (state_ == State::kClosing) {
+      finish_close();
+    } else if (state_ == State::kHandshake) {
+      fail_handshake("connection lost during the handshake with " + peer_ + ": " + ec.message());
+    } else {
+      close("connection lost: " + ec.message());
     }
-    if (!self->out_.empty()) {
-      self->flush();
-    } else if (self->state_ == State::kClosing) {
-      self->finish_close();
-    }
-  });
+    return;
+  }
+  if (framed_.queued() == 0 && state_ == State::kClosing) finish_close();
 }
 
 bool Channel::send(wire::Message m) {
@@ -416,7 +280,7 @@ void Channel::close(const std::string& reason, bool tell_peer) {
   if (tell_peer) enqueue(wire::Message{"error", 0, wire::Value::map().set("reason", reason)});
   error_code ec;
   deadline_.cancel(ec);
-  if (!out_.empty() || write_in_flight_) {
+  if (!framed_.idle()) {
     // Flush what is queued (the handshake's or this error notice), bounded by a 1 s deadline.
     state_ = State::kClosing;
     flush();
@@ -443,12 +307,11 @@ void Channel::close(const std::string& reason, bool tell_peer) {
 }
 
 void Channel::finish_close() {
-  if (state_ == State::kClosed && !socket_.is_open()) return;
+  if (state_ == State::kClosed && !socket().is_open()) return;
   state_ = State::kClosed;
   error_code ec;
   deadline_.cancel(ec);
-  socket_.shutdown(asio::socket_base::shutdown_both, ec);
-  socket_.close(ec);
+  framed_.close();
 }
 
 // --------------------------------------------------------------------------------------------------- Listener
@@ -467,31 +330,7 @@ Listener::Ptr Listener::listen(asio::io_context& io, const Address& at, ChannelO
   auto l = std::make_shared<Listener>(io, std::move(options));
   l->on_channel_ = std::move(on_channel);
   l->on_refused_ = std::move(on_refused);
-  const auto ep = to_endpoint(at, error);
-  if (!ep) return nullptr;
-  const auto fail = [&](const char* what, const error_code& ec) -> Ptr {
-    if (error != nullptr) *error = std::string("cannot listen on ") + at.str() + ": " + what + ": " + ec.message();
-    return nullptr;
-  };
-  if (at.kind == Address::Kind::kUnix) {
-    struct stat st {};
-    if (::lstat(at.path.c_str(), &st) == 0 && S_ISSOCK(st.st_mode)) ::unlink(at.path.c_str());
-  }
-  error_code ec;
-  l->acceptor_.open(ep->protocol(), ec);
-  if (ec) return fail("open", ec);
-  if (at.kind == Address::Kind::kTcp) l->acceptor_.set_option(asio::socket_base::reuse_address(true), ec);
-  l->acceptor_.bind(*ep, ec);
-  if (ec) return fail("bind", ec);
-  l->acceptor_.listen(asio::socket_base::max_listen_connections, ec);
-  if (ec) return fail("listen", ec);
-  l->address_ = at;
-  if (at.kind == Address::Kind::kTcp) {
-    const auto local = l->acceptor_.local_endpoint(ec);
-    if (!ec) {
-      if (auto parsed = Address::parse(endpoint_str(local))) l->address_ = *parsed;
-    }
-  }
+  if (!listen_at(l->acceptor_, at, &l->address_, error)) return nullptr;
   l->accept();
   return l;
 }

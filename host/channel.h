@@ -18,16 +18,14 @@
 // closes only that channel (the peer is told why in an `error` event first). Errors are values: no function
 // here throws for a network or protocol error.
 //
+// Frames travel on a FramedSocket (host/framed_socket), which also parses the Address of either end.
+//
 // Reserved message types: "hello", "challenge", "proof", "welcome" (the handshake, host/auth), "ok" and
 // "error" with a request's id (replies), and "error" with id 0 (the notice a side sends before it closes:
 // the receiver closes with "closed by the peer: <reason>").
-#pragma GCC diagnostic push  // Asio's scheduler trips GCC 12's -Wnull-dereference when inlined at -O3
-#pragma GCC diagnostic ignored "-Wnull-dereference"
-#include <boost/asio/basic_socket_acceptor.hpp>
-#include <boost/asio/generic/stream_protocol.hpp>
-#include <boost/asio/io_context.hpp>
+#include "host/framed_socket.h"  // first: host/loop.h's Asio set-up; Address
+
 #include <boost/asio/steady_timer.hpp>
-#pragma GCC diagnostic pop
 #include <chrono>
 #include <cstdint>
 #include <functional>
@@ -42,22 +40,6 @@
 #include "host/wire.h"
 
 namespace dca {
-
-/// Where a channel listens or connects: TCP ("127.0.0.1:4000", "[::1]:4000", "localhost:4000", or with the
-/// prefix "tcp:") or a Unix socket ("unix:/run/dca.sock", or any text starting with '/').
-struct Address {
-  enum class Kind { kTcp, kUnix };
-  Kind kind = Kind::kTcp;
-  std::string host;        ///< numeric IP (TCP)
-  std::uint16_t port = 0;  ///< TCP port (0 when listening: pick a free one)
-  std::string path;        ///< socket path (Unix)
-
-  /// Parses `text`; nullopt with *error ("bad address 'x': ...") when it is not an address.
-  static std::optional<Address> parse(std::string_view text, std::string* error = nullptr);
-  /// "127.0.0.1:4000" or "unix:/path"; parse(str()) gives the same address.
-  std::string str() const;
-  bool operator==(const Address&) const = default;
-};
 
 /// Settings of a channel or listener.
 struct ChannelOptions {
@@ -83,7 +65,7 @@ struct ChannelStats {
 
 /// One authenticated connection. Held by shared_ptr; it stays alive while its socket is open (its pending
 /// read holds it), so a dropped Ptr does not close it: call close().
-class Channel : public std::enable_shared_from_this<Channel> {
+class Channel : public std::enable_shared_from_this<Channel>, private FramedSocket::Owner {
  public:
   using Ptr = std::shared_ptr<Channel>;
   using MessageFn = std::function<void(const wire::Message&)>;
@@ -127,13 +109,13 @@ class Channel : public std::enable_shared_from_this<Channel> {
 
   /// Internal (used by Listener): a channel on an accepted socket, before its handshake.
   Channel(boost::asio::io_context& io, ChannelOptions options, std::string peer);
-  ~Channel();
+  ~Channel() override;
   Channel(const Channel&) = delete;
   Channel& operator=(const Channel&) = delete;
   /// Internal (used by Listener and connect): runs the handshake as `role` on the connected socket and calls
   /// `done(error)` once ("" when authenticated).
   void start(auth::Handshake::Role role, std::function<void(const std::string&)> done);
-  boost::asio::generic::stream_protocol::socket& socket() { return socket_; }
+  boost::asio::generic::stream_protocol::socket& socket() { return framed_.socket(); }
 
  private:
   enum class State { kHandshake, kOpen, kClosing, kClosed };
@@ -143,7 +125,9 @@ class Channel : public std::enable_shared_from_this<Channel> {
   };
 
   void read();
-  void on_read(std::size_t n);
+  void on_read(const boost::system::error_code& ec, std::size_t n) override;
+  void on_written(const boost::system::error_code& ec, std::size_t n) override;
+  void on_frames();
   bool dispatch(wire::Message& m);  // false when the channel closed
   void handshake_step(auth::Handshake::Step step);
   void enqueue(const wire::Message& m);
@@ -153,17 +137,12 @@ class Channel : public std::enable_shared_from_this<Channel> {
 
   boost::asio::io_context& io_;
   ChannelOptions options_;
-  boost::asio::generic::stream_protocol::socket socket_;
+  FramedSocket framed_;
   boost::asio::steady_timer deadline_;
   std::string peer_;
   State state_ = State::kHandshake;
   std::unique_ptr<auth::Handshake> handshake_;
   std::function<void(const std::string&)> handshake_done_;
-
-  std::vector<char> in_;
-  std::size_t in_begin_ = 0, in_end_ = 0;
-  std::string out_, writing_;
-  bool write_in_flight_ = false;
 
   std::uint64_t next_id_ = 1;
   std::unordered_map<std::uint64_t, Pending> pending_;
@@ -200,7 +179,7 @@ class Listener : public std::enable_shared_from_this<Listener> {
   void accept();
   boost::asio::io_context& io_;
   ChannelOptions options_;
-  boost::asio::basic_socket_acceptor<boost::asio::generic::stream_protocol> acceptor_;
+  StreamAcceptor acceptor_;
   Address address_;
   ChannelFn on_channel_;
   RefusedFn on_refused_;

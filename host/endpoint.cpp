@@ -1,9 +1,3 @@
-// Boost.Asio 1.74 under GCC 12 -O3 trips two middle-end warnings inside its own headers (a "potential null
-// pointer dereference" in scheduler.ipp and a "maybe uninitialized" reactor_data_): false positives, silenced
-// for this file only, before any include.
-#pragma GCC diagnostic ignored "-Wnull-dereference"
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-
 #include "host/endpoint.h"
 
 #include <netinet/in.h>
@@ -18,14 +12,11 @@
 #include <set>
 #include <stdexcept>
 
-#include <boost/asio/connect.hpp>
-#include <boost/asio/generic/stream_protocol.hpp>
 #include <boost/asio/ip/tcp.hpp>
-#include <boost/asio/local/stream_protocol.hpp>
 #include <boost/asio/steady_timer.hpp>
-#include <boost/asio/write.hpp>
 
 #include "host/data_frame.h"
+#include "host/framed_socket.h"
 
 namespace asio = boost::asio;
 
@@ -62,7 +53,7 @@ class Connection : public Link {
   LinkInfo info_;
 };
 
-using Socket = asio::generic::stream_protocol::socket;
+using Socket = FramedSocket::Socket;
 using data_frame::Kind;
 class Session;
 
@@ -79,8 +70,7 @@ struct Endpoint::Impl {
   std::map<std::string, std::shared_ptr<bool>, std::less<>> sets;
   std::vector<std::shared_ptr<Connection>> links;
   std::set<std::shared_ptr<endpoint_detail::Session>> sessions;
-  std::unique_ptr<asio::local::stream_protocol::acceptor> uds_acceptor;
-  std::unique_ptr<asio::ip::tcp::acceptor> tcp_acceptor;
+  std::unique_ptr<StreamAcceptor> uds_acceptor, tcp_acceptor;
   std::string uds_path, tcp_address;
   std::uint64_t bytes_received = 0;
   bool closing = false;
@@ -110,8 +100,8 @@ struct Endpoint::Impl {
     if (!in) return it->second->no_such_input(r.to, r.in);
     return compatibility_error(out, in->spec());
   }
-  void accept_uds();
-  void accept_tcp();
+  /// Accepts data connections on `acceptor` until it closes, each into a Session.
+  void accept(StreamAcceptor& acceptor);
   void start_session(Socket s);
 
   std::function<void(const CommsEvent&)> on_event;
@@ -121,65 +111,47 @@ namespace endpoint_detail {
 
 constexpr std::size_t kMaxBacklog = 8u << 20;  // bytes waiting on a backed-up socket before samples are dropped
 
-// Frame I/O on one data socket (both ends use it): synchronous non-blocking writes first, async for the rest.
-class Wire : public std::enable_shared_from_this<Wire> {
+// Frame I/O on one data socket (both ends use it): data frames on a FramedSocket, written at once when the
+// socket takes them, queued up to kMaxBacklog bytes when it is backed up.
+class DataSocket : public std::enable_shared_from_this<DataSocket>, private FramedSocket::Owner {
  public:
-  explicit Wire(Socket s) : sock_(std::move(s)) { rbuf_.resize(64 * 1024); }
-  virtual ~Wire() = default;
-  Wire(const Wire&) = delete;
-  Wire& operator=(const Wire&) = delete;
+  explicit DataSocket(Socket s) : framed_(std::move(s), *this) {}
+  DataSocket(const DataSocket&) = delete;
+  DataSocket& operator=(const DataSocket&) = delete;
 
   /// Sends a frame; false when the backlog is full (the frame is dropped) or the socket is closed.
   bool send(Kind kind, Bytes body) {
     if (closed_) return false;
+    if (!framed_.idle() && framed_.queued() > kMaxBacklog) return false;
     std::array<std::byte, data_frame::kHeader> h;
     data_frame::put_header(h.data(), kind, body.size());
-    const std::size_t total = h.size() + body.size();
-    if (!writing_ && pending_.empty()) {
-      const std::array<asio::const_buffer, 2> bufs{asio::buffer(h.data(), h.size()), asio::buffer(body.data(), body.size())};
-      boost::system::error_code ec;
-      const std::size_t n = sock_.write_some(bufs, ec);
-      bytes_out_ += n;
-      if (!ec && n == total) return true;
-      if (ec && ec != asio::error::would_block && ec != asio::error::try_again) {
-        fail(ec.message());
-        return false;
-      }
-      append_from(h, body, n);
-      start_write();
-      return true;
-    }
-    if (pending_.size() > kMaxBacklog) return false;
-    append_from(h, body, 0);
-    if (!writing_) start_write();
-    return true;
+    const std::array<std::string_view, 2> parts{
+        std::string_view(reinterpret_cast<const char*>(h.data()), h.size()),
+        std::string_view(reinterpret_cast<const char*>(body.data()), body.size())};
+    boost::system::error_code ec;
+    if (framed_.write_now(parts, shared_from_this(), ec)) return true;
+    fail(ec.message());
+    return false;
   }
 
   void start_read() {
-    if (closed_) return;
-    if (rbuf_.size() - rlen_ < 1024) rbuf_.resize(rbuf_.size() * 2);
-    sock_.async_read_some(asio::buffer(rbuf_.data() + rlen_, rbuf_.size() - rlen_),
-                          [self = shared_from_this()](const boost::system::error_code& ec, std::size_t n) {
-                            self->on_read(ec, n);
-                          });
+    if (!closed_) framed_.read(shared_from_this());
   }
 
   /// Closes the socket; pending handlers find closed_ set and return.
   void shut() {
     if (closed_) return;
     closed_ = true;
-    boost::system::error_code ec;
-    sock_.shutdown(asio::socket_base::shutdown_both, ec);
-    sock_.close(ec);
+    framed_.close();
   }
 
   /// Closes once everything queued is written (the error reply of a refused hello).
   void close_after_flush() {
-    if (!writing_ && pending_.empty()) shut();
+    if (framed_.idle()) shut();
     else close_after_flush_ = true;
   }
 
-  std::uint64_t bytes_out() const { return bytes_out_; }
+  std::uint64_t bytes_out() const { return framed_.bytes_out(); }
   bool closed() const { return closed_; }
 
  protected:
@@ -193,64 +165,37 @@ class Wire : public std::enable_shared_from_this<Wire> {
     on_broken(reason);
   }
 
-  Socket sock_;
+  Socket& sock() { return framed_.socket(); }
 
  private:
-  void append_from(const std::array<std::byte, data_frame::kHeader>& h, Bytes body, std::size_t skip) {
-    if (skip < h.size()) pending_.insert(pending_.end(), h.begin() + static_cast<std::ptrdiff_t>(skip), h.end());
-    const std::size_t bskip = skip > h.size() ? skip - h.size() : 0;
-    pending_.insert(pending_.end(), body.begin() + static_cast<std::ptrdiff_t>(bskip), body.end());
+  void on_written(const boost::system::error_code& ec, std::size_t) override {
+    if (closed_) return;
+    if (ec) return fail(ec.message());
+    if (framed_.queued() == 0 && close_after_flush_) shut();
   }
 
-  void start_write() {
-    if (closed_ || pending_.empty()) return;
-    inflight_.swap(pending_);
-    pending_.clear();
-    writing_ = true;
-    asio::async_write(sock_, asio::buffer(inflight_),
-                      [self = shared_from_this()](const boost::system::error_code& ec, std::size_t n) {
-                        self->writing_ = false;
-                        self->bytes_out_ += n;
-                        self->inflight_.clear();
-                        if (self->closed_) return;
-                        if (ec) return self->fail(ec.message());
-                        if (!self->pending_.empty()) return self->start_write();
-                        if (self->close_after_flush_) self->shut();
-                      });
-  }
-
-  void on_read(const boost::system::error_code& ec, std::size_t n) {
+  void on_read(const boost::system::error_code& ec, std::size_t n) override {
     if (closed_) return;
     if (ec) return fail(ec == asio::error::eof ? "closed by peer" : ec.message());
-    rlen_ += n;
     on_bytes(n);
-    std::size_t off = 0;
     for (;;) {
+      const auto unread = framed_.unread();
       data_frame::Frame f;
       std::size_t used = 0;
       std::string error;
-      const auto r = data_frame::parse_frame({rbuf_.data() + off, rlen_ - off}, f, used, &error);
+      const auto r = data_frame::parse_frame({reinterpret_cast<const std::byte*>(unread.data()), unread.size()}, f,
+                                             used, &error);
       if (r == data_frame::Parse::Error) return fail("malformed data frame: " + error);
-      if (r == data_frame::Parse::NeedMore) {
-        if (used > rbuf_.size()) rbuf_.resize(used);
-        break;
-      }
+      if (r == data_frame::Parse::NeedMore) break;
       on_frame(f.kind, f.body);
       if (closed_) return;
-      off += used;
-    }
-    if (off) {
-      std::memmove(rbuf_.data(), rbuf_.data() + off, rlen_ - off);
-      rlen_ -= off;
+      framed_.consume(used);
     }
     start_read();
   }
 
-  std::vector<std::byte> rbuf_;
-  std::size_t rlen_ = 0;
-  std::vector<std::byte> pending_, inflight_;
-  bool writing_ = false, closed_ = false, close_after_flush_ = false;
-  std::uint64_t bytes_out_ = 0;
+  FramedSocket framed_;
+  bool closed_ = false, close_after_flush_ = false;
 };
 
 Bytes as_bytes(const std::string& s) { return {reinterpret_cast<const std::byte*>(s.data()), s.size()}; }
@@ -307,29 +252,20 @@ class LocalLink final : public Connection, public PullSource, public InputFeeder
 };
 
 // The sending side of a socket connection.
-class StreamLink final : public Connection, public Wire {
+class StreamLink final : public Connection, public DataSocket {
  public:
   StreamLink(Endpoint::Impl& ep, ConnectRequest r, Transport t, Output* out, std::shared_ptr<bool> active)
-      : Connection(std::move(r), t, out, std::move(active)), Wire(Socket(ep.io)), ep_(&ep), timer_(ep.io) {}
+      : Connection(std::move(r), t, out, std::move(active)), DataSocket(Socket(ep.io)), ep_(&ep), timer_(ep.io) {}
 
   void start(const Location& dest, Endpoint::ConnectDone done, int timeout_ms) {
     done_ = std::move(done);
     peer_ = info_.request.to + "." + info_.request.in;
-    asio::generic::stream_protocol::endpoint where;
-    try {
-      if (info_.transport == Transport::Unix) {
-        where = asio::local::stream_protocol::endpoint(dest.data_uds);
-        peer_addr_ = dest.data_uds;
-      } else {
-        const auto colon = dest.data_tcp.rfind(':');
-        if (colon == std::string::npos) throw std::invalid_argument("bad TCP address '" + dest.data_tcp + "'");
-        where = asio::ip::tcp::endpoint(asio::ip::make_address(dest.data_tcp.substr(0, colon)),
-                                        static_cast<unsigned short>(std::stoi(dest.data_tcp.substr(colon + 1))));
-        peer_addr_ = dest.data_tcp;
-      }
-    } catch (const std::exception& e) {
-      return finish(std::string("cannot connect to ") + peer_ + ": " + e.what());
-    }
+    std::string error;
+    const auto to = info_.transport == Transport::Unix ? std::optional(Address::unix_socket(dest.data_uds))
+                                                       : Address::parse(dest.data_tcp, &error);
+    const auto where = to ? to_endpoint(*to, &error) : std::nullopt;
+    if (!where) return finish("cannot connect to " + peer_ + ": " + error);
+    peer_addr_ = info_.transport == Transport::Unix ? dest.data_uds : dest.data_tcp;
     auto self = std::static_pointer_cast<StreamLink>(shared_from_this());
     timer_.expires_after(std::chrono::milliseconds(timeout_ms));
     timer_.async_wait([self, timeout_ms](const boost::system::error_code& ec) {
@@ -337,15 +273,15 @@ class StreamLink final : public Connection, public Wire {
       self->finish("no answer from " + self->peer_ + " at " + self->peer_addr_ + " within " +
                    std::to_string(timeout_ms) + " ms");
     });
-    sock_.async_connect(where, [self](const boost::system::error_code& ec) {
+    sock().async_connect(*where, [self](const boost::system::error_code& ec) {
       if (self->closed() || !self->done_) return;
       if (ec) return self->finish("cannot connect to " + self->peer_ + " at " + self->peer_addr_ + ": " + ec.message());
       boost::system::error_code ignored;
       if (self->info_.transport == Transport::Tcp) {
         const int one = 1;
-        ::setsockopt(self->sock_.native_handle(), IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+        ::setsockopt(self->sock().native_handle(), IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
       }
-      self->sock_.non_blocking(true, ignored);
+      self->sock().non_blocking(true, ignored);
       data_frame::Hello h{self->info_.request, self->out_ ? self->out_->spec() : PortSpec{}};
       self->send(Kind::Hello, as_bytes(data_frame::encode_hello(h)));
       self->start_read();
@@ -434,12 +370,12 @@ class StreamLink final : public Connection, public Wire {
 };
 
 // The receiving side of a socket connection: feeds one local input.
-class Session final : public Wire, public PullSource, public InputFeeder {
+class Session final : public DataSocket, public PullSource, public InputFeeder {
  public:
-  Session(Endpoint::Impl& ep, Socket s) : Wire(std::move(s)), ep_(&ep) {}
+  Session(Endpoint::Impl& ep, Socket s) : DataSocket(std::move(s)), ep_(&ep) {}
   void begin() {
     boost::system::error_code ignored;
-    sock_.non_blocking(true, ignored);
+    sock().non_blocking(true, ignored);
     start_read();
   }
   void request() override { send(Kind::PullRequest, {}); }
@@ -515,33 +451,15 @@ void Endpoint::Impl::start_session(Socket s) {
   session->begin();
 }
 
-void Endpoint::Impl::accept_uds() {
-  if (!uds_acceptor) return;
-  uds_acceptor->async_accept([this](const boost::system::error_code& ec, asio::local::stream_protocol::socket s) {
-    if (ec == asio::error::operation_aborted || closing) return;
-    if (!ec) {
-      Socket g(io);
-      boost::system::error_code e2;
-      g.assign(asio::generic::stream_protocol(AF_UNIX, 0), s.release(), e2);
-      if (!e2) start_session(std::move(g));
-    }
-    accept_uds();
-  });
-}
-
-void Endpoint::Impl::accept_tcp() {
-  if (!tcp_acceptor) return;
-  tcp_acceptor->async_accept([this](const boost::system::error_code& ec, asio::ip::tcp::socket s) {
+void Endpoint::Impl::accept(StreamAcceptor& acceptor) {
+  acceptor.async_accept([this, &acceptor](const boost::system::error_code& ec, Socket s) {
     if (ec == asio::error::operation_aborted || closing) return;
     if (!ec) {
       boost::system::error_code e2;
-      s.set_option(asio::ip::tcp::no_delay(true), e2);
-      const int family = s.local_endpoint(e2).protocol().family();
-      Socket g(io);
-      g.assign(asio::generic::stream_protocol(family, IPPROTO_TCP), s.release(), e2);
-      if (!e2) start_session(std::move(g));
+      if (s.local_endpoint(e2).protocol().family() != AF_UNIX) s.set_option(asio::ip::tcp::no_delay(true), e2);
+      start_session(std::move(s));
     }
-    accept_tcp();
+    accept(acceptor);
   });
 }
 
@@ -559,22 +477,21 @@ Endpoint::~Endpoint() {
 }
 
 void Endpoint::listen(const std::string& uds_path, const std::string& tcp_address) {
+  std::string error;
+  Address bound;
   if (!uds_path.empty()) {
-    ::unlink(uds_path.c_str());
-    impl_->uds_acceptor = std::make_unique<asio::local::stream_protocol::acceptor>(
-        impl_->io, asio::local::stream_protocol::endpoint(uds_path));
+    impl_->uds_acceptor = std::make_unique<StreamAcceptor>(impl_->io);
+    if (!listen_at(*impl_->uds_acceptor, Address::unix_socket(uds_path), &bound, &error))
+      throw std::runtime_error(error);
     impl_->uds_path = uds_path;
-    impl_->accept_uds();
+    impl_->accept(*impl_->uds_acceptor);
   }
   if (!tcp_address.empty()) {
-    const auto colon = tcp_address.rfind(':');
-    if (colon == std::string::npos) throw std::runtime_error("bad TCP address '" + tcp_address + "' (want HOST:PORT)");
-    const asio::ip::tcp::endpoint ep(asio::ip::make_address(tcp_address.substr(0, colon)),
-                                     static_cast<unsigned short>(std::stoi(tcp_address.substr(colon + 1))));
-    impl_->tcp_acceptor = std::make_unique<asio::ip::tcp::acceptor>(impl_->io, ep);
-    const auto bound = impl_->tcp_acceptor->local_endpoint();
-    impl_->tcp_address = bound.address().to_string() + ":" + std::to_string(bound.port());
-    impl_->accept_tcp();
+    const auto at = Address::parse(tcp_address, &error);
+    impl_->tcp_acceptor = std::make_unique<StreamAcceptor>(impl_->io);
+    if (!at || !listen_at(*impl_->tcp_acceptor, *at, &bound, &error)) throw std::runtime_error(error);
+    impl_->tcp_address = bound.str();
+    impl_->accept(*impl_->tcp_acceptor);
   }
 }
 

@@ -14,6 +14,8 @@
 //
 // Sockets carry data frames (host/data_frame) on framed sockets (host/framed_socket). Threading: everything
 // here runs on the process's one io_context thread; nothing takes a lock.
+#include "host/loop.h"  // first: Asio's core, with GCC 12's false positives silenced
+
 #include <cstddef>
 #include <cstdint>
 #include <functional>
@@ -21,8 +23,6 @@
 #include <string>
 #include <string_view>
 #include <vector>
-
-#include <boost/asio/io_context.hpp>
 
 #include "host/port.h"
 

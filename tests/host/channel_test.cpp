@@ -313,26 +313,4 @@ TEST_F(ChannelTest, CloseRunsOnCloseOnceAndFailsPending) {
   EXPECT_NE(server_closed_[0].find("connection closed by the peer"), std::string::npos) << server_closed_[0];
 }
 
-TEST(AddressTest, ParsesTcpAndUnixAddresses) {
-  std::string error;
-  auto a = Address::parse("127.0.0.1:4000");
-  ASSERT_TRUE(a);
-  EXPECT_EQ(a->kind, Address::Kind::kTcp);
-  EXPECT_EQ(a->port, 4000);
-  EXPECT_EQ(a->str(), "127.0.0.1:4000");
-  EXPECT_EQ(Address::parse("tcp:localhost:1")->host, "127.0.0.1");
-  EXPECT_EQ(Address::parse("[::1]:5")->str(), "[::1]:5");
-  auto u = Address::parse("unix:/tmp/x.sock");
-  ASSERT_TRUE(u);
-  EXPECT_EQ(u->kind, Address::Kind::kUnix);
-  EXPECT_EQ(u->path, "/tmp/x.sock");
-  EXPECT_EQ(*Address::parse("/tmp/x.sock"), *u);
-  EXPECT_EQ(*Address::parse(u->str()), *u);
-  EXPECT_FALSE(Address::parse("nohost", &error));
-  EXPECT_NE(error.find("bad address 'nohost'"), std::string::npos) << error;
-  EXPECT_FALSE(Address::parse("127.0.0.1:99999", &error));
-  EXPECT_FALSE(Address::parse("example.com:80", &error));
-  EXPECT_NE(error.find("numeric IP"), std::string::npos) << error;
-}
-
 }  // namespace
