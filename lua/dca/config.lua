@@ -346,7 +346,7 @@ function M.seed_run(hosts, origin, opts)
     #names > 0 and (", replicated to " .. table.concat(names, ", ")) or "")
 end
 
---- Checks every config("key") argument of a supervisor spec (dca.supervisor_spec) against the repository of
+--- Checks every config("key") argument of a supervisor spec (dca.supervisor.spec) against the repository of
 --- host `origin` before anything starts: the key exists and its value fits the parameter. The supervisors
 --- read them again at start from each leaf's own host. --> true | nil, the errors (one line each, naming the
 --- process, its host, the parameter and the key)

@@ -17,7 +17,7 @@
 -- Faults: sys:kill(path, sig), sys:lose_host(host), sys:freeze(path) / sys:freeze_host(host) (SIGSTOP: sockets
 -- stay open, the heartbeat finds the silence), sys:drop(path, set). Conditions: sys:wait(what, pred, t),
 -- sys:wait_state(path, state, t), sys:wait_read(path, port, pred, t), sys:wait_outcome(t); sys:host(path).
--- In the real backend (wall clock) a timeout only bounds a hang (it is stretched, see scenario_real.bound) and
+-- In the real backend (wall clock) a timeout only bounds a hang (it is stretched, see dca.scenario.real.bound) and
 -- wait_state is met when the process has been in the state since the last run() (from the transition
 -- lines, so a short state is never missed).
 --

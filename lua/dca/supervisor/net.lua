@@ -9,7 +9,10 @@
 --   local rt = require("dca.supervisor.net").new{ hosts = { h1 = "127.0.0.1:7001" }, key = FILE, exe = DCA,
 --                                                report = function(msg) end, log = function(line) end }
 --   rt.bind(sup)           -- the supervisor whose children this runtime starts (after supervisor.new)
---   rt.reply(ch, req, msg) -- answers a request that arrived on a channel
+--   net.reply(ch, req, msg) -- answers a request that arrived on a channel
+-- The runtime's methods are called with a dot (rt.spawn(child, cb)), as dca.supervisor calls them; inside,
+-- they reach each other the same way (self.daemon(host, cb)). Daemons are reached with dca.clients.daemon,
+-- started processes looked up and connected with dca.clients.open.
 local core, config = require "dca.core", require "dca.config"
 local clients, daemon_client = require "dca.clients", require "dca.clients.daemon"
 local spec_mod = require "dca.supervisor.spec"
