@@ -25,18 +25,13 @@
 
 #include "host/channel.h"
 #include "tests/bench/bench_util.h"
+#include "tests/support/channel_pair.h"
 
 namespace {
 
 namespace asio = boost::asio;
 using Clock = std::chrono::steady_clock;
-using dca::Address;
-using dca::Channel;
-using dca::ChannelOptions;
-using dca::wire::Message;
-using dca::wire::Value;
-
-const std::string kKey = "benchmark key, 32 bytes long....";
+using namespace dca::test;  // Address, Channel, ..., kKey
 constexpr std::size_t kSize = 64;
 
 void pin(int cpu) {

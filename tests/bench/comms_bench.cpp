@@ -30,6 +30,7 @@
 #include "host/endpoint.h"
 #include "host/timers.h"
 #include "tests/bench/bench_util.h"
+#include "tests/support/run_until.h"
 
 namespace asio = boost::asio;
 using Clock = std::chrono::steady_clock;
@@ -55,14 +56,9 @@ void print(const char* bench, const std::string& variant, Samples& s, const std:
   dca::bench::result(bench, variant, s.us, extra, 2);
 }
 
+// Runs `io` until `pred` holds, at most `timeout` (10 s by default).
 bool run_until(asio::io_context& io, const std::function<bool()>& pred, std::chrono::seconds timeout = std::chrono::seconds(10)) {
-  const auto deadline = Clock::now() + timeout;
-  while (!pred()) {
-    if (Clock::now() > deadline) return false;
-    io.restart();
-    io.run_one_for(std::chrono::milliseconds(10));
-  }
-  return true;
+  return dca::test::run_until(io, pred, timeout);
 }
 
 // --- the echo side in a child process --------------------------------------------------------------------
@@ -101,6 +97,22 @@ bool run_until(asio::io_context& io, const std::function<bool()>& pred, std::chr
   ::_exit(0);
 }
 
+// Echoes 64-byte blocks on `s` until the peer goes away (then stops `io`).
+template <class Socket>
+void echo_forever(asio::io_context& io, Socket& s, std::array<char, 64>& buf) {
+  std::function<void()> loop = [&] {
+    asio::async_read(s, asio::buffer(buf), [&](boost::system::error_code ec, std::size_t) {
+      if (ec) return io.stop();
+      asio::async_write(s, asio::buffer(buf), [&](boost::system::error_code ec2, std::size_t) {
+        if (ec2) return io.stop();
+        loop();
+      });
+    });
+  };
+  loop();
+  io.run();
+}
+
 // raw echo: Asio, read 64 bytes, write them back, forever.
 [[noreturn]] void raw_echo_child(bool tcp, const std::string& uds, int cpu, int pipe_w) {
   pin(cpu);
@@ -113,33 +125,13 @@ bool run_until(asio::io_context& io, const std::function<bool()>& pred, std::chr
     [[maybe_unused]] auto w = ::write(pipe_w, &port, sizeof port);
     asio::ip::tcp::socket s = acc.accept();
     s.set_option(asio::ip::tcp::no_delay(true));
-    std::function<void()> loop = [&] {
-      asio::async_read(s, asio::buffer(buf), [&](boost::system::error_code ec, std::size_t) {
-        if (ec) return io.stop();
-        asio::async_write(s, asio::buffer(buf), [&](boost::system::error_code ec2, std::size_t) {
-          if (ec2) return io.stop();
-          loop();
-        });
-      });
-    };
-    loop();
-    io.run();
+    echo_forever(io, s, buf);
   } else {
     ::unlink((uds + ".raw").c_str());
     asio::local::stream_protocol::acceptor acc(io, asio::local::stream_protocol::endpoint(uds + ".raw"));
     [[maybe_unused]] auto w = ::write(pipe_w, &port, sizeof port);
     asio::local::stream_protocol::socket s = acc.accept();
-    std::function<void()> loop = [&] {
-      asio::async_read(s, asio::buffer(buf), [&](boost::system::error_code ec, std::size_t) {
-        if (ec) return io.stop();
-        asio::async_write(s, asio::buffer(buf), [&](boost::system::error_code ec2, std::size_t) {
-          if (ec2) return io.stop();
-          loop();
-        });
-      });
-    };
-    loop();
-    io.run();
+    echo_forever(io, s, buf);
   }
   ::_exit(0);
 }

@@ -9,19 +9,12 @@
 #include <chrono>
 
 #include "host/loop.h"
+#include "tests/support/channel_pair.h"
 
 namespace {
 
 using namespace std::chrono_literals;
-using dca::Address;
-using dca::Channel;
-using dca::ChannelOptions;
-using dca::Listener;
-using dca::Response;
-using dca::wire::Message;
-using dca::wire::Value;
-
-const std::string kKey = "0123456789abcdef0123456789abcdef";
+using namespace dca::test;  // Address, Channel, ..., kKey
 
 class ChannelTest : public ::testing::Test {
  protected:
@@ -47,19 +40,24 @@ class ChannelTest : public ::testing::Test {
 
   Channel::Ptr connect(const Address& to, std::string key = kKey, std::string* error = nullptr,
                        std::chrono::milliseconds timeout = 5000ms) {
-    Channel::Ptr out;
-    bool done = false;
-    std::string err;
     ChannelOptions o{std::move(key)};
     o.handshake_timeout = timeout;
-    Channel::connect(loop_.io(), to, o, [&](Channel::Ptr ch, const std::string& e) {
-      out = std::move(ch);
-      err = e;
-      done = true;
-    });
-    EXPECT_TRUE(loop_.run_until([&] { return done; }, 10s)) << "connect never finished";
+    std::string err;
+    auto ch = connect_channel(loop_, to, o, &err);
+    EXPECT_NE(err, "connect never finished");
     if (error != nullptr) *error = err;
-    return out;
+    return ch;
+  }
+
+  // A client with `key` is refused: its error contains `client_says`, the server's refusal `server_says`.
+  void expect_refused(const std::string& key, const std::string& client_says, const std::string& server_says) {
+    auto l = serve("127.0.0.1:0");
+    std::string error;
+    auto ch = connect(l->address(), key, &error);
+    EXPECT_FALSE(ch);
+    EXPECT_NE(error.find(client_says), std::string::npos) << error;
+    ASSERT_TRUE(loop_.run_until([&] { return !refused_.empty(); }, 10s));
+    EXPECT_NE(refused_[0].find(server_says), std::string::npos) << refused_[0];
   }
 
   Response call(Channel& ch, Message m, std::chrono::milliseconds timeout = 5000ms) {
@@ -176,25 +174,11 @@ TEST_F(ChannelTest, PeerCloseFailsPendingRequestsAndIsReportedOnce) {
 }
 
 TEST_F(ChannelTest, WrongKeyIsRefusedWithAReasonOnBothSides) {
-  auto l = serve("127.0.0.1:0");
-  std::string error;
-  auto ch = connect(l->address(), "a different key of 32 bytes.....", &error);
-  EXPECT_FALSE(ch);
-  EXPECT_NE(error.find("key check"), std::string::npos) << error;
-  ASSERT_TRUE(loop_.run_until([&] { return !refused_.empty(); }, 10s));
-  EXPECT_NE(refused_[0].find("wrong cluster key"), std::string::npos) << refused_[0];
+  expect_refused("a different key of 32 bytes.....", "key check", "wrong cluster key");
   EXPECT_TRUE(server_channels_.empty()) << "no channel reaches the server's handler";
 }
 
-TEST_F(ChannelTest, ClientWithoutKeyIsRefused) {
-  auto l = serve("127.0.0.1:0");
-  std::string error;
-  auto ch = connect(l->address(), "", &error);
-  EXPECT_FALSE(ch);
-  EXPECT_NE(error.find("no cluster key"), std::string::npos) << error;
-  ASSERT_TRUE(loop_.run_until([&] { return !refused_.empty(); }, 10s));
-  EXPECT_NE(refused_[0].find("the peer has no cluster key"), std::string::npos) << refused_[0];
-}
+TEST_F(ChannelTest, ClientWithoutKeyIsRefused) { expect_refused("", "no cluster key", "the peer has no cluster key"); }
 
 // A raw socket that speaks without authenticating: refused, and the server runs nothing.
 TEST_F(ChannelTest, UnauthenticatedRequestIsRefused) {

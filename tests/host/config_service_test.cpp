@@ -7,19 +7,13 @@
 #include <fstream>
 
 #include "host/daemon.h"
+#include "tests/support/channel_pair.h"
 
 namespace {
 
 namespace fs = std::filesystem;
 using namespace std::chrono_literals;
-using dca::Address;
-using dca::Channel;
-using dca::ChannelOptions;
-using dca::Response;
-using dca::wire::Message;
-using dca::wire::Value;
-
-const std::string kKey = "0123456789abcdef0123456789abcdef";
+using namespace dca::test;  // Address, Channel, ..., kKey
 
 class ConfigServiceTest : public ::testing::Test {
  protected:

@@ -14,19 +14,14 @@
 #include <fstream>
 #include <sstream>
 
+#include "tests/support/channel_pair.h"
+
 extern char** environ;
 
 namespace {
 
 using namespace std::chrono_literals;
-using dca::Address;
-using dca::Channel;
-using dca::ChannelOptions;
-using dca::Response;
-using dca::wire::Message;
-using dca::wire::Value;
-
-const std::string kKey = "0123456789abcdef0123456789abcdef";
+using namespace dca::test;  // Address, Channel, ..., kKey
 
 bool process_exists(pid_t pid) { return std::filesystem::exists("/proc/" + std::to_string(pid)); }
 
