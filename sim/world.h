@@ -84,6 +84,30 @@ struct Commands {
   bool gripper_close = false;
 };
 
+/// One of the signals above: its name, vector size and units.
+struct Signal {
+  const char* name;
+  std::uint32_t size;
+  const char* units;
+};
+/// The outputs (sensors), in the order above.
+inline constexpr Signal kSensorSignals[] = {
+    {"arm.q", 6, "rad"},
+    {"arm.qd", 6, "rad/s"},
+    {"base.pose", 3, "m, m, rad"},
+    {"base.vel", 3, "m/s, m/s, rad/s"},
+    {"wrist.wrench", 6, "N, N m"},
+    {"laser.range", 1, "m"},
+    {"camera.handle", 3, "px, px, 1"},
+    {"door.angle", 1, "rad"},
+    {"door.handle_angle", 1, "rad"},
+    {"gripper.width", 1, "m"},
+    {"gripper.state", 1, "0 open, 1 closed, 2 moving, 3 grasping"},
+};
+/// The inputs (commands), in the order above.
+inline constexpr Signal kCommandSignals[] = {
+    {"base.cmd_vel", 3, "m/s, m/s, rad/s"}, {"arm.cmd_qd", 6, "rad/s"}, {"gripper.cmd", 1, "0 open, 1 close"}};
+
 /// Gripper state as published on gripper.state.
 enum class GripperState { open = 0, closed = 1, moving = 2, grasping = 3 };
 

@@ -16,34 +16,22 @@ using wire::Value;
 
 namespace {
 
-// The world's signals as ports (names and sizes: sim/world.h).
-struct Signal {
-  const char* name;
-  std::uint32_t size;
-  const char* units;
-};
-constexpr Signal kOutputs[] = {
-    {"arm.q", 6, "rad"},           {"arm.qd", 6, "rad/s"},         {"base.pose", 3, "m, m, rad"},
-    {"base.vel", 3, "m/s, m/s, rad/s"}, {"wrist.wrench", 6, "N, N m"}, {"laser.range", 1, "m"},
-    {"camera.handle", 3, "px, px, 1"}, {"door.angle", 1, "rad"},    {"door.handle_angle", 1, "rad"},
-    {"gripper.width", 1, "m"},     {"gripper.state", 1, "0 open, 1 closed, 2 moving, 3 grasping"},
-};
-constexpr Signal kInputs[] = {
-    {"base.cmd_vel", 3, "m/s, m/s, rad/s"}, {"arm.cmd_qd", 6, "rad/s"}, {"gripper.cmd", 1, "0 open, 1 close"}};
-
+// The world's signals (sim/world.h) as ports.
 class WorldComponent final : public Component {
  public:
   explicit WorldComponent(std::string name) : name_(std::move(name)) {
-    for (const auto& s : kOutputs) outputs.push_back(&ports_.add_output(vector_port(s.name, s.size, s.units)));
-    for (const auto& s : kInputs) inputs.push_back(&ports_.add_input(vector_port(s.name, s.size, s.units), 16));
+    for (const auto& s : kSensorSignals)
+      outputs.push_back(&ports_.add_output(vector_port(s.name, s.size, s.units)));
+    for (const auto& s : kCommandSignals)
+      inputs.push_back(&ports_.add_input(vector_port(s.name, s.size, s.units), 16));
   }
   const std::string& name() const override { return name_; }
   PortSet& ports() override { return ports_; }
   std::string init() override { return ""; }
   std::string run(Bytes) override { return ""; }
   void stop() override {}
-  std::vector<Output*> outputs;  // kOutputs order
-  std::vector<Input*> inputs;    // kInputs order
+  std::vector<Output*> outputs;  // kSensorSignals order
+  std::vector<Input*> inputs;    // kCommandSignals order
 
  private:
   std::string name_;
@@ -129,7 +117,7 @@ struct WorldNode::Impl {
                             s.wrench.data(), &laser, s.camera_handle.data(), &door,   &handle,
                             &width,          &grip};
     for (std::size_t i = 0; i < component->outputs.size(); ++i)
-      component->outputs[i]->write(Eigen::Map<const Eigen::VectorXd>(data[i], kOutputs[i].size));
+      component->outputs[i]->write(Eigen::Map<const Eigen::VectorXd>(data[i], kSensorSignals[i].size));
   }
 
   // The clock's status and the world's state.

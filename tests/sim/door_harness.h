@@ -68,14 +68,8 @@ class DoorHarness {
   /// The world from `config`; every controller of door_open.dca with the arguments the .dca file gives.
   explicit DoorHarness(const sim::WorldConfig& config) : world_(config) {
     ep_.add_component("world", world_ports_);
-    for (const auto& s : {std::pair<const char*, std::uint32_t>{"arm.q", 6}, {"arm.qd", 6}, {"base.pose", 3},
-                          {"base.vel", 3}, {"wrist.wrench", 6}, {"laser.range", 1}, {"camera.handle", 3},
-                          {"door.angle", 1}, {"door.handle_angle", 1}, {"gripper.width", 1},
-                          {"gripper.state", 1}})
-      world_ports_.add_output(vector_port(s.first, s.second));
-    for (const auto& s : {std::pair<const char*, std::uint32_t>{"base.cmd_vel", 3}, {"arm.cmd_qd", 6},
-                          {"gripper.cmd", 1}})
-      world_ports_.add_input(vector_port(s.first, s.second), 16);
+    for (const auto& s : sim::kSensorSignals) world_ports_.add_output(vector_port(s.name, s.size, s.units));
+    for (const auto& s : sim::kCommandSignals) world_ports_.add_input(vector_port(s.name, s.size, s.units), 16);
 
     // MotionControl(host1 = manipulation, host2 = platform)
     add("XR4000Ctrl", "motionctrl/xr4000");
