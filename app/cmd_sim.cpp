@@ -211,7 +211,11 @@ int cmd_sim(std::span<char* const> args) {
   if (o.serve) return serve(o, config);
   try {
     std::optional<dca::sim::Script> script;
-    if (!o.script.empty()) script = dca::sim::Script::load(o.script);
+    std::string error;
+    if (!o.script.empty() && !dca::sim::Script::load(o.script, &script.emplace(), &error)) {
+      std::fprintf(stderr, "dca sim: %s\n", error.c_str());
+      return 1;
+    }
     dca::sim::World world(config);
     if (o.visualize) {
       std::string why;
@@ -266,7 +270,6 @@ int cmd_sim(std::span<char* const> args) {
                                                   std::chrono::duration<double>(world.time())));
     }
     const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
-    std::string error;
     if (recorder && !recorder->close(&error)) {
       std::fprintf(stderr, "dca sim: %s\n", error.c_str());
       return 1;

@@ -4,6 +4,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
+#include <utility>
 
 namespace dca::sim {
 namespace {
@@ -27,9 +28,64 @@ std::vector<Token> split(const std::string& line) {
   return out;
 }
 
+// One line's parse; errors name the file, the line and the token's column.
+struct LineParser {
+  const std::string& name;
+  int number;
+  const std::vector<Token>& t;
+  std::string* error;
+
+  bool fail(const Token& at, const std::string& why) {
+    *error = name + ":" + std::to_string(number) + ":" + std::to_string(at.column) + ": " + why;
+    return false;
+  }
+
+  bool number_at(const Token& tok, double* v) {
+    char* endp = nullptr;
+    *v = std::strtod(tok.text.c_str(), &endp);
+    if (endp == tok.text.c_str() || *endp != '\0' || !std::isfinite(*v))
+      return fail(tok, "expected a number, found '" + tok.text + "'");
+    return true;
+  }
+
+  // The command word: its kind and how many arguments it takes.
+  bool command(ScriptLine* l, size_t* want) {
+    const std::string& word = t[1].text;
+    *want = 0;
+    if (word == "base") l->kind = ScriptLine::base, *want = 3;
+    else if (word == "arm") l->kind = ScriptLine::arm, *want = 6;
+    else if (word == "gripper") l->kind = ScriptLine::gripper, *want = 1;
+    else if (word == "stop") l->kind = ScriptLine::stop;
+    else if (word == "door") l->kind = ScriptLine::door;
+    else if (word == "end") l->kind = ScriptLine::end;
+    else return fail(t[1], "unknown command '" + word + "' (base, arm, gripper, stop, door, end)");
+    if (t.size() == *want + 2) return true;
+    const Token& at = t.size() > *want + 2 ? t[*want + 2] : t.back();
+    return fail(at, "'" + word + "' takes " + std::to_string(*want) + " argument" + (*want == 1 ? "" : "s") +
+                        ", found " + std::to_string(t.size() - 2));
+  }
+
+  // TIME WORD ARGS, at or after `last`.
+  bool parse(double last, ScriptLine* l) {
+    if (!number_at(t[0], &l->time)) return false;
+    if (l->time < last) return fail(t[0], "time goes backwards (" + t[0].text + " after " + std::to_string(last) + ")");
+    if (t.size() < 2) return fail(t[0], "expected a command after the time");
+    size_t want = 0;
+    if (!command(l, &want)) return false;
+    if (l->kind != ScriptLine::gripper) {
+      for (size_t i = 0; i < want; ++i)
+        if (!number_at(t[i + 2], &l->values[i])) return false;
+      return true;
+    }
+    if (t[2].text != "open" && t[2].text != "close") return fail(t[2], "expected open or close");
+    l->values[0] = t[2].text == "close" ? 1 : 0;
+    return true;
+  }
+};
+
 }  // namespace
 
-Script Script::parse(const std::string& text, const std::string& name) {
+bool Script::parse(const std::string& text, const std::string& name, Script* out, std::string* error) {
   Script s;
   std::istringstream in(text);
   std::string line;
@@ -39,52 +95,21 @@ Script Script::parse(const std::string& text, const std::string& name) {
     ++number;
     const std::vector<Token> t = split(line);
     if (t.empty()) continue;
-    const auto error = [&](const Token& at, const std::string& why) {
-      return ScriptError(name + ":" + std::to_string(number) + ":" + std::to_string(at.column) + ": " + why);
-    };
-    const auto number_at = [&](const Token& tok) {
-      char* endp = nullptr;
-      const double v = std::strtod(tok.text.c_str(), &endp);
-      if (endp == tok.text.c_str() || *endp != '\0' || !std::isfinite(v))
-        throw error(tok, "expected a number, found '" + tok.text + "'");
-      return v;
-    };
     ScriptLine l;
-    l.time = number_at(t[0]);
-    if (l.time < last) throw error(t[0], "time goes backwards (" + t[0].text + " after " + std::to_string(last) + ")");
+    if (!LineParser{name, number, t, error}.parse(last, &l)) return false;
     last = l.time;
-    if (t.size() < 2) throw error(t[0], "expected a command after the time");
-    const std::string& word = t[1].text;
-    size_t want = 0;
-    if (word == "base") l.kind = ScriptLine::base, want = 3;
-    else if (word == "arm") l.kind = ScriptLine::arm, want = 6;
-    else if (word == "gripper") l.kind = ScriptLine::gripper, want = 1;
-    else if (word == "stop") l.kind = ScriptLine::stop;
-    else if (word == "door") l.kind = ScriptLine::door;
-    else if (word == "end") l.kind = ScriptLine::end;
-    else throw error(t[1], "unknown command '" + word + "' (base, arm, gripper, stop, door, end)");
-    if (t.size() != want + 2) {
-      const Token& at = t.size() > want + 2 ? t[want + 2] : t.back();
-      throw error(at, "'" + word + "' takes " + std::to_string(want) + " argument" + (want == 1 ? "" : "s") +
-                          ", found " + std::to_string(t.size() - 2));
-    }
-    if (l.kind == ScriptLine::gripper) {
-      if (t[2].text != "open" && t[2].text != "close") throw error(t[2], "expected open or close");
-      l.values[0] = t[2].text == "close" ? 1 : 0;
-    } else {
-      for (size_t i = 0; i < want; ++i) l.values[i] = number_at(t[i + 2]);
-    }
     s.lines_.push_back(l);
   }
-  return s;
+  *out = std::move(s);
+  return true;
 }
 
-Script Script::load(const std::string& path) {
+bool Script::load(const std::string& path, Script* out, std::string* error) {
   std::ifstream in(path);
-  if (!in) throw ScriptError(path + ": cannot open the script");
+  if (!in) return *error = path + ": cannot open the script", false;
   std::ostringstream text;
   text << in.rdbuf();
-  return parse(text.str(), path);
+  return parse(text.str(), path, out, error);
 }
 
 bool Script::advance(double t, Commands& c) {

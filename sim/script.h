@@ -8,19 +8,12 @@
 //   T stop               zero base and arm rates (the gripper stays as it is)
 //   T door               from T on, the built-in scripted door opening (ScriptedDoorOpening) drives the robot
 //   T end                the run ends at T
-#include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "sim/world.h"
 
 namespace dca::sim {
-
-/// A script error: what() is "FILE:LINE:COL: reason".
-class ScriptError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
 
 /// One line of a script.
 struct ScriptLine {
@@ -32,10 +25,11 @@ struct ScriptLine {
 /// A parsed script and its playback.
 class Script {
  public:
-  /// Parses `text`; `name` stands for the file in errors.
-  static Script parse(const std::string& text, const std::string& name);
-  /// Reads and parses a file.
-  static Script load(const std::string& path);
+  /// Parses `text` into *out; `name` stands for the file in errors. False with *error ("FILE:LINE:COL: reason")
+  /// at the first bad line (*out unchanged).
+  static bool parse(const std::string& text, const std::string& name, Script* out, std::string* error);
+  /// Reads and parses a file, as parse.
+  static bool load(const std::string& path, Script* out, std::string* error);
 
   const std::vector<ScriptLine>& lines() const { return lines_; }
   /// Applies every line whose time has come (time <= t) to `c`. Returns false once an `end` line is reached.

@@ -7,19 +7,17 @@ namespace {
 
 using dca::sim::Commands;
 using dca::sim::Script;
-using dca::sim::ScriptError;
-
 std::string error_of(const std::string& text) {
-  try {
-    Script::parse(text, "s.txt");
-  } catch (const ScriptError& e) {
-    return e.what();
-  }
+  Script s;
+  std::string error;
+  if (!Script::parse(text, "s.txt", &s, &error)) return error;
   return "";
 }
 
 TEST(ScriptTest, PlaysCommandsAtTheirTimes) {
-  Script s = Script::parse(
+  Script s;
+  std::string error;
+  ASSERT_TRUE(Script::parse(
       "# drive, then wave\n"
       "0   base 0.2 0 0.1\n"
       "1.5 arm 0.1 0 0 0 0 -0.2   # joint rates\n"
@@ -27,7 +25,8 @@ TEST(ScriptTest, PlaysCommandsAtTheirTimes) {
       "3   stop\n"
       "4   door\n"
       "9   end\n",
-      "s.txt");
+      "s.txt", &s, &error))
+      << error;
   ASSERT_EQ(s.lines().size(), 6u);
   EXPECT_EQ(s.end_time(), 9.0);
   Commands c;
@@ -59,12 +58,10 @@ TEST(ScriptTest, ErrorsNameFileLineAndColumn) {
 }
 
 TEST(ScriptTest, MissingFileIsNamed) {
-  try {
-    Script::load("/nonexistent/script.txt");
-    FAIL() << "loaded a missing file";
-  } catch (const ScriptError& e) {
-    EXPECT_STREQ(e.what(), "/nonexistent/script.txt: cannot open the script");
-  }
+  Script s;
+  std::string error;
+  EXPECT_FALSE(Script::load("/nonexistent/script.txt", &s, &error)) << "loaded a missing file";
+  EXPECT_EQ(error, "/nonexistent/script.txt: cannot open the script");
 }
 
 }  // namespace
