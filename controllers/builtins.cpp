@@ -2,85 +2,59 @@
 
 #include <csignal>
 #include <cstdlib>
-#include <stdexcept>
 
 #include "controllers/registry.h"
 
 namespace dca::builtins {
 
-namespace {
-ParamSpec required(std::string name, std::string type, std::string doc) {
-  return {std::move(name), std::move(type), "", true, false, std::move(doc)};
-}
-ParamSpec optional(std::string name, std::string type, std::string def, std::string doc) {
-  return {std::move(name), std::move(type), std::move(def), false, false, std::move(doc)};
-}
-ParamSpec variadic(std::string name, std::string type, std::string doc) {
-  return {std::move(name), std::move(type), "", false, true, std::move(doc)};
-}
-double positive(double v, const std::string& what) {
-  if (!(v > 0)) throw std::invalid_argument(what + " must be positive, got " + std::to_string(v));
-  return v;
-}
-double non_negative(double v, const std::string& what) {
-  if (!(v >= 0)) throw std::invalid_argument(what + " must not be negative, got " + std::to_string(v));
-  return v;
-}
-}  // namespace
+using P = ParamSpec;
 
-// --- Timer ---
+// --- Timer, Deadline ---
+template <>
 Manifest Timer::Describe() {
   return {"Timer", "ends DONE with value \"timeout\" `seconds` after each start (SEMANTICS.md 12)", {}, {},
-          {required("seconds", "number", "the timeout, in seconds")}};
+          {P::Required("seconds", "number", "the timeout, in seconds")}};
 }
-Timer::Timer(const ControllerContext& ctx) : Controller(ctx), seconds_(non_negative(number("seconds"), "Timer seconds")) {}
-void Timer::Run(const msgpack::object&) { StartOneShot(seconds_); }
-void Timer::MainCalc() { Done(std::string_view("timeout")); }
-
-// --- Deadline ---
+template <>
 Manifest Deadline::Describe() {
   return {"Deadline", "ends ABORTED `seconds` after each start (a timeout that counts as failure)", {}, {},
-          {required("seconds", "number", "the deadline, in seconds")}};
+          {P::Required("seconds", "number", "the deadline, in seconds")}};
 }
-Deadline::Deadline(const ControllerContext& ctx)
-    : Controller(ctx), seconds_(non_negative(number("seconds"), "Deadline seconds")) {
-  reason_ = "deadline of " + text("seconds") + " s passed";
+template <bool kAborts>
+Timeout<kAborts>::Timeout(const ControllerContext& ctx) : Controller(ctx), seconds_(non_negative("seconds")) {}
+template <>
+void Timer::MainCalc() {
+  Done(std::string_view("timeout"));
 }
-void Deadline::Run(const msgpack::object&) { StartOneShot(seconds_); }
-void Deadline::MainCalc() { Abort(reason_); }
+template <>
+void Deadline::MainCalc() {
+  Abort("deadline of " + text("seconds") + " s passed");
+}
+template class Timeout<false>;
+template class Timeout<true>;
 
 // --- Constant ---
 Manifest Constant::Describe() {
   return {"Constant", "writes constant values on Out every period (period 0: once, at start)", {},
           {vectorx_port("Out")},
-          {required("period", "number", "seconds between writes; 0 writes once at start"),
-           variadic("values", "number", "the values written (Out has as many elements)")}};
+          {P::Required("period", "number", "seconds between writes; 0 writes once at start"),
+           P::Variadic("values", "number", "the values written (Out has as many elements)")}};
 }
 Constant::Constant(const ControllerContext& ctx)
-    : Controller(ctx), out_(output("Out")), period_(non_negative(number("period"), "Constant period")) {
+    : PeriodicController(ctx, Period::ZeroIsEventDriven), out_(output("Out")) {
   const auto v = numbers("values");
   values_ = Eigen::Map<const Eigen::VectorXd>(v.data(), static_cast<Eigen::Index>(v.size()));
 }
-void Constant::Run(const msgpack::object&) {
-  if (period_ > 0) StartPeriodic(period_);
-  else MainCalc();
-}
-void Constant::MainCalc() { out_.write(values_); }
 
 // --- Gain ---
 Manifest Gain::Describe() {
   return {"Gain", "Out = k * In, on each In sample (or every period)", {vectorx_port("In")}, {vectorx_port("Out")},
-          {required("k", "number", "the gain"),
-           optional("period", "number", "0", "seconds between computations; 0: on each In sample")}};
+          {P::Required("k", "number", "the gain"),
+           PeriodParam("0", "seconds between computations; 0: on each In sample")}};
 }
 Gain::Gain(const ControllerContext& ctx)
-    : Controller(ctx), in_(input("In")), out_(output("Out")), k_(number("k")),
-      period_(non_negative(number("period"), "Gain period")) {
+    : PeriodicController(ctx, Period::ZeroIsEventDriven), in_(trigger("In")), out_(output("Out")), k_(number("k")) {
   y_.resize(64);  // grown (outside MainCalc's steady state) only for bigger samples
-}
-void Gain::Run(const msgpack::object&) {
-  if (period_ > 0) StartPeriodic(period_);
-  else TriggerOn(in_);
 }
 void Gain::MainCalc() {
   if (!in_.take_latest() && !in_.has_current()) return;
@@ -95,20 +69,12 @@ void Gain::MainCalc() {
 Manifest Sum::Describe() {
   return {"Sum", "Out = In1 + In2 (same sizes), on each input sample (or every period)",
           {vectorx_port("In1"), vectorx_port("In2")}, {vectorx_port("Out")},
-          {optional("period", "number", "0", "seconds between computations; 0: on each sample")}};
+          {PeriodParam("0", "seconds between computations; 0: on each sample")}};
 }
 Sum::Sum(const ControllerContext& ctx)
-    : Controller(ctx), in1_(input("In1")), in2_(input("In2")), out_(output("Out")),
-      period_(non_negative(number("period"), "Sum period")) {
+    : PeriodicController(ctx, Period::ZeroIsEventDriven), in1_(trigger("In1")), in2_(trigger("In2")),
+      out_(output("Out")) {
   y_.resize(64);
-}
-void Sum::Run(const msgpack::object&) {
-  if (period_ > 0) {
-    StartPeriodic(period_);
-  } else {
-    TriggerOn(in1_);
-    TriggerOn(in2_);
-  }
 }
 void Sum::MainCalc() {
   in1_.take_latest();
@@ -127,15 +93,15 @@ void Sum::MainCalc() {
 // --- Threshold ---
 Manifest Threshold::Describe() {
   return {"Threshold", "ends DONE with the value when In crosses the level", {scalar_port("In")}, {},
-          {required("level", "number", "the level"),
-           optional("direction", "string", "rising", "rising, falling or either")}};
+          {P::Required("level", "number", "the level"),
+           P::Optional("direction", "string", "rising", "rising, falling or either")}};
 }
 Threshold::Threshold(const ControllerContext& ctx) : Controller(ctx), in_(input("In")), level_(number("level")) {
   const auto d = text("direction");
   if (d == "rising") direction_ = 1;
   else if (d == "falling") direction_ = -1;
   else if (d == "either") direction_ = 0;
-  else throw std::invalid_argument("Threshold " + name() + ": direction must be rising, falling or either, got '" + d + "'");
+  else throw bad_param("direction must be rising, falling or either, got '" + d + "'");
 }
 void Threshold::Run(const msgpack::object&) {
   have_previous_ = false;
@@ -158,16 +124,11 @@ void Threshold::MainCalc() {
 Manifest Counter::Describe() {
   return {"Counter", "writes 1, 2, 3, ... on Count, one per tick; DONE(count) at the limit", {},
           {scalar_port("Count")},
-          {required("period", "number", "seconds between ticks"),
-           optional("limit", "integer", "0", "DONE when the count reaches it; 0: never")}};
+          {P::Required("period", "number", "seconds between ticks"),
+           P::Optional("limit", "integer", "0", "DONE when the count reaches it; 0: never")}};
 }
 Counter::Counter(const ControllerContext& ctx)
-    : Controller(ctx), out_(output("Count")), period_(positive(number("period"), "Counter period")),
-      limit_(integer("limit")) {}
-void Counter::Run(const msgpack::object&) {
-  count_ = 0;
-  StartPeriodic(period_);
-}
+    : PeriodicController(ctx), out_(output("Count")), limit_(integer("limit")) {}
 void Counter::MainCalc() {
   ++count_;
   out_.write(static_cast<double>(count_));
@@ -177,20 +138,14 @@ void Counter::MainCalc() {
 // --- Crash ---
 Manifest Crash::Describe() {
   return {"Crash", "dies by SIGSEGV or abort() at its ticks-th tick (fault tests)", {scalar_port("In")}, {},
-          {required("ticks", "integer", "the tick it dies at"),
-           optional("how", "string", "segv", "segv or abort"),
-           optional("period", "number", "0.001", "seconds between ticks")}};
+          {P::Required("ticks", "integer", "the tick it dies at"),
+           P::Optional("how", "string", "segv", "segv or abort"),
+           PeriodParam("0.001")}};
 }
-Crash::Crash(const ControllerContext& ctx)
-    : Controller(ctx), ticks_(integer("ticks")), period_(positive(number("period"), "Crash period")) {
+Crash::Crash(const ControllerContext& ctx) : PeriodicController(ctx), ticks_(integer("ticks")) {
   const auto how = text("how");
-  if (how != "segv" && how != "abort")
-    throw std::invalid_argument("Crash " + name() + ": how must be segv or abort, got '" + how + "'");
+  if (how != "segv" && how != "abort") throw bad_param("how must be segv or abort, got '" + how + "'");
   abort_ = how == "abort";
-}
-void Crash::Run(const msgpack::object&) {
-  seen_ = 0;
-  StartPeriodic(period_);
 }
 void Crash::MainCalc() {
   if (++seen_ < ticks_) return;

@@ -20,6 +20,7 @@
 //                                    (how=abort) at its `ticks`-th tick: for fault tests.
 #include <cstdint>
 #include <string>
+#include <string_view>
 
 #include <Eigen/Core>
 
@@ -27,134 +28,87 @@
 
 namespace dca::builtins {
 
-/// DONE("timeout") after `seconds` (SEMANTICS.md §12).
-class Timer : public Controller {
- public:
-  static Manifest Describe();
-  explicit Timer(const ControllerContext& ctx);
-
- protected:
-  void Run(const msgpack::object& init) override;
+/// A one-shot timeout (SEMANTICS.md §12): `seconds` after each run, Timer ends DONE("timeout") and Deadline
+/// (kAborts) ends ABORTED("deadline of S s passed").
+template <bool kAborts>
+class Timeout final : public Controller {
+  DCA_CONTROLLER(Timeout)
+  void Run(const msgpack::object&) override { StartOneShot(seconds_); }
   void MainCalc() override;
 
- private:
   double seconds_;
 };
+using Timer = Timeout<false>;
+using Deadline = Timeout<true>;
+template <>
+Manifest Timer::Describe();
+template <>
+Manifest Deadline::Describe();
+template <>
+void Timer::MainCalc();
+template <>
+void Deadline::MainCalc();
 
-/// ABORTED after `seconds` (SEMANTICS.md §12, a timeout that counts as failure).
-class Deadline : public Controller {
- public:
-  static Manifest Describe();
-  explicit Deadline(const ControllerContext& ctx);
+/// Writes constant values (event-driven: once, at run).
+class Constant final : public PeriodicController {
+  DCA_CONTROLLER(Constant)
+  void MainCalc() override { out_.write(values_); }
 
- protected:
-  void Run(const msgpack::object& init) override;
-  void MainCalc() override;
-
- private:
-  double seconds_;
-  std::string reason_;
-};
-
-/// Writes constant values.
-class Constant : public Controller {
- public:
-  static Manifest Describe();
-  explicit Constant(const ControllerContext& ctx);
-
- protected:
-  void Run(const msgpack::object& init) override;
-  void MainCalc() override;
-
- private:
   Output& out_;
-  double period_;
   Eigen::VectorXd values_;
 };
 
 /// Out = k * In.
-class Gain : public Controller {
- public:
-  static Manifest Describe();
-  explicit Gain(const ControllerContext& ctx);
-
- protected:
-  void Run(const msgpack::object& init) override;
+class Gain final : public PeriodicController {
+  DCA_CONTROLLER(Gain)
   void MainCalc() override;
 
- private:
   Input& in_;
   Output& out_;
-  double k_, period_;
+  double k_;
   Eigen::VectorXd y_;
 };
 
 /// Out = In1 + In2.
-class Sum : public Controller {
- public:
-  static Manifest Describe();
-  explicit Sum(const ControllerContext& ctx);
-
- protected:
-  void Run(const msgpack::object& init) override;
+class Sum final : public PeriodicController {
+  DCA_CONTROLLER(Sum)
   void MainCalc() override;
 
- private:
-  Input& in1_;
-  Input& in2_;
+  Input &in1_, &in2_;
   Output& out_;
-  double period_;
   Eigen::VectorXd y_;
 };
 
 /// DONE(value) when In crosses a level.
-class Threshold : public Controller {
- public:
-  static Manifest Describe();
-  explicit Threshold(const ControllerContext& ctx);
-
- protected:
+class Threshold final : public Controller {
+  DCA_CONTROLLER(Threshold)
   void Run(const msgpack::object& init) override;
   void MainCalc() override;
 
- private:
   Input& in_;
-  double level_;
+  double level_, previous_ = 0;
   int direction_;  // +1 rising, -1 falling, 0 either
   bool have_previous_ = false;
-  double previous_ = 0;
 };
 
 /// Counts ticks.
-class Counter : public Controller {
- public:
-  static Manifest Describe();
-  explicit Counter(const ControllerContext& ctx);
-
- protected:
-  void Run(const msgpack::object& init) override;
+class Counter final : public PeriodicController {
+  DCA_CONTROLLER(Counter)
+  void Init() override { count_ = 0; }
   void MainCalc() override;
 
- private:
   Output& out_;
-  double period_;
   std::int64_t limit_, count_ = 0;
 };
 
 /// Dies by a signal after some ticks (fault tests).
-class Crash : public Controller {
- public:
-  static Manifest Describe();
-  explicit Crash(const ControllerContext& ctx);
-
- protected:
-  void Run(const msgpack::object& init) override;
+class Crash final : public PeriodicController {
+  DCA_CONTROLLER(Crash)
+  void Init() override { seen_ = 0; }
   void MainCalc() override;
 
- private:
   std::int64_t ticks_, seen_ = 0;
   bool abort_;
-  double period_;
 };
 
 }  // namespace dca::builtins

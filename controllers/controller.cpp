@@ -6,6 +6,19 @@
 
 namespace dca {
 
+ParamSpec ParamSpec::Required(std::string name, std::string type, std::string doc) {
+  return {std::move(name), std::move(type), "", true, false, std::move(doc)};
+}
+ParamSpec ParamSpec::Optional(std::string name, std::string type, std::string def, std::string doc) {
+  return {std::move(name), std::move(type), std::move(def), false, false, std::move(doc)};
+}
+ParamSpec ParamSpec::Number(std::string name, std::string def, std::string doc) {
+  return Optional(std::move(name), "number", std::move(def), std::move(doc));
+}
+ParamSpec ParamSpec::Variadic(std::string name, std::string type, std::string doc) {
+  return {std::move(name), std::move(type), "", false, true, std::move(doc)};
+}
+
 Controller::Controller(const ControllerContext& ctx) : ctx_(ctx) {
   if (!ctx.manifest) throw std::invalid_argument("controller '" + ctx.name + "' built without a manifest (use the registry)");
   manifest_ = *ctx.manifest;
@@ -110,8 +123,21 @@ std::vector<double> Controller::numbers(std::string_view name) const {
   return v;
 }
 
-std::string Controller::init() {
-  if (state_ == State::Running) stop();
+double Controller::checked(std::string_view name, bool ok_when_zero) const {
+  const double v = number(name);
+  if (v > 0 || (ok_when_zero && v == 0)) return v;
+  throw bad_param("parameter '" + std::string(name) + "' must be " + (ok_when_zero ? "at least 0" : "positive") +
+                  ", got " + text(name));
+}
+double Controller::positive(std::string_view name) const { return checked(name, false); }
+double Controller::non_negative(std::string_view name) const { return checked(name, true); }
+
+std::invalid_argument Controller::bad_param(const std::string& what) const {
+  return std::invalid_argument(manifest_.type + " " + ctx_.name + ": " + what);
+}
+
+std::string Controller::configure() {
+  if (state_ == State::Running) halt();
   try {
     Init();
   } catch (const std::exception& e) {
@@ -121,10 +147,10 @@ std::string Controller::init() {
   return "";
 }
 
-std::string Controller::run(Bytes init_value) {
+std::string Controller::start(Bytes init_value) {
   if (state_ == State::Running) return manifest_.type + " " + ctx_.name + " is already running";
   if (state_ != State::Ready) {
-    auto err = init();
+    auto err = configure();
     if (!err.empty()) return err;
   }
   ticks_ = 0;
@@ -141,7 +167,7 @@ std::string Controller::run(Bytes init_value) {
   return "";
 }
 
-void Controller::stop() {
+void Controller::halt() {
   if (state_ == State::Running || state_ == State::Ready) {
     StopTimer();
     for (auto* in : triggers_) in->on_sample = nullptr;
@@ -202,9 +228,39 @@ void Controller::Abort(std::string reason) { finish({ComponentEvent::Kind::Abort
 
 void Controller::finish(ComponentEvent e) {
   if (state_ != State::Running) return;  // after Stop, or a second Done/Abort: ignored
-  stop();
+  halt();
   state_ = State::Finished;
   if (on_event) on_event(e);
+}
+
+ParamSpec PeriodicController::PeriodParam(std::string def, std::string doc) {
+  return ParamSpec::Optional("period", "number", std::move(def), std::move(doc));
+}
+
+PeriodicController::PeriodicController(const ControllerContext& ctx, Period mode)
+    : Controller(ctx), period_(mode == Period::Positive ? positive("period") : non_negative("period")) {}
+
+void PeriodicController::Run(const msgpack::object&) {
+  started_ = now();
+  if (period_ > 0) return StartPeriodic(period_);
+  for (auto* in : triggers_) TriggerOn(*in);
+  if (triggers_.empty()) MainCalc();
+}
+
+void PeriodicController::Stop() {
+  for (auto* out : actuators_) out->write(Eigen::VectorXd::Zero(out->spec().size));
+}
+
+Output& PeriodicController::actuator(std::string_view name) {
+  auto& out = output(name);
+  actuators_.push_back(&out);
+  return out;
+}
+
+Input& PeriodicController::trigger(std::string_view name) {
+  auto& in = input(name);
+  triggers_.push_back(&in);
+  return in;
 }
 
 }  // namespace dca

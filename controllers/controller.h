@@ -1,16 +1,19 @@
 #pragma once
 // dca::Controller: the base of every controller module (ARCHITECTURE.md, "Controllers").
 //
-// A controller type is a class derived from Controller with
-//   - a static `Manifest Describe()` listing its ports (name, type, size, units) and parameters: the registry
+// A controller type is a class derived from Controller (or PeriodicController, below) that opens with
+// DCA_CONTROLLER(T), which declares
+//   - `static Manifest Describe()`, listing its ports (name, type, size, units) and parameters: the registry
 //     gives it out without an instance (`dca types`, `dca check`);
-//   - a constructor `T(const ControllerContext&)` that declares its ports by name: `in_(input("Force"))`,
+//   - a constructor `T(const ControllerContext&)` that binds its ports by name: `in_(input("Force"))`,
 //     `out_(output("Velocity"))` (the types come from the manifest, so the two cannot disagree) and reads its
-//     parameters (`number("gain")`); it may throw std::invalid_argument for a bad parameter;
-//   - DCA_REGISTER_CONTROLLER(T) in its .cpp (controllers/registry.h).
+//     parameters (`number("gain")`, `positive("period")`); it throws std::invalid_argument for a bad parameter
+//     (the one place where an exception crosses the controller API: Registry::create passes it on);
+// and its .cpp has DCA_REGISTER_CONTROLLER(T) (controllers/registry.h).
 //
-// Life cycle (driven by the node on its supervisor's orders):
-//   Init()      acquires and resets (called again after Stop()).
+// Life cycle (driven by the node on its supervisor's orders, through the public operations configure(),
+// start() and halt(), which call the hooks below; a hook never has to be told apart from them by case):
+//   Init()      acquires and resets (called again after Stop(), so before every run).
 //   Run(init)   starts a run with an initial value; a periodic controller starts its timer here
 //               (StartPeriodic), an event-driven one its input triggers (TriggerOn).
 //   MainCalc()  THE HOT PATH, called by its timer or trigger while running: reads inputs, computes, writes
@@ -22,6 +25,7 @@
 // Parameters: the .dca arguments after the first (the host), as text, matched by position to the manifest's
 // params; a missing one takes its default, a bad one is an error naming the controller and the parameter.
 #include <cstdint>
+#include <stdexcept>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -42,6 +46,15 @@ struct ParamSpec {
   bool required = false;
   bool variadic = false;      ///< the last parameter only: takes all remaining arguments
   std::string doc;
+
+  /// A parameter that must be given.
+  static ParamSpec Required(std::string name, std::string type, std::string doc);
+  /// A parameter with a default.
+  static ParamSpec Optional(std::string name, std::string type, std::string def, std::string doc);
+  /// An optional number parameter.
+  static ParamSpec Number(std::string name, std::string def, std::string doc);
+  /// The last parameter, taking all remaining arguments.
+  static ParamSpec Variadic(std::string name, std::string type, std::string doc);
 };
 
 /// A controller type's manifest: what `dca types` and `core.types()` show.
@@ -78,9 +91,12 @@ class Controller : public Component {
   /// The host argument.
   const std::string& host() const { return ctx_.host; }
   PortSet& ports() override { return ports_; }
-  std::string init() override;
-  std::string run(Bytes init) override;
-  void stop() override;
+  /// Calls Init() (after halt() when running). "" or the reason Init failed.
+  std::string configure() override;
+  /// Starts a run: configure() first unless Ready, then Run(init). "" or the reason.
+  std::string start(Bytes init) override;
+  /// Calls Stop() when Ready or Running (the timer and triggers stop first). Idempotent.
+  void halt() override;
   /// The current state.
   State state() const { return state_; }
   /// MainCalc calls skipped because one was already running (an in-process cycle); the sample stays queued.
@@ -114,6 +130,12 @@ class Controller : public Component {
   std::string text(std::string_view name) const;
   /// A variadic parameter's values as numbers (possibly none).
   std::vector<double> numbers(std::string_view name) const;
+  /// The parameter `name` as a number > 0 (throws std::invalid_argument naming it otherwise).
+  double positive(std::string_view name) const;
+  /// The parameter `name` as a number >= 0 (throws std::invalid_argument naming it otherwise).
+  double non_negative(std::string_view name) const;
+  /// std::invalid_argument("<Type> <name>: <what>"), for a constructor's own parameter checks.
+  std::invalid_argument bad_param(const std::string& what) const;
 
   /// Calls MainCalc every `seconds` from now while running. Replaces any previous timer of this controller.
   void StartPeriodic(double seconds);
@@ -149,6 +171,7 @@ class Controller : public Component {
   void tick();
   void finish(ComponentEvent e);
   const ParamSpec* param(std::string_view name, std::size_t& index) const;
+  double checked(std::string_view name, bool ok_when_zero) const;
   std::string raw_param(std::string_view name, const ParamSpec*& spec) const;
 
   ControllerContext ctx_;
@@ -161,4 +184,59 @@ class Controller : public Component {
   std::uint64_t reentries_ = 0, ticks_ = 0;
 };
 
+/// A controller whose MainCalc runs every `period` seconds while running: its manifest has the number
+/// parameter "period" (PeriodParam), which must be positive, and Run() starts the timer. In the event-driven
+/// variant a period of 0 is allowed and means: MainCalc on each sample arriving at an input bound with
+/// trigger(), or once at Run when there is none. Stop() writes zero to every output bound with actuator().
+class PeriodicController : public Controller {
+ public:
+  /// Whether `period` 0 is allowed (the built-ins' event-driven convention).
+  enum class Period : std::uint8_t { Positive, ZeroIsEventDriven };
+  /// The parameter "period" with its default and doc.
+  static ParamSpec PeriodParam(std::string def = "0.01", std::string doc = "seconds between ticks");
+
+ protected:
+  explicit PeriodicController(const ControllerContext& ctx, Period mode = Period::Positive);
+
+  /// Starts the timer (or, event-driven, the triggers). A subclass that overrides it calls it last.
+  void Run(const msgpack::object& init) override;
+  /// Writes zero to the actuators.
+  void Stop() override;
+
+  /// The output named `name`, written zero (all of its elements) by Stop(): an actuator left safe.
+  Output& actuator(std::string_view name);
+  /// The input named `name`, which triggers MainCalc when event-driven.
+  Input& trigger(std::string_view name);
+  /// Seconds between ticks (0: event-driven).
+  double period() const { return period_; }
+  /// When the current run started (its Run).
+  Nanos started() const { return started_; }
+
+ private:
+  double period_;
+  Nanos started_ = 0;
+  std::vector<Output*> actuators_;
+  std::vector<Input*> triggers_;
+};
+
+/// Reads the newest sample of `in` into `v` when one arrived since the last call. Returns whether one did.
+template <int N>
+bool fresh(Input& in, Eigen::Matrix<double, N, 1>& v) {
+  if (!in.take_latest()) return false;
+  const auto s = in.vector();
+  if (s.size() != N) return false;
+  v = s;
+  return true;
+}
+
 }  // namespace dca
+
+/// Opens a controller class T: declares its manifest `static Manifest Describe()` and its constructor
+/// `explicit T(const ControllerContext&)` (both defined in its .cpp), public; what follows is private
+/// (the hooks, which the base class calls, and the state).
+#define DCA_CONTROLLER(T)                          \
+ public:                                           \
+  static ::dca::Manifest Describe();               \
+  explicit T(const ::dca::ControllerContext& ctx); \
+                                                   \
+ private:

@@ -1,5 +1,5 @@
 #pragma once
-// What a node hosts: a component with named ports and a life cycle (init / run / stop) that ends its runs with
+// What a node hosts: a component with named ports and a life cycle (configure / start / halt) that ends its runs with
 // DONE(value) or ABORTED(reason). dca::Controller (controllers/controller.h) is the one implementation; host/
 // knows only this interface, so host/ does not depend on controllers/.
 #include <cstdint>
@@ -27,11 +27,11 @@ class Component {
   /// Its ports.
   virtual PortSet& ports() = 0;
   /// Acquires and resets. "" on success, else the reason.
-  virtual std::string init() = 0;
-  /// Starts a run with an initial value (msgpack bytes; empty for nil). Inits first if needed. "" or a reason.
-  virtual std::string run(Bytes init) = 0;
+  virtual std::string configure() = 0;
+  /// Starts a run with an initial value (msgpack bytes; empty for nil). Configures first if needed. "" or a reason.
+  virtual std::string start(Bytes init) = 0;
   /// Stops the run (leaves actuators safe); a later DONE/ABORTED of this run is ignored. Idempotent.
-  virtual void stop() = 0;
+  virtual void halt() = 0;
   /// Where DONE/ABORTED go (set by the node).
   std::function<void(const ComponentEvent&)> on_event;
 };

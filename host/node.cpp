@@ -202,7 +202,7 @@ void Node::shutdown(const std::string& why) {
   auto& I = *impl_;
   if (I.done) return;
   I.done = true;
-  if (I.component) I.component->stop();
+  if (I.component) I.component->halt();
   if (I.endpoint && I.component) I.endpoint->remove_component(I.opts.name);
   I.endpoint.reset();
   if (I.control) I.control->close();
@@ -397,18 +397,18 @@ void Node::Impl::handle(const Channel::Ptr& ch, const Message& m) {
   const auto& t = m.type;
   const auto& p = m.payload;
   if (t == "init") {
-    const auto err = component->init();
+    const auto err = component->configure();
     if (!err.empty()) return void(ch->reply_error(m, err));
     return void(ch->reply(m));
   }
   if (t == "run") {
     const std::string init = p.find("init") ? msgpack_from_value(p["init"]) : std::string();
-    const auto err = component->run({reinterpret_cast<const std::byte*>(init.data()), init.size()});
+    const auto err = component->start({reinterpret_cast<const std::byte*>(init.data()), init.size()});
     if (!err.empty()) return void(ch->reply_error(m, err));
     return void(ch->reply(m));
   }
   if (t == "stop") {
-    component->stop();
+    component->halt();
     return void(ch->reply(m));
   }
   if (t == "connect") return connect(ch, m);

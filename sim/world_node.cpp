@@ -27,9 +27,9 @@ class WorldComponent final : public Component {
   }
   const std::string& name() const override { return name_; }
   PortSet& ports() override { return ports_; }
-  std::string init() override { return ""; }
-  std::string run(Bytes) override { return ""; }
-  void stop() override {}
+  std::string configure() override { return ""; }
+  std::string start(Bytes) override { return ""; }
+  void halt() override {}
   std::vector<Output*> outputs;  // kSensorSignals order
   std::vector<Input*> inputs;    // kCommandSignals order
 

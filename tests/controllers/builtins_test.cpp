@@ -7,49 +7,19 @@
 
 #include <csignal>
 
-#include <boost/asio/io_context.hpp>
-
-#include "controllers/registry.h"
-#include "host/endpoint.h"
+#include "tests/support/controller_fixture.h"
 
 namespace {
 
-constexpr dca::Nanos kMs = 1'000'000;
+using dca::testing::kMs;
+using dca::testing::unpack_double;
+using dca::testing::unpack_string;
 
-std::string unpack_string(const std::string& packed) {
-  return msgpack::unpack(packed.data(), packed.size()).get().as<std::string>();
-}
-double unpack_double(const std::string& packed) {
-  return msgpack::unpack(packed.data(), packed.size()).get().as<double>();
-}
-
-class BuiltinsTest : public ::testing::Test {
- protected:
-  dca::Controller& make(const std::string& type, std::vector<std::string> params, const std::string& name) {
-    cs.push_back(dca::Registry::global().create(type, {name, "local", std::move(params), &timers, nullptr}));
-    auto& c = *cs.back();
-    c.on_event = [this, name](const dca::ComponentEvent& e) { events.emplace_back(name, e); };
-    ep.add_component(name, c.ports());
-    return c;
-  }
-  void connect(const std::string& from, const std::string& out, const std::string& to, const std::string& in) {
-    std::string err = "none";
-    ep.connect({from, out, to, in, "s", dca::Mode::Push, 16}, {}, [&](const std::string& e) { err = e; });
-    ASSERT_EQ(err, "");
-  }
-  void TearDown() override {
-    for (auto& c : cs) ep.remove_component(c->name());
-  }
-  boost::asio::io_context io;
-  dca::TimerServer timers{io, dca::ClockKind::Simulated};
-  dca::Endpoint ep{io, "local"};
-  std::vector<std::unique_ptr<dca::Controller>> cs;
-  std::vector<std::pair<std::string, dca::ComponentEvent>> events;
-};
+class BuiltinsTest : public dca::testing::ControllerFixture {};
 
 TEST_F(BuiltinsTest, TimerEndsDoneWithTimeoutAfterItsSeconds) {
   auto& t = make("Timer", {"0.03"}, "/timeout");
-  ASSERT_EQ(t.run({}), "");
+  ASSERT_EQ(t.start({}), "");
   timers.advance_to(29 * kMs);
   EXPECT_TRUE(events.empty());
   timers.advance_to(30 * kMs);
@@ -60,12 +30,12 @@ TEST_F(BuiltinsTest, TimerEndsDoneWithTimeoutAfterItsSeconds) {
 
 TEST_F(BuiltinsTest, TimerStopsCountingWhenStopped) {
   auto& t = make("Timer", {"0.01"}, "/timeout");
-  ASSERT_EQ(t.run({}), "");
+  ASSERT_EQ(t.start({}), "");
   timers.advance_to(5 * kMs);
-  t.stop();
+  t.halt();
   timers.advance_to(50 * kMs);
   EXPECT_TRUE(events.empty());
-  ASSERT_EQ(t.run({}), "");  // each start counts afresh
+  ASSERT_EQ(t.start({}), "");  // each start counts afresh
   timers.advance_to(59 * kMs);
   EXPECT_TRUE(events.empty());
   timers.advance_to(60 * kMs);
@@ -74,7 +44,7 @@ TEST_F(BuiltinsTest, TimerStopsCountingWhenStopped) {
 
 TEST_F(BuiltinsTest, DeadlineEndsAborted) {
   auto& d = make("Deadline", {"0.5"}, "/deadline");
-  ASSERT_EQ(d.run({}), "");
+  ASSERT_EQ(d.start({}), "");
   timers.advance_to(500 * kMs);
   ASSERT_EQ(events.size(), 1u);
   EXPECT_EQ(events[0].second.kind, dca::ComponentEvent::Kind::Aborted);
@@ -89,7 +59,7 @@ TEST_F(BuiltinsTest, ConstantThroughGainAndSum) {
   connect("/c", "Out", "/s", "In1");
   connect("/g", "Out", "/s", "In2");
   ep.activate("s");
-  for (auto* x : {&s, &g, &c}) ASSERT_EQ(x->run({}), "");
+  for (auto* x : {&s, &g, &c}) ASSERT_EQ(x->start({}), "");
   timers.advance_to(1 * kMs);
   const auto& out = *s.ports().find_output("Out");
   ASSERT_TRUE(out.has_latest());
@@ -106,9 +76,9 @@ TEST_F(BuiltinsTest, SumOfDifferentSizesAborts) {
   connect("/a", "Out", "/s", "In1");
   connect("/b", "Out", "/s", "In2");
   ep.activate("s");
-  ASSERT_EQ(s.run({}), "");
-  ASSERT_EQ(a.run({}), "");
-  ASSERT_EQ(b.run({}), "");
+  ASSERT_EQ(s.start({}), "");
+  ASSERT_EQ(a.start({}), "");
+  ASSERT_EQ(b.start({}), "");
   ASSERT_EQ(events.size(), 1u);
   EXPECT_EQ(events[0].first, "/s");
   EXPECT_EQ(events[0].second.reason, "Sum: In1 has 2 values but In2 has 1");
@@ -119,8 +89,8 @@ TEST_F(BuiltinsTest, ThresholdIsDoneWithTheValueWhenTheSignalCrosses) {
   auto& t = make("Threshold", {"3.5"}, "/t");
   connect("/n", "Count", "/t", "In");
   ep.activate("s");
-  ASSERT_EQ(t.run({}), "");
-  ASSERT_EQ(n.run({}), "");
+  ASSERT_EQ(t.start({}), "");
+  ASSERT_EQ(n.start({}), "");
   timers.advance_to(10 * kMs);
   ASSERT_EQ(events.size(), 1u);
   EXPECT_EQ(events[0].first, "/t");
@@ -132,15 +102,15 @@ TEST_F(BuiltinsTest, FallingThresholdIgnoresRisingCrossings) {
   auto& t = make("Threshold", {"2.5", "falling"}, "/t");
   connect("/n", "Count", "/t", "In");
   ep.activate("s");
-  ASSERT_EQ(t.run({}), "");
-  ASSERT_EQ(n.run({}), "");
+  ASSERT_EQ(t.start({}), "");
+  ASSERT_EQ(n.start({}), "");
   timers.advance_to(10 * kMs);
   EXPECT_TRUE(events.empty());
 }
 
 TEST_F(BuiltinsTest, CounterIsDoneAtItsLimit) {
   auto& n = make("Counter", {"0.002", "5"}, "/n");
-  ASSERT_EQ(n.run({}), "");
+  ASSERT_EQ(n.start({}), "");
   timers.advance_to(100 * kMs);
   ASSERT_EQ(events.size(), 1u);
   EXPECT_EQ(unpack_double(events[0].second.value), 5.0);
@@ -152,7 +122,7 @@ TEST_F(BuiltinsTest, CrashDiesBySegvAtItsTick) {
   ASSERT_GE(pid, 0);
   if (pid == 0) {
     auto& c = make("Crash", {"3"}, "/crash");
-    if (!c.run({}).empty()) ::_exit(2);
+    if (!c.start({}).empty()) ::_exit(2);
     timers.advance_to(2 * kMs);  // two ticks: alive
     timers.advance_to(3 * kMs);  // third: dies
     ::_exit(0);
@@ -168,7 +138,7 @@ TEST_F(BuiltinsTest, CrashCanAbort) {
   ASSERT_GE(pid, 0);
   if (pid == 0) {
     auto& c = make("Crash", {"1", "abort"}, "/crash");
-    if (!c.run({}).empty()) ::_exit(2);
+    if (!c.start({}).empty()) ::_exit(2);
     timers.advance_to(1 * kMs);
     ::_exit(0);
   }

@@ -9,19 +9,19 @@
 #include <boost/asio/io_context.hpp>
 
 #include "controllers/registry.h"
+#include "tests/support/controller_fixture.h"
 
 namespace {
 
-constexpr dca::Nanos kMs = 1'000'000;
+using dca::testing::kMs;
 
-class ControllerTest : public ::testing::Test {
+class ControllerTest : public dca::testing::ControllerFixture {
  protected:
-  std::unique_ptr<dca::Controller> make(const std::string& type, std::vector<std::string> params,
-                                        const std::string& name = "/t") {
+  /// An instance outside the fixture's endpoint (its events not collected).
+  std::unique_ptr<dca::Controller> create(const std::string& type, std::vector<std::string> params,
+                                          const std::string& name = "/t") {
     return dca::Registry::global().create(type, {name, "local", std::move(params), &timers, nullptr});
   }
-  boost::asio::io_context io;
-  dca::TimerServer timers{io, dca::ClockKind::Simulated};
 };
 
 TEST_F(ControllerTest, RegistryListsTheBuiltinsWithoutAnInstance) {
@@ -42,7 +42,7 @@ TEST_F(ControllerTest, EveryManifestPortExistsOnAnInstance) {
     std::vector<std::string> params;
     for (const auto& p : m->params)
       if (p.required) params.push_back(p.type != "string" ? "1" : p.name == "action" ? "open" : "x");
-    auto c = make(m->type, params);
+    auto c = create(m->type, params);
     for (const auto& p : m->inputs) EXPECT_NE(c->ports().find_input(p.name), nullptr) << m->type << "." << p.name;
     for (const auto& p : m->outputs) EXPECT_NE(c->ports().find_output(p.name), nullptr) << m->type << "." << p.name;
     EXPECT_EQ(c->ports().inputs().size(), m->inputs.size());
@@ -51,55 +51,41 @@ TEST_F(ControllerTest, EveryManifestPortExistsOnAnInstance) {
 }
 
 TEST_F(ControllerTest, UnknownTypeListsTheKnownOnes) {
-  try {
-    make("Gian", {"1"});
-    FAIL() << "no error";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("unknown controller type 'Gian'; types are: "), std::string::npos);
-    EXPECT_NE(std::string(e.what()).find("Gain"), std::string::npos);
-  }
+  const std::string e = make_error("Gian", {"1"}, "/t");
+  EXPECT_NE(e.find("unknown controller type 'Gian'; types are: "), std::string::npos);
+  EXPECT_NE(e.find("Gain"), std::string::npos);
 }
 
 TEST_F(ControllerTest, BadParametersNameTheControllerAndTheParameter) {
-  try {
-    make("Timer", {"soon"}, "/sys/t");
-    FAIL() << "no error";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_STREQ(e.what(), "Timer /sys/t: parameter 'seconds' must be a number, got 'soon'");
-  }
-  try {
-    make("Timer", {}, "/sys/t");
-    FAIL() << "no error";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_STREQ(e.what(), "Timer /sys/t: parameter 1 'seconds' is required");
-  }
-  EXPECT_THROW(make("Timer", {"1", "2"}), std::invalid_argument);
-  EXPECT_THROW(make("Threshold", {"1", "sideways"}), std::invalid_argument);
+  EXPECT_EQ(make_error("Timer", {"soon"}, "/sys/t"), "Timer /sys/t: parameter 'seconds' must be a number, got 'soon'");
+  EXPECT_EQ(make_error("Timer", {}, "/sys/t"), "Timer /sys/t: parameter 1 'seconds' is required");
+  EXPECT_THROW(create("Timer", {"1", "2"}), std::invalid_argument);
+  EXPECT_THROW(create("Threshold", {"1", "sideways"}), std::invalid_argument);
 }
 
 TEST_F(ControllerTest, DoneAfterStopIsIgnored) {
-  auto c = make("Timer", {"0.005"});
+  auto c = create("Timer", {"0.005"});
   std::vector<dca::ComponentEvent> events;
   c->on_event = [&](const dca::ComponentEvent& e) { events.push_back(e); };
-  ASSERT_EQ(c->init(), "");
-  ASSERT_EQ(c->run({}), "");
+  ASSERT_EQ(c->configure(), "");
+  ASSERT_EQ(c->start({}), "");
   EXPECT_EQ(c->state(), dca::Controller::State::Running);
-  c->stop();
+  c->halt();
   timers.advance_to(10 * kMs);
   EXPECT_TRUE(events.empty());
   EXPECT_EQ(c->state(), dca::Controller::State::Stopped);
   // And it can run again after a new init.
-  ASSERT_EQ(c->init(), "");
-  ASSERT_EQ(c->run({}), "");
+  ASSERT_EQ(c->configure(), "");
+  ASSERT_EQ(c->start({}), "");
   timers.advance_to(20 * kMs);
   ASSERT_EQ(events.size(), 1u);
   EXPECT_EQ(c->state(), dca::Controller::State::Finished);
 }
 
 TEST_F(ControllerTest, RunTwiceIsRefused) {
-  auto c = make("Counter", {"0.001"});
-  ASSERT_EQ(c->run({}), "");  // run inits first when needed
-  EXPECT_EQ(c->run({}), "Counter /t is already running");
+  auto c = create("Counter", {"0.001"});
+  ASSERT_EQ(c->start({}), "");  // run inits first when needed
+  EXPECT_EQ(c->start({}), "Counter /t is already running");
 }
 
 // The lock-step test: three controllers at different rates tick in the right order, the same every run.
@@ -113,7 +99,7 @@ std::vector<std::string> lock_step_trace() {
   std::vector<std::unique_ptr<dca::Controller>> cs;
   for (auto [name, period] : {std::pair{"/fast", "0.001"}, {"/mid", "0.002"}, {"/slow", "0.003"}})
     cs.push_back(dca::Registry::global().create("Counter", {name, "local", {period}, &ts, nullptr}));
-  for (auto& c : cs) EXPECT_EQ(c->run({}), "");
+  for (auto& c : cs) EXPECT_EQ(c->start({}), "");
   while (ts.now() < 6 * kMs) {
     const auto next = ts.next_deadline();
     EXPECT_TRUE(next);
@@ -123,7 +109,7 @@ std::vector<std::string> lock_step_trace() {
     EXPECT_GT(trace.size(), before);
     EXPECT_EQ(ts.now(), *next);
   }
-  for (auto& c : cs) c->stop();
+  for (auto& c : cs) c->halt();
   return trace;
 }
 

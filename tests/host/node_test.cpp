@@ -30,17 +30,17 @@ class TestComponent final : public dca::Component {
   }
   const std::string& name() const override { return name_; }
   dca::PortSet& ports() override { return ports_; }
-  std::string init() override {
+  std::string configure() override {
     ++inits;
     return fail_init ? "cannot init: told to fail" : "";
   }
-  std::string run(dca::Bytes init_value) override {
+  std::string start(dca::Bytes init_value) override {
     running = true;
     last_init = dca::value_from_msgpack(init_value);
     if (timers && period > 0) timer = timers->every(period, [this] { ++ticks; }, name_);
     return "";
   }
-  void stop() override {
+  void halt() override {
     running = false;
     if (timer) timers->cancel(timer);
     timer = 0;

@@ -144,7 +144,7 @@ TEST_F(DoorClosedLoopTest, CrashedVisualServoingLeavesTheRobotStillWithinOnePeri
     while (h.now() < t_fault) h.tick();
     ASSERT_GT(std::abs(h.applied().base_vel[0]), 0.1);  // driving
     if (crash) h.crash("visualserv");
-    else h.controller("visualserv")->stop();
+    else h.controller("visualserv")->halt();
     // VisualServoing's first missed tick is the next grid point.
     const dca::Nanos missed = (t_fault / period + 1) * period;
     bool redundancy_zero = false;

@@ -243,12 +243,12 @@ class DoorHarness {
   }
   /// Stops the step's controllers and deactivates its sets.
   void end_step(const DoorStep& s) {
-    for (const auto& n : s.run) controllers_.at(n)->stop();
+    for (const auto& n : s.run) controllers_.at(n)->halt();
     for (const auto& set : s.sets) ep_.deactivate(path(set));
   }
   void run(const std::string& name) {
     Controller& c = *controllers_.at(name);
-    const std::string err = c.run({});
+    const std::string err = c.start({});
     if (!err.empty()) throw std::runtime_error(name + ": " + err);
   }
   /// The process of `name` dies (SIGSEGV): its connections close, nothing of it runs or writes again.

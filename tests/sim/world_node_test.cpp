@@ -24,8 +24,8 @@ class Driver final : public dca::Component {
   }
   const std::string& name() const override { return name_; }
   dca::PortSet& ports() override { return ports_; }
-  std::string init() override { return ""; }
-  std::string run(dca::Bytes) override {
+  std::string configure() override { return ""; }
+  std::string start(dca::Bytes) override {
     timer = timers.every(10'000'000, [this] {
       ++ticks;
       tick_times.push_back(timers.now());
@@ -35,7 +35,7 @@ class Driver final : public dca::Component {
     });
     return "";
   }
-  void stop() override { timers.cancel(timer); }
+  void halt() override { timers.cancel(timer); }
   dca::Input* q = nullptr;
   dca::Output* cmd = nullptr;
   int ticks = 0, q_seen = 0;

@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-namespace dca::kin {
+namespace dca::math {
 
 /// Upper bound on the movable joints of a chain (fixed-size storage keeps MainCalc free of allocation).
 inline constexpr int kMaxDof = 12;
@@ -75,4 +75,4 @@ void MobileJacobian(const BasePose& base, const Chain& arm, const JointVector& q
 /// The tool pose in the world for a base pose and arm joints.
 Eigen::Isometry3d MobileForward(const BasePose& base, const Chain& arm, const JointVector& q);
 
-}  // namespace dca::kin
+}  // namespace dca::math

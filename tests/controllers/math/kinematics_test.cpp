@@ -1,11 +1,11 @@
-#include "controllers/kinematics.h"
+#include "controllers/math/kinematics.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <random>
 
-namespace dca::kin {
+namespace dca::math {
 namespace {
 
 // A planar 2R arm (links 1.0 and 0.5 along x, joints about z) on a 0.3 m column, then a fixed tool 0.1 m on.
@@ -127,4 +127,4 @@ TEST(KinematicsTest, ErrorsNameTheFileAndTheLink) {
 }
 
 }  // namespace
-}  // namespace dca::kin
+}  // namespace dca::math

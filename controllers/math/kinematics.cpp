@@ -1,4 +1,4 @@
-#include "controllers/kinematics.h"
+#include "controllers/math/kinematics.h"
 
 #include <urdf_model/model.h>
 #include <urdf_parser/urdf_parser.h>
@@ -6,7 +6,7 @@
 #include <fstream>
 #include <sstream>
 
-namespace dca::kin {
+namespace dca::math {
 namespace {
 
 Eigen::Isometry3d ToEigen(const urdf::Pose& p) {
@@ -191,4 +191,4 @@ void MobileJacobian(const BasePose& base, const Chain& arm, const JointVector& q
   J->block(3, 3, 3, n) = R * arm_j.bottomRows<3>();
 }
 
-}  // namespace dca::kin
+}  // namespace dca::math

@@ -1,10 +1,10 @@
-#include "controllers/redundancy.h"
+#include "controllers/math/redundancy.h"
 
 #include <gtest/gtest.h>
 
 #include <random>
 
-namespace dca::kin {
+namespace dca::math {
 namespace {
 
 class RedundancyTest : public ::testing::Test {
@@ -71,4 +71,4 @@ TEST_F(RedundancyTest, JointNearItsLimitIsPushedBackWithoutDisturbingTheTwist) {
 }
 
 }  // namespace
-}  // namespace dca::kin
+}  // namespace dca::math

@@ -1,106 +1,34 @@
-// The door-opening controller library on simulated time: each controller's maths and its life cycle, with
-// its inputs fed by a test source and its outputs read back.
-#include "controllers/door.h"
-
+// The door-opening controller library on simulated time (controllers/door/): each controller's maths and its
+// life cycle, with its inputs fed by a test source and its outputs read back.
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <random>
 
-#include <boost/asio/io_context.hpp>
-
-#include "controllers/registry.h"
-#include "host/endpoint.h"
+#include "controllers/door/redundancy_resolution.h"
+#include "controllers/door/visual_servoing.h"
+#include "controllers/robot/model.h"
+#include "tests/support/controller_fixture.h"
 
 namespace {
 
-using dca::door::Vec3;
-using dca::door::Vec6;
-using dca::door::Vec9;
-constexpr dca::Nanos kMs = 1'000'000;
+using dca::robot::Vec3;
+using dca::robot::Vec6;
+using dca::robot::Vec9;
+using dca::testing::kMs;
+using dca::testing::unpack_double;
 constexpr dca::Nanos kTick = 10 * kMs;  // the controllers' default period
 constexpr double kPi = 3.14159265358979323846;
 
-std::string unpack_string(const std::string& packed) {
-  return msgpack::unpack(packed.data(), packed.size()).get().as<std::string>();
-}
-double unpack_double(const std::string& packed) {
-  return msgpack::unpack(packed.data(), packed.size()).get().as<double>();
-}
-
-class DoorTest : public ::testing::Test {
- protected:
-  dca::Controller& make(const std::string& type, std::vector<std::string> params, const std::string& name) {
-    cs.push_back(dca::Registry::global().create(type, {name, "local", std::move(params), &timers, nullptr}));
-    auto& c = *cs.back();
-    c.on_event = [this, name](const dca::ComponentEvent& e) { events.emplace_back(name, e); };
-    ep.add_component(name, c.ports());
-    return c;
-  }
-  /// A test source output `port` of `size` doubles, connected to `to`.`in`.
-  dca::Output& feed(const std::string& port, std::uint32_t size, const std::string& to, const std::string& in) {
-    if (!src_added) {
-      ep.add_component("/src", src);
-      src_added = true;
-    }
-    auto* o = src.find_output(port);
-    if (o == nullptr) o = &src.add_output(dca::vector_port(port, size));
-    connect("/src", port, to, in);
-    return *o;
-  }
-  void connect(const std::string& from, const std::string& out, const std::string& to, const std::string& in) {
-    std::string err = "none";
-    ep.connect({from, out, to, in, "s", dca::Mode::Push, 16}, {}, [&](const std::string& e) { err = e; });
-    ASSERT_EQ(err, "");
-  }
-  static Eigen::VectorXd latest(const dca::Controller& c, const std::string& port) {
-    const auto* out = const_cast<dca::Controller&>(c).ports().find_output(port);
-    EXPECT_NE(out, nullptr);
-    if (!out->has_latest()) return Eigen::VectorXd::Zero(out->spec().size);  // not written yet
-    msgpack::sbuffer sb;
-    msgpack::packer<msgpack::sbuffer> pk(sb);
-    out->pack_latest(pk);
-    const auto v = msgpack::unpack(sb.data(), sb.size()).get().as<std::vector<double>>();
-    return Eigen::Map<const Eigen::VectorXd>(v.data(), static_cast<Eigen::Index>(v.size()));
-  }
-  void TearDown() override {
-    for (auto& c : cs) ep.remove_component(c->name());
-    if (src_added) ep.remove_component("/src");
-  }
-  boost::asio::io_context io;
-  dca::TimerServer timers{io, dca::ClockKind::Simulated};
-  dca::Endpoint ep{io, "local"};
-  dca::PortSet src;
-  bool src_added = false;
-  std::vector<std::unique_ptr<dca::Controller>> cs;
-  std::vector<std::pair<std::string, dca::ComponentEvent>> events;
-};
+class DoorTest : public dca::testing::ControllerFixture {};
 
 Vec6 ReadyPose() { return (Vec6() << 0.1513, 0.711, -3.428, 0.1658, 1.151, 1.503).finished(); }
 
-TEST_F(DoorTest, HardwareFacingPortsNameTheirRobotSignals) {
-  const auto* m = dca::Registry::global().manifest("Puma560Ctrl");
-  ASSERT_NE(m, nullptr);
-  EXPECT_EQ(m->inputs[1].device, "arm.q");
-  EXPECT_EQ(m->outputs[0].device, "arm.cmd_qd");
-  EXPECT_EQ(m->outputs[1].device, "");
-  EXPECT_EQ(dca::Registry::global().manifest("ForceTorque")->inputs[0].device, "wrist.wrench");
-  EXPECT_EQ(dca::Registry::global().manifest("GripperControl")->outputs[0].device, "gripper.cmd");
-}
-
-TEST_F(DoorTest, RobotArmIsTheUrdfChainToTool0) {
-  const auto arm = dca::door::robot_arm();
-  EXPECT_EQ(arm.dof(), 6);
-  EXPECT_EQ(arm.joint_names().front(), "arm_joint_1");
-  EXPECT_EQ(arm.joint_names().back(), "arm_joint_6");
-}
-
 // The command's tool twist is realised exactly on top of the motion its base velocity gives the robot.
 TEST_F(DoorTest, RedundancyResolutionRealisesTheTwistOnTopOfTheBaseVelocity) {
-  const auto arm = dca::door::robot_arm();
-  dca::kin::JointVector w(9);
+  const auto arm = dca::robot::arm();
+  dca::math::JointVector w(9);
   w << 10, 10, 10, 1, 1, 1, 1, 1, 1;
-  dca::kin::RedundancyParams params;
+  dca::math::RedundancyParams params;
   params.damping = 1e-6;
   params.limit_gain = 0;
   Vec9 cmd;
@@ -108,11 +36,11 @@ TEST_F(DoorTest, RedundancyResolutionRealisesTheTwistOnTopOfTheBaseVelocity) {
   Vec3 base;
   Vec6 qd;
   dca::door::RedundancyResolution::Solve(arm, cmd, ReadyPose(), w, params, &base, &qd);
-  dca::kin::JointVector q = ReadyPose(), all(9);
+  dca::math::JointVector q = ReadyPose(), all(9);
   all << base, qd;
-  dca::kin::JacobianMatrix J;
-  dca::kin::MobileJacobian(dca::kin::BasePose{}, arm, q, &J);
-  dca::kin::JointVector base_only = dca::kin::JointVector::Zero(9);
+  dca::math::JacobianMatrix J;
+  dca::math::MobileJacobian(dca::math::BasePose{}, arm, q, &J);
+  dca::math::JointVector base_only = dca::math::JointVector::Zero(9);
   base_only.head<3>() = cmd.tail<3>();
   const Vec6 expected = J * base_only + cmd.head<6>();
   EXPECT_LT((J * all - expected).norm(), 1e-6);
@@ -135,7 +63,7 @@ TEST_F(DoorTest, VisualServoingTurnsTowardsTheHandle) {
 
 // The handle's image point and its height give its position in the base frame (the world's pinhole camera).
 TEST_F(DoorTest, VisualServoingLocatesTheHandleFromItsImagePoint) {
-  const Eigen::Isometry3d camera = dca::door::robot_camera();
+  const Eigen::Isometry3d camera = dca::robot::camera();
   const double f = 320 / std::tan(kPi / 6);
   for (const Eigen::Vector3d& p : {Eigen::Vector3d(1.9, 0.0, 1.0), Eigen::Vector3d(1.2, -0.3, 1.0),
                                   Eigen::Vector3d(0.9, 0.2, 1.0)}) {
@@ -160,9 +88,9 @@ TEST_F(DoorTest, CompliantCtrlGivesWayToTheHorizontalForceOnly) {
   auto& w = feed("W", 6, "/c", "Wrench");
   auto& j = feed("J", 6, "/c", "Joints");
   ep.activate("s");
-  ASSERT_EQ(c.run({}), "");
-  const auto arm = dca::door::robot_arm();
-  dca::kin::JointVector q = ReadyPose();
+  ASSERT_EQ(c.start({}), "");
+  const auto arm = dca::robot::arm();
+  dca::math::JointVector q = ReadyPose();
   const Eigen::Matrix3d R = arm.Forward(q).linear();
   Vec6 wrench = Vec6::Zero();
   wrench.head<3>() = R.transpose() * Eigen::Vector3d(0, 0, -9.3);
@@ -184,8 +112,8 @@ TEST_F(DoorTest, VisualServoingAbortsWhenTheHandleIsLost) {
   auto& vs = make("VisualServoing", {}, "/vs");
   auto& f = feed("F", 3, "/vs", "Feature");
   ep.activate("s");
-  ASSERT_EQ(vs.init(), "");
-  ASSERT_EQ(vs.run({}), "");
+  ASSERT_EQ(vs.configure(), "");
+  ASSERT_EQ(vs.start({}), "");
   f.write((Vec3() << 330, 240, 1).finished());
   timers.advance_to(1 * kTick);
   EXPECT_GT(latest(vs, "Vel")[6], 0);
@@ -199,65 +127,11 @@ TEST_F(DoorTest, VisualServoingAbortsWhenTheHandleIsLost) {
   EXPECT_TRUE(latest(vs, "Vel").isZero());
 }
 
-TEST_F(DoorTest, StaleCommandsStopTheRobotWithinOnePeriod) {
-  auto& xr = make("XR4000Ctrl", {}, "/xr");  // period 10 ms, hold 10 ms
-  auto& v = feed("V", 3, "/xr", "Vel");
-  ep.activate("s");
-  ASSERT_EQ(xr.run({}), "");
-  v.write((Vec3() << 0.2, 0, 0.1).finished());
-  timers.advance_to(1 * kTick);
-  EXPECT_DOUBLE_EQ(latest(xr, "Cmd")[0], 0.2);
-  timers.advance_to(2 * kTick);  // no new command: zero
-  EXPECT_TRUE(latest(xr, "Cmd").isZero());
-  v.write((Vec3() << 0.2, 0, 0.1).finished());
-  timers.advance_to(3 * kTick);
-  EXPECT_DOUBLE_EQ(latest(xr, "Cmd")[0], 0.2);
-  xr.stop();
-  EXPECT_TRUE(latest(xr, "Cmd").isZero());
-}
-
-TEST_F(DoorTest, ADriveHoldsItsCommandForHoldThenStopsTheRobot) {
-  auto& xr = make("XR4000Ctrl", {"0.01", "0.03"}, "/xr");  // period 10 ms, hold 30 ms
-  auto& v = feed("V", 3, "/xr", "Vel");
-  ep.activate("s");
-  ASSERT_EQ(xr.run({}), "");
-  v.write((Vec3() << 0.2, 0, 0.1).finished());
-  timers.advance_to(1 * kTick);
-  EXPECT_DOUBLE_EQ(latest(xr, "Cmd")[0], 0.2);
-  timers.advance_to(3 * kTick);  // 20 ms old: still held
-  EXPECT_DOUBLE_EQ(latest(xr, "Cmd")[0], 0.2);
-  timers.advance_to(4 * kTick);  // 30 ms old: zero
-  EXPECT_TRUE(latest(xr, "Cmd").isZero());
-  v.write((Vec3() << 0.3, 0, 0.1).finished());
-  timers.advance_to(6 * kTick);
-  EXPECT_DOUBLE_EQ(latest(xr, "Cmd")[0], 0.3);
-  xr.stop();
-  EXPECT_TRUE(latest(xr, "Cmd").isZero());
-}
-
-TEST_F(DoorTest, ADriveFasterThanItsSourceHoldsTheCommandBetweenSamples) {
-  // MotionControl at 1 ms fed by a 10 ms source: every tick commands the last sample, none is zero
-  auto& puma = make("Puma560Ctrl", {"0.001"}, "/puma");
-  auto& v = feed("V", 6, "/puma", "Vel");
-  ep.activate("s");
-  ASSERT_EQ(puma.run({}), "");
-  for (int k = 0; k < 30; ++k) {
-    if (k % 10 == 0) v.write((Vec6() << 0.1, 0, 0, 0, 0, 0).finished());
-    timers.advance_to((k + 1) * kMs);
-    EXPECT_DOUBLE_EQ(latest(puma, "Cmd")[0], 0.1) << "tick " << k;
-  }
-  timers.advance_to(40 * kMs);  // the last sample (at 21 ms) held until it is 10 ms old
-  EXPECT_TRUE(latest(puma, "Cmd").isZero());
-}
-
 TEST_F(DoorTest, DistanceThresholdIsDoneAtTheDistance) {
   auto& d = make("DistanceThreshold", {"0.7"}, "/d");
-  auto& s = src.add_output(dca::scalar_port("S"));  // Distance is a scalar
-  ep.add_component("/src", src);
-  src_added = true;
-  connect("/src", "S", "/d", "Distance");
+  auto& s = feed(dca::scalar_port("S"), "/d", "Distance");  // Distance is a scalar
   ep.activate("s");
-  ASSERT_EQ(d.run({}), "");
+  ASSERT_EQ(d.start({}), "");
   for (int i = 0; i < 10; ++i) {
     s.write(1.0 - 0.05 * i);
     timers.advance_to((i + 1) * kTick);
@@ -270,7 +144,7 @@ TEST_F(DoorTest, ForceThresholdIgnoresTheToolsWeightAndBriefSpikes) {
   auto& t = make("ForceThreshold", {"6", "3"}, "/t");
   auto& w = feed("W", 6, "/t", "Wrench");
   ep.activate("s");
-  ASSERT_EQ(t.run({}), "");
+  ASSERT_EQ(t.start({}), "");
   Vec6 weight;
   weight << 0, 0, -9.3, 0, 0, 0;
   int tick = 0;
@@ -298,7 +172,7 @@ TEST_F(DoorTest, ForceThresholdLearnsItsReferenceThroughAJoltAtTheStart) {
   auto& t = make("ForceThreshold", {"6", "3"}, "/t");
   auto& w = feed("W", 6, "/t", "Wrench");
   ep.activate("s");
-  ASSERT_EQ(t.run({}), "");
+  ASSERT_EQ(t.start({}), "");
   Vec6 weight;
   weight << 0, -9.3, 0, 0, 0, 0;
   Vec6 jolt = weight;
@@ -319,41 +193,9 @@ TEST_F(DoorTest, ForceThresholdLearnsItsReferenceThroughAJoltAtTheStart) {
   EXPECT_NEAR(unpack_double(events[0].second.value), 8, 0.1);
 }
 
-TEST_F(DoorTest, GripperCloseIsDoneWhenGraspingAndAbortsOnNothing) {
-  auto& g = make("GripperControl", {"close"}, "/g");
-  auto& s = feed("S", 1, "/g", "State");
-  ep.activate("s");
-  ASSERT_EQ(g.run({}), "");
-  EXPECT_DOUBLE_EQ(latest(g, "Cmd")[0], 1.0);
-  s.write((Eigen::VectorXd(1) << 2).finished());
-  timers.advance_to(1 * kTick);
-  EXPECT_TRUE(events.empty());
-  s.write((Eigen::VectorXd(1) << 3).finished());
-  timers.advance_to(2 * kTick);
-  ASSERT_EQ(events.size(), 1u);
-  EXPECT_EQ(unpack_string(events[0].second.value), "grasping");
-
-  auto& g2 = make("GripperControl", {"close"}, "/g2");
-  auto& s2 = feed("S2", 1, "/g2", "State");
-  ASSERT_EQ(g2.run({}), "");
-  s2.write((Eigen::VectorXd(1) << 1).finished());
-  timers.advance_to(3 * kTick);
-  ASSERT_EQ(events.size(), 2u);
-  EXPECT_EQ(events[1].second.reason, "the gripper closed on nothing: no handle between the fingers");
-}
-
-TEST_F(DoorTest, GripperRefusesAnUnknownAction) {
-  try {
-    make("GripperControl", {"squeeze"}, "/g");
-    FAIL() << "no error";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_STREQ(e.what(), "GripperControl /g: action must be \"open\" or \"close\", got \"squeeze\"");
-  }
-}
-
 TEST_F(DoorTest, LinearTrajectoryAbortsWhenNothingIsHit) {
   auto& a = make("LinearTrajectory", {"0.05", "0.01"}, "/a");
-  ASSERT_EQ(a.run({}), "");
+  ASSERT_EQ(a.start({}), "");
   timers.advance_to(100 * kMs);
   EXPECT_DOUBLE_EQ(latest(a, "Vel")[0], 0.05);
   timers.advance_to(300 * kMs);
@@ -368,11 +210,11 @@ class PressHandleTest : public DoorTest {
   // Simulates the arm (integrating the tool's vertical velocity into joint 3's angle, roughly) is overkill:
   // instead the joint angles are those of a tool that moved down by `drop` metres, found by Newton steps.
   Vec6 PoseWithToolDrop(double drop) {
-    const auto arm = dca::door::robot_arm();
-    dca::kin::JointVector q = ReadyPose();
+    const auto arm = dca::robot::arm();
+    dca::math::JointVector q = ReadyPose();
     const Eigen::Vector3d target = arm.Forward(q).translation() - Eigen::Vector3d(0, 0, drop);
     for (int i = 0; i < 20; ++i) {
-      dca::kin::JacobianMatrix J;
+      dca::math::JacobianMatrix J;
       arm.Jacobian(q, &J);
       const Eigen::Vector3d e = target - arm.Forward(q).translation();
       const Eigen::MatrixXd Jv = J.topRows<3>();
@@ -385,8 +227,8 @@ class PressHandleTest : public DoorTest {
     auto& w = feed("W", 6, "/p", "Wrench");
     auto& j = feed("J", 6, "/p", "Joints");
     ep.activate("s");
-    EXPECT_EQ(p.run({}), "");
-    const auto arm = dca::door::robot_arm();
+    EXPECT_EQ(p.start({}), "");
+    const auto arm = dca::robot::arm();
     double drop = 0, v = 0;
     for (int tick = 1; tick < 5000 && events.empty(); ++tick) {
       drop = std::min(stop_at, drop - v * 1e-3);
@@ -394,7 +236,7 @@ class PressHandleTest : public DoorTest {
       // The tool feels the lever push up: spring torque / lever, plus a stiff stop at stop_at.
       double up = (0.4 + 1.0 * angle) / 0.075;
       if (drop >= stop_at - 1e-9) up += 5 * tick * 1e-3 * 100;
-      dca::kin::JointVector q = PoseWithToolDrop(drop);
+      dca::math::JointVector q = PoseWithToolDrop(drop);
       const Eigen::Matrix3d R = arm.Forward(q).linear();
       Vec6 wrench = Vec6::Zero();
       wrench.head<3>() = R.transpose() * Eigen::Vector3d(0, 0, up - 0.4 / 0.075) + R.transpose() * Eigen::Vector3d(0, 0, -9.3);
@@ -424,7 +266,7 @@ TEST_F(DoorTest, ConfigCtrlMovesTheBaseUnderTheStillTool) {
   auto& c = make("ConfigCtrl", {}, "/c");
   auto& j = feed("J", 6, "/c", "Joints");
   ep.activate("s");
-  ASSERT_EQ(c.run({}), "");
+  ASSERT_EQ(c.start({}), "");
   j.write(ReadyPose());
   timers.advance_to(1 * kTick);
   const Eigen::VectorXd v = latest(c, "Vel");
@@ -439,7 +281,7 @@ TEST_F(DoorTest, AddVelocitySumsFreshInputsOnly) {
   auto& i1 = feed("A", 9, "/a", "In1");
   auto& i2 = feed("B", 9, "/a", "In2");
   ep.activate("s");
-  ASSERT_EQ(a.run({}), "");
+  ASSERT_EQ(a.start({}), "");
   i1.write(Vec9::Constant(1.0));
   i2.write(Vec9::Constant(2.0));
   timers.advance_to(1 * kTick);
@@ -456,9 +298,9 @@ TEST_F(DoorTest, ModelBasedCtrlFollowsTheCircleAndStopsAtTheTargetAngle) {
   auto& pose = feed("P", 3, "/m", "BasePose");
   auto& joints = feed("J", 6, "/m", "Joints");
   ep.activate("s");
-  ASSERT_EQ(m.run({}), "");
-  const auto arm = dca::door::robot_arm();
-  dca::kin::JointVector q = ReadyPose();
+  ASSERT_EQ(m.start({}), "");
+  const auto arm = dca::robot::arm();
+  dca::math::JointVector q = ReadyPose();
   const Eigen::Vector3d tool = arm.Forward(q).translation();
   // The base moves instead of the arm (a rigid robot): the hand is at base + tool.
   const Eigen::Vector2d hinge(tool.x(), tool.y() - 0.85);
@@ -485,5 +327,7 @@ TEST_F(DoorTest, ModelBasedCtrlFollowsTheCircleAndStopsAtTheTargetAngle) {
   EXPECT_NEAR(angle * 180 / kPi, 75, 2.0);
   EXPECT_LT(max_radial_error, 0.05);  // once fitted, it pushes along the circle
 }
+
+
 
 }  // namespace

@@ -4,9 +4,9 @@
 // null space. Pure maths, no allocation (fixed maximum sizes), safe in MainCalc.
 #include <Eigen/Core>
 
-#include "controllers/kinematics.h"
+#include "controllers/math/kinematics.h"
 
-namespace dca::kin {
+namespace dca::math {
 
 /// Parameters of Resolve().
 struct RedundancyParams {
@@ -27,4 +27,4 @@ void Resolve(const JacobianMatrix& J, const Eigen::Matrix<double, 6, 1>& twist, 
              const JointVector& q, const JointVector& lower, const JointVector& upper,
              const RedundancyParams& params, JointVector* qdot);
 
-}  // namespace dca::kin
+}  // namespace dca::math

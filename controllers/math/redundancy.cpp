@@ -1,8 +1,8 @@
-#include "controllers/redundancy.h"
+#include "controllers/math/redundancy.h"
 
 #include <Eigen/Cholesky>
 
-namespace dca::kin {
+namespace dca::math {
 
 void Resolve(const JacobianMatrix& J, const Eigen::Matrix<double, 6, 1>& twist, const JointVector& weights,
              const JointVector& q, const JointVector& lower, const JointVector& upper,
@@ -43,4 +43,4 @@ void Resolve(const JacobianMatrix& J, const Eigen::Matrix<double, 6, 1>& twist, 
   }
 }
 
-}  // namespace dca::kin
+}  // namespace dca::math

@@ -1,11 +1,11 @@
-#include "controllers/hinge_estimator.h"
+#include "controllers/math/hinge_estimator.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <random>
 
-namespace dca::kin {
+namespace dca::math {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
@@ -64,4 +64,4 @@ TEST(HingeEstimatorTest, ResetForgetsTheSamples) {
 }
 
 }  // namespace
-}  // namespace dca::kin
+}  // namespace dca::math

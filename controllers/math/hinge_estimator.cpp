@@ -1,9 +1,9 @@
-#include "controllers/hinge_estimator.h"
+#include "controllers/math/hinge_estimator.h"
 
 #include <Eigen/LU>
 #include <cmath>
 
-namespace dca::kin {
+namespace dca::math {
 
 HingeEstimator::HingeEstimator(const Eigen::Vector2d& prior_centre, double prior_radius, double min_arc)
     : prior_centre_(prior_centre), prior_radius_(prior_radius), min_arc_(min_arc),
@@ -59,4 +59,4 @@ Eigen::Vector2d HingeEstimator::Tangent(const Eigen::Vector2d& p, bool ccw) cons
   return ccw ? t : -t;
 }
 
-}  // namespace dca::kin
+}  // namespace dca::math

@@ -5,7 +5,7 @@
 // the estimate is the prior guess (the door's nominal geometry). Pure maths, no allocation, O(1) per sample.
 #include <Eigen/Core>
 
-namespace dca::kin {
+namespace dca::math {
 
 /// Estimates a circle (hinge centre, radius) from points on an arc.
 class HingeEstimator {
@@ -48,4 +48,4 @@ class HingeEstimator {
   bool fitted_ = false;
 };
 
-}  // namespace dca::kin
+}  // namespace dca::math

@@ -1,0 +1,115 @@
+// The robot's controllers on simulated time (controllers/robot/): its geometry from the URDF, the drives'
+// held commands, the gripper; their inputs fed by a test source and their outputs read back.
+#include <gtest/gtest.h>
+
+#include "controllers/robot/model.h"
+#include "controllers/robot/signals.h"
+#include "tests/support/controller_fixture.h"
+
+namespace {
+
+using dca::robot::Vec3;
+using dca::robot::Vec6;
+using dca::testing::kMs;
+using dca::testing::unpack_string;
+constexpr dca::Nanos kTick = 10 * kMs;  // the controllers' default period
+
+class RobotTest : public dca::testing::ControllerFixture {};
+
+TEST_F(RobotTest, HardwareFacingPortsNameTheirRobotSignals) {
+  const auto* m = dca::Registry::global().manifest("Puma560Ctrl");
+  ASSERT_NE(m, nullptr);
+  EXPECT_EQ(m->inputs[1].device, "arm.q");
+  EXPECT_EQ(m->outputs[0].device, "arm.cmd_qd");
+  EXPECT_EQ(m->outputs[1].device, "");
+  EXPECT_EQ(dca::Registry::global().manifest("ForceTorque")->inputs[0].device, "wrist.wrench");
+  EXPECT_EQ(dca::Registry::global().manifest("GripperControl")->outputs[0].device, "gripper.cmd");
+}
+
+TEST_F(RobotTest, RobotArmIsTheUrdfChainToTool0) {
+  const auto arm = dca::robot::arm();
+  EXPECT_EQ(arm.dof(), 6);
+  EXPECT_EQ(arm.joint_names().front(), "arm_joint_1");
+  EXPECT_EQ(arm.joint_names().back(), "arm_joint_6");
+}
+
+TEST_F(RobotTest, StaleCommandsStopTheRobotWithinOnePeriod) {
+  auto& xr = make("XR4000Ctrl", {}, "/xr");  // period 10 ms, hold 10 ms
+  auto& v = feed("V", 3, "/xr", "Vel");
+  ep.activate("s");
+  ASSERT_EQ(xr.start({}), "");
+  v.write((Vec3() << 0.2, 0, 0.1).finished());
+  timers.advance_to(1 * kTick);
+  EXPECT_DOUBLE_EQ(latest(xr, "Cmd")[0], 0.2);
+  timers.advance_to(2 * kTick);  // no new command: zero
+  EXPECT_TRUE(latest(xr, "Cmd").isZero());
+  v.write((Vec3() << 0.2, 0, 0.1).finished());
+  timers.advance_to(3 * kTick);
+  EXPECT_DOUBLE_EQ(latest(xr, "Cmd")[0], 0.2);
+  xr.halt();
+  EXPECT_TRUE(latest(xr, "Cmd").isZero());
+}
+
+TEST_F(RobotTest, ADriveHoldsItsCommandForHoldThenStopsTheRobot) {
+  auto& xr = make("XR4000Ctrl", {"0.01", "0.03"}, "/xr");  // period 10 ms, hold 30 ms
+  auto& v = feed("V", 3, "/xr", "Vel");
+  ep.activate("s");
+  ASSERT_EQ(xr.start({}), "");
+  v.write((Vec3() << 0.2, 0, 0.1).finished());
+  timers.advance_to(1 * kTick);
+  EXPECT_DOUBLE_EQ(latest(xr, "Cmd")[0], 0.2);
+  timers.advance_to(3 * kTick);  // 20 ms old: still held
+  EXPECT_DOUBLE_EQ(latest(xr, "Cmd")[0], 0.2);
+  timers.advance_to(4 * kTick);  // 30 ms old: zero
+  EXPECT_TRUE(latest(xr, "Cmd").isZero());
+  v.write((Vec3() << 0.3, 0, 0.1).finished());
+  timers.advance_to(6 * kTick);
+  EXPECT_DOUBLE_EQ(latest(xr, "Cmd")[0], 0.3);
+  xr.halt();
+  EXPECT_TRUE(latest(xr, "Cmd").isZero());
+}
+
+TEST_F(RobotTest, ADriveFasterThanItsSourceHoldsTheCommandBetweenSamples) {
+  // MotionControl at 1 ms fed by a 10 ms source: every tick commands the last sample, none is zero
+  auto& puma = make("Puma560Ctrl", {"0.001"}, "/puma");
+  auto& v = feed("V", 6, "/puma", "Vel");
+  ep.activate("s");
+  ASSERT_EQ(puma.start({}), "");
+  for (int k = 0; k < 30; ++k) {
+    if (k % 10 == 0) v.write((Vec6() << 0.1, 0, 0, 0, 0, 0).finished());
+    timers.advance_to((k + 1) * kMs);
+    EXPECT_DOUBLE_EQ(latest(puma, "Cmd")[0], 0.1) << "tick " << k;
+  }
+  timers.advance_to(40 * kMs);  // the last sample (at 21 ms) held until it is 10 ms old
+  EXPECT_TRUE(latest(puma, "Cmd").isZero());
+}
+
+TEST_F(RobotTest, GripperCloseIsDoneWhenGraspingAndAbortsOnNothing) {
+  auto& g = make("GripperControl", {"close"}, "/g");
+  auto& s = feed("S", 1, "/g", "State");
+  ep.activate("s");
+  ASSERT_EQ(g.start({}), "");
+  EXPECT_DOUBLE_EQ(latest(g, "Cmd")[0], 1.0);
+  s.write((Eigen::VectorXd(1) << 2).finished());
+  timers.advance_to(1 * kTick);
+  EXPECT_TRUE(events.empty());
+  s.write((Eigen::VectorXd(1) << 3).finished());
+  timers.advance_to(2 * kTick);
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_EQ(unpack_string(events[0].second.value), "grasping");
+
+  auto& g2 = make("GripperControl", {"close"}, "/g2");
+  auto& s2 = feed("S2", 1, "/g2", "State");
+  ASSERT_EQ(g2.start({}), "");
+  s2.write((Eigen::VectorXd(1) << 1).finished());
+  timers.advance_to(3 * kTick);
+  ASSERT_EQ(events.size(), 2u);
+  EXPECT_EQ(events[1].second.reason, "the gripper closed on nothing: no handle between the fingers");
+}
+
+TEST_F(RobotTest, GripperRefusesAnUnknownAction) {
+  EXPECT_EQ(make_error("GripperControl", {"squeeze"}, "/g"),
+            "GripperControl /g: action must be \"open\" or \"close\", got \"squeeze\"");
+}
+
+}  // namespace
