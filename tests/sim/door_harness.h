@@ -71,53 +71,8 @@ class DoorHarness {
     for (const auto& s : sim::kSensorSignals) world_ports_.add_output(vector_port(s.name, s.size, s.units));
     for (const auto& s : sim::kCommandSignals) world_ports_.add_input(vector_port(s.name, s.size, s.units), 16);
 
-    // MotionControl(host1 = manipulation, host2 = platform)
-    add("XR4000Ctrl", "motionctrl/xr4000");
-    add("Puma560Ctrl", "motionctrl/puma");
-    add("RedundancyResolution", "motionctrl/redundancy");
-    connect("motionctrl/redundancy", "BaseVel", "motionctrl/xr4000", "Vel", "motionctrl/redundancy:lbl1");
-    connect("motionctrl/redundancy", "ArmVel", "motionctrl/puma", "Vel", "motionctrl/redundancy:lbl1");
-    connect("motionctrl/puma", "Joints", "motionctrl/redundancy", "Joints", "motionctrl/redundancy:lbl1");
-    // DistDetector, HitDetector
-    add("LaserSensor", "distdetect/laser");
-    add("DistanceThreshold", "distdetect/threshold");
-    connect("distdetect/laser", "Distance", "distdetect/threshold", "Distance", "distdetect/laser:lbl1");
-    add("ForceTorque", "hit/force");
-    add("ForceThreshold", "hit/threshold");
-    connect("hit/force", "Wrench", "hit/threshold", "Wrench", "hit/force:lbl1");
-    // DoorOpen(host3, host2)
-    add("ForceTorque", "dooropen/force");
-    add("CompliantCtrl", "dooropen/compliant");
-    add("XR4000Odometry", "dooropen/xr4000");
-    add("Puma560Joints", "dooropen/puma");
-    add("ModelBasedCtrl", "dooropen/model");
-    add("ConfigCtrl", "dooropen/config");
-    add("AddVelocity", "dooropen/add");
-    connect("dooropen/force", "Wrench", "dooropen/compliant", "Wrench", "dooropen/force:lbl1");
-    connect("dooropen/compliant", "Vel", "dooropen/add", "In1", "dooropen/compliant:lbl1");
-    connect("dooropen/xr4000", "Pose", "dooropen/model", "BasePose", "dooropen/xr4000:lbl1");
-    connect("dooropen/puma", "Joints", "dooropen/model", "Joints", "dooropen/puma:lbl1");
-    connect("dooropen/puma", "Joints", "dooropen/config", "Joints", "dooropen/puma:lbl1");
-    connect("dooropen/puma", "Joints", "dooropen/compliant", "Joints", "dooropen/puma:lbl1");
-    connect("dooropen/model", "Vel", "dooropen/add", "In2", "dooropen/model:lbl1");
-    connect("dooropen/config", "Vel", "dooropen/add", "In3", "dooropen/config:lbl1");
-    // DoorOpenSystem
-    add("HandleCamera", "camera");
-    add("VisualServoing", "visualserv");
-    add("LinearTrajectory", "approach");
-    add("ForceTorque", "pressft");
-    add("Puma560Joints", "pressjoints");
-    add("PressHandle", "presshandle");
-    add("GripperControl", "opengrip", {"open"});
-    add("GripperControl", "closegrip", {"close"});
-    // motionctrl.In is redundancy.In (external_io); dooropen.Out is add.Out.
-    connect("camera", "Feature", "visualserv", "Feature", "visualserv:lbl1");
-    connect("visualserv", "Vel", "motionctrl/redundancy", "In", "visualserv:lbl1");
-    connect("approach", "Vel", "motionctrl/redundancy", "In", "approach:lbl1");
-    connect("pressft", "Wrench", "presshandle", "Wrench", "presshandle:lbl1");
-    connect("pressjoints", "Joints", "presshandle", "Joints", "presshandle:lbl1");
-    connect("presshandle", "Vel", "motionctrl/redundancy", "In", "presshandle:lbl1");
-    connect("dooropen/add", "Out", "motionctrl/redundancy", "In", "dooropen:lbl1");
+    for (const auto& i : Instances()) add(i.type, i.name, i.params);
+    for (const auto& l : Links()) connect(l.from, l.out, l.to, l.in, l.set);
 
     steps_ = {
         {"VisualServoing", {"visualserv", "camera", "distdetect/threshold", "distdetect/laser"},
@@ -281,6 +236,75 @@ class DoorHarness {
     Eigen::VectorXd v;
     Nanos written = -1;
   };
+
+  /// A controller of door_open.dca: its type, its instance name (below kRoot), the arguments after the host.
+  struct Instance {
+    const char* type;
+    const char* name;
+    std::vector<std::string> params;
+  };
+  static std::vector<Instance> Instances() {
+    return {
+      // MotionControl(host1 = manipulation, host2 = platform)
+      {"XR4000Ctrl", "motionctrl/xr4000"},
+      {"Puma560Ctrl", "motionctrl/puma"},
+      {"RedundancyResolution", "motionctrl/redundancy"},
+      // DistDetector, HitDetector
+      {"LaserSensor", "distdetect/laser"},
+      {"DistanceThreshold", "distdetect/threshold"},
+      {"ForceTorque", "hit/force"},
+      {"ForceThreshold", "hit/threshold"},
+      // DoorOpen(host3, host2)
+      {"ForceTorque", "dooropen/force"},
+      {"CompliantCtrl", "dooropen/compliant"},
+      {"XR4000Odometry", "dooropen/xr4000"},
+      {"Puma560Joints", "dooropen/puma"},
+      {"ModelBasedCtrl", "dooropen/model"},
+      {"ConfigCtrl", "dooropen/config"},
+      {"AddVelocity", "dooropen/add"},
+      // DoorOpenSystem
+      {"HandleCamera", "camera"},
+      {"VisualServoing", "visualserv"},
+      {"LinearTrajectory", "approach"},
+      {"ForceTorque", "pressft"},
+      {"Puma560Joints", "pressjoints"},
+      {"PressHandle", "presshandle"},
+      {"GripperControl", "opengrip", {"open"}},
+      {"GripperControl", "closegrip", {"close"}},
+    };
+  }
+  /// A connection of door_open.dca: from.out -> to.in, in the connection set `set`.
+  struct Link {
+    const char *from, *out, *to, *in, *set;
+  };
+  static std::vector<Link> Links() {
+    return {
+      // MotionControl(host1 = manipulation, host2 = platform)
+      {"motionctrl/redundancy", "BaseVel", "motionctrl/xr4000", "Vel", "motionctrl/redundancy:lbl1"},
+      {"motionctrl/redundancy", "ArmVel", "motionctrl/puma", "Vel", "motionctrl/redundancy:lbl1"},
+      {"motionctrl/puma", "Joints", "motionctrl/redundancy", "Joints", "motionctrl/redundancy:lbl1"},
+      // DistDetector, HitDetector
+      {"distdetect/laser", "Distance", "distdetect/threshold", "Distance", "distdetect/laser:lbl1"},
+      {"hit/force", "Wrench", "hit/threshold", "Wrench", "hit/force:lbl1"},
+      // DoorOpen(host3, host2)
+      {"dooropen/force", "Wrench", "dooropen/compliant", "Wrench", "dooropen/force:lbl1"},
+      {"dooropen/compliant", "Vel", "dooropen/add", "In1", "dooropen/compliant:lbl1"},
+      {"dooropen/xr4000", "Pose", "dooropen/model", "BasePose", "dooropen/xr4000:lbl1"},
+      {"dooropen/puma", "Joints", "dooropen/model", "Joints", "dooropen/puma:lbl1"},
+      {"dooropen/puma", "Joints", "dooropen/config", "Joints", "dooropen/puma:lbl1"},
+      {"dooropen/puma", "Joints", "dooropen/compliant", "Joints", "dooropen/puma:lbl1"},
+      {"dooropen/model", "Vel", "dooropen/add", "In2", "dooropen/model:lbl1"},
+      {"dooropen/config", "Vel", "dooropen/add", "In3", "dooropen/config:lbl1"},
+      // DoorOpenSystem: motionctrl.In is redundancy.In (external_io); dooropen.Out is add.Out.
+      {"camera", "Feature", "visualserv", "Feature", "visualserv:lbl1"},
+      {"visualserv", "Vel", "motionctrl/redundancy", "In", "visualserv:lbl1"},
+      {"approach", "Vel", "motionctrl/redundancy", "In", "approach:lbl1"},
+      {"pressft", "Wrench", "presshandle", "Wrench", "presshandle:lbl1"},
+      {"pressjoints", "Joints", "presshandle", "Joints", "presshandle:lbl1"},
+      {"presshandle", "Vel", "motionctrl/redundancy", "In", "presshandle:lbl1"},
+      {"dooropen/add", "Out", "motionctrl/redundancy", "In", "dooropen:lbl1"},
+    };
+  }
 
   void add(const std::string& type, const std::string& name, std::vector<std::string> params = {}) {
     auto c = Registry::global().create(type, {path(name), "local", std::move(params), &timers_, nullptr});

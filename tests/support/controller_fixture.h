@@ -62,6 +62,23 @@ class ControllerFixture : public ::testing::Test {
     connect("/src", spec.name, to, in);
     return *o;
   }
+  /// A test source output feeding an input: feed(port, size, <the controller>, input).
+  struct Feed {
+    std::string port;
+    std::uint32_t size;
+    std::string input;
+  };
+  /// make(), feed() each of `feeds` into it, activate the connections and start it (a failure if it refuses).
+  Controller& start(const std::string& type, std::vector<std::string> params, const std::string& name,
+                    const std::vector<Feed>& feeds = {}) {
+    auto& c = make(type, std::move(params), name);
+    for (const auto& f : feeds) feed(f.port, f.size, name, f.input);
+    ep.activate("s");
+    EXPECT_EQ(c.start({}), "");
+    return c;
+  }
+  /// The test source's output `port` (made by feed()).
+  Output& source(const std::string& port) { return *src.find_output(port); }
   /// Connects from.out -> to.in in the connection set "s" (pushed, queue 16).
   void connect(const std::string& from, const std::string& out, const std::string& to, const std::string& in) {
     std::string err = "none";

@@ -84,11 +84,9 @@ TEST_F(DoorTest, VisualServoingLocatesTheHandleFromItsImagePoint) {
 
 // The admittance acts on the horizontal force only: the tool's weight does not move it.
 TEST_F(DoorTest, CompliantCtrlGivesWayToTheHorizontalForceOnly) {
-  auto& c = make("CompliantCtrl", {}, "/c");
-  auto& w = feed("W", 6, "/c", "Wrench");
-  auto& j = feed("J", 6, "/c", "Joints");
-  ep.activate("s");
-  ASSERT_EQ(c.start({}), "");
+  auto& c = start("CompliantCtrl", {}, "/c", {{"W", 6, "Wrench"}, {"J", 6, "Joints"}});
+  auto& w = source("W");
+  auto& j = source("J");
   const auto arm = dca::robot::arm();
   dca::math::JointVector q = ReadyPose();
   const Eigen::Matrix3d R = arm.Forward(q).linear();
@@ -140,18 +138,27 @@ TEST_F(DoorTest, DistanceThresholdIsDoneAtTheDistance) {
   EXPECT_NEAR(unpack_double(events[0].second.value), 0.7, 1e-12);
 }
 
-TEST_F(DoorTest, ForceThresholdIgnoresTheToolsWeightAndBriefSpikes) {
-  auto& t = make("ForceThreshold", {"6", "3"}, "/t");
-  auto& w = feed("W", 6, "/t", "Wrench");
-  ep.activate("s");
-  ASSERT_EQ(t.start({}), "");
+// A started ForceThreshold(force 6 N, 3 samples) fed one wrench sample a tick by step().
+class ForceThresholdTest : public DoorTest {
+ protected:
+  void SetUp() override {
+    start("ForceThreshold", {"6", "3"}, "/t", {{"W", 6, "Wrench"}});
+    w_ = &source("W");
+  }
+  /// Writes `x` and runs one tick.
+  void step(const Vec6& x) {
+    w_->write(x);
+    timers.advance_to(++tick_ * kTick);
+  }
+
+ private:
+  dca::Output* w_ = nullptr;
+  int tick_ = 0;
+};
+
+TEST_F(ForceThresholdTest, IgnoresTheToolsWeightAndBriefSpikes) {
   Vec6 weight;
   weight << 0, 0, -9.3, 0, 0, 0;
-  int tick = 0;
-  auto step = [&](const Vec6& x) {
-    w.write(x);
-    timers.advance_to(++tick * kTick);
-  };
   for (int i = 0; i < 40; ++i) step(weight);  // past the settle time (0.3 s)
   Vec6 spike = weight;
   spike[0] = 20;
@@ -168,20 +175,11 @@ TEST_F(DoorTest, ForceThresholdIgnoresTheToolsWeightAndBriefSpikes) {
 
 // The step before a hit detector often ends with a jolt (the base stopping): a reference taken from the jolt's
 // first sample would fire at once. During the settle time the reference is learnt, and nothing fires.
-TEST_F(DoorTest, ForceThresholdLearnsItsReferenceThroughAJoltAtTheStart) {
-  auto& t = make("ForceThreshold", {"6", "3"}, "/t");
-  auto& w = feed("W", 6, "/t", "Wrench");
-  ep.activate("s");
-  ASSERT_EQ(t.start({}), "");
+TEST_F(ForceThresholdTest, LearnsItsReferenceThroughAJoltAtTheStart) {
   Vec6 weight;
   weight << 0, -9.3, 0, 0, 0, 0;
   Vec6 jolt = weight;
   jolt[2] = 10;
-  int tick = 0;
-  auto step = [&](const Vec6& x) {
-    w.write(x);
-    timers.advance_to(++tick * kTick);
-  };
   step(jolt);
   step(jolt);
   for (int i = 0; i < 60; ++i) step(weight);
@@ -194,8 +192,7 @@ TEST_F(DoorTest, ForceThresholdLearnsItsReferenceThroughAJoltAtTheStart) {
 }
 
 TEST_F(DoorTest, LinearTrajectoryAbortsWhenNothingIsHit) {
-  auto& a = make("LinearTrajectory", {"0.05", "0.01"}, "/a");
-  ASSERT_EQ(a.start({}), "");
+  auto& a = start("LinearTrajectory", {"0.05", "0.01"}, "/a");
   timers.advance_to(100 * kMs);
   EXPECT_DOUBLE_EQ(latest(a, "Vel")[0], 0.05);
   timers.advance_to(300 * kMs);
@@ -223,11 +220,9 @@ class PressHandleTest : public DoorTest {
     return q;
   }
   std::string Run(double stop_at) {
-    auto& p = make("PressHandle", {}, "/p");
-    auto& w = feed("W", 6, "/p", "Wrench");
-    auto& j = feed("J", 6, "/p", "Joints");
-    ep.activate("s");
-    EXPECT_EQ(p.start({}), "");
+    auto& p = start("PressHandle", {}, "/p", {{"W", 6, "Wrench"}, {"J", 6, "Joints"}});
+    auto& w = source("W");
+    auto& j = source("J");
     const auto arm = dca::robot::arm();
     double drop = 0, v = 0;
     for (int tick = 1; tick < 5000 && events.empty(); ++tick) {
@@ -263,10 +258,8 @@ TEST_F(PressHandleTest, AbortsWhenTheHandleIsJammed) {
 }
 
 TEST_F(DoorTest, ConfigCtrlMovesTheBaseUnderTheStillTool) {
-  auto& c = make("ConfigCtrl", {}, "/c");
-  auto& j = feed("J", 6, "/c", "Joints");
-  ep.activate("s");
-  ASSERT_EQ(c.start({}), "");
+  auto& c = start("ConfigCtrl", {}, "/c", {{"J", 6, "Joints"}});
+  auto& j = source("J");
   j.write(ReadyPose());
   timers.advance_to(1 * kTick);
   const Eigen::VectorXd v = latest(c, "Vel");
@@ -277,11 +270,9 @@ TEST_F(DoorTest, ConfigCtrlMovesTheBaseUnderTheStillTool) {
 }
 
 TEST_F(DoorTest, AddVelocitySumsFreshInputsOnly) {
-  auto& a = make("AddVelocity", {}, "/a");
-  auto& i1 = feed("A", 9, "/a", "In1");
-  auto& i2 = feed("B", 9, "/a", "In2");
-  ep.activate("s");
-  ASSERT_EQ(a.start({}), "");
+  auto& a = start("AddVelocity", {}, "/a", {{"A", 9, "In1"}, {"B", 9, "In2"}});
+  auto& i1 = source("A");
+  auto& i2 = source("B");
   i1.write(Vec9::Constant(1.0));
   i2.write(Vec9::Constant(2.0));
   timers.advance_to(1 * kTick);
@@ -294,11 +285,10 @@ TEST_F(DoorTest, AddVelocitySumsFreshInputsOnly) {
 // ModelBasedCtrl on a synthetic door: the hand is carried by the door around a hinge 0.85 m to the right;
 // the controller must find the hinge, keep pushing along the circle and finish at the target angle.
 TEST_F(DoorTest, ModelBasedCtrlFollowsTheCircleAndStopsAtTheTargetAngle) {
-  auto& m = make("ModelBasedCtrl", {"0.15", "75", "0.9", "right"}, "/m");
-  auto& pose = feed("P", 3, "/m", "BasePose");
-  auto& joints = feed("J", 6, "/m", "Joints");
-  ep.activate("s");
-  ASSERT_EQ(m.start({}), "");
+  auto& m = start("ModelBasedCtrl", {"0.15", "75", "0.9", "right"}, "/m",
+                  {{"P", 3, "BasePose"}, {"J", 6, "Joints"}});
+  auto& pose = source("P");
+  auto& joints = source("J");
   const auto arm = dca::robot::arm();
   dca::math::JointVector q = ReadyPose();
   const Eigen::Vector3d tool = arm.Forward(q).translation();

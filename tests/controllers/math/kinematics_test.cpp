@@ -27,6 +27,16 @@ Chain TwoLink() {
   return *c;
 }
 
+/// Column i of J is the twist between poses tp (joint i at +h) and tm (at -h): linear part, then angular.
+void ExpectColumnIsTheFiniteDifference(const JacobianMatrix& J, int i, const Eigen::Isometry3d& tp,
+                                       const Eigen::Isometry3d& tm, double h) {
+  const Eigen::Vector3d v = (tp.translation() - tm.translation()) / (2 * h);
+  const Eigen::AngleAxisd d(tp.linear() * tm.linear().transpose());
+  const Eigen::Vector3d w = d.axis() * d.angle() / (2 * h);
+  EXPECT_NEAR((J.block<3, 1>(0, i) - v).norm(), 0.0, 1e-6) << "column " << i;
+  EXPECT_NEAR((J.block<3, 1>(3, i) - w).norm(), 0.0, 1e-6) << "column " << i;
+}
+
 TEST(KinematicsTest, ReadsTheMovableJointsInOrder) {
   const Chain c = TwoLink();
   EXPECT_EQ(c.dof(), 2);
@@ -77,12 +87,7 @@ TEST(KinematicsTest, JacobianMatchesFiniteDifferences) {
     JointVector qp = q, qm = q;
     qp[i] += h;
     qm[i] -= h;
-    const Eigen::Isometry3d tp = c.Forward(qp), tm = c.Forward(qm);
-    const Eigen::Vector3d v = (tp.translation() - tm.translation()) / (2 * h);
-    const Eigen::AngleAxisd d(tp.linear() * tm.linear().transpose());
-    const Eigen::Vector3d w = d.axis() * d.angle() / (2 * h);
-    EXPECT_NEAR((J.block<3, 1>(0, i) - v).norm(), 0.0, 1e-6) << "column " << i;
-    EXPECT_NEAR((J.block<3, 1>(3, i) - w).norm(), 0.0, 1e-6) << "column " << i;
+    ExpectColumnIsTheFiniteDifference(J, i, c.Forward(qp), c.Forward(qm), h);
   }
 }
 
@@ -105,12 +110,7 @@ TEST(KinematicsTest, MobileJacobianMatchesFiniteDifferences) {
     return MobileForward(b, arm, qq);
   };
   for (int i = 0; i < 5; ++i) {
-    const Eigen::Isometry3d tp = pose(i, h), tm = pose(i, -h);
-    const Eigen::Vector3d v = (tp.translation() - tm.translation()) / (2 * h);
-    const Eigen::AngleAxisd d(tp.linear() * tm.linear().transpose());
-    const Eigen::Vector3d w = d.axis() * d.angle() / (2 * h);
-    EXPECT_NEAR((J.block<3, 1>(0, i) - v).norm(), 0.0, 1e-6) << "column " << i;
-    EXPECT_NEAR((J.block<3, 1>(3, i) - w).norm(), 0.0, 1e-6) << "column " << i;
+    ExpectColumnIsTheFiniteDifference(J, i, pose(i, h), pose(i, -h), h);
   }
 }
 

@@ -14,7 +14,25 @@ using dca::testing::kMs;
 using dca::testing::unpack_string;
 constexpr dca::Nanos kTick = 10 * kMs;  // the controllers' default period
 
-class RobotTest : public dca::testing::ControllerFixture {};
+class RobotTest : public dca::testing::ControllerFixture {
+ protected:
+  /// A started XR4000Ctrl with `params`, its Vel fed by the test source (Command).
+  dca::Controller& StartBaseDrive(std::vector<std::string> params) {
+    auto& xr = start("XR4000Ctrl", std::move(params), "/xr", {{"V", 3, "Vel"}});
+    vel_ = &source("V");
+    return xr;
+  }
+  /// Sends the base drive a command: forward at `vx`, turning at 0.1 rad/s.
+  void Command(double vx) { vel_->write((Vec3() << vx, 0, 0.1).finished()); }
+  /// The drive's Cmd after tick `k`.
+  Eigen::VectorXd CmdAt(const dca::Controller& xr, int k) {
+    timers.advance_to(k * kTick);
+    return latest(xr, "Cmd");
+  }
+
+ private:
+  dca::Output* vel_ = nullptr;
+};
 
 TEST_F(RobotTest, HardwareFacingPortsNameTheirRobotSignals) {
   const auto* m = dca::Registry::global().manifest("Puma560Ctrl");
@@ -34,47 +52,32 @@ TEST_F(RobotTest, RobotArmIsTheUrdfChainToTool0) {
 }
 
 TEST_F(RobotTest, StaleCommandsStopTheRobotWithinOnePeriod) {
-  auto& xr = make("XR4000Ctrl", {}, "/xr");  // period 10 ms, hold 10 ms
-  auto& v = feed("V", 3, "/xr", "Vel");
-  ep.activate("s");
-  ASSERT_EQ(xr.start({}), "");
-  v.write((Vec3() << 0.2, 0, 0.1).finished());
-  timers.advance_to(1 * kTick);
-  EXPECT_DOUBLE_EQ(latest(xr, "Cmd")[0], 0.2);
-  timers.advance_to(2 * kTick);  // no new command: zero
-  EXPECT_TRUE(latest(xr, "Cmd").isZero());
-  v.write((Vec3() << 0.2, 0, 0.1).finished());
-  timers.advance_to(3 * kTick);
-  EXPECT_DOUBLE_EQ(latest(xr, "Cmd")[0], 0.2);
+  auto& xr = StartBaseDrive({});  // period 10 ms, hold 10 ms
+  Command(0.2);
+  EXPECT_DOUBLE_EQ(CmdAt(xr, 1)[0], 0.2);
+  EXPECT_TRUE(CmdAt(xr, 2).isZero());  // no new command: zero
+  Command(0.2);
+  EXPECT_DOUBLE_EQ(CmdAt(xr, 3)[0], 0.2);
   xr.halt();
   EXPECT_TRUE(latest(xr, "Cmd").isZero());
 }
 
 TEST_F(RobotTest, ADriveHoldsItsCommandForHoldThenStopsTheRobot) {
-  auto& xr = make("XR4000Ctrl", {"0.01", "0.03"}, "/xr");  // period 10 ms, hold 30 ms
-  auto& v = feed("V", 3, "/xr", "Vel");
-  ep.activate("s");
-  ASSERT_EQ(xr.start({}), "");
-  v.write((Vec3() << 0.2, 0, 0.1).finished());
-  timers.advance_to(1 * kTick);
-  EXPECT_DOUBLE_EQ(latest(xr, "Cmd")[0], 0.2);
-  timers.advance_to(3 * kTick);  // 20 ms old: still held
-  EXPECT_DOUBLE_EQ(latest(xr, "Cmd")[0], 0.2);
-  timers.advance_to(4 * kTick);  // 30 ms old: zero
-  EXPECT_TRUE(latest(xr, "Cmd").isZero());
-  v.write((Vec3() << 0.3, 0, 0.1).finished());
-  timers.advance_to(6 * kTick);
-  EXPECT_DOUBLE_EQ(latest(xr, "Cmd")[0], 0.3);
+  auto& xr = StartBaseDrive({"0.01", "0.03"});  // period 10 ms, hold 30 ms
+  Command(0.2);
+  EXPECT_DOUBLE_EQ(CmdAt(xr, 1)[0], 0.2);
+  EXPECT_DOUBLE_EQ(CmdAt(xr, 3)[0], 0.2);  // 20 ms old: still held
+  EXPECT_TRUE(CmdAt(xr, 4).isZero());      // 30 ms old: zero
+  Command(0.3);
+  EXPECT_DOUBLE_EQ(CmdAt(xr, 6)[0], 0.3);
   xr.halt();
   EXPECT_TRUE(latest(xr, "Cmd").isZero());
 }
 
 TEST_F(RobotTest, ADriveFasterThanItsSourceHoldsTheCommandBetweenSamples) {
   // MotionControl at 1 ms fed by a 10 ms source: every tick commands the last sample, none is zero
-  auto& puma = make("Puma560Ctrl", {"0.001"}, "/puma");
-  auto& v = feed("V", 6, "/puma", "Vel");
-  ep.activate("s");
-  ASSERT_EQ(puma.start({}), "");
+  auto& puma = start("Puma560Ctrl", {"0.001"}, "/puma", {{"V", 6, "Vel"}});
+  auto& v = source("V");
   for (int k = 0; k < 30; ++k) {
     if (k % 10 == 0) v.write((Vec6() << 0.1, 0, 0, 0, 0, 0).finished());
     timers.advance_to((k + 1) * kMs);
@@ -85,10 +88,8 @@ TEST_F(RobotTest, ADriveFasterThanItsSourceHoldsTheCommandBetweenSamples) {
 }
 
 TEST_F(RobotTest, GripperCloseIsDoneWhenGraspingAndAbortsOnNothing) {
-  auto& g = make("GripperControl", {"close"}, "/g");
-  auto& s = feed("S", 1, "/g", "State");
-  ep.activate("s");
-  ASSERT_EQ(g.start({}), "");
+  auto& g = start("GripperControl", {"close"}, "/g", {{"S", 1, "State"}});
+  auto& s = source("S");
   EXPECT_DOUBLE_EQ(latest(g, "Cmd")[0], 1.0);
   s.write((Eigen::VectorXd(1) << 2).finished());
   timers.advance_to(1 * kTick);
