@@ -136,23 +136,25 @@ std::invalid_argument Controller::bad_param(const std::string& what) const {
   return std::invalid_argument(manifest_.type + " " + ctx_.name + ": " + what);
 }
 
-std::string Controller::configure() {
+bool Controller::fail(std::string* error, const std::string& what) const {
+  if (error) *error = manifest_.type + " " + ctx_.name + what;
+  return false;
+}
+
+bool Controller::configure(std::string* error) {
   if (state_ == State::Running) halt();
   try {
     Init();
   } catch (const std::exception& e) {
-    return manifest_.type + " " + ctx_.name + ": Init failed: " + e.what();
+    return fail(error, std::string(": Init failed: ") + e.what());
   }
   state_ = State::Ready;
-  return "";
+  return true;
 }
 
-std::string Controller::start(Bytes init_value) {
-  if (state_ == State::Running) return manifest_.type + " " + ctx_.name + " is already running";
-  if (state_ != State::Ready) {
-    auto err = configure();
-    if (!err.empty()) return err;
-  }
+bool Controller::start(Bytes init_value, std::string* error) {
+  if (state_ == State::Running) return fail(error, " is already running");
+  if (state_ != State::Ready && !configure(error)) return false;
   ticks_ = 0;
   state_ = State::Running;
   try {
@@ -162,9 +164,9 @@ std::string Controller::start(Bytes init_value) {
   } catch (const std::exception& e) {
     StopTimer();
     state_ = State::Ready;
-    return manifest_.type + " " + ctx_.name + ": Run failed: " + e.what();
+    return fail(error, std::string(": Run failed: ") + e.what());
   }
-  return "";
+  return true;
 }
 
 void Controller::halt() {

@@ -91,10 +91,11 @@ class Controller : public Component {
   /// The host argument.
   const std::string& host() const { return ctx_.host; }
   PortSet& ports() override { return ports_; }
-  /// Calls Init() (after halt() when running). "" or the reason Init failed.
-  std::string configure() override;
-  /// Starts a run: configure() first unless Ready, then Run(init). "" or the reason.
-  std::string start(Bytes init) override;
+  /// Calls Init() (after halt() when running). False, with the reason in *error, if Init threw.
+  bool configure(std::string* error) override;
+  /// Starts a run: configure() first unless Ready, then Run(init). False, with the reason in *error, if it is
+  /// already running or Init or Run threw.
+  bool start(Bytes init, std::string* error) override;
   /// Calls Stop() when Ready or Running (the timer and triggers stop first). Idempotent.
   void halt() override;
   /// The current state.
@@ -172,6 +173,7 @@ class Controller : public Component {
   void finish(ComponentEvent e);
   const ParamSpec* param(std::string_view name, std::size_t& index) const;
   double checked(std::string_view name, bool ok_when_zero) const;
+  bool fail(std::string* error, const std::string& what) const;
   std::string raw_param(std::string_view name, const ParamSpec*& spec) const;
 
   ControllerContext ctx_;

@@ -26,10 +26,11 @@ class Component {
   virtual const std::string& name() const = 0;
   /// Its ports.
   virtual PortSet& ports() = 0;
-  /// Acquires and resets. "" on success, else the reason.
-  virtual std::string configure() = 0;
-  /// Starts a run with an initial value (msgpack bytes; empty for nil). Configures first if needed. "" or a reason.
-  virtual std::string start(Bytes init) = 0;
+  /// Acquires and resets. False, with the reason in *error (when not null), if it cannot.
+  virtual bool configure(std::string* error) = 0;
+  /// Starts a run with an initial value (msgpack bytes; empty for nil), configuring first if needed. False,
+  /// with the reason in *error (when not null), if it cannot.
+  virtual bool start(Bytes init, std::string* error) = 0;
   /// Stops the run (leaves actuators safe); a later DONE/ABORTED of this run is ignored. Idempotent.
   virtual void halt() = 0;
   /// Where DONE/ABORTED go (set by the node).

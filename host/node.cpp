@@ -397,14 +397,15 @@ void Node::Impl::handle(const Channel::Ptr& ch, const Message& m) {
   const auto& t = m.type;
   const auto& p = m.payload;
   if (t == "init") {
-    const auto err = component->configure();
-    if (!err.empty()) return void(ch->reply_error(m, err));
+    std::string err;
+    if (!component->configure(&err)) return void(ch->reply_error(m, err));
     return void(ch->reply(m));
   }
   if (t == "run") {
     const std::string init = p.find("init") ? msgpack_from_value(p["init"]) : std::string();
-    const auto err = component->start({reinterpret_cast<const std::byte*>(init.data()), init.size()});
-    if (!err.empty()) return void(ch->reply_error(m, err));
+    std::string err;
+    if (!component->start({reinterpret_cast<const std::byte*>(init.data()), init.size()}, &err))
+      return void(ch->reply_error(m, err));
     return void(ch->reply(m));
   }
   if (t == "stop") {

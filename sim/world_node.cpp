@@ -27,8 +27,8 @@ class WorldComponent final : public Component {
   }
   const std::string& name() const override { return name_; }
   PortSet& ports() override { return ports_; }
-  std::string configure() override { return ""; }
-  std::string start(Bytes) override { return ""; }
+  bool configure(std::string*) override { return true; }
+  bool start(Bytes, std::string*) override { return true; }
   void halt() override {}
   std::vector<Output*> outputs;  // kSensorSignals order
   std::vector<Input*> inputs;    // kCommandSignals order

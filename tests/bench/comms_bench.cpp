@@ -88,7 +88,7 @@ bool run_until(asio::io_context& io, const std::function<bool()>& pred, std::chr
     ::_exit(1);
   }
   ep.activate("s");
-  gain->start({});
+  gain->start({}, nullptr);
   [[maybe_unused]] auto w2 = ::write(pipe_w, &port, sizeof port);  // ready
   ep.on_event([&](const dca::CommsEvent& e) {
     if (e.kind == dca::CommsEvent::Kind::Broken) io.stop();
@@ -247,7 +247,7 @@ void dca_inprocess_round(int n, Samples& out) {
   ep.connect({"/ping", "Out", "/echo", "In", "s", dca::Mode::Push, 16}, {}, [&](const std::string& e) { e1 = e; });
   ep.connect({"/echo", "Out", "/ping", "In", "s", dca::Mode::Push, 16}, {}, [&](const std::string& e) { e2 = e; });
   ep.activate("s");
-  gain->start({});
+  gain->start({}, nullptr);
   Eigen::VectorXd x = Eigen::VectorXd::Constant(kDoubles, 1.0);
   Clock::time_point t1;
   in.on_sample = [&] { t1 = Clock::now(); };

@@ -12,6 +12,7 @@
 namespace {
 
 using dca::testing::kMs;
+using dca::testing::started;
 using dca::testing::unpack_double;
 using dca::testing::unpack_string;
 
@@ -19,7 +20,7 @@ class BuiltinsTest : public dca::testing::ControllerFixture {};
 
 TEST_F(BuiltinsTest, TimerEndsDoneWithTimeoutAfterItsSeconds) {
   auto& t = make("Timer", {"0.03"}, "/timeout");
-  ASSERT_EQ(t.start({}), "");
+  ASSERT_EQ(started(t), "");
   timers.advance_to(29 * kMs);
   EXPECT_TRUE(events.empty());
   timers.advance_to(30 * kMs);
@@ -30,12 +31,12 @@ TEST_F(BuiltinsTest, TimerEndsDoneWithTimeoutAfterItsSeconds) {
 
 TEST_F(BuiltinsTest, TimerStopsCountingWhenStopped) {
   auto& t = make("Timer", {"0.01"}, "/timeout");
-  ASSERT_EQ(t.start({}), "");
+  ASSERT_EQ(started(t), "");
   timers.advance_to(5 * kMs);
   t.halt();
   timers.advance_to(50 * kMs);
   EXPECT_TRUE(events.empty());
-  ASSERT_EQ(t.start({}), "");  // each start counts afresh
+  ASSERT_EQ(started(t), "");  // each start counts afresh
   timers.advance_to(59 * kMs);
   EXPECT_TRUE(events.empty());
   timers.advance_to(60 * kMs);
@@ -44,7 +45,7 @@ TEST_F(BuiltinsTest, TimerStopsCountingWhenStopped) {
 
 TEST_F(BuiltinsTest, DeadlineEndsAborted) {
   auto& d = make("Deadline", {"0.5"}, "/deadline");
-  ASSERT_EQ(d.start({}), "");
+  ASSERT_EQ(started(d), "");
   timers.advance_to(500 * kMs);
   ASSERT_EQ(events.size(), 1u);
   EXPECT_EQ(events[0].second.kind, dca::ComponentEvent::Kind::Aborted);
@@ -59,7 +60,7 @@ TEST_F(BuiltinsTest, ConstantThroughGainAndSum) {
   connect("/c", "Out", "/s", "In1");
   connect("/g", "Out", "/s", "In2");
   ep.activate("s");
-  for (auto* x : {&s, &g, &c}) ASSERT_EQ(x->start({}), "");
+  for (auto* x : {&s, &g, &c}) ASSERT_EQ(started(*x), "");
   timers.advance_to(1 * kMs);
   const auto& out = *s.ports().find_output("Out");
   ASSERT_TRUE(out.has_latest());
@@ -76,9 +77,9 @@ TEST_F(BuiltinsTest, SumOfDifferentSizesAborts) {
   connect("/a", "Out", "/s", "In1");
   connect("/b", "Out", "/s", "In2");
   ep.activate("s");
-  ASSERT_EQ(s.start({}), "");
-  ASSERT_EQ(a.start({}), "");
-  ASSERT_EQ(b.start({}), "");
+  ASSERT_EQ(started(s), "");
+  ASSERT_EQ(started(a), "");
+  ASSERT_EQ(started(b), "");
   ASSERT_EQ(events.size(), 1u);
   EXPECT_EQ(events[0].first, "/s");
   EXPECT_EQ(events[0].second.reason, "Sum: In1 has 2 values but In2 has 1");
@@ -89,8 +90,8 @@ TEST_F(BuiltinsTest, ThresholdIsDoneWithTheValueWhenTheSignalCrosses) {
   auto& t = make("Threshold", {"3.5"}, "/t");
   connect("/n", "Count", "/t", "In");
   ep.activate("s");
-  ASSERT_EQ(t.start({}), "");
-  ASSERT_EQ(n.start({}), "");
+  ASSERT_EQ(started(t), "");
+  ASSERT_EQ(started(n), "");
   timers.advance_to(10 * kMs);
   ASSERT_EQ(events.size(), 1u);
   EXPECT_EQ(events[0].first, "/t");
@@ -102,15 +103,15 @@ TEST_F(BuiltinsTest, FallingThresholdIgnoresRisingCrossings) {
   auto& t = make("Threshold", {"2.5", "falling"}, "/t");
   connect("/n", "Count", "/t", "In");
   ep.activate("s");
-  ASSERT_EQ(t.start({}), "");
-  ASSERT_EQ(n.start({}), "");
+  ASSERT_EQ(started(t), "");
+  ASSERT_EQ(started(n), "");
   timers.advance_to(10 * kMs);
   EXPECT_TRUE(events.empty());
 }
 
 TEST_F(BuiltinsTest, CounterIsDoneAtItsLimit) {
   auto& n = make("Counter", {"0.002", "5"}, "/n");
-  ASSERT_EQ(n.start({}), "");
+  ASSERT_EQ(started(n), "");
   timers.advance_to(100 * kMs);
   ASSERT_EQ(events.size(), 1u);
   EXPECT_EQ(unpack_double(events[0].second.value), 5.0);
@@ -122,7 +123,7 @@ TEST_F(BuiltinsTest, CrashDiesBySegvAtItsTick) {
   ASSERT_GE(pid, 0);
   if (pid == 0) {
     auto& c = make("Crash", {"3"}, "/crash");
-    if (!c.start({}).empty()) ::_exit(2);
+    if (!started(c).empty()) ::_exit(2);
     timers.advance_to(2 * kMs);  // two ticks: alive
     timers.advance_to(3 * kMs);  // third: dies
     ::_exit(0);
@@ -138,7 +139,7 @@ TEST_F(BuiltinsTest, CrashCanAbort) {
   ASSERT_GE(pid, 0);
   if (pid == 0) {
     auto& c = make("Crash", {"1", "abort"}, "/crash");
-    if (!c.start({}).empty()) ::_exit(2);
+    if (!started(c).empty()) ::_exit(2);
     timers.advance_to(1 * kMs);
     ::_exit(0);
   }

@@ -13,7 +13,9 @@
 
 namespace {
 
+using dca::testing::configured;
 using dca::testing::kMs;
+using dca::testing::started;
 
 class ControllerTest : public dca::testing::ControllerFixture {
  protected:
@@ -67,16 +69,16 @@ TEST_F(ControllerTest, DoneAfterStopIsIgnored) {
   auto c = create("Timer", {"0.005"});
   std::vector<dca::ComponentEvent> events;
   c->on_event = [&](const dca::ComponentEvent& e) { events.push_back(e); };
-  ASSERT_EQ(c->configure(), "");
-  ASSERT_EQ(c->start({}), "");
+  ASSERT_EQ(configured(*c), "");
+  ASSERT_EQ(started(*c), "");
   EXPECT_EQ(c->state(), dca::Controller::State::Running);
   c->halt();
   timers.advance_to(10 * kMs);
   EXPECT_TRUE(events.empty());
   EXPECT_EQ(c->state(), dca::Controller::State::Stopped);
   // And it can run again after a new init.
-  ASSERT_EQ(c->configure(), "");
-  ASSERT_EQ(c->start({}), "");
+  ASSERT_EQ(configured(*c), "");
+  ASSERT_EQ(started(*c), "");
   timers.advance_to(20 * kMs);
   ASSERT_EQ(events.size(), 1u);
   EXPECT_EQ(c->state(), dca::Controller::State::Finished);
@@ -84,8 +86,8 @@ TEST_F(ControllerTest, DoneAfterStopIsIgnored) {
 
 TEST_F(ControllerTest, RunTwiceIsRefused) {
   auto c = create("Counter", {"0.001"});
-  ASSERT_EQ(c->start({}), "");  // run inits first when needed
-  EXPECT_EQ(c->start({}), "Counter /t is already running");
+  ASSERT_EQ(started(*c), "");  // run inits first when needed
+  EXPECT_EQ(started(*c), "Counter /t is already running");
 }
 
 // The lock-step test: three controllers at different rates tick in the right order, the same every run.
@@ -99,7 +101,7 @@ std::vector<std::string> lock_step_trace() {
   std::vector<std::unique_ptr<dca::Controller>> cs;
   for (auto [name, period] : {std::pair{"/fast", "0.001"}, {"/mid", "0.002"}, {"/slow", "0.003"}})
     cs.push_back(dca::Registry::global().create("Counter", {name, "local", {period}, &ts, nullptr}));
-  for (auto& c : cs) EXPECT_EQ(c->start({}), "");
+  for (auto& c : cs) EXPECT_EQ(started(*c), "");
   while (ts.now() < 6 * kMs) {
     const auto next = ts.next_deadline();
     EXPECT_TRUE(next);

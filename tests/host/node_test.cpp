@@ -30,15 +30,16 @@ class TestComponent final : public dca::Component {
   }
   const std::string& name() const override { return name_; }
   dca::PortSet& ports() override { return ports_; }
-  std::string configure() override {
+  bool configure(std::string* error) override {
     ++inits;
-    return fail_init ? "cannot init: told to fail" : "";
+    if (fail_init && error) *error = "cannot init: told to fail";
+    return !fail_init;
   }
-  std::string start(dca::Bytes init_value) override {
+  bool start(dca::Bytes init_value, std::string*) override {
     running = true;
     last_init = dca::value_from_msgpack(init_value);
     if (timers && period > 0) timer = timers->every(period, [this] { ++ticks; }, name_);
-    return "";
+    return true;
   }
   void halt() override {
     running = false;

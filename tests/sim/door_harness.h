@@ -203,8 +203,8 @@ class DoorHarness {
   }
   void run(const std::string& name) {
     Controller& c = *controllers_.at(name);
-    const std::string err = c.start({});
-    if (!err.empty()) throw std::runtime_error(name + ": " + err);
+    std::string err;
+    if (!c.start({}, &err)) throw std::runtime_error(name + ": " + err);
   }
   /// The process of `name` dies (SIGSEGV): its connections close, nothing of it runs or writes again.
   void crash(const std::string& name) {

@@ -24,8 +24,8 @@ class Driver final : public dca::Component {
   }
   const std::string& name() const override { return name_; }
   dca::PortSet& ports() override { return ports_; }
-  std::string configure() override { return ""; }
-  std::string start(dca::Bytes) override {
+  bool configure(std::string*) override { return true; }
+  bool start(dca::Bytes, std::string*) override {
     timer = timers.every(10'000'000, [this] {
       ++ticks;
       tick_times.push_back(timers.now());
@@ -33,7 +33,7 @@ class Driver final : public dca::Component {
       Eigen::Vector3d v(0.2, 0, 0);
       cmd->write(v);
     });
-    return "";
+    return true;
   }
   void halt() override { timers.cancel(timer); }
   dca::Input* q = nullptr;

@@ -29,6 +29,17 @@ inline double unpack_double(const std::string& packed) {
   return msgpack::unpack(packed.data(), packed.size()).get().as<double>();
 }
 
+/// start()'s error: "" when `c` started.
+inline std::string started(Component& c) {
+  std::string error;
+  return c.start({}, &error) ? "" : error;
+}
+/// configure()'s error: "" when `c` is configured.
+inline std::string configured(Component& c) {
+  std::string error;
+  return c.configure(&error) ? "" : error;
+}
+
 class ControllerFixture : public ::testing::Test {
  protected:
   /// A controller `type` named `name`, its ports on the endpoint, its events into `events`.
@@ -74,7 +85,7 @@ class ControllerFixture : public ::testing::Test {
     auto& c = make(type, std::move(params), name);
     for (const auto& f : feeds) feed(f.port, f.size, name, f.input);
     ep.activate("s");
-    EXPECT_EQ(c.start({}), "");
+    EXPECT_EQ(started(c), "");
     return c;
   }
   /// The test source's output `port` (made by feed()).

@@ -14,7 +14,9 @@ namespace {
 using dca::robot::Vec3;
 using dca::robot::Vec6;
 using dca::robot::Vec9;
+using dca::testing::configured;
 using dca::testing::kMs;
+using dca::testing::started;
 using dca::testing::unpack_double;
 constexpr dca::Nanos kTick = 10 * kMs;  // the controllers' default period
 constexpr double kPi = 3.14159265358979323846;
@@ -110,8 +112,8 @@ TEST_F(DoorTest, VisualServoingAbortsWhenTheHandleIsLost) {
   auto& vs = make("VisualServoing", {}, "/vs");
   auto& f = feed("F", 3, "/vs", "Feature");
   ep.activate("s");
-  ASSERT_EQ(vs.configure(), "");
-  ASSERT_EQ(vs.start({}), "");
+  ASSERT_EQ(configured(vs), "");
+  ASSERT_EQ(started(vs), "");
   f.write((Vec3() << 330, 240, 1).finished());
   timers.advance_to(1 * kTick);
   EXPECT_GT(latest(vs, "Vel")[6], 0);
@@ -129,7 +131,7 @@ TEST_F(DoorTest, DistanceThresholdIsDoneAtTheDistance) {
   auto& d = make("DistanceThreshold", {"0.7"}, "/d");
   auto& s = feed(dca::scalar_port("S"), "/d", "Distance");  // Distance is a scalar
   ep.activate("s");
-  ASSERT_EQ(d.start({}), "");
+  ASSERT_EQ(started(d), "");
   for (int i = 0; i < 10; ++i) {
     s.write(1.0 - 0.05 * i);
     timers.advance_to((i + 1) * kTick);

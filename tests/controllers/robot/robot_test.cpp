@@ -11,6 +11,7 @@ namespace {
 using dca::robot::Vec3;
 using dca::robot::Vec6;
 using dca::testing::kMs;
+using dca::testing::started;
 using dca::testing::unpack_string;
 constexpr dca::Nanos kTick = 10 * kMs;  // the controllers' default period
 
@@ -101,7 +102,7 @@ TEST_F(RobotTest, GripperCloseIsDoneWhenGraspingAndAbortsOnNothing) {
 
   auto& g2 = make("GripperControl", {"close"}, "/g2");
   auto& s2 = feed("S2", 1, "/g2", "State");
-  ASSERT_EQ(g2.start({}), "");
+  ASSERT_EQ(started(g2), "");
   s2.write((Eigen::VectorXd(1) << 1).finished());
   timers.advance_to(3 * kTick);
   ASSERT_EQ(events.size(), 2u);
