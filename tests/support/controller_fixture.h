@@ -13,7 +13,8 @@
 #include <boost/asio/io_context.hpp>
 
 #include "controllers/registry.h"
-#include "host/comms.h"
+#include "host/endpoint.h"
+#include "host/port.h"
 #include "host/timers.h"
 
 namespace dca::testing {
