@@ -72,7 +72,7 @@ class DoorHarness {
     for (const auto& s : sim::kCommandSignals) world_ports_.add_input(vector_port(s.name, s.size, s.units), 16);
 
     for (const auto& i : Instances()) add(i.type, i.name, i.params);
-    for (const auto& l : Links()) connect(l.from, l.out, l.to, l.in, l.set);
+    for (const auto& l : Connections()) connect(l.from, l.out, l.to, l.in, l.set);
 
     steps_ = {
         {"VisualServoing", {"visualserv", "camera", "distdetect/threshold", "distdetect/laser"},
@@ -246,38 +246,38 @@ class DoorHarness {
   static std::vector<Instance> Instances() {
     return {
       // MotionControl(host1 = manipulation, host2 = platform)
-      {"XR4000Ctrl", "motionctrl/xr4000"},
-      {"Puma560Ctrl", "motionctrl/puma"},
-      {"RedundancyResolution", "motionctrl/redundancy"},
+      {"XR4000Ctrl", "motionctrl/xr4000", {}},
+      {"Puma560Ctrl", "motionctrl/puma", {}},
+      {"RedundancyResolution", "motionctrl/redundancy", {}},
       // DistDetector, HitDetector
-      {"LaserSensor", "distdetect/laser"},
-      {"DistanceThreshold", "distdetect/threshold"},
-      {"ForceTorque", "hit/force"},
-      {"ForceThreshold", "hit/threshold"},
+      {"LaserSensor", "distdetect/laser", {}},
+      {"DistanceThreshold", "distdetect/threshold", {}},
+      {"ForceTorque", "hit/force", {}},
+      {"ForceThreshold", "hit/threshold", {}},
       // DoorOpen(host3, host2)
-      {"ForceTorque", "dooropen/force"},
-      {"CompliantCtrl", "dooropen/compliant"},
-      {"XR4000Odometry", "dooropen/xr4000"},
-      {"Puma560Joints", "dooropen/puma"},
-      {"ModelBasedCtrl", "dooropen/model"},
-      {"ConfigCtrl", "dooropen/config"},
-      {"AddVelocity", "dooropen/add"},
+      {"ForceTorque", "dooropen/force", {}},
+      {"CompliantCtrl", "dooropen/compliant", {}},
+      {"XR4000Odometry", "dooropen/xr4000", {}},
+      {"Puma560Joints", "dooropen/puma", {}},
+      {"ModelBasedCtrl", "dooropen/model", {}},
+      {"ConfigCtrl", "dooropen/config", {}},
+      {"AddVelocity", "dooropen/add", {}},
       // DoorOpenSystem
-      {"HandleCamera", "camera"},
-      {"VisualServoing", "visualserv"},
-      {"LinearTrajectory", "approach"},
-      {"ForceTorque", "pressft"},
-      {"Puma560Joints", "pressjoints"},
-      {"PressHandle", "presshandle"},
+      {"HandleCamera", "camera", {}},
+      {"VisualServoing", "visualserv", {}},
+      {"LinearTrajectory", "approach", {}},
+      {"ForceTorque", "pressft", {}},
+      {"Puma560Joints", "pressjoints", {}},
+      {"PressHandle", "presshandle", {}},
       {"GripperControl", "opengrip", {"open"}},
       {"GripperControl", "closegrip", {"close"}},
     };
   }
   /// A connection of door_open.dca: from.out -> to.in, in the connection set `set`.
-  struct Link {
+  struct Connection {
     const char *from, *out, *to, *in, *set;
   };
-  static std::vector<Link> Links() {
+  static std::vector<Connection> Connections() {
     return {
       // MotionControl(host1 = manipulation, host2 = platform)
       {"motionctrl/redundancy", "BaseVel", "motionctrl/xr4000", "Vel", "motionctrl/redundancy:lbl1"},
