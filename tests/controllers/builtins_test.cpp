@@ -11,11 +11,6 @@
 
 namespace {
 
-using dca::testing::kMs;
-using dca::testing::started;
-using dca::testing::unpack_double;
-using dca::testing::unpack_string;
-
 class BuiltinsTest : public dca::testing::ControllerFixture {};
 
 TEST_F(BuiltinsTest, TimerEndsDoneWithTimeoutAfterItsSeconds) {

@@ -13,16 +13,37 @@
 
 namespace {
 
-using dca::testing::configured;
-using dca::testing::kMs;
-using dca::testing::started;
-
 class ControllerTest : public dca::testing::ControllerFixture {
  protected:
   /// An instance outside the fixture's endpoint (its events not collected).
   std::unique_ptr<dca::Controller> create(const std::string& type, std::vector<std::string> params,
                                           const std::string& name = "/t") {
     return dca::Registry::global().create(type, {name, "local", std::move(params), &timers, nullptr});
+  }
+
+  /// The issue's lock-step test: three controllers at different rates tick in the right order, the same every run.
+  static std::vector<std::string> lock_step_trace() {
+    boost::asio::io_context io;
+    dca::TimerServer ts(io, dca::ClockKind::Simulated);
+    std::vector<std::string> trace;
+    ts.on_fire = [&](const std::string& name, dca::Nanos deadline) {
+      trace.push_back(name + "@" + std::to_string(deadline / kMs));
+    };
+    std::vector<std::unique_ptr<dca::Controller>> cs;
+    for (auto [name, period] : {std::pair{"/fast", "0.001"}, {"/mid", "0.002"}, {"/slow", "0.003"}})
+      cs.push_back(dca::Registry::global().create("Counter", {name, "local", {period}, &ts, nullptr}));
+    for (auto& c : cs) EXPECT_EQ(started(*c), "");
+    while (ts.now() < 6 * kMs) {
+      const auto next = ts.next_deadline();
+      EXPECT_TRUE(next);
+      // Every controller due at this tick finishes its MainCalc inside advance_to: only then does time move on.
+      const auto before = trace.size();
+      ts.advance_to(*next);
+      EXPECT_GT(trace.size(), before);
+      EXPECT_EQ(ts.now(), *next);
+    }
+    for (auto& c : cs) c->halt();
+    return trace;
   }
 };
 
@@ -88,31 +109,6 @@ TEST_F(ControllerTest, RunTwiceIsRefused) {
   auto c = create("Counter", {"0.001"});
   ASSERT_EQ(started(*c), "");  // run inits first when needed
   EXPECT_EQ(started(*c), "Counter /t is already running");
-}
-
-// The issue's lock-step test: three controllers at different rates tick in the right order, the same every run.
-std::vector<std::string> lock_step_trace() {
-  boost::asio::io_context io;
-  dca::TimerServer ts(io, dca::ClockKind::Simulated);
-  std::vector<std::string> trace;
-  ts.on_fire = [&](const std::string& name, dca::Nanos deadline) {
-    trace.push_back(name + "@" + std::to_string(deadline / kMs));
-  };
-  std::vector<std::unique_ptr<dca::Controller>> cs;
-  for (auto [name, period] : {std::pair{"/fast", "0.001"}, {"/mid", "0.002"}, {"/slow", "0.003"}})
-    cs.push_back(dca::Registry::global().create("Counter", {name, "local", {period}, &ts, nullptr}));
-  for (auto& c : cs) EXPECT_EQ(started(*c), "");
-  while (ts.now() < 6 * kMs) {
-    const auto next = ts.next_deadline();
-    EXPECT_TRUE(next);
-    // Every controller due at this tick finishes its MainCalc inside advance_to: only then does time move on.
-    const auto before = trace.size();
-    ts.advance_to(*next);
-    EXPECT_GT(trace.size(), before);
-    EXPECT_EQ(ts.now(), *next);
-  }
-  for (auto& c : cs) c->halt();
-  return trace;
 }
 
 TEST_F(ControllerTest, LockStepClockTicksThreeControllersInOrderEveryRun) {

@@ -19,29 +19,30 @@
 
 namespace dca::testing {
 
-constexpr Nanos kMs = 1'000'000;
-
-/// A packed msgpack string's text.
-inline std::string unpack_string(const std::string& packed) {
-  return msgpack::unpack(packed.data(), packed.size()).get().as<std::string>();
-}
-/// A packed msgpack number.
-inline double unpack_double(const std::string& packed) {
-  return msgpack::unpack(packed.data(), packed.size()).get().as<double>();
-}
-
-/// start()'s error: "" when `c` started.
-inline std::string started(Component& c) {
-  std::string error;
-  return c.start({}, &error) ? "" : error;
-}
-/// configure()'s error: "" when `c` is configured.
-inline std::string configured(Component& c) {
-  std::string error;
-  return c.configure(&error) ? "" : error;
-}
-
 class ControllerFixture : public ::testing::Test {
+ public:
+  static constexpr Nanos kMs = 1'000'000;
+  static constexpr Nanos kTick = 10 * kMs;  ///< the controllers' default period
+
+  /// start()'s error: "" when `c` started.
+  static std::string started(Component& c) {
+    std::string error;
+    return c.start({}, &error) ? "" : error;
+  }
+  /// configure()'s error: "" when `c` is configured.
+  static std::string configured(Component& c) {
+    std::string error;
+    return c.configure(&error) ? "" : error;
+  }
+  /// A packed msgpack string's text.
+  static std::string unpack_string(const std::string& packed) {
+    return msgpack::unpack(packed.data(), packed.size()).get().as<std::string>();
+  }
+  /// A packed msgpack number.
+  static double unpack_double(const std::string& packed) {
+    return msgpack::unpack(packed.data(), packed.size()).get().as<double>();
+  }
+
  protected:
   /// A controller `type` named `name`, its ports on the endpoint, its events into `events`.
   Controller& make(const std::string& type, std::vector<std::string> params, const std::string& name) {

@@ -14,11 +14,6 @@ namespace {
 using dca::robot::Vec3;
 using dca::robot::Vec6;
 using dca::robot::Vec9;
-using dca::testing::configured;
-using dca::testing::kMs;
-using dca::testing::started;
-using dca::testing::unpack_double;
-constexpr dca::Nanos kTick = 10 * kMs;  // the controllers' default period
 constexpr double kPi = 3.14159265358979323846;
 
 class DoorTest : public dca::testing::ControllerFixture {};
@@ -319,7 +314,5 @@ TEST_F(DoorTest, ModelBasedCtrlFollowsTheCircleAndStopsAtTheTargetAngle) {
   EXPECT_NEAR(angle * 180 / kPi, 75, 2.0);
   EXPECT_LT(max_radial_error, 0.05);  // once fitted, it pushes along the circle
 }
-
-
 
 }  // namespace

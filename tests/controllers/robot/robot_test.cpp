@@ -10,10 +10,6 @@ namespace {
 
 using dca::robot::Vec3;
 using dca::robot::Vec6;
-using dca::testing::kMs;
-using dca::testing::started;
-using dca::testing::unpack_string;
-constexpr dca::Nanos kTick = 10 * kMs;  // the controllers' default period
 
 class RobotTest : public dca::testing::ControllerFixture {
  protected:
