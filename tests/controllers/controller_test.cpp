@@ -87,9 +87,7 @@ TEST_F(ControllerTest, BadParametersNameTheControllerAndTheParameter) {
 }
 
 TEST_F(ControllerTest, DoneAfterStopIsIgnored) {
-  auto c = create("Timer", {"0.005"});
-  std::vector<dca::ComponentEvent> events;
-  c->on_event = [&](const dca::ComponentEvent& e) { events.push_back(e); };
+  auto* c = &make("Timer", {"0.005"}, "/t");  // its events go to `events`
   ASSERT_EQ(configured(*c), "");
   ASSERT_EQ(started(*c), "");
   EXPECT_EQ(c->state(), dca::Controller::State::Running);
