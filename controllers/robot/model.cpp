@@ -1,6 +1,5 @@
 #include "controllers/robot/model.h"
 
-#include <cstdlib>
 #include <filesystem>
 #include <stdexcept>
 
@@ -8,18 +7,7 @@
 
 namespace dca::robot {
 
-std::string urdf_path() {
-  namespace fs = std::filesystem;
-  if (const char* env = std::getenv("DCA_MODELS_DIR"); env != nullptr && *env != '\0')
-    return (fs::path(env) / "mobile_manipulator.urdf").string();
-  // <lua dir> is <prefix>/share/dca/lua (installed) or <source>/lua: the models sit beside it.
-  const fs::path lua = dca::lua_dir();
-  std::error_code ec;
-  for (const fs::path& p : {lua.parent_path() / "models" / "mobile_manipulator.urdf",
-                            lua.parent_path() / "sim" / "models" / "mobile_manipulator.urdf"})
-    if (fs::exists(p, ec)) return p.string();
-  return (lua.parent_path() / "sim" / "models" / "mobile_manipulator.urdf").string();
-}
+std::string urdf_path() { return (std::filesystem::path(models_dir()) / "mobile_manipulator.urdf").string(); }
 
 math::Chain arm() {
   std::string error;

@@ -7,8 +7,7 @@
 
 namespace dca::robot {
 
-/// The robot's URDF: mobile_manipulator.urdf in the models directory ($DCA_MODELS_DIR, else the installed or
-/// source tree's models).
+/// The robot's URDF: mobile_manipulator.urdf in the models directory (dca::models_dir(), host/paths.h).
 std::string urdf_path();
 /// The arm chain base_link -> tool0 of the robot's URDF. Throws std::invalid_argument naming the file (a
 /// controller's constructor lets it through: see controllers/controller.h).
