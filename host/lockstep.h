@@ -33,7 +33,7 @@
 #include <string>
 #include <vector>
 
-#include "host/loop.h"  // first: it includes Asio (with boost/asio/steady_timer.hpp)
+#include "host/loop.h"  // before any other Asio header (it includes steady_timer)
 #include "host/timers.h"
 #include "host/wire.h"
 
