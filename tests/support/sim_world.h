@@ -13,6 +13,7 @@
 #include "host/node.h"
 #include "sim/world.h"
 #include "sim/world_node.h"
+#include "tests/support/channel_pair.h"
 
 namespace dca::test {
 
@@ -54,17 +55,9 @@ class SimWorld {
 
   /// A channel to `address`, or nullptr with *error.
   Channel::Ptr open(const std::string& address, std::string* error) {
-    Channel::Ptr ch;
-    std::optional<std::string> done;
     const auto to = Address::parse(address);
     if (!to) return *error = "bad address '" + address + "'", nullptr;
-    Channel::connect(loop.io(), *to, channel_options_, [&](Channel::Ptr c, const std::string& e) {
-      ch = std::move(c);
-      done = e;
-    });
-    loop.run_until([&] { return done.has_value(); }, std::chrono::seconds(10));
-    *error = done.value_or("no connection in 10 s");
-    return ch;
+    return connect_channel(loop, *to, channel_options_, error);
   }
 
   /// Sends a request on `ch` and runs the loop until its response (at most `timeout` and 5 s more).
