@@ -66,18 +66,6 @@ PortSpec value_port(std::string name, std::string units = "");
 /// Why two ports cannot be connected ("" when they can): type or size differ.
 std::string compatibility_error(const PortSpec& out, const PortSpec& in);
 
-/// Push: every sample goes into the input's queue. Pull: the reader asks for the latest sample.
-enum class Mode : std::uint8_t { Push, Pull };
-/// "push" or "pull".
-std::string_view to_string(Mode m);
-/// The Mode named `s`, or nothing.
-std::optional<Mode> mode_from(std::string_view s);
-
-/// How a connection travels.
-enum class Transport : std::uint8_t { InProcess, Unix, Tcp };
-/// "inprocess", "unix" or "tcp".
-std::string_view to_string(Transport t);
-
 /// A port's counters (reported by the node's `ports {}` reply).
 struct PortStats {
   std::uint64_t samples = 0;   ///< samples written (output) or received (input)
@@ -270,6 +258,18 @@ class PortSet {
 };
 
 // ------------------------------------------------------------------------------------------ connections ---
+
+/// Push: every sample goes into the input's queue. Pull: the reader asks for the latest sample.
+enum class Mode : std::uint8_t { Push, Pull };
+/// "push" or "pull".
+std::string_view to_string(Mode m);
+/// The Mode named `s`, or nothing.
+std::optional<Mode> mode_from(std::string_view s);
+
+/// How a connection travels.
+enum class Transport : std::uint8_t { InProcess, Unix, Tcp };
+/// "inprocess", "unix" or "tcp".
+std::string_view to_string(Transport t);
 
 /// Where a destination component lives (from the NameServer's endpoints record).
 struct Location {
