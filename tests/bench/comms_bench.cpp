@@ -5,8 +5,7 @@
 //       and _cpu0-1, alternated A B A B;
 //   - samples/s through one Unix-socket push connection (beside raw Asio writes of the same frames).
 // Usage: bench_comms [ROUND_TRIPS_PER_ROUND]   (default 2000; 2 rounds of each)
-#pragma GCC diagnostic ignored "-Wnull-dereference"
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#include "host/loop.h"  // first: Asio with GCC 12's false positives silenced
 
 #include <poll.h>
 #include <sched.h>
@@ -22,9 +21,11 @@
 #include <string>
 #include <vector>
 
-#include <utility>  // before asio.hpp: its awaitable.hpp uses std::exchange
-
-#include <boost/asio.hpp>
+#include <boost/asio/ip/tcp.hpp>
+#include <boost/asio/local/stream_protocol.hpp>
+#include <boost/asio/posix/stream_descriptor.hpp>
+#include <boost/asio/read.hpp>
+#include <boost/asio/write.hpp>
 
 #include "controllers/registry.h"
 #include "host/endpoint.h"
