@@ -1,3 +1,7 @@
+// The Endpoint's pieces, in reading order: Connection (a link's sending side, any transport), Endpoint::Impl
+// (components, sets, links, sessions, acceptors), DataSocket (data frames on a FramedSocket), the three kinds
+// of connection end (LocalLink: in-process; StreamLink: the source of a socket connection; Session: its
+// destination), then the Endpoint's public operations.
 #include "host/endpoint.h"
 
 #include <netinet/in.h>
@@ -444,6 +448,8 @@ class Session final : public DataSocket, public PullSource, public InputFeeder {
 using endpoint_detail::LocalLink;
 using endpoint_detail::Session;
 using endpoint_detail::StreamLink;
+
+// ------------------------------------------------------------------------------------------------ Endpoint ---
 
 void Endpoint::Impl::start_session(Socket s) {
   auto session = std::make_shared<Session>(*this, std::move(s));
