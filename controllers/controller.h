@@ -10,6 +10,13 @@
 //     parameters (`number("gain")`, `positive("period")`); it throws std::invalid_argument for a bad parameter
 //     (the one place where an exception crosses the controller API: Registry::create passes it on);
 // and its .cpp has DCA_REGISTER_CONTROLLER(T) (controllers/registry.h).
+// For example (controllers/door/linear_trajectory.h, .cpp):
+//   class LinearTrajectory final : public PeriodicController {
+//     DCA_CONTROLLER(LinearTrajectory)
+//     void MainCalc() override;
+//     Output& vel_;              // vel_(actuator("Vel")) in the constructor: written zero by Stop()
+//     double speed_, distance_;  // speed_(positive("speed")), ...
+//   };
 //
 // Life cycle (driven by the node on its supervisor's orders, through the public operations configure(),
 // start() and halt(), which call the hooks below; a hook never has to be told apart from them by case):

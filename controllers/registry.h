@@ -4,7 +4,7 @@
 //
 // Register a type in its .cpp with DCA_REGISTER_CONTROLLER(T): T needs `static Manifest Describe()` and a
 // constructor `T(const ControllerContext&)`. The controllers library is linked whole-archive, so a registration
-// in any controllers/*.cpp is never dropped by the linker.
+// in any .cpp below controllers/ is never dropped by the linker.
 #include <functional>
 #include <memory>
 #include <string>
