@@ -114,6 +114,30 @@ Decoded fail(std::string reason) {
   return d;
 }
 
+// Unpacks exactly one msgpack object from `bytes` into `oh`. Limits bound the work hostile input can cause: no
+// container can claim more elements than it has bytes, nesting stops at kMaxDepth. False with *error naming
+// `what` ("message body", "value") when `bytes` is empty, truncated, malformed or has trailing bytes.
+bool unpack_one(std::string_view bytes, const std::string& what, msgpack::object_handle& oh, std::string* error) {
+  const auto failed = [&](std::string why) {
+    *error = std::move(why);
+    return false;
+  };
+  if (bytes.empty()) return failed("empty " + what);
+  std::size_t off = 0;
+  const msgpack::unpack_limit limit(bytes.size(), bytes.size() / 2 + 1, bytes.size(), bytes.size(), 0,
+                                    static_cast<std::size_t>(kMaxDepth) + 1);
+  try {
+    oh = msgpack::unpack(bytes.data(), bytes.size(), off, reference_everything, nullptr, limit);
+  } catch (const msgpack::insufficient_bytes&) {
+    return failed("truncated " + what + " (" + std::to_string(bytes.size()) + " bytes)");
+  } catch (const std::exception& e) {
+    const std::string kind = what.substr(what.rfind(' ') + 1);  // "body", "value"
+    return failed("malformed msgpack " + kind + ": " + e.what());
+  }
+  if (off != bytes.size()) return failed(std::to_string(bytes.size() - off) + " trailing bytes after the " + what);
+  return true;
+}
+
 void render(const Value& v, std::string& out, int depth) {
   if (depth > kMaxDepth) {
     out += "...";
@@ -284,21 +308,9 @@ void encode_value(const Value& v, std::string& out) {
 }
 
 Decoded decode_body(std::string_view body) {
-  if (body.empty()) return fail("empty message body");
   msgpack::object_handle oh;
-  std::size_t off = 0;
-  // Limits bound the work a hostile body can cause: no container can claim more elements than it has bytes.
-  const msgpack::unpack_limit limit(body.size(), body.size() / 2 + 1, body.size(), body.size(), 0,
-                                    static_cast<std::size_t>(kMaxDepth) + 1);
-  try {
-    oh = msgpack::unpack(body.data(), body.size(), off, reference_everything, nullptr, limit);
-  } catch (const msgpack::insufficient_bytes&) {
-    return fail("truncated message body (" + std::to_string(body.size()) + " bytes)");
-  } catch (const std::exception& e) {
-    return fail(std::string("malformed msgpack body: ") + e.what());
-  }
-  if (off != body.size())
-    return fail(std::to_string(body.size() - off) + " trailing bytes after the message body");
+  std::string why;
+  if (!unpack_one(body, "message body", oh, &why)) return fail(why);
   const msgpack::object& o = oh.get();
   if (o.type != msgpack::type::ARRAY || o.via.array.size != 3)
     return fail("message body is not an array [type, id, payload]");
@@ -318,26 +330,11 @@ Decoded decode_body(std::string_view body) {
 }
 
 bool decode_value(std::string_view bytes, Value& out, std::string* error) {
-  const auto failed = [&](std::string why) {
-    if (error != nullptr) *error = std::move(why);
-    return false;
-  };
-  if (bytes.empty()) return failed("empty value");
   msgpack::object_handle oh;
-  std::size_t off = 0;
-  const msgpack::unpack_limit limit(bytes.size(), bytes.size() / 2 + 1, bytes.size(), bytes.size(), 0,
-                                    static_cast<std::size_t>(kMaxDepth) + 1);
-  try {
-    oh = msgpack::unpack(bytes.data(), bytes.size(), off, reference_everything, nullptr, limit);
-  } catch (const msgpack::insufficient_bytes&) {
-    return failed("truncated value (" + std::to_string(bytes.size()) + " bytes)");
-  } catch (const std::exception& e) {
-    return failed(std::string("malformed msgpack value: ") + e.what());
-  }
-  if (off != bytes.size()) return failed(std::to_string(bytes.size() - off) + " trailing bytes after the value");
   std::string why;
-  if (!convert(oh.get(), out, 0, &why)) return failed(why);
-  return true;
+  if (unpack_one(bytes, "value", oh, &why) && convert(oh.get(), out, 0, &why)) return true;
+  if (error != nullptr) *error = std::move(why);
+  return false;
 }
 
 Decoded decode_frame(std::string_view bytes, std::size_t max_frame) {
