@@ -6,10 +6,7 @@
 # exits 77, which CTest reports as skipped (SKIP_RETURN_CODE), never as passed.
 #   tests/netns/config_partition.sh [DCA_EXE]
 set -uo pipefail
-tag="dcc$$"
-names=(A B C)
-subnet=10.214.0
-. "$(dirname "${BASH_SOURCE[0]}")/lib.sh"  # sets dca ($1 or $DCA_EXE), src, ns, addrs, work, key
+. "$(dirname "${BASH_SOURCE[0]}")/lib.sh" "${1:-}" "dcc$$" 10.214.0 A B C
 
 netns_up
 daemons_up 7412 --state-dir "$work/state{host}" --sync-ms 200

@@ -1,9 +1,12 @@
 # Shared by the tests/netns/*.sh tests: three network namespaces on a bridge, one dca daemon in each.
-# Source it after setting: tag (unique, short), names (three host names), subnet (e.g. 10.213.0: the bridge
-# is .1, the hosts .2 .3 .4). It sets dca (the script's $1, else $DCA_EXE), src (the source tree), ns, addrs,
-# br, work, key, pids, installs the cleanup trap and defines skip/fail. Needs root: without it, skip (exit 77,
-# CTest's skipped).
+#   . lib.sh DCA_EXE TAG SUBNET NAME NAME NAME
+# DCA_EXE may be empty ($DCA_EXE, else dca on the PATH); TAG is unique and short; SUBNET is e.g. 10.213.0 (the
+# bridge is .1, the hosts .2 .3 .4). It sets dca, src (the source tree), names, ns, addrs, br, work, key, pids,
+# installs the cleanup trap and defines skip/fail. Needs root: without it, skip (exit 77, CTest's skipped).
 dca="${1:-${DCA_EXE:-dca}}"
+tag=$2
+subnet=$3
+names=("$4" "$5" "$6")
 src="${DCA_SOURCE_DIR:-$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)}"
 ns=("${tag}a" "${tag}b" "${tag}c")
 addrs=("$subnet.2" "$subnet.3" "$subnet.4")

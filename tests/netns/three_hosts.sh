@@ -7,10 +7,7 @@
 # (SKIP_RETURN_CODE), never as passed.
 #   tests/netns/three_hosts.sh [DCA_EXE]
 set -uo pipefail
-tag="dca$$"
-names=(vision platform manip)
-subnet=10.213.0
-. "$(dirname "${BASH_SOURCE[0]}")/lib.sh"  # sets dca ($1 or $DCA_EXE), src, ns, addrs, work, key
+. "$(dirname "${BASH_SOURCE[0]}")/lib.sh" "${1:-}" "dca$$" 10.213.0 vision platform manip
 
 netns_up
 hosts="$work/hosts"
