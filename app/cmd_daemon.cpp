@@ -5,6 +5,7 @@
 #include <cstdlib>
 #include <cstdio>
 #include <cstring>
+#include <set>
 #include <string>
 
 #include "app/subcommand.h"
@@ -42,98 +43,98 @@ constexpr const char* kUsage =
     "When ready it prints one line on stdout: `dca daemon: host NAME listening on ADDR`.\n"
     "SIGTERM or SIGINT stops it: every child's process group is killed and reaped first.";
 
-int cmd_daemon(std::span<char* const> args) {
+// The command line, parsed: the daemon's options and what only the command resolves.
+struct Args {
   dca::DaemonOptions o;
-  char hostname[256] = {};
-  if (::gethostname(hostname, sizeof hostname - 1) == 0 && hostname[0] != '\0') o.host = hostname;
   std::string key_file;
   std::string state_dir;
   bool state_dir_given = false;
+};
+
+// Applies option `a` (one that takes a value) with value `v`: false, after printing why, when `v` is wrong.
+bool apply_option(const std::string& a, const char* v, Args& p) {
+  std::string error;
+  if (a == "--host") {
+    p.o.host = v;
+  } else if (a == "--listen" || a == "--peer") {
+    auto addr = dca::Address::parse(v, &error);
+    if (!addr) {
+      std::fprintf(stderr, "dca daemon: %s %s\n", a.c_str(), error.c_str());
+      return false;
+    }
+    if (a == "--listen") p.o.listen = *addr; else p.o.peers.push_back(*addr);
+  } else if (a == "--key") {
+    p.key_file = v;
+  } else if (a == "--allow") {
+    if (v[0] != '/') {
+      std::fprintf(stderr, "dca daemon: --allow needs an absolute path, not '%s'\n", v);
+      return false;
+    }
+    p.o.allow.allow(v);
+  } else if (a == "--clock") {
+    if (std::string(v) != "wall" && std::string(v) != "sim") {
+      std::fprintf(stderr, "dca daemon: --clock must be wall or sim, not '%s'\n", v);
+      return false;
+    }
+    p.o.sim_clock = std::string(v) == "sim";
+  } else if (a == "--state-dir") {
+    p.state_dir = v;
+    p.state_dir_given = true;
+  } else if (a == "--sync-ms") {
+    if (std::atol(v) <= 0) {
+      std::fprintf(stderr, "dca daemon: --sync-ms needs a positive number of milliseconds, not '%s'\n", v);
+      return false;
+    }
+    p.o.config_sync_interval = std::chrono::milliseconds(std::atol(v));
+  } else {  // --grace
+    p.o.stop_grace = std::chrono::milliseconds(std::atol(v));
+  }
+  return true;
+}
+
+// Parses argv into `p` (the host defaults to the machine's name): 0, or 2 after printing the usage error.
+int parse(std::span<char* const> args, Args& p) {
+  char hostname[256] = {};
+  if (::gethostname(hostname, sizeof hostname - 1) == 0 && hostname[0] != '\0') p.o.host = hostname;
+  static const std::set<std::string> kOptions = {"--host",  "--listen",    "--peer",    "--key",  "--allow",
+                                                  "--clock", "--state-dir", "--sync-ms", "--grace"};
   for (std::size_t i = 0; i < args.size(); ++i) {
     const std::string a = args[i];
-    const auto value = [&]() -> const char* {
-      if (i + 1 >= args.size()) {
-        std::fprintf(stderr, "dca daemon: %s needs a value\n%s\n", a.c_str(), kUsage);
-        return nullptr;
-      }
-      return args[++i];
-    };
-    std::string error;
-    if (a == "--host") {
-      const char* v = value();
-      if (v == nullptr) return 2;
-      o.host = v;
-    } else if (a == "--listen" || a == "--peer") {
-      const char* v = value();
-      if (v == nullptr) return 2;
-      auto addr = dca::Address::parse(v, &error);
-      if (!addr) {
-        std::fprintf(stderr, "dca daemon: %s %s\n", a.c_str(), error.c_str());
-        return 2;
-      }
-      if (a == "--listen") {
-        o.listen = *addr;
-      } else {
-        o.peers.push_back(*addr);
-      }
-    } else if (a == "--key") {
-      const char* v = value();
-      if (v == nullptr) return 2;
-      key_file = v;
-    } else if (a == "--allow") {
-      const char* v = value();
-      if (v == nullptr) return 2;
-      if (v[0] != '/') {
-        std::fprintf(stderr, "dca daemon: --allow needs an absolute path, not '%s'\n", v);
-        return 2;
-      }
-      o.allow.allow(v);
-    } else if (a == "--clock") {
-      const char* v = value();
-      if (v == nullptr) return 2;
-      if (std::string(v) != "wall" && std::string(v) != "sim") {
-        std::fprintf(stderr, "dca daemon: --clock must be wall or sim, not '%s'\n", v);
-        return 2;
-      }
-      o.sim_clock = std::string(v) == "sim";
-    } else if (a == "--state-dir") {
-      const char* v = value();
-      if (v == nullptr) return 2;
-      state_dir = v;
-      state_dir_given = true;
-    } else if (a == "--sync-ms") {
-      const char* v = value();
-      if (v == nullptr) return 2;
-      if (std::atol(v) <= 0) {
-        std::fprintf(stderr, "dca daemon: --sync-ms needs a positive number of milliseconds, not '%s'\n", v);
-        return 2;
-      }
-      o.config_sync_interval = std::chrono::milliseconds(std::atol(v));
-    } else if (a == "--grace") {
-      const char* v = value();
-      if (v == nullptr) return 2;
-      o.stop_grace = std::chrono::milliseconds(std::atol(v));
-    } else {
+    if (kOptions.count(a) == 0) {
       std::fprintf(stderr, "dca daemon: unknown argument '%s'\n%s\n", a.c_str(), kUsage);
       return 2;
     }
+    if (i + 1 >= args.size()) {
+      std::fprintf(stderr, "dca daemon: %s needs a value\n%s\n", a.c_str(), kUsage);
+      return 2;
+    }
+    if (!apply_option(a, args[++i], p)) return 2;
   }
-  if (!state_dir_given) {
-    state_dir = dca::state_dir(o.host);
-    o.state_dir_is_default = true;
+  return 0;
+}
+
+// Resolves the state directory's default and loads (or creates) the key: false after printing why.
+bool resolve(Args& p) {
+  if (!p.state_dir_given) {
+    p.state_dir = dca::state_dir(p.o.host);
+    p.o.state_dir_is_default = true;
   }
-  if (state_dir != "none") o.state_dir = state_dir;
-  const std::string path = dca::auth::key_file_path(key_file);
+  if (p.state_dir != "none") p.o.state_dir = p.state_dir;
   std::string error;
-  const auto key = dca::auth::load_or_create_key(path, &error);
+  const auto key = dca::auth::load_or_create_key(dca::auth::key_file_path(p.key_file), &error);
   if (!key) {
     std::fprintf(stderr, "dca daemon: %s\n", error.c_str());
-    return 1;
+    return false;
   }
-  o.key = *key;
+  p.o.key = *key;
+  return true;
+}
 
+// Runs the daemon until SIGTERM, SIGINT or SIGHUP, then stops its children: the exit code.
+int run(const dca::DaemonOptions& o) {
   dca::Loop loop;
   dca::Daemon daemon(loop.io(), o);
+  std::string error;
   if (!daemon.start(&error)) {
     std::fprintf(stderr, "dca daemon: host %s: %s\n", o.host.c_str(), error.c_str());
     return 1;
@@ -157,6 +158,13 @@ int cmd_daemon(std::span<char* const> args) {
   // Let the close notices reach the peers (bounded).
   loop.run_for(std::chrono::milliseconds(50));
   return 0;
+}
+
+int cmd_daemon(std::span<char* const> args) {
+  Args p;
+  if (const int code = parse(args, p); code != 0) return code;
+  if (!resolve(p)) return 1;
+  return run(p.o);
 }
 
 }  // namespace

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "controllers/registry.h"
+#include "app/node_run.h"
 #include "app/subcommand.h"
 #include "host/loop.h"
 #include "host/node.h"
@@ -68,20 +69,11 @@ int cmd_node(std::span<char* const> args) {
                     const std::vector<std::string>& params, dca::TimerServer& timers) -> std::unique_ptr<dca::Component> {
                    return dca::Registry::global().create(type, {name, host, params, &timers, nullptr});
                  });
-  loop.on_signals({SIGTERM, SIGINT}, [&](int) { loop.stop(); });
   bool started = false;
-  std::string failure;
-  node.start([&](const std::string& error) {
-    if (!error.empty()) {
-      failure = error;
-      loop.stop();
-      return;
-    }
-    started = true;
+  const std::string failure = dca::app::run_node(loop, node, [&] {
     std::printf("dca node: %s ready\n", o.name.c_str());
     std::fflush(stdout);
-  });
-  loop.run();
+  }, &started);
   if (!started) {
     std::fprintf(stderr, "dca node %s: %s\n", o.name.c_str(), failure.empty() ? "stopped before it was ready" : failure.c_str());
     node.shutdown("start-up failed");

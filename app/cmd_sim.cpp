@@ -1,5 +1,6 @@
 // `dca sim`: runs the simulated door world in its own lock-step loop (as fast as possible, or paced to the
 // wall clock with --realtime), driven by an open-loop script or the built-in scripted door opening.
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -11,6 +12,7 @@
 
 #include <csignal>
 
+#include "app/node_run.h"
 #include "app/subcommand.h"
 #include "host/loop.h"
 #include "host/node.h"
@@ -102,22 +104,14 @@ int serve(const Options& o, const dca::sim::WorldConfig& config) {
     no.host = o.host;
     auto hosted = wn.make_node(no);
     dca::Node& node = *hosted;
-    loop.on_signals({SIGTERM, SIGINT}, [&](int) { loop.stop(); });
-    std::string failure;
-    node.start([&](const std::string& error) {
-      if (!error.empty()) {
-        failure = error;
-        loop.stop();
-        return;
-      }
+    const auto wall0 = std::chrono::steady_clock::now();
+    const std::string failure = dca::app::run_node(loop, node, [&] {
       std::printf("dca sim: world ready (%s), door %.3f m wide, robot at (%.3f, %.3f, %.1f deg), period %g s\n",
                   o.name.c_str(), config.door.width, config.base_start.x, config.base_start.y,
                   config.base_start.yaw * 180 / M_PI, config.period);
       std::fflush(stdout);
       if (o.go) wn.go();
     });
-    const auto wall0 = std::chrono::steady_clock::now();
-    loop.run();
     node.shutdown(failure.empty() ? "world exiting" : "start-up failed");
     if (!failure.empty()) {
       std::fprintf(stderr, "dca sim: %s\n", failure.c_str());
@@ -134,73 +128,188 @@ int serve(const Options& o, const dca::sim::WorldConfig& config) {
   }
 }
 
-int cmd_sim(std::span<char* const> args) {
-  Options o;
+// Sets flag `a` (an option without a value): false when `a` is no flag.
+bool set_flag(const std::string& a, Options& o) {
+  bool* flag = a == "--realtime"          ? &o.realtime
+               : a == "--visualize"       ? &o.visualize
+               : a == "--serve"           ? &o.serve
+               : a == "--go"              ? &o.go
+               : a == "--jammed"          ? &o.jammed
+               : a == "--print-door-urdf" ? &o.print_urdf
+                                          : nullptr;
+  if (flag != nullptr) *flag = true;
+  return flag != nullptr;
+}
+
+// Reads `v` (nullptr: missing) as a positive number into `out`: false when it is not one.
+bool positive(const char* v, double& out) {
+  const auto n = v ? number(v) : std::nullopt;
+  if (!n || *n <= 0) return false;
+  out = *n;
+  return true;
+}
+
+// Applies option `a` with value `v` (nullptr: missing): "" or what is wrong with it.
+std::string set_value(const std::string& a, const char* v, Options& o) {
+  if (a == "--world") return v && std::string(v) == "door" ? "" : "--world: the only world is 'door'";
+  if (a == "--seed") {
+    char* end = nullptr;
+    if (!v || *v == '-' || (o.seed = std::strtoull(v, &end, 10), *end != '\0'))
+      return "--seed needs a non-negative integer";
+    return "";
+  }
+  if (a == "--door-width")
+    return positive(v, o.door_width) && o.door_width >= 0.5 && o.door_width <= 1.5
+               ? "" : "--door-width needs a width in metres, 0.5-1.5";
+  if (a == "--duration") return positive(v, o.duration) ? "" : "--duration needs positive seconds";
+  if (a == "--period")
+    return positive(v, o.period) && o.period <= 0.01 ? "" : "--period needs seconds in (0, 0.01]";
+  if (a == "--record-period") return positive(v, o.record_period) ? "" : "--record-period needs positive seconds";
+  if (a == "--script" || a == "--record") {
+    if (!v) return a + " needs a file";
+    (a == "--script" ? o.script : o.record) = v;
+    return "";
+  }
+  if (a == "--daemon" || a == "--name" || a == "--key" || a == "--host") {
+    if (!v || !*v) return a + " needs a value";
+    (a == "--daemon" ? o.daemon : a == "--name" ? o.name : a == "--key" ? o.key : o.host) = v;
+    return "";
+  }
+  if (a == "--sync") return positive(v, o.node.sync_period) ? "" : "--sync needs positive seconds";
+  if (a == "--command-timeout")
+    return positive(v, o.node.command_timeout) ? "" : "--command-timeout needs positive seconds";
+  if (a == "--tick-timeout") {
+    double ms = 0;
+    if (!positive(v, ms)) return "--tick-timeout needs positive milliseconds";
+    o.node.tick_timeout_ms = static_cast<int>(ms);
+    return "";
+  }
+  return "unknown argument '" + a + "'";
+}
+
+// Parses argv into `o`: 0, or 2 after printing the usage error.
+int parse(std::span<char* const> args, Options& o) {
+  static const std::string kValued =
+      " --world --seed --door-width --duration --period --record-period --script --record --daemon --name --key"
+      " --host --sync --command-timeout --tick-timeout ";
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string a = args[i];
-    const auto value = [&]() -> const char* { return i + 1 < args.size() ? args[++i] : nullptr; };
-    const auto positive = [&](double& out, bool allow_zero) {
-      const char* v = value();
-      const auto n = v ? number(v) : std::nullopt;
-      if (!n || *n < 0 || (!allow_zero && *n == 0)) return false;
-      out = *n;
-      return true;
-    };
-    if (a == "--world") {
-      const char* v = value();
-      if (!v || std::string(v) != "door") return usage_error("--world: the only world is 'door'");
-    } else if (a == "--seed") {
-      const char* v = value();
-      char* end = nullptr;
-      if (!v || *v == '-') return usage_error("--seed needs a non-negative integer");
-      o.seed = std::strtoull(v, &end, 10);
-      if (*end != '\0') return usage_error("--seed needs a non-negative integer");
-    } else if (a == "--door-width") {
-      if (!positive(o.door_width, false) || o.door_width < 0.5 || o.door_width > 1.5)
-        return usage_error("--door-width needs a width in metres, 0.5-1.5");
-    } else if (a == "--duration") {
-      if (!positive(o.duration, false)) return usage_error("--duration needs positive seconds");
-    } else if (a == "--period") {
-      if (!positive(o.period, false) || o.period > 0.01) return usage_error("--period needs seconds in (0, 0.01]");
-    } else if (a == "--record-period") {
-      if (!positive(o.record_period, false)) return usage_error("--record-period needs positive seconds");
-    } else if (a == "--script") {
-      const char* v = value();
-      if (!v) return usage_error("--script needs a file");
-      o.script = v;
-    } else if (a == "--record") {
-      const char* v = value();
-      if (!v) return usage_error("--record needs a file");
-      o.record = v;
-    } else if (a == "--realtime") {
-      o.realtime = true;
-    } else if (a == "--visualize") {
-      o.visualize = true;
-    } else if (a == "--serve") {
-      o.serve = true;
-    } else if (a == "--go") {
-      o.go = true;
-    } else if (a == "--daemon" || a == "--name" || a == "--key" || a == "--host") {
-      const char* v = value();
-      if (!v || !*v) return usage_error(a + " needs a value");
-      (a == "--daemon" ? o.daemon : a == "--name" ? o.name : a == "--key" ? o.key : o.host) = v;
-    } else if (a == "--sync") {
-      if (!positive(o.node.sync_period, false)) return usage_error("--sync needs positive seconds");
-    } else if (a == "--command-timeout") {
-      if (!positive(o.node.command_timeout, false)) return usage_error("--command-timeout needs positive seconds");
-    } else if (a == "--tick-timeout") {
-      double ms = 0;
-      if (!positive(ms, false)) return usage_error("--tick-timeout needs positive milliseconds");
-      o.node.tick_timeout_ms = static_cast<int>(ms);
-    } else if (a == "--jammed") {
-      o.jammed = true;
-    } else if (a == "--print-door-urdf") {
-      o.print_urdf = true;
-    } else {
-      return usage_error("unknown argument '" + a + "'");
+    if (set_flag(a, o)) continue;
+    const bool valued = kValued.find(" " + a + " ") != std::string::npos;
+    const char* v = valued && i + 1 < args.size() ? args[++i] : nullptr;
+    if (const std::string why = set_value(a, v, o); !why.empty()) return usage_error(why);
+  }
+  return 0;
+}
+
+// A run without --serve: the world stepped here, driven by a script or by the scripted door opening.
+class LocalRun {
+ public:
+  // Builds the world (and its visualizer, recorder) for `script` (none: the door opening): throws what cannot be built.
+  LocalRun(const Options& o, const dca::sim::WorldConfig& config, std::optional<dca::sim::Script> script)
+      : o_(o), config_(config), script_(std::move(script)), world_(config) {
+    if (o.visualize) {
+      std::string why;
+      if (!world_.start_visualizer(&why))
+        std::fprintf(stderr, "dca sim: --visualize: %s; running without it\n", why.c_str());
+    }
+    if (!o.record.empty()) recorder_.emplace(o.record);
+  }
+
+  // Runs until the end time (or half a second after the door opening ends) and prints the summary: the exit code.
+  int run() {
+    double end = o_.duration;
+    if (end < 0) end = script_ && script_->end_time() >= 0 ? script_->end_time() : 120.0;
+    std::printf("dca sim: door world, seed %llu, door %.3f m wide, robot at (%.3f, %.3f, %.1f deg), period %g s%s\n",
+                static_cast<unsigned long long>(o_.seed), config_.door.width, config_.base_start.x,
+                config_.base_start.y, config_.base_start.yaw * 180 / M_PI, config_.period,
+                o_.realtime ? ", real time" : ", lock-step");
+    std::fflush(stdout);
+    const auto wall0 = std::chrono::steady_clock::now();
+    step_until(end, wall0);
+    return report(std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count());
+  }
+
+ private:
+  // Steps the world until `end` (simulated s), recording and pacing as asked.
+  void step_until(double end, std::chrono::steady_clock::time_point wall0) {
+    const int record_every = std::max(1, static_cast<int>(std::lround(o_.record_period / config_.period)));
+    if (recorder_) recorder_->record(world_.sensors(), -1);
+    while (world_.time() < end - 1e-9) {
+      if (script_ && !script_->advance(world_.time(), commands_)) break;
+      if ((!script_ || script_->door_mode()) && !drive_door()) break;
+      world_.set_commands(commands_);
+      world_.step();
+      ++steps_;
+      if (recorder_ && steps_ % record_every == 0)
+        recorder_->record(world_.sensors(), door_active_ ? static_cast<int>(phase_) : -1);
+      if (o_.realtime)
+        std::this_thread::sleep_until(wall0 + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                                  std::chrono::duration<double>(world_.time())));
     }
   }
 
+  // One step of the scripted door opening, printing each phase as it starts: false when the run should end.
+  bool drive_door() {
+    if (!door_active_) {
+      door_active_ = true;
+      std::printf("%9.3f s  drive\n", world_.time());
+    }
+    commands_ = door_.update(world_);
+    if (door_.phase() != phase_) {
+      phase_ = door_.phase();
+      if (phase_ == dca::sim::DoorPhase::failed)
+        std::printf("%9.3f s  failed: %s\n", world_.time(), door_.failure().c_str());
+      else
+        std::printf("%9.3f s  %s\n", world_.time(), dca::sim::to_string(phase_));
+      std::fflush(stdout);
+      if (phase_ == dca::sim::DoorPhase::done || phase_ == dca::sim::DoorPhase::failed) done_at_ = world_.time();
+    }
+    return !(done_at_ >= 0 && o_.duration < 0 && world_.time() >= done_at_ + 0.5);
+  }
+
+  // Closes the recording and prints the summary (`door opened to ...`, the phases' start times): the exit code.
+  int report(double wall) {
+    std::string error;
+    if (recorder_ && !recorder_->close(&error)) {
+      std::fprintf(stderr, "dca sim: %s\n", error.c_str());
+      return 1;
+    }
+    std::printf("door opened to %.1f deg\n", world_.sensors().door_angle * 180 / M_PI);
+    std::printf("simulated %.3f s in %.3f s wall (%.1fx real time), %ld steps\n", world_.time(), wall,
+                wall > 0 ? world_.time() / wall : 0.0, steps_);
+    if (door_active_) {
+      std::printf("steps:");
+      for (int p = 0; p <= static_cast<int>(dca::sim::DoorPhase::done); ++p)
+        if (door_.phase_start(static_cast<dca::sim::DoorPhase>(p)) >= 0)
+          std::printf(" %s@%.3f", dca::sim::to_string(static_cast<dca::sim::DoorPhase>(p)),
+                      door_.phase_start(static_cast<dca::sim::DoorPhase>(p)));
+      std::printf("\n");
+    }
+    if (recorder_) std::printf("recorded %s\n", o_.record.c_str());
+    if (door_active_ && door_.phase() == dca::sim::DoorPhase::failed) {
+      std::fprintf(stderr, "dca sim: the scripted door opening failed: %s\n", door_.failure().c_str());
+      return 1;
+    }
+    return 0;
+  }
+
+  const Options& o_;
+  const dca::sim::WorldConfig& config_;
+  std::optional<dca::sim::Script> script_;
+  dca::sim::World world_;
+  std::optional<dca::sim::Recorder> recorder_;
+  dca::sim::ScriptedDoorOpening door_;
+  dca::sim::Commands commands_;
+  dca::sim::DoorPhase phase_ = dca::sim::DoorPhase::drive;
+  bool door_active_ = false;
+  double done_at_ = -1;
+  long steps_ = 0;
+};
+
+int cmd_sim(std::span<char* const> args) {
+  Options o;
+  if (const int code = parse(args, o); code != 0) return code;
   dca::sim::WorldConfig config = dca::sim::door_world(o.seed, o.door_width);
   config.period = o.period;
   if (o.jammed) config.door.handle_jammed = config.door.latch_jammed = true;
@@ -216,82 +325,7 @@ int cmd_sim(std::span<char* const> args) {
       std::fprintf(stderr, "dca sim: %s\n", error.c_str());
       return 1;
     }
-    dca::sim::World world(config);
-    if (o.visualize) {
-      std::string why;
-      if (!world.start_visualizer(&why))
-        std::fprintf(stderr, "dca sim: --visualize: %s; running without it\n", why.c_str());
-    }
-    std::optional<dca::sim::Recorder> recorder;
-    if (!o.record.empty()) recorder.emplace(o.record);
-    dca::sim::ScriptedDoorOpening door;
-    const bool door_from_start = !script;
-    double end = o.duration;
-    if (end < 0) end = script && script->end_time() >= 0 ? script->end_time() : 120.0;
-
-    std::printf("dca sim: door world, seed %llu, door %.3f m wide, robot at (%.3f, %.3f, %.1f deg), period %g s%s\n",
-                static_cast<unsigned long long>(o.seed), config.door.width, config.base_start.x,
-                config.base_start.y, config.base_start.yaw * 180 / M_PI, config.period,
-                o.realtime ? ", real time" : ", lock-step");
-    std::fflush(stdout);
-    dca::sim::Commands commands;
-    auto phase = dca::sim::DoorPhase::drive;
-    bool door_active = false;
-    double done_at = -1;
-    const int record_every = std::max(1, static_cast<int>(std::lround(o.record_period / config.period)));
-    const auto wall0 = std::chrono::steady_clock::now();
-    long steps = 0;
-    if (recorder) recorder->record(world.sensors(), -1);
-    while (world.time() < end - 1e-9) {
-      if (script && !script->advance(world.time(), commands)) break;
-      if (door_from_start || (script && script->door_mode())) {
-        if (!door_active) {
-          door_active = true;
-          std::printf("%9.3f s  drive\n", world.time());
-        }
-        commands = door.update(world);
-        if (door.phase() != phase) {
-          phase = door.phase();
-          if (phase == dca::sim::DoorPhase::failed)
-            std::printf("%9.3f s  failed: %s\n", world.time(), door.failure().c_str());
-          else
-            std::printf("%9.3f s  %s\n", world.time(), dca::sim::to_string(phase));
-          std::fflush(stdout);
-          if (phase == dca::sim::DoorPhase::done || phase == dca::sim::DoorPhase::failed) done_at = world.time();
-        }
-        if (done_at >= 0 && o.duration < 0 && world.time() >= done_at + 0.5) break;
-      }
-      world.set_commands(commands);
-      world.step();
-      ++steps;
-      if (recorder && steps % record_every == 0) recorder->record(world.sensors(), door_active ? static_cast<int>(phase) : -1);
-      if (o.realtime)
-        std::this_thread::sleep_until(wall0 + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                                                  std::chrono::duration<double>(world.time())));
-    }
-    const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
-    if (recorder && !recorder->close(&error)) {
-      std::fprintf(stderr, "dca sim: %s\n", error.c_str());
-      return 1;
-    }
-    const auto& s = world.sensors();
-    std::printf("door opened to %.1f deg\n", s.door_angle * 180 / M_PI);
-    std::printf("simulated %.3f s in %.3f s wall (%.1fx real time), %ld steps\n", world.time(), wall,
-                wall > 0 ? world.time() / wall : 0.0, steps);
-    if (door_active) {
-      std::printf("steps:");
-      for (int p = 0; p <= static_cast<int>(dca::sim::DoorPhase::done); ++p)
-        if (door.phase_start(static_cast<dca::sim::DoorPhase>(p)) >= 0)
-          std::printf(" %s@%.3f", dca::sim::to_string(static_cast<dca::sim::DoorPhase>(p)),
-                      door.phase_start(static_cast<dca::sim::DoorPhase>(p)));
-      std::printf("\n");
-    }
-    if (recorder) std::printf("recorded %s\n", o.record.c_str());
-    if (door_active && door.phase() == dca::sim::DoorPhase::failed) {
-      std::fprintf(stderr, "dca sim: the scripted door opening failed: %s\n", door.failure().c_str());
-      return 1;
-    }
-    return 0;
+    return LocalRun(o, config, std::move(script)).run();
   } catch (const std::exception& e) {
     std::fprintf(stderr, "dca sim: %s\n", e.what());
     return 1;

@@ -7,21 +7,11 @@
 #include <stdexcept>
 
 #include "bindings/core.h"
+#include "bindings/lua_support.h"
 #include "host/paths.h"
 
 namespace dca::lua {
 namespace {
-
-// Message handler for lua_pcall: the error message followed by a traceback.
-int traceback(lua_State* L) {
-  const char* msg = lua_tostring(L, 1);
-  if (msg == nullptr) {
-    if (luaL_callmeta(L, 1, "__tostring") && lua_type(L, -1) == LUA_TSTRING) return 1;
-    msg = lua_pushfstring(L, "(error object is a %s value)", luaL_typename(L, 1));
-  }
-  luaL_traceback(L, L, msg, 1);
-  return 1;
-}
 
 void push_args(lua_State* L, std::span<char* const> args) {
   for (char* a : args) lua_pushstring(L, a);
@@ -84,7 +74,7 @@ int Runtime::run_file(const std::string& path, std::span<char* const> args) {
   }
   lua_setglobal(L_, "arg");
 
-  lua_pushcfunction(L_, traceback);
+  lua_pushcfunction(L_, message_handler);
   int status = luaL_loadfile(L_, path.c_str());
   if (status == LUA_OK) {
     push_args(L_, args);
@@ -96,7 +86,7 @@ int Runtime::run_file(const std::string& path, std::span<char* const> args) {
 
 int Runtime::run_string(std::string_view code, const std::string& chunkname, std::string* error) {
   const int base = lua_gettop(L_);
-  lua_pushcfunction(L_, traceback);
+  lua_pushcfunction(L_, message_handler);
   int status = luaL_loadbuffer(L_, code.data(), code.size(), chunkname.c_str());
   if (status == LUA_OK) status = lua_pcall(L_, 0, LUA_MULTRET, base + 1);
   lua_remove(L_, base + 1);
@@ -105,7 +95,7 @@ int Runtime::run_string(std::string_view code, const std::string& chunkname, std
 
 int Runtime::run_module_main(const std::string& module, std::span<char* const> args) {
   const int base = lua_gettop(L_);
-  lua_pushcfunction(L_, traceback);
+  lua_pushcfunction(L_, message_handler);
   // chunk: local m = require(module); return m.main({...})
   int status = luaL_loadstring(L_,
                                "local name = ...\n"

@@ -12,6 +12,88 @@ std::string key_path(lua_State* L, int key_index, const std::string& parent) {
   return parent + "[?]";
 }
 
+bool convert(lua_State* L, int index, wire::Value& out, std::string* error, const std::string& path, int depth);
+
+// The length n when the table at `index` is a sequence 1..n, else -1 (its entry count in `count`).
+lua_Integer sequence_length(lua_State* L, int index, lua_Integer& count) {
+  lua_Integer max_key = 0;
+  bool all_positive_ints = true;
+  count = 0;
+  lua_pushnil(L);
+  while (lua_next(L, index) != 0) {
+    lua_pop(L, 1);
+    ++count;
+    if (lua_isinteger(L, -1) && lua_tointeger(L, -1) >= 1) {
+      if (lua_tointeger(L, -1) > max_key) max_key = lua_tointeger(L, -1);
+    } else {
+      all_positive_ints = false;
+    }
+  }
+  return count > 0 && all_positive_ints && max_key == count ? count : -1;
+}
+
+// The sequence 1..n at `index` as an array.
+bool convert_array(lua_State* L, int index, lua_Integer n, wire::Value& out, std::string* error,
+                   const std::string& path, int depth) {
+  wire::Value::Array a(static_cast<std::size_t>(n));
+  for (lua_Integer i = 1; i <= n; ++i) {
+    lua_rawgeti(L, index, i);
+    const bool ok = convert(L, -1, a[static_cast<std::size_t>(i - 1)], error, path + "[" + std::to_string(i) + "]",
+                            depth + 1);
+    lua_pop(L, 1);
+    if (!ok) return false;
+  }
+  out = wire::Value(std::move(a));
+  return true;
+}
+
+// The table at `index` as a map (keys: strings, numbers or booleans).
+bool convert_map(lua_State* L, int index, lua_Integer count, wire::Value& out, std::string* error,
+                 const std::string& path, int depth) {
+  wire::Value::Map m;
+  m.reserve(static_cast<std::size_t>(count));
+  lua_pushnil(L);
+  while (lua_next(L, index) != 0) {
+    wire::Value k, v;
+    const int kt = lua_type(L, -2);
+    if (kt != LUA_TSTRING && kt != LUA_TNUMBER && kt != LUA_TBOOLEAN) {
+      *error = path + ": cannot send a table key of type " + lua_typename(L, kt);
+      lua_pop(L, 2);
+      return false;
+    }
+    // Convert the key from a copy: lua_tolstring on a number key would confuse lua_next.
+    lua_pushvalue(L, -2);
+    convert(L, -1, k, error, path, depth + 1);
+    lua_pop(L, 1);
+    const std::string p = key_path(L, -2, path);
+    if (!convert(L, -1, v, error, p, depth + 1)) {
+      lua_pop(L, 2);
+      return false;
+    }
+    m.emplace_back(std::move(k), std::move(v));
+    lua_pop(L, 1);
+  }
+  out = wire::Value(std::move(m));
+  return true;
+}
+
+// The table at `index`: an array when it is a sequence, else a map; bounded depth (cycles end there).
+bool convert_table(lua_State* L, int index, wire::Value& out, std::string* error, const std::string& path, int depth) {
+  if (depth >= wire::kMaxDepth) {
+    *error = path + ": tables nested deeper than " + std::to_string(wire::kMaxDepth) + " levels (or a cycle)";
+    return false;
+  }
+  if (!lua_checkstack(L, 4)) {
+    *error = path + ": Lua stack exhausted";
+    return false;
+  }
+  lua_Integer count = 0;
+  const lua_Integer n = sequence_length(L, index, count);
+  if (n > 0) return convert_array(L, index, n, out, error, path, depth);
+  return convert_map(L, index, count, out, error, path, depth);
+}
+
+// The Lua value at `index` as a wire value; false with `error` naming where (`path`) when it cannot be sent.
 bool convert(lua_State* L, int index, wire::Value& out, std::string* error, const std::string& path, int depth) {
   index = lua_absindex(L, index);
   switch (lua_type(L, index)) {
@@ -34,66 +116,7 @@ bool convert(lua_State* L, int index, wire::Value& out, std::string* error, cons
       out = wire::Value(std::string(s, n));
       return true;
     }
-    case LUA_TTABLE: {
-      if (depth >= wire::kMaxDepth) {
-        *error = path + ": tables nested deeper than " + std::to_string(wire::kMaxDepth) + " levels (or a cycle)";
-        return false;
-      }
-      if (!lua_checkstack(L, 4)) {
-        *error = path + ": Lua stack exhausted";
-        return false;
-      }
-      // First pass: is it a sequence 1..n?
-      lua_Integer count = 0, max_key = 0;
-      bool all_positive_ints = true;
-      lua_pushnil(L);
-      while (lua_next(L, index) != 0) {
-        lua_pop(L, 1);
-        ++count;
-        if (lua_isinteger(L, -1) && lua_tointeger(L, -1) >= 1) {
-          if (lua_tointeger(L, -1) > max_key) max_key = lua_tointeger(L, -1);
-        } else {
-          all_positive_ints = false;
-        }
-      }
-      if (count > 0 && all_positive_ints && max_key == count) {
-        wire::Value::Array a(static_cast<std::size_t>(count));
-        for (lua_Integer i = 1; i <= count; ++i) {
-          lua_rawgeti(L, index, i);
-          const bool ok = convert(L, -1, a[static_cast<std::size_t>(i - 1)], error,
-                                  path + "[" + std::to_string(i) + "]", depth + 1);
-          lua_pop(L, 1);
-          if (!ok) return false;
-        }
-        out = wire::Value(std::move(a));
-        return true;
-      }
-      wire::Value::Map m;
-      m.reserve(static_cast<std::size_t>(count));
-      lua_pushnil(L);
-      while (lua_next(L, index) != 0) {
-        wire::Value k, v;
-        const int kt = lua_type(L, -2);
-        if (kt != LUA_TSTRING && kt != LUA_TNUMBER && kt != LUA_TBOOLEAN) {
-          *error = path + ": cannot send a table key of type " + lua_typename(L, kt);
-          lua_pop(L, 2);
-          return false;
-        }
-        // Convert the key from a copy: lua_tolstring on a number key would confuse lua_next.
-        lua_pushvalue(L, -2);
-        convert(L, -1, k, error, path, depth + 1);
-        lua_pop(L, 1);
-        const std::string p = key_path(L, -2, path);
-        if (!convert(L, -1, v, error, p, depth + 1)) {
-          lua_pop(L, 2);
-          return false;
-        }
-        m.emplace_back(std::move(k), std::move(v));
-        lua_pop(L, 1);
-      }
-      out = wire::Value(std::move(m));
-      return true;
-    }
+    case LUA_TTABLE: return convert_table(L, index, out, error, path, depth);
     default:
       *error = path + ": cannot send a " + lua_typename(L, lua_type(L, index));
       return false;

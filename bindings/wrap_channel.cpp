@@ -24,6 +24,7 @@
 #include <cstring>
 
 #include "bindings/lua_loop.h"
+#include "bindings/lua_support.h"
 #include "bindings/lua_value.h"
 #include "host/channel.h"
 
@@ -437,29 +438,9 @@ void register_channel(lua_State* L) {
       {"send", ch_send},           {"request", ch_request}, {"reply", ch_reply},     {"reply_error", ch_reply_error},
       {"on_message", ch_on_message}, {"on_close", ch_on_close}, {"close", ch_close}, {"is_open", ch_is_open},
       {"peer", ch_peer},           {nullptr, nullptr}};
-  if (luaL_newmetatable(L, kChannelMeta)) {
-    luaL_newlib(L, ch_methods);
-    lua_setfield(L, -2, "__index");
-    lua_pushcfunction(L, ch_gc);
-    lua_setfield(L, -2, "__gc");
-    lua_pushcfunction(L, ch_close);
-    lua_setfield(L, -2, "__close");
-    lua_pushcfunction(L, ch_tostring);
-    lua_setfield(L, -2, "__tostring");
-  }
-  lua_pop(L, 1);
+  register_type(L, kChannelMeta, ch_methods, {ch_gc, ch_close, ch_tostring});
   static const luaL_Reg l_methods[] = {{"address", l_address}, {"close", l_close}, {nullptr, nullptr}};
-  if (luaL_newmetatable(L, kListenerMeta)) {
-    luaL_newlib(L, l_methods);
-    lua_setfield(L, -2, "__index");
-    lua_pushcfunction(L, l_gc);
-    lua_setfield(L, -2, "__gc");
-    lua_pushcfunction(L, l_close);
-    lua_setfield(L, -2, "__close");
-    lua_pushcfunction(L, l_tostring);
-    lua_setfield(L, -2, "__tostring");
-  }
-  lua_pop(L, 1);
+  register_type(L, kListenerMeta, l_methods, {l_gc, l_close, l_tostring});
   lua_pushcfunction(L, core_connect);
   lua_setfield(L, -2, "connect");
   lua_pushcfunction(L, core_listen);

@@ -14,6 +14,8 @@
 #include <cstring>
 #include <string>
 
+#include "bindings/lua_support.h"
+
 namespace dca::bindings {
 namespace {
 
@@ -92,18 +94,8 @@ int l_tostring(lua_State* L) {
 
 /// Adds watch_file to the table on the stack top (and the dca.Watch metatable).
 void open_inotify(lua_State* L) {
-  if (luaL_newmetatable(L, kWatch) != 0) {
-    static const luaL_Reg methods[] = {{"changed", l_changed}, {"close", l_close}, {nullptr, nullptr}};
-    luaL_newlib(L, methods);
-    lua_setfield(L, -2, "__index");
-    lua_pushcfunction(L, l_gc);
-    lua_setfield(L, -2, "__gc");
-    lua_pushcfunction(L, l_close);
-    lua_setfield(L, -2, "__close");
-    lua_pushcfunction(L, l_tostring);
-    lua_setfield(L, -2, "__tostring");
-  }
-  lua_pop(L, 1);
+  static const luaL_Reg methods[] = {{"changed", l_changed}, {"close", l_close}, {nullptr, nullptr}};
+  dca::lua::register_type(L, kWatch, methods, {l_gc, l_close, l_tostring});
   lua_pushcfunction(L, l_watch_file);
   lua_setfield(L, -2, "watch_file");
 }

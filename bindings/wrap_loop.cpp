@@ -14,6 +14,7 @@
 #include <cstdio>
 
 #include "bindings/lua_loop.h"
+#include "bindings/lua_support.h"
 
 namespace dca::lua {
 namespace {
@@ -32,16 +33,6 @@ struct CallCtx {
   const LuaRef* fn;
   const std::function<int(lua_State*)>* push;
 };
-
-int traceback(lua_State* L) {
-  const char* msg = lua_tostring(L, 1);
-  if (msg == nullptr) {
-    if (luaL_callmeta(L, 1, "__tostring") && lua_type(L, -1) == LUA_TSTRING) return 1;
-    msg = lua_pushfstring(L, "(error object is a %s value)", luaL_typename(L, 1));
-  }
-  luaL_traceback(L, L, msg, 1);
-  return 1;
-}
 
 // Runs inside lua_pcall: pushes the function and its arguments, then calls it.
 int trampoline(lua_State* L) {
@@ -118,7 +109,7 @@ int loop_run_until(lua_State* L) {
     ls.current = L;
     const auto pred = [&]() -> bool {
       if (ctx.failed) return true;
-      lua_pushcfunction(L, traceback);
+      lua_pushcfunction(L, message_handler);
       lua_pushcfunction(L, call_predicate);
       lua_pushlightuserdata(L, &ctx);
       lua_pushvalue(L, ctx.fn_index);
@@ -322,7 +313,7 @@ void invoke(const LuaRef& fn, const std::function<int(lua_State*)>& push_args) {
   lua_State* L = ls.current != nullptr ? ls.current : ls.main;
   const int base = lua_gettop(L);
   if (!lua_checkstack(L, 8)) return;
-  lua_pushcfunction(L, traceback);
+  lua_pushcfunction(L, message_handler);
   lua_pushcfunction(L, trampoline);
   CallCtx ctx{&fn, &push_args};
   lua_pushlightuserdata(L, &ctx);
@@ -353,27 +344,9 @@ void register_loop(lua_State* L) {
   static const luaL_Reg loop_methods[] = {{"run", loop_run},       {"run_until", loop_run_until},
                                           {"stop", loop_stop},     {"errors", loop_errors},
                                           {nullptr, nullptr}};
-  if (luaL_newmetatable(L, kLoopMeta)) {
-    luaL_newlib(L, loop_methods);
-    lua_setfield(L, -2, "__index");
-    lua_pushcfunction(L, loop_gc);
-    lua_setfield(L, -2, "__gc");
-    lua_pushcfunction(L, loop_tostring);
-    lua_setfield(L, -2, "__tostring");
-  }
-  lua_pop(L, 1);
+  register_type(L, kLoopMeta, loop_methods, {loop_gc, nullptr, loop_tostring});
   static const luaL_Reg timer_methods[] = {{"cancel", timer_cancel}, {"active", timer_active}, {nullptr, nullptr}};
-  if (luaL_newmetatable(L, kTimerMeta)) {
-    luaL_newlib(L, timer_methods);
-    lua_setfield(L, -2, "__index");
-    lua_pushcfunction(L, timer_gc);
-    lua_setfield(L, -2, "__gc");
-    lua_pushcfunction(L, timer_cancel);
-    lua_setfield(L, -2, "__close");
-    lua_pushcfunction(L, timer_tostring);
-    lua_setfield(L, -2, "__tostring");
-  }
-  lua_pop(L, 1);
+  register_type(L, kTimerMeta, timer_methods, {timer_gc, timer_cancel, timer_tostring});
   lua_pushcfunction(L, core_loop);
   lua_setfield(L, -2, "loop");
   lua_pushcfunction(L, core_after);

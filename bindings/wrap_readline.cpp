@@ -29,6 +29,8 @@
 
 #include <editline/readline.h>
 
+#include "bindings/lua_support.h"
+
 namespace dca::bindings {
 namespace {
 
@@ -122,6 +124,8 @@ void on_line(char* line) {
     std::free(line);
     return;
   }
+  const int base = lua_gettop(L);
+  lua_pushcfunction(L, dca::lua::message_handler);
   lua_rawgeti(L, LUA_REGISTRYINDEX, g_on_line);
   if (line != nullptr) {
     lua_pushstring(L, line);
@@ -129,10 +133,8 @@ void on_line(char* line) {
   } else {
     lua_pushnil(L);
   }
-  if (lua_pcall(L, 1, 0, 0) != LUA_OK) {
-    std::fprintf(stderr, "console: %s\n", lua_tostring(L, -1));
-    lua_pop(L, 1);
-  }
+  if (lua_pcall(L, 1, 0, base + 1) != LUA_OK) std::fprintf(stderr, "console: %s\n", lua_tostring(L, -1));
+  lua_settop(L, base);
 }
 
 int l_readline_install(lua_State* L) {

@@ -300,116 +300,14 @@ bool ConfigService::handle(const Channel::Ptr& ch, const wire::Message& m) {
     ch->reply_error(m, "the configuration service on host " + options_.host + " is stopped");
     return true;
   }
-  const auto& p = m.payload;
-  if (m.type == "config_sync") {
-    on_sync(ch, m);
-  } else if (m.type == "config_get") {
-    std::string error;
-    if (!p["key"].is_string()) {
-      ch->reply_error(m, "config_get needs {key}");
-      return true;
-    }
-    auto e = store_->get(p["key"].as_string(), &error);
-    if (!e) {
-      ch->reply_error(m, error + " on host " + options_.host);
-    } else {
-      ch->reply(m, entry_value(*e));
-    }
-  } else if (m.type == "config_set") {
-    const auto& values = p["values"];
-    if (!values.is_map() || values.as_map().empty()) {
-      ch->reply_error(m, "config_set needs {values = {key = value...}} with at least one key");
-      return true;
-    }
-    std::vector<std::pair<std::string, Value>> kv;
-    for (const auto& [k, v] : values.as_map()) {
-      if (!k.is_string()) {
-        ch->reply_error(m, "config_set: keys are strings, not " + k.str());
-        return true;
-      }
-      kv.emplace_back(k.as_string(), v);
-    }
-    std::vector<Entry> changes;
-    std::string error;
-    auto t = store_->set(kv, &changes, &error);
-    if (!t) {
-      ch->reply_error(m, error + " (host " + options_.host + ")");
-      return true;
-    }
-    ch->reply(m, Value::map()
-                     .set("seq", static_cast<std::int64_t>(t->seq))
-                     .set("stamp", t->stamp.value())
-                     .set("origin", t->origin)
-                     .set("keys", static_cast<std::int64_t>(t->writes.size())));
-    changed(changes);
-    announce();
-  } else if (m.type == "config_list") {
-    const std::string prefix = trim_prefix(p["prefix"].as_string());
-    if (!prefix.empty()) {
-      if (auto why = config::validate_key(prefix); !why.empty()) {
-        ch->reply_error(m, why);
-        return true;
-      }
-    }
-    Value::Array entries;
-    for (const auto& e : store_->list(prefix)) entries.push_back(entry_value(e));
-    ch->reply(m, Value::map().set("entries", Value(std::move(entries))));
-  } else if (m.type == "config_log") {
-    const auto n = static_cast<std::size_t>(std::clamp<std::int64_t>(p["n"].as_int(20), 1, 10000));
-    Value::Array txns, conflicts;
-    for (const auto& t : store_->recent(n)) {
-      Value::Array writes;
-      for (const auto& w : t.writes) writes.push_back(Value::map().set("key", w.key).set("value", w.value));
-      txns.push_back(Value::map()
-                         .set("origin", t.origin)
-                         .set("seq", static_cast<std::int64_t>(t.seq))
-                         .set("stamp", t.stamp.value())
-                         .set("writes", Value(std::move(writes))));
-    }
-    for (const auto& c : store_->conflicts(n)) {
-      conflicts.push_back(Value::map()
-                              .set("key", c.key)
-                              .set("winner", Value::map().set("value", c.winner_value).set("stamp", c.winner.value()))
-                              .set("loser", Value::map().set("value", c.loser_value).set("stamp", c.loser.value()))
-                              .set("at_ms", c.at_ms));
-    }
-    ch->reply(m, Value::map()
-                     .set("replica", store_->origin())
-                     .set("host", options_.host)
-                     .set("path", path_)
-                     .set("version", config::version_value(store_->version()))
-                     .set("transactions", static_cast<std::int64_t>(store_->transactions()))
-                     .set("txns", Value(std::move(txns)))
-                     .set("conflicts", Value(std::move(conflicts))));
-  } else if (m.type == "config_watch" || m.type == "config_unwatch") {
-    const std::string prefix = trim_prefix(p["prefix"].as_string());
-    if (!prefix.empty()) {
-      if (auto why = config::validate_key(prefix); !why.empty()) {
-        ch->reply_error(m, why);
-        return true;
-      }
-    }
-    std::erase_if(watches_, [&](const Watch& w) { return w.prefix == prefix && w.ch.lock() == ch; });
-    if (m.type == "config_watch") watches_.push_back(Watch{ch, prefix});
-    ch->reply(m, Value::map().set("prefix", prefix));
-  } else if (m.type == "config_status") {
-    Value::Array peers;
-    for (const auto& [id, q] : partners_) {
-      auto c = q->channel();
-      peers.push_back(Value::map()
-                          .set("address", q->outbound ? q->address.str() : (c ? c->peer() : std::string("(gone)")))
-                          .set("outbound", q->outbound)
-                          .set("connected", c != nullptr && c->is_open())
-                          .set("error", q->error)
-                          .set("syncs", static_cast<std::int64_t>(q->syncs)));
-    }
-    ch->reply(m, Value::map()
-                     .set("replica", store_->origin())
-                     .set("host", options_.host)
-                     .set("path", path_)
-                     .set("version", config::version_value(store_->version()))
-                     .set("transactions", static_cast<std::int64_t>(store_->transactions()))
-                     .set("peers", Value(std::move(peers))));
+  using Handler = void (ConfigService::*)(const Channel::Ptr&, const wire::Message&);
+  static const std::map<std::string, Handler> kHandlers = {
+      {"config_sync", &ConfigService::on_sync},   {"config_get", &ConfigService::on_get},
+      {"config_set", &ConfigService::on_set},     {"config_list", &ConfigService::on_list},
+      {"config_log", &ConfigService::on_log},     {"config_watch", &ConfigService::on_watch},
+      {"config_unwatch", &ConfigService::on_watch}, {"config_status", &ConfigService::on_status}};
+  if (auto h = kHandlers.find(m.type); h != kHandlers.end()) {
+    (this->*(h->second))(ch, m);
   } else {
     ch->reply_error(m, "unknown request '" + m.type +
                            "' (the configuration service on host " + options_.host +
@@ -417,6 +315,115 @@ bool ConfigService::handle(const Channel::Ptr& ch, const wire::Message& m) {
                            "config_status, config_sync)");
   }
   return true;
+}
+
+// config_get {key}: the entry.
+void ConfigService::on_get(const Channel::Ptr& ch, const wire::Message& m) {
+  if (!m.payload["key"].is_string()) return void(ch->reply_error(m, "config_get needs {key}"));
+  std::string error;
+  auto e = store_->get(m.payload["key"].as_string(), &error);
+  if (!e) return void(ch->reply_error(m, error + " on host " + options_.host));
+  ch->reply(m, entry_value(*e));
+}
+
+// config_set {values = {key = value...}}: one transaction; tells the watchers and the partners.
+void ConfigService::on_set(const Channel::Ptr& ch, const wire::Message& m) {
+  const auto& values = m.payload["values"];
+  if (!values.is_map() || values.as_map().empty())
+    return void(ch->reply_error(m, "config_set needs {values = {key = value...}} with at least one key"));
+  std::vector<std::pair<std::string, Value>> kv;
+  for (const auto& [k, v] : values.as_map()) {
+    if (!k.is_string()) return void(ch->reply_error(m, "config_set: keys are strings, not " + k.str()));
+    kv.emplace_back(k.as_string(), v);
+  }
+  std::vector<Entry> changes;
+  std::string error;
+  auto t = store_->set(kv, &changes, &error);
+  if (!t) return void(ch->reply_error(m, error + " (host " + options_.host + ")"));
+  ch->reply(m, Value::map()
+                   .set("seq", static_cast<std::int64_t>(t->seq))
+                   .set("stamp", t->stamp.value())
+                   .set("origin", t->origin)
+                   .set("keys", static_cast<std::int64_t>(t->writes.size())));
+  changed(changes);
+  announce();
+}
+
+// The request's {prefix}, trimmed, into `prefix`: false (after replying the error) when it is no valid key.
+bool ConfigService::read_prefix(const Channel::Ptr& ch, const wire::Message& m, std::string& prefix) {
+  prefix = trim_prefix(m.payload["prefix"].as_string());
+  if (prefix.empty()) return true;
+  if (auto why = config::validate_key(prefix); !why.empty()) {
+    ch->reply_error(m, why);
+    return false;
+  }
+  return true;
+}
+
+// config_list {prefix}: the entries under prefix.
+void ConfigService::on_list(const Channel::Ptr& ch, const wire::Message& m) {
+  std::string prefix;
+  if (!read_prefix(ch, m, prefix)) return;
+  Value::Array entries;
+  for (const auto& e : store_->list(prefix)) entries.push_back(entry_value(e));
+  ch->reply(m, Value::map().set("entries", Value(std::move(entries))));
+}
+
+// config_log {n}: the n latest transactions and conflicts, with the replica's summary.
+void ConfigService::on_log(const Channel::Ptr& ch, const wire::Message& m) {
+  const auto n = static_cast<std::size_t>(std::clamp<std::int64_t>(m.payload["n"].as_int(20), 1, 10000));
+  Value::Array txns, conflicts;
+  for (const auto& t : store_->recent(n)) {
+    Value::Array writes;
+    for (const auto& w : t.writes) writes.push_back(Value::map().set("key", w.key).set("value", w.value));
+    txns.push_back(Value::map()
+                       .set("origin", t.origin)
+                       .set("seq", static_cast<std::int64_t>(t.seq))
+                       .set("stamp", t.stamp.value())
+                       .set("writes", Value(std::move(writes))));
+  }
+  for (const auto& c : store_->conflicts(n)) {
+    conflicts.push_back(Value::map()
+                            .set("key", c.key)
+                            .set("winner", Value::map().set("value", c.winner_value).set("stamp", c.winner.value()))
+                            .set("loser", Value::map().set("value", c.loser_value).set("stamp", c.loser.value()))
+                            .set("at_ms", c.at_ms));
+  }
+  ch->reply(m, summary().set("txns", Value(std::move(txns))).set("conflicts", Value(std::move(conflicts))));
+}
+
+// config_watch / config_unwatch {prefix}: (stop) sending this channel the changes under prefix.
+void ConfigService::on_watch(const Channel::Ptr& ch, const wire::Message& m) {
+  std::string prefix;
+  if (!read_prefix(ch, m, prefix)) return;
+  std::erase_if(watches_, [&](const Watch& w) { return w.prefix == prefix && w.ch.lock() == ch; });
+  if (m.type == "config_watch") watches_.push_back(Watch{ch, prefix});
+  ch->reply(m, Value::map().set("prefix", prefix));
+}
+
+// config_status: the replica's summary and its partners.
+void ConfigService::on_status(const Channel::Ptr& ch, const wire::Message& m) {
+  Value::Array peers;
+  for (const auto& [id, q] : partners_) {
+    auto c = q->channel();
+    peers.push_back(Value::map()
+                        .set("address", q->outbound ? q->address.str() : (c ? c->peer() : std::string("(gone)")))
+                        .set("outbound", q->outbound)
+                        .set("connected", c != nullptr && c->is_open())
+                        .set("error", q->error)
+                        .set("syncs", static_cast<std::int64_t>(q->syncs)));
+  }
+  ch->reply(m, summary().set("peers", Value(std::move(peers))));
+}
+
+// The replica, its host, its file, version and transaction count (config_log's and config_status's head).
+wire::Value ConfigService::summary() const {
+  return Value::map()
+      .set("replica", store_->origin())
+      .set("host", options_.host)
+      .set("path", path_)
+      .set("version", config::version_value(store_->version()))
+      .set("transactions", static_cast<std::int64_t>(store_->transactions()));
 }
 
 }  // namespace dca

@@ -81,6 +81,14 @@ class ConfigService {
   void changed(const std::vector<config::Entry>& changes);
   Partner* partner_for(const Channel::Ptr& ch);
   void on_sync(const Channel::Ptr& ch, const wire::Message& m);
+  void on_get(const Channel::Ptr& ch, const wire::Message& m);
+  void on_set(const Channel::Ptr& ch, const wire::Message& m);
+  void on_list(const Channel::Ptr& ch, const wire::Message& m);
+  void on_log(const Channel::Ptr& ch, const wire::Message& m);
+  void on_watch(const Channel::Ptr& ch, const wire::Message& m);
+  void on_status(const Channel::Ptr& ch, const wire::Message& m);
+  bool read_prefix(const Channel::Ptr& ch, const wire::Message& m, std::string& prefix);
+  wire::Value summary() const;
 
   boost::asio::io_context& io_;
   ConfigServiceOptions options_;

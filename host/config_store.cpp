@@ -313,6 +313,7 @@ std::unique_ptr<ConfigStore> ConfigStore::open(StoreOptions options, std::string
   return s;
 }
 
+// Opens (or creates) the database, checks an existing one, then prepares the statements and loads the state.
 bool ConfigStore::init(std::string* error) {
   struct stat sb {};
   const bool existed = ::stat(options_.path.c_str(), &sb) == 0 && sb.st_size > 0;
@@ -323,7 +324,17 @@ bool ConfigStore::init(std::string* error) {
   }
   sqlite3_extended_result_codes(db_, 1);
   sqlite3_busy_timeout(db_, 5000);
-  if (existed) {
+  if (existed && !check_existing(error)) return false;
+  const std::string mode = options_.sync_full ? "FULL" : "NORMAL";
+  if (!exec("PRAGMA journal_mode=WAL", error)) return false;
+  if (!exec(("PRAGMA synchronous=" + mode).c_str(), error)) return false;
+  if (!existed && !create_schema(error)) return false;
+  return prepare_statements(error) && load_state(error);
+}
+
+// An existing file: SQLite, not corrupt, and a dca configuration database of this format.
+bool ConfigStore::check_existing(std::string* error) {
+  {
     // Any page read fails on a file that is not SQLite; quick_check finds corrupt pages and indexes.
     Stmt qc(db_, "PRAGMA quick_check");
     if (!qc) {
@@ -341,40 +352,43 @@ bool ConfigStore::init(std::string* error) {
       return false;
     }
   }
-  if (existed) {
-    Stmt fmt(db_, "SELECT v FROM meta WHERE k = 'format'");
-    if (!fmt) {
-      *error = "not a dca configuration database (" + std::string(sqlite3_errmsg(db_)) + ")";
-      return false;
-    }
-    Use u(fmt);
-    if (u.step() != SQLITE_ROW || u.col_text(0) != kFormat) {
-      *error = "not a dca configuration database (no format '" + std::string(kFormat) + "' in its meta table)";
-      return false;
-    }
+  Stmt fmt(db_, "SELECT v FROM meta WHERE k = 'format'");
+  if (!fmt) {
+    *error = "not a dca configuration database (" + std::string(sqlite3_errmsg(db_)) + ")";
+    return false;
   }
-  const std::string mode = options_.sync_full ? "FULL" : "NORMAL";
-  if (!exec("PRAGMA journal_mode=WAL", error)) return false;
-  if (!exec(("PRAGMA synchronous=" + mode).c_str(), error)) return false;
-  if (!existed) {
-    const char* schema =
-        "BEGIN;"
-        "CREATE TABLE IF NOT EXISTS meta(k TEXT PRIMARY KEY, v TEXT NOT NULL);"
-        "CREATE TABLE IF NOT EXISTS txns(arrival INTEGER PRIMARY KEY, origin TEXT NOT NULL, seq INTEGER NOT NULL,"
-        "  ms INTEGER NOT NULL, n INTEGER NOT NULL, writes BLOB NOT NULL, UNIQUE(origin, seq));"
-        "CREATE TABLE IF NOT EXISTS kv(key TEXT PRIMARY KEY, value BLOB NOT NULL, ms INTEGER NOT NULL,"
-        "  n INTEGER NOT NULL, origin TEXT NOT NULL);"
-        "CREATE TABLE IF NOT EXISTS conflicts(id INTEGER PRIMARY KEY, key TEXT NOT NULL,"
-        "  winner BLOB, w_ms INTEGER, w_n INTEGER, w_origin TEXT, loser BLOB, l_ms INTEGER, l_n INTEGER,"
-        "  l_origin TEXT, at_ms INTEGER, UNIQUE(key, l_ms, l_n, l_origin));";
-    if (!exec(schema, error)) return false;
-    const std::string meta = "INSERT OR IGNORE INTO meta VALUES('format', '" + std::string(kFormat) +
-                             "'), ('replica', '" + options_.host + "/" + random_hex(4) + "'); COMMIT;";
-    if (!exec(meta.c_str(), error)) {
-      exec("ROLLBACK", nullptr);
-      return false;
-    }
+  Use u(fmt);
+  if (u.step() != SQLITE_ROW || u.col_text(0) != kFormat) {
+    *error = "not a dca configuration database (no format '" + std::string(kFormat) + "' in its meta table)";
+    return false;
   }
+  return true;
+}
+
+// A new file: the tables, the format and a fresh replica id (<host>/<random>).
+bool ConfigStore::create_schema(std::string* error) {
+  const char* schema =
+      "BEGIN;"
+      "CREATE TABLE IF NOT EXISTS meta(k TEXT PRIMARY KEY, v TEXT NOT NULL);"
+      "CREATE TABLE IF NOT EXISTS txns(arrival INTEGER PRIMARY KEY, origin TEXT NOT NULL, seq INTEGER NOT NULL,"
+      "  ms INTEGER NOT NULL, n INTEGER NOT NULL, writes BLOB NOT NULL, UNIQUE(origin, seq));"
+      "CREATE TABLE IF NOT EXISTS kv(key TEXT PRIMARY KEY, value BLOB NOT NULL, ms INTEGER NOT NULL,"
+      "  n INTEGER NOT NULL, origin TEXT NOT NULL);"
+      "CREATE TABLE IF NOT EXISTS conflicts(id INTEGER PRIMARY KEY, key TEXT NOT NULL,"
+      "  winner BLOB, w_ms INTEGER, w_n INTEGER, w_origin TEXT, loser BLOB, l_ms INTEGER, l_n INTEGER,"
+      "  l_origin TEXT, at_ms INTEGER, UNIQUE(key, l_ms, l_n, l_origin));";
+  if (!exec(schema, error)) return false;
+  const std::string meta = "INSERT OR IGNORE INTO meta VALUES('format', '" + std::string(kFormat) +
+                           "'), ('replica', '" + options_.host + "/" + random_hex(4) + "'); COMMIT;";
+  if (!exec(meta.c_str(), error)) {
+    exec("ROLLBACK", nullptr);
+    return false;
+  }
+  return true;
+}
+
+// The statements every operation uses, prepared once.
+bool ConfigStore::prepare_statements(std::string* error) {
   st_ = std::make_unique<Stmts>();
   auto& s = *st_;
   const auto prep = [&](Stmt& st, const char* sql) { return st.prepare(db_, sql); };
@@ -399,7 +413,11 @@ bool ConfigStore::init(std::string* error) {
     *error = sqlite3_errmsg(db_);
     return false;
   }
-  // The replica's id, its version vector, and the clock past every stamp it holds.
+  return true;
+}
+
+// The replica's id, its version vector, and the clock past every stamp it holds.
+bool ConfigStore::load_state(std::string* error) {
   {
     Stmt q(db_, "SELECT v FROM meta WHERE k = 'replica'");
     Use u(q);

@@ -169,6 +169,10 @@ class ConfigStore {
   struct Stmts;
   explicit ConfigStore(StoreOptions options);
   bool init(std::string* error);
+  bool check_existing(std::string* error);
+  bool create_schema(std::string* error);
+  bool prepare_statements(std::string* error);
+  bool load_state(std::string* error);
   bool exec(const char* sql, std::string* error) const;
   std::optional<Entry> current(const std::string& key) const;
   bool apply_one(const Txn& t, bool local, std::vector<Entry>* changes, std::string* error);

@@ -7,6 +7,8 @@
 #pragma GCC diagnostic push  // Asio's scheduler trips GCC 12's -Wnull-dereference when inlined at -O3
 #pragma GCC diagnostic ignored "-Wnull-dereference"
 #include <boost/asio/io_context.hpp>
+#include <boost/asio/posix/stream_descriptor.hpp>
+#include <boost/asio/post.hpp>
 #include <boost/asio/signal_set.hpp>
 #include <boost/asio/steady_timer.hpp>
 #pragma GCC diagnostic pop

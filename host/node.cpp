@@ -1,8 +1,3 @@
-// Boost.Asio 1.74 under GCC 12 -O3 trips middle-end warnings inside its own headers (false positives),
-// silenced for this file only, before any include.
-#pragma GCC diagnostic ignored "-Wnull-dereference"
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-
 #include "host/node.h"
 
 #include <unistd.h>
@@ -10,9 +5,6 @@
 #include <cstdio>
 #include <filesystem>
 #include <set>
-
-#include <boost/asio/post.hpp>
-#include <boost/asio/steady_timer.hpp>
 
 #include "host/auth.h"
 #include "host/channel.h"
@@ -56,7 +48,9 @@ std::string msgpack_from_value(const Value& v) {
 }
 
 struct Node::Impl {
-  Impl(Loop& l, NodeOptions o, ComponentFactory f) : loop(l), opts(std::move(o)), factory(std::move(f)) {}
+  Impl(Node* n, Loop& l, NodeOptions o, ComponentFactory f)
+      : node(n), loop(l), opts(std::move(o)), factory(std::move(f)) {}
+  Node* node;  // the owner (shutdown)
   Loop& loop;
   NodeOptions opts;
   ComponentFactory factory;
@@ -84,8 +78,17 @@ struct Node::Impl {
       if (ch->is_open()) ch->send(m);
   }
 
+  using Done = std::function<void(const std::string&)>;
+  void connect_daemon(const Address& address, Done done_fn);
+  void learn_host(const Done& done_fn);
+  void open_ports(const std::string& host, const Done& done_fn);
+  void forward(const ComponentEvent& e);
+  void forward(const CommsEvent& e);
+  void listen_control(const std::string& host, const Done& done_fn);
+  void register_node(const std::string& host, const Done& done_fn);
+  void subscribe(const Done& done_fn);
+  void connect_master(const Address& address, const Done& done_fn);
   void handle(const Channel::Ptr& ch, const Message& m);
-  void subscribe(const std::function<void(const std::string&)>& done_fn);
   void connect(const Channel::Ptr& ch, const Message& m);
   void pull(const Channel::Ptr& ch, const Message& m);
   Value ports() const;
@@ -93,7 +96,7 @@ struct Node::Impl {
 };
 
 Node::Node(Loop& loop, NodeOptions options, ComponentFactory factory)
-    : impl_(std::make_unique<Impl>(loop, std::move(options), std::move(factory))) {}
+    : impl_(std::make_unique<Impl>(this, loop, std::move(options), std::move(factory))) {}
 
 Node::~Node() { shutdown("node destroyed"); }
 
@@ -103,6 +106,9 @@ void Node::on_request(std::function<bool(const std::shared_ptr<Channel>&, const 
 }
 int Node::exit_code() const { return impl_->code; }
 
+// Start-up as a list of named steps, each ending by calling the next one or fail_start:
+//   start (key, daemon address) -> connect_daemon -> learn_host (ping, unless --host) -> open_ports ->
+//   listen_control -> register_node -> subscribe (simulated time: lookup, connect, clock; see below).
 void Node::start(std::function<void(const std::string& error)> done) {
   auto& I = *impl_;
   std::string error;
@@ -113,89 +119,107 @@ void Node::start(std::function<void(const std::string& error)> done) {
   const auto daddr = Address::parse(I.opts.daemon, &error);
   if (!daddr) return I.fail_start(done, error);
   I.ip = daddr->kind == Address::Kind::kTcp ? daddr->host : "127.0.0.1";
-  Channel::connect(I.loop.io(), *daddr, I.chopts, [this, done](Channel::Ptr ch, const std::string& err) {
-    auto& J = *impl_;
-    if (!ch) return J.fail_start(done, "cannot reach the daemon at " + J.opts.daemon + ": " + err);
-    J.daemon = ch;
+  I.connect_daemon(*daddr, std::move(done));
+}
+
+// Opens the channel to the daemon (losing it stops the node), then learns the host's name.
+void Node::Impl::connect_daemon(const Address& address, Done done_fn) {
+  Channel::connect(loop.io(), address, chopts, [this, done_fn](Channel::Ptr ch, const std::string& err) {
+    if (!ch) return fail_start(done_fn, "cannot reach the daemon at " + opts.daemon + ": " + err);
+    daemon = ch;
     ch->on_close([this](const std::string& reason) {
-      if (!impl_->done) {
-        std::fprintf(stderr, "dca node %s: the daemon's channel closed (%s): stopping\n", impl_->opts.name.c_str(),
-                     reason.c_str());
-        impl_->code = 1;
-        shutdown("daemon lost");
-        impl_->loop.stop();
-      }
+      if (done) return;
+      std::fprintf(stderr, "dca node %s: the daemon's channel closed (%s): stopping\n", opts.name.c_str(),
+                   reason.c_str());
+      code = 1;
+      node->shutdown("daemon lost");
+      loop.stop();
     });
-    auto with_host = [this, done](const std::string& host) {
-      auto& K = *impl_;
-      try {
-        K.timers = std::make_unique<TimerServer>(K.loop.io(), K.opts.clock);
-        K.timers->set_aligned(K.opts.clock == ClockKind::Simulated);
-        K.component = K.factory(K.opts.type, K.opts.name, host, K.opts.args, *K.timers);
-        K.endpoint = std::make_unique<Endpoint>(K.loop.io(), host);
-        static int made = 0;  // several nodes in one process (tests) need distinct sockets
-        K.uds = runtime_dir() + "/node-" + std::to_string(::getpid()) + (made++ ? "-" + std::to_string(made) : "") + ".sock";
-        K.endpoint->listen(K.uds, K.ip + ":0");
-        K.endpoint->add_component(K.opts.name, K.component->ports());
-      } catch (const std::exception& e) {
-        return K.fail_start(done, e.what());
-      }
-      K.component->on_event = [this](const ComponentEvent& e) {
-        auto& L = *impl_;
-        // `now`: when it happened on this node's clock (ns; simulated time on --clock sim), as in `advance`
-        if (e.kind == ComponentEvent::Kind::Done)
-          L.event({"done", 0,
-                   Value::map().set("name", L.opts.name).set("now", L.timers->now()).set("value", value_from_msgpack(
-                       {reinterpret_cast<const std::byte*>(e.value.data()), e.value.size()}))});
-        else
-          L.event({"aborted", 0,
-                   Value::map().set("name", L.opts.name).set("now", L.timers->now()).set("reason", e.reason)});
-      };
-      K.endpoint->on_event([this](const CommsEvent& e) {
-        auto& L = *impl_;
-        if (e.kind == CommsEvent::Kind::Broken)
-          L.event({"broken", 0, Value::map().set("name", e.component).set("port", e.port).set("peer", e.peer)
-                                     .set("set", e.set).set("reason", e.reason)});
-        else
-          L.event({"overflow", 0, Value::map().set("name", e.component).set("port", e.port).set("reason", e.reason)});
-      });
-      std::string lerr;
-      K.control = Listener::listen(K.loop.io(), *Address::parse(K.ip + ":0"), K.chopts,
-                                   [this](Channel::Ptr sup) {
-                                     impl_->supervisors.insert(sup);
-                                     std::weak_ptr<Channel> w = sup;
-                                     sup->on_message([this, w](const Message& m) {
-                                       if (auto s = w.lock()) impl_->handle(s, m);
-                                     });
-                                     sup->on_close([this, w](const std::string&) {
-                                       if (auto s = w.lock()) impl_->supervisors.erase(s);
-                                     });
-                                   },
-                                   &lerr);
-      if (!K.control) return K.fail_start(done, "cannot listen for control channels: " + lerr);
-      const auto loc = K.endpoint->location();
-      Value endpoints = Value::map()
-                            .set("host", host)
-                            .set("control", K.control->address().str())
-                            .set("data_uds", loc.data_uds)
-                            .set("data_tcp", loc.data_tcp)
-                            .set("pid", static_cast<std::int64_t>(::getpid()))
-                            .set("type", K.opts.type);
-      K.daemon->request({"register", 0, Value::map().set("name", K.opts.name).set("endpoints", endpoints)},
-                        std::chrono::milliseconds(K.opts.timeout_ms), [this, done](Response r) {
-                          if (!r.ok()) return impl_->fail_start(done, "cannot register " + impl_->opts.name + ": " + r.error);
-                          if (impl_->opts.clock == ClockKind::Simulated && !impl_->opts.world.empty())
-                            return impl_->subscribe(done);
-                          done("");
-                        });
-    };
-    if (!J.opts.host.empty()) return with_host(J.opts.host);
-    ch->request({"ping", 0, Value::map()}, std::chrono::milliseconds(J.opts.timeout_ms),
-                [this, done, with_host](Response r) {
-                  if (!r.ok()) return impl_->fail_start(done, "the daemon did not answer ping: " + r.error);
-                  with_host(r.message.payload["host"].as_string());
-                });
+    learn_host(done_fn);
   });
+}
+
+// The host's name: --host, else the daemon's answer to ping; then the node's ports.
+void Node::Impl::learn_host(const Done& done_fn) {
+  if (!opts.host.empty()) return open_ports(opts.host, done_fn);
+  daemon->request({"ping", 0, Value::map()}, std::chrono::milliseconds(opts.timeout_ms), [this, done_fn](Response r) {
+    if (!r.ok()) return fail_start(done_fn, "the daemon did not answer ping: " + r.error);
+    open_ports(r.message.payload["host"].as_string(), done_fn);
+  });
+}
+
+// Makes the timers, the component and the data endpoint (listening on a socket of its own), then the
+// control listener.
+void Node::Impl::open_ports(const std::string& host, const Done& done_fn) {
+  try {
+    timers = std::make_unique<TimerServer>(loop.io(), opts.clock);
+    timers->set_aligned(opts.clock == ClockKind::Simulated);
+    component = factory(opts.type, opts.name, host, opts.args, *timers);
+    endpoint = std::make_unique<Endpoint>(loop.io(), host);
+    static int made = 0;  // several nodes in one process (tests) need distinct sockets
+    uds = runtime_dir() + "/node-" + std::to_string(::getpid()) + (made++ ? "-" + std::to_string(made) : "") + ".sock";
+    endpoint->listen(uds, ip + ":0");
+    endpoint->add_component(opts.name, component->ports());
+  } catch (const std::exception& e) {
+    return fail_start(done_fn, e.what());
+  }
+  component->on_event = [this](const ComponentEvent& e) { forward(e); };
+  endpoint->on_event([this](const CommsEvent& e) { forward(e); });
+  listen_control(host, done_fn);
+}
+
+// Tells the supervisors that the component finished or aborted (`now`: on this node's clock, as in `advance`).
+void Node::Impl::forward(const ComponentEvent& e) {
+  if (e.kind == ComponentEvent::Kind::Done)
+    event({"done", 0,
+           Value::map().set("name", opts.name).set("now", timers->now()).set("value", value_from_msgpack(
+               {reinterpret_cast<const std::byte*>(e.value.data()), e.value.size()}))});
+  else
+    event({"aborted", 0, Value::map().set("name", opts.name).set("now", timers->now()).set("reason", e.reason)});
+}
+
+// Tells the supervisors that a data link broke or a port overflowed.
+void Node::Impl::forward(const CommsEvent& e) {
+  if (e.kind == CommsEvent::Kind::Broken)
+    event({"broken", 0, Value::map().set("name", e.component).set("port", e.port).set("peer", e.peer)
+                             .set("set", e.set).set("reason", e.reason)});
+  else
+    event({"overflow", 0, Value::map().set("name", e.component).set("port", e.port).set("reason", e.reason)});
+}
+
+// Listens for supervisors' control channels on the daemon's IP, then registers.
+void Node::Impl::listen_control(const std::string& host, const Done& done_fn) {
+  std::string lerr;
+  control = Listener::listen(loop.io(), *Address::parse(ip + ":0"), chopts, [this](Channel::Ptr sup) {
+    supervisors.insert(sup);
+    std::weak_ptr<Channel> w = sup;
+    sup->on_message([this, w](const Message& m) {
+      if (auto s = w.lock()) handle(s, m);
+    });
+    sup->on_close([this, w](const std::string&) {
+      if (auto s = w.lock()) supervisors.erase(s);
+    });
+  }, &lerr);
+  if (!control) return fail_start(done_fn, "cannot listen for control channels: " + lerr);
+  register_node(host, done_fn);
+}
+
+// Registers the node's endpoints with the daemon; on simulated time, then subscribes to the clock master.
+void Node::Impl::register_node(const std::string& host, const Done& done_fn) {
+  const auto loc = endpoint->location();
+  Value endpoints = Value::map()
+                        .set("host", host)
+                        .set("control", control->address().str())
+                        .set("data_uds", loc.data_uds)
+                        .set("data_tcp", loc.data_tcp)
+                        .set("pid", static_cast<std::int64_t>(::getpid()))
+                        .set("type", opts.type);
+  daemon->request({"register", 0, Value::map().set("name", opts.name).set("endpoints", endpoints)},
+                  std::chrono::milliseconds(opts.timeout_ms), [this, done_fn](Response r) {
+                    if (!r.ok()) return fail_start(done_fn, "cannot register " + opts.name + ": " + r.error);
+                    if (opts.clock == ClockKind::Simulated && !opts.world.empty()) return subscribe(done_fn);
+                    done_fn("");
+                  });
 }
 
 void Node::shutdown(const std::string& why) {
@@ -220,45 +244,52 @@ void Node::shutdown(const std::string& why) {
   }
 }
 
-// Simulated time: find the clock master, subscribe, take its time (see node.h).
-void Node::Impl::subscribe(const std::function<void(const std::string&)>& done_fn) {
+// Simulated time, step 1: look the clock master up by name (waiting for it to register; see node.h).
+void Node::Impl::subscribe(const Done& done_fn) {
   const auto timeout = std::chrono::milliseconds(opts.timeout_ms);
-  const std::string who = opts.name + " (simulated clock)";
   daemon->request(
       {"lookup", 0, Value::map().set("name", opts.world).set("wait_ms", static_cast<std::int64_t>(opts.timeout_ms))},
-      timeout + std::chrono::milliseconds(1000), [this, done_fn, timeout, who](Response r) {
+      timeout + std::chrono::milliseconds(1000), [this, done_fn](Response r) {
         if (done) return;
+        const std::string who = opts.name + " (simulated clock)";
         if (!r.ok())
           return fail_start(done_fn, who + ": no clock master '" + opts.world + "' (the world, `dca sim --serve`): " +
                                          r.error);
         std::string err;
         const auto addr = Address::parse(r.message.payload["endpoints"]["control"].as_string(), &err);
         if (!addr) return fail_start(done_fn, who + ": the clock master's control address: " + err);
-        Channel::connect(loop.io(), *addr, chopts, [this, done_fn, timeout, who](Channel::Ptr ch, const std::string& e) {
-          if (done) return;
-          if (!ch) return fail_start(done_fn, who + ": cannot reach the clock master '" + opts.world + "': " + e);
-          master = ch;
-          std::weak_ptr<Channel> w = ch;
-          ch->on_message([this, w](const Message& m) {
-            if (auto c = w.lock()) handle(c, m);
-          });
-          ch->on_close([this](const std::string& reason) {
-            if (done || !master) return;
-            std::fprintf(stderr, "dca node %s: the clock master '%s' closed its channel (%s): stopping\n",
-                         opts.name.c_str(), opts.world.c_str(), reason.c_str());
-            code = 1;
-            master.reset();
-            boost::asio::post(loop.io(), [this] { loop.stop(); });
-          });
-          ch->request({"clock", 0, Value::map().set("name", opts.name)}, timeout, [this, done_fn, who](Response r2) {
-            if (done) return;
-            if (!r2.ok()) return fail_start(done_fn, who + ": the clock master refused the subscription: " + r2.error);
-            const Nanos now = r2.message.payload["now"].as_int(0);
-            if (now > timers->now()) timers->advance_to(now);
-            done_fn("");
-          });
-        });
+        connect_master(*addr, done_fn);
       });
+}
+
+// Simulated time, step 2: connect to the clock master (losing it stops the node), subscribe, take its time.
+void Node::Impl::connect_master(const Address& address, const Done& done_fn) {
+  Channel::connect(loop.io(), address, chopts, [this, done_fn](Channel::Ptr ch, const std::string& e) {
+    if (done) return;
+    const std::string who = opts.name + " (simulated clock)";
+    if (!ch) return fail_start(done_fn, who + ": cannot reach the clock master '" + opts.world + "': " + e);
+    master = ch;
+    std::weak_ptr<Channel> w = ch;
+    ch->on_message([this, w](const Message& m) {
+      if (auto c = w.lock()) handle(c, m);
+    });
+    ch->on_close([this](const std::string& reason) {
+      if (done || !master) return;
+      std::fprintf(stderr, "dca node %s: the clock master '%s' closed its channel (%s): stopping\n",
+                   opts.name.c_str(), opts.world.c_str(), reason.c_str());
+      code = 1;
+      master.reset();
+      boost::asio::post(loop.io(), [this] { loop.stop(); });
+    });
+    ch->request({"clock", 0, Value::map().set("name", opts.name)}, std::chrono::milliseconds(opts.timeout_ms),
+                [this, done_fn, who](Response r) {
+                  if (done) return;
+                  if (!r.ok()) return fail_start(done_fn, who + ": the clock master refused the subscription: " + r.error);
+                  const Nanos now = r.message.payload["now"].as_int(0);
+                  if (now > timers->now()) timers->advance_to(now);
+                  done_fn("");
+                });
+  });
 }
 
 Value Node::Impl::ports() const {

@@ -1,8 +1,3 @@
-// Boost.Asio 1.74 under GCC 12 -O3 trips middle-end warnings inside its own headers (false positives),
-// silenced for this file only, before any include.
-#pragma GCC diagnostic ignored "-Wnull-dereference"
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-
 #include "host/timers.h"
 
 #include <sys/prctl.h>
@@ -16,8 +11,6 @@
 #include <cmath>
 #include <stdexcept>
 #include <system_error>
-
-#include <boost/asio/posix/stream_descriptor.hpp>
 
 namespace asio = boost::asio;
 

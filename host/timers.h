@@ -40,7 +40,7 @@
 #include <string>
 #include <vector>
 
-#include <boost/asio/io_context.hpp>
+#include "host/loop.h"
 
 namespace dca {
 
