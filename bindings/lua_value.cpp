@@ -196,16 +196,15 @@ bool to_message(lua_State* L, int index, wire::Message& out, std::string* error)
     err = "a message's fields must have names";
     return false;
   }
-  auto& m = payload.map_ref();
-  for (auto it = m.begin(); it != m.end();) {
-    if (it->first.is_string() && (it->first.as_string() == "type" || it->first.as_string() == "id")) {
-      it = m.erase(it);
-    } else {
-      ++it;
-    }
-  }
+  drop_envelope_fields(payload);
   out.payload = std::move(payload);
   return true;
+}
+
+void drop_envelope_fields(wire::Value& payload) {
+  std::erase_if(payload.map_ref(), [](const auto& kv) {
+    return kv.first.is_string() && (kv.first.as_string() == "type" || kv.first.as_string() == "id");
+  });
 }
 
 void push_message(lua_State* L, const wire::Message& m, bool with_id) {

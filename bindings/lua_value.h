@@ -26,6 +26,8 @@ void push_value(lua_State* L, const wire::Value& v);
 /// Converts the Lua table at `index` ({type = "...", [id = N,] ...}) to a message (id 0 without `id`).
 /// Never raises.
 bool to_message(lua_State* L, int index, wire::Message& out, std::string* error);
+/// Removes the envelope's fields (`type`, `id`) from the map `payload`: they are not payload.
+void drop_envelope_fields(wire::Value& payload);
 /// Pushes message `m` as a table {type = m.type, id = m.id (when with_id and m.id != 0), <payload fields>}.
 void push_message(lua_State* L, const wire::Message& m, bool with_id = true);
 

@@ -99,17 +99,23 @@ bool read_options(lua_State* L, int index, ChannelOptions& o, std::string* error
   return true;
 }
 
-int core_connect(lua_State* L) {
+// core.connect's and core.listen's arguments: (address, [options table], callback); returns the address.
+std::string_view check_endpoint_args(lua_State* L) {
   std::size_t n = 0;
   const char* addr_text = luaL_checklstring(L, 1, &n);
   if (!lua_isnoneornil(L, 2)) luaL_checktype(L, 2, LUA_TTABLE);
   luaL_checktype(L, 3, LUA_TFUNCTION);
+  return {addr_text, n};
+}
+
+int core_connect(lua_State* L) {
+  const std::string_view addr_text = check_endpoint_args(L);
   LoopState& ls = loop_state(L);
   char err[512] = {};
   {
     std::string error;
     ChannelOptions o;
-    auto addr = Address::parse(std::string_view(addr_text, n), &error);
+    auto addr = Address::parse(addr_text, &error);
     auto cb = std::make_shared<LuaRef>(L, 3, ls);
     if (addr && read_options(L, 2, o, &error)) {
       LoopState* lsp = &ls;
@@ -142,10 +148,7 @@ int core_connect(lua_State* L) {
 }
 
 int core_listen(lua_State* L) {
-  std::size_t n = 0;
-  const char* addr_text = luaL_checklstring(L, 1, &n);
-  if (!lua_isnoneornil(L, 2)) luaL_checktype(L, 2, LUA_TTABLE);
-  luaL_checktype(L, 3, LUA_TFUNCTION);
+  const std::string_view addr_text = check_endpoint_args(L);
   LoopState& ls = loop_state(L);
   char err[512] = {};
   bool bad_address = false;
@@ -153,7 +156,7 @@ int core_listen(lua_State* L) {
   {
     std::string error;
     ChannelOptions o;
-    auto addr = Address::parse(std::string_view(addr_text, n), &error);
+    auto addr = Address::parse(addr_text, &error);
     auto cb = std::make_shared<LuaRef>(L, 3, ls);
     std::shared_ptr<LuaRef> refused;
     if (lua_type(L, 2) == LUA_TTABLE) {
@@ -287,14 +290,7 @@ int ch_reply(lua_State* L) {
       std::snprintf(err, sizeof err, "%s", error.c_str());
     } else {
       if (!payload.is_map()) payload = wire::Value::map();
-      auto& m = payload.map_ref();
-      for (auto it = m.begin(); it != m.end();) {
-        if (it->first.is_string() && (it->first.as_string() == "type" || it->first.as_string() == "id")) {
-          it = m.erase(it);
-        } else {
-          ++it;
-        }
-      }
+      drop_envelope_fields(payload);
       if (is_error && payload["reason"].as_string().empty()) payload.set("reason", "error reply without a reason");
       sent = ud->ch->send(wire::Message{is_error ? "error" : "ok", static_cast<std::uint64_t>(id), std::move(payload)});
     }

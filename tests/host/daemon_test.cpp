@@ -12,6 +12,7 @@
 #include <boost/asio/write.hpp>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <sstream>
 
 #include "tests/support/channel_pair.h"
@@ -32,15 +33,23 @@ struct Client {
   std::vector<Message> events;
   std::string closed;
 
-  Response call(Message m, std::chrono::milliseconds timeout = 10s) {
-    Response r;
+  // A request whose answer comes later: `done` turns true when `got` holds it.
+  struct Pending {
+    Response got;
     bool done = false;
-    ch->request(std::move(m), timeout, [&](Response got) {
-      r = std::move(got);
-      done = true;
+  };
+  std::shared_ptr<Pending> send(Message m, std::chrono::milliseconds timeout = 10s) {
+    auto p = std::make_shared<Pending>();
+    ch->request(std::move(m), timeout, [p](Response got) {
+      p->got = std::move(got);
+      p->done = true;
     });
-    EXPECT_TRUE(loop.run_until([&] { return done; }, timeout + 5s));
-    return r;
+    return p;
+  }
+  Response call(Message m, std::chrono::milliseconds timeout = 10s) {
+    const auto p = send(std::move(m), timeout);
+    EXPECT_TRUE(loop.run_until([&] { return p->done; }, timeout + 5s));
+    return p->got;
   }
   const Message* wait_event(const std::string& type, std::chrono::milliseconds timeout = 20s) {
     const auto find = [&]() -> const Message* {
@@ -185,18 +194,13 @@ TEST_F(DaemonTest, LookupWaitsForANameRegisteredLater) {
   auto a = connect(loop_, d->address());
   auto b = connect(loop_, d->address());
   ASSERT_TRUE(a && b);
-  Response got;
-  bool done = false;
-  b->ch->request(req("lookup", Value::map().set("name", "late").set("wait_ms", 10000)), 20s, [&](Response r) {
-    got = std::move(r);
-    done = true;
-  });
+  const auto got = b->send(req("lookup", Value::map().set("name", "late").set("wait_ms", 10000)), 20s);
   ASSERT_TRUE(loop_.run_until([&] { return d->names().table().waiting() == 1; }, 10s));
-  EXPECT_FALSE(done);
+  EXPECT_FALSE(got->done);
   ASSERT_TRUE(a->call(req("register", Value::map().set("name", "late").set("endpoints", Value::map().set("pid", 5)))).ok());
-  ASSERT_TRUE(loop_.run_until([&] { return done; }, 10s));
-  EXPECT_TRUE(got.ok()) << got.error;
-  EXPECT_EQ(got.message.payload["endpoints"]["pid"].as_int(), 5);
+  ASSERT_TRUE(loop_.run_until([&] { return got->done; }, 10s));
+  EXPECT_TRUE(got->got.ok()) << got->got.error;
+  EXPECT_EQ(got->got.message.payload["endpoints"]["pid"].as_int(), 5);
   // A wait that ends without the name is an error naming the wait.
   const auto r = b->call(req("lookup", Value::map().set("name", "never").set("wait_ms", 30)));
   EXPECT_EQ(r.error, "no process named 'never' on host h1 within 30 ms");
@@ -218,17 +222,12 @@ TEST_F(DaemonTest, LookupIsAnsweredByPeers) {
   r = on_a->call(req("lookup", Value::map().set("name", "/nowhere")));
   EXPECT_EQ(r.error, "no process named '/nowhere' on host ha or its 2 peers");
   // Waiting look-ups also wait at the peers.
-  Response later;
-  bool done = false;
-  on_a->ch->request(req("lookup", Value::map().set("name", "/later").set("wait_ms", 10000)), 20s, [&](Response got) {
-    later = std::move(got);
-    done = true;
-  });
+  const auto later = on_a->send(req("lookup", Value::map().set("name", "/later").set("wait_ms", 10000)), 20s);
   ASSERT_TRUE(loop_.run_until([&] { return c_daemon->names().table().waiting() == 1; }, 10s));
   ASSERT_TRUE(on_c->call(req("register", Value::map().set("name", "/later"))).ok());
-  ASSERT_TRUE(loop_.run_until([&] { return done; }, 10s));
-  EXPECT_TRUE(later.ok()) << later.error;
-  EXPECT_EQ(later.message.payload["host"].as_string(), "hc");
+  ASSERT_TRUE(loop_.run_until([&] { return later->done; }, 10s));
+  EXPECT_TRUE(later->got.ok()) << later->got.error;
+  EXPECT_EQ(later->got.message.payload["host"].as_string(), "hc");
 }
 
 TEST_F(DaemonTest, UnreachablePeerIsNamedInTheError) {
