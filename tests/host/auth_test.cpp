@@ -8,6 +8,8 @@
 #include <filesystem>
 #include <fstream>
 
+#include "tests/support/temp_dir.h"
+
 namespace {
 
 using dca::auth::Handshake;
@@ -174,13 +176,9 @@ TEST(AuthTest, HmacMatchesRfc4231TestCase2) {
 
 class KeyFileTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    char tmpl[] = "/tmp/dca_auth_test_XXXXXX";
-    ASSERT_NE(::mkdtemp(tmpl), nullptr);
-    dir_ = tmpl;
-  }
-  void TearDown() override { std::filesystem::remove_all(dir_); }
-  std::string dir_;
+  void SetUp() override { ASSERT_FALSE(dir_.empty()); }
+  dca::test::TempDir tmp_{"auth_test"};
+  std::string dir_ = tmp_.path();
 };
 
 TEST_F(KeyFileTest, CreatesAKeyOfMode0600OnFirstUse) {

@@ -8,6 +8,7 @@
 
 #include "host/daemon.h"
 #include "tests/support/channel_pair.h"
+#include "tests/support/temp_dir.h"
 
 namespace {
 
@@ -17,15 +18,8 @@ using namespace dca::test;  // Address, Channel, ..., kKey
 
 class ConfigServiceTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("dca_config_service_" + std::to_string(::getpid()) + "_" +
-                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-  }
-  void TearDown() override {
-    daemons_.clear();
-    fs::remove_all(dir_);
-  }
+  void SetUp() override { ASSERT_FALSE(tmp_.path().empty()); }
+  void TearDown() override { daemons_.clear(); }
 
   dca::DaemonOptions options(const std::string& host, std::vector<Address> peers, std::string listen = "127.0.0.1:0") {
     dca::DaemonOptions o;
@@ -112,7 +106,8 @@ class ConfigServiceTest : public ::testing::Test {
     return out;
   }
 
-  fs::path dir_;
+  dca::test::TempDir tmp_{"config_service"};
+  fs::path dir_ = tmp_.path();
   dca::Loop loop_;
   std::map<std::string, std::unique_ptr<dca::Daemon>> daemons_;
   std::vector<Message> events_;

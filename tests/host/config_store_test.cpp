@@ -10,6 +10,8 @@
 #include <fstream>
 #include <set>
 
+#include "tests/support/temp_dir.h"
+
 namespace {
 
 namespace fs = std::filesystem;
@@ -22,13 +24,7 @@ using dca::wire::Value;
 
 class ConfigStoreTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("dca_config_store_" + std::to_string(::getpid()) + "_" +
-                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
+  void SetUp() override { ASSERT_FALSE(dir_.empty()); }
 
   // A replica in dir_/<name>.db whose wall clock is *clock (ms).
   std::unique_ptr<ConfigStore> open(const std::string& name, std::int64_t* clock = nullptr, std::string* error = nullptr) {
@@ -77,7 +73,8 @@ class ConfigStoreTest : public ::testing::Test {
     return out;
   }
 
-  fs::path dir_;
+  dca::test::TempDir tmp_{"config_store"};
+  fs::path dir_ = tmp_.path();
 };
 
 TEST_F(ConfigStoreTest, ValidatesKeys) {

@@ -16,6 +16,7 @@
 #include <sstream>
 
 #include "tests/support/channel_pair.h"
+#include "tests/support/temp_dir.h"
 
 extern char** environ;
 
@@ -327,23 +328,21 @@ class DaemonProcess {
 class DaemonProcessTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    char tmpl[] = "/tmp/dca_daemon_test_XXXXXX";
-    ASSERT_NE(::mkdtemp(tmpl), nullptr);
-    dir_ = tmpl;
+    ASSERT_FALSE(dir_.empty());
     key_file_ = dir_ + "/key";
     std::string error;
     auto key = dca::auth::load_or_create_key(key_file_, &error);
     ASSERT_TRUE(key) << error;
     key_ = *key;
   }
-  void TearDown() override { std::filesystem::remove_all(dir_); }
   // A free loopback port (bound then released, so a daemon started next can use it as a peer address).
   std::string free_port_address() {
     boost::asio::ip::tcp::acceptor a(loop_.io(), {boost::asio::ip::make_address("127.0.0.1"), 0});
     return "127.0.0.1:" + std::to_string(a.local_endpoint().port());
   }
   dca::Loop loop_;
-  std::string dir_, key_file_;
+  dca::test::TempDir tmp_{"daemon_test"};
+  std::string dir_ = tmp_.path(), key_file_;
   dca::auth::Key key_;
 };
 
