@@ -1,4 +1,4 @@
--- The layout rules of ARCHITECTURE.md, measured: run by CTest as layout.<case>, and by hand as
+-- The layout rules of ARCHITECTURE.md, measured: run by CTest as layout.<rule>, and by hand as
 --   scripts/layout-check            every case, naming each offender
 --   scripts/layout-check --report   the figures: longest functions, files per folder
 -- It reads the tree as text; C++ functions are found by universal-ctags, Lua functions by luac5.4's listing.
@@ -40,7 +40,7 @@ local function cxx_functions(paths)
     if path and first and last then
       local scope = l:match('"scope": "([^"]+)"')
       if name:match("^__anon") then name = "lambda in " .. (scope or "?")
-      elseif scope then name = scope:gsub("__anon%w+::", "") .. "::" .. name end
+      elseif scope then name = (scope .. "::" .. name):gsub("__anon%w+::", "") end
       out[#out + 1] = { file = path, name = name, first = first, last = last }
     end
   end
