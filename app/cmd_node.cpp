@@ -70,10 +70,11 @@ int cmd_node(std::span<char* const> args) {
                    return dca::Registry::global().create(type, {name, host, params, &timers, nullptr});
                  });
   bool started = false;
-  const std::string failure = dca::app::run_node(loop, node, [&] {
+  std::string failure;
+  dca::app::run_node(loop, node, [&] {
     std::printf("dca node: %s ready\n", o.name.c_str());
     std::fflush(stdout);
-  }, &started);
+  }, &started, &failure);
   if (!started) {
     std::fprintf(stderr, "dca node %s: %s\n", o.name.c_str(), failure.empty() ? "stopped before it was ready" : failure.c_str());
     node.shutdown("start-up failed");

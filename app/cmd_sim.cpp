@@ -105,13 +105,15 @@ int serve(const Options& o, const dca::sim::WorldConfig& config) {
     auto hosted = wn.make_node(no);
     dca::Node& node = *hosted;
     const auto wall0 = std::chrono::steady_clock::now();
-    const std::string failure = dca::app::run_node(loop, node, [&] {
+    bool ready = false;
+    std::string failure;
+    dca::app::run_node(loop, node, [&] {
       std::printf("dca sim: world ready (%s), door %.3f m wide, robot at (%.3f, %.3f, %.1f deg), period %g s\n",
                   o.name.c_str(), config.door.width, config.base_start.x, config.base_start.y,
                   config.base_start.yaw * 180 / M_PI, config.period);
       std::fflush(stdout);
       if (o.go) wn.go();
-    });
+    }, &ready, &failure);
     node.shutdown(failure.empty() ? "world exiting" : "start-up failed");
     if (!failure.empty()) {
       std::fprintf(stderr, "dca sim: %s\n", failure.c_str());

@@ -4,13 +4,13 @@
 
 namespace dca::app {
 
-std::string run_node(Loop& loop, Node& node, const std::function<void()>& on_ready, bool* ready) {
+bool run_node(Loop& loop, Node& node, const std::function<void()>& on_ready, bool* ready, std::string* error) {
   loop.on_signals({SIGTERM, SIGINT}, [&](int) { loop.stop(); });
   bool started = false;
   std::string failure;
-  node.start([&](const std::string& error) {
-    if (!error.empty()) {
-      failure = error;
+  node.start([&](const std::string& why) {
+    if (!why.empty()) {
+      failure = why;
       loop.stop();
       return;
     }
@@ -18,8 +18,10 @@ std::string run_node(Loop& loop, Node& node, const std::function<void()>& on_rea
     on_ready();
   });
   loop.run();
-  if (ready != nullptr) *ready = started;
-  return failure;
+  *ready = started;
+  if (failure.empty()) return true;
+  *error = std::move(failure);
+  return false;
 }
 
 }  // namespace dca::app

@@ -9,7 +9,8 @@
 namespace dca::app {
 
 /// Starts `node`, then runs `loop` until it stops (SIGTERM and SIGINT stop it too); `on_ready` runs once the
-/// node has registered. Returns "" or why the start-up failed; `*ready` (when given) tells whether it got ready.
-std::string run_node(Loop& loop, Node& node, const std::function<void()>& on_ready, bool* ready = nullptr);
+/// node has registered. Returns false, with why in *error, when the start-up failed; `*ready` tells whether the
+/// node got ready (false too when a signal stopped it first).
+bool run_node(Loop& loop, Node& node, const std::function<void()>& on_ready, bool* ready, std::string* error);
 
 }  // namespace dca::app

@@ -353,7 +353,7 @@ void ConfigService::on_set(const Channel::Ptr& ch, const wire::Message& m) {
 bool ConfigService::read_prefix(const Channel::Ptr& ch, const wire::Message& m, std::string& prefix) {
   prefix = trim_prefix(m.payload["prefix"].as_string());
   if (prefix.empty()) return true;
-  if (auto why = config::validate_key(prefix); !why.empty()) {
+  if (std::string why; !config::valid_key(prefix, &why)) {
     ch->reply_error(m, why);
     return false;
   }

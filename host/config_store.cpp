@@ -135,10 +135,7 @@ bool writes_from_value(const wire::Value& v, std::vector<Write>* out, std::strin
     }
     Write x;
     x.key = a[0].as_string();
-    if (auto why = validate_key(x.key); !why.empty()) {
-      *error = why;
-      return false;
-    }
+    if (!valid_key(x.key, error)) return false;
     x.value = a[1];
     if (!a[2].is_nil()) {
       x.prev = Stamp::from_value(a[2]);
@@ -232,7 +229,8 @@ std::optional<VersionVector> version_from_value(const wire::Value& v) {
 
 // -------------------------------------------------------------------------------------------------------- keys
 
-std::string validate_key(std::string_view key) {
+// Why `key` is not a valid key, "" when it is.
+static std::string key_problem(std::string_view key) {
   const std::string shown = "bad key '" + std::string(key.substr(0, 80)) + (key.size() > 80 ? "...'" : "'");
   if (key.empty()) return "bad key '': a key is one or more dotted names, e.g. door.width";
   if (key.size() > kMaxKeyBytes) return shown + ": longer than " + std::to_string(kMaxKeyBytes) + " bytes";
@@ -252,6 +250,13 @@ std::string validate_key(std::string_view key) {
   }
   if (start) return shown + ": ends with '.'";
   return "";
+}
+
+bool valid_key(std::string_view key, std::string* error) {
+  std::string why = key_problem(key);
+  if (why.empty()) return true;
+  if (error != nullptr) *error = std::move(why);
+  return false;
 }
 
 std::vector<std::string> suggest(std::string_view key, const std::vector<std::string>& candidates, std::size_t max) {
@@ -494,7 +499,7 @@ std::optional<Txn> ConfigStore::set(const std::vector<std::pair<std::string, wir
   if (values.empty()) return failed("nothing to set");
   std::map<std::string, wire::Value> merged;  // a key named twice: the last one
   for (const auto& [k, v] : values) {
-    if (auto e = validate_key(k); !e.empty()) return failed(e);
+    if (std::string e; !valid_key(k, &e)) return failed(e);
     if (v.is_nil()) return failed("the value of '" + k + "' is nil (a key holds a value; nothing is deleted)");
     if (const auto size = encode(v).size(); size > kMaxValueBytes)
       return failed("the value of '" + k + "' is " + std::to_string(size) + " bytes (at most " +
@@ -531,10 +536,7 @@ std::optional<Txn> ConfigStore::set(const std::vector<std::pair<std::string, wir
 }
 
 std::optional<Entry> ConfigStore::get(std::string_view key, std::string* error) const {
-  if (auto e = validate_key(key); !e.empty()) {
-    if (error != nullptr) *error = e;
-    return std::nullopt;
-  }
+  if (!valid_key(key, error)) return std::nullopt;
   if (auto cur = current(std::string(key))) return cur;
   if (error != nullptr) {
     std::string msg = "unknown key '" + std::string(key) + "'";

@@ -108,8 +108,8 @@ using VersionVector = std::map<std::string, std::uint64_t>;
 wire::Value version_value(const VersionVector& vv);
 std::optional<VersionVector> version_from_value(const wire::Value& v);
 
-/// Checks a key: "" when valid, else why not ("bad key 'door..width': empty segment at byte 6").
-std::string validate_key(std::string_view key);
+/// Checks a key: false, with why not in *error ("bad key 'door..width': empty name at byte 6"), when invalid.
+bool valid_key(std::string_view key, std::string* error);
 /// Up to `max` keys of `candidates` close to `key` (edit distance), closest first.
 std::vector<std::string> suggest(std::string_view key, const std::vector<std::string>& candidates, std::size_t max = 3);
 

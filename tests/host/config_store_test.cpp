@@ -78,7 +78,12 @@ class ConfigStoreTest : public ::testing::Test {
 };
 
 TEST_F(ConfigStoreTest, ValidatesKeys) {
-  using dca::config::validate_key;
+  // Why the key is invalid, "" when valid_key accepts it.
+  const auto validate_key = [](std::string_view key) {
+    std::string why;
+    EXPECT_EQ(dca::config::valid_key(key, &why), why.empty()) << key;
+    return why;
+  };
   EXPECT_EQ(validate_key("door.width"), "");
   EXPECT_EQ(validate_key("robot.arm.gains.kp"), "");
   EXPECT_EQ(validate_key("speed"), "");
