@@ -81,7 +81,8 @@ TEST_F(ConfigStoreTest, ValidatesKeys) {
   // Why the key is invalid, "" when valid_key accepts it.
   const auto validate_key = [](std::string_view key) {
     std::string why;
-    EXPECT_EQ(dca::config::valid_key(key, &why), why.empty()) << key;
+    const bool valid = dca::config::valid_key(key, &why);
+    EXPECT_EQ(valid, why.empty()) << key;
     return why;
   };
   EXPECT_EQ(validate_key("door.width"), "");
