@@ -47,6 +47,17 @@ struct Client {
     });
     return p;
   }
+  // Spawns two sleeping shells, the second deaf to SIGTERM: their pids (fewer when a spawn failed).
+  std::vector<pid_t> spawn_two_sleepers() {
+    std::vector<pid_t> pids;
+    for (const char* script : {"sleep 100", "trap '' TERM; sleep 100 & wait"}) {
+      const auto r = call(Message{"spawn", 0, Value::map().set("argv", Value::Array{"/bin/sh", "-c", script})});
+      EXPECT_TRUE(r.ok()) << r.error;
+      if (!r.ok()) break;
+      pids.push_back(static_cast<pid_t>(r.message.payload["pid"].as_int()));
+    }
+    return pids;
+  }
   Response call(Message m, std::chrono::milliseconds timeout = 10s) {
     const auto p = send(std::move(m), timeout);
     EXPECT_TRUE(loop.run_until([&] { return p->done; }, timeout + 5s));
@@ -246,12 +257,8 @@ TEST_F(DaemonTest, StopLeavesNoChildAndClosesChannels) {
   auto d = make("h1");
   auto c = connect(loop_, d->address());
   ASSERT_TRUE(c);
-  std::vector<pid_t> pids;
-  for (const char* script : {"sleep 100", "trap '' TERM; sleep 100 & wait"}) {
-    const auto r = c->call(req("spawn", Value::map().set("argv", Value::Array{"/bin/sh", "-c", script})));
-    ASSERT_TRUE(r.ok()) << r.error;
-    pids.push_back(static_cast<pid_t>(r.message.payload["pid"].as_int()));
-  }
+  const std::vector<pid_t> pids = c->spawn_two_sleepers();
+  ASSERT_EQ(pids.size(), 2u);
   d->stop();
   for (pid_t p : pids) EXPECT_FALSE(process_exists(p)) << "child " << p << " is still in /proc";
   ASSERT_TRUE(loop_.run_until([&] { return !c->closed.empty(); }, 10s));
@@ -367,12 +374,8 @@ TEST_F(DaemonProcessTest, SigtermKillsAndReapsEveryChild) {
   DaemonProcess d({"--host", "h1", "--allow", "/bin/sh", "--grace", "100"}, key_file_);
   auto c = connect(loop_, d.address(), key_);
   ASSERT_TRUE(c);
-  std::vector<pid_t> pids;
-  for (const char* script : {"sleep 100", "trap '' TERM; sleep 100 & wait"}) {
-    const auto r = c->call(req("spawn", Value::map().set("argv", Value::Array{"/bin/sh", "-c", script})));
-    ASSERT_TRUE(r.ok()) << r.error;
-    pids.push_back(static_cast<pid_t>(r.message.payload["pid"].as_int()));
-  }
+  const std::vector<pid_t> pids = c->spawn_two_sleepers();
+  ASSERT_EQ(pids.size(), 2u);
   for (pid_t p : pids) EXPECT_TRUE(process_exists(p));
   const int status = d.stop();
   EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << status;
