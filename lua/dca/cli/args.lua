@@ -40,7 +40,7 @@ function M.parse(argv, name, options, max)
         end
         if kind == "list" then o[key] = o[key] or {}; table.insert(o[key], v) else o[key] = v end
       end
-    elseif (a:sub(1, 1) == "-" and a ~= "-") or o.n >= max then
+    elseif a:sub(1, 1) == "-" or o.n >= max then
       return nil, name .. ": unexpected argument '" .. a .. "'"
     else
       o.n = o.n + 1

@@ -58,7 +58,7 @@ function M.wrap(ch, Class, opts)
     if self._event then self:_event(msg, id) end
   end)
   ch:on_close(function(reason)
-    self.closed = reason
+    self.closed = reason or "closed"
     if self.close_fn then self.close_fn(reason) end
   end)
   return self
@@ -92,7 +92,7 @@ function M.lookup(daemon, name, wait, cb)
 end
 
 --- Looks `name` up (see lookup) and connects to its `control` endpoint: cb(client of Class) | cb(nil, err,
---- missing), missing = true when the daemon found no such process (err is then the daemon's reason).
+--- missing), missing = true when the lookup failed for any reason, a timeout included (err says which).
 function M.open(daemon, name, wait, opts, Class, cb)
   M.lookup(daemon, name, wait, function(ep, err)
     if not ep then cb(nil, err, true) return end

@@ -145,10 +145,11 @@ local function run_step(ctx, name)
   if not WAITS[name] then return M[name](ctx) end
   local co, res, waiting = coroutine.running(), nil, false
   M[name](ctx, function(...)
+    if res then return end                    -- a second call: the step has already ended
     res = table.pack(...)
     if waiting then
       local ok, err = coroutine.resume(co)
-      if not ok then error(err, 0) end
+      if not ok then error(debug.traceback(co, err), 0) end
     end
   end)
   if not res then waiting = true coroutine.yield() end
@@ -165,7 +166,7 @@ function M.sequence(ctx, names, cb)
     cb(true)
   end)
   local ok, err = coroutine.resume(co)
-  if not ok then error(err, 0) end
+  if not ok then error(debug.traceback(co, err), 0) end
 end
 
 --- Everything the start opened, closed: the runtime, the world's channels, the local daemons, the key dir.

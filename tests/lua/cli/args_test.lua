@@ -20,6 +20,7 @@ suite:case("errors_name_the_command_and_the_option", function()
   T.eq({ parse("--seed", "soon") }, { nil, "dca x: --seed needs a number" })
   T.eq({ parse("--frob") }, { nil, "dca x: unexpected argument '--frob'" })
   T.eq({ parse("a.dca", "b.dca") }, { nil, "dca x: unexpected argument 'b.dca'" })
+  T.eq({ parse("-") }, { nil, "dca x: unexpected argument '-'" })
 end)
 
 suite:case("more_positionals_when_allowed", function()
