@@ -7,7 +7,7 @@ local suite = T.suite("core_channel")
 
 local loop = core.loop()
 local KEY = "0123456789abcdef0123456789abcdef"
-local DCA = os.getenv("DCA_EXE") or "dca"
+local DCA = T.exe
 
 -- An echo server on a fresh port: replies to every request with its message; closes on "bye".
 local function echo_server(opts)

@@ -78,11 +78,6 @@ local function parse_args(args)
   return o
 end
 
---- Reads, parses and checks FILE and builds the spec of its root. --> spec | nil, error text
-function M.load(file, root)
-  return require("dca.load").spec(file, { root = root })
-end
-
 -- The terminal of a run: stdout for its lines, stderr for its outcome and errors, `dca repl` on /dev/tty.
 local OUT = {
   line = function(text) io.stdout:write(text, "\n") io.stdout:flush() end,
@@ -103,7 +98,7 @@ end
 function M.main(args)
   local o, perr = parse_args(args)
   if not o then return args_mod.usage_error(perr, M.usage) end
-  local spec, err = M.load(o.file, o.root)
+  local spec, err = require("dca.load").spec(o.file, { root = o.root })
   if not spec then io.stderr:write(err, "\n") return 2 end
   o.config = o.config or (not o.no_config and require("dca.config").defaults_file(o.file)) or nil
   o.check, o.summary, o.wait = true, true, o.timeout

@@ -2,8 +2,7 @@
 local T = require "dca.testing"
 local suite = T.suite("run")
 
-local dca = os.getenv("DCA_EXE") or "dca"
-local src = os.getenv("DCA_SOURCE_DIR") or "."
+local dca, src = T.exe, T.src
 
 for _, c in ipairs({ { "jammed", "--jammed go with --sim WORLD" }, { "realtime", "--realtime goes with --sim WORLD" } }) do
   suite:case("run_" .. c[1] .. "_needs_sim", function()

@@ -2,8 +2,7 @@
 local T = require "dca.testing"
 local suite = T.suite("supervisor_cli")
 
-local dca = os.getenv("DCA_EXE") or "dca"
-local src = os.getenv("DCA_SOURCE_DIR") or "."
+local dca, src = T.exe, T.src
 
 local tmpfile = T.tmpfile
 
@@ -57,7 +56,7 @@ end)
 suite:case("scenario_reports_each_step_and_fails_with_the_failing_step", function()
   local path = tmpfile([[
 local S = require "dca.scenario"
-local sys = S.system(os.getenv("DCA_SOURCE_DIR") .. "/scripts/systems/test_reload.dca")
+local sys = S.system(require("dca.testing").src .. "/scripts/systems/test_reload.dca")
 S.step("up", function() sys:up() end)
 S.step("expects DONE but the deadline wins", function()
   sys:run()

@@ -3,7 +3,7 @@
 local T, core = require "dca.testing", require "dca.core"
 local daemon_client, node_client = require "dca.clients.daemon", require "dca.clients.node"
 local DCA = os.getenv("DCA_EXE") or "dca"
-local suite, loop = T.suite("node_client"), core.loop()
+local suite, loop = T.suite("node"), core.loop()
 
 -- Runs the loop until pred() (bounded: 10 s unless said), failing the case when it never holds.
 local function wait(pred, what, seconds)

@@ -4,12 +4,11 @@
 local T = require "dca.testing"
 local suite = T.suite("door")
 
-local src = os.getenv("DCA_SOURCE_DIR") or "."
+local src = T.src
 
 suite:case("the_period_leaves_of_the_door_are_motioncontrols_three_controllers", function()
-  local run = require "dca.cli.run"
   local door = require "dca.launch.reports.door"
-  local spec, err = run.load(src .. "/scripts/systems/door_open.dca")
+  local spec, err = require("dca.load").spec(src .. "/scripts/systems/door_open.dca")
   T.ok(spec, tostring(err))
   T.eq(door.leaves(spec), { "main.dooropensyst.motionctrl.xr4000", "main.dooropensyst.motionctrl.puma",
                             "main.dooropensyst.motionctrl.redundancy" })
