@@ -6,7 +6,7 @@
 --   local code = require("dca.launch.group").main(o, out)
 --   o = { name = PATH, daemon = ADDR, key = FILE, listen = ADDR }
 --   out = { error = fn(text), line = fn(text), verbose = bool }  -- with verbose, its transition lines to line
-local core = require "dca.core"
+local core, clients = require "dca.core", require "dca.clients"
 local supervisor, srt = require "dca.supervisor", require "dca.supervisor.net"
 local start = require "dca.launch.start"
 
@@ -70,7 +70,7 @@ function Proc:listen()
   local d = self.o.daemon
   local ip = d:match("^%[(.-)%]:%d+$") and ("[" .. d:match("^%[(.-)%]") .. "]") or d:match("^([%d%.]+):%d+$")
     or "127.0.0.1"
-  return core.listen(self.o.listen or (ip .. ":0"), srt.key_opts(self.key), function(ch)
+  return core.listen(self.o.listen or (ip .. ":0"), clients.key_opts(self.key), function(ch)
     ch:on_message(function(msg, id) self:on_request(ch, msg, id) end)
     ch:on_close(function() self.followers[ch] = nil end)
   end)
@@ -79,7 +79,7 @@ end
 -- Registers this supervisor's path with its daemon; the daemon's loss ends it.
 function Proc:register(listener)
   local o = self.o
-  require("dca.clients.daemon").connect(o.daemon, srt.key_opts(self.key), function(d, cerr)
+  require("dca.clients.daemon").connect(o.daemon, clients.key_opts(self.key), function(d, cerr)
     if not d then self.out.error("daemon " .. o.daemon .. ": " .. tostring(cerr)) self:finish(1) return end
     d:register(o.name, { control = listener:address(), pid = core.pid() }, function(r, rerr)
       if not r or r.type == "error" then

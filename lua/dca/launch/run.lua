@@ -9,7 +9,7 @@
 --           console = fn(exe, address, key) --> pid | nil }   -- with o.repl: a console process on the terminal
 -- The exit code: 0 when the root ends DONE, 1 ABORTED, 2 usage or configuration errors, 3 a failed start,
 -- 130 after Ctrl-C.
-local core = require "dca.core"
+local core, clients = require "dca.core", require "dca.clients"
 local supervisor, srt = require "dca.supervisor", require "dca.supervisor.net"
 local hosts_mod, start = require "dca.launch.hosts", require "dca.launch.start"
 
@@ -96,15 +96,15 @@ end
 -- The root listens for consoles (`dca repl main`) and registers its path with its host's daemon.
 function Run:listen()
   local key, hosts, spec = self.ctx.key, self.ctx.hosts, self.spec
-  self.listener = core.listen("127.0.0.1:0", srt.key_opts(key), function(ch)
+  self.listener = core.listen("127.0.0.1:0", clients.key_opts(key), function(ch)
     ch:on_message(function(msg, id) srt.console(ch, id, msg, self.sup, self.followers) end)
     ch:on_close(function() self.followers[ch] = nil end)
   end)
   local root_daemon = hosts[spec.host]
   if not (self.listener and root_daemon) then return end
-  require("dca.clients.daemon").connect(root_daemon, srt.key_opts(key), function(d)
+  require("dca.clients.daemon").connect(root_daemon, clients.key_opts(key), function(d)
     if not d then return end
-    self.ctx.rt.root_daemon = d
+    self.ctx.rt.root_daemon = d   -- read by nothing: it keeps the registration open; start.cleanup closes it
     d:register(spec.path, { control = self.listener:address() })
     self:say(sformat("console: dca repl %s --daemon %s --key %s", spec.path, root_daemon, tostring(key)))
   end)

@@ -1,6 +1,6 @@
 -- dca.launch.start: the one start-up sequence of a system, shared by `dca run` (cli/run.lua), `dca scenario`
--- (dca.scenario.real) and, for its own tree, `dca supervise` (cli/supervise.lua). Named steps over one
--- context, run in this order by start.sequence:
+-- (dca.scenario.real) and, for its tree only (start.tree), a group's supervisor (launch/group.lua). Named
+-- steps over one context, run in this order by start.sequence:
 --
 --   hosts      the daemons: a hosts file (o.hosts), or one fresh local daemon per host name (a fresh key)
 --   config     the configuration repository: the defaults file and o.set, on the root's host, replicated
@@ -123,7 +123,7 @@ function M.sim_clock(ctx, cb)
     else cb(true) end
   end
   for _, h in ipairs(ctx.names) do
-    daemon_client.connect(ctx.hosts[h], net.key_opts(ctx.key), function(d, err)
+    daemon_client.connect(ctx.hosts[h], require("dca.clients").key_opts(ctx.key), function(d, err)
       if not d then one(sformat("host %s at %s: %s", h, ctx.hosts[h], tostring(err))) return end
       d:request({ type = "ping" }, 10, function(r, perr)
         d:close()
@@ -169,8 +169,10 @@ function M.sequence(ctx, names, cb)
   if not ok then error(debug.traceback(co, err), 0) end
 end
 
---- Everything the start opened, closed: the runtime, the world's channels, the local daemons, the key dir.
+--- Everything the start opened, closed: the root daemon's registration channel, the runtime, the world's
+--- channels, the local daemons, the key dir.
 function M.cleanup(ctx)
+  if ctx.rt and ctx.rt.root_daemon then ctx.rt.root_daemon:close() end
   if ctx.rt then ctx.rt.close() end
   if ctx.sim then ctx.sim.world:close() end
   if ctx.daemons then ctx.daemons:stop() end

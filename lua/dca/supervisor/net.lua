@@ -61,11 +61,6 @@ function M.to_followers(followers, line)
   return n
 end
 
---- Connection options for `core.connect`/`core.listen` from a key file path (nil: dca.core's default).
-M.key_opts = clients.key_opts
-
-M.describe_exit = daemon_client.describe_exit
-
 local function argstr(v)
   if type(v) == "number" then
     if math.type(v) == "integer" then return tostring(v) end
@@ -232,7 +227,7 @@ function Net:daemon(host, cb)
   end
   d = { waiters = { cb } }
   self.daemons[host] = d
-  daemon_client.connect(addr, M.key_opts(self.opts.key), function(dc, err)
+  daemon_client.connect(addr, clients.key_opts(self.opts.key), function(dc, err)
     local waiters = d.waiters
     d.waiters = {}
     if not dc then
@@ -253,7 +248,7 @@ function Net:_watch_daemon(host, d, dc)
   dc:on_exit(function(msg)
     local p = self.by_child[host .. ":" .. tostring(msg.child)]
     if not p then return end
-    p:exited_with(self, M.describe_exit(msg, host))
+    p:exited_with(self, daemon_client.describe_exit(msg, host))
     p:gone()
   end)
   dc:on_close(function(reason)
@@ -303,7 +298,7 @@ end
 -- Looks the started process up by its path and connects to its control endpoint; a process that cannot be
 -- reached is killed. cb(handle) | cb(nil, reason)
 function Net:_reach(p, dc, cb)
-  clients.open(dc, p.path, self.timeouts.lookup, M.key_opts(self.opts.key), clients.Plain, function(c, err)
+  clients.open(dc, p.path, self.timeouts.lookup, clients.key_opts(self.opts.key), clients.Plain, function(c, err)
     if not c then p:kill_wait("KILL") cb(nil, err) return end
     p.ch = c.channel
     c.channel:on_message(function(msg, id)
@@ -385,7 +380,7 @@ function Net:_open_world(w, finish)
   local host, name = self.own_host(), self.opts.world_name or "world"
   self.daemon(host, function(dc, derr)
     if not dc then finish(nil, derr) return end
-    clients.open(dc, name, self.opts.world_wait or 5, M.key_opts(self.opts.key), clients.Plain,
+    clients.open(dc, name, self.opts.world_wait or 5, clients.key_opts(self.opts.key), clients.Plain,
       function(c, err, missing)
         if missing then
           finish(nil, sformat("no process is registered as `%s` (asked the daemon of host %s: %s)", name, host,
