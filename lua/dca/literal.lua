@@ -25,7 +25,7 @@ local M = { MAX_LENGTH = 1 << 20, MAX_DEPTH = 32 }
 local type, tonumber, tostring, pcall, error = type, tonumber, tostring, pcall, error
 local sfind, ssub, sbyte, schar, smatch, sformat = string.find, string.sub, string.byte, string.char,
   string.match, string.format
-local concat = table.concat
+local concat, utf8char = table.concat, utf8.char
 
 local RESERVED = {}
 for w in ([[and break do else elseif end false for function goto if in local nil not or repeat return then
@@ -55,6 +55,7 @@ local function skip(s, pos)
   end
 end
 
+--- The number at start (a '-' or a numeral) and the position after it.
 local function number(s, start)
   local pos = start
   if ssub(s, pos, pos) == "-" then pos = skip(s, pos + 1) end
@@ -95,12 +96,13 @@ local function escape(s, j, open)
   if e == "u" then
     local h = smatch(s, "^{(%x+)}", j + 2)
     if not h or #h > 8 or tonumber(h, 16) >= 0x80000000 then fail(j, "malformed '\\u{XXX}' escape") end
-    return utf8.char(tonumber(h, 16)), j + 4 + #h
+    return utf8char(tonumber(h, 16)), j + 4 + #h
   end
   if e == "" then fail(open, "unfinished string") end
   fail(j, "invalid escape sequence '\\%s'", e)
 end
 
+--- The quoted string opening at s[open] and the position after its closing quote.
 local function quoted(s, open)
   local q, parts, i = ssub(s, open, open), {}, open + 1
   while true do
@@ -114,6 +116,7 @@ local function quoted(s, open)
   end
 end
 
+--- The long-bracket string opening at s[open] ([[ or [==[) and the position after its closing bracket.
 local function long_string(s, open)
   local eq = smatch(s, "^%[(=*)%[", open)
   local first, close = open + #eq + 2, "]" .. eq .. "]"
@@ -125,6 +128,7 @@ end
 
 local value
 
+--- The position after the character c expected at the next token (and after the blanks that follow it).
 local function expect(s, pos, c, where)
   pos = skip(s, pos)
   if ssub(s, pos, pos) ~= c then fail(pos, "expected '%s' %s, found %s", c, where, shown(s, pos)) end
@@ -152,6 +156,7 @@ local function field(s, pos, depth)
   return nil, value(s, pos, depth)
 end
 
+--- The table opening at s[open] ({) and the position after its closing brace; depth: its nesting.
 local function table_value(s, open, depth)
   if depth > M.MAX_DEPTH then fail(open, "tables nested deeper than %d", M.MAX_DEPTH) end
   local t, n, pos = {}, 0, skip(s, open + 1)
@@ -182,6 +187,7 @@ function value(s, pos, depth)
   fail(pos, "expected %s, found %s", EXPECTED, shown(s, pos))
 end
 
+--- The value at init (after blanks) and the position after it and the blanks that follow.
 local function read_at(s, init)
   local v, stop = value(s, skip(s, init), 1)
   return v, skip(s, stop)
