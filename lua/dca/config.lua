@@ -18,6 +18,7 @@
 -- config.resolve_params(args, client, cb) resolves the `config("key")` parameters of a controller (see below).
 local core = require "dca.core"
 local client = require "dca.clients.config"
+local literal = require "dca.literal"
 
 local type, ipairs, tostring = type, ipairs, tostring
 local sformat = string.format
@@ -177,28 +178,39 @@ end
 
 -- ------------------------------------------------------------------------------------ defaults files and seeding
 
---- The value of a Lua literal (0.45, true, "text", {1, 2}), or nil when text is not one.
-local function literal(text)
-  local chunk = load("return " .. text, "=value", "t", {})
-  if not chunk then return nil end
-  local ok, v = pcall(chunk)
-  if ok and v ~= nil and type(v) ~= "function" then return v end
-  return nil
-end
+--- Characters that make a --set VALUE look like code rather than a plain word (see M.parse_assignment).
+local CODE_LIKE = "[%(%){}%[%]\"'\\]"
 
---- Parses "KEY=VALUE" (`dca config set`, `dca run --set`, the console's `set`): the key, and the value as a Lua
---- literal (else the text itself). --> key, value | nil, err when there is no '='.
+--- Parses "KEY=VALUE" (`dca config set`, `dca run --set`): the key, and the value read by dca.literal (a
+--- number, "string", true/false or {table}; nothing is ever evaluated). When VALUE is not a literal it is taken
+--- as a string only if it is a plain word: it contains none of ( ) { } [ ] " ' \ (so right, 10.0.0.2,
+--- /tmp/x, -x and os.exit are strings); else (os.exit(3), {1,, "open) it is an error naming the column in
+--- KEY=VALUE. --> key, value | nil, err (no '=', or a VALUE that looks like code but is not a literal).
 function M.parse_assignment(text)
   local key, raw = text:match("^([^=]+)=(.*)$")
   if not key then return nil, "expected KEY=VALUE, got '" .. text .. "'" end
-  local v = literal(raw)
-  if v == nil then return key, raw end
-  return key, v
+  local v, err, col = literal.read(raw)
+  if v ~= nil then return key, v end
+  if not raw:find(CODE_LIKE) then return key, raw end
+  return nil, sformat("%s: column %d: %s; a value that is not a literal must be a plain word, without brackets, "
+    .. "quotes or backslashes", text, #key + 1 + col, err)
 end
 
---- Reads a file of configuration defaults: one `key = value` per line, the value a Lua literal (0.45, 75,
---- true, "right", {1, 2}); `#` or `--` starts a comment. --> { { key =, value =, line = }, ... } (in file
---- order) | nil, "FILE:LINE:COL: what is wrong".
+--- The value of one `key = value` line of a defaults file: raw starts at column col; a trailing `# comment`
+--- after the value is ignored (`--` comments too). --> value | nil, the column of the error, err
+local function line_value(raw, col)
+  local v, stop, ecol = literal.prefix(raw, 1)
+  if v == nil then return nil, col + ecol - 1, stop end
+  if stop <= #raw and raw:sub(stop, stop) ~= "#" then
+    return nil, col + stop - 1, sformat("unexpected '%s' after the value", raw:sub(stop, stop))
+  end
+  return v
+end
+
+--- Reads a file of configuration defaults: one `key = value` per line, the value a literal read by
+--- dca.literal (0.45, 75, true, "right", {1, 2}; never evaluated); `#` or `--` starts a comment.
+--- --> { { key =, value =, line = }, ... } (in file order) | nil, "FILE:LINE:COL: what is wrong", the column
+--- being that of the offending character.
 function M.read_file(path)
   local f, ferr = io.open(path, "r")
   if not f then return nil, sformat("cannot read configuration file %s", tostring(ferr)) end
@@ -220,14 +232,10 @@ function M.read_file(path)
         return fail(#lead + 1, "'" .. key .. "' is not a dotted key (like door.stop_distance)")
       end
       if raw == "" then return fail(col, "no value for " .. key) end
-      -- the value, else the value before a trailing `# comment` (a `#` inside a string is kept)
-      local v
-      for _, candidate in ipairs({ raw, (raw:gsub("%s+#[^\"']*$", "")), (raw:gsub("%s*#.*$", "")) }) do
-        v = literal(candidate)
-        if v ~= nil then raw = candidate break end
-      end
+      local v, ecol, verr = line_value(raw, col)
       if v == nil then
-        return fail(col, "the value of " .. key .. " is not a Lua literal (a number, true/false, a \"string\" or a {table}): " .. raw)
+        return fail(ecol, sformat("the value of %s is not a literal (a number, true/false, a \"string\" or a "
+          .. "{table} of those; nothing is evaluated): %s", key, verr))
       end
       if seen[key] then return fail(#lead + 1, sformat("%s is set twice (first at line %d)", key, seen[key])) end
       seen[key] = n

@@ -350,4 +350,53 @@ process main() {
   end)
 end)
 
+-- Values are data (issue 14): KEY=VALUE and defaults files are read by dca.literal, never executed.
+-- bounded(fn, ...) runs fn with an instruction budget: a value that loops fails the case instead of hanging it.
+local function bounded(fn, ...)
+  local co = coroutine.create(fn)
+  debug.sethook(co, function() error("instruction budget exhausted: the value was executed?") end, "", 10000000)
+  local r = table.pack(coroutine.resume(co, ...))
+  T.ok(r[1], tostring(r[2]))
+  return table.unpack(r, 2, r.n)
+end
+
+suite:case("parse_assignment_reads_literals_keeps_plain_words_and_refuses_code", function()
+  local function pa(text) return table.pack(config.parse_assignment(text)) end
+  T.eq(pa("door.width=0.9"), { "door.width", 0.9, n = 2 })
+  T.eq(pa("a.n=-3"), { "a.n", -3, n = 2 })
+  T.eq(pa('a.s="x = 1"'), { "a.s", "x = 1", n = 2 })
+  T.eq(pa("a.t={1, b = {true}}"), { "a.t", { 1, b = { true } }, n = 2 })
+  for _, word in ipairs({ "right", "10.0.0.2", "/tmp/x", "-x", "os.exit", "1+1", "" }) do
+    T.eq(pa("door.side=" .. word), { "door.side", word, n = 2 }, "the plain word " .. word)
+  end
+  for _, c in ipairs({ { "x=os.exit(3)", 3, "'os' is not a value" },
+                       { "x=(function() while true do end end)()", 3, "found '('" },
+                       { "x={1,,2}", 6, "found ','" }, { 'x="open', 3, "unfinished string" },
+                       { "x=[", 3, "found '['" } }) do
+    local k, err = bounded(config.parse_assignment, c[1])
+    T.eq(k, nil, c[1])
+    T.contains(err, c[1] .. ": column " .. c[2] .. ": ")
+    T.contains(err, c[3])
+  end
+  T.eq(pa("nothing"), { nil, "expected KEY=VALUE, got 'nothing'", n = 2 })
+end)
+
+suite:case("read_file_reads_literals_and_names_the_column_of_code", function()
+  local path = T.tmpfile('# defaults\na = 0.5   # seconds\nb = "x # y" -- text\nc = {1, {2}, k = false}\n'
+    .. "d = 0x10\n", ".config")
+  T.eq(config.read_file(path), { { key = "a", value = 0.5, line = 2 }, { key = "b", value = "x # y", line = 3 },
+    { key = "c", value = { 1, { 2 }, k = false }, line = 4 }, { key = "d", value = 16, line = 5 } })
+  for _, c in ipairs({ { "x = (function() while true do end end)()", "1:5:", "found '('" },
+                       { "ok = 1\n  y =  os.exit(3)", "2:8:", "'os' is not a value" },
+                       { "z = {1, 2, f()}", "1:12:", "'f' is not a value" },
+                       { "w = 1 2", "1:7:", "unexpected '2' after the value" } }) do
+    T.write(path, c[1] .. "\n")
+    local v, err = bounded(config.read_file, path)
+    T.eq(v, nil, c[1])
+    T.contains(err, path .. ":" .. c[2] .. " the value of ")
+    T.contains(err, c[3])
+  end
+  os.remove(path)
+end)
+
 return suite:run(...)

@@ -12,8 +12,9 @@ M.usage = [[usage: dca config get KEY [--daemon ADDR] [--key FILE]
        dca config status [--daemon ADDR] [--key FILE]
 
 Reads and writes the configuration repository held by the daemon at ADDR (--daemon, else $DCA_DAEMON) and
-replicated to its peers. Keys are dotted names (door.width, robot.arm.gains.kp). A VALUE is read as a Lua
-literal (0.45, true, "text", {1, 2, 3}); anything else is taken as a string. All the KEY=VALUE of one `set`
+replicated to its peers. Keys are dotted names (door.width, robot.arm.gains.kp). A VALUE is read as a
+literal (0.45, true, "text", {1, 2, 3}), never evaluated; a plain word without brackets or quotes (right,
+10.0.0.2) is taken as a string, anything else is an error. All the KEY=VALUE of one `set`
 are one transaction, acknowledged once the daemon committed it. `log` shows the last N (default 20)
 transactions and the conflicts (concurrent writes to one key: the highest stamp wins everywhere, the loser is
 kept in the log). The key file is --key, else $DCA_KEY_FILE, else the user's default.]]

@@ -18,7 +18,7 @@ Checks FILE.dca (errors stop here, nothing is started), starts one local daemon 
 per group as it comes up and one per process transition, and runs the root expression.
   --root NAME     the root process (default: main)
   --hosts FILE    daemons already running: "name address" per line
-  --config FILE   the system's configuration defaults (`key = value` lines, Lua literals): the keys the
+  --config FILE   the system's configuration defaults (`key = value` lines, literals): the keys the
                   repository lacks are written to it before the start (default: FILE.config beside
                   FILE.dca, when there is one); a parameter config("key") reads the repository of its host
   --no-config     no defaults file
@@ -101,6 +101,11 @@ function M.main(args)
   local spec, err = require("dca.load").spec(o.file, { root = o.root })
   if not spec then io.stderr:write(err, "\n") return 2 end
   o.config = o.config or (not o.no_config and require("dca.config").defaults_file(o.file)) or nil
+  -- a defaults file that does not read stops the run here, before any daemon starts
+  if o.config then
+    local defaults, derr = require("dca.config").read_file(o.config)
+    if not defaults then io.stderr:write("dca run: ", derr, "\n") return 2 end
+  end
   o.check, o.summary, o.wait = true, true, o.timeout
   return require("dca.launch.run").main(spec, o, OUT)
 end

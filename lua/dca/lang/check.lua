@@ -434,6 +434,67 @@ local function actions(ctx, p, sc)
   end
 end
 
+-- ------------------------------------------------------------------------------ strings that cannot be used
+-- A process's host name and string arguments reach the daemon, the exec of the process and its command line
+-- as they are: a control character (a NUL, a line break...) cannot travel there, and a host must be a
+-- plausible host name. Each error points at the offending character inside the string.
+
+--- Why s is not a plausible host name (nil when it is one): 1 to 253 bytes, dot-separated labels of 1 to 63
+--- letters, digits, '-' and '_', no label starting or ending with '-'. --> reason, the index in s of the
+--- offending character (nil when the whole name is at fault)
+function M.host_name_problem(s)
+  local bad = s:find("[^%w_%.%-]")
+  if bad then return sformat("'%s' is not a letter, a digit, '.', '-' or '_'", s:sub(bad, bad)), bad end
+  if #s == 0 or #s > 253 then return "a host name has 1 to 253 characters" end
+  local at = 1
+  for label in (s .. "."):gmatch("([^.]*)%.") do
+    if #label == 0 or #label > 63 then return "each dot-separated part has 1 to 63 characters", at end
+    if label:find("^%-") then return "a part starts with '-'", at end
+    if label:find("%-$") then return "a part ends with '-'", at + #label - 1 end
+    at = at + #label + 1
+  end
+end
+
+--- The column of the i-th character of the string argument a: its escapes (\" \\ \n \t) take two bytes.
+local function char_col(ctx, a, i)
+  local src, starts = ctx.ast.source, ctx.ast.index and ctx.ast.index.starts
+  local quote = starts and starts[a.line] and starts[a.line] + a.col - 1
+  if type(src) ~= "string" or not quote or src:sub(quote, quote) ~= '"' then return a.col end
+  local pos = quote + 1
+  for _ = 1, i - 1 do pos = pos + (src:sub(pos, pos) == "\\" and 2 or 1) end
+  return a.col + pos - quote
+end
+
+--- A string argument a (described by what) that cannot be used: a control character; for a host, not a
+--- plausible host name.
+local function usable_string(ctx, path, a, what, is_host)
+  if a.kind ~= "string" then return end
+  local c = a.value:find("%c")
+  if c then
+    local b = a.value:byte(c)
+    err(ctx, path, a.line, char_col(ctx, a, c), "%s holds a control character (byte \\%d%s), which cannot be "
+        .. "passed on", what, b, b == 0 and ", a NUL" or "")
+  elseif is_host then
+    local why, at = M.host_name_problem(a.value)
+    if why then
+      err(ctx, path, a.line, at and char_col(ctx, a, at) or a.col, "%s %q is not a host name: %s", what, a.value, why)
+    end
+  end
+end
+
+--- The host of each process definition and the string arguments of its instances (a leaf's first is its host).
+local function usable_strings(ctx, p, sc)
+  if p.host then usable_string(ctx, sc.base, p.host, sformat("the host of process '%s'", p.name), true) end
+  for _, inst in ipairs(p.instances) do
+    local path, leaf = sc.base .. "." .. inst.name, not ctx.defs[inst.type]
+    for i, a in ipairs(inst.args) do
+      local host = leaf and i == 1
+      usable_string(ctx, path, a, host and sformat("the host of leaf '%s'", inst.name)
+        or sformat("argument %d of '%s'", i, inst.name), host)
+    end
+  end
+end
+
 -- -------------------------------------------------------------------------------------------- the pipeline
 
 --- A pass run for each process definition p, with its scope sc: fn(ctx, p, sc).
@@ -447,7 +508,7 @@ end
 M.passes = {
   known_types, instance_paths, duplicate_definitions, scopes,              -- the context
   each(parameters), each(process_host), each(instances), each(leaves),     -- each process definition
-  each(external_io), each(connection_sets), each(connections), each(actions),
+  each(external_io), each(connection_sets), each(connections), each(actions), each(usable_strings),
   recursion,                                                               -- between process types
 }
 

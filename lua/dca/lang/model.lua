@@ -37,6 +37,22 @@ local function bind(a, env)
   return a.value
 end
 
+--- Whether the bound host v (the value of the argument a) cannot be used: not a string, or, bound through a
+--- parameter (a literal string is dca.lang.check's), a string with a control character or not a host name.
+--- --> nil when it can be used, else "" or ": why" to end the message with.
+local function unusable_host(v, a)
+  if type(v) ~= "string" then return "" end
+  if a.kind ~= "param" then return nil end
+  if v:find("%c") then return ": it holds a control character" end
+  local why = check.host_name_problem(v)
+  return why and (": " .. why)
+end
+
+local function shown(v)
+  if type(v) ~= "string" then return tostring(v) end
+  return (sformat("%q", v):gsub("\\\n", "\\n"))
+end
+
 --- Checks `ast` (dca.lang.check, same opts) and instantiates the tree rooted at opts.root (default "main").
 --- Returns the root node, or nil and the list of errors.
 function M.build(ast, opts)
@@ -62,11 +78,13 @@ function M.build(ast, opts)
     for i, prm in ipairs(def.params) do env[prm.name] = argv[i] end
     local host = parent_host
     if def.host then host = bind(def.host, env) end
-    if def.host and type(host) ~= "string" then
+    local unusable = def.host and unusable_host(host, def.host)
+    if unusable then
       local why = def.host.kind == "param" and sformat(" (its parameter '%s')", def.host.value) or ""
       local at = decl or def.host
       berrors[#berrors + 1] = { line = at.line, col = at.col, path = path,
-                                msg = sformat("the host of %s is %s%s, not a host name", path, tostring(host), why) }
+                                msg = sformat("the host of %s is %s%s, not a host name%s", path, shown(host), why,
+                                              unusable) }
     end
     local node = { path = path, name = name, type = def.name, kind = "group", host = host, args = argv,
                    bindings = env, process = def, children = {}, parent = parent,
@@ -84,12 +102,13 @@ function M.build(ast, opts)
         for i = 2, #values do params[i - 1] = values[i] end
         child = { path = cpath, name = inst.name, type = inst.type, kind = "leaf", host = values[1], args = values,
                   params = params, manifest = manifest(inst.type), parent = node, line = inst.line, col = inst.col }
-        if type(values[1]) ~= "string" then
-          local a = inst.args[1]
+        local a = inst.args[1]
+        local unusable = a and unusable_host(values[1], a)
+        if unusable then
           local why = a.kind == "param" and sformat(" (parameter '%s' of %s)", a.value, path) or ""
           berrors[#berrors + 1] = { line = a.line, col = a.col, path = cpath,
-                                    msg = sformat("the host of leaf %s is %s%s, not a host name", cpath,
-                                                  tostring(values[1]), why) }
+                                    msg = sformat("the host of leaf %s is %s%s, not a host name%s", cpath,
+                                                  shown(values[1]), why, unusable) }
         end
       end
       node.children[#node.children + 1] = child

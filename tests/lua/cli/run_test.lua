@@ -1,4 +1,5 @@
--- `dca run`: the options that go with --sim WORLD are refused without it, naming the rule.
+-- `dca run`: the options that go with --sim WORLD are refused without it, naming the rule; configuration
+-- values that are code are refused before anything starts.
 local T = require "dca.testing"
 local suite = T.suite("run")
 
@@ -11,5 +12,40 @@ for _, c in ipairs({ { "jammed", "--jammed go with --sim WORLD" }, { "realtime",
     T.contains(out, c[2])
   end)
 end
+
+-- Issue 14: configuration values are data. A defaults file or a --set whose value is code fails the run at
+-- once with the value's file:line:col (or column) and starts nothing; on main they were executed (a loop hung
+-- the run after its daemons had started). Each run is bounded by `timeout`: a hang is exit code 124.
+-- Daemons a failing run left behind (named in its output) are stopped.
+local function run_bounded(args)
+  local out, rc = T.sh("timeout 20 " .. dca .. " run " .. args)
+  for pid in out:gmatch("daemon at %S+ %(pid (%d+)%)") do os.execute("kill " .. pid .. " 2>/dev/null") end
+  return out, rc
+end
+
+suite:case("executable_config_values_fail_the_run_at_their_position_and_start_nothing", function()
+  local dir = os.tmpname()
+  os.remove(dir)
+  assert(os.execute("mkdir -p " .. dir))
+  local system = dir .. "/test_config.dca"
+  T.write(system, T.read(src .. "/scripts/systems/test_config.dca"))
+  local defaults = T.write(dir .. "/test_config.config",
+    "test.wait = 0.5\ntest.threshold = 1.0\nx = (function() while true do end end)()\n")
+  local out, rc = run_bounded(system)
+  T.eq(rc, 2, "exit code (124: the value ran and hung)\n" .. out)
+  T.contains(out, defaults .. ":3:5: the value of x is not a literal")
+  T.contains(out, "found '('")
+  T.ok(not out:find("daemon at", 1, true) and not out:find("starting", 1, true), "nothing started:\n" .. out)
+  os.remove(defaults)
+  for _, c in ipairs({ { "x=os.exit(3)", "column 3: 'os' is not a value" },
+                       { "x=(function() while true do end end)()", "column 3: " } }) do
+    out, rc = run_bounded(system .. " --set '" .. c[1] .. "'")
+    T.eq(rc, 2, c[1] .. ": exit code (124: the value ran and hung)\n" .. out)
+    T.contains(out, "--set: " .. c[1] .. ": " .. c[2])
+    T.ok(not out:find("daemon at", 1, true) and not out:find("starting", 1, true), "nothing started:\n" .. out)
+  end
+  os.remove(system)
+  os.remove(dir)
+end)
 
 return suite:run(...)
