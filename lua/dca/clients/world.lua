@@ -3,7 +3,7 @@
 -- and exit (ARCHITECTURE.md, "Time" and "The robot: device ports").
 --
 --   local world = require "dca.clients.world"
---   local w = world.new{ daemon = ADDR, host = NAME, key = FILE, world = "door", seed = N, door_width = W,
+--   local w = world.new{ daemon = ADDR, host = NAME, key = FILE, world = NAME, seed = N, door_width = W,
 --                        record = FILE, jammed = true, realtime = true, wait = S }
 --   w:start(function(ok, err) end)     -- spawn `dca sim --serve`, wait until `world` is registered, connect
 --   w:request(msg, timeout, cb)        -- cb(reply) | cb(nil, err)
@@ -27,7 +27,7 @@ M.OPTIONS = { "world", "seed", "door_width", "record", "jammed", "realtime", "wa
 
 --- The argv of the world process for options `o` (see the header).
 function M.argv(o)
-  local argv = { "dca", "sim", "--serve", "--daemon", o.daemon, "--host", o.host, "--world", o.world or "door" }
+  local argv = { "dca", "sim", "--serve", "--daemon", o.daemon, "--host", o.host, "--world", o.world }
   if o.key then argv[#argv + 1] = "--key" argv[#argv + 1] = o.key end
   if o.seed then argv[#argv + 1] = "--seed" argv[#argv + 1] = tostring(o.seed) end
   if o.door_width then argv[#argv + 1] = "--door-width" argv[#argv + 1] = tostring(o.door_width) end

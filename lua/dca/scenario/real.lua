@@ -381,9 +381,7 @@ function System:stop()
     left = self:alive()
   end
   for _, ch in pairs(self.dchs or {}) do ch:close() end
-  if self.rt then self.rt.close() end
-  if self.daemons then self.daemons:stop() end
-  if self.keydir then os.execute("rm -rf " .. hosts_mod.sh_quote(self.keydir)) end
+  if self.ctx then start.cleanup(self.ctx) end
   self.stopped = true
   return #left == 0, left
 end
