@@ -85,14 +85,29 @@ std::uint32_t* count_field(const std::string& key, Hello& h) {
   return nullptr;
 }
 
+// The largest value the count field `key` may hold.
+std::int64_t count_limit(const std::string& key) { return key == "queue" ? kMaxQueue : kMaxSize; }
+
+// "" or why `s` cannot be a name: longer than kMaxName or holding a control character.
+std::string name_problem(const std::string& key, const std::string& s) {
+  if (s.size() > kMaxName)
+    return "hello: '" + key + "' is " + std::to_string(s.size()) + " bytes (at most " + std::to_string(kMaxName) + ")";
+  for (unsigned char c : s)
+    if (c < 0x20 || c == 0x7f) return "hello: '" + key + "' holds a control character";
+  return "";
+}
+
 // Sets the field `key` of `h` (unknown keys are ignored): "" or why the value does not fit.
 std::string set_field(const std::string& key, const wire::Value& val, Hello& h, std::string& mode, std::string& type) {
   if (auto* s = string_field(key, h, mode, type)) {
     if (!val.is_string()) return "hello: '" + key + "' is not a string";
+    if (auto why = name_problem(key, val.as_string()); !why.empty()) return why;
     *s = val.as_string();
   } else if (auto* n = count_field(key, h)) {
-    if (!val.is_int() || val.as_int() < 0 || val.as_int() > std::numeric_limits<std::uint32_t>::max())
-      return "hello: '" + key + "' is not a count";
+    if (!val.is_int() || val.as_int() < 0) return "hello: '" + key + "' is not a count";
+    if (val.as_int() > count_limit(key))
+      return "hello: '" + key + "' is " + std::to_string(val.as_int()) + " (at most " +
+             std::to_string(count_limit(key)) + ")";
     *n = static_cast<std::uint32_t>(val.as_int());
   }
   return "";

@@ -44,6 +44,11 @@ enum class Parse : std::uint8_t { Ok, NeedMore, Error };
 /// kind).
 Parse parse_frame(Bytes buf, Frame& f, std::size_t& used, std::string* error);
 
+/// Limits on a Hello's fields, checked by decode_hello before anything is allocated for them.
+inline constexpr std::uint32_t kMaxQueue = 4096;        ///< an input's queue capacity (samples)
+inline constexpr std::uint32_t kMaxSize = 1u << 16;     ///< a port's vector size (elements)
+inline constexpr std::size_t kMaxName = 256;            ///< a component, port or set name (bytes)
+
 /// The Hello's fields.
 struct Hello {
   ConnectRequest request;
@@ -52,7 +57,9 @@ struct Hello {
 
 /// Packs a Hello body (msgpack map).
 std::string encode_hello(const Hello& h);
-/// Decodes a Hello body; false with *error on malformed input. Never throws.
+/// Decodes a Hello body; false with *error on malformed input or a field out of its limits (a queue over
+/// kMaxQueue, a size over kMaxSize, a name empty where one is needed, longer than kMaxName or holding a
+/// control character). Never throws.
 bool decode_hello(Bytes body, Hello& h, std::string* error);
 
 }  // namespace dca::data_frame

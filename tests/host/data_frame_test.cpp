@@ -1,6 +1,8 @@
 // Data frames (pure): the frame parser and the Hello codec.
 #include "host/data_frame.h"
 
+#include "host/wire.h"
+
 #include <gtest/gtest.h>
 
 #include <string>
@@ -47,6 +49,33 @@ TEST(DataFrameTest, HelloRoundTripsAndRejectsGarbage) {
   const std::string junk = "\x93\x01\x02";
   EXPECT_FALSE(df::decode_hello({reinterpret_cast<const std::byte*>(junk.data()), junk.size()}, back, &err));
   EXPECT_FALSE(err.empty());
+}
+
+// Regression: a hello with queue = 4294967295 made the destination allocate the queue and die of bad_alloc.
+TEST(DataFrameTest, HostileHelloFieldsAreRefusedWithTheirName) {
+  const auto refused = [](dca::wire::Value v) {
+    std::string body, err;
+    dca::wire::encode_value(v, body);
+    df::Hello h;
+    EXPECT_FALSE(df::decode_hello({reinterpret_cast<const std::byte*>(body.data()), body.size()}, h, &err));
+    return err;
+  };
+  const auto hello = [] {
+    return dca::wire::Value::map().set("from", "/a").set("out", "Out").set("to", "/b").set("in", "In")
+        .set("set", "s").set("type", "vector").set("size", std::int64_t{3});
+  };
+  EXPECT_EQ(refused(hello().set("queue", std::int64_t{4294967295})), "hello: 'queue' is 4294967295 (at most 4096)");
+  EXPECT_EQ(refused(hello().set("queue", std::int64_t{-1})), "hello: 'queue' is not a count");
+  EXPECT_EQ(refused(hello().set("size", std::int64_t{1} << 40)), "hello: 'size' is 1099511627776 (at most 65536)");
+  EXPECT_EQ(refused(hello().set("in", std::string(300, 'x'))), "hello: 'in' is 300 bytes (at most 256)");
+  EXPECT_EQ(refused(hello().set("to", std::string("/b\0x", 4))), "hello: 'to' holds a control character");
+  EXPECT_EQ(refused(hello().set("set", "a\nb")), "hello: 'set' holds a control character");
+  EXPECT_EQ(refused(hello().set("to", "")), "hello: no destination named");
+  std::string body, err;
+  dca::wire::encode_value(hello().set("queue", std::int64_t{df::kMaxQueue}), body);
+  df::Hello h;
+  EXPECT_TRUE(df::decode_hello({reinterpret_cast<const std::byte*>(body.data()), body.size()}, h, &err)) << err;
+  EXPECT_EQ(h.request.queue, df::kMaxQueue);
 }
 
 }  // namespace
