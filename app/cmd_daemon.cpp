@@ -1,4 +1,5 @@
 // `dca daemon`: the per-host services (Executer, NameServer) on one authenticated channel listener.
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <csignal>
@@ -130,8 +131,24 @@ bool resolve(Args& p) {
   return true;
 }
 
+// Raises the soft limit on open descriptors to the hard one (a daemon holds one per connection and per child,
+// and the common default of 1024 is low for that) and says on stderr what it got.
+void raise_descriptor_limit(const std::string& host) {
+  rlimit r{};
+  if (::getrlimit(RLIMIT_NOFILE, &r) != 0) return;
+  const rlim_t before = r.rlim_cur;
+  if (r.rlim_cur < r.rlim_max) {
+    r.rlim_cur = r.rlim_max;
+    if (::setrlimit(RLIMIT_NOFILE, &r) != 0) r.rlim_cur = before;
+  }
+  const auto text = [](rlim_t v) { return v == RLIM_INFINITY ? std::string("unlimited") : std::to_string(v); };
+  std::fprintf(stderr, "dca daemon: host %s descriptors: soft limit %s (was %s, hard limit %s)\n", host.c_str(),
+               text(r.rlim_cur).c_str(), text(before).c_str(), text(r.rlim_max).c_str());
+}
+
 // Runs the daemon until SIGTERM, SIGINT or SIGHUP, then stops its children: the exit code.
 int run(const dca::DaemonOptions& o) {
+  raise_descriptor_limit(o.host);
   dca::Loop loop;
   dca::Daemon daemon(loop.io(), o);
   std::string error;
