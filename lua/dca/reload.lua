@@ -8,7 +8,7 @@
 -- reload.system reads, parses and checks the file and builds its spec (dca.load.spec); only a spec that
 -- passes goes to the root supervisor (sup:update, which reports what changed and when it takes effect).
 -- On an error the running version stays and cb(nil, err) gets the text (file:line:col). sup is anything
--- with update(spec, cb(lines)): the root supervisor, or a stub that forwards the request to it.
+-- with update(spec, cb(lines)): the root supervisor, or a proxy that forwards the request to it.
 --
 -- reload.modules loads each module's file again and runs it; a module that does not compile or run is left
 -- as it was and its line says why. The supervisor keeps its state in its objects (dca.supervisor), so the
