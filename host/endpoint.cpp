@@ -50,6 +50,11 @@ class Connection : public Link {
     return i;
   }
   const ConnectRequest& request() const { return info_.request; }
+  /// The destination's data address ("" in-process).
+  virtual const std::string& address() const {
+    static const std::string none;
+    return none;
+  }
 
  protected:
   Output* out_;
@@ -310,6 +315,7 @@ class StreamLink final : public Connection, public DataSocket {
   void on_activate() override {
     if (pending_ && connected_) answer();
   }
+  const std::string& address() const override { return peer_addr_; }
 
   void close() override {
     Connection::close();
@@ -543,11 +549,17 @@ void Endpoint::connect(const ConnectRequest& r, const Location& dest, ConnectDon
   if (!from) return done("no component '" + r.from + "' at " + host_);
   Output* out = from->find_output(r.out);
   if (!out) return done(from->no_such_output(r.from, r.out));
+  const Transport t = choose_transport(host_, component(r.to) != nullptr, dest);
+  const std::string addr = t == Transport::Unix ? dest.data_uds : t == Transport::Tcp ? dest.data_tcp : "";
   for (const auto& l : impl_->links) {
     const auto& q = l->request();
-    if (q.from == r.from && q.out == r.out && q.to == r.to && q.in == r.in && q.set == r.set) return done("");
+    if (q.from != r.from || q.out != r.out || q.to != r.to || q.in != r.in || q.set != r.set) continue;
+    // The same connection is the one already made, unless it broke or its destination now lives elsewhere
+    // (a restarted process): then it is replaced.
+    if (!l->info().broken && l->address() == addr) return done("");
+    impl_->remove_link(l.get());
+    break;
   }
-  const Transport t = choose_transport(host_, component(r.to) != nullptr, dest);
   auto flag = impl_->set_flag(r.set);
   if (t == Transport::InProcess) {
     Input* in = nullptr;

@@ -81,7 +81,9 @@ class Endpoint {
   using ConnectDone = std::function<void(const std::string& error)>;
   /// Connects `r.from`.`r.out` (local) to `r.to`.`r.in`, local or at `dest`. Created inactive (or active at
   /// once if its set already is). `done` runs exactly once: on success, on refusal by the destination, or
-  /// after `timeout_ms` without an answer. In-process connections complete before connect returns.
+  /// after `timeout_ms` without an answer. In-process connections complete before connect returns. The same
+  /// connection (from, out, to, in, set) asked again is the one already made, unless it broke or `dest` is now
+  /// at another address (a restarted process): then it replaces the old link.
   void connect(const ConnectRequest& r, const Location& dest, ConnectDone done, int timeout_ms = 5000);
   /// Removes every connection of set `set` from this endpoint's outputs (their sockets are closed).
   void disconnect_set(const std::string& set);

@@ -252,6 +252,29 @@ TEST_P(EndpointSocketTest, SourceGoingAwayIsReportedAtTheDestination) {
   EXPECT_EQ(dst_events[0].peer, "/src.Out");
 }
 
+// A restarted destination (dca.supervisor's restart of a leaf): the same connection asked again with the new
+// process's address replaces the link to the old one (even before its break is seen); asked again with the
+// same address it is the one already made.
+TEST_P(EndpointSocketTest, ConnectingAgainToADestinationStartedAnewReplacesTheLink) {
+  ASSERT_EQ(connect(*src_ep, req("/src", "Out", "/dst", "In", "s"), dst_ep->location()), "");
+  src_ep->activate("s");
+  dca::Endpoint fresh(io, tcp_ ? "b" : "a");
+  fresh.listen(temp_socket(tcp_ ? "tcp2" : "uds2"), "127.0.0.1:0");
+  dca::PortSet dst2;
+  dca::Input& in2 = dst2.add_input(dca::vector_port("In", 8));
+  fresh.add_component("/dst", dst2);
+  ASSERT_EQ(connect(*src_ep, req("/src", "Out", "/dst", "In", "s"), fresh.location()), "");
+  ASSERT_EQ(connect(*src_ep, req("/src", "Out", "/dst", "In", "s"), fresh.location()), "");
+  ASSERT_EQ(src_ep->links().size(), 1u);
+  EXPECT_TRUE(src_ep->links()[0].active) << "made in an active set: active at once";
+  out->write(sample(7));
+  ASSERT_TRUE(run_until(io, [&] { return in2.queued() == 1; }));
+  EXPECT_EQ(fresh.accepted(), 1u);
+  EXPECT_EQ(in->queued(), 0u) << "nothing more for the old destination";
+  dst_ep->remove_component("/dst");
+  fresh.remove_component("/dst");
+}
+
 INSTANTIATE_TEST_SUITE_P(Transports, EndpointSocketTest, ::testing::Values(false, true),
                          [](const auto& p) { return p.param ? "Tcp" : "Unix"; });
 

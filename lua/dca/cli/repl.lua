@@ -12,7 +12,9 @@ M.usage = [[usage: dca repl PATH|ADDR [--daemon ADDR] [--key FILE]
 
 Opens a console on the supervisor of the group PATH (e.g. main.dooropensyst, looked up at the daemon given by
 --daemon or $DCA_DAEMON) or at the control address ADDR (127.0.0.1:PORT). Type help() for the commands;
-any other Lua runs inside the supervisor. Ctrl-D leaves the console; the system keeps running.]]
+any other Lua runs inside the supervisor. Ctrl-D leaves the console; the system keeps running.
+restart(path) of a leaf starts its process anew from what is on disk now (rebuild a controller, then restart
+it) while the rest of the system runs.]]
 
 local HISTORY = (os.getenv("HOME") or ".") .. "/.dca_history"
 

@@ -24,7 +24,9 @@ expr(path)                    a group's expression, running operands marked *X*
 log(n)                        the last n events and commands of this supervisor (default 20)
 event(path, "done", value)    inject a leaf event ("done" value | "aborted" reason)
 abort(path)                   abort a process (its owner's algebra decides what follows); abort() the group
-restart(path)                 abort a group's expression and start it again (new event actions take effect)
+restart(path)                 a group: abort its expression and start it again (new event actions take
+                                effect); a leaf: start its process anew from what is on disk now (rebuilt
+                                code, config values), wired and running as before; nothing else stops
 activate(path, label)         activate / deactivate a connection set of a process
 deactivate(path, label)
 reload()                      re-read the system file (and reload("modules") the supervisor's Lua)

@@ -13,8 +13,12 @@
 --   sup:run(init)             -- runs the expression; the outcome goes to rt.report{type="done"|"aborted"}
 --   sup:abort(cb)             -- aborts the running expression (LIFO), cb() once every stop is acknowledged
 --   sup:shutdown(cb)          -- aborts, then stops every child LIFO (processes gone), cb()
+--   sup:restart(path, cb)     -- a group below: its expression again; a leaf below: a fresh process of it, wired
+--                             --   and running as before while the rest runs (sup:restart_leaf(name, cb) in the
+--                             --   leaf's own group). cb(true) | cb(nil, reason)
 --   sup:handle(msg, reply)    -- a request from the parent (configure/run/abort/shutdown/node/tree/...)
---   sup:child_message(name, msg)  -- an event from a child (leaf node: done/aborted; child DCAS: done/aborted/log)
+--   sup:child_message(name, msg)  -- an event from a child (leaf node: done/aborted; child DCAS: done/aborted/log/
+--                                 --   restarted {path}: a leaf below was restarted, its connections made again)
 --   sup:child_exit(name, reason)  -- a child's process exited (Executer) or its channel/host was lost
 --
 -- The runtime:
@@ -290,21 +294,34 @@ function Sup:_connect(cb)
     if not s then s = {} self.set_sources[w.set] = s end
     if not s[w.src] then s[w.src] = true s[#s + 1] = w.src end
   end
+  self:_connect_wires(wires, cb)
+end
+
+-- Makes the connections `list` (spec_mod.wiring's) at once; `after(w, k)`, if given, runs once `w` is made and
+-- calls k(true) | k(nil, reason). cb(true) once every one is made | cb(nil, the first reason).
+function Sup:_connect_wires(list, cb, after)
   local failed = false
-  local tick = countdown(#wires, function() if not failed then cb(true) end end)
-  for _, w in ipairs(wires) do
-    self:to_leaf(w.src, { type = "connect", out = w.out, to = w.dst, ["in"] = w["in"], set = w.set, mode = "push" },
-      self.timeouts.connect, function(reply, err)
-        if failed then return end
-        if not reply or reply.type == "error" then
-          failed = true
-          cb(nil, sformat("%s: connecting %s.%s -> %s.%s (set %s): %s", self.path, w.src, w.out, w.dst, w["in"], w.set,
-            reply and reply.reason or tostring(err)))
-          return
-        end
-        tick()
-      end)
+  local tick = countdown(#list, function() if not failed then cb(true) end end)
+  local function step(ok, err)
+    if failed then return end
+    if not ok then failed = true cb(nil, err) return end
+    tick()
   end
+  for _, w in ipairs(list) do
+    self:_connect_wire(w, function(ok, err)
+      if ok and after then after(w, step) else step(ok, err) end
+    end)
+  end
+end
+
+-- One connection `w` (from spec_mod.wiring) made at its source node. cb(true) | cb(nil, reason naming it)
+function Sup:_connect_wire(w, cb)
+  self:to_leaf(w.src, { type = "connect", out = w.out, to = w.dst, ["in"] = w["in"], set = w.set, mode = "push" },
+    self.timeouts.connect, function(reply, err)
+      if reply and reply.type ~= "error" then cb(true) return end
+      cb(nil, sformat("%s: connecting %s.%s -> %s.%s (set %s): %s", self.path, w.src, w.out, w.dst, w["in"], w.set,
+        reply and reply.reason or tostring(err)))
+    end)
 end
 
 --- The device ports of the group's own leaves, in declaration order:
@@ -345,10 +362,17 @@ end
 -- Phase 2b: device ports of this group's leaves wired to the robot process `world` (ARCHITECTURE.md, "The
 -- robot: device ports"): an input's signal world -> leaf, an output leaf -> world, in the set
 -- "<leaf path>:device", activated at once and for good (the algebra never touches these sets).
-function Sup:_wire_devices(cb)
+-- With `only` (a leaf path: a restarted leaf), that leaf's device ports only.
+function Sup:_wire_devices(cb, only)
   local types = self.rt.types and self.rt.types() or {}
   local ports = M.device_ports(self.spec, types)
-  self.device_ports = ports
+  if only then
+    local mine = {}
+    for _, p in ipairs(ports) do if p.leaf == only then mine[#mine + 1] = p end end
+    ports = mine
+  else
+    self.device_ports = ports
+  end
   if #ports == 0 then cb(true) return end
   local function no_world(err)
     return sformat("%s: no world for the device ports of %s (start it with `dca run --sim WORLD`, or a robot "
@@ -437,6 +461,9 @@ function Sup:_set(name, label, what)
   local id = spec_mod.set_id(self.path, name, label)
   local srcs = self.set_sources and self.set_sources[id]
   if not srcs then return end
+  -- kept so that a restarted source's sets are activated again (Sup:_rewire)
+  self.active_sets = self.active_sets or {}
+  self.active_sets[id] = what == "activate" or nil
   for _, src in ipairs(srcs) do self:to_leaf(src, { type = what, set = id }) end
 end
 
@@ -468,6 +495,7 @@ function Sup:_start_child(name, init)
     return
   end
   ch.state = "running"
+  ch.init = init                 -- a restarted leaf runs again with it (Sup:restart_leaf)
   ch.run_no = (ch.run_no or 0) + 1
   local run_no = ch.run_no
   self:say("%s: running", ch.path)
@@ -619,6 +647,12 @@ function Sup:child_message(name, msg)
     self:log("%s", msg.line)
     return
   end
+  if t == "restarted" then self:_leaf_restarted(msg.path) return end
+  if ch.restarting and (t == "done" or t == "aborted") then
+    -- the old process's last word, sent before its stop: the algebra sees nothing of a restart
+    self:log("%s: %s from the process being restarted ignored", ch.path, t)
+    return
+  end
   if ch.kind == "leaf" then self.stats.leaf_events = self.stats.leaf_events + 1
   else self.stats.group_events = self.stats.group_events + 1 end
   local saved_at = self.event_at
@@ -678,6 +712,11 @@ end
 function Sup:child_exit(name, reason)
   local ch = self.children[name]
   if not ch or ch.state == "exited" or ch.state == "lost" or ch.state == "gone" then return end
+  if ch.restarting then
+    -- the old process of a leaf being restarted: its exit was asked for, not a crash
+    self:log("%s: old process exited (%s)", ch.path, tostring(reason))
+    return
+  end
   local was_running = self.run and self.run:is_running(name)
   ch.state = ch.kind == "leaf" and "exited" or "lost"
   ch.exit_reason = reason
@@ -692,6 +731,131 @@ function Sup:child_exit(name, reason)
     self.starting_cb = nil
     f(nil, sformat("%s: %s", ch.path, reason))
   end
+end
+
+---------------------------------------------------------------------------------------------- restart of a leaf
+-- A leaf is restarted by its own group: the old process is stopped (Stop(): actuators at zero) and ended, a
+-- fresh one of the same instance (type, arguments, host; its `config("key")` arguments read again) is started,
+-- the connections of the leaf are made again in both directions by every group that owns one (this one, then
+-- each ancestor as the `restarted {path}` event goes up), its active sets are activated again, and it is
+-- run again with its `init` if it was running. The algebra sees nothing: no event of the old process counts,
+-- and its exit is not a crash. Other processes never stop.
+
+local RESTARTABLE = { inactive = true, running = true, done = true, aborted = true }
+
+--- Starts the leaf `name` of this group anew (see above). cb(true) once it is started, wired and (if it was
+--- running) running again; cb(nil, reason) if it cannot be restarted (the leaf untouched) or if the restart
+--- failed (the leaf then ended ABORTED with the reason, as for any abort).
+function Sup:restart_leaf(name, cb)
+  local ch = self.children[name]
+  if not ch or ch.kind ~= "leaf" then cb(nil, sformat("%s has no leaf '%s'", self.path, tostring(name))) return end
+  if ch.restarting then cb(nil, ch.path .. " is already being restarted") return end
+  if not ch.handle or not RESTARTABLE[ch.state] then
+    cb(nil, sformat("%s is not running (%s)", ch.path, ch.exit_reason or ch.state))
+    return
+  end
+  local was_running = ch.state == "running" and self.run ~= nil and self.run:is_running(name)
+  local old = ch.handle
+  ch.restarting, ch.state = true, "restarting"
+  self:say("%s: restarting", ch.path)
+  local function ended(ok, err)
+    if not ok then self:_restart_failed(name, was_running, err, cb) return end
+    ch.handle = nil
+    self:_respawn(name, was_running, cb)
+  end
+  if was_running then
+    old.request({ type = "stop" }, self.timeouts.stop, function(r, err)
+      if not r or r.type == "error" then self:log("%s: stop of %s: %s", self.path, ch.path, r and r.reason or tostring(err)) end
+      old.kill("TERM", ended)
+    end)
+  else
+    old.kill("TERM", ended)
+  end
+end
+
+-- The fresh process of leaf `name` (its old one ended), then _restore. A spawn failure fails the restart.
+function Sup:_respawn(name, was_running, cb)
+  local ch = self.children[name]
+  local answered = false
+  local timer = self.rt.after(self.timeouts.spawn, function()
+    if answered then return end
+    answered = true
+    self:_restart_failed(name, was_running, sformat("%s (node on host %s) did not start within %gs", ch.path,
+      tostring(ch.host), self.timeouts.spawn), cb)
+  end)
+  self.rt.spawn(ch.spec, function(handle, err)
+    if timer then timer:cancel() end
+    if answered then if handle then handle.kill("KILL") end return end
+    answered = true
+    if not handle then
+      self:_restart_failed(name, was_running, sformat("%s: could not start on host %s: %s", ch.path,
+        tostring(ch.host), tostring(err)), cb)
+      return
+    end
+    ch.handle, ch.restarting = handle, nil   -- from here on its exit is a crash like any other
+    ch.state = "inactive"
+    self:_restore(name, was_running, cb)
+  end)
+end
+
+-- The new process of leaf `name` wired as its old one was (device ports, this group's connections, active
+-- sets), its ancestors told (`restarted`), then run with its last `init` if it was running.
+function Sup:_restore(name, was_running, cb)
+  local ch = self.children[name]
+  local function failed(err) self:_restart_failed(name, was_running, err, cb) end
+  self:_wire_devices(function(ok, err)
+    if not ok then failed(err) return end
+    self:_rewire(ch.path, function(ok2, err2)
+      if not ok2 then failed(err2) return end
+      self.rt.report({ type = "restarted", path = ch.path })
+      if was_running and ch.state == "inactive" then self:_start_child(name, ch.init) end
+      self:say("%s: restarted (pid %s)", ch.path, tostring(ch.handle and ch.handle.pid or "?"))
+      cb(true)
+    end)
+  end, ch.path)
+end
+
+-- The restart of leaf `name` failed: whatever process it has is ended and, if it was running, it ends
+-- ABORTED with the reason (its group's algebra decides what follows). cb(nil, reason)
+function Sup:_restart_failed(name, was_running, reason, cb)
+  local ch = self.children[name]
+  ch.restarting = nil
+  local h = ch.handle
+  ch.handle, ch.state, ch.exit_reason = nil, "exited", reason
+  if h then h.kill("KILL") end
+  self:say("%s: restart failed: %s", ch.path, tostring(reason))
+  if was_running and self.run and self.run:is_running(name) then
+    self.cause = self.cause or { path = ch.path, reason = reason }
+    self:_feed(name, "aborted", reason)
+  end
+  cb(nil, reason)
+end
+
+--- Makes again this group's connections of leaf `path` (started anew): each one it is the source of at the new
+--- process, activated at once when its set is active; each one it is the destination of at its source, whose
+--- endpoint replaces its link to the old process (host/endpoint). cb(true) | cb(nil, reason)
+function Sup:_rewire(path, cb)
+  local list = {}
+  for _, w in ipairs(self.wires or {}) do
+    if w.src == path or w.dst == path then list[#list + 1] = w end
+  end
+  self:_connect_wires(list, cb, function(w, k)
+    if w.src ~= path or not (self.active_sets and self.active_sets[w.set]) then k(true) return end
+    self:to_leaf(path, { type = "activate", set = w.set }, self.timeouts.connect, function(r, err)
+      if r and r.type ~= "error" then k(true) return end
+      k(nil, sformat("%s: activating %s at %s: %s", self.path, w.set, path, r and r.reason or tostring(err)))
+    end)
+  end)
+end
+
+-- A leaf below this group was restarted (the `restarted` event of a child group): this group's own
+-- connections of it are made again, and the event goes on up.
+function Sup:_leaf_restarted(path)
+  if type(path) ~= "string" then return end
+  self:_rewire(path, function(ok, err)
+    if not ok then self:say("%s: reconnecting restarted %s: %s", self.path, path, tostring(err)) end
+    self.rt.report({ type = "restarted", path = path })
+  end)
 end
 
 ---------------------------------------------------------------------------------------------- stop
@@ -844,7 +1008,9 @@ function Sup:inject(path, msg, cb)
   end
 end
 
---- Aborts and restarts the expression of the group at `path` (its latest event actions take effect).
+--- Restarts the process at `path`: a group's expression is aborted and started again (its latest event
+--- actions take effect); a leaf is started anew from what is on disk now, while everything else runs
+--- (Sup:restart_leaf, done by the leaf's own group). cb(true) | cb(nil, reason)
 function Sup:restart(path, cb)
   if path == self.path then
     self:abort(function()
@@ -854,8 +1020,13 @@ function Sup:restart(path, cb)
     return
   end
   local ch = self:_via(path)
-  if ch and ch.kind == "leaf" then cb(nil, path .. " is a leaf: restart() is for groups") return end
-  self:_forward(path, { type = "restart", path = path }, cb)
+  if ch and ch.kind == "leaf" then self:restart_leaf(ch.name, cb) return end
+  self:_forward(path, { type = "restart", path = path }, function(ok, err)
+    if not ok then cb(nil, err) return end
+    -- a leaf below: this group's connections of it are made again before the answer (the `restarted` event
+    -- does the same for the groups above one that restarts a leaf by itself; a connection made twice is one)
+    self:_rewire(path, cb)
+  end)
 end
 
 --- Activates/deactivates the connection set `label` of the process at `path` (in the group that owns it).

@@ -393,6 +393,14 @@ function Node:serve(msg, reply)
     self.running = false
     reply({ type = "ok" })
   elseif t == "connect" then
+    -- the same connection again is the one already made (its destination is found by path at each write, so
+    -- it reaches a restarted destination's new node, as host/endpoint replaces a link to a moved process)
+    for _, k in ipairs(self.conns) do
+      if k.out == msg.out and k.to == msg.to and k["in"] == msg["in"] and k.set == msg.set then
+        reply({ type = "ok" })
+        return
+      end
+    end
     self.conns[#self.conns + 1] = { out = msg.out, to = msg.to, ["in"] = msg["in"], set = msg.set, queue = msg.queue }
     reply({ type = "ok" })
   elseif t == "activate" then

@@ -414,4 +414,70 @@ suite:case("preemption_latency_is_recorded_where_the_event_lands_and_read_throug
   T.ok(r.stats.leaf_events >= 1)
 end)
 
+-- Restarts `path` with `sup` (a supervisor of the cluster `c`) and settles until it answered. --> ok, err
+local function restart(c, sup, path)
+  local r
+  sup:restart(path, function(ok, err) r = { ok, err } end)
+  c:settle(nil, function() return r ~= nil end)
+  return r[1], r[2]
+end
+
+-- The pid of the live process at `path`.
+local function pid(c, path)
+  for _, p in ipairs(c.procs) do if p.path == path and p.alive then return p.pid end end
+end
+
+suite:case("a_leaf_restarted_by_its_own_group_is_wired_again_by_the_groups_above", function()
+  -- main.door.mc.rr's input comes from main.door.hitg.comp: a connection of main.door, not of main.door.mc
+  local c = running(door())
+  c:settle(3)
+  c.sups["main.door"]:switch("main.door.hitg", "lbl1", "activate", function() end)
+  local connects = function()
+    local n = 0
+    for _, cmd in ipairs(c.commands) do
+      if cmd == "main.door.hitg.comp connect main.door:hitg[lbl1]" then n = n + 1 end
+    end
+    return n
+  end
+  T.eq(connects(), 1)
+  local old, base = pid(c, "main.door.mc.rr"), pid(c, "main.door.mc.base")
+  T.eq(restart(c, c.sups["main.door.mc"], "main.door.mc.rr"), true)
+  c:settle(c.t)
+  T.ok(pid(c, "main.door.mc.rr") ~= old, "a new process")
+  T.eq(pid(c, "main.door.mc.base"), base, "the others never stopped")
+  T.eq(c:node("main.door.mc.rr").running, true, "running again")
+  T.eq(connects(), 2, "main.door made its connection to the restarted leaf again (the `restarted` event)")
+  T.eq(#c:node("main.door.hitg.comp").conns, 1, "the writer's connection made again is the same one")
+  c:node("main.door.hitg.comp"):write("Out", 5)
+  c:settle(c.t)
+  T.eq(c:node("main.door.mc.rr").ports.In, 5, "the new process hears the writer in another group")
+  T.eq(c.outcome, nil, "the algebra saw nothing")
+  local lines = table.concat(c.lines, "\n")
+  T.ok(not lines:find("main.door.mc.rr: exited", 1, true), "the old process's exit is no crash")
+end)
+
+suite:case("a_restart_whose_spawn_fails_ends_the_leaf_aborted_with_the_reason", function()
+  local c = running(compliant())
+  c:settle(1)
+  c.fail_spawn["main.compliant"] = "no such controller type 'CompliantCtrl'"
+  local ok, err = restart(c, c.root_sup, "main.compliant")
+  T.eq(ok, nil)
+  says(err, "main.compliant: could not start on host h1", "no such controller type")
+  local out = c:outcome_within(100)
+  T.eq(out.type, "aborted")
+  T.eq(out.path, "main.compliant")
+  says(out.reason, "could not start", "CompliantCtrl")
+end)
+
+suite:case("restart_refuses_an_unknown_path_and_a_leaf_whose_process_is_gone", function()
+  local c = running(compliant())
+  c:settle(1)
+  local _, err = restart(c, c.root_sup, "main.nobody")
+  says(err, "no process 'main.nobody' under main")
+  c:kill("main.puma", "SEGV")
+  c:settle(c.t)
+  _, err = restart(c, c.root_sup, "main.puma")
+  says(err, "main.puma is not running (killed by SIGSEGV")
+end)
+
 return suite:run(...)
