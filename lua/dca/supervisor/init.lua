@@ -761,6 +761,7 @@ function Sup:restart_leaf(name, cb)
   local function ended(ok, err)
     if not ok then self:_restart_failed(name, was_running, err, cb) return end
     ch.handle = nil
+    if self:_stopping_all(ch) then ch.restarting = nil cb(nil, ch.path .. ": stopped while restarting") return end
     self:_respawn(name, was_running, cb)
   end
   if was_running then
@@ -792,6 +793,12 @@ function Sup:_respawn(name, was_running, cb)
         tostring(ch.host), tostring(err)), cb)
       return
     end
+    if self:_stopping_all(ch) then
+      ch.restarting = nil
+      handle.kill("TERM")
+      cb(nil, ch.path .. ": stopped while restarting")
+      return
+    end
     ch.handle, ch.restarting = handle, nil   -- from here on its exit is a crash like any other
     ch.state = "inactive"
     self:_restore(name, was_running, cb)
@@ -808,11 +815,17 @@ function Sup:_restore(name, was_running, cb)
     self:_rewire(ch.path, function(ok2, err2)
       if not ok2 then failed(err2) return end
       self.rt.report({ type = "restarted", path = ch.path })
-      if was_running and ch.state == "inactive" then self:_start_child(name, ch.init) end
+      -- (unless its group's expression aborted it meanwhile)
+      if was_running and self.run and self.run:is_running(name) then self:_start_child(name, ch.init) end
       self:say("%s: restarted (pid %s)", ch.path, tostring(ch.handle and ch.handle.pid or "?"))
       cb(true)
     end)
   end, ch.path)
+end
+
+-- The group is being shut down (or `ch` was stopped for good): a restart in flight starts nothing more.
+function Sup:_stopping_all(ch)
+  return ch.state == "gone" or self.shutdown_waiters ~= nil or self.state == "stopping" or self.state == "stopped"
 end
 
 -- The restart of leaf `name` failed: whatever process it has is ended and, if it was running, it ends
