@@ -685,12 +685,14 @@ function Sup:child_message(name, msg)
     self.event_at = saved_at
     return
   end
+  local restarting = t == "broken" and self:_restarting_peer(msg.peer)
   if t == "broken" and (self.shutdown_waiters or self.state == "stopping" or self.state == "stopped"
-                        or ch.state ~= "running") then
-    -- the tree is being stopped (the process at the other end was stopped first, LIFO), or this leaf does not
-    -- run: nothing flows on it now; kept in the log only (log() in the REPL)
+                        or ch.state ~= "running" or restarting) then
+    -- the tree is being stopped (the process at the other end was stopped first, LIFO), this leaf does not
+    -- run, or the other end is being restarted (its connections are made again): kept in the log only
     self:log("%s: broken %s%s: %s (%s)", ch.path, tostring(msg.port), msg.peer and (" <-> " .. tostring(msg.peer)) or "",
-      tostring(msg.reason), self.shutdown_waiters and "while stopping" or ("while " .. tostring(ch.state)))
+      tostring(msg.reason), self.shutdown_waiters and "while stopping" or restarting and ("while " .. restarting ..
+      " restarts") or ("while " .. tostring(ch.state)))
   elseif t == "broken" or t == "overflow" then
     -- a data connection of this leaf broke or overflowed: worth a line, not an event of the algebra (the
     -- process at the other end, if it died, is reported by its own owner)
@@ -1033,13 +1035,30 @@ function Sup:restart(path, cb)
     return
   end
   local ch = self:_via(path)
-  if ch and ch.kind == "leaf" then self:restart_leaf(ch.name, cb) return end
+  -- (the breaks its leaves see while `path` is replaced are expected: Sup:_restarting_peer)
+  self.restarting_below = self.restarting_below or {}
+  self.restarting_below[path] = (self.restarting_below[path] or 0) + 1
+  local function finish(ok, err)
+    local n = self.restarting_below[path] - 1
+    self.restarting_below[path] = n > 0 and n or nil
+    cb(ok, err)
+  end
+  if ch and ch.kind == "leaf" then self:restart_leaf(ch.name, finish) return end
   self:_forward(path, { type = "restart", path = path }, function(ok, err)
-    if not ok then cb(nil, err) return end
+    if not ok then finish(nil, err) return end
     -- a leaf below: this group's connections of it are made again before the answer (the `restarted` event
     -- does the same for the groups above one that restarts a leaf by itself; a connection made twice is one)
-    self:_rewire(path, cb)
+    self:_rewire(path, finish)
   end)
+end
+
+-- The path of the process being restarted through this group that the data peer `peer` ("PATH.port") is
+-- part of, or nil.
+function Sup:_restarting_peer(peer)
+  if type(peer) ~= "string" then return nil end
+  for path in pairs(self.restarting_below or {}) do
+    if peer:sub(1, #path + 1) == path .. "." then return path end
+  end
 end
 
 --- Activates/deactivates the connection set `label` of the process at `path` (in the group that owns it).

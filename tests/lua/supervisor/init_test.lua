@@ -521,4 +521,18 @@ suite:case("a_restart_under_an_abort_or_a_shutdown_starts_nothing_more", functio
   T.eq(c:alive(), {}, "nothing started after the shutdown")
 end)
 
+suite:case("breaks_towards_a_leaf_being_restarted_are_logged_not_said", function()
+  local c = running(compliant())
+  c:settle(1)
+  local r
+  c.root_sup:restart("main.compliant", function(ok) r = ok end)
+  local broken = { type = "broken", port = "Out1", peer = "main.compliant.In1", reason = "closed by peer" }
+  c.root_sup:child_message("forcedata", broken)
+  c:settle(nil, function() return r ~= nil end)
+  c.root_sup:child_message("forcedata", broken)
+  local said = table.concat(c.lines, "\n")
+  T.eq(select(2, said:gsub("main.forcedata: broken", "")), 1, "said once, after the restart: " .. said)
+  T.contains(table.concat(c.root_sup:recent(50), "\n"), "while main.compliant restarts")
+end)
+
 return suite:run(...)
