@@ -35,9 +35,14 @@ end
 --- Reads, parses, checks and builds the file. opts: { root = NAME, registry = true|false (default true) }.
 --- --> ast, tree (tree nil when no root was asked for and the file has no 'main') | nil, error text
 function M.file(path, opts)
-  opts = opts or {}
   local text, rerr = M.read(path)
   if not text then return nil, rerr end
+  return M.text(text, path, opts)
+end
+
+--- As M.file, for source text already read; `path` names it in errors.
+function M.text(text, path, opts)
+  opts = opts or {}
   local ast, perr = parser.parse(text, path)
   if not ast then return nil, perr end
   local copts = { root = opts.root, types = opts.registry ~= false and M.registry() or nil }
