@@ -6,8 +6,11 @@
 #include <cstdlib>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <set>
 #include <string>
+#include <system_error>
+#include <vector>
 
 #include "app/subcommand.h"
 #include "host/daemon.h"
@@ -40,6 +43,8 @@ constexpr const char* kUsage =
     "                   default, this one runs without a repository and says so). `none`: no repository.\n"
     "                   A corrupt database makes the daemon refuse to start, naming the file.\n"
     "  --sync-ms MS     anti-entropy period with the peers (default 2000)\n"
+    "  --remove-on-exit DIR  remove DIR (a whole tree) when this daemon stops after the process that started\n"
+    "                   it died (`dca run` passes its temporary directory; repeatable)\n"
     "\n"
     "When ready it prints one line on stdout: `dca daemon: host NAME listening on ADDR`.\n"
     "SIGTERM or SIGINT stops it: every child's process group is killed and reaped first.";
@@ -50,6 +55,7 @@ struct Args {
   std::string key_file;
   std::string state_dir;
   bool state_dir_given = false;
+  std::vector<std::string> remove_on_exit;
 };
 
 // Applies option `a` (one that takes a value) with value `v`: false, after printing why, when `v` is wrong.
@@ -81,6 +87,12 @@ bool apply_option(const std::string& a, const char* v, Args& p) {
   } else if (a == "--state-dir") {
     p.state_dir = v;
     p.state_dir_given = true;
+  } else if (a == "--remove-on-exit") {
+    if (v[0] != '/') {
+      std::fprintf(stderr, "dca daemon: --remove-on-exit needs an absolute path, not '%s'\n", v);
+      return false;
+    }
+    p.remove_on_exit.emplace_back(v);
   } else if (a == "--sync-ms") {
     if (std::atol(v) <= 0) {
       std::fprintf(stderr, "dca daemon: --sync-ms needs a positive number of milliseconds, not '%s'\n", v);
@@ -98,7 +110,8 @@ int parse(std::span<char* const> args, Args& p) {
   char hostname[256] = {};
   if (::gethostname(hostname, sizeof hostname - 1) == 0 && hostname[0] != '\0') p.o.host = hostname;
   static const std::set<std::string> kOptions = {"--host",  "--listen",    "--peer",    "--key",  "--allow",
-                                                  "--clock", "--state-dir", "--sync-ms", "--grace"};
+                                                  "--clock", "--state-dir", "--sync-ms", "--grace",
+                                                  "--remove-on-exit"};
   for (std::size_t i = 0; i < args.size(); ++i) {
     const std::string a = args[i];
     if (kOptions.count(a) == 0) {
@@ -147,7 +160,8 @@ void raise_descriptor_limit(const std::string& host) {
 }
 
 // Runs the daemon until SIGTERM, SIGINT or SIGHUP, then stops its children: the exit code.
-int run(const dca::DaemonOptions& o) {
+int run(const dca::DaemonOptions& o, const std::vector<std::string>& remove_on_exit) {
+  const pid_t parent = ::getppid();
   raise_descriptor_limit(o.host);
   dca::Loop loop;
   dca::Daemon daemon(loop.io(), o);
@@ -171,9 +185,19 @@ int run(const dca::DaemonOptions& o) {
   loop.run();
   std::fprintf(stderr, "dca daemon: host %s stopping (%s): %zu children to stop\n", o.host.c_str(),
                stop_signal ? dca::signal_name(stop_signal).c_str() : "its loop ended", daemon.executer().running());
+  // orphaned (the process that started us died, e.g. `dca run` by SIGKILL): nobody waits for an orderly stop, and
+  // everything of the run must be gone within 2 s, so the children get a short grace
+  const bool orphaned = ::getppid() != parent;
+  if (orphaned) daemon.executer().stop_all(std::chrono::milliseconds(300));
   daemon.stop();
   // Let the close notices reach the peers (bounded).
   loop.run_for(std::chrono::milliseconds(50));
+  if (orphaned) {  // nobody else removes the temporary directories of the run
+    for (const auto& dir : remove_on_exit) {
+      std::error_code ec;
+      std::filesystem::remove_all(dir, ec);
+    }
+  }
   return 0;
 }
 
@@ -181,7 +205,7 @@ int cmd_daemon(std::span<char* const> args) {
   Args p;
   if (const int code = parse(args, p); code != 0) return code;
   if (!resolve(p)) return 1;
-  return run(p.o);
+  return run(p.o, p.remove_on_exit);
 }
 
 }  // namespace

@@ -8,8 +8,10 @@
 #include <string>
 
 #include "bindings/lua_runtime.h"
+#include "bindings/stop_signals.h"
 #include "app/subcommand.h"
 #include "host/paths.h"
+#include "host/spawn.h"
 #include "host/version.h"
 
 namespace {
@@ -54,6 +56,8 @@ int dispatch(int argc, char** argv) {
     return 2;
   }
   const std::string sub = argv[1];
+  // the commands that start a tree stop it in order on these signals, from the first instant (see the header)
+  if (sub == "run" || sub == "scenario" || sub == "supervise") dca::bindings::hold_stop_signals();
   if (sub == "--version" || sub == "version") {
     std::printf("dca %.*s\n", static_cast<int>(dca::version().size()), dca::version().data());
     return 0;
@@ -78,6 +82,7 @@ int dispatch(int argc, char** argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  dca::die_with_parent();
   try {
     return dispatch(argc, argv);
   } catch (const std::exception& e) {

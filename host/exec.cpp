@@ -3,7 +3,6 @@
 #include <fcntl.h>
 #include <poll.h>
 #include <signal.h>
-#include <spawn.h>
 #include <string.h>
 #include <sys/syscall.h>
 #include <sys/wait.h>
@@ -16,8 +15,8 @@
 #include <filesystem>
 
 #include "host/paths.h"
+#include "host/spawn.h"
 
-extern char** environ;
 
 namespace dca {
 namespace asio = boost::asio;
@@ -141,28 +140,12 @@ std::optional<Executer::Child> Executer::spawn(const std::vector<std::string>& a
     if (::access(lean.c_str(), X_OK) == 0) path = lean;
   }
 
-  std::vector<char*> args;
-  for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
-  args.push_back(nullptr);
-
-  posix_spawnattr_t attr;
-  posix_spawn_file_actions_t fa;
-  ::posix_spawnattr_init(&attr);
-  ::posix_spawn_file_actions_init(&fa);
-  sigset_t none, all;
-  sigemptyset(&none);
-  sigfillset(&all);
-  ::posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETPGROUP | POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETSIGDEF);
-  ::posix_spawnattr_setpgroup(&attr, 0);  // its own process group, led by the child
-  ::posix_spawnattr_setsigmask(&attr, &none);
-  ::posix_spawnattr_setsigdefault(&attr, &all);
-  ::posix_spawn_file_actions_addopen(&fa, 0, "/dev/null", O_RDONLY, 0);
-  ::posix_spawn_file_actions_addclosefrom_np(&fa, 3);
-  pid_t pid = 0;
-  const int rc = ::posix_spawn(&pid, path->c_str(), &fa, &attr, args.data(), environ);
-  ::posix_spawn_file_actions_destroy(&fa);
-  ::posix_spawnattr_destroy(&attr);
-  if (rc != 0) return fail("cannot start " + *path + ": " + std::strerror(rc));
+  SpawnOptions so;
+  so.new_group = true;  // its own process group, led by the child
+  std::string why;
+  const auto spawned = spawn_process(*path, argv, so, &why);
+  if (!spawned) return fail(why);
+  const pid_t pid = *spawned;
 
   auto w = std::make_shared<Watch>();
   w->id = next_id_++;

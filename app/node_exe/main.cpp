@@ -7,8 +7,10 @@
 #include <string>
 
 #include "app/subcommand.h"
+#include "host/spawn.h"
 
 int main(int argc, char** argv) {
+  dca::die_with_parent();
   const auto* node = dca::cli::find("node");
   if (node == nullptr) {
     std::fprintf(stderr, "dca-node: built without the node subcommand\n");

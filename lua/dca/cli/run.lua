@@ -87,12 +87,9 @@ local OUT = {
 
 --- Starts `dca repl ADDRESS` in its own process on this terminal. --> its pid | nil
 function OUT.console(exe, address, key)
-  local q = hosts_mod.sh_quote
-  local p = io.popen(sformat("%s repl %s%s </dev/tty >/dev/tty 2>&1 & echo $!", q(exe), q(address),
-    key and (" --key " .. q(key)) or ""), "r")
-  local pid = p and tonumber((p:read("a") or ""):match("%d+"))
-  if p then p:close() end
-  return pid
+  local argv = { exe, "repl", address }
+  if key then argv[#argv + 1] = "--key" argv[#argv + 1] = key end
+  return (require("dca.core").spawn(argv, { stdin = "/dev/tty", stdout = "/dev/tty" }))
 end
 
 function M.main(args)

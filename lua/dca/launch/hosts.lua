@@ -10,17 +10,11 @@
 local M = {}
 
 local ipairs, pairs, type, tostring, sformat, tonumber = ipairs, pairs, type, tostring, string.format, tonumber
-local concat = table.concat
 
-local function sh_quote(s) return "'" .. tostring(s):gsub("'", "'\\''") .. "'" end
-M.sh_quote = sh_quote
+local core = require "dca.core"
 
-local function run(cmd)
-  local p = assert(io.popen(cmd, "r"))
-  local out = p:read("a")
-  local ok, _, code = p:close()
-  return out, ok and 0 or code
-end
+-- Every process here starts from an argv (core.spawn: posix_spawn, never a shell), so a host name or an
+-- argument holding quotes, newlines or NULs reaches the program intact or not at all.
 
 --- This process's pid and executable (the `dca` to start daemons, nodes and supervisors with).
 function M.self_pid()
@@ -39,11 +33,7 @@ function M.self_exe()
     local p = core.exe_path()
     if p then return p end
   end
-  local pid = M.self_pid()
-  local out = run("readlink /proc/" .. tostring(pid) .. "/exe")
-  out = out:gsub("%s+$", "")
-  if out == "" then return "dca" end
-  return out
+  return "dca"
 end
 
 --- Reads a hosts file: one `name address` per line ("vision 10.0.0.2:7000"); `#` starts a comment.
@@ -69,21 +59,20 @@ end
 function M.fresh_key()
   local dir = os.tmpname()
   os.remove(dir)
-  local out, code = run("umask 077 && mkdir -p " .. sh_quote(dir) .. " && od -An -tx1 -N32 /dev/urandom | tr -d ' \\n' > "
-    .. sh_quote(dir .. "/key") .. " && echo ok")
-  if code ~= 0 or not out:find("ok") then error("cannot create a key file in " .. dir) end
+  local f = assert(io.open("/dev/urandom", "rb"))
+  local bytes = f:read(32)
+  f:close()
+  local ok, err = core.make_dir(dir)
+  if ok then ok, err = core.write_new_file(dir .. "/key", (bytes:gsub(".", function(c) return sformat("%02x", c:byte()) end))) end
+  if not ok then error("cannot create a key file in " .. dir .. ": " .. tostring(err)) end
   return dir .. "/key", dir
 end
 
 --- Free loopback TCP ports, one per name (the kernel picks them: bind port 0 and close again).
 function M.free_ports(n)
-  local py = "import socket\nss=[]\nfor i in range(%d):\n s=socket.socket(); s.bind(('127.0.0.1',0)); ss.append(s)\n"
-    .. "print(' '.join(str(s.getsockname()[1]) for s in ss))\n"
-  local out = run("python3 -c " .. sh_quote(sformat(py, n)) .. " 2>/dev/null")
-  local ports = {}
-  for p in out:gmatch("%d+") do ports[#ports + 1] = tonumber(p) end
+  local ports = core.free_tcp_ports(n)
   if #ports == n then return ports end
-  -- no python: spread over a high range by pid (the daemon's bind error names a clash)
+  -- no sockets to spare: spread over a high range by pid (the daemon's bind error names a clash)
   local base = 20000 + ((M.self_pid() or 0) * 7) % 30000
   for i = 1, n do ports[i] = base + i end
   return ports
@@ -115,14 +104,14 @@ function M.start_local(names, opts)
     if opts.clock then argv[#argv + 1] = "--clock" argv[#argv + 1] = opts.clock end
     argv[#argv + 1] = "--state-dir"
     argv[#argv + 1] = state .. "/" .. name
-    local q = {}
-    for i, a in ipairs(argv) do q[i] = sh_quote(a) end
+    for _, dir in ipairs(opts.remove_on_exit or {}) do argv[#argv + 1] = "--remove-on-exit" argv[#argv + 1] = dir end
+    if set.own_state then argv[#argv + 1] = "--remove-on-exit" argv[#argv + 1] = set.own_state end
     local log = (opts.log_dir or "/tmp") .. "/" .. name .. ".log"
     set.logs[name] = log
-    -- its own session: a Ctrl-C at the terminal reaches `dca run` only, which stops the tree LIFO first
-    local out = run("exec </dev/null; setsid " .. concat(q, " ") .. " >" .. sh_quote(log) .. " 2>&1 & echo $!")
-    local pid = tonumber(out:match("%d+"))
-    if not pid then set:stop() return nil, "could not start the daemon of host " .. name end
+    -- its own session: a Ctrl-C at the terminal reaches `dca run` only, which stops the tree LIFO first; and it
+    -- stops when `dca run` dies, whatever kills it (host/spawn.h)
+    local pid, serr = core.spawn(argv, { stdout = log, session = true })
+    if not pid then set:stop() return nil, sformat("could not start the daemon of host %s: %s", name, serr) end
     set.pids[name] = pid
     set.order[#set.order + 1] = name
   end
@@ -142,13 +131,16 @@ function M.start_local(names, opts)
         set:stop()
         return nil, sformat("the daemon of host %s did not start listening within %gs", name, opts.ready_timeout or 10)
       end
-      os.execute("sleep 0.01")
+      local sig = core.pending_signal()
+      if sig then set:stop() return nil, "interrupted (SIG" .. sig .. ")", "signal" end
+      core.sleep(0.01)
     end
   end
   return set
 end
 
 function M.alive(pid)
+  core.reap(pid)  -- a child of this process that ended: reaped, so it leaves /proc
   local f = io.open("/proc/" .. tostring(pid) .. "/stat", "r")
   if not f then return false end
   local st = f:read("l") or ""
@@ -160,16 +152,16 @@ end
 function Set:stop(signal)
   for i = #self.order, 1, -1 do
     local pid = self.pids[self.order[i]]
-    if pid and M.alive(pid) then os.execute("kill -" .. (signal or "TERM") .. " " .. pid .. " 2>/dev/null") end
+    if pid and M.alive(pid) then core.kill(pid, signal or "TERM") end
   end
   local deadline = os.time() + 5
   for i = #self.order, 1, -1 do
     local pid = self.pids[self.order[i]]
-    while pid and M.alive(pid) and os.time() <= deadline do os.execute("sleep 0.02") end
-    if pid and M.alive(pid) then os.execute("kill -KILL " .. pid .. " 2>/dev/null") end
+    while pid and M.alive(pid) and os.time() <= deadline do core.sleep(0.02) end
+    if pid and M.alive(pid) then core.kill(pid, "KILL") end
   end
   self.order = {}
-  if self.own_state then os.execute("rm -rf " .. sh_quote(self.own_state)) self.own_state = nil end
+  if self.own_state then core.remove_tree(self.own_state) self.own_state = nil end
 end
 
 return M

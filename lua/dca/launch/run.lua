@@ -61,10 +61,10 @@ function Run:report(msg)
   if msg.type == "log" then self:say(msg.line, msg.at)
   elseif msg.type == "done" then
     self:say(sformat("%s: DONE %s", self.spec.path, supervisor.show(msg.value)))
-    if not self.o.repl then self.code = 0 self:wind_up() end
+    if not self.o.repl then self.code = self.code or 0 self:wind_up() end
   elseif msg.type == "aborted" then
     self:say_aborted(msg)
-    if not self.o.repl then self.code = 1 self:wind_up() end
+    if not self.o.repl then self.code = self.code or 1 self:wind_up() end
   end
 end
 
@@ -89,6 +89,7 @@ end
 -- Stops everything with exit code `c` (unless one is set), bounded: the daemons are killed after the loop.
 function Run:stop_all(c)
   if self.code == nil then self.code = c end
+  self.stopping = true  -- a start still in flight goes no further (start_world)
   self:down()
   core.after(15, function() self.loop:stop() end)
 end
@@ -177,6 +178,7 @@ end
 
 -- The exit code when start step `step` failed (see dca.launch.start): usage and configuration errors 2.
 local function start_code(o, step, kind)
+  if kind == "signal" then return 130 end
   if step == "hosts" then return o.hosts and 2 or 3 end
   if step == "config" then return kind and 2 or 3 end
   if step == "sim_clock" then return 2 end
@@ -199,6 +201,7 @@ function Run:start_world()
         if self.code == nil then self.code = 1 end
       end
     end
+    if self.stopping then return end
     self:bring_up()
   end)
 end
@@ -231,7 +234,10 @@ function M.main(spec, o, out)
   if not pok then return code end
   r.loop = core.loop()
   r.sup = start.tree(r.ctx, spec.host)
-  core.on_signal(function(sig) r:say("interrupted (SIG" .. tostring(sig) .. "): stopping") r:stop_all(130) end)
+  local function interrupted(sig) r:say("interrupted (SIG" .. tostring(sig) .. "): stopping") r:stop_all(130) end
+  core.on_signal(interrupted)
+  -- one that came between the last start step and on_signal: held since main (bindings/stop_signals.h)
+  if core.pending_signal() then core.after(0, function() interrupted(core.pending_signal()) end) end
   r:listen()
   r.sup.reload_hook = function(what, cb) r:reload(what, cb) end
   if o.watch then r:watch() end

@@ -43,9 +43,10 @@ function M.hosts(ctx)
     ctx.hosts = hosts
   else
     if not ctx.key or o.fresh_key then ctx.key, ctx.keydir = hosts_mod.fresh_key() end
-    local set, err = hosts_mod.start_local(ctx.names, { exe = ctx.exe, key = ctx.key, clock = o.sim and "sim" or nil,
-      log_dir = ctx.keydir or os.getenv("TMPDIR") or "/tmp", state_dir = o.state_dir })
-    if not set then return nil, err end
+    -- the key dir (the daemons' logs too) goes with the daemons when `dca run` cannot remove it (killed)
+    local set, err, kind = hosts_mod.start_local(ctx.names, { exe = ctx.exe, key = ctx.key, clock = o.sim and "sim" or nil,
+      log_dir = ctx.keydir or os.getenv("TMPDIR") or "/tmp", state_dir = o.state_dir, remove_on_exit = { ctx.keydir } })
+    if not set then return nil, err, kind end
     ctx.daemons, ctx.hosts = set, set.hosts
     for _, name in ipairs(ctx.names) do
       ctx.say(sformat("host %s: daemon at %s (pid %d)", name, set.hosts[name], set.pids[name]))
@@ -160,6 +161,9 @@ end
 function M.sequence(ctx, names, cb)
   local co = coroutine.create(function()
     for _, name in ipairs(names) do
+      -- a stop signal held since main (bindings/stop_signals.h) ends the start between any two steps
+      local sig = require("dca.core").pending_signal()
+      if sig then return cb(nil, "interrupted (SIG" .. sig .. ")", name, "signal") end
       local ok, err, kind = run_step(ctx, name)
       if not ok then return cb(nil, err, name, kind) end
     end
@@ -176,7 +180,7 @@ function M.cleanup(ctx)
   if ctx.rt then ctx.rt.close() end
   if ctx.sim then ctx.sim.world:close() end
   if ctx.daemons then ctx.daemons:stop() end
-  if ctx.keydir then os.execute("rm -rf " .. hosts_mod.sh_quote(ctx.keydir)) ctx.keydir = nil end
+  if ctx.keydir then require("dca.core").remove_tree(ctx.keydir) ctx.keydir = nil end
 end
 
 return M

@@ -286,19 +286,19 @@ end
 function System:kill(path, sig)
   local pid = self:pid(path)
   if not pid then error("no live process " .. path, 2) end
-  os.execute("kill -" .. (sig or "KILL") .. " " .. pid)
+  assert(core.kill(pid, sig or "KILL"))
 end
 
 function System:freeze(path)
   local pid = self:pid(path)
   if not pid then error("no live process " .. path, 2) end
-  os.execute("kill -STOP " .. pid)
+  assert(core.kill(pid, "STOP"))
 end
 
 function System:freeze_host(host)
   local pid = self.daemons.pids[host]
   if not pid then error("no host " .. host, 2) end
-  os.execute("kill -STOP " .. pid)
+  assert(core.kill(pid, "STOP"))
 end
 
 function System:exists(path) return self:pid(path) ~= nil end
@@ -306,17 +306,17 @@ function System:exists(path) return self:pid(path) ~= nil end
 function System:lose_host(host)
   local pid = self.daemons.pids[host]
   if not pid then error("no host " .. host, 2) end
-  os.execute("kill -KILL " .. pid)
+  local children = self:_host_pids(host)
+  assert(core.kill(pid, "KILL"))
   -- its children lose their daemon; they are this host's processes and go with it
-  for _, p in ipairs(self:_host_pids(host)) do os.execute("kill -KILL " .. p .. " 2>/dev/null") end
+  for _, p in ipairs(children) do core.kill(p, "KILL") end
 end
 
 -- Processes started by the daemon of `host` (from /proc: their parent is the daemon).
 function System:_host_pids(host)
   local dpid = self.daemons.pids[host]
   local list = {}
-  local ls = io.popen("ls /proc")
-  for pid in ls:lines() do
+  for _, pid in ipairs(core.list_dir("/proc") or {}) do
     if pid:match("^%d+$") then
       local f = io.open("/proc/" .. pid .. "/stat")
       local st = f and f:read("l") or ""
@@ -325,7 +325,6 @@ function System:_host_pids(host)
       if ppid and tonumber(ppid) == dpid then list[#list + 1] = tonumber(pid) end
     end
   end
-  ls:close()
   return list
 end
 

@@ -273,7 +273,7 @@ process main() {
 ]])
   local out, rc = T.sh("DCA_KEY_FILE=" .. key .. " " .. dca .. " run " .. path .. " --hosts " .. hf .. " --sim door")
   set:stop()
-  os.execute("rm -rf " .. hosts.sh_quote(dir))
+  require("dca.core").remove_tree(dir)
   os.remove(hf) os.remove(path)
   T.eq(rc, 2, out)
   T.contains(out, "the daemon of host h1 runs on the wall clock (start it with --clock sim)")
