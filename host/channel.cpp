@@ -130,7 +130,10 @@ void Channel::on_read(const error_code& ec, std::size_t n) {
 void Channel::on_frames() {
   auto self = shared_from_this();  // a handler may drop the last other reference
   while (state_ == State::kHandshake || state_ == State::kOpen) {
-    auto d = wire::decode_frame(framed_.unread(), options_.max_frame);
+    // until the peer has proved the key, a frame is small: the handshake's messages are ~100 bytes
+    const std::size_t limit = state_ == State::kHandshake ? std::min(options_.max_frame, kHandshakeMaxFrame)
+                                                          : options_.max_frame;
+    auto d = wire::decode_frame(framed_.unread(), limit);
     if (d.status == wire::Decoded::Status::kNeedMore) return read();
     if (d.status == wire::Decoded::Status::kError) {
       const std::string reason = "malformed frame from " + peer_ + ": " + d.error;
@@ -317,7 +320,7 @@ void Channel::finish_close() {
 // --------------------------------------------------------------------------------------------------- Listener
 
 Listener::Listener(asio::io_context& io, ChannelOptions options)
-    : io_(io), options_(std::move(options)), acceptor_(io) {}
+    : io_(io), options_(std::move(options)), acceptor_(io), backoff_(io) {}
 
 Listener::~Listener() {
   error_code ec;
@@ -342,11 +345,13 @@ void Listener::accept() {
     if (self->closed_ || !self->acceptor_.is_open()) return;
     if (ec) {
       if (ec == asio::error::operation_aborted) return;
-      // EMFILE and friends: report and keep accepting.
-      if (self->on_refused_) self->on_refused_("accept failed on " + self->address_.str() + ": " + ec.message());
-      self->accept();
+      // EMFILE and friends: back off, say so at a bounded rate, accept again
+      self->backoff_.failed(ec, self->address_.str(), self->on_refused_, [w = std::weak_ptr<Listener>(self)] {
+        if (auto l = w.lock(); l && !l->closed_) l->accept();
+      });
       return;
     }
+    self->backoff_.succeeded();
     error_code rec;
     const auto remote = sock->remote_endpoint(rec);
     std::string peer = rec ? std::string("(unknown peer)") : endpoint_str(remote);
@@ -362,7 +367,7 @@ void Listener::accept() {
       }
       if (!err.empty()) {
         ++l->refused_;
-        if (l->on_refused_) l->on_refused_("refused a connection on " + l->address_.str() + ": " + err);
+        l->refusals_.say("refused a connection on " + l->address_.str() + ": " + err, l->on_refused_);
         return;
       }
       if (l->on_channel_) l->on_channel_(ch);
@@ -374,6 +379,7 @@ void Listener::accept() {
 void Listener::close() {
   if (closed_) return;
   closed_ = true;
+  backoff_.cancel();
   error_code ec;
   acceptor_.close(ec);
   if (address_.kind == Address::Kind::kUnix) ::unlink(address_.path.c_str());

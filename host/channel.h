@@ -41,11 +41,15 @@
 
 namespace dca {
 
+/// The largest frame a peer may send before the handshake is done (the handshake's messages are ~100 bytes).
+inline constexpr std::size_t kHandshakeMaxFrame = 4096;
+
 /// Settings of a channel or listener.
 struct ChannelOptions {
   auth::Key key;                                          ///< the cluster key; empty: every handshake fails
   std::chrono::milliseconds handshake_timeout{5000};      ///< deadline for connect + handshake
-  std::size_t max_frame = wire::kDefaultMaxFrame;         ///< largest body accepted from the peer
+  std::size_t max_frame = wire::kDefaultMaxFrame;         ///< largest body accepted from the peer once
+                                                          ///< authenticated (before: kHandshakeMaxFrame)
 };
 
 /// What a request gets back: a reply, or why there is none.
@@ -185,6 +189,8 @@ class Listener : public std::enable_shared_from_this<Listener> {
   RefusedFn on_refused_;
   std::uint64_t refused_ = 0;
   bool closed_ = false;
+  AcceptBackoff backoff_;
+  RateLimitedLog refusals_;
 };
 
 }  // namespace dca

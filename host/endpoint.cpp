@@ -72,7 +72,7 @@ using endpoint_detail::Connection;
 using endpoint_detail::Socket;
 
 struct Endpoint::Impl {
-  Impl(asio::io_context& io_, std::string host_) : io(io_), host(std::move(host_)) {}
+  Impl(asio::io_context& io_, std::string host_) : io(io_), host(std::move(host_)), uds_backoff(io_), tcp_backoff(io_) {}
   asio::io_context& io;
   std::string host;
   std::map<std::string, PortSet*, std::less<>> components;
@@ -80,6 +80,7 @@ struct Endpoint::Impl {
   std::vector<std::shared_ptr<Connection>> links;
   std::set<std::shared_ptr<endpoint_detail::Session>> sessions;
   std::unique_ptr<StreamAcceptor> uds_acceptor, tcp_acceptor;
+  AcceptBackoff uds_backoff, tcp_backoff;  // one each: a retry timer per acceptor
   std::string uds_path, tcp_address;
   std::uint64_t bytes_received = 0;
   bool closing = false;
@@ -109,8 +110,8 @@ struct Endpoint::Impl {
     if (!in) return it->second->no_such_input(r.to, r.in);
     return compatibility_error(out, in->spec());
   }
-  /// Accepts data connections on `acceptor` until it closes, each into a Session.
-  void accept(StreamAcceptor& acceptor);
+  /// Accepts data connections on `acceptor` until it closes, each into a Session; failures back off.
+  void accept(StreamAcceptor& acceptor, AcceptBackoff& backoff);
   void start_session(Socket s);
 
   std::function<void(const CommsEvent&)> on_event;
@@ -463,15 +464,22 @@ void Endpoint::Impl::start_session(Socket s) {
   session->begin();
 }
 
-void Endpoint::Impl::accept(StreamAcceptor& acceptor) {
-  acceptor.async_accept([this, &acceptor](const boost::system::error_code& ec, Socket s) {
+void Endpoint::Impl::accept(StreamAcceptor& acceptor, AcceptBackoff& backoff) {
+  acceptor.async_accept([this, &acceptor, &backoff](const boost::system::error_code& ec, Socket s) {
     if (ec == asio::error::operation_aborted || closing) return;
-    if (!ec) {
+    if (ec) {  // EMFILE and friends: back off instead of spinning, said on stderr at a bounded rate
+      const auto say = [](const std::string& line) { std::fprintf(stderr, "dca: %s\n", line.c_str()); };
+      return backoff.failed(ec, "a data port on host " + host, say, [this, &acceptor, &backoff] {
+        if (!closing) accept(acceptor, backoff);
+      });
+    }
+    backoff.succeeded();
+    {
       boost::system::error_code e2;
       if (s.local_endpoint(e2).protocol().family() != AF_UNIX) s.set_option(asio::ip::tcp::no_delay(true), e2);
       start_session(std::move(s));
     }
-    accept(acceptor);
+    accept(acceptor, backoff);
   });
 }
 
@@ -481,6 +489,8 @@ Endpoint::Endpoint(asio::io_context& io, std::string host)
 Endpoint::~Endpoint() {
   impl_->closing = true;
   boost::system::error_code ec;
+  impl_->uds_backoff.cancel();
+  impl_->tcp_backoff.cancel();
   if (impl_->uds_acceptor) impl_->uds_acceptor->close(ec);
   if (impl_->tcp_acceptor) impl_->tcp_acceptor->close(ec);
   if (!impl_->uds_path.empty()) ::unlink(impl_->uds_path.c_str());
@@ -496,14 +506,14 @@ void Endpoint::listen(const std::string& uds_path, const std::string& tcp_addres
     if (!listen_at(*impl_->uds_acceptor, Address::unix_socket(uds_path), &bound, &error))
       throw std::runtime_error(error);
     impl_->uds_path = uds_path;
-    impl_->accept(*impl_->uds_acceptor);
+    impl_->accept(*impl_->uds_acceptor, impl_->uds_backoff);
   }
   if (!tcp_address.empty()) {
     const auto at = Address::parse(tcp_address, &error);
     impl_->tcp_acceptor = std::make_unique<StreamAcceptor>(impl_->io);
     if (!at || !listen_at(*impl_->tcp_acceptor, *at, &bound, &error)) throw std::runtime_error(error);
     impl_->tcp_address = bound.str();
-    impl_->accept(*impl_->tcp_acceptor);
+    impl_->accept(*impl_->tcp_acceptor, impl_->tcp_backoff);
   }
 }
 

@@ -10,6 +10,7 @@
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/asio/local/stream_protocol.hpp>
 #include <boost/asio/write.hpp>
+#include <algorithm>
 #include <array>
 #include <charconv>
 #include <cstring>
@@ -20,14 +21,9 @@ using boost::system::error_code;
 
 namespace {
 
-constexpr std::size_t kReadChunk = 64 * 1024;  // the read buffer's first size
-constexpr std::size_t kMinRoom = 1024;         // free bytes below which the buffer doubles before a read
-
-// The length prefix at the start of `b` (4 bytes, big-endian).
-std::size_t length_prefix(std::string_view b) {
-  const auto* p = reinterpret_cast<const unsigned char*>(b.data());
-  return (std::size_t{p[0]} << 24) | (std::size_t{p[1]} << 16) | (std::size_t{p[2]} << 8) | std::size_t{p[3]};
-}
+constexpr std::size_t kReadChunk = 16 * 1024;     // the read buffer's first size
+constexpr std::size_t kMinRoom = 1024;            // free bytes below which the buffer doubles before a read
+constexpr std::size_t kShrinkAbove = 256 * 1024;  // an emptied buffer larger than this goes back to kReadChunk
 
 }  // namespace
 
@@ -151,6 +147,43 @@ bool listen_at(StreamAcceptor& acceptor, const Address& at, Address* bound, std:
   return true;
 }
 
+// ------------------------------------------------------------------------------ RateLimitedLog, AcceptBackoff
+
+void RateLimitedLog::say(const std::string& line, const std::function<void(const std::string&)>& say) {
+  const auto now = std::chrono::steady_clock::now();
+  if (now - window_ >= std::chrono::seconds(1)) {
+    window_ = now;
+    said_ = 0;
+  }
+  if (said_ >= per_second_) {
+    ++left_out_;
+    return;
+  }
+  ++said_;
+  if (!say) return;
+  if (left_out_ == 0) return say(line);
+  say(line + " (" + std::to_string(left_out_) + " similar lines left out)");
+  left_out_ = 0;
+}
+
+void AcceptBackoff::failed(const error_code& ec, const std::string& where,
+                           const std::function<void(const std::string&)>& say, std::function<void()> retry) {
+  using std::chrono::milliseconds;
+  delay_ = delay_ == milliseconds(0) ? milliseconds(10) : std::min(delay_ * 2, milliseconds(1000));
+  log_.say("accept failed on " + where + ": " + ec.message() + "; retrying in " + std::to_string(delay_.count()) +
+               " ms",
+           say);
+  timer_.expires_after(delay_);
+  timer_.async_wait([retry = std::move(retry)](const error_code& tec) {
+    if (!tec) retry();
+  });
+}
+
+void AcceptBackoff::cancel() {
+  error_code ec;
+  timer_.cancel(ec);
+}
+
 // ----------------------------------------------------------------------------------------------- FramedSocket
 
 FramedSocket::FramedSocket(Socket s, Owner& owner) : socket_(std::move(s)), owner_(owner), buf_(kReadChunk) {}
@@ -161,10 +194,8 @@ void FramedSocket::make_room() {
     end_ -= begin_;
     begin_ = 0;
   }
-  if (end_ >= 4) {
-    const std::size_t need = 4 + length_prefix(unread());
-    if (need > buf_.size()) buf_.resize(need);
-  }
+  // Grow with the bytes that came, never to a frame's declared length: a peer that announces 16 MiB and sends
+  // nothing more costs nothing. A big frame that does arrive is gathered in O(log n) doublings.
   if (buf_.size() - end_ < kMinRoom) buf_.resize(buf_.size() * 2);
 }
 
@@ -179,7 +210,9 @@ void FramedSocket::read(std::shared_ptr<void> keep) {
 
 void FramedSocket::consume(std::size_t n) {
   begin_ += n;
-  if (begin_ == end_) begin_ = end_ = 0;
+  if (begin_ != end_) return;
+  begin_ = end_ = 0;
+  if (buf_.size() > kShrinkAbove) std::vector<char>(kReadChunk).swap(buf_);  // after a big frame
 }
 
 void FramedSocket::flush(std::shared_ptr<void> keep) {

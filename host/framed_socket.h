@@ -10,9 +10,12 @@
 #include "host/loop.h"  // first: Asio's core, with GCC 12's false positives silenced
 
 #include <boost/asio/basic_socket_acceptor.hpp>
+#include <boost/asio/steady_timer.hpp>
 #include <boost/asio/generic/stream_protocol.hpp>
 #include <cstddef>
+#include <chrono>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <span>
@@ -51,6 +54,42 @@ std::string endpoint_str(const StreamEndpoint& ep);
 /// sets *bound to the address it listens on. False with *error ("cannot listen on ...") when it cannot.
 bool listen_at(StreamAcceptor& acceptor, const Address& at, Address* bound, std::string* error);
 
+/// Log lines at a bounded rate: at most `per_second` a second; the rest are counted, and the next line said
+/// after them tells how many were left out ("... (41 similar lines left out)").
+class RateLimitedLog {
+ public:
+  explicit RateLimitedLog(int per_second = 10) : per_second_(per_second) {}
+  /// `say(line)` now, or counts the line when this second's budget is spent.
+  void say(const std::string& line, const std::function<void(const std::string&)>& say);
+
+ private:
+  int per_second_;
+  std::chrono::steady_clock::time_point window_{};
+  int said_ = 0;
+  std::uint64_t left_out_ = 0;
+};
+
+/// What a listener does when accept fails. Running out of descriptors or memory (EMFILE, ENFILE, ENOBUFS,
+/// ENOMEM) does not go away by retrying at once, and retrying at once spins the loop at 100 % CPU: the next
+/// accept waits 10 ms, doubling to 1 s, back to nothing after a success. The failures are logged at most once a
+/// second (RateLimitedLog). One per listener; everything on the loop's thread.
+class AcceptBackoff {
+ public:
+  explicit AcceptBackoff(boost::asio::io_context& io) : timer_(io), log_(1) {}
+  /// After a failed accept on `where`: says so (rate-limited) and calls `retry` after the current delay.
+  void failed(const boost::system::error_code& ec, const std::string& where,
+              const std::function<void(const std::string&)>& say, std::function<void()> retry);
+  /// After a successful accept: the delay goes back to nothing.
+  void succeeded() { delay_ = std::chrono::milliseconds(0); }
+  /// Cancels a pending retry (the listener closes).
+  void cancel();
+
+ private:
+  boost::asio::steady_timer timer_;
+  std::chrono::milliseconds delay_{0};
+  RateLimitedLog log_;
+};
+
 /// One stream socket with a read buffer of whole frames and a write queue.
 class FramedSocket {
  public:
@@ -76,7 +115,9 @@ class FramedSocket {
   Socket& socket() { return socket_; }
 
   /// Reads what the peer sent next. Room is made first: the unread bytes move to the front and the buffer
-  /// grows to hold the frame whose length is already there (the owner refuses oversize frames before).
+  /// doubles when it is nearly full. It grows with the bytes received, never to a declared length (so a
+  /// length prefix costs nothing until its bytes come; the owner refuses a prefix over its frame limit), and
+  /// goes back to its first size once emptied after a big frame.
   void read(std::shared_ptr<void> keep);
   /// The bytes read and not yet consumed; they start at a frame boundary.
   std::string_view unread() const { return {buf_.data() + begin_, end_ - begin_}; }

@@ -190,6 +190,7 @@ function Run:start_world()
   local ctx = self.ctx
   start.sequence(ctx, { "sim_clock", "world" }, function(ok, err, step, kind)
     if not ok then
+      if self.stopping then return end  -- interrupted: the world's start was cut short on purpose
       err_line(self, tostring(err))
       self.code = start_code(self.o, step, kind)
       if ctx.sim then ctx.sim.world:stop(function() self.loop:stop() end) else self.loop:stop() end
