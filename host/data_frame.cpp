@@ -26,25 +26,41 @@ Parse fail(std::string* error, std::string why) {
 
 }  // namespace
 
-Parse parse_frame(Bytes buf, Frame& f, std::size_t& used, std::string* error) {
+Parse parse_frame(Bytes buf, Frame& f, std::size_t& used, std::string* error, std::uint32_t max_frame) {
   used = 0;
   if (buf.size() < 4) return Parse::NeedMore;
   const std::uint32_t len = (std::to_integer<std::uint32_t>(buf[0]) << 24) |
                             (std::to_integer<std::uint32_t>(buf[1]) << 16) |
                             (std::to_integer<std::uint32_t>(buf[2]) << 8) | std::to_integer<std::uint32_t>(buf[3]);
   if (len == 0) return fail(error, "empty data frame");
-  if (len > kMaxFrame)
-    return fail(error, "data frame of " + std::to_string(len) + " bytes exceeds the limit of " + std::to_string(kMaxFrame));
+  if (len > max_frame)
+    return fail(error,
+                "data frame of " + std::to_string(len) + " bytes exceeds the limit of " + std::to_string(max_frame));
   if (buf.size() < 4 + static_cast<std::size_t>(len)) {
     used = 4 + static_cast<std::size_t>(len);
     return Parse::NeedMore;
   }
   const auto k = std::to_integer<std::uint8_t>(buf[4]);
-  if (k < 1 || k > 6) return fail(error, "unknown data frame kind " + std::to_string(k));
+  if (k < 1 || k > 7) return fail(error, "unknown data frame kind " + std::to_string(k));
   f.kind = static_cast<Kind>(k);
   f.body = buf.subspan(5, len - 1);
   used = 4 + static_cast<std::size_t>(len);
   return Parse::Ok;
+}
+
+std::string encode_auth(const wire::Message& m) {
+  const std::string frame = wire::encode(m);
+  return frame.size() > wire::kHeaderSize ? frame.substr(wire::kHeaderSize) : std::string();
+}
+
+bool decode_auth(Bytes body, wire::Message& m, std::string* error) {
+  auto d = wire::decode_body({reinterpret_cast<const char*>(body.data()), body.size()});
+  if (d.status != wire::Decoded::Status::kMessage) {
+    if (error != nullptr) *error = "malformed handshake message: " + d.error;
+    return false;
+  }
+  m = std::move(d.message);
+  return true;
 }
 
 std::string encode_hello(const Hello& h) {

@@ -11,6 +11,7 @@
 
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <cstdio>
 #include <cstring>
 #include <set>
@@ -72,9 +73,17 @@ using endpoint_detail::Connection;
 using endpoint_detail::Socket;
 
 struct Endpoint::Impl {
-  Impl(asio::io_context& io_, std::string host_) : io(io_), host(std::move(host_)), uds_backoff(io_), tcp_backoff(io_) {}
+  Impl(asio::io_context& io_, std::string host_, EndpointOptions o)
+      : io(io_),
+        host(std::move(host_)),
+        opts(std::move(o)),
+        data_key(dca::data_key(opts.key)),
+        uds_backoff(io_),
+        tcp_backoff(io_) {}
   asio::io_context& io;
   std::string host;
+  EndpointOptions opts;
+  auth::Key data_key;  // the handshake's key on data sockets (dca::data_key)
   std::map<std::string, PortSet*, std::less<>> components;
   std::map<std::string, std::shared_ptr<bool>, std::less<>> sets;
   std::vector<std::shared_ptr<Connection>> links;
@@ -83,6 +92,7 @@ struct Endpoint::Impl {
   AcceptBackoff uds_backoff, tcp_backoff;  // one each: a retry timer per acceptor
   std::string uds_path, tcp_address;
   std::uint64_t bytes_received = 0;
+  std::uint64_t refused = 0;
   bool closing = false;
 
   std::shared_ptr<bool> set_flag(const std::string& name) {
@@ -120,12 +130,20 @@ struct Endpoint::Impl {
 namespace endpoint_detail {
 
 constexpr std::size_t kMaxBacklog = 8u << 20;  // bytes waiting on a backed-up socket before samples are dropped
+using Clock = std::chrono::steady_clock;
+
+Bytes as_bytes(const std::string& s) { return {reinterpret_cast<const std::byte*>(s.data()), s.size()}; }
+
+std::string ms_text(std::chrono::milliseconds d) { return std::to_string(d.count()) + " ms"; }
 
 // Frame I/O on one data socket (both ends use it): data frames on a FramedSocket, written at once when the
-// socket takes them, queued up to kMaxBacklog bytes when it is backed up.
+// socket takes them, queued up to kMaxBacklog bytes when it is backed up. Two deadlines, watched by one timer
+// that is armed only when one is pending and never cancelled on the per-sample path: the handshake's (set by
+// the accepting side) and the partial frame's (a frame begun and not completed within partial_timeout).
 class DataSocket : public std::enable_shared_from_this<DataSocket>, private FramedSocket::Owner {
  public:
-  explicit DataSocket(Socket s) : framed_(std::move(s), *this) {}
+  DataSocket(Socket s, std::chrono::milliseconds partial_timeout)
+      : framed_(std::move(s), *this), wake_(framed_.socket().get_executor()), partial_timeout_(partial_timeout) {}
   DataSocket(const DataSocket&) = delete;
   DataSocket& operator=(const DataSocket&) = delete;
 
@@ -143,6 +161,10 @@ class DataSocket : public std::enable_shared_from_this<DataSocket>, private Fram
     fail(ec.message());
     return false;
   }
+  /// Sends the handshake messages of one step.
+  void send_auth(const auth::Handshake::Step& step) {
+    for (const auto& m : step.out) send(Kind::Auth, as_bytes(data_frame::encode_auth(m)));
+  }
 
   void start_read() {
     if (!closed_) framed_.read(shared_from_this());
@@ -152,6 +174,7 @@ class DataSocket : public std::enable_shared_from_this<DataSocket>, private Fram
   void shut() {
     if (closed_) return;
     closed_ = true;
+    wake_.cancel();
     framed_.close();
   }
 
@@ -168,12 +191,24 @@ class DataSocket : public std::enable_shared_from_this<DataSocket>, private Fram
   virtual void on_frame(Kind kind, Bytes body) = 0;
   virtual void on_broken(const std::string& reason) = 0;
   virtual void on_bytes(std::size_t) {}
+  /// The largest frame the peer may send now (small until it has authenticated).
+  virtual std::uint32_t frame_limit() const { return data_frame::kMaxFrame; }
+  /// A malformed or oversize frame arrived: by default the connection breaks.
+  virtual void on_malformed(const std::string& why) { fail("malformed data frame: " + why); }
 
   void fail(const std::string& reason) {
     if (closed_) return;
     shut();
     on_broken(reason);
   }
+
+  /// The connection breaks unless clear_handshake_deadline() is called within `d` from now.
+  void set_handshake_deadline(std::chrono::milliseconds d) {
+    handshake_timeout_ = d;
+    handshake_at_ = Clock::now() + d;
+    wake_at(handshake_at_);
+  }
+  void clear_handshake_deadline() { handshake_at_ = Clock::time_point::max(); }
 
   Socket& sock() { return framed_.socket(); }
 
@@ -188,27 +223,70 @@ class DataSocket : public std::enable_shared_from_this<DataSocket>, private Fram
     if (closed_) return;
     if (ec) return fail(ec == asio::error::eof ? "closed by peer" : ec.message());
     on_bytes(n);
+    bool consumed = false;
     for (;;) {
       const auto unread = framed_.unread();
       data_frame::Frame f;
       std::size_t used = 0;
       std::string error;
       const auto r = data_frame::parse_frame({reinterpret_cast<const std::byte*>(unread.data()), unread.size()}, f,
-                                             used, &error);
-      if (r == data_frame::Parse::Error) return fail("malformed data frame: " + error);
+                                             used, &error, frame_limit());
+      if (r == data_frame::Parse::Error) return on_malformed(error);
       if (r == data_frame::Parse::NeedMore) break;
       on_frame(f.kind, f.body);
-      if (closed_) return;
+      if (closed_ || close_after_flush_) return;  // closed, or refused and closing
       framed_.consume(used);
+      consumed = true;
     }
+    watch_partial(consumed);
     start_read();
   }
 
+  // A partial frame left in the buffer starts (or, after a whole frame, restarts) its deadline.
+  void watch_partial(bool consumed) {
+    if (framed_.unread().empty()) {
+      partial_ = false;
+      return;
+    }
+    if (partial_ && !consumed) return;
+    partial_ = true;
+    partial_since_ = Clock::now();
+    wake_at(partial_since_ + partial_timeout_);
+  }
+
+  // Wakes at `at` unless already waking earlier; a re-armed timer's old wait finds its generation stale.
+  void wake_at(Clock::time_point at) {
+    if (closed_ || (waiting_ && wake_time_ <= at)) return;
+    waiting_ = true;
+    wake_time_ = at;
+    wake_.expires_at(at);
+    const auto gen = ++wake_gen_;
+    std::weak_ptr<DataSocket> w = weak_from_this();
+    wake_.async_wait([w, gen](const boost::system::error_code&) {
+      if (auto s = w.lock(); s && gen == s->wake_gen_) s->on_wake();
+    });
+  }
+
+  // Breaks the connection if a deadline passed, else waits for the next one pending.
+  void on_wake() {
+    waiting_ = false;
+    if (closed_) return;
+    const auto now = Clock::now();
+    if (now >= handshake_at_) return fail("no authenticated hello within " + ms_text(handshake_timeout_));
+    const auto partial_at = partial_ ? partial_since_ + partial_timeout_ : Clock::time_point::max();
+    if (now >= partial_at) return fail("a partial data frame was held for more than " + ms_text(partial_timeout_));
+    const auto next = std::min(handshake_at_, partial_at);
+    if (next != Clock::time_point::max()) wake_at(next);
+  }
+
   FramedSocket framed_;
+  asio::steady_timer wake_;
+  std::uint64_t wake_gen_ = 0;
+  Clock::time_point wake_time_{}, handshake_at_ = Clock::time_point::max(), partial_since_{};
+  std::chrono::milliseconds partial_timeout_, handshake_timeout_{0};
+  bool waiting_ = false, partial_ = false;
   bool closed_ = false, close_after_flush_ = false;
 };
-
-Bytes as_bytes(const std::string& s) { return {reinterpret_cast<const std::byte*>(s.data()), s.size()}; }
 
 // In-process connection: the sample is copied straight into the input.
 class LocalLink final : public Connection, public PullSource, public InputFeeder {
@@ -261,12 +339,17 @@ class LocalLink final : public Connection, public PullSource, public InputFeeder
   bool pending_ = false;
 };
 
-// The sending side of a socket connection.
+// The sending side of a socket connection: connect, authenticate (Auth frames), hello, then samples.
 class StreamLink final : public Connection, public DataSocket {
  public:
   StreamLink(Endpoint::Impl& ep, ConnectRequest r, Transport t, Output* out, std::shared_ptr<bool> active)
-      : Connection(std::move(r), t, out, std::move(active)), DataSocket(Socket(ep.io)), ep_(&ep), timer_(ep.io) {}
+      : Connection(std::move(r), t, out, std::move(active)),
+        DataSocket(Socket(ep.io), ep.opts.partial_frame_timeout),
+        ep_(&ep),
+        timer_(ep.io),
+        handshake_(auth::Handshake::Role::kClient, ep.data_key) {}
 
+  /// Connects to `dest`; `done` runs once, after the hello's answer, a refusal or `timeout_ms`.
   void start(const Location& dest, Endpoint::ConnectDone done, int timeout_ms) {
     done_ = std::move(done);
     peer_ = info_.request.to + "." + info_.request.in;
@@ -286,15 +369,7 @@ class StreamLink final : public Connection, public DataSocket {
     sock().async_connect(*where, [self](const boost::system::error_code& ec) {
       if (self->closed() || !self->done_) return;
       if (ec) return self->finish("cannot connect to " + self->peer_ + " at " + self->peer_addr_ + ": " + ec.message());
-      boost::system::error_code ignored;
-      if (self->info_.transport == Transport::Tcp) {
-        const int one = 1;
-        ::setsockopt(self->sock().native_handle(), IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
-      }
-      self->sock().non_blocking(true, ignored);
-      data_frame::Hello h{self->info_.request, self->out_ ? self->out_->spec() : PortSpec{}};
-      self->send(Kind::Hello, as_bytes(data_frame::encode_hello(h)));
-      self->start_read();
+      self->authenticate();
     });
   }
 
@@ -328,8 +403,11 @@ class StreamLink final : public Connection, public DataSocket {
  protected:
   void on_frame(Kind kind, Bytes body) override {
     switch (kind) {
+      case Kind::Auth:
+        if (authenticated_) break;
+        return on_auth(body);
       case Kind::HelloOk:
-        if (connected_) break;
+        if (connected_ || !authenticated_) break;
         connected_ = true;
         timer_.cancel();
         if (done_) std::exchange(done_, nullptr)("");
@@ -338,6 +416,7 @@ class StreamLink final : public Connection, public DataSocket {
       case Kind::HelloError:
         return finish(std::string(reinterpret_cast<const char*>(body.data()), body.size()));
       case Kind::PullRequest:
+        if (!connected_) break;
         pending_ = true;
         if (*active_) answer();
         return;
@@ -345,6 +424,10 @@ class StreamLink final : public Connection, public DataSocket {
         break;
     }
     fail("unexpected data frame kind " + std::to_string(static_cast<int>(kind)) + " from " + peer_);
+  }
+
+  std::uint32_t frame_limit() const override {
+    return authenticated_ ? data_frame::kMaxFrame : data_frame::kMaxAuthFrame;
   }
 
   void on_broken(const std::string& reason) override {
@@ -356,6 +439,38 @@ class StreamLink final : public Connection, public DataSocket {
   }
 
  private:
+  // Connected: sets the socket up and sends the handshake's hello (an endpoint without a key stops here).
+  void authenticate() {
+    boost::system::error_code ignored;
+    if (info_.transport == Transport::Tcp) {
+      const int one = 1;
+      ::setsockopt(sock().native_handle(), IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+    }
+    sock().non_blocking(true, ignored);
+    const auto step = handshake_.start();
+    if (step.state == auth::Handshake::State::kFailed)
+      return finish("cannot connect to " + peer_ + ": this endpoint has no cluster key");
+    send_auth(step);
+    start_read();
+  }
+
+  // One handshake message from the destination; once authenticated, the data hello.
+  void on_auth(Bytes body) {
+    wire::Message m;
+    std::string error;
+    if (!data_frame::decode_auth(body, m, &error)) return finish(refused(error));
+    const auto step = handshake_.on_message(m);
+    send_auth(step);
+    if (step.state == auth::Handshake::State::kFailed) return finish(refused(handshake_.reason()));
+    if (step.state != auth::Handshake::State::kDone) return;
+    authenticated_ = true;
+    data_frame::Hello h{info_.request, out_ ? out_->spec() : PortSpec{}};
+    send(Kind::Hello, as_bytes(data_frame::encode_hello(h)));
+  }
+  std::string refused(const std::string& why) const {
+    return "data connection to " + peer_ + " at " + peer_addr_ + " not authenticated: " + why;
+  }
+
   void answer() {
     if (!out_ || !out_->has_latest()) return;
     pending_ = false;
@@ -374,19 +489,29 @@ class StreamLink final : public Connection, public DataSocket {
 
   Endpoint::Impl* ep_;
   asio::steady_timer timer_;
+  auth::Handshake handshake_;
   Endpoint::ConnectDone done_;
   std::string peer_, peer_addr_;
+  bool authenticated_ = false;
   bool connected_ = false;
   bool pending_ = false;
 };
 
-// The receiving side of a socket connection: feeds one local input.
+// The receiving side of a socket connection: authenticates the source, checks its hello, then feeds one local
+// input. Anything else before the hello is refused with a reason; the session then leaves the endpoint.
 class Session final : public DataSocket, public PullSource, public InputFeeder {
  public:
-  Session(Endpoint::Impl& ep, Socket s) : DataSocket(std::move(s)), ep_(&ep) {}
+  Session(Endpoint::Impl& ep, Socket s)
+      : DataSocket(std::move(s), ep.opts.partial_frame_timeout),
+        ep_(&ep),
+        handshake_(auth::Handshake::Role::kServer, ep.data_key) {}
   void begin() {
     boost::system::error_code ignored;
     sock().non_blocking(true, ignored);
+    set_handshake_deadline(ep_->opts.handshake_timeout);
+    const auto step = handshake_.start();
+    send_auth(step);
+    if (step.state == auth::Handshake::State::kFailed) return refuse("this endpoint has no cluster key", false);
     start_read();
   }
   void request() override { send(Kind::PullRequest, {}); }
@@ -412,27 +537,18 @@ class Session final : public DataSocket, public PullSource, public InputFeeder {
   }
   void on_frame(Kind kind, Bytes body) override {
     if (!ep_) return;
-    if (!in_) {
-      std::string error;
-      if (kind != Kind::Hello) error = "the first data frame must be a hello";
-      else if (data_frame::decode_hello(body, hello_, &error)) error = ep_->check_destination(hello_.request, hello_.out, in_);
-      if (!error.empty()) {
-        in_ = nullptr;
-        send(Kind::HelloError, as_bytes(error));
-        close_after_flush();
-        auto self = std::static_pointer_cast<Session>(shared_from_this());
-        ep_->sessions.erase(self);
-        return;
-      }
-      in_->add_feeder(this);
-      if (hello_.request.mode == Mode::Pull) in_->add_pull_source(this);
-      else in_->reserve_queue(hello_.request.queue);
-      send(Kind::HelloOk, {});
-      return;
-    }
+    if (!authenticated_) return on_auth(kind, body);
+    if (!in_) return on_hello(kind, body);
     if (kind == Kind::Sample) in_->deliver(body);
     else if (kind == Kind::Pulled) in_->deliver_pulled(body);
     else fail("unexpected data frame kind " + std::to_string(static_cast<int>(kind)));
+  }
+  std::uint32_t frame_limit() const override {
+    return authenticated_ ? data_frame::kMaxFrame : data_frame::kMaxAuthFrame;
+  }
+  void on_malformed(const std::string& why) override {
+    if (authenticated_) return fail("malformed data frame: " + why);
+    refuse("authentication required: " + why, true);
   }
   void on_broken(const std::string& reason) override {
     auto* ep = ep_;
@@ -440,14 +556,53 @@ class Session final : public DataSocket, public PullSource, public InputFeeder {
     if (in_)
       ep->report({CommsEvent::Kind::Broken, hello_.request.to, hello_.request.in,
                   hello_.request.from + "." + hello_.request.out, hello_.request.set, reason});
+    else
+      ++ep->refused;
     close();
     ep->sessions.erase(std::static_pointer_cast<Session>(shared_from_this()));
   }
 
  private:
+  // Before authentication only handshake messages are taken.
+  void on_auth(Kind kind, Bytes body) {
+    if (kind != Kind::Auth) return refuse("authentication required: the cluster-key handshake comes first", true);
+    wire::Message m;
+    std::string error;
+    if (!data_frame::decode_auth(body, m, &error)) return refuse(error, true);
+    const auto step = handshake_.on_message(m);
+    send_auth(step);
+    if (step.state == auth::Handshake::State::kFailed) return refuse(handshake_.reason(), false);
+    authenticated_ = step.state == auth::Handshake::State::kDone;
+  }
+  // The first frame after authentication: the hello, checked against this endpoint's inputs.
+  void on_hello(Kind kind, Bytes body) {
+    std::string error;
+    if (kind != Kind::Hello) error = "the first data frame must be a hello";
+    else if (data_frame::decode_hello(body, hello_, &error)) error = ep_->check_destination(hello_.request, hello_.out, in_);
+    if (!error.empty()) return refuse(error, true);
+    in_->add_feeder(this);
+    if (hello_.request.mode == Mode::Pull) in_->add_pull_source(this);
+    else in_->reserve_queue(hello_.request.queue);
+    clear_handshake_deadline();
+    send(Kind::HelloOk, {});
+  }
+  // Refuses the connection (counted): tells the peer `why` in a HelloError when `tell`, closes once that is
+  // written (the handshake deadline still bounds the wait) and leaves the endpoint.
+  void refuse(const std::string& why, bool tell) {
+    auto* ep = std::exchange(ep_, nullptr);
+    if (!ep) return;
+    ++ep->refused;
+    in_ = nullptr;
+    if (tell) send(Kind::HelloError, as_bytes(why));
+    close_after_flush();
+    ep->sessions.erase(std::static_pointer_cast<Session>(shared_from_this()));
+  }
+
   Endpoint::Impl* ep_;
+  auth::Handshake handshake_;
   data_frame::Hello hello_;
   Input* in_ = nullptr;
+  bool authenticated_ = false;
 };
 
 }  // namespace endpoint_detail
@@ -457,6 +612,11 @@ using endpoint_detail::Session;
 using endpoint_detail::StreamLink;
 
 // ------------------------------------------------------------------------------------------------ Endpoint ---
+
+auth::Key data_key(const auth::Key& cluster_key) {
+  if (cluster_key.empty()) return {};  // no key stays no key: the handshake then refuses
+  return auth::hmac_sha256(cluster_key, "dca-data-1");
+}
 
 void Endpoint::Impl::start_session(Socket s) {
   auto session = std::make_shared<Session>(*this, std::move(s));
@@ -483,8 +643,8 @@ void Endpoint::Impl::accept(StreamAcceptor& acceptor, AcceptBackoff& backoff) {
   });
 }
 
-Endpoint::Endpoint(asio::io_context& io, std::string host)
-    : impl_(std::make_unique<Impl>(io, host)), host_(std::move(host)) {}
+Endpoint::Endpoint(asio::io_context& io, std::string host, EndpointOptions options)
+    : impl_(std::make_unique<Impl>(io, host, std::move(options))), host_(std::move(host)) {}
 
 Endpoint::~Endpoint() {
   impl_->closing = true;
@@ -616,5 +776,6 @@ std::vector<LinkInfo> Endpoint::links() const {
 
 std::size_t Endpoint::accepted() const { return impl_->sessions.size(); }
 std::uint64_t Endpoint::bytes_received() const { return impl_->bytes_received; }
+std::uint64_t Endpoint::refused() const { return impl_->refused; }
 
 }  // namespace dca

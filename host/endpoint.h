@@ -12,10 +12,17 @@
 // endpoint's event callback on both sides; it never blocks a writer. A backed-up socket never blocks either:
 // beyond a backlog limit its samples are dropped and counted (LinkInfo::tx_dropped).
 //
-// Sockets carry data frames (host/data_frame) on framed sockets (host/framed_socket). Threading: everything
-// here runs on the process's one io_context thread; nothing takes a lock.
+// Sockets carry data frames (host/data_frame) on framed sockets (host/framed_socket). Every socket connection
+// is authenticated before its hello (ARCHITECTURE.md, "Data plane security"): the connecting side runs the
+// control plane's challenge-response (host/auth.h) keyed with data_key(cluster key); the accepting
+// side takes nothing else (frames over data_frame::kMaxAuthFrame before it are refused at their length prefix),
+// answers a refusal with its reason and closes. An accepted connection without an accepted hello by
+// handshake_timeout, or holding a partial frame for partial_frame_timeout, is closed. An Endpoint without a key
+// refuses every socket connection, both ways; in-process connections cross no socket and need none.
+// Threading: everything here runs on the process's one io_context thread; nothing takes a lock.
 #include "host/loop.h"  // first: Asio's core, with GCC 12's false positives silenced
 
+#include <chrono>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
@@ -24,6 +31,7 @@
 #include <string_view>
 #include <vector>
 
+#include "host/auth.h"
 #include "host/port.h"
 
 namespace dca {
@@ -51,12 +59,24 @@ struct LinkInfo {
   std::uint64_t bytes = 0;    ///< bytes written to the socket (0 in-process)
 };
 
+/// The key the data plane's handshake uses: HMAC-SHA256(cluster key, "dca-data-1") ("" for no key). A MAC
+/// made on a control port (keyed with the cluster key itself) is therefore worthless on a data port.
+auth::Key data_key(const auth::Key& cluster_key);
+
+/// How an Endpoint authenticates and bounds its socket connections.
+struct EndpointOptions {
+  auth::Key key;  ///< the cluster key (host/auth.h); empty: every socket connection is refused, both ways
+  std::chrono::milliseconds handshake_timeout{5000};     ///< accepted: from accept to an accepted hello
+  std::chrono::milliseconds partial_frame_timeout{5000};  ///< longest a partial frame may stay incomplete
+};
+
 /// One per process: the components' ports, the data listeners (Unix socket and TCP), the connections and
 /// the connection sets. Runs on one io_context; not thread-safe (nothing in the data plane takes a lock).
 class Endpoint {
  public:
-  /// `host` is this process's logical host name (chooses Unix socket vs TCP).
-  Endpoint(boost::asio::io_context& io, std::string host);
+  /// `host` is this process's logical host name (chooses Unix socket vs TCP). Without `options.key` only
+  /// in-process connections work.
+  Endpoint(boost::asio::io_context& io, std::string host, EndpointOptions options = {});
   ~Endpoint();
   Endpoint(const Endpoint&) = delete;
   Endpoint& operator=(const Endpoint&) = delete;
@@ -104,6 +124,9 @@ class Endpoint {
   std::size_t accepted() const;
   /// Total bytes received on accepted data connections.
   std::uint64_t bytes_received() const;
+  /// Accepted data connections refused or closed before their hello was accepted (failed or missing
+  /// authentication, oversize or malformed frames, a refused hello, the handshake deadline).
+  std::uint64_t refused() const;
 
   /// Internal state shared with connections (endpoint.cpp).
   struct Impl;

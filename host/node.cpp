@@ -155,7 +155,10 @@ void Node::Impl::open_ports(const std::string& host, const Done& done_fn) {
     timers = std::make_unique<TimerServer>(loop.io(), opts.clock);
     timers->set_aligned(opts.clock == ClockKind::Simulated);
     component = factory(opts.type, opts.name, host, opts.args, *timers);
-    endpoint = std::make_unique<Endpoint>(loop.io(), host);
+    EndpointOptions eo;
+    eo.key = chopts.key;  // data connections authenticate with the cluster key too
+    eo.handshake_timeout = std::chrono::milliseconds(opts.timeout_ms);
+    endpoint = std::make_unique<Endpoint>(loop.io(), host, std::move(eo));
     static int made = 0;  // several nodes in one process (tests) need distinct sockets
     uds = runtime_dir() + "/node-" + std::to_string(::getpid()) + (made++ ? "-" + std::to_string(made) : "") + ".sock";
     endpoint->listen(uds, ip + ":0");
@@ -322,7 +325,8 @@ Value Node::Impl::ports() const {
   }
   return Value::map().set("inputs", ins).set("outputs", outs).set("links", links)
       .set("accepted", static_cast<std::uint64_t>(endpoint->accepted()))
-      .set("bytes_received", endpoint->bytes_received());
+      .set("bytes_received", endpoint->bytes_received())
+      .set("refused", endpoint->refused());
 }
 
 Value Node::Impl::stats() const {

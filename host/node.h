@@ -23,7 +23,9 @@
 //   pull {port, timeout_ms}                   -> ok {value, count}  asks the input's pull connections for
 //                                                their latest sample; answers when it has arrived
 //   ports {}                                  -> ok {inputs = [...], outputs = [...], links = [...]} with
-//                                                counters (samples, dropped, queued, rejected, skipped, sent)
+//                                                counters (samples, dropped, queued, rejected, skipped, sent),
+//                                                accepted, bytes_received, refused (data connections refused
+//                                                before their hello: no or a wrong key, deadline, bad hello)
 //   stats {}                                  -> ok {timers = [{name, period_s, active, count, missed, p50_us,
 //                                                p99_us, max_us}] (lateness), intervals = [{name, period_s,
 //                                                clock = {n, p50_us, p99_us, p999_us, max_us, min_us, mean_us},

@@ -40,6 +40,13 @@ namespace {
 
 constexpr int kDoubles = 8;  // 64 bytes
 
+// Every endpoint of the bench holds one cluster key: socket connections authenticate once at connect time.
+dca::EndpointOptions bench_keyed() {
+  dca::EndpointOptions o;
+  o.key = "comms-bench-cluster-key-01234567";
+  return o;
+}
+
 void pin(int cpu) {
   if (cpu < 0) return;
   cpu_set_t set;
@@ -70,7 +77,7 @@ bool run_until(asio::io_context& io, const std::function<bool()>& pred, std::chr
   pin(cpu);
   asio::io_context io;
   dca::TimerServer timers(io, dca::ClockKind::Wall);
-  dca::Endpoint ep(io, tcp ? "b" : "a");
+  dca::Endpoint ep(io, tcp ? "b" : "a", bench_keyed());
   auto gain = dca::Registry::global().create("Gain", {"/echo", "b", {"1"}, &timers, nullptr});
   ep.add_component("/echo", gain->ports());
   ep.listen(uds + ".echo", "127.0.0.1:0");
@@ -147,7 +154,7 @@ void dca_socket_round(bool tcp, int cpu_parent, int cpu_child, int n, Samples& o
   if (child == 0) dca_echo_child(tcp, uds, cpu_child, up[1], down[0]);
   pin(cpu_parent);
   asio::io_context io;
-  dca::Endpoint ep(io, "a");
+  dca::Endpoint ep(io, "a", bench_keyed());
   dca::PortSet ping;
   auto& o = ping.add_output(dca::vectorx_port("Out"));
   auto& in = ping.add_input(dca::vectorx_port("In"));
@@ -237,7 +244,7 @@ void raw_socket_round(bool tcp, int cpu_parent, int cpu_child, int n, Samples& o
 void dca_inprocess_round(int n, Samples& out) {
   asio::io_context io;
   dca::TimerServer timers(io, dca::ClockKind::Wall);
-  dca::Endpoint ep(io, "a");
+  dca::Endpoint ep(io, "a", bench_keyed());
   auto gain = dca::Registry::global().create("Gain", {"/echo", "a", {"1"}, &timers, nullptr});
   dca::PortSet ping;
   auto& o = ping.add_output(dca::vectorx_port("Out"));
@@ -287,7 +294,7 @@ double dca_throughput(int n) {
   const pid_t child = ::fork();
   if (child == 0) {
     asio::io_context io;
-    dca::Endpoint ep(io, "a");
+    dca::Endpoint ep(io, "a", bench_keyed());
     dca::PortSet sink;
     auto& in = sink.add_input(dca::vectorx_port("In"));
     ep.add_component("/sink", sink);
@@ -307,7 +314,7 @@ double dca_throughput(int n) {
   int ok = 0;
   [[maybe_unused]] auto r = ::read(up[0], &ok, sizeof ok);
   asio::io_context io;
-  dca::Endpoint ep(io, "a");
+  dca::Endpoint ep(io, "a", bench_keyed());
   dca::PortSet src;
   auto& o = src.add_output(dca::vectorx_port("Out"));
   ep.add_component("/src", src);

@@ -187,7 +187,9 @@ pid_t endpoint_child(int out_fd, const std::string& uds) {
   const pid_t pid = ::fork();
   if (pid != 0) return pid;
   dca::Loop loop;
-  dca::Endpoint ep(loop.io(), "h");
+  dca::EndpointOptions eo;
+  eo.key = "bounds-test-key-0123456789abcdef";
+  dca::Endpoint ep(loop.io(), "h", eo);
   ep.listen(uds, "127.0.0.1:0");
   const std::string addr = ep.location().data_tcp;
   (void)!::write(out_fd, (addr + "\n").data(), addr.size() + 1);

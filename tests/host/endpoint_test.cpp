@@ -1,4 +1,5 @@
-// Endpoint: in-process / Unix-socket / TCP connections, push and pull, sets, overflow, broken links.
+// Endpoint: in-process / Unix-socket / TCP connections, push and pull, sets, overflow, broken links; socket
+// connections authenticated with the cluster key, and their deadlines.
 #include "host/endpoint.h"
 
 #include <gtest/gtest.h>
@@ -10,12 +11,24 @@
 
 #include <boost/asio/io_context.hpp>
 
+#include "host/data_frame.h"
+#include "tests/support/raw_data_client.h"
 #include "tests/support/run_until.h"
 
 namespace {
 
 using namespace std::chrono_literals;
 using dca::test::run_until;
+namespace df = dca::data_frame;
+
+const dca::auth::Key kKey = "0123456789abcdef0123456789abcdef";  // the cluster key of the endpoints under test
+const dca::auth::Key kOtherKey = "fedcba9876543210fedcba9876543210";
+
+dca::EndpointOptions keyed(dca::auth::Key key = kKey) {
+  dca::EndpointOptions o;
+  o.key = std::move(key);
+  return o;
+}
 
 std::string temp_socket(const std::string& tag) { return dca::test::temp_socket("comms", tag); }
 
@@ -152,17 +165,47 @@ class EndpointSocketTest : public EndpointTest, public ::testing::WithParamInter
  protected:
   void SetUp() override {
     tcp_ = GetParam();
-    src_ep = std::make_unique<dca::Endpoint>(io, "a");
-    dst_ep = std::make_unique<dca::Endpoint>(io, tcp_ ? "b" : "a");
-    dst_ep->listen(temp_socket(tcp_ ? "tcp" : "uds"), "127.0.0.1:0");
+    src_ep = std::make_unique<dca::Endpoint>(io, "a", keyed());
     out = &src.add_output(dca::vector_port("Out", 8));
     in = &dst.add_input(dca::vector_port("In", 8));
     src_ep->add_component("/src", src);
-    dst_ep->add_component("/dst", dst);
     src_ep->on_event([&](const dca::CommsEvent& e) { src_events.push_back(e); });
+    make_dst(keyed());
+  }
+  // (Re)makes the destination endpoint with `options`, listening, holding /dst.
+  void make_dst(dca::EndpointOptions options) {
+    dst_ep.reset();
+    dst_ep = std::make_unique<dca::Endpoint>(io, tcp_ ? "b" : "a", std::move(options));
+    dst_ep->listen(temp_socket(tcp_ ? "tcp" : "uds"), "127.0.0.1:0");
+    dst_ep->add_component("/dst", dst);
     dst_ep->on_event([&](const dca::CommsEvent& e) { dst_events.push_back(e); });
   }
   dca::Transport expected() const { return tcp_ ? dca::Transport::Tcp : dca::Transport::Unix; }
+  // The destination's data address for this transport.
+  std::string dst_address() const {
+    const auto loc = dst_ep->location();
+    return tcp_ ? loc.data_tcp : "unix:" + loc.data_uds;
+  }
+  // A valid hello for /src.Out -> /dst.In.
+  static std::string hello() {
+    return df::encode_hello({req("/src", "Out", "/dst", "In", "s"), dca::vector_port("Out", 8)});
+  }
+  std::string sample_bytes(double v) const {
+    const Eigen::VectorXd x = sample(v);
+    return std::string(reinterpret_cast<const char*>(x.data()), sizeof(double) * 8);
+  }
+  // A legitimate connection still delivers exactly what it sends (and nothing else arrived before).
+  void expect_only_legit_samples_arrive() {
+    EXPECT_EQ(in->stats().samples, 0u);
+    EXPECT_EQ(in->queued(), 0u);
+    ASSERT_EQ(connect(*src_ep, req("/src", "Out", "/dst", "In", "s"), dst_ep->location()), "");
+    src_ep->activate("s");
+    out->write(sample(7));
+    ASSERT_TRUE(run_until(io, [&] { return in->queued() == 1; }));
+    ASSERT_TRUE(in->pop());
+    EXPECT_EQ(in->vector(), sample(7));
+    EXPECT_EQ(in->stats().samples, 1u);
+  }
   Eigen::VectorXd sample(double v) const { return Eigen::VectorXd::Constant(8, v); }
   bool tcp_ = false;
   std::unique_ptr<dca::Endpoint> src_ep, dst_ep;
@@ -258,7 +301,7 @@ TEST_P(EndpointSocketTest, SourceGoingAwayIsReportedAtTheDestination) {
 TEST_P(EndpointSocketTest, ConnectingAgainToADestinationStartedAnewReplacesTheLink) {
   ASSERT_EQ(connect(*src_ep, req("/src", "Out", "/dst", "In", "s"), dst_ep->location()), "");
   src_ep->activate("s");
-  dca::Endpoint fresh(io, tcp_ ? "b" : "a");
+  dca::Endpoint fresh(io, tcp_ ? "b" : "a", keyed());
   fresh.listen(temp_socket(tcp_ ? "tcp2" : "uds2"), "127.0.0.1:0");
   dca::PortSet dst2;
   dca::Input& in2 = dst2.add_input(dca::vector_port("In", 8));
@@ -275,11 +318,138 @@ TEST_P(EndpointSocketTest, ConnectingAgainToADestinationStartedAnewReplacesTheLi
   fresh.remove_component("/dst");
 }
 
+// Regression: a data port took a hello from anyone (one injected sample changed a system's result).
+TEST_P(EndpointSocketTest, UnauthenticatedHelloIsRefusedAndDeliversNothing) {
+  dca::test::RawDataClient c(io, dst_address());
+  ASSERT_TRUE(c.connected());
+  c.send_frame(df::Kind::Hello, hello());
+  c.send_frame(df::Kind::Sample, sample_bytes(99999));
+  const auto reply = c.read_frame();
+  ASSERT_TRUE(reply);
+  EXPECT_EQ(reply->kind, df::Kind::HelloError);
+  EXPECT_NE(reply->body.find("authentication required"), std::string::npos) << reply->body;
+  EXPECT_TRUE(c.wait_closed());
+  EXPECT_EQ(dst_ep->refused(), 1u);
+  EXPECT_EQ(dst_ep->accepted(), 0u);
+  expect_only_legit_samples_arrive();
+}
+
+TEST_P(EndpointSocketTest, WrongKeyIsRefusedAtBothEnds) {
+  dca::Endpoint intruder(io, "a", keyed(kOtherKey));
+  dca::PortSet p;
+  p.add_output(dca::vector_port("Out", 8));
+  intruder.add_component("/src", p);
+  const auto err = connect(intruder, req("/src", "Out", "/dst", "In", "s"), dst_ep->location());
+  EXPECT_NE(err.find("not authenticated"), std::string::npos) << err;
+  EXPECT_NE(err.find("key check"), std::string::npos) << err;
+  EXPECT_TRUE(intruder.links().empty());
+  ASSERT_TRUE(run_until(io, [&] { return dst_ep->refused() == 1; }));
+  expect_only_legit_samples_arrive();
+}
+
+// A handshake made for a control port (MACs keyed with the cluster key itself, host/auth.h) proves nothing on a
+// data port: the data port's MACs are keyed with data_key(cluster key).
+TEST_P(EndpointSocketTest, ControlPlaneProofIsRefusedOnADataPort) {
+  dca::test::RawDataClient c(io, dst_address());
+  const std::string nc(dca::auth::kNonceSize, 'c');
+  c.send_auth({"hello", 0, dca::wire::Value::map().set("version", dca::wire::kProtocolVersion).set("nonce", nc)});
+  dca::wire::Message challenge;
+  ASSERT_EQ(c.read_auth(challenge), "");
+  const std::string ns = challenge.payload["nonce"].as_string();
+  EXPECT_NE(challenge.payload["mac"].as_string(), dca::auth::hmac_sha256(kKey, "dca-auth-1 server" + nc + ns));
+  const auto control_proof = dca::auth::hmac_sha256(kKey, "dca-auth-1 client" + nc + ns);
+  c.send_auth({"proof", 0, dca::wire::Value::map().set("mac", control_proof)});
+  dca::wire::Message answer;
+  const auto why = c.read_auth(answer);
+  EXPECT_NE(why.find("refused: wrong cluster key"), std::string::npos) << why;
+  EXPECT_TRUE(c.wait_closed());
+  EXPECT_EQ(dst_ep->refused(), 1u);
+  expect_only_legit_samples_arrive();
+}
+
+TEST_P(EndpointSocketTest, ReplayedHandshakeIsRefused) {
+  std::vector<dca::wire::Message> recorded;
+  {
+    dca::test::RawDataClient first(io, dst_address());
+    ASSERT_EQ(first.handshake(dca::data_key(kKey), &recorded), "");  // a legitimate one, recorded
+  }
+  ASSERT_EQ(recorded.size(), 2u);  // hello, proof
+  dca::test::RawDataClient again(io, dst_address());
+  dca::wire::Message challenge;
+  again.send_auth(recorded[0]);
+  ASSERT_EQ(again.read_auth(challenge), "");  // a fresh nonce: the recorded proof no longer fits
+  again.send_auth(recorded[1]);
+  dca::wire::Message answer;
+  const auto why = again.read_auth(answer);
+  EXPECT_NE(why.find("refused: wrong cluster key"), std::string::npos) << why;
+  EXPECT_NE(why.find("replayed"), std::string::npos) << why;
+  EXPECT_TRUE(again.wait_closed());
+  ASSERT_TRUE(run_until(io, [&] { return dst_ep->refused() == 2; }));  // the first left without a hello
+  expect_only_legit_samples_arrive();
+}
+
+TEST_P(EndpointSocketTest, EndpointsWithoutAKeyRefuseBothWays) {
+  dca::Endpoint keyless(io, "a");
+  dca::PortSet p;
+  p.add_output(dca::vector_port("Out", 8));
+  keyless.add_component("/src", p);
+  EXPECT_EQ(connect(keyless, req("/src", "Out", "/dst", "In", "s"), dst_ep->location()),
+            "cannot connect to /dst.In: this endpoint has no cluster key");
+  make_dst({});
+  const auto err = connect(*src_ep, req("/src", "Out", "/dst", "In", "s"), dst_ep->location());
+  EXPECT_NE(err.find("the peer has no cluster key"), std::string::npos) << err;
+  EXPECT_EQ(in->stats().samples, 0u);
+}
+
+// Regression: a length prefix of 16 MiB made a data port allocate it before anything was authenticated.
+TEST_P(EndpointSocketTest, OversizeLengthPrefixBeforeAuthenticationIsRefusedAtOnce) {
+  dca::test::RawDataClient c(io, dst_address());
+  c.send_raw(std::string("\x01\x00\x00\x00", 4));  // 16 MiB announced; not one byte of it sent
+  const auto reply = c.read_frame();
+  ASSERT_TRUE(reply);
+  EXPECT_EQ(reply->kind, df::Kind::HelloError);
+  EXPECT_NE(reply->body.find("exceeds the limit of 512"), std::string::npos) << reply->body;
+  EXPECT_TRUE(c.wait_closed());
+  EXPECT_EQ(dst_ep->bytes_received(), 4u);
+}
+
+// Regression: a data connection that said nothing stayed open forever.
+TEST_P(EndpointSocketTest, SilentConnectionIsClosedAtTheHandshakeDeadline) {
+  auto o = keyed();
+  o.handshake_timeout = 100ms;
+  make_dst(o);
+  dca::test::RawDataClient c(io, dst_address());
+  c.send_raw(std::string("\x00\x00", 2));  // half a length prefix, then nothing
+  EXPECT_TRUE(c.wait_closed());
+  EXPECT_EQ(dst_ep->refused(), 1u);
+  EXPECT_EQ(dst_ep->accepted(), 0u);
+}
+
+// Regression: an authenticated connection holding half a frame stayed open forever.
+TEST_P(EndpointSocketTest, HalfAFrameIsClosedAtItsDeadline) {
+  auto o = keyed();
+  o.partial_frame_timeout = 100ms;
+  make_dst(o);
+  dca::test::RawDataClient c(io, dst_address());
+  ASSERT_EQ(c.handshake(dca::data_key(kKey)), "");
+  c.send_frame(df::Kind::Hello, hello());
+  const auto ok = c.read_frame();
+  ASSERT_TRUE(ok);
+  EXPECT_EQ(ok->kind, df::Kind::HelloOk);
+  c.send_raw(c.frame(df::Kind::Sample, sample_bytes(1)) + c.frame(df::Kind::Sample, sample_bytes(2)).substr(0, 20));
+  EXPECT_TRUE(c.wait_closed());
+  EXPECT_EQ(in->stats().samples, 1u);  // the whole frame arrived; the half one never did
+  ASSERT_EQ(dst_events.size(), 1u);
+  EXPECT_EQ(dst_events[0].kind, dca::CommsEvent::Kind::Broken);
+  EXPECT_NE(dst_events[0].reason.find("a partial data frame was held for more than 100 ms"), std::string::npos)
+      << dst_events[0].reason;
+}
+
 INSTANTIATE_TEST_SUITE_P(Transports, EndpointSocketTest, ::testing::Values(false, true),
                          [](const auto& p) { return p.param ? "Tcp" : "Unix"; });
 
 TEST_F(EndpointTest, ConnectingToNothingFailsWithAReason) {
-  dca::Endpoint ep(io, "a");
+  dca::Endpoint ep(io, "a", keyed());
   dca::PortSet src;
   src.add_output(dca::scalar_port("Out"));
   ep.add_component("/src", src);

@@ -10,7 +10,10 @@
 #include <optional>
 
 #include "host/timers.h"
+#include "host/data_frame.h"
+#include "host/endpoint.h"
 #include "tests/support/key_dir.h"
+#include "tests/support/raw_data_client.h"
 #include "tests/support/sim_world.h"
 
 namespace {
@@ -193,6 +196,55 @@ TEST_F(WorldNodeTest, AStalledSubscriberIsDroppedByName) {
   ASSERT_EQ(dropped.size(), 1u);
   EXPECT_NE(dropped[0].as_string().find("/stalled: did not answer the advance"), std::string::npos)
       << dropped[0].as_string();
+}
+
+// Issue 14: the world's device ports take samples only from the cluster. Before, 241 samples sent by anyone to
+// base.cmd_vel turned the robot's base. A hello without the handshake, and one after a handshake with another
+// key, are refused; base.cmd_vel has received nothing.
+TEST_F(WorldNodeTest, DevicePortsRefuseHellosWithoutTheClusterKey) {
+  dca::Loop loop;
+  dca::DaemonOptions dopts;
+  dopts.host = "h";
+  dopts.key = keys.key;
+  dca::test::SimWorld sim(loop, dopts, {}, keys.key_file);
+  std::string error;
+  ASSERT_TRUE(sim.start(&error)) << error;
+  const auto* e = sim.daemon.names().table().find("world");
+  ASSERT_NE(e, nullptr);
+  const std::string data = e->endpoints["data_tcp"].as_string();
+  namespace df = dca::data_frame;
+  const std::string hello = df::encode_hello(
+      {{"/intruder", "Out", "world", "base.cmd_vel", "s", dca::Mode::Push, 16}, dca::vector_port("Out", 3)});
+  const Eigen::Vector3d v(5, 0, 2);
+  const std::string sample(reinterpret_cast<const char*>(v.data()), sizeof(double) * 3);
+
+  dca::test::RawDataClient bare(loop.io(), data);
+  ASSERT_TRUE(bare.connected());
+  bare.send_frame(df::Kind::Hello, hello);
+  bare.send_frame(df::Kind::Sample, sample);
+  const auto reply = bare.read_frame();
+  ASSERT_TRUE(reply);
+  EXPECT_EQ(reply->kind, df::Kind::HelloError);
+  EXPECT_NE(reply->body.find("authentication required"), std::string::npos) << reply->body;
+  EXPECT_TRUE(bare.wait_closed());
+
+  dca::test::RawDataClient wrong(loop.io(), data);
+  ASSERT_TRUE(wrong.connected());
+  EXPECT_NE(wrong.handshake(dca::data_key("another cluster's key 0123456789")), "");
+  wrong.send_frame(df::Kind::Hello, hello);
+  wrong.send_frame(df::Kind::Sample, sample);
+  EXPECT_TRUE(wrong.wait_closed());
+
+  auto to_world = open(sim, sim.control_of("world"));
+  ASSERT_TRUE(to_world);
+  const Value ports = call(sim, to_world, "ports");
+  EXPECT_EQ(ports["refused"].as_int(), 2);
+  EXPECT_EQ(ports["accepted"].as_int(), 0);
+  for (const auto& in : ports["inputs"].as_array())
+    if (in["name"].as_string() == "base.cmd_vel") {
+      EXPECT_EQ(in["samples"].as_int(), 0) << "a sample got in";
+    }
+  sim.stop("test over");
 }
 
 }  // namespace
