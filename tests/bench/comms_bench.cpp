@@ -4,6 +4,12 @@
 //       (beside a raw Boost.Asio ping-pong of 64 bytes over the same transport), placements unpinned, _cpu0-0
 //       and _cpu0-1, alternated A B A B;
 //   - samples/s through one Unix-socket push connection (beside raw Asio writes of the same frames).
+//   - connection set-up: Endpoint::connect to the answer of the hello (connect, the cluster-key handshake, the
+//     hello), over a Unix socket and TCP in one process, beside a raw connect plus one 64-byte round trip (what a
+//     connection with a hello and no authentication costs), alternated A B A B. The difference is what
+//     authentication adds (one more round trip and four HMAC-SHA256);
+//   - on TCP, the segments sent per round trip (dca's links are one-way, so each carries pure ACKs that a
+//     request/response socket piggybacks on its replies).
 // Usage: bench_comms [ROUND_TRIPS_PER_ROUND]   (default 2000; 2 rounds of each)
 #include "host/loop.h"  // first: Asio with GCC 12's false positives silenced
 
@@ -21,6 +27,7 @@
 #include <string>
 #include <vector>
 
+#include <boost/asio/generic/stream_protocol.hpp>
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/asio/local/stream_protocol.hpp>
 #include <boost/asio/posix/stream_descriptor.hpp>
@@ -379,6 +386,86 @@ double raw_throughput(int n) {
 
 }  // namespace
 
+// n connection set-ups through Endpoint::connect (connect, handshake, hello), each timed to its answer.
+void dca_connect_round(bool tcp, int n, Samples& out) {
+  asio::io_context io;
+  dca::Endpoint a(io, "a", bench_keyed()), b(io, tcp ? "b" : "a", bench_keyed());
+  b.listen("/tmp/dca-bench-setup-" + std::to_string(::getpid()), "127.0.0.1:0");
+  dca::PortSet src, dst;
+  src.add_output(dca::vectorx_port("Out"));
+  dst.add_input(dca::vectorx_port("In"));
+  a.add_component("/src", src);
+  b.add_component("/dst", dst);
+  for (int i = 0; i < n + 20; ++i) {
+    const std::string set = "c" + std::to_string(i);
+    std::string err = "pending";
+    const auto t0 = Clock::now();
+    a.connect({"/src", "Out", "/dst", "In", set, dca::Mode::Push, 16}, b.location(), [&](const std::string& e) { err = e; });
+    run_until(io, [&] { return err != "pending"; });
+    const auto t1 = Clock::now();
+    if (!err.empty()) std::fprintf(stderr, "connect: %s\n", err.c_str());
+    if (i >= 20) out.add(t1 - t0);  // the first 20 warm up
+    a.disconnect_set(set);
+    run_until(io, [&] { return b.accepted() == 0; });
+  }
+  a.remove_component("/src");
+  b.remove_component("/dst");
+}
+
+// n raw connections, each: connect, 64 bytes there and back (an unauthenticated hello and its answer).
+void raw_connect_round(bool tcp, int n, Samples& out) {
+  using generic = asio::generic::stream_protocol;
+  asio::io_context io;
+  const std::string uds = "/tmp/dca-bench-rawsetup-" + std::to_string(::getpid());
+  ::unlink(uds.c_str());
+  generic::endpoint at = tcp ? generic::endpoint(asio::ip::tcp::endpoint(asio::ip::make_address("127.0.0.1"), 0))
+                             : generic::endpoint(asio::local::stream_protocol::endpoint(uds));
+  asio::basic_socket_acceptor<generic> acc(io, at);
+  at = acc.local_endpoint();
+  std::array<char, 64> buf{}, back{}, echo{};
+  for (int i = 0; i < n + 20; ++i) {
+    generic::socket c(io), srv(io);
+    bool got = false;
+    const auto t0 = Clock::now();
+    acc.async_accept(srv, [&](boost::system::error_code ec) {
+      if (ec) return;
+      if (tcp) srv.set_option(asio::ip::tcp::no_delay(true));
+      asio::async_read(srv, asio::buffer(echo), [&](boost::system::error_code e2, std::size_t) {
+        if (!e2) asio::async_write(srv, asio::buffer(echo), [](boost::system::error_code, std::size_t) {});
+      });
+    });
+    c.async_connect(at, [&](boost::system::error_code ec) {
+      if (ec) return;
+      if (tcp) c.set_option(asio::ip::tcp::no_delay(true));
+      asio::async_write(c, asio::buffer(buf), [](boost::system::error_code, std::size_t) {});
+      asio::async_read(c, asio::buffer(back), [&](boost::system::error_code, std::size_t) { got = true; });
+    });
+    run_until(io, [&] { return got; });
+    const auto t1 = Clock::now();
+    if (i >= 20) out.add(t1 - t0);
+  }
+  ::unlink(uds.c_str());
+}
+
+// TCP segments sent by this machine so far (/proc/net/snmp, Tcp: OutSegs).
+long out_segments() {
+  std::FILE* f = std::fopen("/proc/net/snmp", "r");
+  if (f == nullptr) return 0;
+  char line[1024];
+  long v = 0;
+  bool header_seen = false;
+  while (std::fgets(line, sizeof line, f) != nullptr) {
+    if (std::strncmp(line, "Tcp:", 4) != 0) continue;
+    if (!header_seen) { header_seen = true; continue; }
+    long fields[16] = {};
+    std::sscanf(line + 4, "%ld %ld %ld %ld %ld %ld %ld %ld %ld %ld %ld", &fields[0], &fields[1], &fields[2], &fields[3],
+                &fields[4], &fields[5], &fields[6], &fields[7], &fields[8], &fields[9], &fields[10]);
+    v = fields[10];  // OutSegs
+  }
+  std::fclose(f);
+  return v;
+}
+
 int main(int argc, char** argv) {
   const int n = argc > 1 ? std::max(100, std::atoi(argv[1])) : 2000;
   ::signal(SIGPIPE, SIG_IGN);
@@ -405,8 +492,14 @@ int main(int argc, char** argv) {
       Samples d, r;
       for (int round = 0; round < 2; ++round) {
         std::fprintf(stderr, "%s%s round %d\n", tcp ? "tcp" : "uds", p.suffix, round + 1);
+        const long s0 = out_segments();
         dca_socket_round(tcp, p.parent, p.child, n, d);
+        const long s1 = out_segments();
         raw_socket_round(tcp, p.parent, p.child, n, r);
+        const long s2 = out_segments();
+        if (tcp)
+          std::fprintf(stderr, "  TCP segments per round trip: dca %.2f, raw %.2f\n", double(s1 - s0) / n,
+                       double(s2 - s1) / n);
       }
       pin(-1);
       cpu_set_t all;
@@ -419,6 +512,17 @@ int main(int argc, char** argv) {
       if (!d.us.empty() && !r.us.empty())
         std::fprintf(stderr, "  ratio p50 dca/raw = %.2f\n", d.us[d.us.size() / 2] / r.us[r.us.size() / 2]);
     }
+  }
+  for (bool tcp : {false, true}) {  // connection set-up
+    Samples d, r;
+    for (int round = 0; round < 2; ++round) {
+      std::fprintf(stderr, "set-up %s round %d\n", tcp ? "tcp" : "uds", round + 1);
+      dca_connect_round(tcp, n / 10, d);
+      raw_connect_round(tcp, n / 10, r);
+    }
+    const std::string v = std::string("setup_") + (tcp ? "tcp" : "uds");
+    print("dca_connect", v, d);
+    print("raw_connect_roundtrip", v, r);
   }
   {  // throughput
     const int m = n * 50;

@@ -4,7 +4,8 @@
 --
 --   local world = require "dca.clients.world"
 --   local w = world.new{ daemon = ADDR, host = NAME, key = FILE, world = NAME, seed = N, door_width = W,
---                        record = FILE, jammed = true, realtime = true, wait = S }
+--                        record = FILE, jammed = true, realtime = true, wait = S, log = FILE }
+--   (log: the daemon's output file, when local: a world that ends while starting is shown with its own words)
 --   w:start(function(ok, err) end)     -- spawn `dca sim --serve`, wait until `world` is registered, connect
 --   w:request(msg, timeout, cb)        -- cb(reply) | cb(nil, err)
 --   w:go(cb)  w:hold(cb)               -- time flows / stops after the current tick
@@ -48,7 +49,20 @@ function W:_exit(msg, finish)
   local ws = self.exit_waiters or {}
   self.exit_waiters = nil
   for _, w in ipairs(ws) do w() end
-  finish(nil, "the world (dca sim --serve) " .. self.exited)
+  finish(nil, "the world (dca sim --serve) " .. self.exited .. self:_own_words())
+end
+
+-- What the world said before it ended, when its daemon's log is at hand (o.log: a daemon `dca run` started
+-- keeps the output of its children there): its "dca sim:" lines, e.g. the URDF's XML error with file:line.
+function W:_own_words()
+  local f = self.o.log and io.open(self.o.log, "r")
+  if not f then return "" end
+  local said = {}
+  for line in f:lines() do
+    if line:find("^dca sim: ") then said[#said + 1] = "\n  " .. line end
+  end
+  f:close()
+  return table.concat(said)
 end
 
 --- Spawns the world through the daemon at o.daemon and connects to it once it has registered.

@@ -83,7 +83,7 @@ function M.world(ctx, cb)
   local wh = o.world_host or ctx.names[1]
   if not ctx.hosts[wh] then cb(nil, "world_host " .. tostring(wh) .. " is not a host of the system") return end
   ctx.world_host = wh
-  local wo = { daemon = ctx.hosts[wh], host = wh, key = ctx.key }
+  local wo = { daemon = ctx.hosts[wh], host = wh, key = ctx.key, log = ctx.daemons and ctx.daemons.logs[wh] }
   for _, k in ipairs(require("dca.clients.world").OPTIONS) do wo[k] = o[k] end
   wo.world = o.sim
   ctx.sim = sim.new(wo, o.summary and ctx.spec or nil)
