@@ -177,7 +177,7 @@ Nanos steady_now() {
 }  // namespace
 
 Lockstep::Lockstep(Loop& loop, LockstepOptions options, LockstepHooks hooks)
-    : loop_(loop), opts_(options), timer_(loop.io()), core_(std::move(options), [&] {
+    : loop_(loop), opts_(options), timer_(loop.io()), master_timer_(loop.io()), core_(std::move(options), [&] {
         hooks.settle = [this] { loop_.settle(); };
         hooks.schedule = [this](std::optional<Nanos> wall_due) { schedule(wall_due); };
         hooks.wall_now = steady_now;
@@ -211,12 +211,29 @@ void Lockstep::go() {
   core_.go();
 }
 
+// Every 100 ms: has the master's channel closed? Then time holds and the owner is told (once).
+void Lockstep::watch_master() {
+  master_timer_.expires_after(std::chrono::milliseconds(100));
+  master_timer_.async_wait([this, alive = std::weak_ptr<bool>(alive_)](const boost::system::error_code& ec) {
+    if (ec || alive.expired()) return;
+    const auto m = master_.lock();
+    if (m && m->is_open()) return watch_master();
+    core_.hold();
+    if (on_master_lost) on_master_lost("the channel that ran time (" + master_peer_ + ") closed");
+  });
+}
+
 bool Lockstep::handle(const std::shared_ptr<Channel>& ch, const Message& m) {
   if (m.type == "clock") {
     std::string name = m.payload["name"].as_string();
     if (name.empty()) return ch->reply_error(m, "clock needs the subscriber's name"), true;
     core_.subscribe(ch.get(), std::move(name), std::make_shared<ChannelClockLink>(ch, opts_.tick_timeout_ms));
   } else if (m.type == "go") {
+    if (master_.expired()) {
+      master_ = ch;
+      master_peer_ = ch->peer();
+      watch_master();
+    }
     go();
   } else if (m.type == "hold") {
     core_.hold();

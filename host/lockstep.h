@@ -149,13 +149,19 @@ class Lockstep {
   wire::Value status() const { return core_.status(); }
   /// Called once when the duration is reached (time then holds).
   std::function<void()> on_duration;
+  /// Called once, with why, when the channel that said `go` (the master: a run's root) has closed: time then
+  /// holds. A world whose master died would otherwise run on alone at full speed (the owner exits).
+  std::function<void(const std::string&)> on_master_lost;
 
  private:
   void schedule(std::optional<Nanos> wall_due);
+  void watch_master();
 
   Loop& loop_;
   LockstepOptions opts_;
-  boost::asio::steady_timer timer_;
+  boost::asio::steady_timer timer_, master_timer_;
+  std::weak_ptr<Channel> master_;
+  std::string master_peer_;
   LockstepCore core_;
   std::shared_ptr<bool> alive_ = std::make_shared<bool>(true);
 };

@@ -139,6 +139,11 @@ WorldNode::WorldNode(Loop& loop, World& world, WorldNodeOptions options)
   impl_->clock.on_duration = [this] {
     if (on_duration) on_duration();
   };
+  // the run that drove time is gone (its root killed, its host lost): nobody will stop us, so stop
+  impl_->clock.on_master_lost = [this](const std::string& why) {
+    std::fprintf(stderr, "dca sim: %s: the world stops\n", why.c_str());
+    impl_->loop.stop();
+  };
 }
 
 WorldNode::~WorldNode() {

@@ -82,6 +82,17 @@ local function left_over(pids)
   return alive
 end
 
+-- "PID argv" of each process, for a failure message.
+local function named(pids)
+  local out = {}
+  for _, p in ipairs(pids) do
+    local f = io.open("/proc/" .. p .. "/cmdline", "rb")
+    out[#out + 1] = p .. " " .. (f and f:read("a"):gsub("%z", " "):sub(1, 80) or "?")
+    if f then f:close() end
+  end
+  return table.concat(out, "; ")
+end
+
 local function kill_all(pids) for _, p in ipairs(pids) do core.kill(p, "KILL") end end
 
 suite:case("kill_9_of_dca_run_mid_run_leaves_no_process_and_no_temp_dir_after_2_s", function()
@@ -101,6 +112,40 @@ suite:case("kill_9_of_dca_run_mid_run_leaves_no_process_and_no_temp_dir_after_2_
   T.ok(wait_until(function() return io.open(dir .. "/key") == nil end, 2), "the temporary directory is removed: " .. dir)
   core.reap(pid)
   os.remove(out)
+end)
+
+-- With daemons started by hand (a hosts file), `dca run` dying leaves them running, but nothing of its run: the
+-- world (whose clock master was the root), the supervisors and the nodes of the run are gone within 2 s.
+suite:case("kill_9_of_dca_run_on_hand_started_daemons_leaves_only_the_daemons", function()
+  local hosts = require "dca.launch.hosts"
+  local key, dir = hosts.fresh_key()
+  local names = { "manipulation", "platform", "vision" }
+  local set = assert(hosts.start_local(names, { exe = dca, key = key, clock = "sim", log_dir = dir }))
+  local lines = {}
+  for _, h in ipairs(names) do lines[#lines + 1] = h .. " " .. set.hosts[h] end
+  local hosts_file = T.write(dir .. "/hosts", table.concat(lines, "\n") .. "\n")
+  local out = os.tmpname()
+  local pid = assert(core.spawn({ "/usr/bin/env", "DCA_KEY_FILE=" .. key, dca, "run",
+    src .. "/scripts/systems/door_open.dca", "--sim", "door", "--hosts", hosts_file }, { stdout = out }))
+  local up = wait_until(function() return T.read(out):find("approach: running", 1, true) ~= nil end, 60)
+  local of_run = {}
+  for _, h in ipairs(names) do
+    for _, p in ipairs(descendants(set.pids[h])) do of_run[#of_run + 1] = p end
+  end
+  T.ok(up and #of_run >= 10, "the run came up on the daemons (" .. #of_run .. " processes):\n" .. T.read(out))
+  core.kill(pid, "KILL")
+  local gone = wait_until(function() return #left_over(of_run) == 0 end, 2)
+  local alive = left_over(of_run)
+  local alive_named = named(alive)
+  kill_all(alive)
+  local daemons_up = true
+  for _, h in ipairs(names) do daemons_up = daemons_up and running(set.pids[h]) end
+  set:stop()
+  core.remove_tree(dir)
+  core.reap(pid)
+  os.remove(out)
+  T.ok(gone, "still running 2 s after kill -9 of dca run: " .. alive_named)
+  T.ok(daemons_up, "the hand-started daemons keep running")
 end)
 
 suite:case("sigint_at_20_moments_of_start_up_ends_with_130_and_leaves_nothing", function()
