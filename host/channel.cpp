@@ -33,11 +33,14 @@ void Channel::connect(asio::io_context& io, const Address& to, ChannelOptions op
     if (ec) return;
     if (auto c = w.lock(); c && c->state_ == State::kHandshake) c->fail_handshake("timed out connecting to " + c->peer_);
   });
-  auto finish = [ch, done = std::move(done)](const std::string& err) {
-    if (err.empty()) {
-      done(ch, "");
+  // Weak: the channel keeps this callback until its handshake ends, and the pending connect or read keeps the
+  // channel; a strong reference here would be a cycle that a loop stopped mid-handshake never frees.
+  auto finish = [w = std::weak_ptr<Channel>(ch), done = std::move(done)](const std::string& err) {
+    auto c = w.lock();
+    if (err.empty() && c) {
+      done(c, "");
     } else {
-      done(nullptr, err);
+      done(nullptr, err.empty() ? "the channel was destroyed" : err);
     }
   };
   ch->handshake_done_ = finish;

@@ -18,6 +18,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdlib>
 #include <cstring>
 #include <functional>
 #include <filesystem>
@@ -275,7 +276,8 @@ TEST(Bounds, ADaemonAtItsDescriptorLimitBacksOffAndServesAgain) {
   EXPECT_LT(cpu, 0.10) << "CPU at the descriptor limit";
   EXPECT_LT(lines, 100.0) << "log lines a second at the descriptor limit";
   for (int fd : fds) ::close(fd);
-  // descriptors free up: a client is served
+  // descriptors free up (the daemon has seen the closes): a client is served
+  EXPECT_TRUE(wait_for([&] { return open_fds(d.pid()) < 64; }, 20s)) << open_fds(d.pid()) << " descriptors";
   dca::Loop loop;
   dca::ChannelOptions o{d.key()};
   o.handshake_timeout = 10s;

@@ -306,9 +306,11 @@ function System:exists(path) return self:pid(path) ~= nil end
 function System:lose_host(host)
   local pid = self.daemons.pids[host]
   if not pid then error("no host " .. host, 2) end
+  -- its children go with it, the daemon first: they are held (SIGSTOP) so that they neither close their
+  -- channels nor stop on their daemon's death (host/spawn.h) before the daemon is gone, as when a host is cut off
   local children = self:_host_pids(host)
+  for _, p in ipairs(children) do core.kill(p, "STOP") end
   assert(core.kill(pid, "KILL"))
-  -- its children lose their daemon; they are this host's processes and go with it
   for _, p in ipairs(children) do core.kill(p, "KILL") end
 end
 
