@@ -40,11 +40,11 @@
 #include <memory>
 #include <string>
 #include <system_error>
-#include <utility>
 #include <vector>
 
 #include "bindings/lua_loop.h"
 #include "bindings/stop_signals.h"
+#include "host/exec.h"
 #include "host/paths.h"
 #include "host/spawn.h"
 
@@ -74,6 +74,8 @@ int l_exe_path(lua_State* L) {
   return 1;
 }
 
+const char* stop_signal_name(int sig) { return sig == SIGINT ? "INT" : sig == SIGHUP ? "HUP" : "TERM"; }
+
 int l_on_signal(lua_State* L) {
   auto& ls = dca::lua::loop_state(L);
   std::shared_ptr<dca::lua::LuaRef> fn;
@@ -87,21 +89,18 @@ int l_on_signal(lua_State* L) {
   ls.loop.on_signals({SIGINT, SIGTERM, SIGHUP}, [fn](int sig) {
     if (!fn) return;
     dca::lua::invoke(*fn, [sig](lua_State* S) {
-      lua_pushstring(S, sig == SIGINT ? "INT" : sig == SIGHUP ? "HUP" : "TERM");
+      lua_pushstring(S, stop_signal_name(sig));
       return 1;
     });
   });
   return 0;
 }
 
-
 volatile std::sig_atomic_t g_pending_signal = 0;
 
 void note_stop_signal(int sig) {
   if (g_pending_signal == 0) g_pending_signal = sig;
 }
-
-const char* stop_signal_name(int sig) { return sig == SIGINT ? "INT" : sig == SIGHUP ? "HUP" : "TERM"; }
 
 int l_pending_signal(lua_State* L) {
   if (g_pending_signal == 0) return 0;
@@ -153,15 +152,12 @@ int l_spawn(lua_State* L) {
   return 1;
 }
 
+// A signal given by number or by name ("TERM", "SIGKILL", ...; host/exec's signal_number).
 int signal_arg(lua_State* L, int idx) {
   if (lua_isinteger(L, idx)) return static_cast<int>(lua_tointeger(L, idx));
-  const std::string s = luaL_optstring(L, idx, "TERM");
-  static const std::pair<const char*, int> kNames[] = {{"TERM", SIGTERM}, {"KILL", SIGKILL}, {"INT", SIGINT},
-                                                       {"HUP", SIGHUP},   {"STOP", SIGSTOP}, {"CONT", SIGCONT},
-                                                       {"SEGV", SIGSEGV}, {"ABRT", SIGABRT}, {"USR1", SIGUSR1}};
-  for (const auto& [name, sig] : kNames)
-    if (s == name || s == std::string("SIG") + name) return sig;
-  return luaL_error(L, "unknown signal '%s'", s.c_str());
+  const char* name = luaL_optstring(L, idx, "TERM");
+  const int sig = dca::signal_number(name);
+  return sig != 0 ? sig : luaL_error(L, "unknown signal '%s'", name);
 }
 
 int l_kill(lua_State* L) {

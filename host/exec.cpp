@@ -17,7 +17,6 @@
 #include "host/paths.h"
 #include "host/spawn.h"
 
-
 namespace dca {
 namespace asio = boost::asio;
 
