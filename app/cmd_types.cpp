@@ -26,6 +26,10 @@ void print(const dca::Manifest& m) {
   }
   sig += ")";
   std::printf("%s\n    %s\n", sig.c_str(), m.doc.c_str());
+  std::string ends(dca::to_string(m.ends.kind));
+  if (ends.empty()) ends = "undeclared (taken as: done or aborted)";
+  if (!m.ends.after.empty()) ends += ", `" + m.ends.after + "` seconds after each start";
+  std::printf("    ends   %s\n", ends.c_str());
   for (const auto& p : m.params)
     std::printf("    param  %-10s %-8s %s\n", p.name.c_str(), p.type.c_str(), p.doc.c_str());
   for (const auto& p : m.inputs)
@@ -60,5 +64,6 @@ DCA_SUBCOMMAND("types", "every controller type with its ports and parameters",
                "usage: dca types [TYPE...]\n\n"
                "Lists every registered controller type (or the named ones): its signature as written in a .dca\n"
                "file (the first argument is the host), its parameters, and its input and output ports with\n"
-               "type (scalar, vector[N], vectorx, value) and units. Exit code 1 if a named type is unknown.",
+               "type (scalar, vector[N], vectorx, value) and units, and how a run ends by itself (never, done, aborted,\n"
+               "done or aborted; `dca check --verify` uses it). Exit code 1 if a named type is unknown.",
                cmd_types);

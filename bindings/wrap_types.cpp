@@ -1,6 +1,8 @@
 // core.types(): the controller registry's manifests for Lua (dca check uses them).
 //   { [TypeName] = { doc = "...", inputs = { {name=, type=, size=, units=, device= (device ports only)} ... }, outputs = {...},
-//                    params = { {name=, type=, required=, default=, variadic=, doc=} ... } } }
+//                    params = { {name=, type=, required=, default=, variadic=, doc=} ... },
+//                    ends = "never" | "done" | "aborted" | "done or aborted" | nil (undeclared: anything),
+//                    ends_after = the parameter holding the seconds after which it ends (Timer) | nil } }
 #include <lua.hpp>
 
 #include "controllers/registry.h"
@@ -65,6 +67,14 @@ int l_types(lua_State* L) {
     lua_setfield(L, -2, "outputs");
     push_params(L, m->params);
     lua_setfield(L, -2, "params");
+    if (const auto e = dca::to_string(m->ends.kind); !e.empty()) {
+      lua_pushlstring(L, e.data(), e.size());
+      lua_setfield(L, -2, "ends");
+    }
+    if (!m->ends.after.empty()) {
+      lua_pushlstring(L, m->ends.after.data(), m->ends.after.size());
+      lua_setfield(L, -2, "ends_after");
+    }
     lua_setfield(L, -2, m->type.c_str());
   }
   return 1;

@@ -13,12 +13,14 @@ using P = ParamSpec;
 template <>
 Manifest Timer::Describe() {
   return {"Timer", "ends DONE with value \"timeout\" `seconds` after each start (SEMANTICS.md 12)", {}, {},
-          {P::Required("seconds", "number", "the timeout, in seconds")}};
+          {P::Required("seconds", "number", "the timeout, in seconds")},
+          Ending::DoneAfter("seconds")};
 }
 template <>
 Manifest Deadline::Describe() {
   return {"Deadline", "ends ABORTED `seconds` after each start (a timeout that counts as failure)", {}, {},
-          {P::Required("seconds", "number", "the deadline, in seconds")}};
+          {P::Required("seconds", "number", "the deadline, in seconds")},
+          Ending::AbortedAfter("seconds")};
 }
 template <bool kAborts>
 Timeout<kAborts>::Timeout(const ControllerContext& ctx) : Controller(ctx), seconds_(non_negative("seconds")) {}
@@ -38,7 +40,8 @@ Manifest Constant::Describe() {
   return {"Constant", "writes constant values on Out every period (period 0: once, at start)", {},
           {vectorx_port("Out")},
           {P::Required("period", "number", "seconds between writes; 0 writes once at start"),
-           P::Variadic("values", "number", "the values written (Out has as many elements)")}};
+           P::Variadic("values", "number", "the values written (Out has as many elements)")},
+          Ending::Never()};
 }
 Constant::Constant(const ControllerContext& ctx)
     : PeriodicController(ctx, Period::ZeroIsEventDriven), out_(output("Out")) {
@@ -50,7 +53,8 @@ Constant::Constant(const ControllerContext& ctx)
 Manifest Gain::Describe() {
   return {"Gain", "Out = k * In, on each In sample (or every period)", {vectorx_port("In")}, {vectorx_port("Out")},
           {P::Required("k", "number", "the gain"),
-           PeriodParam("0", "seconds between computations; 0: on each In sample")}};
+           PeriodParam("0", "seconds between computations; 0: on each In sample")},
+          Ending::Never()};
 }
 Gain::Gain(const ControllerContext& ctx)
     : PeriodicController(ctx, Period::ZeroIsEventDriven), in_(trigger("In")), out_(output("Out")), k_(number("k")) {
@@ -69,7 +73,8 @@ void Gain::MainCalc() {
 Manifest Sum::Describe() {
   return {"Sum", "Out = In1 + In2 (same sizes), on each input sample (or every period)",
           {vectorx_port("In1"), vectorx_port("In2")}, {vectorx_port("Out")},
-          {PeriodParam("0", "seconds between computations; 0: on each sample")}};
+          {PeriodParam("0", "seconds between computations; 0: on each sample")},
+          Ending::Aborted()};
 }
 Sum::Sum(const ControllerContext& ctx)
     : PeriodicController(ctx, Period::ZeroIsEventDriven), in1_(trigger("In1")), in2_(trigger("In2")),
@@ -94,7 +99,8 @@ void Sum::MainCalc() {
 Manifest Threshold::Describe() {
   return {"Threshold", "ends DONE with the value when In crosses the level", {scalar_port("In")}, {},
           {P::Required("level", "number", "the level"),
-           P::Optional("direction", "string", "rising", "rising, falling or either")}};
+           P::Optional("direction", "string", "rising", "rising, falling or either")},
+          Ending::Done()};
 }
 Threshold::Threshold(const ControllerContext& ctx) : Controller(ctx), in_(input("In")), level_(number("level")) {
   const auto d = text("direction");
@@ -125,7 +131,8 @@ Manifest Counter::Describe() {
   return {"Counter", "writes 1, 2, 3, ... on Count, one per tick; DONE(count) at the limit", {},
           {scalar_port("Count")},
           {P::Required("period", "number", "seconds between ticks"),
-           P::Optional("limit", "integer", "0", "DONE when the count reaches it; 0: never")}};
+           P::Optional("limit", "integer", "0", "DONE when the count reaches it; 0: never")},
+          Ending::Done()};
 }
 Counter::Counter(const ControllerContext& ctx)
     : PeriodicController(ctx), out_(output("Count")), limit_(integer("limit")) {}
@@ -140,7 +147,8 @@ Manifest Crash::Describe() {
   return {"Crash", "dies by SIGSEGV or abort() at its ticks-th tick (fault tests)", {scalar_port("In")}, {},
           {P::Required("ticks", "integer", "the tick it dies at"),
            P::Optional("how", "string", "segv", "segv or abort"),
-           PeriodParam("0.001")}};
+           PeriodParam("0.001")},
+          Ending::Aborted()};
 }
 Crash::Crash(const ControllerContext& ctx) : PeriodicController(ctx), ticks_(integer("ticks")) {
   const auto how = text("how");

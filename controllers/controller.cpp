@@ -19,6 +19,17 @@ ParamSpec ParamSpec::Variadic(std::string name, std::string type, std::string do
   return {std::move(name), std::move(type), "", false, true, std::move(doc)};
 }
 
+std::string_view to_string(Ending::Kind k) {
+  switch (k) {
+    case Ending::Kind::Never: return "never";
+    case Ending::Kind::Done: return "done";
+    case Ending::Kind::Aborted: return "aborted";
+    case Ending::Kind::DoneOrAborted: return "done or aborted";
+    case Ending::Kind::Unspecified: break;
+  }
+  return "";
+}
+
 Controller::Controller(const ControllerContext& ctx) : ctx_(ctx) {
   if (!ctx.manifest) throw std::invalid_argument("controller '" + ctx.name + "' built without a manifest (use the registry)");
   manifest_ = *ctx.manifest;

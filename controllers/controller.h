@@ -64,6 +64,30 @@ struct ParamSpec {
   static ParamSpec Variadic(std::string name, std::string type, std::string doc);
 };
 
+/// How a run of a type can end by itself, for `dca check --verify` (a crash or a lost host can end any run,
+/// whatever this says). A type that declares nothing is taken as able to end DONE or ABORTED at any time.
+struct Ending {
+  enum class Kind : std::uint8_t { Unspecified, Never, Done, Aborted, DoneOrAborted };
+  Kind kind = Kind::Unspecified;
+  std::string after = {};  ///< the number parameter holding the seconds after which it ends (Timer), or ""
+
+  /// Runs until it is stopped (a sensor, a drive).
+  static Ending Never() { return {Kind::Never}; }
+  /// Ends DONE only.
+  static Ending Done() { return {Kind::Done}; }
+  /// Ends ABORTED only.
+  static Ending Aborted() { return {Kind::Aborted}; }
+  /// Ends DONE or ABORTED.
+  static Ending DoneOrAborted() { return {Kind::DoneOrAborted}; }
+  /// Ends DONE `param` seconds after each start.
+  static Ending DoneAfter(std::string param) { return {Kind::Done, std::move(param)}; }
+  /// Ends ABORTED `param` seconds after each start.
+  static Ending AbortedAfter(std::string param) { return {Kind::Aborted, std::move(param)}; }
+};
+
+/// "never", "done", "aborted", "done or aborted", or "" when unspecified.
+std::string_view to_string(Ending::Kind k);
+
 /// A controller type's manifest: what `dca types` and `core.types()` show.
 struct Manifest {
   std::string type;  ///< the type name in .dca files, e.g. "Gain"
@@ -71,6 +95,7 @@ struct Manifest {
   std::vector<PortSpec> inputs;
   std::vector<PortSpec> outputs;
   std::vector<ParamSpec> params;
+  Ending ends = {};  ///< how a run ends by itself (the last field, optional in a Describe())
 };
 
 /// What a controller is constructed with.

@@ -8,7 +8,8 @@ Manifest AddVelocity::Describe() {
   return {"AddVelocity", "fuses three velocity commands: Out = In1 + In2 + In3",
           {robot::VelPort("In1"), robot::VelPort("In2"), robot::VelPort("In3")},
           {robot::VelPort("Out")},
-          {PeriodParam()}};
+          {PeriodParam()},
+          Ending::Never()};
 }
 AddVelocity::AddVelocity(const ControllerContext& ctx)
     : PeriodicController(ctx), in_{&input("In1"), &input("In2"), &input("In3")}, out_(output("Out")) {}

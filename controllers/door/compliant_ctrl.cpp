@@ -10,7 +10,8 @@ Manifest CompliantCtrl::Describe() {
   return {"CompliantCtrl", "admittance: the tool gives way to the horizontal force it feels",
           {robot::WrenchPort(), robot::JointsPort()}, {robot::VelPort()},
           {P::Number("compliance", "0.001", "(m/s)/N"), P::Number("deadband", "1", "N"),
-           P::Number("max_speed", "0.1", "m/s"), PeriodParam()}};
+           P::Number("max_speed", "0.1", "m/s"), PeriodParam()},
+          Ending::Never()};
 }
 CompliantCtrl::CompliantCtrl(const ControllerContext& ctx)
     : PeriodicController(ctx), wrench_(input("Wrench")), joints_(input("Joints")), vel_(actuator("Vel")),

@@ -9,7 +9,8 @@ Manifest ConfigCtrl::Describe() {
   return {"ConfigCtrl", "moves the base under the tool to keep the arm in a comfortable configuration",
           {robot::JointsPort()}, {robot::VelPort()},
           {ParamSpec::Number("reach", "0.55", "the tool's preferred distance ahead of the shoulder axis, m"),
-           ParamSpec::Number("gain", "1.5", "1/s"), ParamSpec::Number("max_speed", "0.2", "m/s"), PeriodParam()}};
+           ParamSpec::Number("gain", "1.5", "1/s"), ParamSpec::Number("max_speed", "0.2", "m/s"), PeriodParam()},
+          Ending::Never()};
 }
 ConfigCtrl::ConfigCtrl(const ControllerContext& ctx)
     : PeriodicController(ctx), joints_(input("Joints")), vel_(actuator("Vel")), arm_(robot::arm()),

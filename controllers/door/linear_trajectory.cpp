@@ -8,7 +8,8 @@ Manifest LinearTrajectory::Describe() {
   return {"LinearTrajectory", "moves the tool straight ahead; ABORTED after `distance` m",
           {}, {robot::VelPort()},
           {ParamSpec::Number("speed", "0.05", "m/s"), ParamSpec::Number("distance", "0.4", "m"),
-           PeriodParam()}};
+           PeriodParam()},
+          Ending::Aborted()};
 }
 LinearTrajectory::LinearTrajectory(const ControllerContext& ctx)
     : PeriodicController(ctx), vel_(actuator("Vel")), speed_(positive("speed")), distance_(positive("distance")) {

@@ -19,7 +19,8 @@ Manifest ModelBasedCtrl::Describe() {
            P::Number("radius", "0.75", "guessed distance from the hand to the hinge, m"),
            P::Optional("side", "string", "right", "the hinge's side seen from the robot: right or left"),
            P::Number("min_arc", "0.1", "the arc (rad) the hand must sweep before the estimate is used"),
-           PeriodParam()}};
+           PeriodParam()},
+          Ending::Done()};
 }
 ModelBasedCtrl::ModelBasedCtrl(const ControllerContext& ctx)
     : PeriodicController(ctx), pose_(input("BasePose")), joints_(input("Joints")), vel_(actuator("Vel")),

@@ -12,7 +12,8 @@ Manifest PressHandle::Describe() {
           {P::Number("speed", "0.03", "downward speed of the tool, m/s"),
            P::Number("force", "30", "the force (N) at which the handle counts as stopped"),
            P::Number("travel", "0.02", "the travel (m) the handle must allow before it stops"),
-           P::Number("compliance", "0.002", "horizontal admittance, (m/s)/N"), PeriodParam()}};
+           P::Number("compliance", "0.002", "horizontal admittance, (m/s)/N"), PeriodParam()},
+          Ending::DoneOrAborted()};
 }
 PressHandle::PressHandle(const ControllerContext& ctx)
     : PeriodicController(ctx), wrench_(input("Wrench")), joints_(input("Joints")), vel_(actuator("Vel")),

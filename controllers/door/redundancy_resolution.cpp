@@ -13,7 +13,8 @@ Manifest RedundancyResolution::Describe() {
           {ParamSpec::Number("base_weight", "10", "cost of base motion (higher: the arm does more)"),
            ParamSpec::Number("arm_weight", "1", "cost of arm motion"),
            ParamSpec::Number("damping", "0.02", "least-squares damping near singularities"),
-           PeriodParam(), robot::HoldParam()}};
+           PeriodParam(), robot::HoldParam()},
+          Ending::Never()};
 }
 RedundancyResolution::RedundancyResolution(const ControllerContext& ctx)
     : PeriodicController(ctx), in_(input("In")), joints_(input("Joints")), base_out_(actuator("BaseVel")),

@@ -7,7 +7,8 @@ namespace dca::door {
 Manifest DistanceThreshold::Describe() {
   return {"DistanceThreshold", "DONE(distance) when Distance falls to the threshold",
           {scalar_port("Distance", "m")}, {},
-          {ParamSpec::Number("distance", "0.7", "the threshold, m"), PeriodParam()}};
+          {ParamSpec::Number("distance", "0.7", "the threshold, m"), PeriodParam()},
+          Ending::Done()};
 }
 DistanceThreshold::DistanceThreshold(const ControllerContext& ctx)
     : PeriodicController(ctx), distance_(input("Distance")), level_(positive("distance")) {}
@@ -25,7 +26,8 @@ Manifest ForceThreshold::Describe() {
            ParamSpec::Optional("samples", "integer", "3", "consecutive samples above the threshold"),
            ParamSpec::Number("settle", "0.3",
                                "s after the start during which f0 is learnt (smoothed) and nothing fires"),
-           PeriodParam()}};
+           PeriodParam()},
+          Ending::Done()};
 }
 ForceThreshold::ForceThreshold(const ControllerContext& ctx)
     : PeriodicController(ctx), wrench_(input("Wrench")), level_(positive("force")), settle_(non_negative("settle")),

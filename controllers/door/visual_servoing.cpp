@@ -19,7 +19,8 @@ Manifest VisualServoing::Describe() {
            P::Number("height", "480", "the image's height, px"),
            P::Number("handle_height", "1", "the handle's height above the floor, m"),
            P::Number("lateral", "-0.075", "the gripper's lateral position in the base frame (left +), m"),
-           PeriodParam()}};
+           PeriodParam()},
+          Ending::Aborted()};
 }
 VisualServoing::VisualServoing(const ControllerContext& ctx)
     : PeriodicController(ctx), feature_(input("Feature")), vel_(actuator("Vel")), speed_(number("speed")),

@@ -12,7 +12,8 @@ Manifest GripperControl::Describe() {
           {device(vector_port("Cmd", 1, "0 open, 1 close"), "gripper.cmd")},
           {ParamSpec::Required("action", "string", "open or close"),
            ParamSpec::Optional("timeout", "number", "3", "ABORTED when not done after this many seconds"),
-           PeriodParam()}};
+           PeriodParam()},
+          Ending::DoneOrAborted()};
 }
 GripperControl::GripperControl(const ControllerContext& ctx)
     : PeriodicController(ctx), state_in_(input("State")), cmd_(output("Cmd")), timeout_(positive("timeout")) {

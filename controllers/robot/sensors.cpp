@@ -8,7 +8,8 @@ Manifest LaserSensor::Describe() {
   return {"LaserSensor", "the laser range finder: distance ahead of the base to the door's plane",
           {device(vector_port("Raw", 1, "m"), "laser.range")},
           {scalar_port("Distance", "m")},
-          {PeriodParam()}};
+          {PeriodParam()},
+          Ending::Never()};
 }
 LaserSensor::LaserSensor(const ControllerContext& ctx)
     : PeriodicController(ctx), raw_(input("Raw")), distance_(output("Distance")) {}

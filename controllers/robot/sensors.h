@@ -32,7 +32,8 @@ class Sensor final : public PeriodicController {
     return {std::string(S.type), std::string(S.doc),
             {device(vector_port(std::string(S.input), N, std::string(S.units)), std::string(S.signal))},
             {vector_port(std::string(S.output), N, std::string(S.units))},
-            {PeriodParam()}};
+            {PeriodParam()},
+            Ending::Never()};
   }
   explicit Sensor(const ControllerContext& ctx)
       : PeriodicController(ctx), in_(input(S.input)), out_(output(S.output)) {}

@@ -35,6 +35,28 @@ suite:case("dca_types_prints_signatures_and_ports", function()
   T.dca("types", 0, "Gain(host, k, period=0)", "in     In1", "Timer(host, seconds)", "Constant(host, period, values...)")
 end)
 
+suite:case("types_declare_how_a_run_ends", function()
+  -- dca check --verify reads these: a sensor never ends by itself, a threshold ends DONE, a Timer after its time
+  local types = core.types()
+  T.eq({ types.Timer.ends, types.Timer.ends_after }, { "done", "seconds" })
+  T.eq({ types.Deadline.ends, types.Deadline.ends_after }, { "aborted", "seconds" })
+  T.eq(types.Constant.ends, "never")
+  T.eq(types.Threshold.ends, "done")
+  T.eq(types.ForceTorque.ends, "never")
+  T.eq(types.ForceThreshold.ends, "done")
+  T.eq(types.PressHandle.ends, "done or aborted")
+  T.eq(types.VisualServoing.ends, "aborted")
+  T.eq(types.Puma560Ctrl.ends, "never")
+  for name, m in pairs(types) do
+    local e = m.ends
+    T.ok(e == nil or e == "never" or e == "done" or e == "aborted" or e == "done or aborted", name .. " ends " .. tostring(e))
+  end
+end)
+
+suite:case("dca_types_prints_how_a_run_ends", function()
+  T.dca("types Timer LaserSensor", 0, "ends   done, `seconds` seconds after each start", "ends   never")
+end)
+
 suite:case("dca_types_of_an_unknown_type_fails_listing_the_known", function()
   T.dca("types Gian", 1, "unknown controller type 'Gian'; types are: ", "Gain")
 end)
@@ -47,6 +69,7 @@ suite:case("the_language_fallback_manifests_match_the_registry", function()
     T.eq(#fallback.params, #m.params, name .. " parameters")
     for i, p in ipairs(fallback.params) do T.eq(p.type, m.params[i].type, name .. " parameter " .. i) end
     T.eq({ #fallback.inputs, #fallback.outputs }, { #m.inputs, #m.outputs }, name .. " ports")
+    T.eq(fallback.ends, m.ends, name .. " ends")
   end
 end)
 

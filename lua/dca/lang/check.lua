@@ -29,8 +29,10 @@ local ipairs, pairs, type, tostring = ipairs, pairs, type, tostring
 --- stay because dca.lang runs without dca.core (plain Lua, `dca check --no-registry`, the golden tests, whose
 --- texts name the parameter 'duration'); tests/lua/lang/check_test.lua holds them to the registry's shape.
 M.builtins = {
-  Timer = { inputs = {}, outputs = {}, params = { { name = "duration", type = "number" } }, builtin = true },
-  Deadline = { inputs = {}, outputs = {}, params = { { name = "duration", type = "number" } }, builtin = true },
+  Timer = { inputs = {}, outputs = {}, params = { { name = "duration", type = "number" } }, builtin = true,
+            ends = "done", ends_after = "duration" },
+  Deadline = { inputs = {}, outputs = {}, params = { { name = "duration", type = "number" } }, builtin = true,
+               ends = "aborted", ends_after = "duration" },
 }
 
 local function names_of(list)
