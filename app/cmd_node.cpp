@@ -1,4 +1,7 @@
-// `dca node`: one controller in its own process, driven by its supervisor (host/node.h).
+// `dca node`: one controller in its own process, or a shared node hosting the leaves its supervisors add, driven by
+// their supervisors (host/node.h).
+#include <unistd.h>
+
 #include <csignal>
 #include <cstdio>
 #include <cstring>
@@ -15,11 +18,14 @@ namespace {
 constexpr const char* kUsage =
     "usage: dca node --type T --name PATH --daemon ADDR [--key FILE] [--host NAME] [--clock wall|sim]\n"
     "                [--world NAME|none] [--timeout MS] [-- ARG...]\n"
+    "       dca node --shared NAME --daemon ADDR [--key FILE] [--host NAME] [--clock wall|sim] ...\n"
     "\n"
     "Hosts one controller of type T (see `dca types`) named PATH: registers it with the daemon at ADDR, then\n"
     "waits, inactive, for its supervisor's init / run / stop / connect / activate / deactivate / read / ports\n"
     "requests on the control address it registered (host/node.h lists them). ARG are the controller's .dca\n"
     "arguments after the host. The daemon (`dca daemon`) normally starts it.\n"
+    "With --shared, the node hosts no leaf at first and registers as NAME#PID; its supervisors add leaves with\n"
+    "`add {type, name, args}` and end them with `remove {name}` (dca run --placement group|host).\n"
     "  --key FILE     the cluster key (default: $DCA_KEY_FILE, else ~/.config/dca/key)\n"
     "  --host NAME    its logical host (default: the daemon's)\n"
     "  --clock sim    simulated time: subscribes to the clock master (the world) and obeys its `advance {t}`\n"
@@ -47,6 +53,7 @@ int cmd_node(std::span<char* const> args) {
     const std::string v = args[++i];
     if (a == "--type") o.type = v;
     else if (a == "--name") o.name = v;
+    else if (a == "--shared") o.name = v, o.shared = true;
     else if (a == "--daemon") o.daemon = v;
     else if (a == "--key") o.key_file = v;
     else if (a == "--host") o.host = v;
@@ -58,8 +65,8 @@ int cmd_node(std::span<char* const> args) {
       return 2;
     }
   }
-  if (o.type.empty() || o.name.empty() || o.daemon.empty()) {
-    std::fprintf(stderr, "dca node: --type, --name and --daemon are required\n%s\n", kUsage);
+  if ((o.type.empty() && !o.shared) || o.name.empty() || o.daemon.empty()) {
+    std::fprintf(stderr, "dca node: --type, --name (or --shared) and --daemon are required\n%s\n", kUsage);
     return 2;
   }
   if (o.timeout_ms <= 0) o.timeout_ms = 5000;
@@ -72,7 +79,7 @@ int cmd_node(std::span<char* const> args) {
   bool started = false;
   std::string failure;
   dca::app::run_node(loop, node, [&] {
-    std::printf("dca node: %s ready\n", o.name.c_str());
+    std::printf("dca node: %s ready\n", o.shared ? (o.name + "#" + std::to_string(::getpid())).c_str() : o.name.c_str());
     std::fflush(stdout);
   }, &started, &failure);
   if (!started) {

@@ -4,6 +4,7 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <map>
 #include <set>
 
 #include "host/auth.h"
@@ -47,6 +48,23 @@ std::string msgpack_from_value(const Value& v) {
   return out;
 }
 
+namespace {
+
+// One hosted leaf: its component, its own control listener and the channels its supervisors opened there.
+struct Leaf {
+  std::string type, name;
+  std::unique_ptr<Component> component;
+  Listener::Ptr control;
+  std::shared_ptr<std::set<Channel::Ptr>> supervisors = std::make_shared<std::set<Channel::Ptr>>();
+
+  void event(const Message& m) const {
+    for (const auto& ch : *supervisors)
+      if (ch->is_open()) ch->send(m);
+  }
+};
+
+}  // namespace
+
 struct Node::Impl {
   Impl(Node* n, Loop& l, NodeOptions o, ComponentFactory f)
       : node(n), loop(l), opts(std::move(o)), factory(std::move(f)) {}
@@ -57,13 +75,14 @@ struct Node::Impl {
   ChannelOptions chopts;
   std::unique_ptr<TimerServer> timers;
   std::unique_ptr<Endpoint> endpoint;
-  std::unique_ptr<Component> component;
+  std::map<std::string, std::shared_ptr<Leaf>, std::less<>> leaves;
   Channel::Ptr daemon;
   Channel::Ptr master;  // the clock master (simulated time)
   std::function<bool(const Channel::Ptr&, const Message&)> hook;
-  Listener::Ptr control;
-  std::set<Channel::Ptr> supervisors;
+  Listener::Ptr control;            // a shared node's own control address (add, remove, advance, exit)
+  std::shared_ptr<std::set<Channel::Ptr>> channels = std::make_shared<std::set<Channel::Ptr>>();  // accepted there
   std::string ip;  // the daemon's IP: where this node listens
+  std::string host;
   std::string uds;
   bool done = false;
   int code = 0;
@@ -72,27 +91,41 @@ struct Node::Impl {
     code = 1;
     done_fn(error);
   }
-
-  void event(Message m) {
-    for (const auto& ch : supervisors)
-      if (ch->is_open()) ch->send(m);
+  Leaf* find(std::string_view name) const {
+    auto it = leaves.find(name);
+    return it == leaves.end() ? nullptr : it->second.get();
+  }
+  // The name the process registers as (a one-leaf node: its leaf's PATH).
+  std::string process_name() const {
+    return opts.shared ? opts.name + "#" + std::to_string(::getpid()) : opts.name;
   }
 
   using Done = std::function<void(const std::string&)>;
   void connect_daemon(const Address& address, Done done_fn);
   void learn_host(const Done& done_fn);
-  void open_ports(const std::string& host, const Done& done_fn);
-  void forward(const ComponentEvent& e);
+  void open_ports(const Done& done_fn);
+  using Set = std::shared_ptr<std::set<Channel::Ptr>>;
+  Listener::Ptr listen(const Set& set, std::function<void(const Channel::Ptr&, const Message&)> on,
+                       std::string* error);
+  Leaf* add_leaf(const std::string& type, const std::string& name, const std::vector<std::string>& args,
+                 std::string* error);
+  void remove_leaf(const std::string& name);
+  Value endpoints(const Leaf* leaf) const;
+  void forward(Leaf& leaf, const ComponentEvent& e);
   void forward(const CommsEvent& e);
-  void listen_control(const std::string& host, const Done& done_fn);
-  void register_node(const std::string& host, const Done& done_fn);
+  void register_node(const Done& done_fn);
   void subscribe(const Done& done_fn);
   void connect_master(const Address& address, const Done& done_fn);
-  void handle(const Channel::Ptr& ch, const Message& m);
-  void connect(const Channel::Ptr& ch, const Message& m);
-  void pull(const Channel::Ptr& ch, const Message& m);
-  Value ports() const;
-  Value stats() const;
+  void handle(Leaf& leaf, const Channel::Ptr& ch, const Message& m);
+  bool handle_control(Leaf& leaf, const Channel::Ptr& ch, const Message& m);
+  void handle_process(const Channel::Ptr& ch, const Message& m);
+  void add(const Channel::Ptr& ch, const Message& m);
+  void advance(const Channel::Ptr& ch, const Message& m);
+  void read(Leaf& leaf, const Channel::Ptr& ch, const Message& m);
+  void connect(Leaf& leaf, const Channel::Ptr& ch, const Message& m);
+  void pull(Leaf& leaf, const Channel::Ptr& ch, const Message& m);
+  Value ports(const Leaf& leaf) const;
+  Value stats(const Leaf& leaf) const;
 };
 
 Node::Node(Loop& loop, NodeOptions options, ComponentFactory factory)
@@ -101,14 +134,16 @@ Node::Node(Loop& loop, NodeOptions options, ComponentFactory factory)
 Node::~Node() { shutdown("node destroyed"); }
 
 bool Node::finished() const { return impl_->done; }
+std::size_t Node::leaves() const { return impl_->leaves.size(); }
 void Node::on_request(std::function<bool(const std::shared_ptr<Channel>&, const wire::Message&)> hook) {
   impl_->hook = std::move(hook);
 }
 int Node::exit_code() const { return impl_->code; }
 
 // Start-up as a list of named steps, each ending by calling the next one or fail_start:
-//   start (key, daemon address) -> connect_daemon -> learn_host (ping, unless --host) -> open_ports ->
-//   listen_control -> register_node -> subscribe (simulated time: lookup, connect, clock; see below).
+//   start (key, daemon address) -> connect_daemon -> learn_host (ping, unless --host) -> open_ports (the
+//   timers, the data endpoint, the one leaf or a shared node's control listener) -> register_node ->
+//   subscribe (simulated time: lookup, connect, clock; see below).
 void Node::start(std::function<void(const std::string& error)> done) {
   auto& I = *impl_;
   std::string error;
@@ -141,20 +176,24 @@ void Node::Impl::connect_daemon(const Address& address, Done done_fn) {
 
 // The host's name: --host, else the daemon's answer to ping; then the node's ports.
 void Node::Impl::learn_host(const Done& done_fn) {
-  if (!opts.host.empty()) return open_ports(opts.host, done_fn);
+  if (!opts.host.empty()) {
+    host = opts.host;
+    return open_ports(done_fn);
+  }
   daemon->request({"ping", 0, Value::map()}, std::chrono::milliseconds(opts.timeout_ms), [this, done_fn](Response r) {
     if (!r.ok()) return fail_start(done_fn, "the daemon did not answer ping: " + r.error);
-    open_ports(r.message.payload["host"].as_string(), done_fn);
+    host = r.message.payload["host"].as_string();
+    open_ports(done_fn);
   });
 }
 
-// Makes the timers, the component and the data endpoint (listening on a socket of its own), then the
-// control listener.
-void Node::Impl::open_ports(const std::string& host, const Done& done_fn) {
+// Makes the timers and the data endpoint (listening on a socket of its own), then the one leaf (a one-leaf
+// node) or the control listener (a shared node), then registers.
+void Node::Impl::open_ports(const Done& done_fn) {
+  std::string error;
   try {
     timers = std::make_unique<TimerServer>(loop.io(), opts.clock);
     timers->set_aligned(opts.clock == ClockKind::Simulated);
-    component = factory(opts.type, opts.name, host, opts.args, *timers);
     EndpointOptions eo;
     eo.key = chopts.key;  // data connections authenticate with the cluster key too
     eo.handshake_timeout = std::chrono::milliseconds(opts.timeout_ms);
@@ -162,64 +201,132 @@ void Node::Impl::open_ports(const std::string& host, const Done& done_fn) {
     static int made = 0;  // several nodes in one process (tests) need distinct sockets
     uds = runtime_dir() + "/node-" + std::to_string(::getpid()) + (made++ ? "-" + std::to_string(made) : "") + ".sock";
     endpoint->listen(uds, ip + ":0");
-    endpoint->add_component(opts.name, component->ports());
   } catch (const std::exception& e) {
     return fail_start(done_fn, e.what());
   }
-  component->on_event = [this](const ComponentEvent& e) { forward(e); };
   endpoint->on_event([this](const CommsEvent& e) { forward(e); });
-  listen_control(host, done_fn);
+  if (!opts.shared) {
+    if (!add_leaf(opts.type, opts.name, opts.args, &error)) return fail_start(done_fn, error);
+    return register_node(done_fn);
+  }
+  control = listen(channels, [this](const Channel::Ptr& ch, const Message& m) { handle_process(ch, m); }, &error);
+  if (!control) return fail_start(done_fn, "cannot listen for control channels: " + error);
+  register_node(done_fn);
 }
 
-// Tells the supervisors that the component finished or aborted (`now`: on this node's clock, as in `advance`).
-void Node::Impl::forward(const ComponentEvent& e) {
-  if (e.kind == ComponentEvent::Kind::Done)
-    event({"done", 0,
-           Value::map().set("name", opts.name).set("now", timers->now()).set("value", value_from_msgpack(
-               {reinterpret_cast<const std::byte*>(e.value.data()), e.value.size()}))});
-  else
-    event({"aborted", 0, Value::map().set("name", opts.name).set("now", timers->now()).set("reason", e.reason)});
-}
-
-// Tells the supervisors that a data link broke or a port overflowed.
-void Node::Impl::forward(const CommsEvent& e) {
-  if (e.kind == CommsEvent::Kind::Broken)
-    event({"broken", 0, Value::map().set("name", e.component).set("port", e.port).set("peer", e.peer)
-                             .set("set", e.set).set("reason", e.reason)});
-  else
-    event({"overflow", 0, Value::map().set("name", e.component).set("port", e.port).set("reason", e.reason)});
-}
-
-// Listens for supervisors' control channels on the daemon's IP, then registers.
-void Node::Impl::listen_control(const std::string& host, const Done& done_fn) {
-  std::string lerr;
-  control = Listener::listen(loop.io(), *Address::parse(ip + ":0"), chopts, [this](Channel::Ptr sup) {
-    supervisors.insert(sup);
-    std::weak_ptr<Channel> w = sup;
-    sup->on_message([this, w](const Message& m) {
-      if (auto s = w.lock()) handle(s, m);
+// A control listener on the daemon's IP: each channel it accepts joins `set` (and leaves it when it closes);
+// its messages go to `on`.
+Listener::Ptr Node::Impl::listen(const Set& set, std::function<void(const Channel::Ptr&, const Message&)> on,
+                                 std::string* error) {
+  std::weak_ptr<std::set<Channel::Ptr>> ws = set;
+  return Listener::listen(loop.io(), *Address::parse(ip + ":0"), chopts, [ws, on](Channel::Ptr ch) {
+    auto members = ws.lock();
+    if (!members) return ch->close("gone");
+    members->insert(ch);
+    std::weak_ptr<Channel> w = ch;
+    ch->on_message([w, on](const Message& m) {
+      if (auto s = w.lock()) on(s, m);
     });
-    sup->on_close([this, w](const std::string&) {
-      if (auto s = w.lock()) supervisors.erase(s);
+    ch->on_close([ws, w](const std::string&) {
+      auto s = w.lock();
+      if (auto st = ws.lock(); s && st) st->erase(s);
     });
-  }, &lerr);
-  if (!control) return fail_start(done_fn, "cannot listen for control channels: " + lerr);
-  register_node(host, done_fn);
+  }, error);
 }
 
-// Registers the node's endpoints with the daemon; on simulated time, then subscribes to the clock master.
-void Node::Impl::register_node(const std::string& host, const Done& done_fn) {
+// Creates a leaf: its component (on the process's timers), its ports in the process's endpoint and its own
+// control listener. nullptr, with *error, when the factory refuses or the listener fails.
+Leaf* Node::Impl::add_leaf(const std::string& type, const std::string& name, const std::vector<std::string>& args,
+                           std::string* error) {
+  if (find(name)) {
+    *error = name + " is already hosted by this node";
+    return nullptr;
+  }
+  auto leaf = std::make_shared<Leaf>();
+  leaf->type = type;
+  leaf->name = name;
+  try {
+    leaf->component = factory(type, name, host, args, *timers);
+    endpoint->add_component(name, leaf->component->ports());
+  } catch (const std::exception& e) {
+    *error = e.what();
+    return nullptr;
+  }
+  Leaf* l = leaf.get();
+  std::weak_ptr<Leaf> wl = leaf;
+  l->control = listen(l->supervisors, [this, wl](const Channel::Ptr& ch, const Message& m) {
+    if (auto x = wl.lock()) handle(*x, ch, m);
+  }, error);
+  if (!l->control) {
+    endpoint->remove_component(name);
+    *error = "cannot listen for control channels: " + *error;
+    return nullptr;
+  }
+  l->component->on_event = [this, l](const ComponentEvent& e) { forward(*l, e); };
+  leaves.emplace(name, leaf);
+  return l;
+}
+
+// Ends a leaf: Stop (actuators safe), its connections closed both ways, its control channels closed, its PATH
+// unregistered. Its component is destroyed last, after the loop has let go of its channels.
+void Node::Impl::remove_leaf(const std::string& name) {
+  auto it = leaves.find(name);
+  if (it == leaves.end()) return;
+  std::shared_ptr<Leaf> leaf = it->second;
+  leaves.erase(it);
+  leaf->component->halt();
+  endpoint->remove_component(name);
+  leaf->control->close();
+  for (auto ch : std::set<Channel::Ptr>(*leaf->supervisors)) ch->close("leaf " + name + " removed");
+  if (daemon && opts.shared)
+    daemon->request({"unregister", 0, Value::map().set("name", name)}, std::chrono::milliseconds(opts.timeout_ms),
+                    [](Response) {});
+  boost::asio::post(loop.io(), [leaf] {});  // its channels' handlers may still be on the stack
+}
+
+// The endpoints a leaf (or a shared node itself, leaf = nullptr) registers with.
+Value Node::Impl::endpoints(const Leaf* leaf) const {
   const auto loc = endpoint->location();
-  Value endpoints = Value::map()
-                        .set("host", host)
-                        .set("control", control->address().str())
-                        .set("data_uds", loc.data_uds)
-                        .set("data_tcp", loc.data_tcp)
-                        .set("pid", static_cast<std::int64_t>(::getpid()))
-                        .set("type", opts.type);
-  daemon->request({"register", 0, Value::map().set("name", opts.name).set("endpoints", endpoints)},
-                  std::chrono::milliseconds(opts.timeout_ms), [this, done_fn](Response r) {
-                    if (!r.ok()) return fail_start(done_fn, "cannot register " + opts.name + ": " + r.error);
+  Value e = Value::map()
+                .set("host", host)
+                .set("control", (leaf ? leaf->control : control)->address().str())
+                .set("data_uds", loc.data_uds)
+                .set("data_tcp", loc.data_tcp)
+                .set("pid", static_cast<std::int64_t>(::getpid()));
+  if (leaf) e.set("type", leaf->type);
+  if (opts.shared) e.set("shared", leaf ? Value(process_name()) : Value(true));
+  return e;
+}
+
+// Tells a leaf's supervisors that its component finished or aborted (`now`: on this node's clock).
+void Node::Impl::forward(Leaf& leaf, const ComponentEvent& e) {
+  if (e.kind == ComponentEvent::Kind::Done)
+    leaf.event({"done", 0,
+                Value::map().set("name", leaf.name).set("now", timers->now()).set("value", value_from_msgpack(
+                    {reinterpret_cast<const std::byte*>(e.value.data()), e.value.size()}))});
+  else
+    leaf.event({"aborted", 0, Value::map().set("name", leaf.name).set("now", timers->now()).set("reason", e.reason)});
+}
+
+// Tells the supervisors of the leaf concerned that a data link broke or a port overflowed.
+void Node::Impl::forward(const CommsEvent& e) {
+  const Leaf* leaf = find(e.component);
+  if (!leaf) return;
+  if (e.kind == CommsEvent::Kind::Broken)
+    leaf->event({"broken", 0, Value::map().set("name", e.component).set("port", e.port).set("peer", e.peer)
+                                  .set("set", e.set).set("reason", e.reason)});
+  else
+    leaf->event({"overflow", 0, Value::map().set("name", e.component).set("port", e.port).set("reason", e.reason)});
+}
+
+// Registers the one leaf's PATH (or the shared node's NAME#PID) with the daemon; on simulated time, then
+// subscribes to the clock master.
+void Node::Impl::register_node(const Done& done_fn) {
+  const Leaf* leaf = opts.shared ? nullptr : find(opts.name);
+  const std::string name = process_name();
+  daemon->request({"register", 0, Value::map().set("name", name).set("endpoints", endpoints(leaf))},
+                  std::chrono::milliseconds(opts.timeout_ms), [this, done_fn, name](Response r) {
+                    if (!r.ok()) return fail_start(done_fn, "cannot register " + name + ": " + r.error);
                     if (opts.clock == ClockKind::Simulated && !opts.world.empty()) return subscribe(done_fn);
                     done_fn("");
                   });
@@ -229,8 +336,13 @@ void Node::shutdown(const std::string& why) {
   auto& I = *impl_;
   if (I.done) return;
   I.done = true;
-  if (I.component) I.component->halt();
-  if (I.endpoint && I.component) I.endpoint->remove_component(I.opts.name);
+  for (auto& [name, leaf] : I.leaves) leaf->component->halt();
+  for (auto& [name, leaf] : I.leaves) {
+    if (I.endpoint) I.endpoint->remove_component(name);
+    leaf->control->close();
+    for (auto ch : std::set<Channel::Ptr>(*leaf->supervisors)) ch->close(why);
+    leaf->supervisors->clear();
+  }
   I.endpoint.reset();
   if (I.control) I.control->close();
   if (I.master) {
@@ -238,8 +350,8 @@ void Node::shutdown(const std::string& why) {
     I.master.reset();
     c->close(why);
   }
-  for (auto ch : std::set<Channel::Ptr>(I.supervisors)) ch->close(why);
-  I.supervisors.clear();
+  for (auto ch : std::set<Channel::Ptr>(*I.channels)) ch->close(why);
+  I.channels->clear();
   if (I.daemon) {
     auto d = I.daemon;
     I.daemon.reset();
@@ -266,6 +378,7 @@ void Node::Impl::subscribe(const Done& done_fn) {
 }
 
 // Simulated time, step 2: connect to the clock master (losing it stops the node), subscribe, take its time.
+// One subscription per process, whatever the number of leaves it hosts.
 void Node::Impl::connect_master(const Address& address, const Done& done_fn) {
   Channel::connect(loop.io(), address, chopts, [this, done_fn](Channel::Ptr ch, const std::string& e) {
     if (done) return;
@@ -274,7 +387,7 @@ void Node::Impl::connect_master(const Address& address, const Done& done_fn) {
     master = ch;
     std::weak_ptr<Channel> w = ch;
     ch->on_message([this, w](const Message& m) {
-      if (auto c = w.lock()) handle(c, m);
+      if (auto c = w.lock()) handle_process(c, m);
     });
     ch->on_close([this](const std::string& reason) {
       if (done || !master) return;
@@ -284,7 +397,7 @@ void Node::Impl::connect_master(const Address& address, const Done& done_fn) {
       master.reset();
       boost::asio::post(loop.io(), [this] { loop.stop(); });
     });
-    ch->request({"clock", 0, Value::map().set("name", opts.name)}, std::chrono::milliseconds(opts.timeout_ms),
+    ch->request({"clock", 0, Value::map().set("name", process_name())}, std::chrono::milliseconds(opts.timeout_ms),
                 [this, done_fn, who](Response r) {
                   if (done) return;
                   if (!r.ok()) return fail_start(done_fn, who + ": the clock master refused the subscription: " + r.error);
@@ -295,20 +408,21 @@ void Node::Impl::connect_master(const Address& address, const Done& done_fn) {
   });
 }
 
-Value Node::Impl::ports() const {
+Value Node::Impl::ports(const Leaf& leaf) const {
   Value ins = Value::array(), outs = Value::array(), links = Value::array();
-  for (const auto& p : component->ports().inputs()) {
+  for (const auto& p : leaf.component->ports().inputs()) {
     auto v = spec_value(p->spec());
     v.set("samples", p->stats().samples).set("dropped", p->stats().dropped).set("rejected", p->stats().rejected);
     v.set("queued", static_cast<std::uint64_t>(p->queued())).set("capacity", static_cast<std::uint64_t>(p->capacity()));
     ins.array_ref().push_back(std::move(v));
   }
-  for (const auto& p : component->ports().outputs()) {
+  for (const auto& p : leaf.component->ports().outputs()) {
     auto v = spec_value(p->spec());
     v.set("samples", p->stats().samples).set("rejected", p->stats().rejected);
     outs.array_ref().push_back(std::move(v));
   }
   for (const auto& l : endpoint->links()) {
+    if (l.request.from != leaf.name) continue;
     links.array_ref().push_back(Value::map()
                                     .set("out", l.request.out)
                                     .set("to", l.request.to)
@@ -329,18 +443,21 @@ Value Node::Impl::ports() const {
       .set("refused", endpoint->refused());
 }
 
-Value Node::Impl::stats() const {
+// The leaf's own timers (named by its PATH; a one-leaf node reports every timer of the process, as before).
+Value Node::Impl::stats(const Leaf& leaf) const {
+  const auto mine = [&](const std::string& name) { return !opts.shared || name == leaf.name; };
   Value ts = Value::array();
   for (const auto& s : timers->stats())
-    ts.array_ref().push_back(Value::map()
-                                 .set("name", s.name)
-                                 .set("period_s", to_seconds(s.period))
-                                 .set("active", s.active)
-                                 .set("count", s.count)
-                                 .set("missed", s.missed)
-                                 .set("p50_us", s.p50_us)
-                                 .set("p99_us", s.p99_us)
-                                 .set("max_us", s.max_us));
+    if (mine(s.name))
+      ts.array_ref().push_back(Value::map()
+                                   .set("name", s.name)
+                                   .set("period_s", to_seconds(s.period))
+                                   .set("active", s.active)
+                                   .set("count", s.count)
+                                   .set("missed", s.missed)
+                                   .set("p50_us", s.p50_us)
+                                   .set("p99_us", s.p99_us)
+                                   .set("max_us", s.max_us));
   auto summary = [](const IntervalSummary& i) {
     return Value::map()
         .set("n", i.n)
@@ -353,18 +470,19 @@ Value Node::Impl::stats() const {
   };
   Value iv = Value::array();
   for (const auto& s : timers->interval_stats())
-    iv.array_ref().push_back(Value::map()
-                                 .set("name", s.name)
-                                 .set("period_s", to_seconds(s.period))
-                                 .set("clock", summary(s.clock))
-                                 .set("wall", summary(s.wall)));
+    if (mine(s.name))
+      iv.array_ref().push_back(Value::map()
+                                   .set("name", s.name)
+                                   .set("period_s", to_seconds(s.period))
+                                   .set("clock", summary(s.clock))
+                                   .set("wall", summary(s.wall)));
   return Value::map().set("timers", ts).set("intervals", iv).set("clock", to_string(timers->kind()));
 }
 
-void Node::Impl::connect(const Channel::Ptr& ch, const Message& m) {
+void Node::Impl::connect(Leaf& leaf, const Channel::Ptr& ch, const Message& m) {
   const auto& p = m.payload;
   ConnectRequest r;
-  r.from = opts.name;
+  r.from = leaf.name;
   r.out = p["out"].as_string();
   r.to = p["to"].as_string();
   r.in = p["in"].as_string();
@@ -377,13 +495,14 @@ void Node::Impl::connect(const Channel::Ptr& ch, const Message& m) {
   if (r.out.empty() || r.to.empty() || r.in.empty())
     return void(ch->reply_error(m, "connect needs out, to and in"));
   const int timeout = opts.timeout_ms;
-  auto finish = [this, ch, m](const std::string& error) {
+  auto finish = [this, ch, m, from = leaf.name](const std::string& error) {
     if (!endpoint) return;
     if (!error.empty()) return void(ch->reply_error(m, error));
     Value t = "";
     for (const auto& l : endpoint->links())
-      if (l.request.out == m.payload["out"].as_string() && l.request.to == m.payload["to"].as_string() &&
-          l.request.in == m.payload["in"].as_string() && l.request.set == m.payload["set"].as_string())
+      if (l.request.from == from && l.request.out == m.payload["out"].as_string() &&
+          l.request.to == m.payload["to"].as_string() && l.request.in == m.payload["in"].as_string() &&
+          l.request.set == m.payload["set"].as_string())
         t = std::string(to_string(l.transport));
     ch->reply(m, Value::map().set("transport", t));
   };
@@ -401,10 +520,10 @@ void Node::Impl::connect(const Channel::Ptr& ch, const Message& m) {
 
 // pull {port, timeout_ms}: asks the input's pull connections for their latest sample and answers with it
 // when it arrives (checked every millisecond), or an error at the deadline.
-void Node::Impl::pull(const Channel::Ptr& ch, const Message& m) {
+void Node::Impl::pull(Leaf& leaf, const Channel::Ptr& ch, const Message& m) {
   const auto& name = m.payload["port"].as_string();
-  Input* in = component->ports().find_input(name);
-  if (!in) return void(ch->reply_error(m, component->ports().no_such_input(opts.name, name)));
+  Input* in = leaf.component->ports().find_input(name);
+  if (!in) return void(ch->reply_error(m, leaf.component->ports().no_such_input(leaf.name, name)));
   const std::uint64_t before = in->stats().samples;
   const auto deadline = std::chrono::steady_clock::now() +
                         std::chrono::milliseconds(m.payload["timeout_ms"].as_int(opts.timeout_ms));
@@ -412,13 +531,16 @@ void Node::Impl::pull(const Channel::Ptr& ch, const Message& m) {
   auto timer = std::make_shared<boost::asio::steady_timer>(loop.io());
   auto check = std::make_shared<std::function<void()>>();
   // The function holds itself weakly; each pending wait holds it strongly, so it is freed when the chain ends.
+  // It holds the leaf weakly too: a leaf removed meanwhile answers nothing more (its channels are closed).
   std::weak_ptr<std::function<void()>> self = check;
-  *check = [this, ch, m, in, before, deadline, timer, self, name] {
-    if (done || !component) return;
+  std::weak_ptr<Leaf> wl = leaves.at(leaf.name);
+  *check = [this, ch, m, wl, in, before, deadline, timer, self, name] {
+    auto l = wl.lock();
+    if (done || !l) return;
     if (in->stats().samples > before)
       return void(ch->reply(m, Value::map().set("value", latest_value(*in)).set("count", in->stats().samples)));
     if (std::chrono::steady_clock::now() >= deadline)
-      return void(ch->reply_error(m, "pull: no sample arrived at " + opts.name + "." + name + " in time"));
+      return void(ch->reply_error(m, "pull: no sample arrived at " + l->name + "." + name + " in time"));
     timer->expires_after(std::chrono::milliseconds(1));
     timer->async_wait([strong = self.lock()](const boost::system::error_code& ec) {
       if (!ec && strong) (*strong)();
@@ -427,83 +549,145 @@ void Node::Impl::pull(const Channel::Ptr& ch, const Message& m) {
   (*check)();
 }
 
-void Node::Impl::handle(const Channel::Ptr& ch, const Message& m) {
-  if (done || !component) return void(ch->reply_error(m, "node " + opts.name + " is stopping"));
+// read {port}: the latest sample of any port of the leaf.
+void Node::Impl::read(Leaf& leaf, const Channel::Ptr& ch, const Message& m) {
+  const auto& name = m.payload["port"].as_string();
+  auto& ps = leaf.component->ports();
+  const Port* port = ps.find_output(name);
+  if (!port) port = ps.find_input(name);
+  if (!port) {
+    std::string valid;
+    for (const auto& o : ps.outputs()) valid += (valid.empty() ? "" : ", ") + o->name();
+    for (const auto& i : ps.inputs()) valid += (valid.empty() ? "" : ", ") + i->name();
+    return void(ch->reply_error(m, "no port '" + name + "' on " + leaf.name + "; ports are: " +
+                                       (valid.empty() ? std::string("(none)") : valid)));
+  }
+  ch->reply(m, Value::map().set("value", latest_value(*port)).set("count", port->stats().samples));
+}
+
+// The life-cycle and data requests of one leaf; false for any other.
+bool Node::Impl::handle_control(Leaf& leaf, const Channel::Ptr& ch, const Message& m) {
   const auto& t = m.type;
   const auto& p = m.payload;
+  auto& c = *leaf.component;
+  std::string err;
   if (t == "init") {
-    std::string err;
-    if (!component->configure(&err)) return void(ch->reply_error(m, err));
-    return void(ch->reply(m));
-  }
-  if (t == "run") {
+    if (!c.configure(&err)) ch->reply_error(m, err);
+    else ch->reply(m);
+  } else if (t == "run") {
     const std::string init = p.find("init") ? msgpack_from_value(p["init"]) : std::string();
-    std::string err;
-    if (!component->start({reinterpret_cast<const std::byte*>(init.data()), init.size()}, &err))
-      return void(ch->reply_error(m, err));
-    return void(ch->reply(m));
-  }
-  if (t == "stop") {
-    component->halt();
-    return void(ch->reply(m));
-  }
-  if (t == "connect") return connect(ch, m);
-  if (t == "disconnect") {
+    if (!c.start({reinterpret_cast<const std::byte*>(init.data()), init.size()}, &err)) ch->reply_error(m, err);
+    else ch->reply(m);
+  } else if (t == "stop") {
+    c.halt();
+    ch->reply(m);
+  } else if (t == "connect") {
+    connect(leaf, ch, m);
+  } else if (t == "disconnect") {
     endpoint->disconnect_set(p["set"].as_string());
-    return void(ch->reply(m));
-  }
-  if (t == "activate" || t == "deactivate") {
+    ch->reply(m);
+  } else if (t == "activate" || t == "deactivate") {
     const auto& set = p["set"].as_string();
-    if (set.empty()) return void(ch->reply_error(m, t + " needs a set"));
+    if (set.empty()) return ch->reply_error(m, t + " needs a set"), true;
     if (t == "activate") endpoint->activate(set);
     else endpoint->deactivate(set);
-    return void(ch->reply(m));
-  }
-  if (t == "read") {
-    const auto& name = p["port"].as_string();
-    auto& ps = component->ports();
-    const Port* port = ps.find_output(name);
-    if (!port) port = ps.find_input(name);
-    if (!port) {
-      std::string valid;
-      for (const auto& o : ps.outputs()) valid += (valid.empty() ? "" : ", ") + o->name();
-      for (const auto& i : ps.inputs()) valid += (valid.empty() ? "" : ", ") + i->name();
-      return void(ch->reply_error(m, "no port '" + name + "' on " + opts.name + "; ports are: " +
-                                         (valid.empty() ? std::string("(none)") : valid)));
-    }
-    return void(ch->reply(m, Value::map().set("value", latest_value(*port)).set("count", port->stats().samples)));
-  }
-  if (t == "pull") return pull(ch, m);
-  if (t == "ports") return void(ch->reply(m, ports()));
-  if (t == "stats") return void(ch->reply(m, stats()));
-  if (t == "advance") {
-    if (timers->kind() != ClockKind::Simulated)
-      return void(ch->reply_error(m, "advance: node " + opts.name + " runs on the wall clock"));
-    const Nanos at = p["t"].as_int(-1);
-    if (at < timers->now()) return void(ch->reply_error(m, "advance: t must be >= now (" + std::to_string(timers->now()) + ")"));
-    // Drain: every sample sent to this node before the master asked is in its sockets; take it in first, so
-    // that a sample written at one tick is always seen at the next (runs repeat exactly).
-    loop.settle();
-    if (done || !component) return;
-    timers->advance_to(at);
-    // Flush what the timers wrote before answering: the master moves on only when it is on its way.
-    loop.settle();
-    if (done || !component) return;
-    const auto next = timers->next_deadline();
-    return void(ch->reply(m, Value::map().set("now", timers->now()).set("next", next ? Value(*next) : Value())));
-  }
-  if (t == "exit") {
     ch->reply(m);
-    boost::asio::post(loop.io(), [this] { loop.stop(); });  // the caller of run() then calls shutdown()
+  } else if (t == "read") {
+    read(leaf, ch, m);
+  } else if (t == "pull") {
+    pull(leaf, ch, m);
+  } else if (t == "ports") {
+    ch->reply(m, ports(leaf));
+  } else if (t == "stats") {
+    ch->reply(m, stats(leaf));
+  } else {
+    return false;
+  }
+  return true;
+}
+
+// A request on a leaf's own control channel: its own requests, then the process's (advance; exit ends the
+// leaf only in a shared node), then the hook (the world's clock master requests).
+void Node::Impl::handle(Leaf& leaf, const Channel::Ptr& ch, const Message& m) {
+  if (done || !find(leaf.name)) return void(ch->reply_error(m, "node " + leaf.name + " is stopping"));
+  if (handle_control(leaf, ch, m)) return;
+  if (m.type == "exit" && opts.shared) {
+    ch->reply(m);
+    boost::asio::post(loop.io(), [this, name = leaf.name] { remove_leaf(name); });
     return;
   }
+  if (m.type == "advance" || m.type == "exit") return handle_process(ch, m);
   if (hook && hook(ch, m)) return;
   if (m.id == 0) {
     // an event this node has no use for (e.g. the world's `broken`/`overflow`, sent to every channel it
     // accepted, clock subscribers included): answering it as an error would close the channel
     return;
   }
-  ch->reply_error(m, "unknown request '" + t + "' for node " + opts.name);
+  ch->reply_error(m, "unknown request '" + m.type + "' for node " + leaf.name);
+}
+
+// add {type, name, args} on a shared node: a new leaf, registered under its PATH before the answer.
+void Node::Impl::add(const Channel::Ptr& ch, const Message& m) {
+  const auto& p = m.payload;
+  std::vector<std::string> args;
+  for (const auto& a : p["args"].as_array()) {
+    if (!a.is_string()) return void(ch->reply_error(m, "add: args must be strings"));
+    args.push_back(a.as_string());
+  }
+  const std::string name = p["name"].as_string();
+  if (name.empty() || p["type"].as_string().empty()) return void(ch->reply_error(m, "add needs a type and a name"));
+  std::string err;
+  Leaf* leaf = add_leaf(p["type"].as_string(), name, args, &err);
+  if (!leaf) return void(ch->reply_error(m, err));
+  const Value e = endpoints(leaf);
+  daemon->request({"register", 0, Value::map().set("name", name).set("endpoints", e)},
+                  std::chrono::milliseconds(opts.timeout_ms), [this, ch, m, name, e](Response r) {
+                    if (!r.ok()) {
+                      remove_leaf(name);
+                      return void(ch->reply_error(m, "cannot register " + name + ": " + r.error));
+                    }
+                    ch->reply(m, e);
+                  });
+}
+
+// advance {t}: the node's clock to t (lock-step, host/node.h), for every leaf at once.
+void Node::Impl::advance(const Channel::Ptr& ch, const Message& m) {
+  if (timers->kind() != ClockKind::Simulated)
+    return void(ch->reply_error(m, "advance: node " + opts.name + " runs on the wall clock"));
+  const Nanos at = m.payload["t"].as_int(-1);
+  if (at < timers->now()) return void(ch->reply_error(m, "advance: t must be >= now (" + std::to_string(timers->now()) + ")"));
+  // Drain: every sample sent to this node before the master asked is in its sockets; take it in first, so
+  // that a sample written at one tick is always seen at the next (runs repeat exactly).
+  loop.settle();
+  if (done) return;
+  timers->advance_to(at);
+  // Flush what the timers wrote before answering: the master moves on only when it is on its way.
+  loop.settle();
+  if (done) return;
+  const auto next = timers->next_deadline();
+  ch->reply(m, Value::map().set("now", timers->now()).set("next", next ? Value(*next) : Value()));
+}
+
+// A request to the process: on the clock master's channel, a shared node's own control channel, or passed on
+// from a leaf's channel (advance, exit).
+void Node::Impl::handle_process(const Channel::Ptr& ch, const Message& m) {
+  if (done) return void(ch->reply_error(m, "node " + opts.name + " is stopping"));
+  if (m.type == "advance") return advance(ch, m);
+  if (m.type == "exit") {
+    ch->reply(m);
+    boost::asio::post(loop.io(), [this] { loop.stop(); });  // the caller of run() then calls shutdown()
+    return;
+  }
+  if (opts.shared && m.type == "add") return add(ch, m);
+  if (opts.shared && m.type == "remove") {
+    const std::string name = m.payload["name"].as_string();
+    if (!find(name)) return void(ch->reply_error(m, "remove: " + name + " is not hosted by node " + process_name()));
+    remove_leaf(name);
+    return void(ch->reply(m));
+  }
+  if (hook && hook(ch, m)) return;
+  if (m.id == 0) return;  // an event this node has no use for (see handle)
+  ch->reply_error(m, "unknown request '" + m.type + "' for node " + process_name());
 }
 
 }  // namespace dca

@@ -1,7 +1,11 @@
 #pragma once
-// The node runtime (`dca node`): hosts one component (a controller) in its own process, so a crash is contained.
+// The node runtime (`dca node`): hosts components (controllers, "leaves") in one process. By default one leaf per
+// process, so a crash is contained; a shared node (`--shared NAME`) hosts the leaves its supervisors add, which
+// then exchange samples in process and take one lock-step advance per tick between them (ARCHITECTURE.md,
+// "Placement").
 //
 //   dca node --type T --name PATH --daemon ADDR [--key FILE] [--host NAME] [--clock wall|sim] [-- ARG...]
+//   dca node --shared NAME --daemon ADDR [--key FILE] [--host NAME] [--clock wall|sim]
 //
 // Start-up: connects to its daemon (authenticated channel), learns the host name (`ping`) unless --host gives
 // it, creates the component (ARG are the .dca arguments after the host), listens for data connections (a Unix
@@ -37,6 +41,22 @@
 //                                                every timer due (host/timers.h), flushes what they wrote, then
 //                                                answers; next = the next deadline (nil when none)
 //   exit {}                                   -> ok {}, then the node stops its component and exits 0
+// Leaves: each leaf has everything a one-leaf node has: its own control address (a listener of its own) taking
+// every request above, its events (sent on its own control channels only), and its registration under its PATH
+// (endpoints as above, with `shared` = the process's name when it lives in a shared node). Timers, the data
+// endpoint (data_uds, data_tcp: one per process, so leaves of one process connect in process) and the
+// clock subscription belong to the process. `ports` lists the leaf's ports and links (the counters accepted,
+// bytes_received and refused are the process's); `stats` its own timers. `exit` on a leaf's channel ends the
+// leaf (the process too when it is a one-leaf node). `disconnect {set}` removes the set's links of every leaf
+// of the process (a set is the supervisor's, activated and removed at every source at once).
+// A shared node (--shared NAME) registers NAME#PID (endpoints {host, control, data_uds, data_tcp, pid, shared =
+// true}) and hosts no leaf at first; on its own control address it takes:
+//   add {type, name, args}                    -> ok {control, pid}   creates the leaf, registers its PATH
+//   remove {name}                             -> ok {}   stops it (actuators safe), closes its connections and
+//                                                control channels, unregisters its PATH; a later `add` of the
+//                                                same PATH is a fresh instance (a restart)
+//   advance {t}, exit {}                      as above, for the whole process
+// A crash of the process ends every leaf it hosts (the supervisors learn it from the daemon's exit event).
 // Simulated time (--clock sim): once registered, the node looks up the clock master (`world`, see --world) at
 // its daemon, opens a channel to its control address and subscribes with `clock {name}` (answered ok {now});
 // it takes the master's time and from then on obeys its `advance {t}` requests (lock-step, ARCHITECTURE.md
@@ -61,8 +81,9 @@ class Channel;
 
 /// How a node is set up (the `dca node` command line).
 struct NodeOptions {
-  std::string type;                 ///< controller type
-  std::string name;                 ///< instance PATH
+  std::string type;                 ///< controller type (of the one leaf; "" for a shared node)
+  std::string name;                 ///< instance PATH (a shared node: its name; it registers NAME#PID)
+  bool shared = false;              ///< a shared node: leaves come with `add` requests
   std::string daemon;               ///< the daemon's address
   std::string key_file;             ///< cluster key file ("" = the default, see host/auth.h)
   std::string host;                 ///< logical host name ("" = ask the daemon)
@@ -95,6 +116,8 @@ class Node {
   void start(std::function<void(const std::string& error)> done);
   /// Stops the component and closes everything (idempotent). Called on `exit`, SIGTERM, or daemon loss.
   void shutdown(const std::string& why);
+  /// The leaves hosted now.
+  std::size_t leaves() const;
   /// True once shutdown() ran.
   bool finished() const;
   /// The exit code to leave with (0, or 1 after a start-up failure or daemon loss).

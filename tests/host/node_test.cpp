@@ -59,6 +59,7 @@ class TestComponent final : public dca::Component {
   dca::TimerServer* timers = nullptr;  // with a period: a periodic component (ticks while running)
   dca::Nanos period = 0;
   dca::TimerServer::Id timer = 0;
+  std::vector<std::string> args;
   int ticks = 0;
 
  private:
@@ -98,6 +99,10 @@ class NodeTest : public ::testing::Test {
       names[m.payload["name"].as_string()] = m.payload["endpoints"];
       return void(ch->reply(m, Value::map().set("name", m.payload["name"]).set("host", "h")));
     }
+    if (m.type == "unregister") {
+      names.erase(m.payload["name"].as_string());
+      return void(ch->reply(m));
+    }
     if (m.type == "lookup") {
       auto it = names.find(m.payload["name"].as_string());
       if (it == names.end()) return void(ch->reply_error(m, "no name '" + m.payload["name"].as_string() + "'"));
@@ -107,12 +112,9 @@ class NodeTest : public ::testing::Test {
   }
   bool run_until(const std::function<bool()>& pred) { return loop.run_until(pred, 5s); }
 
-  // Starts a node hosting a TestComponent named `name`; returns the component.
-  // With a period, the component ticks on a periodic timer while it runs; with `sim`, the node is on a
-  // simulated clock with no master (any control channel advances it).
-  TestComponent* start_node(const std::string& name, dca::Nanos period = 0, bool sim = false) {
+  // The options of a node named `name` on the stand-in daemon; with `sim`, on a simulated clock with no master.
+  dca::NodeOptions node_options(const std::string& name, bool sim) const {
     dca::NodeOptions o;
-    o.type = "Test";
     o.name = name;
     o.daemon = daemon->address().str();
     o.key_file = key_file;
@@ -120,6 +122,15 @@ class NodeTest : public ::testing::Test {
       o.clock = dca::ClockKind::Simulated;
       o.world = "";
     }
+    return o;
+  }
+
+  // Starts a node hosting a TestComponent named `name`; returns the component.
+  // With a period, the component ticks on a periodic timer while it runs; with `sim`, the node is on a
+  // simulated clock with no master (any control channel advances it).
+  TestComponent* start_node(const std::string& name, dca::Nanos period = 0, bool sim = false) {
+    dca::NodeOptions o = node_options(name, sim);
+    o.type = "Test";
     TestComponent* made = nullptr;
     nodes.push_back(std::make_unique<dca::Node>(
         loop, o,
@@ -137,6 +148,41 @@ class NodeTest : public ::testing::Test {
     EXPECT_TRUE(run_until([&] { return result.has_value(); }));
     EXPECT_EQ(result.value_or("timeout"), "");
     return made;
+  }
+
+  // Starts a shared node named `name` (registered as name#PID) whose leaves are TestComponents kept in `made`
+  // (the latest instance of each PATH; `created` counts them); type "Bad" is refused as an unknown type.
+  void start_shared(const std::string& name, dca::Nanos period = 0, bool sim = false) {
+    dca::NodeOptions o = node_options(name, sim);
+    o.shared = true;
+    nodes.push_back(std::make_unique<dca::Node>(
+        loop, o,
+        [this, period](const std::string& type, const std::string& n, const std::string&,
+                       const std::vector<std::string>& args, dca::TimerServer& ts) {
+          if (type == "Bad") throw std::invalid_argument("unknown controller type 'Bad'");
+          auto c = std::make_unique<TestComponent>(n);
+          c->timers = &ts;
+          c->period = period;
+          c->args = args;
+          shared_made[n] = c.get();
+          ++created;
+          return c;
+        }));
+    std::optional<std::string> result;
+    nodes.back()->start([&](const std::string& e) { result = e; });
+    ASSERT_TRUE(run_until([&] { return result.has_value(); }));
+    ASSERT_EQ(result.value_or("timeout"), "");
+  }
+
+  // A shared node (start_shared) hosting `leaves` of type Test: the channel to its own control address.
+  dca::Channel::Ptr shared_with(const std::vector<std::string>& leaves, dca::Nanos period = 0, bool sim = false) {
+    start_shared("leaves@h", period, sim);
+    auto proc = supervise("leaves@h#" + std::to_string(::getpid()));
+    for (const auto& n : leaves) {
+      const auto r = call(proc, "add", Value::map().set("type", "Test").set("name", n).set("args", Value::array()));
+      EXPECT_TRUE(r.ok()) << r.error;
+    }
+    return proc;
   }
 
   // A supervisor's channel to the node registered as `name`.
@@ -171,6 +217,8 @@ class NodeTest : public ::testing::Test {
   std::map<std::string, Value> names;
   std::vector<std::unique_ptr<dca::Node>> nodes;
   std::vector<Message> events;
+  std::map<std::string, TestComponent*> shared_made;  // a shared node's leaves (start_shared)
+  int created = 0;
 };
 
 TEST_F(NodeTest, RegistersItsEndpointsWithTheDaemon) {
@@ -335,6 +383,108 @@ TEST_F(NodeTest, StatsReportThePeriodsAchievedOnTheNodesClockAndTheWallClock) {
   EXPECT_GT(iv["wall"]["min_us"].as_float(), 0.0);
   ASSERT_EQ(p["timers"].as_array().size(), 1u);  // the lateness of the same timer, as before
   EXPECT_EQ(p["timers"].as_array()[0]["count"].as_int(), 50);
+}
+
+// A shared node (dca run --placement group|host): leaves added at run time, each with its own control address,
+// events and registration; connections between them in process; one advance for all of them.
+TEST_F(NodeTest, SharedNodeGivesEachLeafItsOwnControlEventsAndRegistration) {
+  start_shared("leaves@h");
+  const std::string self = "leaves@h#" + std::to_string(::getpid());
+  ASSERT_TRUE(names.count(self));
+  EXPECT_EQ(names[self]["shared"].as_bool(), true);
+  auto proc = supervise(self);
+  auto r = call(proc, "add", Value::map().set("type", "Test").set("name", "/g/a").set("args", Value::Array{"1.5"}));
+  ASSERT_TRUE(r.ok()) << r.error;
+  ASSERT_TRUE(call(proc, "add", Value::map().set("type", "Test").set("name", "/g/b").set("args", Value::array())).ok());
+  EXPECT_EQ(nodes[0]->leaves(), 2u);
+  EXPECT_EQ(shared_made["/g/a"]->args, std::vector<std::string>{"1.5"});
+  // registered under their paths: their own control addresses, the process's data endpoint and pid
+  ASSERT_TRUE(names.count("/g/a") && names.count("/g/b"));
+  EXPECT_EQ(r.message.payload["control"].as_string(), names["/g/a"]["control"].as_string());
+  EXPECT_NE(names["/g/a"]["control"].as_string(), names["/g/b"]["control"].as_string());
+  EXPECT_EQ(names["/g/a"]["data_uds"].as_string(), names["/g/b"]["data_uds"].as_string());
+  EXPECT_EQ(names["/g/a"]["pid"].as_int(), ::getpid());
+  EXPECT_EQ(names["/g/a"]["shared"].as_string(), self);
+  EXPECT_EQ(names["/g/b"]["type"].as_string(), "Test");
+  auto sa = supervise("/g/a");
+  std::vector<Message> a_events;
+  sa->on_message([&](const Message& m) { a_events.push_back(m); });
+  auto sb = supervise("/g/b");
+  ASSERT_TRUE(call(sa, "run", Value::map().set("init", 1)).ok());
+  ASSERT_TRUE(call(sb, "run").ok());
+  EXPECT_TRUE(shared_made["/g/a"]->running && shared_made["/g/b"]->running);
+  shared_made["/g/b"]->finish({dca::ComponentEvent::Kind::Aborted, "", "b failed"});
+  ASSERT_TRUE(run_until([&] { return !events.empty(); }));
+  EXPECT_EQ(events[0].type, "aborted");  // on b's channel only
+  EXPECT_EQ(events[0].payload["name"].as_string(), "/g/b");
+  EXPECT_TRUE(a_events.empty());
+  EXPECT_TRUE(shared_made["/g/a"]->running);
+  EXPECT_EQ(call(sa, "read", Value::map().set("port", "X")).error, "no port 'X' on /g/a; ports are: Out, In");
+  EXPECT_EQ(call(sb, "frobnicate").error, "unknown request 'frobnicate' for node /g/b");
+}
+
+TEST_F(NodeTest, LeavesOfASharedNodeConnectInProcessAndListTheirOwnLinks) {
+  auto proc = shared_with({"/g/a", "/g/b"});
+  auto sa = supervise("/g/a");
+  auto sb = supervise("/g/b");
+  auto r = call(sa, "connect", Value::map().set("out", "Out").set("to", "/g/b").set("in", "In").set("set", "g:a[l]"));
+  ASSERT_TRUE(r.ok()) << r.error;
+  EXPECT_EQ(r.message.payload["transport"].as_string(), "inprocess");
+  ASSERT_TRUE(call(sa, "activate", Value::map().set("set", "g:a[l]")).ok());
+  shared_made["/g/a"]->out->write(4.0);
+  EXPECT_EQ(shared_made["/g/b"]->in->stats().samples, 1u);  // handed over directly: no socket, no loop turn
+  EXPECT_EQ(call(sa, "ports").message.payload["links"].as_array().size(), 1u);
+  EXPECT_EQ(call(sb, "ports").message.payload["links"].as_array().size(), 0u);
+  r = call(sb, "read", Value::map().set("port", "In"));
+  EXPECT_EQ(r.message.payload["value"].as_float(), 4.0);
+}
+
+// restart(path) of a leaf in a shared node: remove, then add the same PATH: a fresh instance in the same
+// process, while its neighbour runs on.
+TEST_F(NodeTest, RemoveThenAddOfALeafIsAFreshInstanceInTheSameProcess) {
+  auto proc = shared_with({"/g/a", "/g/b"});
+  auto sa = supervise("/g/a");
+  auto sb = supervise("/g/b");
+  ASSERT_TRUE(call(sb, "run").ok());
+  ASSERT_TRUE(call(sa, "init").ok());
+  bool closed = false;
+  sa->on_close([&](const std::string&) { closed = true; });
+  auto* old = shared_made["/g/a"];
+  ASSERT_TRUE(call(proc, "remove", Value::map().set("name", "/g/a")).ok());
+  ASSERT_TRUE(run_until([&] { return closed && !names.count("/g/a"); }));
+  EXPECT_EQ(nodes[0]->leaves(), 1u);
+  EXPECT_EQ(call(proc, "remove", Value::map().set("name", "/g/a")).error,
+            "remove: /g/a is not hosted by node leaves@h#" + std::to_string(::getpid()));
+  ASSERT_TRUE(call(proc, "add", Value::map().set("type", "Test").set("name", "/g/a").set("args", Value::array())).ok());
+  EXPECT_EQ(created, 3);
+  EXPECT_NE(shared_made["/g/a"], old);  // (the old one is gone: a fresh one may reuse its address)
+  EXPECT_EQ(shared_made["/g/a"]->inits, 0);
+  auto sa2 = supervise("/g/a");
+  ASSERT_TRUE(call(sa2, "init").ok());
+  EXPECT_TRUE(shared_made["/g/b"]->running);
+  // errors: the same PATH twice, an unknown type, a leaf's exit ends that leaf only
+  EXPECT_EQ(call(proc, "add", Value::map().set("type", "Test").set("name", "/g/a").set("args", Value::array())).error,
+            "/g/a is already hosted by this node");
+  EXPECT_EQ(call(proc, "add", Value::map().set("type", "Bad").set("name", "/g/c").set("args", Value::array())).error,
+            "unknown controller type 'Bad'");
+  ASSERT_TRUE(call(sa2, "exit").ok());
+  ASSERT_TRUE(run_until([&] { return nodes[0]->leaves() == 1u; }));
+  EXPECT_FALSE(nodes[0]->finished());
+}
+
+TEST_F(NodeTest, OneAdvanceRunsTheTimersOfEveryLeafOfASharedNode) {
+  constexpr dca::Nanos kMs = 1'000'000;
+  auto proc = shared_with({"/g/a", "/g/b"}, kMs, true);
+  auto sa = supervise("/g/a");
+  auto sb = supervise("/g/b");
+  ASSERT_TRUE(call(sa, "run").ok());
+  ASSERT_TRUE(call(sb, "run").ok());
+  for (int k = 1; k <= 5; ++k) ASSERT_TRUE(call(proc, "advance", Value::map().set("t", k * kMs)).ok());
+  EXPECT_EQ(shared_made["/g/a"]->ticks, 5);
+  EXPECT_EQ(shared_made["/g/b"]->ticks, 5);
+  const auto r = call(sa, "stats");  // a leaf's own timers only
+  ASSERT_EQ(r.message.payload["timers"].as_array().size(), 1u);
+  EXPECT_EQ(r.message.payload["timers"].as_array()[0]["name"].as_string(), "/g/a");
 }
 
 TEST_F(NodeTest, ValuesConvertBetweenMsgpackAndWire) {
