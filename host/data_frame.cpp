@@ -7,16 +7,19 @@
 
 namespace dca::data_frame {
 
-void put_header(std::byte* h, Kind kind, std::size_t body_size) {
-  const auto len = static_cast<std::uint32_t>(body_size + 1);
-  h[0] = static_cast<std::byte>(len >> 24);
-  h[1] = static_cast<std::byte>(len >> 16);
-  h[2] = static_cast<std::byte>(len >> 8);
-  h[3] = static_cast<std::byte>(len);
-  h[4] = static_cast<std::byte>(kind);
+namespace {
+
+void put_u32(std::byte* p, std::uint32_t v) {
+  p[0] = static_cast<std::byte>(v >> 24);
+  p[1] = static_cast<std::byte>(v >> 16);
+  p[2] = static_cast<std::byte>(v >> 8);
+  p[3] = static_cast<std::byte>(v);
 }
 
-namespace {
+std::uint32_t get_u32(const std::byte* p) {
+  return (std::to_integer<std::uint32_t>(p[0]) << 24) | (std::to_integer<std::uint32_t>(p[1]) << 16) |
+         (std::to_integer<std::uint32_t>(p[2]) << 8) | std::to_integer<std::uint32_t>(p[3]);
+}
 
 // Sets *error (when given) and says Error.
 Parse fail(std::string* error, std::string why) {
@@ -26,13 +29,17 @@ Parse fail(std::string* error, std::string why) {
 
 }  // namespace
 
+void put_header(std::byte* h, Kind kind, std::uint32_t link, std::size_t body_size) {
+  put_u32(h, static_cast<std::uint32_t>(body_size + kHeader - 4));
+  h[4] = static_cast<std::byte>(kind);
+  put_u32(h + 5, link);
+}
+
 Parse parse_frame(Bytes buf, Frame& f, std::size_t& used, std::string* error, std::uint32_t max_frame) {
   used = 0;
   if (buf.size() < 4) return Parse::NeedMore;
-  const std::uint32_t len = (std::to_integer<std::uint32_t>(buf[0]) << 24) |
-                            (std::to_integer<std::uint32_t>(buf[1]) << 16) |
-                            (std::to_integer<std::uint32_t>(buf[2]) << 8) | std::to_integer<std::uint32_t>(buf[3]);
-  if (len == 0) return fail(error, "empty data frame");
+  const std::uint32_t len = get_u32(buf.data());
+  if (len < kHeader - 4) return fail(error, "data frame of " + std::to_string(len) + " bytes has no kind and link");
   if (len > max_frame)
     return fail(error,
                 "data frame of " + std::to_string(len) + " bytes exceeds the limit of " + std::to_string(max_frame));
@@ -41,9 +48,10 @@ Parse parse_frame(Bytes buf, Frame& f, std::size_t& used, std::string* error, st
     return Parse::NeedMore;
   }
   const auto k = std::to_integer<std::uint8_t>(buf[4]);
-  if (k < 1 || k > 7) return fail(error, "unknown data frame kind " + std::to_string(k));
+  if (k < 1 || k > kLastKind) return fail(error, "unknown data frame kind " + std::to_string(k));
   f.kind = static_cast<Kind>(k);
-  f.body = buf.subspan(5, len - 1);
+  f.link = get_u32(buf.data() + 5);
+  f.body = buf.subspan(kHeader, len - (kHeader - 4));
   used = 4 + static_cast<std::size_t>(len);
   return Parse::Ok;
 }
@@ -104,10 +112,10 @@ std::uint32_t* count_field(const std::string& key, Hello& h) {
 // The largest value the count field `key` may hold.
 std::int64_t count_limit(const std::string& key) { return key == "queue" ? kMaxQueue : kMaxSize; }
 
-// "" or why `s` cannot be a name: longer than kMaxName or holding a control character.
-std::string name_problem(const std::string& key, const std::string& s) {
-  if (s.size() > kMaxName)
-    return "hello: '" + key + "' is " + std::to_string(s.size()) + " bytes (at most " + std::to_string(kMaxName) + ")";
+// "" or why `s` cannot be a name: longer than `max` or holding a control character.
+std::string name_problem(const std::string& key, const std::string& s, std::size_t max) {
+  if (s.size() > max)
+    return "hello: '" + key + "' is " + std::to_string(s.size()) + " bytes (at most " + std::to_string(max) + ")";
   for (unsigned char c : s)
     if (c < 0x20 || c == 0x7f) return "hello: '" + key + "' holds a control character";
   return "";
@@ -117,7 +125,7 @@ std::string name_problem(const std::string& key, const std::string& s) {
 std::string set_field(const std::string& key, const wire::Value& val, Hello& h, std::string& mode, std::string& type) {
   if (auto* s = string_field(key, h, mode, type)) {
     if (!val.is_string()) return "hello: '" + key + "' is not a string";
-    if (auto why = name_problem(key, val.as_string()); !why.empty()) return why;
+    if (auto why = name_problem(key, val.as_string(), kMaxName); !why.empty()) return why;
     *s = val.as_string();
   } else if (auto* n = count_field(key, h)) {
     if (!val.is_int() || val.as_int() < 0) return "hello: '" + key + "' is not a count";
@@ -159,6 +167,37 @@ bool decode_hello(Bytes body, Hello& h, std::string* error) {
     why = "malformed hello: " + why;
   else
     why = decode_map(v, h);
+  if (why.empty()) return true;
+  if (error != nullptr) *error = std::move(why);
+  return false;
+}
+
+std::string encode_peer(const Location& l) {
+  std::string out;
+  wire::encode_value(wire::Value::map().set("host", l.host).set("uds", l.data_uds).set("tcp", l.data_tcp), out);
+  return out;
+}
+
+bool decode_peer(Bytes body, Location& l, std::string* error) {
+  wire::Value v;
+  std::string why;
+  if (!wire::decode_value({reinterpret_cast<const char*>(body.data()), body.size()}, v, &why)) {
+    why = "malformed peer introduction: " + why;
+  } else if (!v.is_map()) {
+    why = "peer introduction is not a map";
+  } else {
+    for (const auto& [key, val] : v.as_map()) {
+      if (!key.is_string()) continue;
+      const auto& k = key.as_string();
+      std::string* field = k == "host" ? &l.host : k == "uds" ? &l.data_uds : k == "tcp" ? &l.data_tcp : nullptr;
+      if (field == nullptr) continue;
+      if (!val.is_string()) why = "peer: '" + k + "' is not a string";
+      else if (val.as_string().size() > kMaxAddress) why = "peer: '" + k + "' is too long";
+      else if (!name_problem(k, val.as_string(), kMaxAddress).empty()) why = "peer: '" + k + "' holds a control character";
+      if (!why.empty()) break;
+      *field = val.as_string();
+    }
+  }
   if (why.empty()) return true;
   if (error != nullptr) *error = std::move(why);
   return false;

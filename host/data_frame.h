@@ -1,18 +1,30 @@
 #pragma once
 // Data-plane frames (pure code, no I/O): what travels on a data socket between two endpoints (host/endpoint).
+// One socket connection joins two endpoints and carries every link between them, both ways; each frame names
+// its link.
 //
-//   frame = length (4 bytes, big-endian, counts kind + body) | kind (1 byte) | body
+//   frame = length (4 bytes, big-endian, counts everything after it) | kind (1 byte) | link (4 bytes, big-endian)
+//           | body
+//
+// A link's id is chosen by its source endpoint; frames going source -> destination name it in the source's
+// numbering, frames going back name the same id (the kind says which way a frame goes, so the two endpoints'
+// numberings never meet). Connection-level frames (Auth, Peer, a refusal before Peer) carry link 0.
 //
 //   Auth       both ways, before anything else: one message of the cluster-key handshake (host/auth.h, keyed
 //              with host/endpoint.h's data_key), as a control-plane message body (host/wire, no length prefix)
-//   Hello      source -> destination, first frame after Auth: msgpack map {from, out, to, in, set, mode, queue,
-//              type, size}
+//   Peer       opener -> acceptor, first frame after Auth: msgpack map {host, uds, tcp}, the opener's own data
+//              addresses, so that the acceptor's links towards it use this connection too
+//   Hello      source -> destination: opens link `link`: msgpack map {from, out, to, in, set, mode, queue, type,
+//              size}
 //   HelloOk    destination -> source: the input exists and fits; samples may flow
-//   HelloError destination -> source: body is the reason (UTF-8); the destination then closes
+//   HelloError destination -> source: body is the reason (UTF-8). Link 0: the connection is refused and closes
 //   Sample     source -> destination: body is the sample's bytes (push)
 //   PullRequest destination -> source: empty body; the source answers with Pulled
 //   Pulled     source -> destination: body is the latest sample (pull answer)
+//   Close      source -> destination: the source removed the link (empty body)
+//   Gone       destination -> source: the input went away; body is the reason
 //
+// Extending: a new field of one kind goes at the start of its body (the header stays 9 bytes for every kind).
 // Fuzzed: tests/fuzz/data_frame_fuzz.cpp.
 #include <cstddef>
 #include <cstdint>
@@ -25,23 +37,27 @@ namespace dca::data_frame {
 
 /// Frame kinds.
 enum class Kind : std::uint8_t {
-  Hello = 1, HelloOk = 2, HelloError = 3, Sample = 4, PullRequest = 5, Pulled = 6, Auth = 7
+  Hello = 1, HelloOk = 2, HelloError = 3, Sample = 4, PullRequest = 5, Pulled = 6, Auth = 7, Peer = 8, Close = 9,
+  Gone = 10
 };
+/// The largest kind's value.
+inline constexpr std::uint8_t kLastKind = 10;
 
-/// Bytes before a frame's body.
-inline constexpr std::size_t kHeader = 5;
+/// Bytes before a frame's body: length, kind, link.
+inline constexpr std::size_t kHeader = 9;
 /// Largest accepted frame (length field), like the control plane's default.
 inline constexpr std::uint32_t kMaxFrame = 16u << 20;
 /// Largest frame (length field) accepted before the peer has authenticated: the handshake's messages are
 /// under 200 bytes, so a connection announcing more is refused as soon as its length prefix arrives.
 inline constexpr std::uint32_t kMaxAuthFrame = 512;
 
-/// Writes a header for a frame of `kind` with a body of `body_size` bytes into h[0..5).
-void put_header(std::byte* h, Kind kind, std::size_t body_size);
+/// Writes a header for a frame of `kind` on link `link` with a body of `body_size` bytes into h[0..kHeader).
+void put_header(std::byte* h, Kind kind, std::uint32_t link, std::size_t body_size);
 
 /// One parsed frame, pointing into the buffer it was parsed from.
 struct Frame {
   Kind kind = Kind::Sample;
+  std::uint32_t link = 0;
   Bytes body;
 };
 
@@ -50,7 +66,7 @@ enum class Parse : std::uint8_t { Ok, NeedMore, Error };
 
 /// Parses the frame at the start of `buf`. Ok: `f` and `used` are set. NeedMore: `used` is the total size the
 /// frame will need (0 when even the length is incomplete). Error: *error says why (a length over `max_frame`,
-/// known from the first 4 bytes; empty; unknown kind).
+/// known from the first 4 bytes; shorter than kind and link; unknown kind).
 Parse parse_frame(Bytes buf, Frame& f, std::size_t& used, std::string* error, std::uint32_t max_frame = kMaxFrame);
 
 /// An Auth body: the handshake message `m` (wire body, no length prefix).
@@ -75,5 +91,13 @@ std::string encode_hello(const Hello& h);
 /// kMaxQueue, a size over kMaxSize, a name empty where one is needed, longer than kMaxName or holding a
 /// control character). Never throws.
 bool decode_hello(Bytes body, Hello& h, std::string* error);
+
+/// Packs a Peer body: the opener's host name and data addresses (msgpack map {host, uds, tcp}).
+std::string encode_peer(const Location& l);
+/// Decodes a Peer body; false with *error when malformed or a field is too long (kMaxAddress) or holds a
+/// control character. Never throws.
+bool decode_peer(Bytes body, Location& l, std::string* error);
+/// The longest address or host name a Peer may hold (bytes).
+inline constexpr std::size_t kMaxAddress = 256;
 
 }  // namespace dca::data_frame

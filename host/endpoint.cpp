@@ -1,7 +1,8 @@
 // The Endpoint's pieces, in reading order: Connection (a link's sending side, any transport), Endpoint::Impl
-// (components, sets, links, sessions, acceptors), DataSocket (data frames on a FramedSocket), the three kinds
-// of connection end (LocalLink: in-process; StreamLink: the source of a socket connection; Session: its
-// destination), then the Endpoint's public operations.
+// (components, sets, links, trunks, acceptors), DataSocket (data frames on a FramedSocket), LocalLink (an
+// in-process link), StreamLink (the source of a link over a socket) and InLink (its destination), Trunk (the one
+// socket connection between two endpoints that carries their links both ways), then the Endpoint's public
+// operations.
 #include "host/endpoint.h"
 
 #include <netinet/in.h>
@@ -14,8 +15,9 @@
 #include <chrono>
 #include <cstdio>
 #include <cstring>
-#include <set>
+#include <map>
 #include <stdexcept>
+#include <unordered_map>
 
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/asio/steady_timer.hpp>
@@ -29,7 +31,7 @@ namespace dca {
 namespace endpoint_detail {
 
 // A connection's sending side, whatever its transport: gets every sample written to its output.
-class Connection : public Link {
+class Connection : public Link, public std::enable_shared_from_this<Connection> {
  public:
   Connection(ConnectRequest r, Transport t, Output* out, std::shared_ptr<bool> active)
       : out_(out), active_(std::move(active)) {
@@ -65,7 +67,7 @@ class Connection : public Link {
 
 using Socket = FramedSocket::Socket;
 using data_frame::Kind;
-class Session;
+class Trunk;
 
 }  // namespace endpoint_detail
 
@@ -87,7 +89,7 @@ struct Endpoint::Impl {
   std::map<std::string, PortSet*, std::less<>> components;
   std::map<std::string, std::shared_ptr<bool>, std::less<>> sets;
   std::vector<std::shared_ptr<Connection>> links;
-  std::set<std::shared_ptr<endpoint_detail::Session>> sessions;
+  std::vector<std::shared_ptr<endpoint_detail::Trunk>> trunks;  // socket connections to other endpoints, open
   std::unique_ptr<StreamAcceptor> uds_acceptor, tcp_acceptor;
   AcceptBackoff uds_backoff, tcp_backoff;  // one each: a retry timer per acceptor
   std::string uds_path, tcp_address;
@@ -120,9 +122,15 @@ struct Endpoint::Impl {
     if (!in) return it->second->no_such_input(r.to, r.in);
     return compatibility_error(out, in->spec());
   }
-  /// Accepts data connections on `acceptor` until it closes, each into a Session; failures back off.
+  /// Accepts data connections on `acceptor` until it closes, each into a Trunk; failures back off.
   void accept(StreamAcceptor& acceptor, AcceptBackoff& backoff);
-  void start_session(Socket s);
+  /// The open connection to the endpoint at `addr` over `t` (opened by either side), or a new one opening;
+  /// nullptr with *error when `addr` is not an address.
+  std::shared_ptr<endpoint_detail::Trunk> trunk_to(Transport t, const std::string& addr, std::string* error);
+  /// Forgets a connection that closed.
+  void drop_trunk(const endpoint_detail::Trunk* t) {
+    std::erase_if(trunks, [t](const auto& p) { return p.get() == t; });
+  }
 
   std::function<void(const CommsEvent&)> on_event;
 };
@@ -147,12 +155,12 @@ class DataSocket : public std::enable_shared_from_this<DataSocket>, private Fram
   DataSocket(const DataSocket&) = delete;
   DataSocket& operator=(const DataSocket&) = delete;
 
-  /// Sends a frame; false when the backlog is full (the frame is dropped) or the socket is closed.
-  bool send(Kind kind, Bytes body) {
+  /// Sends a frame on `link`; false when the backlog is full (the frame is dropped) or the socket is closed.
+  bool send(Kind kind, std::uint32_t link, Bytes body) {
     if (closed_) return false;
     if (!framed_.idle() && framed_.queued() > kMaxBacklog) return false;
     std::array<std::byte, data_frame::kHeader> h;
-    data_frame::put_header(h.data(), kind, body.size());
+    data_frame::put_header(h.data(), kind, link, body.size());
     const std::array<std::string_view, 2> parts{
         std::string_view(reinterpret_cast<const char*>(h.data()), h.size()),
         std::string_view(reinterpret_cast<const char*>(body.data()), body.size())};
@@ -163,7 +171,7 @@ class DataSocket : public std::enable_shared_from_this<DataSocket>, private Fram
   }
   /// Sends the handshake messages of one step.
   void send_auth(const auth::Handshake::Step& step) {
-    for (const auto& m : step.out) send(Kind::Auth, as_bytes(data_frame::encode_auth(m)));
+    for (const auto& m : step.out) send(Kind::Auth, 0, as_bytes(data_frame::encode_auth(m)));
   }
 
   void start_read() {
@@ -188,7 +196,7 @@ class DataSocket : public std::enable_shared_from_this<DataSocket>, private Fram
   bool closed() const { return closed_; }
 
  protected:
-  virtual void on_frame(Kind kind, Bytes body) = 0;
+  virtual void on_frame(Kind kind, std::uint32_t link, Bytes body) = 0;
   virtual void on_broken(const std::string& reason) = 0;
   virtual void on_bytes(std::size_t) {}
   /// The largest frame the peer may send now (small until it has authenticated).
@@ -233,7 +241,7 @@ class DataSocket : public std::enable_shared_from_this<DataSocket>, private Fram
                                              used, &error, frame_limit());
       if (r == data_frame::Parse::Error) return on_malformed(error);
       if (r == data_frame::Parse::NeedMore) break;
-      on_frame(f.kind, f.body);
+      on_frame(f.kind, f.link, f.body);
       if (closed_ || close_after_flush_) return;  // closed, or refused and closing
       framed_.consume(used);
       consumed = true;
@@ -272,7 +280,7 @@ class DataSocket : public std::enable_shared_from_this<DataSocket>, private Fram
     waiting_ = false;
     if (closed_) return;
     const auto now = Clock::now();
-    if (now >= handshake_at_) return fail("no authenticated hello within " + ms_text(handshake_timeout_));
+    if (now >= handshake_at_) return fail("no authenticated introduction within " + ms_text(handshake_timeout_));
     const auto partial_at = partial_ ? partial_since_ + partial_timeout_ : Clock::time_point::max();
     if (now >= partial_at) return fail("a partial data frame was held for more than " + ms_text(partial_timeout_));
     const auto next = std::min(handshake_at_, partial_at);
@@ -339,277 +347,453 @@ class LocalLink final : public Connection, public PullSource, public InputFeeder
   bool pending_ = false;
 };
 
-// The sending side of a socket connection: connect, authenticate (Auth frames), hello, then samples.
-class StreamLink final : public Connection, public DataSocket {
+// How a link's connection failed before the destination accepted it (worded by StreamLink::trunk_down).
+enum class Down : std::uint8_t {
+  Connect,   // the socket did not connect
+  NoKey,     // this endpoint has no cluster key
+  Auth,      // the handshake failed
+  Refused,   // the destination refused the connection; the reason is its own words
+  Closed,    // the connection closed or broke
+};
+
+// The sending side of a link over a socket: its hello, then samples, on the Trunk to the destination's endpoint.
+class StreamLink final : public Connection {
  public:
   StreamLink(Endpoint::Impl& ep, ConnectRequest r, Transport t, Output* out, std::shared_ptr<bool> active)
-      : Connection(std::move(r), t, out, std::move(active)),
-        DataSocket(Socket(ep.io), ep.opts.partial_frame_timeout),
-        ep_(&ep),
-        timer_(ep.io),
-        handshake_(auth::Handshake::Role::kClient, ep.data_key) {}
+      : Connection(std::move(r), t, out, std::move(active)), ep_(&ep), timer_(ep.io) {}
+  ~StreamLink() override { StreamLink::close(); }
 
-  /// Connects to `dest`; `done` runs once, after the hello's answer, a refusal or `timeout_ms`.
-  void start(const Location& dest, Endpoint::ConnectDone done, int timeout_ms) {
-    done_ = std::move(done);
-    peer_ = info_.request.to + "." + info_.request.in;
-    std::string error;
-    const auto to = info_.transport == Transport::Unix ? std::optional(Address::unix_socket(dest.data_uds))
-                                                       : Address::parse(dest.data_tcp, &error);
-    const auto where = to ? to_endpoint(*to, &error) : std::nullopt;
-    if (!where) return finish("cannot connect to " + peer_ + ": " + error);
-    peer_addr_ = info_.transport == Transport::Unix ? dest.data_uds : dest.data_tcp;
-    auto self = std::static_pointer_cast<StreamLink>(shared_from_this());
-    timer_.expires_after(std::chrono::milliseconds(timeout_ms));
-    timer_.async_wait([self, timeout_ms](const boost::system::error_code& ec) {
-      if (ec || self->connected_ || !self->done_) return;
-      self->finish("no answer from " + self->peer_ + " at " + self->peer_addr_ + " within " +
-                   std::to_string(timeout_ms) + " ms");
-    });
-    sock().async_connect(*where, [self](const boost::system::error_code& ec) {
-      if (self->closed() || !self->done_) return;
-      if (ec) return self->finish("cannot connect to " + self->peer_ + " at " + self->peer_addr_ + ": " + ec.message());
-      self->authenticate();
-    });
+  /// Opens the link on `trunk` (to the endpoint at `addr`); `done` runs once: after the hello's answer, a
+  /// refusal, a failure of the connection, or `timeout_ms`.
+  void start(std::shared_ptr<Trunk> trunk, const std::string& addr, Endpoint::ConnectDone done, int timeout_ms);
+
+  /// The Hello body that opens this link.
+  std::string hello() const {
+    return data_frame::encode_hello({info_.request, out_ ? out_->spec() : PortSpec{}});
   }
 
-  void on_write(Bytes b) override {
-    if (!connected_ || info_.broken) return;
-    if (info_.request.mode == Mode::Pull) {
-      if (pending_ && *active_) answer();
-      return;
-    }
-    if (!*active_) {
-      ++info_.skipped;
-      return;
-    }
-    if (send(Kind::Sample, b)) ++info_.sent;
-    else ++info_.tx_dropped;
-    info_.bytes = bytes_out();
-  }
-
+  void on_write(Bytes b) override;
   void on_activate() override {
     if (pending_ && connected_) answer();
   }
   const std::string& address() const override { return peer_addr_; }
+  void close() override;
 
-  void close() override {
-    Connection::close();
-    ep_ = nullptr;
-    timer_.cancel();
-    shut();
+  // From the trunk: the destination's answers and requests for this link.
+  void accepted();
+  void refused(const std::string& why) { finish(why); }
+  void pull_requested() {
+    if (!connected_) return;
+    pending_ = true;
+    if (*active_) answer();
   }
-
- protected:
-  void on_frame(Kind kind, Bytes body) override {
-    switch (kind) {
-      case Kind::Auth:
-        if (authenticated_) break;
-        return on_auth(body);
-      case Kind::HelloOk:
-        if (connected_ || !authenticated_) break;
-        connected_ = true;
-        timer_.cancel();
-        if (done_) std::exchange(done_, nullptr)("");
-        if (pending_ && *active_) answer();
-        return;
-      case Kind::HelloError:
-        return finish(std::string(reinterpret_cast<const char*>(body.data()), body.size()));
-      case Kind::PullRequest:
-        if (!connected_) break;
-        pending_ = true;
-        if (*active_) answer();
-        return;
-      default:
-        break;
-    }
-    fail("unexpected data frame kind " + std::to_string(static_cast<int>(kind)) + " from " + peer_);
-  }
-
-  std::uint32_t frame_limit() const override {
-    return authenticated_ ? data_frame::kMaxFrame : data_frame::kMaxAuthFrame;
-  }
-
-  void on_broken(const std::string& reason) override {
-    if (done_) return finish("connection to " + peer_ + " closed before it was accepted: " + reason);
-    info_.broken = true;
-    if (ep_)
-      ep_->report({CommsEvent::Kind::Broken, info_.request.from, info_.request.out, peer_, info_.request.set,
-                   reason});
-  }
+  /// The link ended at the destination (its input went away) or the connection under it did.
+  void trunk_down(Down how, const std::string& reason);
 
  private:
-  // Connected: sets the socket up and sends the handshake's hello (an endpoint without a key stops here).
-  void authenticate() {
-    boost::system::error_code ignored;
-    if (info_.transport == Transport::Tcp) {
-      const int one = 1;
-      ::setsockopt(sock().native_handle(), IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
-    }
-    sock().non_blocking(true, ignored);
-    const auto step = handshake_.start();
-    if (step.state == auth::Handshake::State::kFailed)
-      return finish("cannot connect to " + peer_ + ": this endpoint has no cluster key");
-    send_auth(step);
-    start_read();
-  }
-
-  // One handshake message from the destination; once authenticated, the data hello.
-  void on_auth(Bytes body) {
-    wire::Message m;
-    std::string error;
-    if (!data_frame::decode_auth(body, m, &error)) return finish(refused(error));
-    const auto step = handshake_.on_message(m);
-    send_auth(step);
-    if (step.state == auth::Handshake::State::kFailed) return finish(refused(handshake_.reason()));
-    if (step.state != auth::Handshake::State::kDone) return;
-    authenticated_ = true;
-    data_frame::Hello h{info_.request, out_ ? out_->spec() : PortSpec{}};
-    send(Kind::Hello, as_bytes(data_frame::encode_hello(h)));
-  }
-  std::string refused(const std::string& why) const {
-    return "data connection to " + peer_ + " at " + peer_addr_ + " not authenticated: " + why;
-  }
-
-  void answer() {
-    if (!out_ || !out_->has_latest()) return;
-    pending_ = false;
-    if (send(Kind::Pulled, out_->latest_bytes())) ++info_.sent;
-    info_.bytes = bytes_out();
-  }
-  // Connect failed: report once, then remove this link.
-  void finish(const std::string& error) {
-    auto done = std::exchange(done_, nullptr);
-    auto* ep = ep_;
-    timer_.cancel();
-    shut();
-    if (ep) ep->remove_link(this);
-    if (done) done(error);
-  }
+  void answer();
+  void finish(const std::string& error);
 
   Endpoint::Impl* ep_;
   asio::steady_timer timer_;
-  auth::Handshake handshake_;
+  std::shared_ptr<Trunk> trunk_;
+  std::uint32_t id_ = 0;
   Endpoint::ConnectDone done_;
   std::string peer_, peer_addr_;
-  bool authenticated_ = false;
   bool connected_ = false;
   bool pending_ = false;
 };
 
-// The receiving side of a socket connection: authenticates the source, checks its hello, then feeds one local
-// input. Anything else before the hello is refused with a reason; the session then leaves the endpoint.
-class Session final : public DataSocket, public PullSource, public InputFeeder {
+// The receiving side of a link over a socket: feeds one local input with what its trunk receives for it.
+class InLink final : public PullSource, public InputFeeder {
  public:
-  Session(Endpoint::Impl& ep, Socket s)
+  InLink(Trunk& trunk, std::uint32_t id, ConnectRequest r, Input* in) : trunk_(&trunk), id_(id), r_(std::move(r)), in_(in) {
+    in_->add_feeder(this);
+    if (r_.mode == Mode::Pull) in_->add_pull_source(this);
+    else in_->reserve_queue(r_.queue);
+  }
+  ~InLink() override { detach(); }
+  InLink(const InLink&) = delete;
+  InLink& operator=(const InLink&) = delete;
+
+  void deliver(Kind kind, Bytes body) {
+    if (!in_) return;
+    if (kind == Kind::Sample) in_->deliver(body);
+    else in_->deliver_pulled(body);
+  }
+  void request() override;
+  void input_gone() override;
+  /// Stops feeding the input.
+  void detach() {
+    if (in_) {
+      in_->remove_feeder(this);
+      in_->remove_pull_source(this);
+    }
+    in_ = nullptr;
+  }
+  const ConnectRequest& request_of() const { return r_; }
+
+ private:
+  Trunk* trunk_;
+  std::uint32_t id_;
+  ConnectRequest r_;
+  Input* in_;
+};
+
+// One socket connection between this endpoint and another, opened by either: the cluster-key handshake (Auth
+// frames; the opener is the handshake's client), the opener's introduction (Peer: its own data addresses, so
+// that the acceptor's links towards it find this connection), then every link between the two endpoints, both
+// ways, each frame naming its link (host/data_frame.h). A link refused by the destination leaves the
+// connection open; a malformed frame, a write error or the peer closing ends it, and with it every link on it,
+// each reported `broken` where it ends. Idle, it stays open for the life of both endpoints.
+class Trunk final : public DataSocket {
+ public:
+  Trunk(Endpoint::Impl& ep, Socket s, Transport t, bool opener)
       : DataSocket(std::move(s), ep.opts.partial_frame_timeout),
         ep_(&ep),
-        handshake_(auth::Handshake::Role::kServer, ep.data_key) {}
+        transport_(t),
+        opener_(opener),
+        handshake_(opener ? auth::Handshake::Role::kClient : auth::Handshake::Role::kServer, ep.data_key) {}
+
+  /// The opener: connects to `where` (the address `addr`), authenticates and introduces this endpoint.
+  void open(const StreamEndpoint& where, std::string addr) {
+    addr_ = std::move(addr);
+    set_handshake_deadline(ep_->opts.handshake_timeout);
+    auto self = std::static_pointer_cast<Trunk>(shared_from_this());
+    sock().async_connect(where, [self](const boost::system::error_code& ec) {
+      if (self->closed()) return;
+      if (ec) return self->down(Down::Connect, ec.message());
+      self->set_up_socket();
+      const auto step = self->handshake_.start();
+      if (step.state == auth::Handshake::State::kFailed) return self->down(Down::NoKey, "");
+      self->send_auth(step);
+      self->start_read();
+    });
+  }
+  /// The acceptor: waits for the opener's handshake, its introduction, then its links.
   void begin() {
-    boost::system::error_code ignored;
-    sock().non_blocking(true, ignored);
+    set_up_socket();
     set_handshake_deadline(ep_->opts.handshake_timeout);
     const auto step = handshake_.start();
     send_auth(step);
     if (step.state == auth::Handshake::State::kFailed) return refuse("this endpoint has no cluster key", false);
     start_read();
   }
-  void request() override { send(Kind::PullRequest, {}); }
-  void input_gone() override {
-    in_ = nullptr;
+
+  /// Adds a link from this endpoint's outputs: its hello goes now, or once this connection is ready.
+  std::uint32_t add_out(StreamLink* l) {
+    const std::uint32_t id = next_id_++;
+    out_.emplace(id, l);
+    if (ready_) send(Kind::Hello, id, as_bytes(l->hello()));
+    return id;
+  }
+  /// Removes a link from this endpoint's outputs (the destination is told).
+  void remove_out(std::uint32_t id) {
+    if (out_.erase(id) != 0 && ready_) send(Kind::Close, id, {});
+  }
+  /// The input of the link `id` to this endpoint went away: the source is told, the link forgotten.
+  void input_gone(std::uint32_t id, const std::string& why) {
+    auto it = in_.find(id);
+    if (it == in_.end()) return;
+    send(Kind::Gone, id, as_bytes(why));
+    auto gone = std::move(it->second);
+    in_.erase(it);
+  }
+  /// Ends the links to the local component `name` (it is being removed).
+  void remove_component(const std::string& name, const std::string& host) {
+    std::vector<std::uint32_t> ids;
+    for (const auto& [id, l] : in_)
+      if (l->request_of().to == name) ids.push_back(id);
+    for (auto id : ids) input_gone(id, name + " was removed from host " + host);
+  }
+  /// Closes the socket without reporting anything (the endpoint is going away).
+  void close_quietly() {
     ep_ = nullptr;
+    for (auto& [id, l] : in_) l->detach();
+    in_.clear();
+    out_.clear();
     shut();
   }
-  void close() {
-    if (in_) {
-      in_->remove_feeder(this);
-      in_->remove_pull_source(this);
-    }
-    in_ = nullptr;
-    ep_ = nullptr;
-    shut();
-  }
-  const std::string& to() const { return hello_.request.to; }
+
+  /// The other endpoint's data address over this transport ("" until an accepted connection is introduced).
+  const std::string& address() const { return addr_; }
+  Transport transport() const { return transport_; }
+  bool opener() const { return opener_; }
 
  protected:
   void on_bytes(std::size_t n) override {
     if (ep_) ep_->bytes_received += n;
   }
-  void on_frame(Kind kind, Bytes body) override {
+  void on_frame(Kind kind, std::uint32_t link, Bytes body) override {
     if (!ep_) return;
+    if (ready_) return on_link_frame(kind, link, body);
     if (!authenticated_) return on_auth(kind, body);
-    if (!in_) return on_hello(kind, body);
-    if (kind == Kind::Sample) in_->deliver(body);
-    else if (kind == Kind::Pulled) in_->deliver_pulled(body);
-    else fail("unexpected data frame kind " + std::to_string(static_cast<int>(kind)));
+    if (!opener_) return on_peer(kind, body);
+    fail("unexpected data frame kind " + std::to_string(static_cast<int>(kind)) + " before the handshake ended");
   }
   std::uint32_t frame_limit() const override {
     return authenticated_ ? data_frame::kMaxFrame : data_frame::kMaxAuthFrame;
   }
   void on_malformed(const std::string& why) override {
-    if (authenticated_) return fail("malformed data frame: " + why);
+    if (authenticated_ || opener_) return fail("malformed data frame: " + why);
     refuse("authentication required: " + why, true);
   }
-  void on_broken(const std::string& reason) override {
-    auto* ep = ep_;
-    if (!ep) return;
-    if (in_)
-      ep->report({CommsEvent::Kind::Broken, hello_.request.to, hello_.request.in,
-                  hello_.request.from + "." + hello_.request.out, hello_.request.set, reason});
-    else
-      ++ep->refused;
-    close();
-    ep->sessions.erase(std::static_pointer_cast<Session>(shared_from_this()));
-  }
+  void on_broken(const std::string& reason) override { down(Down::Closed, reason); }
 
  private:
-  // Before authentication only handshake messages are taken.
+  void set_up_socket() {
+    boost::system::error_code ignored;
+    if (transport_ == Transport::Tcp) sock().set_option(asio::ip::tcp::no_delay(true), ignored);
+    sock().non_blocking(true, ignored);
+  }
+
+  // Before authentication only handshake messages are taken (an opener also takes its refusal).
   void on_auth(Kind kind, Bytes body) {
-    if (kind != Kind::Auth) return refuse("authentication required: the cluster-key handshake comes first", true);
+    if (opener_ && kind == Kind::HelloError)
+      return down(Down::Refused, std::string(reinterpret_cast<const char*>(body.data()), body.size()));
+    if (kind != Kind::Auth) {
+      if (opener_) return down(Down::Auth, "the peer sent a data frame before the handshake ended");
+      return refuse("authentication required: the cluster-key handshake comes first", true);
+    }
     wire::Message m;
     std::string error;
-    if (!data_frame::decode_auth(body, m, &error)) return refuse(error, true);
+    if (!data_frame::decode_auth(body, m, &error)) {
+      if (opener_) return down(Down::Auth, error);
+      return refuse(error, true);
+    }
     const auto step = handshake_.on_message(m);
     send_auth(step);
-    if (step.state == auth::Handshake::State::kFailed) return refuse(handshake_.reason(), false);
-    authenticated_ = step.state == auth::Handshake::State::kDone;
+    if (step.state == auth::Handshake::State::kFailed) {
+      if (opener_) return down(Down::Auth, handshake_.reason());
+      return refuse(handshake_.reason(), false);
+    }
+    if (step.state != auth::Handshake::State::kDone) return;
+    authenticated_ = true;
+    if (opener_) introduce();
   }
-  // The first frame after authentication: the hello, checked against this endpoint's inputs.
-  void on_hello(Kind kind, Bytes body) {
-    std::string error;
-    if (kind != Kind::Hello) error = "the first data frame must be a hello";
-    else if (data_frame::decode_hello(body, hello_, &error)) error = ep_->check_destination(hello_.request, hello_.out, in_);
-    if (!error.empty()) return refuse(error, true);
-    in_->add_feeder(this);
-    if (hello_.request.mode == Mode::Pull) in_->add_pull_source(this);
-    else in_->reserve_queue(hello_.request.queue);
+  // The opener, authenticated: says who it is, then opens the links waiting for this connection.
+  void introduce() {
+    send(Kind::Peer, 0, as_bytes(data_frame::encode_peer({ep_->host, ep_->uds_path, ep_->tcp_address})));
+    ready_ = true;
     clear_handshake_deadline();
-    send(Kind::HelloOk, {});
+    for (const auto& [id, l] : std::map<std::uint32_t, StreamLink*>(out_)) send(Kind::Hello, id, as_bytes(l->hello()));
   }
-  // Refuses the connection (counted): tells the peer `why` in a HelloError when `tell`, closes once that is
+  // The acceptor, authenticated: the opener's introduction comes first.
+  void on_peer(Kind kind, Bytes body) {
+    Location peer;
+    std::string error;
+    if (kind != Kind::Peer) error = "the first data frame after the handshake must introduce the peer";
+    else data_frame::decode_peer(body, peer, &error);
+    if (!error.empty()) return refuse(error, true);
+    addr_ = transport_ == Transport::Unix ? peer.data_uds : peer.data_tcp;
+    ready_ = true;
+    clear_handshake_deadline();
+  }
+
+  void on_link_frame(Kind kind, std::uint32_t id, Bytes body) {
+    switch (kind) {
+      case Kind::Sample:
+      case Kind::Pulled:
+        if (auto it = in_.find(id); it != in_.end()) it->second->deliver(kind, body);
+        return;  // a link closed meanwhile: its last samples are dropped
+      case Kind::Hello:
+        return on_hello(id, body);
+      case Kind::Close:
+        return close_in(id);
+      case Kind::HelloOk:
+      case Kind::HelloError:
+      case Kind::PullRequest:
+      case Kind::Gone:
+        return on_answer(kind, id, body);
+      default:
+        break;
+    }
+    fail("unexpected data frame kind " + std::to_string(static_cast<int>(kind)));
+  }
+  // A frame for a link from this endpoint's outputs (ignored when the link was removed meanwhile).
+  void on_answer(Kind kind, std::uint32_t id, Bytes body) {
+    auto it = out_.find(id);
+    if (it == out_.end()) return;
+    StreamLink* l = it->second;
+    const std::string text(reinterpret_cast<const char*>(body.data()), body.size());
+    if (kind == Kind::HelloOk) return l->accepted();
+    if (kind == Kind::PullRequest) return l->pull_requested();
+    out_.erase(it);
+    if (kind == Kind::HelloError) l->refused(text);
+    else l->trunk_down(Down::Closed, text);
+  }
+  // A new link to this endpoint: checked against its inputs.
+  void on_hello(std::uint32_t id, Bytes body) {
+    if (in_.count(id) != 0) return fail("a second hello for link " + std::to_string(id));
+    data_frame::Hello h;
+    std::string error;
+    Input* in = nullptr;
+    if (in_.size() >= kMaxLinks) error = "too many links on one connection";
+    else if (data_frame::decode_hello(body, h, &error)) error = ep_->check_destination(h.request, h.out, in);
+    if (!error.empty()) {
+      ++ep_->refused;
+      send(Kind::HelloError, id, as_bytes(error));
+      return;
+    }
+    in_.emplace(id, std::make_unique<InLink>(*this, id, h.request, in));
+    send(Kind::HelloOk, id, {});
+  }
+  // The source removed link `id`: reported where it ends, as when its connection closes.
+  void close_in(std::uint32_t id) {
+    auto it = in_.find(id);
+    if (it == in_.end()) return;
+    auto l = std::move(it->second);
+    in_.erase(it);
+    report_in(*ep_, *l, "closed by peer");
+  }
+  static void report_in(Endpoint::Impl& ep, const InLink& l, const std::string& reason) {
+    const auto& r = l.request_of();
+    ep.report({CommsEvent::Kind::Broken, r.to, r.in, r.from + "." + r.out, r.set, reason});
+  }
+
+  // The connection ended: every link on it ends too, each reported (or answered, while opening) at its end.
+  void down(Down how, const std::string& reason) {
+    auto* ep = std::exchange(ep_, nullptr);
+    shut();
+    if (!ep) return;
+    if (!opener_ && !ready_) ++ep->refused;  // accepted, never introduced
+    auto keep = shared_from_this();
+    ep->drop_trunk(this);
+    for (auto& [id, l] : std::exchange(in_, {})) {
+      l->detach();
+      report_in(*ep, *l, reason);
+    }
+    for (const auto& [id, l] : std::exchange(out_, {})) l->trunk_down(how, reason);
+  }
+  // Refuses the opener (counted): tells it `why` in a HelloError on link 0 when `tell`, closes once that is
   // written (the handshake deadline still bounds the wait) and leaves the endpoint.
   void refuse(const std::string& why, bool tell) {
     auto* ep = std::exchange(ep_, nullptr);
     if (!ep) return;
     ++ep->refused;
-    in_ = nullptr;
-    if (tell) send(Kind::HelloError, as_bytes(why));
+    if (tell) send(Kind::HelloError, 0, as_bytes(why));
     close_after_flush();
-    ep->sessions.erase(std::static_pointer_cast<Session>(shared_from_this()));
+    ep->drop_trunk(this);
   }
 
+  static constexpr std::size_t kMaxLinks = 1u << 16;  // links from the peer on one connection
+
   Endpoint::Impl* ep_;
+  Transport transport_;
+  bool opener_;
   auth::Handshake handshake_;
-  data_frame::Hello hello_;
-  Input* in_ = nullptr;
+  std::string addr_;
   bool authenticated_ = false;
+  bool ready_ = false;  // authenticated and introduced: links may open
+  std::uint32_t next_id_ = 1;
+  std::map<std::uint32_t, StreamLink*> out_;  // links from this endpoint's outputs, by this endpoint's id
+  std::unordered_map<std::uint32_t, std::unique_ptr<InLink>> in_;  // links to this endpoint, by the peer's id
 };
+
+void InLink::request() { trunk_->send(Kind::PullRequest, id_, {}); }
+
+void InLink::input_gone() {
+  in_ = nullptr;
+  trunk_->input_gone(id_, "input " + r_.to + "." + r_.in + " is gone");  // destroys this
+}
+
+void StreamLink::start(std::shared_ptr<Trunk> trunk, const std::string& addr, Endpoint::ConnectDone done,
+                       int timeout_ms) {
+  done_ = std::move(done);
+  peer_ = info_.request.to + "." + info_.request.in;
+  peer_addr_ = addr;
+  trunk_ = std::move(trunk);
+  std::weak_ptr<Connection> w = weak_from_this();
+  timer_.expires_after(std::chrono::milliseconds(timeout_ms));
+  timer_.async_wait([w, timeout_ms](const boost::system::error_code& ec) {
+    auto self = std::static_pointer_cast<StreamLink>(w.lock());
+    if (ec || !self || self->connected_ || !self->done_) return;
+    self->finish("no answer from " + self->peer_ + " at " + self->peer_addr_ + " within " +
+                 std::to_string(timeout_ms) + " ms");
+  });
+  id_ = trunk_->add_out(this);
+}
+
+void StreamLink::on_write(Bytes b) {
+  if (!connected_ || info_.broken) return;
+  if (info_.request.mode == Mode::Pull) {
+    if (pending_ && *active_) answer();
+    return;
+  }
+  if (!*active_) {
+    ++info_.skipped;
+    return;
+  }
+  if (trunk_->send(Kind::Sample, id_, b)) {
+    ++info_.sent;
+    info_.bytes += data_frame::kHeader + b.size();
+  } else {
+    ++info_.tx_dropped;
+  }
+}
+
+void StreamLink::close() {
+  Connection::close();
+  ep_ = nullptr;
+  timer_.cancel();
+  if (auto t = std::exchange(trunk_, nullptr)) t->remove_out(id_);
+}
+
+void StreamLink::accepted() {
+  if (connected_) return;
+  connected_ = true;
+  timer_.cancel();
+  if (done_) std::exchange(done_, nullptr)("");
+  if (pending_ && *active_) answer();
+}
+
+void StreamLink::trunk_down(Down how, const std::string& reason) {
+  trunk_ = nullptr;
+  if (done_) {
+    switch (how) {
+      case Down::Connect:
+        return finish("cannot connect to " + peer_ + " at " + peer_addr_ + ": " + reason);
+      case Down::NoKey:
+        return finish("cannot connect to " + peer_ + ": this endpoint has no cluster key");
+      case Down::Auth:
+        return finish("data connection to " + peer_ + " at " + peer_addr_ + " not authenticated: " + reason);
+      case Down::Refused:
+        return finish(reason);
+      case Down::Closed:
+        return finish("connection to " + peer_ + " closed before it was accepted: " + reason);
+    }
+  }
+  connected_ = false;
+  info_.broken = true;
+  if (ep_)
+    ep_->report({CommsEvent::Kind::Broken, info_.request.from, info_.request.out, peer_, info_.request.set, reason});
+}
+
+void StreamLink::answer() {
+  if (!out_ || !out_->has_latest() || !trunk_) return;
+  pending_ = false;
+  const Bytes b = out_->latest_bytes();
+  if (trunk_->send(Kind::Pulled, id_, b)) {
+    ++info_.sent;
+    info_.bytes += data_frame::kHeader + b.size();
+  }
+}
+
+// Opening failed: report once, then remove this link.
+void StreamLink::finish(const std::string& error) {
+  auto done = std::exchange(done_, nullptr);
+  auto* ep = ep_;
+  timer_.cancel();
+  if (auto t = std::exchange(trunk_, nullptr)) t->remove_out(id_);
+  if (ep) ep->remove_link(this);
+  if (done) done(error);
+}
 
 }  // namespace endpoint_detail
 
 using endpoint_detail::LocalLink;
-using endpoint_detail::Session;
 using endpoint_detail::StreamLink;
+using endpoint_detail::Trunk;
 
 // ------------------------------------------------------------------------------------------------ Endpoint ---
 
@@ -618,10 +802,16 @@ auth::Key data_key(const auth::Key& cluster_key) {
   return auth::hmac_sha256(cluster_key, "dca-data-1");
 }
 
-void Endpoint::Impl::start_session(Socket s) {
-  auto session = std::make_shared<Session>(*this, std::move(s));
-  sessions.insert(session);
-  session->begin();
+std::shared_ptr<Trunk> Endpoint::Impl::trunk_to(Transport t, const std::string& addr, std::string* error) {
+  for (const auto& tr : trunks)
+    if (tr->transport() == t && !tr->closed() && !addr.empty() && tr->address() == addr) return tr;
+  const auto to = t == Transport::Unix ? std::optional(Address::unix_socket(addr)) : Address::parse(addr, error);
+  const auto where = to ? to_endpoint(*to, error) : std::nullopt;
+  if (!where) return nullptr;
+  auto tr = std::make_shared<Trunk>(*this, Socket(io), t, true);
+  trunks.push_back(tr);
+  tr->open(*where, addr);
+  return tr;
 }
 
 void Endpoint::Impl::accept(StreamAcceptor& acceptor, AcceptBackoff& backoff) {
@@ -634,11 +824,11 @@ void Endpoint::Impl::accept(StreamAcceptor& acceptor, AcceptBackoff& backoff) {
       });
     }
     backoff.succeeded();
-    {
-      boost::system::error_code e2;
-      if (s.local_endpoint(e2).protocol().family() != AF_UNIX) s.set_option(asio::ip::tcp::no_delay(true), e2);
-      start_session(std::move(s));
-    }
+    boost::system::error_code e2;
+    const Transport t = s.local_endpoint(e2).protocol().family() == AF_UNIX ? Transport::Unix : Transport::Tcp;
+    auto tr = std::make_shared<Trunk>(*this, std::move(s), t, false);
+    trunks.push_back(tr);
+    tr->begin();
     accept(acceptor, backoff);
   });
 }
@@ -655,7 +845,7 @@ Endpoint::~Endpoint() {
   if (impl_->tcp_acceptor) impl_->tcp_acceptor->close(ec);
   if (!impl_->uds_path.empty()) ::unlink(impl_->uds_path.c_str());
   for (auto& l : impl_->links) l->close();
-  for (auto& s : std::set<std::shared_ptr<Session>>(impl_->sessions)) s->close();
+  for (auto& t : std::vector<std::shared_ptr<Trunk>>(impl_->trunks)) t->close_quietly();
 }
 
 void Endpoint::listen(const std::string& uds_path, const std::string& tcp_address) {
@@ -701,11 +891,7 @@ void Endpoint::remove_component(const std::string& name) {
     else keep.push_back(l);
   }
   impl_->links.swap(keep);
-  for (auto& s : std::set<std::shared_ptr<Session>>(impl_->sessions))
-    if (s->to() == name) {
-      s->close();
-      impl_->sessions.erase(s);
-    }
+  for (auto& t : std::vector<std::shared_ptr<Trunk>>(impl_->trunks)) t->remove_component(name, host_);
   impl_->components.erase(it);
 }
 
@@ -738,10 +924,13 @@ void Endpoint::connect(const ConnectRequest& r, const Location& dest, ConnectDon
     impl_->links.push_back(std::make_shared<LocalLink>(r, out, in, flag));
     return done("");
   }
+  std::string error;
+  auto trunk = impl_->trunk_to(t, addr, &error);
+  if (!trunk) return done("cannot connect to " + r.to + "." + r.in + ": " + error);
   auto link = std::make_shared<StreamLink>(*impl_, r, t, out, flag);
   out->attach(link.get());
   impl_->links.push_back(link);
-  link->start(dest, std::move(done), timeout_ms);
+  link->start(std::move(trunk), addr, std::move(done), timeout_ms);
 }
 
 void Endpoint::disconnect_set(const std::string& set) {
@@ -774,7 +963,11 @@ std::vector<LinkInfo> Endpoint::links() const {
   return v;
 }
 
-std::size_t Endpoint::accepted() const { return impl_->sessions.size(); }
+std::size_t Endpoint::accepted() const {
+  return static_cast<std::size_t>(
+      std::count_if(impl_->trunks.begin(), impl_->trunks.end(), [](const auto& t) { return !t->opener(); }));
+}
+std::size_t Endpoint::connections() const { return impl_->trunks.size(); }
 std::uint64_t Endpoint::bytes_received() const { return impl_->bytes_received; }
 std::uint64_t Endpoint::refused() const { return impl_->refused; }
 

@@ -1,10 +1,18 @@
 #pragma once
 // The data plane's I/O: one Endpoint per process moves samples between ports (host/port) over connections
-// (ARCHITECTURE.md, "Two planes"). A connection goes output -> input:
+// (ARCHITECTURE.md, "Two planes"). A connection (a link) goes output -> input:
 //   - in the same process: a direct hand-off (the sample is copied into the input's queue, no socket);
 //   - on the same host: over a Unix stream socket;
 //   - across hosts: over TCP with TCP_NODELAY.
 // Endpoint::connect picks the transport from where the two ends live (choose_transport).
+//
+// Between two endpoints, one socket connection carries every link, in both directions: the first link to an
+// endpoint's address opens it, later links either way ride it (the opener introduces its own addresses, so the
+// acceptor's links towards the opener find it), and each data frame names its link (host/data_frame.h). A
+// sample's reply therefore travels on the socket its request came on, and TCP piggybacks its acknowledgement.
+// A connection stays open, idle or not, until one of the endpoints goes away or it breaks; it then takes every
+// link on it along, each reported `broken` at both ends. Two endpoints that open connections to each other
+// at the same instant may hold two; every link works on either.
 //
 // Every connection belongs to a connection set (a name chosen by the supervisor) and is created inactive.
 // Activating or deactivating a set flips one flag: no socket is opened or closed. An inactive connection sends
@@ -13,12 +21,13 @@
 // beyond a backlog limit its samples are dropped and counted (LinkInfo::tx_dropped).
 //
 // Sockets carry data frames (host/data_frame) on framed sockets (host/framed_socket). Every socket connection
-// is authenticated before its hello (ARCHITECTURE.md, "Data plane security"): the connecting side runs the
+// is authenticated before anything else (ARCHITECTURE.md, "Data plane security"): the opening side runs the
 // control plane's challenge-response (host/auth.h) keyed with data_key(cluster key); the accepting
 // side takes nothing else (frames over data_frame::kMaxAuthFrame before it are refused at their length prefix),
-// answers a refusal with its reason and closes. An accepted connection without an accepted hello by
-// handshake_timeout, or holding a partial frame for partial_frame_timeout, is closed. An Endpoint without a key
-// refuses every socket connection, both ways; in-process connections cross no socket and need none.
+// answers a refusal with its reason and closes. A connection not authenticated and introduced by
+// handshake_timeout, or holding a partial frame for partial_frame_timeout, is closed. A link's hello is checked
+// (data_frame::decode_hello, then the destination's ports); a refused hello refuses that link only. An Endpoint
+// without a key refuses every socket connection, both ways; in-process connections cross no socket and need none.
 // Threading: everything here runs on the process's one io_context thread; nothing takes a lock.
 #include "host/loop.h"  // first: Asio's core, with GCC 12's false positives silenced
 
@@ -56,7 +65,7 @@ struct LinkInfo {
   std::uint64_t sent = 0;     ///< samples handed to the transport
   std::uint64_t skipped = 0;  ///< samples not sent while the set was inactive
   std::uint64_t tx_dropped = 0;  ///< samples dropped because the socket was backed up beyond its limit
-  std::uint64_t bytes = 0;    ///< bytes written to the socket (0 in-process)
+  std::uint64_t bytes = 0;    ///< bytes of this link's frames handed to the socket (0 in-process)
 };
 
 /// The key the data plane's handshake uses: HMAC-SHA256(cluster key, "dca-data-1") ("" for no key). A MAC
@@ -66,7 +75,7 @@ auth::Key data_key(const auth::Key& cluster_key);
 /// How an Endpoint authenticates and bounds its socket connections.
 struct EndpointOptions {
   auth::Key key;  ///< the cluster key (host/auth.h); empty: every socket connection is refused, both ways
-  std::chrono::milliseconds handshake_timeout{5000};     ///< accepted: from accept to an accepted hello
+  std::chrono::milliseconds handshake_timeout{5000};     ///< from connect/accept to authenticated and introduced
   std::chrono::milliseconds partial_frame_timeout{5000};  ///< longest a partial frame may stay incomplete
 };
 
@@ -92,7 +101,7 @@ class Endpoint {
   /// Makes a component's ports reachable under `name` (PATH). Call remove_component before destroying the
   /// PortSet (connections also survive a port destroyed first: they stop delivering).
   void add_component(const std::string& name, PortSet& ports);
-  /// Removes a component: its connections (both directions) are closed.
+  /// Removes a component: its connections (both directions) are closed, the other ends told.
   void remove_component(const std::string& name);
   /// The component registered as `name`, or nullptr.
   PortSet* component(std::string_view name) const;
@@ -105,7 +114,8 @@ class Endpoint {
   /// connection (from, out, to, in, set) asked again is the one already made, unless it broke or `dest` is now
   /// at another address (a restarted process): then it replaces the old link.
   void connect(const ConnectRequest& r, const Location& dest, ConnectDone done, int timeout_ms = 5000);
-  /// Removes every connection of set `set` from this endpoint's outputs (their sockets are closed).
+  /// Removes every connection of set `set` from this endpoint's outputs (the destinations are told; the socket
+  /// connections under them stay open).
   void disconnect_set(const std::string& set);
 
   /// Activates a set: a flag flip, no socket opened. Pending pull requests of the set are answered.
@@ -120,12 +130,15 @@ class Endpoint {
 
   /// Every connection from this endpoint's outputs.
   std::vector<LinkInfo> links() const;
-  /// Number of data connections accepted from other processes and still open.
+  /// Number of data connections accepted from other processes and still open (one per peer endpoint that
+  /// opened one; links this endpoint makes towards such a peer ride it and open none).
   std::size_t accepted() const;
-  /// Total bytes received on accepted data connections.
+  /// Number of data connections open, whichever side opened them.
+  std::size_t connections() const;
+  /// Total bytes received on data connections.
   std::uint64_t bytes_received() const;
-  /// Accepted data connections refused or closed before their hello was accepted (failed or missing
-  /// authentication, oversize or malformed frames, a refused hello, the handshake deadline).
+  /// Accepted data connections refused or closed before they were authenticated and introduced (failed or
+  /// missing authentication, oversize or malformed frames, the handshake deadline), plus refused hellos.
   std::uint64_t refused() const;
 
   /// Internal state shared with connections (endpoint.cpp).

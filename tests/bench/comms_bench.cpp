@@ -8,8 +8,9 @@
 //     hello), over a Unix socket and TCP in one process, beside a raw connect plus one 64-byte round trip (what a
 //     connection with a hello and no authentication costs), alternated A B A B. The difference is what
 //     authentication adds (one more round trip and four HMAC-SHA256);
-//   - on TCP, the segments sent per round trip (dca's links are one-way, so each carries pure ACKs that a
-//     request/response socket piggybacks on its replies).
+//   - on TCP, the segments sent per round trip (the `segments_per_rt` key of the pingpong lines). The two links
+//     of a round trip ride one socket connection, as the raw ping-pong does, so each reply carries the
+//     acknowledgement of its request.
 // Usage: bench_comms [ROUND_TRIPS_PER_ROUND]   (default 2000; 2 rounds of each)
 #include "host/loop.h"  // first: Asio with GCC 12's false positives silenced
 
@@ -79,7 +80,9 @@ bool run_until(asio::io_context& io, const std::function<bool()>& pred, std::chr
 // --- the echo side in a child process --------------------------------------------------------------------
 
 // dca echo: an Endpoint with a Gain(k=1) controller "/echo" that connects its Out back to the parent's "/ping".
-// Protocol over `pipe_w`: writes its TCP port (int) once listening.
+// Protocol over `pipe_w`: writes its TCP port (int) once listening, then (once its link back is made) again.
+// The parent sends its own port on `pipe_r` once its link to the echo is made, so the link back finds the
+// connection the parent opened.
 [[noreturn]] void dca_echo_child(bool tcp, const std::string& uds, int cpu, int pipe_w, int pipe_r) {
   pin(cpu);
   asio::io_context io;
@@ -91,7 +94,11 @@ bool run_until(asio::io_context& io, const std::function<bool()>& pred, std::chr
   const auto loc = ep.location();
   const int port = std::stoi(loc.data_tcp.substr(loc.data_tcp.rfind(':') + 1));
   [[maybe_unused]] auto w = ::write(pipe_w, &port, sizeof port);
-  // Wait for the parent's address (its TCP port), then connect back.
+  // Wait for the parent's address (its TCP port), serving its connection meanwhile, then connect back.
+  run_until(io, [&] {
+    pollfd pfd{pipe_r, POLLIN, 0};
+    return ::poll(&pfd, 1, 0) == 1;
+  }, std::chrono::seconds(30));
   int parent_port = 0;
   [[maybe_unused]] auto r = ::read(pipe_r, &parent_port, sizeof parent_port);
   std::string err = "pending";
@@ -171,12 +178,12 @@ void dca_socket_round(bool tcp, int cpu_parent, int cpu_child, int n, Samples& o
   [[maybe_unused]] auto r1 = ::read(up[0], &child_port, sizeof child_port);
   const auto loc = ep.location();
   const int my_port = std::stoi(loc.data_tcp.substr(loc.data_tcp.rfind(':') + 1));
-  [[maybe_unused]] auto w1 = ::write(down[1], &my_port, sizeof my_port);
   std::string err = "pending";
   ep.connect({"/ping", "Out", "/echo", "In", "s", dca::Mode::Push, 16},
              {tcp ? "b" : "a", uds + ".echo", "127.0.0.1:" + std::to_string(child_port)},
              [&](const std::string& e) { err = e; });
   run_until(io, [&] { return err != "pending"; });
+  [[maybe_unused]] auto w1 = ::write(down[1], &my_port, sizeof my_port);
   // The child connects back to us: keep our io_context turning until it says it is ready.
   run_until(io, [&] {
     pollfd pfd{up[0], POLLIN, 0};
@@ -386,29 +393,33 @@ double raw_throughput(int n) {
 
 }  // namespace
 
-// n connection set-ups through Endpoint::connect (connect, handshake, hello), each timed to its answer.
+// n connection set-ups through Endpoint::connect (connect, handshake, introduction, hello), each timed to its
+// answer. Each from a fresh source endpoint (a process's first link to another: later links to it ride the
+// connection and cost one hello's round trip).
 void dca_connect_round(bool tcp, int n, Samples& out) {
   asio::io_context io;
-  dca::Endpoint a(io, "a", bench_keyed()), b(io, tcp ? "b" : "a", bench_keyed());
+  dca::Endpoint b(io, tcp ? "b" : "a", bench_keyed());
   b.listen("/tmp/dca-bench-setup-" + std::to_string(::getpid()), "127.0.0.1:0");
-  dca::PortSet src, dst;
-  src.add_output(dca::vectorx_port("Out"));
+  dca::PortSet dst;
   dst.add_input(dca::vectorx_port("In"));
-  a.add_component("/src", src);
   b.add_component("/dst", dst);
   for (int i = 0; i < n + 20; ++i) {
-    const std::string set = "c" + std::to_string(i);
-    std::string err = "pending";
-    const auto t0 = Clock::now();
-    a.connect({"/src", "Out", "/dst", "In", set, dca::Mode::Push, 16}, b.location(), [&](const std::string& e) { err = e; });
-    run_until(io, [&] { return err != "pending"; });
-    const auto t1 = Clock::now();
-    if (!err.empty()) std::fprintf(stderr, "connect: %s\n", err.c_str());
-    if (i >= 20) out.add(t1 - t0);  // the first 20 warm up
-    a.disconnect_set(set);
+    {
+      dca::PortSet src;
+      src.add_output(dca::vectorx_port("Out"));
+      dca::Endpoint a(io, "a", bench_keyed());
+      a.add_component("/src", src);
+      std::string err = "pending";
+      const auto t0 = Clock::now();
+      a.connect({"/src", "Out", "/dst", "In", "c", dca::Mode::Push, 16}, b.location(), [&](const std::string& e) { err = e; });
+      run_until(io, [&] { return err != "pending"; });
+      const auto t1 = Clock::now();
+      if (!err.empty()) std::fprintf(stderr, "connect: %s\n", err.c_str());
+      if (i >= 20) out.add(t1 - t0);  // the first 20 warm up
+      a.remove_component("/src");
+    }
     run_until(io, [&] { return b.accepted() == 0; });
   }
-  a.remove_component("/src");
   b.remove_component("/dst");
 }
 
@@ -490,6 +501,7 @@ int main(int argc, char** argv) {
   for (bool tcp : {false, true}) {
     for (const auto& p : placements) {
       Samples d, r;
+      long dseg = 0, rseg = 0;
       for (int round = 0; round < 2; ++round) {
         std::fprintf(stderr, "%s%s round %d\n", tcp ? "tcp" : "uds", p.suffix, round + 1);
         const long s0 = out_segments();
@@ -497,9 +509,8 @@ int main(int argc, char** argv) {
         const long s1 = out_segments();
         raw_socket_round(tcp, p.parent, p.child, n, r);
         const long s2 = out_segments();
-        if (tcp)
-          std::fprintf(stderr, "  TCP segments per round trip: dca %.2f, raw %.2f\n", double(s1 - s0) / n,
-                       double(s2 - s1) / n);
+        dseg += s1 - s0;
+        rseg += s2 - s1;
       }
       pin(-1);
       cpu_set_t all;
@@ -507,8 +518,14 @@ int main(int argc, char** argv) {
       for (int c = 0; c < ncpu; ++c) CPU_SET(c, &all);
       sched_setaffinity(0, sizeof all, &all);
       const std::string v = std::string("64B_") + (tcp ? "tcp" : "uds") + p.suffix;
-      print("dca_pingpong", v, d);
-      print(tcp ? "raw_tcp_pingpong" : "raw_uds_pingpong", v, r);
+      // On TCP, the segments sent per round trip (set-up and warm-up included: a few hundredths).
+      const auto segments = [&](long count) {
+        char f[64];
+        std::snprintf(f, sizeof f, " segments_per_rt=%.2f", double(count) / (2.0 * (n + 100)));
+        return tcp ? std::string(f) : std::string();
+      };
+      print("dca_pingpong", v, d, segments(dseg));
+      print(tcp ? "raw_tcp_pingpong" : "raw_uds_pingpong", v, r, segments(rseg));
       if (!d.us.empty() && !r.us.empty())
         std::fprintf(stderr, "  ratio p50 dca/raw = %.2f\n", d.us[d.us.size() / 2] / r.us[r.us.size() / 2]);
     }

@@ -1,7 +1,7 @@
-// libFuzzer target for the data plane's frame parser and Hello decoder (host/data_frame). Every input must
+// libFuzzer target for the data plane's frame parser and body decoders (host/data_frame). Every input must
 // either be rejected with a reason, be incomplete (asking for more than it holds), or parse to a frame inside
 // the input; a Hello body must either be refused with a reason or decode to one that encodes and decodes again
-// to the same encoding.
+// to the same encoding; a Peer body the same; an Auth body is refused with a reason or decodes to a message.
 //   build/<b>/bin/fuzz_data_frame [-runs=N] [tests/fuzz/data_frame_corpus/]   (see tests/fuzz/CMakeLists.txt)
 #include <cstdint>
 #include <cstdlib>
@@ -28,6 +28,32 @@ void check_hello(dca::Bytes body) {
   if (!df::decode_hello(bytes_of(again), h2, &error) || df::encode_hello(h2) != again) std::abort();
 }
 
+// The Peer decoder on `body`: refused with a reason, or a stable round trip.
+void check_peer(dca::Bytes body) {
+  dca::Location l;
+  std::string error;
+  if (!df::decode_peer(body, l, &error)) {
+    if (error.empty()) std::abort();
+    return;
+  }
+  const std::string again = df::encode_peer(l);
+  dca::Location l2;
+  if (!df::decode_peer(bytes_of(again), l2, &error) || df::encode_peer(l2) != again) std::abort();
+}
+
+// The Auth decoder on `body`: refused with a reason, or a message that encodes again.
+void check_auth(dca::Bytes body) {
+  dca::wire::Message m;
+  std::string error;
+  if (!df::decode_auth(body, m, &error)) {
+    if (error.empty()) std::abort();
+    return;
+  }
+  const std::string again = df::encode_auth(m);
+  dca::wire::Message m2;
+  if (!df::decode_auth(bytes_of(again), m2, &error) || m2.type != m.type) std::abort();
+}
+
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
@@ -45,8 +71,12 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     case df::Parse::Ok:
       if (used > size || used != df::kHeader + f.body.size()) std::abort();
       if (f.kind == df::Kind::Hello) check_hello(f.body);
+      if (f.kind == df::Kind::Peer) check_peer(f.body);
+      if (f.kind == df::Kind::Auth) check_auth(f.body);
       break;
   }
-  check_hello(in);  // the input as a Hello body on its own
+  check_hello(in);  // the input as a Hello, Peer and Auth body on its own
+  check_peer(in);
+  check_auth(in);
   return 0;
 }

@@ -1,4 +1,4 @@
-// Data frames (pure): the frame parser and the Hello codec.
+// Data frames (pure): the frame parser (with its link id), the Hello and Peer codecs.
 #include "host/data_frame.h"
 
 #include "host/wire.h"
@@ -15,23 +15,50 @@ namespace df = dca::data_frame;
 TEST(DataFrameTest, FrameParserRejectsBadFrames) {
   using df::Parse;
   std::vector<std::byte> buf(df::kHeader + 3);
-  df::put_header(buf.data(), df::Kind::Sample, 3);
+  df::put_header(buf.data(), df::Kind::Sample, 0x01020304u, 3);
   df::Frame f;
   std::size_t used = 0;
   std::string err;
   EXPECT_EQ(df::parse_frame(buf, f, used, &err), Parse::Ok);
   EXPECT_EQ(used, buf.size());
   EXPECT_EQ(f.body.size(), 3u);
+  EXPECT_EQ(f.kind, df::Kind::Sample);
+  EXPECT_EQ(f.link, 0x01020304u) << "every frame names its link";
   for (std::size_t n = 0; n < buf.size(); ++n)  // every truncation asks for more
     EXPECT_EQ(df::parse_frame({buf.data(), n}, f, used, &err), Parse::NeedMore) << n;
   buf[4] = std::byte{99};
   EXPECT_EQ(df::parse_frame(buf, f, used, &err), Parse::Error);
   EXPECT_EQ(err, "unknown data frame kind 99");
-  std::vector<std::byte> big(8);
-  df::put_header(big.data(), df::Kind::Sample, df::kMaxFrame);
+  std::vector<std::byte> big(df::kHeader);
+  df::put_header(big.data(), df::Kind::Sample, 1, df::kMaxFrame);
   EXPECT_EQ(df::parse_frame(big, f, used, &err), Parse::Error);
   std::vector<std::byte> empty(4, std::byte{0});
   EXPECT_EQ(df::parse_frame(empty, f, used, &err), Parse::Error);
+  std::vector<std::byte> no_link{std::byte{0}, std::byte{0}, std::byte{0}, std::byte{1}, std::byte{4}};
+  EXPECT_EQ(df::parse_frame(no_link, f, used, &err), Parse::Error);
+  EXPECT_EQ(err, "data frame of 1 bytes has no kind and link");
+}
+
+TEST(DataFrameTest, PeerRoundTripsAndRejectsGarbage) {
+  const dca::Location self{"h1", "/run/dca/n.sock", "127.0.0.1:4000"};
+  const auto body = df::encode_peer(self);
+  dca::Location back;
+  std::string err;
+  ASSERT_TRUE(df::decode_peer({reinterpret_cast<const std::byte*>(body.data()), body.size()}, back, &err)) << err;
+  EXPECT_EQ(back.host, "h1");
+  EXPECT_EQ(back.data_uds, "/run/dca/n.sock");
+  EXPECT_EQ(back.data_tcp, "127.0.0.1:4000");
+  const auto refused = [](dca::wire::Value v) {
+    std::string b, e;
+    dca::wire::encode_value(v, b);
+    dca::Location l;
+    EXPECT_FALSE(df::decode_peer({reinterpret_cast<const std::byte*>(b.data()), b.size()}, l, &e));
+    return e;
+  };
+  EXPECT_EQ(refused(dca::wire::Value::map().set("tcp", std::int64_t{3})), "peer: 'tcp' is not a string");
+  EXPECT_EQ(refused(dca::wire::Value::map().set("uds", std::string(300, 'x'))), "peer: 'uds' is too long");
+  EXPECT_EQ(refused(dca::wire::Value::map().set("host", "a\nb")), "peer: 'host' holds a control character");
+  EXPECT_EQ(refused(dca::wire::Value(std::int64_t{1})), "peer introduction is not a map");
 }
 
 TEST(DataFrameTest, HelloRoundTripsAndRejectsGarbage) {

@@ -1,9 +1,11 @@
 // Endpoint: in-process / Unix-socket / TCP connections, push and pull, sets, overflow, broken links; socket
-// connections authenticated with the cluster key, and their deadlines.
+// connections authenticated with the cluster key, and their deadlines; one socket connection between two
+// endpoints carrying their links both ways.
 #include "host/endpoint.h"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <optional>
 #include <string>
@@ -166,8 +168,11 @@ class EndpointSocketTest : public EndpointTest, public ::testing::WithParamInter
   void SetUp() override {
     tcp_ = GetParam();
     src_ep = std::make_unique<dca::Endpoint>(io, "a", keyed());
+    src_ep->listen(temp_socket(tcp_ ? "src-tcp" : "src-uds"), "127.0.0.1:0");
     out = &src.add_output(dca::vector_port("Out", 8));
     in = &dst.add_input(dca::vector_port("In", 8));
+    back = &dst.add_output(dca::vector_port("Back", 8));
+    ret = &src.add_input(dca::vector_port("Ret", 8));
     src_ep->add_component("/src", src);
     src_ep->on_event([&](const dca::CommsEvent& e) { src_events.push_back(e); });
     make_dst(keyed());
@@ -207,11 +212,31 @@ class EndpointSocketTest : public EndpointTest, public ::testing::WithParamInter
     EXPECT_EQ(in->stats().samples, 1u);
   }
   Eigen::VectorXd sample(double v) const { return Eigen::VectorXd::Constant(8, v); }
+  // Links /src.Out -> /dst.In and back /dst.Back -> /src.Ret in set `set`, active.
+  void link_both_ways(const std::string& set = "s") {
+    ASSERT_EQ(connect(*src_ep, req("/src", "Out", "/dst", "In", set), dst_ep->location()), "");
+    ASSERT_EQ(connect(*dst_ep, req("/dst", "Back", "/src", "Ret", set), src_ep->location()), "");
+    src_ep->activate(set);
+    dst_ep->activate(set);
+  }
+  // A sample there and one back arrive.
+  void expect_round_trip(double v, dca::Input& there, dca::Output& reply, dca::Input& home) {
+    out->write(sample(v));
+    ASSERT_TRUE(run_until(io, [&] { return there.queued() == 1; }));
+    there.pop();
+    EXPECT_EQ(there.vector(), sample(v));
+    reply.write(sample(-v));
+    ASSERT_TRUE(run_until(io, [&] { return home.queued() == 1; }));
+    home.pop();
+    EXPECT_EQ(home.vector(), sample(-v));
+  }
   bool tcp_ = false;
   std::unique_ptr<dca::Endpoint> src_ep, dst_ep;
   dca::PortSet src, dst;
   dca::Output* out = nullptr;
   dca::Input* in = nullptr;
+  dca::Output* back = nullptr;  // /dst.Back
+  dca::Input* ret = nullptr;    // /src.Ret
   std::vector<dca::CommsEvent> src_events, dst_events;
 };
 
@@ -432,6 +457,7 @@ TEST_P(EndpointSocketTest, HalfAFrameIsClosedAtItsDeadline) {
   make_dst(o);
   dca::test::RawDataClient c(io, dst_address());
   ASSERT_EQ(c.handshake(dca::data_key(kKey)), "");
+  c.introduce();
   c.send_frame(df::Kind::Hello, hello());
   const auto ok = c.read_frame();
   ASSERT_TRUE(ok);
@@ -443,6 +469,155 @@ TEST_P(EndpointSocketTest, HalfAFrameIsClosedAtItsDeadline) {
   EXPECT_EQ(dst_events[0].kind, dca::CommsEvent::Kind::Broken);
   EXPECT_NE(dst_events[0].reason.find("a partial data frame was held for more than 100 ms"), std::string::npos)
       << dst_events[0].reason;
+}
+
+// One socket connection between two endpoints carries their links both ways (a reply rides the connection its
+// request came on, so TCP piggybacks its acknowledgement).
+TEST_P(EndpointSocketTest, BothDirectionsRideOneConnection) {
+  link_both_ways();
+  EXPECT_EQ(src_ep->connections(), 1u);
+  EXPECT_EQ(dst_ep->connections(), 1u);
+  EXPECT_EQ(dst_ep->accepted(), 1u);
+  EXPECT_EQ(src_ep->accepted(), 0u) << "the link back opened no connection of its own";
+  expect_round_trip(3, *in, *back, *ret);
+  expect_round_trip(4, *in, *back, *ret);
+  EXPECT_EQ(dst_ep->links()[0].transport, expected());
+  EXPECT_TRUE(src_events.empty());
+  EXPECT_TRUE(dst_events.empty());
+}
+
+// Links made or removed while the connection is up ride it; a refused hello refuses that link only.
+TEST_P(EndpointSocketTest, LinksComeAndGoOnAnOpenConnection) {
+  link_both_ways();
+  dca::Input& in2 = dst.add_input(dca::vector_port("In2", 8));
+  EXPECT_EQ(connect(*src_ep, req("/src", "Out", "/dst", "Nope", "t"), dst_ep->location()),
+            "no input 'Nope' on /dst; inputs are: In, In2");
+  ASSERT_EQ(connect(*src_ep, req("/src", "Out", "/dst", "In2", "t"), dst_ep->location()), "");
+  ASSERT_EQ(connect(*dst_ep, req("/dst", "Back", "/src", "Ret", "t"), src_ep->location()), "");
+  src_ep->activate("t");
+  out->write(sample(5));
+  ASSERT_TRUE(run_until(io, [&] { return in->queued() == 1 && in2.queued() == 1; }));
+  EXPECT_EQ(src_ep->connections(), 1u);
+  EXPECT_EQ(dst_ep->connections(), 1u);
+  src_ep->disconnect_set("s");  // the destination is told; the connection and set t stay
+  ASSERT_TRUE(run_until(io, [&] { return !dst_events.empty(); }));
+  EXPECT_EQ(dst_events[0].kind, dca::CommsEvent::Kind::Broken);
+  EXPECT_EQ(dst_events[0].port, "In");
+  EXPECT_EQ(dst_events[0].reason, "closed by peer");
+  out->write(sample(6));
+  ASSERT_TRUE(run_until(io, [&] { return in2.queued() == 2; }));
+  EXPECT_EQ(in->queued(), 1u) << "nothing more on the removed link";
+  EXPECT_EQ(dst_ep->connections(), 1u);
+  EXPECT_TRUE(src_events.empty());
+}
+
+// A restarted process (a new endpoint at a new address): its links both ways are made again on one new
+// connection, and the old connection's links were reported broken.
+TEST_P(EndpointSocketTest, RestartedPeerGetsANewConnectionCarryingBothWays) {
+  link_both_ways();
+  expect_round_trip(1, *in, *back, *ret);
+  dst_ep->remove_component("/dst");
+  dst_ep.reset();  // the destination process dies
+  ASSERT_TRUE(run_until(io, [&] { return src_events.size() == 2; }));
+  dca::Endpoint fresh(io, tcp_ ? "b" : "a", keyed());
+  fresh.listen(temp_socket(tcp_ ? "tcp2" : "uds2"), "127.0.0.1:0");
+  dca::PortSet dst2;
+  dca::Input& in2 = dst2.add_input(dca::vector_port("In", 8));
+  dca::Output& back2 = dst2.add_output(dca::vector_port("Back", 8));
+  fresh.add_component("/dst", dst2);
+  ASSERT_EQ(connect(*src_ep, req("/src", "Out", "/dst", "In", "s"), fresh.location()), "");
+  ASSERT_EQ(connect(fresh, req("/dst", "Back", "/src", "Ret", "s"), src_ep->location()), "");
+  fresh.activate("s");
+  ASSERT_EQ(src_ep->links().size(), 1u) << "the link to the old process was replaced";
+  EXPECT_FALSE(src_ep->links()[0].broken);
+  expect_round_trip(2, in2, back2, *ret);
+  EXPECT_EQ(src_ep->connections(), 1u);
+  EXPECT_EQ(fresh.connections(), 1u);
+  EXPECT_EQ(fresh.accepted(), 1u);
+  fresh.remove_component("/dst");
+}
+
+// A peer may open a second connection (two endpoints connecting to each other at the same instant do): it is
+// authenticated like the first, its links work, and its end ends only its own links.
+TEST_P(EndpointSocketTest, ASecondConnectionFromAPeerWorksBesideTheFirst) {
+  link_both_ways();
+  {
+    dca::test::RawDataClient c(io, dst_address());
+    ASSERT_EQ(c.handshake(dca::data_key(kKey)), "");
+    c.introduce(src_ep->location());  // it says it is the same endpoint
+    c.send_frame(df::Kind::Hello, hello(), 7);
+    const auto ok = c.read_frame();
+    ASSERT_TRUE(ok);
+    EXPECT_EQ(ok->kind, df::Kind::HelloOk);
+    EXPECT_EQ(ok->link, 7u);
+    EXPECT_EQ(dst_ep->accepted(), 2u);
+    c.send_frame(df::Kind::Sample, sample_bytes(8), 7);
+    ASSERT_TRUE(run_until(io, [&] { return in->queued() == 1; }));
+    in->pop();
+    EXPECT_EQ(in->vector(), sample(8));
+  }  // the second connection closes
+  ASSERT_TRUE(run_until(io, [&] { return dst_events.size() == 1; }));
+  EXPECT_EQ(dst_events[0].kind, dca::CommsEvent::Kind::Broken);
+  EXPECT_EQ(dst_ep->accepted(), 1u);
+  expect_round_trip(9, *in, *back, *ret);  // the first connection's links both ways are untouched
+  EXPECT_TRUE(src_events.empty());
+}
+
+// A link back towards an opener never rides an unauthenticated connection: an unauthenticated client claiming
+// to be an endpoint is refused, and the link back opens (and authenticates) a connection of its own.
+TEST_P(EndpointSocketTest, ALinkBackNeedsAnAuthenticatedConnection) {
+  dca::test::RawDataClient c(io, dst_address());
+  c.introduce(src_ep->location());
+  const auto reply = c.read_frame();
+  ASSERT_TRUE(reply);
+  EXPECT_EQ(reply->kind, df::Kind::HelloError);
+  EXPECT_NE(reply->body.find("authentication required"), std::string::npos) << reply->body;
+  EXPECT_TRUE(c.wait_closed());
+  ASSERT_EQ(connect(*dst_ep, req("/dst", "Back", "/src", "Ret", "s"), src_ep->location()), "");
+  dst_ep->activate("s");
+  EXPECT_EQ(src_ep->accepted(), 1u);
+  back->write(sample(4));
+  ASSERT_TRUE(run_until(io, [&] { return ret->queued() == 1; }));
+  EXPECT_EQ(dst_ep->refused(), 1u);
+  // A wrong key on the way back is refused as on the way there.
+  dca::Endpoint intruder(io, tcp_ ? "b" : "a", keyed(kOtherKey));
+  dca::PortSet p;
+  p.add_output(dca::vector_port("Back", 8));
+  intruder.add_component("/dst2", p);
+  const auto err = connect(intruder, req("/dst2", "Back", "/src", "Ret", "s"), src_ep->location());
+  EXPECT_NE(err.find("not authenticated"), std::string::npos) << err;
+  EXPECT_EQ(ret->stats().samples, 1u);
+}
+
+// When the one connection drops, every link on it is reported broken at both ends, whichever way it went.
+TEST_P(EndpointSocketTest, ADroppedConnectionBreaksTheLinksBothWays) {
+  link_both_ways();
+  expect_round_trip(1, *in, *back, *ret);
+  dst_ep.reset();  // the destination process goes away
+  ASSERT_TRUE(run_until(io, [&] { return src_events.size() == 2; }));
+  std::vector<std::string> ports;
+  for (const auto& e : src_events) {
+    EXPECT_EQ(e.kind, dca::CommsEvent::Kind::Broken);
+    EXPECT_EQ(e.component, "/src");
+    ports.push_back(e.port + " <-> " + e.peer);
+  }
+  std::sort(ports.begin(), ports.end());
+  EXPECT_EQ(ports, (std::vector<std::string>{"Out <-> /dst.In", "Ret <-> /dst.Back"}));
+  EXPECT_EQ(src_ep->connections(), 0u);
+  EXPECT_TRUE(src_ep->links()[0].broken);
+}
+
+// The same from the other side: the opener goes away; the acceptor reports both its links.
+TEST_P(EndpointSocketTest, ADroppedConnectionIsReportedAtTheAcceptorBothWays) {
+  link_both_ways();
+  expect_round_trip(1, *in, *back, *ret);
+  src_ep.reset();
+  ASSERT_TRUE(run_until(io, [&] { return dst_events.size() == 2; }));
+  std::vector<std::string> ports;
+  for (const auto& e : dst_events) ports.push_back(e.port + " <-> " + e.peer);
+  std::sort(ports.begin(), ports.end());
+  EXPECT_EQ(ports, (std::vector<std::string>{"Back <-> /src.Ret", "In <-> /src.Out"}));
+  EXPECT_EQ(dst_ep->connections(), 0u);
 }
 
 INSTANTIATE_TEST_SUITE_P(Transports, EndpointSocketTest, ::testing::Values(false, true),

@@ -29,6 +29,7 @@ namespace dca::test {
 /// One frame as received.
 struct RawFrame {
   data_frame::Kind kind = data_frame::Kind::Sample;
+  std::uint32_t link = 0;
   std::string body;
 };
 
@@ -63,15 +64,21 @@ class RawDataClient {
   bool send_raw(const std::string& bytes) {
     return fd_ >= 0 && ::send(fd_, bytes.data(), bytes.size(), MSG_NOSIGNAL) == static_cast<ssize_t>(bytes.size());
   }
-  /// The bytes of a frame of `kind` with `body`.
-  static std::string frame(data_frame::Kind kind, const std::string& body) {
+  /// The bytes of a frame of `kind` on `link` with `body`.
+  static std::string frame(data_frame::Kind kind, const std::string& body, std::uint32_t link = 1) {
     std::string f(data_frame::kHeader, '\0');
-    data_frame::put_header(reinterpret_cast<std::byte*>(f.data()), kind, body.size());
+    data_frame::put_header(reinterpret_cast<std::byte*>(f.data()), kind, link, body.size());
     return f + body;
   }
-  bool send_frame(data_frame::Kind kind, const std::string& body) { return send_raw(frame(kind, body)); }
+  bool send_frame(data_frame::Kind kind, const std::string& body, std::uint32_t link = 1) {
+    return send_raw(frame(kind, body, link));
+  }
+  /// Introduces this client as an endpoint at `self` (the Peer frame that follows the handshake).
+  bool introduce(const Location& self = {}) {
+    return send_frame(data_frame::Kind::Peer, data_frame::encode_peer(self), 0);
+  }
   /// Sends one handshake message as an Auth frame.
-  bool send_auth(const wire::Message& m) { return send_frame(data_frame::Kind::Auth, data_frame::encode_auth(m)); }
+  bool send_auth(const wire::Message& m) { return send_frame(data_frame::Kind::Auth, data_frame::encode_auth(m), 0); }
 
   /// Runs `io` until a whole frame arrives (nullopt on close, a malformed frame, or 5 s without one).
   std::optional<RawFrame> read_frame() {
@@ -83,7 +90,7 @@ class RawDataClient {
       const auto r = data_frame::parse_frame({reinterpret_cast<const std::byte*>(in_.data()), in_.size()}, f, used,
                                              nullptr);
       if (r == data_frame::Parse::Ok) {
-        got = RawFrame{f.kind, std::string(reinterpret_cast<const char*>(f.body.data()), f.body.size())};
+        got = RawFrame{f.kind, f.link, std::string(reinterpret_cast<const char*>(f.body.data()), f.body.size())};
         in_.erase(0, used);
         return true;
       }
