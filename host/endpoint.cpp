@@ -20,6 +20,7 @@
 #include <unordered_map>
 
 #include <boost/asio/ip/tcp.hpp>
+#include <boost/asio/post.hpp>
 #include <boost/asio/steady_timer.hpp>
 
 #include "host/data_frame.h"
@@ -131,6 +132,13 @@ struct Endpoint::Impl {
   void drop_trunk(const endpoint_detail::Trunk* t) {
     std::erase_if(trunks, [t](const auto& p) { return p.get() == t; });
   }
+  /// Which connection to the endpoint at `addr` links prefer when two endpoints opened one each (they did so at
+  /// the same instant): the one opened by the endpoint whose own address sorts first. Both ends agree.
+  bool prefer_opened_here(Transport t, const std::string& addr) const {
+    return (t == Transport::Unix ? uds_path : tcp_address) < addr;
+  }
+  /// Moves the links to `addr` that have sent nothing yet onto the preferred connection, once it is ready.
+  void converge(Transport t, const std::string& addr);
 
   std::function<void(const CommsEvent&)> on_event;
 };
@@ -140,7 +148,7 @@ namespace endpoint_detail {
 constexpr std::size_t kMaxBacklog = 8u << 20;  // bytes waiting on a backed-up socket before samples are dropped
 using Clock = std::chrono::steady_clock;
 
-Bytes as_bytes(const std::string& s) { return {reinterpret_cast<const std::byte*>(s.data()), s.size()}; }
+Bytes as_bytes(std::string_view s) { return {reinterpret_cast<const std::byte*>(s.data()), s.size()}; }
 
 std::string ms_text(std::chrono::milliseconds d) { return std::to_string(d.count()) + " ms"; }
 
@@ -157,7 +165,7 @@ class DataSocket : public std::enable_shared_from_this<DataSocket>, private Fram
 
   /// Sends a frame on `link`; false when the backlog is full (the frame is dropped) or the socket is closed.
   bool send(Kind kind, std::uint32_t link, Bytes body) {
-    if (closed_) return false;
+    if (closed_ || failing_) return false;
     if (!framed_.idle() && framed_.queued() > kMaxBacklog) return false;
     std::array<std::byte, data_frame::kHeader> h;
     data_frame::put_header(h.data(), kind, link, body.size());
@@ -166,7 +174,10 @@ class DataSocket : public std::enable_shared_from_this<DataSocket>, private Fram
         std::string_view(reinterpret_cast<const char*>(body.data()), body.size())};
     boost::system::error_code ec;
     if (framed_.write_now(parts, shared_from_this(), ec)) return true;
-    fail(ec.message());
+    // A write error breaks the connection from the loop, never inside the sender's call (which may be holding
+    // one of the links that the break ends).
+    failing_ = true;
+    asio::post(framed_.socket().get_executor(), [self = shared_from_this(), why = ec.message()] { self->fail(why); });
     return false;
   }
   /// Sends the handshake messages of one step.
@@ -293,7 +304,7 @@ class DataSocket : public std::enable_shared_from_this<DataSocket>, private Fram
   Clock::time_point wake_time_{}, handshake_at_ = Clock::time_point::max(), partial_since_{};
   std::chrono::milliseconds partial_timeout_, handshake_timeout_{0};
   bool waiting_ = false, partial_ = false;
-  bool closed_ = false, close_after_flush_ = false;
+  bool closed_ = false, close_after_flush_ = false, failing_ = false;
 };
 
 // In-process connection: the sample is copied straight into the input.
@@ -389,6 +400,11 @@ class StreamLink final : public Connection {
   }
   /// The link ended at the destination (its input went away) or the connection under it did.
   void trunk_down(Down how, const std::string& reason);
+  /// True when the link may move to another connection to its destination: it has sent nothing yet (so no
+  /// sample of it can overtake another).
+  bool movable() const { return info_.sent == 0 && !info_.broken; }
+  /// Continues on `to` (its hello goes there).
+  void move_to(std::shared_ptr<Trunk> to);
 
  private:
   void answer();
@@ -495,9 +511,9 @@ class Trunk final : public DataSocket {
   void input_gone(std::uint32_t id, const std::string& why) {
     auto it = in_.find(id);
     if (it == in_.end()) return;
-    send(Kind::Gone, id, as_bytes(why));
     auto gone = std::move(it->second);
     in_.erase(it);
+    send(Kind::Gone, id, as_bytes(why));
   }
   /// Ends the links to the local component `name` (it is being removed).
   void remove_component(const std::string& name, const std::string& host) {
@@ -515,10 +531,19 @@ class Trunk final : public DataSocket {
     shut();
   }
 
+  /// Moves the links from this endpoint's outputs that have sent nothing yet to `to` (the destination is told
+  /// they moved: no `broken`); then an opener left idle closes.
+  void move_links_to(const std::shared_ptr<Trunk>& to);
+
   /// The other endpoint's data address over this transport ("" until an accepted connection is introduced).
   const std::string& address() const { return addr_; }
   Transport transport() const { return transport_; }
   bool opener() const { return opener_; }
+  bool ready() const { return ready_; }
+  /// True when `addr` over `t` is this open connection's other end.
+  bool leads_to(Transport t, const std::string& addr) const {
+    return transport_ == t && !closed() && ep_ != nullptr && !addr.empty() && addr_ == addr;
+  }
 
  protected:
   void on_bytes(std::size_t n) override {
@@ -576,7 +601,10 @@ class Trunk final : public DataSocket {
     send(Kind::Peer, 0, as_bytes(data_frame::encode_peer({ep_->host, ep_->uds_path, ep_->tcp_address})));
     ready_ = true;
     clear_handshake_deadline();
+    ep_->converge(transport_, addr_);  // may move this connection's links to the peer's (then this one closes)
+    if (!ep_) return;
     for (const auto& [id, l] : std::map<std::uint32_t, StreamLink*>(out_)) send(Kind::Hello, id, as_bytes(l->hello()));
+    close_if_idle();
   }
   // The acceptor, authenticated: the opener's introduction comes first.
   void on_peer(Kind kind, Bytes body) {
@@ -588,6 +616,7 @@ class Trunk final : public DataSocket {
     addr_ = transport_ == Transport::Unix ? peer.data_uds : peer.data_tcp;
     ready_ = true;
     clear_handshake_deadline();
+    ep_->converge(transport_, addr_);
   }
 
   void on_link_frame(Kind kind, std::uint32_t id, Bytes body) {
@@ -599,7 +628,7 @@ class Trunk final : public DataSocket {
       case Kind::Hello:
         return on_hello(id, body);
       case Kind::Close:
-        return close_in(id);
+        return close_in(id, std::string_view(reinterpret_cast<const char*>(body.data()), body.size()) == kMoved);
       case Kind::HelloOk:
       case Kind::HelloError:
       case Kind::PullRequest:
@@ -638,13 +667,22 @@ class Trunk final : public DataSocket {
     in_.emplace(id, std::make_unique<InLink>(*this, id, h.request, in));
     send(Kind::HelloOk, id, {});
   }
-  // The source removed link `id`: reported where it ends, as when its connection closes.
-  void close_in(std::uint32_t id) {
+  // The source removed link `id` (reported where it ends, as when its connection closes), or moved it to the
+  // other connection between the two endpoints (it has sent nothing here: nothing to report).
+  void close_in(std::uint32_t id, bool moved) {
     auto it = in_.find(id);
     if (it == in_.end()) return;
     auto l = std::move(it->second);
     in_.erase(it);
-    report_in(*ep_, *l, "closed by peer");
+    if (!moved) report_in(*ep_, *l, "closed by peer");
+  }
+  // An opener that carries no link (they moved or went) closes: false when it does not.
+  bool close_if_idle() {
+    if (!opener_ || !ready_ || !out_.empty() || !in_.empty() || !ep_) return false;
+    auto keep = shared_from_this();
+    std::exchange(ep_, nullptr)->drop_trunk(this);
+    shut();
+    return true;
   }
   static void report_in(Endpoint::Impl& ep, const InLink& l, const std::string& reason) {
     const auto& r = l.request_of();
@@ -677,6 +715,7 @@ class Trunk final : public DataSocket {
   }
 
   static constexpr std::size_t kMaxLinks = 1u << 16;  // links from the peer on one connection
+  static constexpr std::string_view kMoved = "moved";  // a Close's body when the link moved
 
   Endpoint::Impl* ep_;
   Transport transport_;
@@ -689,6 +728,16 @@ class Trunk final : public DataSocket {
   std::map<std::uint32_t, StreamLink*> out_;  // links from this endpoint's outputs, by this endpoint's id
   std::unordered_map<std::uint32_t, std::unique_ptr<InLink>> in_;  // links to this endpoint, by the peer's id
 };
+
+void Trunk::move_links_to(const std::shared_ptr<Trunk>& to) {
+  for (const auto& [id, l] : std::map<std::uint32_t, StreamLink*>(out_)) {
+    if (!l->movable()) continue;
+    out_.erase(id);
+    if (ready_) send(Kind::Close, id, as_bytes(kMoved));
+    l->move_to(to);
+  }
+  close_if_idle();
+}
 
 void InLink::request() { trunk_->send(Kind::PullRequest, id_, {}); }
 
@@ -711,6 +760,11 @@ void StreamLink::start(std::shared_ptr<Trunk> trunk, const std::string& addr, En
     self->finish("no answer from " + self->peer_ + " at " + self->peer_addr_ + " within " +
                  std::to_string(timeout_ms) + " ms");
   });
+  id_ = trunk_->add_out(this);
+}
+
+void StreamLink::move_to(std::shared_ptr<Trunk> to) {
+  trunk_ = std::move(to);
   id_ = trunk_->add_out(this);
 }
 
@@ -803,8 +857,11 @@ auth::Key data_key(const auth::Key& cluster_key) {
 }
 
 std::shared_ptr<Trunk> Endpoint::Impl::trunk_to(Transport t, const std::string& addr, std::string* error) {
+  std::shared_ptr<Trunk> found;  // the oldest of the preferred kind, else the oldest
+  const bool here = prefer_opened_here(t, addr);
   for (const auto& tr : trunks)
-    if (tr->transport() == t && !tr->closed() && !addr.empty() && tr->address() == addr) return tr;
+    if (tr->leads_to(t, addr) && (!found || (found->opener() != here && tr->opener() == here))) found = tr;
+  if (found) return found;
   const auto to = t == Transport::Unix ? std::optional(Address::unix_socket(addr)) : Address::parse(addr, error);
   const auto where = to ? to_endpoint(*to, error) : std::nullopt;
   if (!where) return nullptr;
@@ -812,6 +869,16 @@ std::shared_ptr<Trunk> Endpoint::Impl::trunk_to(Transport t, const std::string& 
   trunks.push_back(tr);
   tr->open(*where, addr);
   return tr;
+}
+
+void Endpoint::Impl::converge(Transport t, const std::string& addr) {
+  std::shared_ptr<Trunk> preferred;  // the oldest ready one of the preferred kind
+  for (const auto& tr : trunks)
+    if (!preferred && tr->leads_to(t, addr) && tr->ready() && tr->opener() == prefer_opened_here(t, addr))
+      preferred = tr;
+  if (!preferred) return;
+  for (const auto& tr : std::vector<std::shared_ptr<Trunk>>(trunks))
+    if (tr != preferred && tr->leads_to(t, addr)) tr->move_links_to(preferred);
 }
 
 void Endpoint::Impl::accept(StreamAcceptor& acceptor, AcceptBackoff& backoff) {

@@ -511,6 +511,28 @@ TEST_P(EndpointSocketTest, LinksComeAndGoOnAnOpenConnection) {
   EXPECT_TRUE(src_events.empty());
 }
 
+// Two endpoints that open connections to each other at the same instant (a supervisor makes all its links at
+// once) end with their links on one connection, the one opened by the endpoint whose address sorts first: a
+// link that has sent nothing moves there unseen, and the other connection, idle, closes.
+TEST_P(EndpointSocketTest, SimultaneousOpensEndOnOneConnection) {
+  std::optional<std::string> there, back_again;
+  src_ep->connect(req("/src", "Out", "/dst", "In", "s"), dst_ep->location(), [&](const std::string& e) { there = e; });
+  dst_ep->connect(req("/dst", "Back", "/src", "Ret", "s"), src_ep->location(),
+                  [&](const std::string& e) { back_again = e; });
+  ASSERT_TRUE(run_until(io, [&] { return there && back_again; }));
+  EXPECT_EQ(*there, "");
+  EXPECT_EQ(*back_again, "");
+  ASSERT_TRUE(run_until(io, [&] { return src_ep->connections() == 1 && dst_ep->connections() == 1; }));
+  EXPECT_EQ(src_ep->accepted() + dst_ep->accepted(), 1u);
+  src_ep->activate("s");
+  dst_ep->activate("s");
+  expect_round_trip(1, *in, *back, *ret);
+  EXPECT_EQ(src_ep->connections(), 1u);
+  EXPECT_TRUE(src_events.empty());
+  EXPECT_TRUE(dst_events.empty());
+  EXPECT_EQ(src_ep->refused() + dst_ep->refused(), 0u);
+}
+
 // A restarted process (a new endpoint at a new address): its links both ways are made again on one new
 // connection, and the old connection's links were reported broken.
 TEST_P(EndpointSocketTest, RestartedPeerGetsANewConnectionCarryingBothWays) {
