@@ -7,17 +7,19 @@
 #include <cstring>
 #include <string>
 
+#include "controllers/packages.h"
 #include "controllers/registry.h"
 #include "app/node_run.h"
 #include "app/subcommand.h"
 #include "host/loop.h"
+#include "host/paths.h"
 #include "host/node.h"
 
 namespace {
 
 constexpr const char* kUsage =
     "usage: dca node --type T --name PATH --daemon ADDR [--key FILE] [--host NAME] [--clock wall|sim]\n"
-    "                [--world NAME|none] [--timeout MS] [-- ARG...]\n"
+    "                [--world NAME|none] [--timeout MS] [--package NAME]... [--system-dir DIR] [-- ARG...]\n"
     "       dca node --shared NAME --daemon ADDR [--key FILE] [--host NAME] [--clock wall|sim] ...\n"
     "\n"
     "Hosts one controller of type T (see `dca types`) named PATH: registers it with the daemon at ADDR, then\n"
@@ -33,11 +35,28 @@ constexpr const char* kUsage =
     "  --world NAME   the clock master's registered name (default `world`; `none`: any control channel may\n"
     "                 advance the clock, for tests)\n"
     "  --timeout MS   deadline of each start-up step and look-up (default 5000)\n"
+    "  --package NAME load the controller package NAME first (repeatable): NAME.dca.so from $DCA_CONTROLLER_PATH,\n"
+    "                 <prefix>/lib/dca/controllers, or DIR/packages with --system-dir DIR (the .dca file's folder)\n"
     "Prints `dca node: PATH ready` on stdout once registered. Exits 0 on `exit` or SIGTERM, 1 when start-up\n"
     "fails or the daemon goes away.";
 
+// Loads the packages named on the command line (the types of the leaves this node hosts). False after saying why.
+bool load_packages(const std::vector<std::string>& names, const std::string& system_dir) {
+  const auto dirs = dca::controller_dirs(system_dir);
+  for (const auto& n : names) {
+    std::string error;
+    if (!dca::load_package(n, dirs, &error)) {
+      std::fprintf(stderr, "dca node: %s\n", error.c_str());
+      return false;
+    }
+  }
+  return true;
+}
+
 int cmd_node(std::span<char* const> args) {
   dca::NodeOptions o;
+  std::vector<std::string> packages;
+  std::string system_dir;
   for (std::size_t i = 0; i < args.size(); ++i) {
     const std::string a = args[i];
     if (a == "--") {
@@ -59,6 +78,8 @@ int cmd_node(std::span<char* const> args) {
     else if (a == "--host") o.host = v;
     else if (a == "--world") o.world = v == "none" ? std::string() : v;
     else if (a == "--timeout") o.timeout_ms = std::atoi(v.c_str());
+    else if (a == "--package") packages.push_back(v);
+    else if (a == "--system-dir") system_dir = v;
     else if (a == "--clock" && (v == "wall" || v == "sim")) o.clock = v == "sim" ? dca::ClockKind::Simulated : dca::ClockKind::Wall;
     else {
       std::fprintf(stderr, "dca node: unknown argument '%s %s'\n%s\n", a.c_str(), v.c_str(), kUsage);
@@ -70,6 +91,7 @@ int cmd_node(std::span<char* const> args) {
     return 2;
   }
   if (o.timeout_ms <= 0) o.timeout_ms = 5000;
+  if (!load_packages(packages, system_dir)) return 1;
   dca::Loop loop;
   dca::Node node(loop, o,
                  [](const std::string& type, const std::string& name, const std::string& host,

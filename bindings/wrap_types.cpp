@@ -2,10 +2,23 @@
 //   { [TypeName] = { doc = "...", inputs = { {name=, type=, size=, units=, device= (device ports only)} ... }, outputs = {...},
 //                    params = { {name=, type=, required=, default=, variadic=, doc=} ... },
 //                    ends = "never" | "done" | "aborted" | "done or aborted" | nil (undeclared: anything),
-//                    ends_after = the parameter holding the seconds after which it ends (Timer) | nil } }
+//                    ends_after = the parameter holding the seconds after which it ends (Timer) | nil,
+//                    package = "mylab" (a package's type only) } }
+// Controller packages (controllers/packages.h), `system_dir` the .dca file's folder or nil:
+//   core.load_package(name, system_dir) --> { name=, file=, version=, types = {...} } | nil, error
+//   core.package_dirs(system_dir)       --> { dir, ... }  the search path, in order
+//   core.packages(system_dir)           --> { name, ... } the packages found on it, sorted
+//   core.absolute(path)                 --> the path made absolute (from the working directory), normalised
 #include <lua.hpp>
 
+#include <filesystem>
+#include <string>
+#include <system_error>
+#include <vector>
+
+#include "controllers/packages.h"
 #include "controllers/registry.h"
+#include "host/paths.h"
 
 namespace {
 
@@ -75,8 +88,67 @@ int l_types(lua_State* L) {
       lua_pushlstring(L, m->ends.after.data(), m->ends.after.size());
       lua_setfield(L, -2, "ends_after");
     }
+    if (!m->package.empty()) {
+      lua_pushlstring(L, m->package.data(), m->package.size());
+      lua_setfield(L, -2, "package");
+    }
     lua_setfield(L, -2, m->type.c_str());
   }
+  return 1;
+}
+
+void push_strings(lua_State* L, const std::vector<std::string>& v) {
+  lua_createtable(L, static_cast<int>(v.size()), 0);
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    lua_pushlstring(L, v[i].data(), v[i].size());
+    lua_rawseti(L, -2, static_cast<lua_Integer>(i + 1));
+  }
+}
+
+std::string system_dir_arg(lua_State* L, int i) {
+  std::size_t n = 0;
+  const char* s = lua_isstring(L, i) ? lua_tolstring(L, i, &n) : nullptr;
+  return s ? std::string(s, n) : std::string();
+}
+
+int l_load_package(lua_State* L) {
+  std::size_t n = 0;
+  const char* name = luaL_checklstring(L, 1, &n);
+  std::string error;
+  const auto* p = dca::load_package(std::string(name, n), dca::controller_dirs(system_dir_arg(L, 2)), &error);
+  if (!p) {
+    lua_pushnil(L);
+    lua_pushlstring(L, error.data(), error.size());
+    return 2;
+  }
+  lua_createtable(L, 0, 4);
+  lua_pushlstring(L, p->name.data(), p->name.size());
+  lua_setfield(L, -2, "name");
+  lua_pushlstring(L, p->file.data(), p->file.size());
+  lua_setfield(L, -2, "file");
+  lua_pushlstring(L, p->version.data(), p->version.size());
+  lua_setfield(L, -2, "version");
+  push_strings(L, p->types);
+  lua_setfield(L, -2, "types");
+  return 1;
+}
+
+int l_package_dirs(lua_State* L) {
+  push_strings(L, dca::controller_dirs(system_dir_arg(L, 1)));
+  return 1;
+}
+
+int l_packages(lua_State* L) {
+  push_strings(L, dca::available_packages(dca::controller_dirs(system_dir_arg(L, 1))));
+  return 1;
+}
+
+int l_absolute(lua_State* L) {
+  std::size_t n = 0;
+  const char* path = luaL_checklstring(L, 1, &n);
+  std::error_code ec;
+  const std::string abs = std::filesystem::absolute(std::string(path, n), ec).lexically_normal().string();
+  lua_pushlstring(L, abs.data(), abs.size());
   return 1;
 }
 
@@ -84,10 +156,12 @@ int l_types(lua_State* L) {
 
 namespace dca::bindings {
 
-/// Adds `types` to the dca.core table on the top of the stack.
+/// Adds `types` and the package functions to the dca.core table on the top of the stack.
 void open_types(lua_State* L) {
-  lua_pushcfunction(L, l_types);
-  lua_setfield(L, -2, "types");
+  static const luaL_Reg functions[] = {{"types", l_types},   {"load_package", l_load_package},
+                                       {"package_dirs", l_package_dirs}, {"packages", l_packages},
+                                       {"absolute", l_absolute}, {nullptr, nullptr}};
+  luaL_setfuncs(L, functions, 0);
 }
 
 }  // namespace dca::bindings

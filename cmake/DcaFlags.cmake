@@ -44,3 +44,10 @@ function(dca_add_library name alias)
   target_link_libraries(${name} PRIVATE dca::warnings PUBLIC dca::sanitizers)
   target_include_directories(${name} PUBLIC $<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}>)
 endfunction()
+
+# dca_exports_sdk(target): the executable exports dca's own symbols (namespace dca, cmake/dca_exports.list) to
+# the controller packages it loads (controllers/packages.h), which link against nothing of dca.
+function(dca_exports_sdk target)
+  target_link_options(${target} PRIVATE "LINKER:--dynamic-list=${PROJECT_SOURCE_DIR}/cmake/dca_exports.list")
+  set_property(TARGET ${target} APPEND PROPERTY LINK_DEPENDS ${PROJECT_SOURCE_DIR}/cmake/dca_exports.list)
+endfunction()

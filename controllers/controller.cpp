@@ -4,6 +4,8 @@
 #include <cstdlib>
 #include <stdexcept>
 
+#include "host/timers.h"
+
 namespace dca {
 
 ParamSpec ParamSpec::Required(std::string name, std::string type, std::string doc) {
@@ -47,6 +49,8 @@ Controller::~Controller() {
   for (auto* in : triggers_) in->on_sample = nullptr;
   if (timer_ && ctx_.timers) ctx_.timers->cancel(timer_);
 }
+
+Nanos Controller::now() const { return timers().now(); }
 
 TimerServer& Controller::timers() const {
   if (!ctx_.timers) throw std::logic_error("controller '" + ctx_.name + "' has no TimerServer");

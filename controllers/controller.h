@@ -41,9 +41,18 @@
 
 #include "host/port.h"
 #include "host/component.h"
-#include "host/timers.h"
 
 namespace dca {
+
+// From host/timers.h, declared again here so that a controller (and a controller package: the installed SDK)
+// compiles without Asio.
+class TimerServer;
+/// Nanoseconds on a Clock (host/timers.h).
+using Nanos = std::int64_t;
+/// Seconds -> Nanos (host/timers.h).
+Nanos from_seconds(double s);
+/// Nanos -> seconds (host/timers.h).
+double to_seconds(Nanos n);
 
 /// A parameter's declaration.
 struct ParamSpec {
@@ -96,6 +105,7 @@ struct Manifest {
   std::vector<PortSpec> outputs;
   std::vector<ParamSpec> params;
   Ending ends = {};  ///< how a run ends by itself (the last field, optional in a Describe())
+  std::string package = {};  ///< the controller package that defines it ("" for a built-in); set by the registry
 };
 
 /// What a controller is constructed with.
@@ -198,7 +208,7 @@ class Controller : public Component {
   /// The process's TimerServer.
   TimerServer& timers() const;
   /// The clock's time (wall or simulated).
-  Nanos now() const { return timers().now(); }
+  Nanos now() const;
 
  private:
   void tick();
@@ -212,7 +222,7 @@ class Controller : public Component {
   Manifest manifest_;
   PortSet ports_;
   State state_ = State::Idle;
-  TimerServer::Id timer_ = 0;
+  std::uint64_t timer_ = 0;  // TimerServer::Id
   std::vector<Input*> triggers_;
   bool in_main_calc_ = false;
   std::uint64_t reentries_ = 0, ticks_ = 0;

@@ -48,6 +48,22 @@ std::string Registry::unknown_type(std::string_view type) const {
   return m;
 }
 
+bool Registry::adopt(Registry&& staged, const std::string& package, std::string* error) {
+  for (const auto& e : staged.entries_)
+    if (const Manifest* had = manifest(e.manifest.type)) {
+      *error = "type '" + e.manifest.type + "' is defined by both " +
+               (had->package.empty() ? std::string("dca (a built-in type)") : "package '" + had->package + "'") +
+               " and package '" + package + "'";
+      return false;
+    }
+  for (auto& e : staged.entries_) {
+    e.manifest.package = package;
+    entries_.push_back(std::move(e));
+  }
+  staged.entries_.clear();
+  return true;
+}
+
 std::unique_ptr<Controller> Registry::create(std::string_view type, ControllerContext ctx) const {
   for (const auto& e : entries_)
     if (e.manifest.type == type) {

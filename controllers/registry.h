@@ -4,7 +4,9 @@
 //
 // Register a type in its .cpp with DCA_REGISTER_CONTROLLER(T): T needs `static Manifest Describe()` and a
 // constructor `T(const ControllerContext&)`. The controllers library is linked whole-archive, so a registration
-// in any .cpp below controllers/ is never dropped by the linker.
+// in any .cpp below controllers/ is never dropped by the linker. In a controller package (compiled with
+// DCA_PACKAGE_NAME, see controllers/package.h) the same macro only links the type into the package's own list,
+// touching nothing of dca's; the loader adds the list to the registry once the package's ABI stamp matched.
 #include <functional>
 #include <memory>
 #include <string>
@@ -35,6 +37,9 @@ class Registry {
   std::unique_ptr<Controller> create(std::string_view type, ControllerContext ctx) const;
   /// "unknown controller type 'X'; types are: A, B, ..."
   std::string unknown_type(std::string_view type) const;
+  /// Moves every type of `staged` (a package's, filled by its entry point) in, each marked with `package`. All or
+  /// nothing: false, with *error naming both, when a type is already defined (built in or by another package).
+  bool adopt(Registry&& staged, const std::string& package, std::string* error);
 
  private:
   struct Entry {
@@ -54,5 +59,9 @@ struct RegisterController {
 
 }  // namespace dca
 
+#ifndef DCA_PACKAGE_NAME
 /// Registers the controller class T under the type name in its manifest.
 #define DCA_REGISTER_CONTROLLER(T) static const ::dca::RegisterController<T> dca_register_controller_##T
+#else
+#include "controllers/package.h"
+#endif

@@ -59,6 +59,24 @@ std::string models_dir() {
   });
 }
 
+std::vector<std::string> controller_dirs(const std::string& system_dir) {
+  std::vector<std::string> dirs;
+  std::error_code ec;
+  if (const char* e = env("DCA_CONTROLLER_PATH")) {
+    const std::string path = e;
+    for (std::size_t at = 0; at <= path.size();) {
+      std::size_t end = path.find(':', at);
+      if (end == std::string::npos) end = path.size();
+      if (end > at) dirs.push_back(fs::absolute(path.substr(at, end - at), ec).lexically_normal().string());
+      at = end + 1;
+    }
+  }
+  if (const std::string dir = exe_dir(); !dir.empty())
+    dirs.push_back((fs::path(dir).parent_path() / "lib" / "dca" / "controllers").string());
+  if (!system_dir.empty()) dirs.push_back((fs::absolute(system_dir, ec) / "packages").lexically_normal().string());
+  return dirs;
+}
+
 std::string runtime_dir() {
   if (const char* x = env("XDG_RUNTIME_DIR"); x != nullptr && ::access(x, W_OK) == 0) return x;
   std::error_code ec;

@@ -4,6 +4,7 @@
 // first; an installed dca (<prefix>/bin/dca) finds <prefix>/share/dca/...; a build tree finds the source tree.
 // C++17-clean (sim/ uses it). No function here throws.
 #include <string>
+#include <vector>
 
 namespace dca {
 
@@ -20,6 +21,12 @@ std::string lua_dir();
 /// The directory of the URDF models: $DCA_MODELS_DIR if set; else <exe>/../share/dca/models when it exists
 /// (an installed dca); else the source tree's sim/models (a build tree).
 std::string models_dir();
+
+/// The directories searched for controller packages (`use NAME;` in a .dca file), in order: each entry of
+/// $DCA_CONTROLLER_PATH (':'-separated; a relative one taken from the working directory), then
+/// <exe>/../lib/dca/controllers (where an installed dca, and a build tree, keep theirs), then
+/// <system_dir>/packages when `system_dir` (the .dca file's directory) is not "". The same rule on every host.
+std::vector<std::string> controller_dirs(const std::string& system_dir = "");
 
 /// Where a process puts its Unix sockets: $XDG_RUNTIME_DIR when writable, else <tmp>/dca-<uid> (created, 0700).
 std::string runtime_dir();

@@ -7,6 +7,12 @@
 -- The error text is what `dca check` prints: every error as "file:line:col: path: message", the source line
 -- and a caret. With registry (the default) the controller registry's manifests (dca.core.types()) check the
 -- leaves' ports and parameters; registry = false takes undefined process types as leaves.
+--
+-- Packages: the file's `use NAME;` statements load those controller packages into this process (dca.core
+-- .load_package, searched on DCA_CONTROLLER_PATH, <prefix>/lib/dca/controllers and the file's packages/ folder:
+-- ARCHITECTURE.md, "Controller packages"); the check sees the built-in types and those of the packages the file
+-- uses, no others. A package that cannot be loaded is an error at its `use`. Each leaf of the spec names the
+-- package of its type and the file's folder (`package`, `system_dir`), which its node loads the same way.
 local parser = require "dca.lang.parser"
 local check = require "dca.lang.check"
 local model = require "dca.lang.model"
@@ -21,6 +27,46 @@ function M.registry()
     if ok2 and type(types) == "table" then return types end
   end
   return nil
+end
+
+local function core_or_nil()
+  local ok, core = pcall(require, "dca.core")
+  if ok and type(core) == "table" and type(core.load_package) == "function" then return core end
+  return nil
+end
+
+--- The folder of the file at `path` ("." for a bare name).
+local function folder(path)
+  return tostring(path):match("^(.*)/[^/]*$") or "."
+end
+
+--- Loads the packages `ast` uses. --> { [name] = { types = {...} } | { error = "..." } } | nil without dca.core
+function M.packages(ast, path)
+  local core = core_or_nil()
+  if not core then return nil end
+  local out = {}
+  for _, u in ipairs(ast.uses or {}) do
+    if not out[u.name] then
+      local p, err = core.load_package(u.name, folder(path))
+      out[u.name] = p or { error = err }
+    end
+  end
+  return out
+end
+
+--- The check options for `ast`: the registry's manifests of the built-ins and the used packages' types; the
+--- types of other loaded packages as hints. --> opts for dca.lang.check (without root)
+function M.check_options(ast, path, registry)
+  if registry == false then return {} end
+  local packages = M.packages(ast, path) or {}
+  local all = M.registry()
+  if not all then return {} end
+  local types, elsewhere = {}, {}
+  for name, m in pairs(all) do
+    if not m.package or (packages[m.package] and not packages[m.package].error) then types[name] = m
+    else elsewhere[name] = m.package end
+  end
+  return { types = types, packages = packages, elsewhere = elsewhere }
 end
 
 --- The whole text of the file at path. --> text | nil, "dca: cannot read ..."
@@ -45,7 +91,8 @@ function M.text(text, path, opts)
   opts = opts or {}
   local ast, perr = parser.parse(text, path)
   if not ast then return nil, perr end
-  local copts = { root = opts.root, types = opts.registry ~= false and M.registry() or nil }
+  local copts = M.check_options(ast, path, opts.registry)
+  copts.root = opts.root
   if not opts.root and not ast.by_name.main then
     local errors = check.check(ast, copts)
     if #errors > 0 then return nil, check.format_all(ast, errors) end
@@ -67,6 +114,12 @@ function M.spec(path, opts)
   local spec = spec_mod.from_model(tree, path)
   local errs = spec_mod.validate(spec)
   if #errs > 0 then return nil, table.concat(errs, "\n") end
+  local core = core_or_nil()
+  if core then
+    -- the nodes of package types load them from the same search path, this file's folder included
+    local dir = core.absolute(folder(path))
+    spec_mod.walk(spec, function(n) if n.package then n.system_dir = dir end end)
+  end
   return spec, tree, ast
 end
 

@@ -35,6 +35,7 @@
 #include "host/endpoint.h"
 #include "host/timers.h"
 #include "sim/world.h"
+#include "tests/support/door_package.h"
 
 namespace dca::testing {
 
@@ -67,6 +68,7 @@ class DoorHarness {
 
   /// The world from `config`; every controller of door_open.dca with the arguments the .dca file gives.
   explicit DoorHarness(const sim::WorldConfig& config) : world_(config) {
+    testing::add_door_types();
     ep_.add_component("world", world_ports_);
     for (const auto& s : sim::kSensorSignals) world_ports_.add_output(vector_port(s.name, s.size, s.units));
     for (const auto& s : sim::kCommandSignals) world_ports_.add_input(vector_port(s.name, s.size, s.units), 16);

@@ -4,6 +4,9 @@
 --     root = "main",              -- the root process (default: "main" when the file has one)
 --     types = core.types(),       -- optional registry: { [Type] = { inputs = {{name=}...}, outputs = ..., params = ... } }
 --     manifest = function(type) end,  -- optional instead of `types`: a manifest or nil
+--     packages = { [name] = { types = {...} } | { error = "..." } },  -- optional: the file's `use`d packages
+--                                 -- as dca.load found them (an error is reported at its `use`)
+--     elsewhere = { [Type] = "package" },  -- optional: types of packages the file does not use (for hints)
 --   })
 --   -- errors: list of { line =, col =, path = "main.dooropensyst.hit", msg = "..." } in file order;
 --   -- check.format(ast, e) -> "file:line:col: path: msg\n<source line>\n<caret>"
@@ -154,6 +157,23 @@ local function known_types(ctx)
   ctx.known_types = names
 end
 
+--- The `use` statements: each package once, each found and loaded (opts.packages, when the caller loaded them).
+local function uses(ctx)
+  local packages = ctx.opts.packages
+  each_repeat(ctx.ast.uses or {}, function(u) return u.name end, function(u, first)
+    err(ctx, "use", u.line, u.col, "package '%s' is already used at line %d", u.name, first.line)
+  end)
+  if not packages then return end
+  local reported = {}
+  for _, u in ipairs(ctx.ast.uses or {}) do
+    local pk = packages[u.name]
+    if pk and pk.error and not reported[u.name] then
+      reported[u.name] = true
+      err(ctx, "use", u.line, u.col, "%s", pk.error)
+    end
+  end
+end
+
 --- The path of the first instance of each process definition from the root; a missing root is an error.
 local function instance_paths(ctx)
   local defs, root_name = ctx.defs, ctx.opts.root
@@ -288,10 +308,15 @@ local function leaves(ctx, p, sc)
   for _, inst in ipairs(p.instances) do
     if not ctx.defs[inst.type] then
       local path, m = sc.base .. "." .. inst.name, ctx.manifest(inst.type)
-      if not m and ctx.registry_known then
+      local home = ctx.opts.elsewhere and ctx.opts.elsewhere[inst.type]
+      if not m and home then
+        err(ctx, path, inst.type_line, inst.type_col,
+            "unknown process type '%s': package '%s' defines it (add 'use %s;' at the top of the file)", inst.type,
+            home, home)
+      elseif not m and ctx.registry_known then
         err(ctx, path, inst.type_line, inst.type_col, "unknown process type '%s'%s", inst.type,
             guess_text(inst.type, ctx.known_types) or
-            " (not defined in this file, not built in, not in the controller registry)")
+            " (not defined in this file, not built in, not in a package the file uses)")
       end
       local h = inst.args[1]
       if not h then
@@ -508,7 +533,7 @@ end
 
 --- The passes, in order, each a function(ctx); a new check is one more entry.
 M.passes = {
-  known_types, instance_paths, duplicate_definitions, scopes,              -- the context
+  known_types, instance_paths, duplicate_definitions, scopes, uses,        -- the context, the packages
   each(parameters), each(process_host), each(instances), each(leaves),     -- each process definition
   each(external_io), each(connection_sets), each(connections), each(actions), each(usable_strings),
   recursion,                                                               -- between process types

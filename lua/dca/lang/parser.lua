@@ -5,6 +5,7 @@
 --   -- err: "door.dca:12:7: message\n<source line>\n<caret>"; parse never raises, whatever the input.
 --
 -- The language:
+--   use mylab, door;                                      -- the controller packages the file's types come from
 --   process Name(param, ...) {
 --     host { arg }                                        -- where this group's supervisor runs
 --     instantiated_processes { inst instof Type(arg, ...); ... }
@@ -15,10 +16,13 @@
 -- Arguments are parameter names, strings ("c1.example"), numbers (30, -0.5, 1e3) or configuration keys
 -- (config("door.stop_distance"): the value in the configuration repository, resolved when the system starts).
 -- Comments: // and /* */.
+-- `use` statements come first (before the first process); a package name is a word (dca.lang.check and
+-- dca.load find and load them: ARCHITECTURE.md, "Controller packages").
 -- Sections may come in any order; each but internal_connections at most once (dca.lang.check reports repeats).
 --
 -- AST (every table with `line`, `col` also has `pos`, the byte offset):
 --   ast = { file = <name>, source = <text>, index = <dca.lang.source index>,
+--           uses = { { name = "mylab", line, col }, ... },     -- every package of every `use`, in order
 --           processes = { proc, ... }, by_name = { [name] = proc } (first definition wins) }
 --   proc = {
 --     name = "DoorOpenSystem", line, col,
@@ -170,7 +174,12 @@ local process = Ct(pos() * pos("open_process") * kw"process" * Cg(expect(NAME, "
                    Cg(Ct(any_section^0), "sections") *
                    expect(tok"}", "process_close", "pname", "open_process"))
 
-local file = ws * Ct(process^0) * expect(P(-1), "toplevel")
+-- use NAME, NAME...;  (before the first process)
+local use_name = Ct(pos() * Cg(NAME, "name"))
+local use_stmt = kw"use" * expect(use_name, "use_name") * (tok"," * expect(use_name, "use_name"))^0 *
+                 expect(tok";", "use_semi")
+
+local file = ws * Ct(use_stmt^0) * Ct(process^0) * expect(P(-1), "toplevel")
 
 -- For blanking comments out of an expression (keeping offsets and newlines).
 local blank = Cs(((comment / function(c) return (c:gsub("[^\n]", " ")) end) + 1)^0)
@@ -246,6 +255,7 @@ end
 -- Text before the top-level process that cannot start one.
 local function toplevel(f, s, p)
   local shown, guess = suggest_section(s, p)
+  if shown == "use" then return "'use' comes before the first process (write the file's 'use' statements first)" end
   if shown and (SECTION[guess] or guess) then
     return sformat("'%s' outside a process: a '}' closes the process too early", shown)
   end
@@ -292,6 +302,8 @@ conn_port_in      expected a port name, found $f
 conn_arrow        expected '->' between the output and the input (write 'a, Out -> b, In;'), found $f
 conn_instance_in  expected the destination instance after '->', found $f
 conn_semi         expected ';' after the connection, found $f
+use_name          expected a package name after 'use' (write 'use mylab;'), found $f
+use_semi          expected ',' and another package, or ';' to end 'use', found $f
 ]]):gmatch("(%w[%w_]*) +([^\n]+)") do MESSAGES[label] = text end
 
 -- Those that look around the error: function(e, found, text, pos, idx) -> message.
@@ -430,7 +442,7 @@ function M.parse(text, filename)
     return nil, sformat("%s:1:1: expected the source text as a string, got %s", tostring(filename), type(text))
   end
   local idx = source.index(text)
-  local ok, raw = pcall(lpeg.match, file, text)
+  local ok, raw, raw_procs = pcall(lpeg.match, file, text)
   if not ok then
     if getmetatable(raw) == ParseError then
       local okm, msg, p = pcall(message, raw, text, idx)
@@ -449,9 +461,13 @@ function M.parse(text, filename)
     end
     return nil, source.format(filename, idx, 1, 1, "internal parser error: " .. m)
   end
-  local ast = { file = filename, source = text, index = idx, processes = {}, by_name = {} }
+  local ast = { file = filename, source = text, index = idx, uses = {}, processes = {}, by_name = {} }
   local okb, err = pcall(function()
-    for i, rp in ipairs(raw) do
+    for i, u in ipairs(raw) do
+      ast.uses[i] = { name = u.name, pos = u.pos }
+      idx.set(ast.uses[i], u.pos)
+    end
+    for i, rp in ipairs(raw_procs) do
       local proc = build_process(rp, idx)
       ast.processes[i] = proc
       if ast.by_name[proc.name] == nil then ast.by_name[proc.name] = proc end

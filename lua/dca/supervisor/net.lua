@@ -78,6 +78,11 @@ local function child_argv(child, addr, key)
     argv = { "dca", "supervise", "--name", child.path, "--daemon", addr }
   end
   if key then argv[#argv + 1] = "--key" argv[#argv + 1] = key end
+  if child.kind == "leaf" and child.package then
+    -- the node loads its type's package by name, on its own host's search path (ARCHITECTURE.md, packages)
+    argv[#argv + 1] = "--package" argv[#argv + 1] = child.package
+    if child.system_dir then argv[#argv + 1] = "--system-dir" argv[#argv + 1] = child.system_dir end
+  end
   if child.kind == "leaf" then
     argv[#argv + 1] = "--"
     for _, a in ipairs(child.args or {}) do argv[#argv + 1] = argstr(a) end
@@ -188,7 +193,16 @@ function Net:after(s, fn) return core.after(s, fn) end
 function Net:every(s, fn) return core.every(s, fn) end
 function Net:report(msg) if self.opts.report then self.opts.report(msg) end end
 function Net:log(line) if self.opts.log then self.opts.log(line) end end
-function Net:types() return core.types and core.types() or {} end
+-- The manifests: the built-ins and the packages of this group's leaves (loaded here too, so that a child
+-- supervisor on another host knows their device ports; one that fails to load fails its node's start instead).
+function Net:types()
+  if not core.types then return {} end
+  local spec = self.sup and self.sup.spec
+  for _, c in ipairs(spec and spec.children or {}) do
+    if c.kind == "leaf" and c.package and core.load_package then core.load_package(c.package, c.system_dir) end
+  end
+  return core.types()
+end
 
 --- The heartbeat period and the silence after which a daemon or a child supervisor is lost (seconds):
 --- opts.heartbeat = { period, timeout }, default 1 and 5 (generous: a loaded machine answers late, a stopped

@@ -12,7 +12,9 @@
 --         args = { 2.5 },                                           -- the .dca arguments after the host;
 --                                                                   -- { config = "door.stop_distance" }
 --                                                                   -- for config("door.stop_distance")
---         params = { { name = "distance", type = "number" } } },    -- the manifest's parameters (if known)
+--         params = { { name = "distance", type = "number" } },      -- the manifest's parameters (if known)
+--         package = "door", system_dir = "/abs/dir" },              -- a package's type: its package, and the
+--                                                                   -- .dca file's folder (dca.load.spec)
 --       { name = "mc", path = "main.door.mc", kind = "group", type = "MotionControl", host = "h3",
 --         spec = <the child's group spec> },
 --     },
@@ -163,7 +165,8 @@ function M.from_model(node, file, default_host)
         end
       end
       spec.children[#spec.children + 1] = { name = c.name, path = c.path, kind = "leaf", type = c.type,
-                                            host = c.host, args = args, params = info }
+                                            host = c.host, args = args, params = info,
+                                            package = c.manifest and c.manifest.package or nil }
     end
   end
   for _, x in ipairs(proc.external_io or {}) do

@@ -8,6 +8,7 @@
 #include "controllers/door/visual_servoing.h"
 #include "controllers/robot/model.h"
 #include "tests/support/controller_fixture.h"
+#include "tests/support/door_package.h"
 
 namespace {
 
@@ -16,7 +17,10 @@ using dca::robot::Vec6;
 using dca::robot::Vec9;
 constexpr double kPi = 3.14159265358979323846;
 
-class DoorTest : public dca::testing::ControllerFixture {};
+class DoorTest : public dca::testing::ControllerFixture {
+ protected:
+  DoorTest() { dca::testing::add_door_types(); }
+};
 
 Vec6 ReadyPose() { return (Vec6() << 0.1513, 0.711, -3.428, 0.1658, 1.151, 1.503).finished(); }
 

@@ -22,7 +22,7 @@ end)
 local function defaults(path, text) return T.write((path:gsub("%.dca$", ".config")), text) end
 
 suite:case("config_parameters_are_checked_against_the_defaults_file", function()
-  local path = tmpfile([[
+  local path = tmpfile([[use door;
 process main() {
   instantiated_processes {
     det instof DistanceThreshold("h1", config("door.stop_distanse"));
@@ -33,11 +33,11 @@ process main() {
 ]])
   -- a key the defaults lack: a warning at the config( literal, with the close name
   local file = defaults(path, "door.stop_distance = 0.7\ndoor.hit_force = 6.0\n")
-  T.dca("check " .. path, 0, path .. ":3:40: warning: main.det parameter 1 'distance': config key " ..
+  T.dca("check " .. path, 0, path .. ":4:40: warning: main.det parameter 1 'distance': config key " ..
     "'door.stop_distanse' is not in " .. file .. " (did you mean door.stop_distance?)", path .. ": ok:")
   -- a default of the wrong type for the parameter: an error
   defaults(path, "door.stop_distanse = 0.7\ndoor.hit_force = \"six\"\n")
-  T.dca("check " .. path, 1, path .. ":4:37: main.hit parameter 1 'force': config key 'door.hit_force' defaults to " ..
+  T.dca("check " .. path, 1, path .. ":5:37: main.hit parameter 1 'force': config key 'door.hit_force' defaults to " ..
     "\"six\" in " .. file .. ", not a number")
   -- a defaults file that does not read: an error at its line and column; --no-config skips it
   defaults(path, "door.hit_force 6\n")

@@ -1,0 +1,42 @@
+# dca_add_controller_package(NAME SOURCES src... [LIBS lib...] [OUTPUT_DIRECTORY dir] [INSTALL_DIR dir])
+#
+# A controller package (ARCHITECTURE.md, "Controller packages"): a shared library NAME.dca.so of the controller
+# types defined in SOURCES (each registered with DCA_REGISTER_CONTROLLER, controllers/registry.h), built against
+# the dca SDK (the target dca::sdk) with dca's entry point, so that a .dca file's `use NAME;` loads it. dca finds
+# it in $DCA_CONTROLLER_PATH, in <dca prefix>/lib/dca/controllers, or in a `packages/` folder beside the .dca
+# file. `cmake --install` puts it in <prefix>/lib/dca/controllers (INSTALL_DIR to change that).
+# The library is linked against nothing of dca: the dca process that loads it provides those symbols.
+#
+# Used by the installed package config (dcaConfig.cmake) and by dca's own tree (the door package).
+include_guard(GLOBAL)
+
+# dca_package_properties(TARGET NAME): what makes a MODULE library the package NAME.
+function(dca_package_properties target name)
+  if(NOT name MATCHES "^[A-Za-z_][A-Za-z0-9_]*$")
+    message(FATAL_ERROR "dca_add_controller_package: '${name}' is not a package name (letters, digits and '_')")
+  endif()
+  target_link_libraries(${target} PRIVATE dca::sdk)
+  target_compile_definitions(${target} PRIVATE DCA_PACKAGE_NAME="${name}")
+  target_compile_features(${target} PRIVATE cxx_std_20)
+  set_target_properties(${target} PROPERTIES PREFIX "" OUTPUT_NAME "${name}.dca" SUFFIX ".so"
+                        POSITION_INDEPENDENT_CODE ON)
+endfunction()
+
+function(dca_add_controller_package name)
+  cmake_parse_arguments(P "" "OUTPUT_DIRECTORY;INSTALL_DIR" "SOURCES;LIBS" ${ARGN})
+  if(NOT P_SOURCES)
+    message(FATAL_ERROR "dca_add_controller_package(${name}): no SOURCES")
+  endif()
+  add_library(${name} MODULE ${P_SOURCES} ${DCA_PACKAGE_ENTRY_SOURCE})
+  dca_package_properties(${name} ${name})
+  if(P_LIBS)
+    target_link_libraries(${name} PRIVATE ${P_LIBS})
+  endif()
+  if(P_OUTPUT_DIRECTORY)
+    set_target_properties(${name} PROPERTIES LIBRARY_OUTPUT_DIRECTORY ${P_OUTPUT_DIRECTORY})
+  endif()
+  if(NOT P_INSTALL_DIR)
+    set(P_INSTALL_DIR lib/dca/controllers)
+  endif()
+  install(TARGETS ${name} LIBRARY DESTINATION ${P_INSTALL_DIR})
+endfunction()

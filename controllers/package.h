@@ -1,0 +1,74 @@
+#pragma once
+// A controller package: a shared library of controller types, built outside (or inside) the dca tree against the
+// installed SDK, that dca loads by name (ARCHITECTURE.md, "Controller packages"). An author writes controllers
+// exactly as the built-ins (controllers/controller.h, DCA_REGISTER_CONTROLLER in each .cpp) and builds them with
+//   find_package(dca REQUIRED)
+//   dca_add_controller_package(mylab SOURCES pid.cpp filter.cpp)
+// which compiles every source with DCA_PACKAGE_NAME="mylab" and adds the entry point (cmake/dca_package_entry.cpp).
+//
+// Loading (controllers/packages.h) reads the entry point's plain C data first: the dca version and the ABI stamp
+// the package was built with. Only when both equal this dca's does it call `add_types`, so no code of a package
+// built against another dca ever touches this one's objects. Until then the package's static initialisers only
+// link their types into the package's own list (dca_package_links, hidden: every package has its own).
+#include "controllers/registry.h"
+#include "dca/version.h"
+
+#define DCA_PACKAGE_STR2(x) #x
+#define DCA_PACKAGE_STR(x) DCA_PACKAGE_STR2(x)
+
+/// What must match between dca and a package: the SDK headers' hash (dca/version.h), the compiler's major version,
+/// libstdc++'s string ABI, and the Eigen and msgpack versions that lay out the types crossing the boundary.
+#define DCA_ABI_STAMP                                                                                        \
+  "sdk-" DCA_SDK_HASH " gcc-" DCA_PACKAGE_STR(__GNUC__) " cxx11abi-" DCA_PACKAGE_STR(_GLIBCXX_USE_CXX11_ABI) \
+  " eigen-" DCA_PACKAGE_STR(EIGEN_WORLD_VERSION) "." DCA_PACKAGE_STR(EIGEN_MAJOR_VERSION) "."               \
+  DCA_PACKAGE_STR(EIGEN_MINOR_VERSION) " msgpack-" MSGPACK_VERSION
+
+namespace dca {
+
+/// A package's entry point's answer (plain C data: readable whatever the dca it was built against).
+struct PackageEntry {
+  const char* name;     ///< the package's name (DCA_PACKAGE_NAME)
+  const char* version;  ///< the dca version it was built against
+  const char* abi;      ///< the DCA_ABI_STAMP it was built with
+  void (*add_types)(Registry& into);  ///< adds its types (throws std::invalid_argument for a bad manifest)
+};
+
+namespace package_detail {
+/// One registered type of a package: a link of the package's own list.
+struct Link {
+  void (*add)(Registry&);
+  Link* next;
+};
+/// Adds T to a registry.
+template <class T>
+void add(Registry& r) {
+  r.add(T::Describe(), [](const ControllerContext& c) { return std::make_unique<T>(c); });
+}
+}  // namespace package_detail
+
+}  // namespace dca
+
+/// The name of a package's entry point, found with dlsym: `const dca::PackageEntry* dca_package_entry_v1()`.
+#define DCA_PACKAGE_ENTRY_SYMBOL "dca_package_entry_v1"
+
+#ifdef DCA_PACKAGE_NAME
+extern "C" {
+/// The package's list of types (defined by its entry point; hidden, so each package has its own).
+__attribute__((visibility("hidden"))) extern dca::package_detail::Link* dca_package_links;
+}
+
+namespace {
+// Links one type into the package's list at static-initialisation time (nothing of dca is called).
+struct DcaPackageLinker {
+  explicit DcaPackageLinker(dca::package_detail::Link& l) {
+    l.next = dca_package_links;
+    dca_package_links = &l;
+  }
+};
+}  // namespace
+
+/// Registers the controller class T (in a package: see the header comment).
+#define DCA_REGISTER_CONTROLLER(T)                                                                   \
+  static ::dca::package_detail::Link dca_package_link_##T{&::dca::package_detail::add<T>, nullptr}; \
+  static const DcaPackageLinker dca_register_controller_##T{dca_package_link_##T}
+#endif

@@ -1,0 +1,221 @@
+#include "controllers/packages.h"
+
+#include <cxxabi.h>
+#include <dlfcn.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <set>
+#include <stdexcept>
+#include <system_error>
+
+#include "controllers/package.h"
+#include "controllers/registry.h"
+
+namespace dca {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr std::string_view kSuffix = ".dca.so";
+
+std::vector<std::unique_ptr<LoadedPackage>>& loaded() {
+  static std::vector<std::unique_ptr<LoadedPackage>> v;
+  return v;
+}
+
+std::string quote(const std::string& name, const std::string& file) {
+  return "package '" + name + "' (" + file + ")";
+}
+
+// Whether `file`, resolved, lies inside `dir`, resolved.
+bool inside(const fs::path& file, const fs::path& dir) {
+  std::error_code ec;
+  const fs::path f = fs::canonical(file, ec);
+  if (ec) return false;
+  const fs::path d = fs::canonical(dir, ec);
+  if (ec) return false;
+  const auto rel = f.lexically_relative(d);
+  return !rel.empty() && *rel.begin() != ".." && rel.is_relative();
+}
+
+// The version and ABI a package file says it was built with (its stamp, controllers/package.h), without running it.
+std::optional<std::pair<std::string, std::string>> read_stamp(const std::string& file) {
+  std::ifstream in(file, std::ios::binary);
+  if (!in) return std::nullopt;
+  std::string bytes;
+  bytes.resize(64u << 20);  // a package is far smaller; a bigger file's stamp is not looked for
+  in.read(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  bytes.resize(static_cast<std::size_t>(in.gcount()));
+  const std::string marker = "\x7f" "dca-package-stamp\n";
+  const auto at = bytes.find(marker);
+  if (at == std::string::npos) return std::nullopt;
+  const auto v0 = at + marker.size(), v1 = bytes.find('\n', v0);
+  if (v1 == std::string::npos) return std::nullopt;
+  const auto a1 = bytes.find('\n', v1 + 1);
+  if (a1 == std::string::npos) return std::nullopt;
+  return std::make_pair(bytes.substr(v0, v1 - v0), bytes.substr(v1 + 1, a1 - v1 - 1));
+}
+
+std::string built_elsewhere(const std::string& name, const std::string& file, const std::string& version,
+                     const std::string& abi) {
+  return quote(name, file) + " was built against dca " + version + " (ABI " + abi + "); this is dca " +
+         DCA_VERSION_STRING + " (ABI " DCA_ABI_STAMP "): rebuild the package against this dca";
+}
+
+std::string demangled(const std::string& symbol) {
+  int status = 0;
+  char* d = abi::__cxa_demangle(symbol.c_str(), nullptr, nullptr, &status);
+  std::string out = status == 0 && d ? d : symbol;
+  std::free(d);  // NOLINT: __cxa_demangle's buffer
+  return out;
+}
+
+// Why dlopen refused `file`: a mismatch its stamp shows, a missing symbol, or the loader's own words.
+std::string open_error(const std::string& name, const std::string& file, const std::string& why) {
+  if (auto stamp = read_stamp(file); stamp && (stamp->first != DCA_VERSION_STRING || stamp->second != DCA_ABI_STAMP))
+    return built_elsewhere(name, file, stamp->first, stamp->second);
+  const std::string undefined = "undefined symbol: ";
+  if (const auto at = why.find(undefined); at != std::string::npos) {
+    std::string symbol = why.substr(at + undefined.size());
+    if (const auto end = symbol.find_first_of(" \t\n,"); end != std::string::npos) symbol.resize(end);
+    return quote(name, file) + ": missing symbol '" + demangled(symbol) + "'" +
+           (demangled(symbol) != symbol ? " (" + symbol + ")" : "") +
+           ": the library needs it and neither dca nor the libraries the package links provide it";
+  }
+  return "cannot load " + quote(name, file) + ": " + why;
+}
+
+// Runs the entry point's add_types into a staged registry, then into the global one (all or nothing).
+bool add_types(const PackageEntry& e, const std::string& name, const std::string& file, LoadedPackage& out,
+               std::string* error) {
+  Registry staged;
+  try {
+    e.add_types(staged);
+  } catch (const std::exception& ex) {
+    *error = quote(name, file) + ": " + ex.what();
+    return false;
+  }
+  for (const auto* m : staged.all()) out.types.push_back(m->type);
+  std::string why;
+  if (!Registry::global().adopt(std::move(staged), name, &why)) {
+    *error = why + " (" + file + ")";
+    return false;
+  }
+  return true;
+}
+
+// The entry point's answer, checked: nullptr with *error when absent or built against another dca.
+const PackageEntry* entry_of(void* handle, const std::string& name, const std::string& file, std::string* error) {
+  void* sym = ::dlsym(handle, DCA_PACKAGE_ENTRY_SYMBOL);
+  if (sym == nullptr) {
+    *error = quote(name, file) + " is not a dca controller package: it has no " DCA_PACKAGE_ENTRY_SYMBOL
+             " (build it with dca_add_controller_package)";
+    return nullptr;
+  }
+  using EntryFn = const PackageEntry* (*)();
+  const PackageEntry* e = reinterpret_cast<EntryFn>(sym)();
+  if (e == nullptr || e->version == nullptr || e->abi == nullptr || e->name == nullptr || e->add_types == nullptr) {
+    *error = quote(name, file) + ": its entry point answered nothing usable";
+    return nullptr;
+  }
+  if (std::string(e->version) != DCA_VERSION_STRING || std::string(e->abi) != DCA_ABI_STAMP) {
+    *error = built_elsewhere(name, file, e->version, e->abi);
+    return nullptr;
+  }
+  if (name != e->name) {
+    *error = quote(name, file) + " holds package '" + e->name + "': a package's file is named after it";
+    return nullptr;
+  }
+  return e;
+}
+
+}  // namespace
+
+bool valid_package_name(std::string_view name) {
+  if (name.empty() || name.size() > 64) return false;
+  if (!(std::isalpha(static_cast<unsigned char>(name[0])) || name[0] == '_')) return false;
+  return std::all_of(name.begin(), name.end(),
+                     [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; });
+}
+
+std::optional<std::string> find_package(const std::string& name, const std::vector<std::string>& dirs,
+                                        std::string* error) {
+  if (!valid_package_name(name)) {
+    *error = "'" + name + "' is not a package name (a word: letters, digits and '_')";
+    return std::nullopt;
+  }
+  std::string searched;
+  for (const auto& d : dirs) {
+    const fs::path file = fs::path(d) / (name + std::string(kSuffix));
+    searched += (searched.empty() ? "" : ", ") + file.string();
+    std::error_code ec;
+    if (!fs::exists(file, ec)) continue;
+    if (!inside(file, d)) {
+      *error = "package '" + name + "': " + file.string() + " leads outside " + d + " (not loaded)";
+      return std::nullopt;
+    }
+    return fs::canonical(file, ec).string();
+  }
+  *error = "package '" + name + "' not found (searched: " + (searched.empty() ? "no directory" : searched) +
+           "; set DCA_CONTROLLER_PATH to the directory that holds " + name + std::string(kSuffix) + ")";
+  return std::nullopt;
+}
+
+const LoadedPackage* load_package(const std::string& name, const std::vector<std::string>& dirs, std::string* error) {
+  for (const auto& p : loaded())
+    if (p->name == name) return p.get();
+  const auto file = find_package(name, dirs, error);
+  if (!file) return nullptr;
+  return load_package_file(name, *file, error);
+}
+
+const LoadedPackage* load_package_file(const std::string& name, const std::string& file, std::string* error) {
+  for (const auto& p : loaded())
+    if (p->name == name) return p.get();
+  ::dlerror();
+  void* handle = ::dlopen(file.c_str(), RTLD_NOW | RTLD_LOCAL);
+  if (handle == nullptr) {
+    const char* why = ::dlerror();
+    *error = open_error(name, file, why ? why : "dlopen failed");
+    return nullptr;
+  }
+  auto pkg = std::make_unique<LoadedPackage>();
+  pkg->name = name;
+  pkg->file = file;
+  const PackageEntry* e = entry_of(handle, name, file, error);
+  if (e == nullptr || !add_types(*e, name, file, *pkg, error)) {
+    ::dlclose(handle);  // nothing of it is left in the registry
+    return nullptr;
+  }
+  pkg->version = e->version;
+  loaded().push_back(std::move(pkg));
+  return loaded().back().get();
+}
+
+std::vector<std::string> available_packages(const std::vector<std::string>& dirs) {
+  std::set<std::string> names;
+  for (const auto& d : dirs) {
+    std::error_code ec;
+    for (fs::directory_iterator it(d, ec), end; !ec && it != end; it.increment(ec)) {
+      const std::string f = it->path().filename().string();
+      if (f.size() <= kSuffix.size() || f.compare(f.size() - kSuffix.size(), kSuffix.size(), kSuffix) != 0) continue;
+      const std::string n = f.substr(0, f.size() - kSuffix.size());
+      if (valid_package_name(n)) names.insert(n);
+    }
+  }
+  return {names.begin(), names.end()};
+}
+
+std::vector<const LoadedPackage*> loaded_packages() {
+  std::vector<const LoadedPackage*> v;
+  for (const auto& p : loaded()) v.push_back(p.get());
+  return v;
+}
+
+}  // namespace dca
