@@ -92,6 +92,9 @@ int cmd_node(std::span<char* const> args) {
   }
   if (o.timeout_ms <= 0) o.timeout_ms = 5000;
   if (!load_packages(packages, system_dir)) return 1;
+  o.load_package = [](const std::string& name, const std::string& dir, std::string* error) {
+    return dca::load_package(name, dca::controller_dirs(dir), error) != nullptr;
+  };
   dca::Loop loop;
   dca::Node node(loop, o,
                  [](const std::string& type, const std::string& name, const std::string& host,

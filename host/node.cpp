@@ -637,6 +637,10 @@ void Node::Impl::add(const Channel::Ptr& ch, const Message& m) {
   const std::string name = p["name"].as_string();
   if (name.empty() || p["type"].as_string().empty()) return void(ch->reply_error(m, "add needs a type and a name"));
   std::string err;
+  if (const std::string pkg = p["package"].as_string(); !pkg.empty()) {
+    if (!opts.load_package) return void(ch->reply_error(m, "add: this node cannot load package '" + pkg + "'"));
+    if (!opts.load_package(pkg, p["system_dir"].as_string(), &err)) return void(ch->reply_error(m, err));
+  }
   Leaf* leaf = add_leaf(p["type"].as_string(), name, args, &err);
   if (!leaf) return void(ch->reply_error(m, err));
   const Value e = endpoints(leaf);

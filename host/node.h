@@ -51,7 +51,8 @@
 // of the process (a set is the supervisor's, activated and removed at every source at once).
 // A shared node (--shared NAME) registers NAME#PID (endpoints {host, control, data_uds, data_tcp, pid, shared =
 // true}) and hosts no leaf at first; on its own control address it takes:
-//   add {type, name, args}                    -> ok {control, pid}   creates the leaf, registers its PATH
+//   add {type, name, args[, package, system_dir]} -> ok {control, pid} creates the leaf (loading the package of
+//                                                its type first: NodeOptions::load_package), registers its PATH
 //   remove {name}                             -> ok {}   stops it (actuators safe), closes its connections and
 //                                                control channels, unregisters its PATH; a later `add` of the
 //                                                same PATH is a fresh instance (a restart)
@@ -91,6 +92,9 @@ struct NodeOptions {
   std::string world = "world";      ///< simulated clock: the clock master's name ("" = none)
   std::vector<std::string> args;    ///< the .dca arguments after the host
   int timeout_ms = 5000;            ///< for start-up steps and look-ups
+  /// A shared node: loads the controller package an `add` names (package, system_dir) before creating its
+  /// leaf; false with *error (`dca node` loads through controllers/packages.h). Unset: `add` with a package fails.
+  std::function<bool(const std::string& package, const std::string& system_dir, std::string* error)> load_package;
 };
 
 /// Creates the hosted component: (type, name, host, args, timers). Throws std::invalid_argument with a message
