@@ -426,6 +426,30 @@ TEST_P(EndpointSocketTest, EndpointsWithoutAKeyRefuseBothWays) {
   EXPECT_EQ(in->stats().samples, 0u);
 }
 
+// Regression: a hello with queue = 4294967295 killed the node (bad_alloc). Over an authenticated connection a
+// hostile hello is refused with the field named; the connection and the endpoint live on.
+TEST_P(EndpointSocketTest, HostileHelloIsRefusedWithItsFieldAndTheEndpointLives) {
+  dca::test::RawDataClient c(io, dst_address());
+  ASSERT_EQ(c.handshake(dca::data_key(kKey)), "");
+  c.introduce();
+  std::string body;
+  dca::wire::encode_value(dca::wire::Value::map().set("from", "/src").set("out", "Out").set("to", "/dst")
+                              .set("in", "In").set("set", "s").set("type", "vector").set("size", std::int64_t{8})
+                              .set("queue", std::int64_t{4294967295}), body);
+  c.send_frame(df::Kind::Hello, body, 3);
+  const auto refused = c.read_frame();
+  ASSERT_TRUE(refused);
+  EXPECT_EQ(refused->kind, df::Kind::HelloError);
+  EXPECT_EQ(refused->link, 3u);
+  EXPECT_EQ(refused->body, "hello: 'queue' is 4294967295 (at most 4096)");
+  c.send_frame(df::Kind::Hello, hello(), 4);  // the same connection goes on
+  const auto ok = c.read_frame();
+  ASSERT_TRUE(ok);
+  EXPECT_EQ(ok->kind, df::Kind::HelloOk);
+  EXPECT_EQ(in->capacity(), 16u);
+  expect_only_legit_samples_arrive();
+}
+
 // Regression: a length prefix of 16 MiB made a data port allocate it before anything was authenticated.
 TEST_P(EndpointSocketTest, OversizeLengthPrefixBeforeAuthenticationIsRefusedAtOnce) {
   dca::test::RawDataClient c(io, dst_address());
