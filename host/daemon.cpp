@@ -79,6 +79,10 @@ void Daemon::accepted(const Channel::Ptr& ch) {
   });
   ch->on_close([this, raw = ch.get(), w](const std::string&) {
     names_.channel_closed(raw);
+    std::vector<Executer::ChildId> held;
+    for (const auto& [id, sh] : shared_)
+      if (sh.holders.count(raw)) held.push_back(id);
+    for (auto id : held) release(raw, id);
     if (auto c = w.lock()) channels_.erase(c);
   });
 }
@@ -92,6 +96,12 @@ void Daemon::handle(const Channel::Ptr& ch, const wire::Message& m) {
   }
   if (m.type == "spawn") {
     spawn(ch, m);
+  } else if (m.type == "release") {
+    const auto id = static_cast<Executer::ChildId>(m.payload["child"].as_int());
+    if (!shared_.count(id)) return void(ch->reply_error(m, "release: no shared child " + std::to_string(id) +
+                                                              " on host " + options_.host));
+    release(ch.get(), id);
+    ch->reply(m);
   } else if (m.type == "kill") {
     const wire::Value& sig = m.payload["signal"];
     const int signo = sig.is_nil() ? SIGTERM : sig.is_int() ? static_cast<int>(sig.as_int()) : signal_number(sig.as_string());
@@ -154,40 +164,94 @@ void Daemon::spawn(const Channel::Ptr& ch, const wire::Message& m) {
     if (!has_clock) argv.insert(argv.begin() + 2, {"--clock", "sim"});
   }
   const std::string name = m.payload["name"].as_string();
+  const bool shared = m.payload["shared"].is_bool() && m.payload["shared"].as_bool();
+  if (shared && join(ch, m, name)) return;
   std::weak_ptr<Channel> requester = ch;
   std::string error;
   const auto child = exec_.spawn(
       argv,
-      [this, requester, name](Executer::ChildId id, const ExitStatus& s) {
-        child_names_.erase(id);
-        wire::Value ev = wire::Value::map()
-                             .set("child", static_cast<std::int64_t>(id))
-                             .set("pid", static_cast<std::int64_t>(s.pid))
-                             .set("name", name)
-                             .set("host", options_.host);
-        if (s.exited) {
-          ev.set("code", s.code);
-        } else {
-          ev.set("signal", s.signal_name());
-          if (s.core) ev.set("core", true);
-        }
-        if (auto c = requester.lock(); c && c->is_open()) {
-          c->send(wire::Message{"exit", 0, std::move(ev)});
-        } else {
-          std::fprintf(stderr, "dca daemon %s: child %s (pid %d) ended (%s) after its requester left\n",
-                       options_.host.c_str(), name.c_str(), static_cast<int>(s.pid), s.str().c_str());
-        }
-      },
+      [this, requester, name](Executer::ChildId id, const ExitStatus& s) { exited(id, name, requester, s); },
       &error);
   if (!child) {
     ch->reply_error(m, error + " (daemon on host " + options_.host + ")");
     return;
   }
   child_names_[child->id] = name;
+  if (shared) {
+    auto& sh = shared_[child->id];
+    sh.name = name;
+    sh.pid = static_cast<int>(child->pid);
+    sh.holders[ch.get()] = ch;
+    shared_by_name_[name] = child->id;
+  }
   ch->reply(m, wire::Value::map()
                    .set("child", static_cast<std::int64_t>(child->id))
                    .set("pid", static_cast<std::int64_t>(child->pid))
-                   .set("host", options_.host));
+                   .set("host", options_.host)
+                   .set("joined", false));
+}
+
+// A shared spawn of a name whose child runs and is held: the requester holds it too. False when there is none.
+bool Daemon::join(const Channel::Ptr& ch, const wire::Message& m, const std::string& name) {
+  auto it = shared_by_name_.find(name);
+  if (it == shared_by_name_.end()) return false;
+  auto& sh = shared_.at(it->second);
+  sh.holders[ch.get()] = ch;
+  ch->reply(m, wire::Value::map()
+                   .set("child", static_cast<std::int64_t>(it->second))
+                   .set("pid", static_cast<std::int64_t>(sh.pid))
+                   .set("host", options_.host)
+                   .set("joined", true));
+  return true;
+}
+
+// `holder` lets go of shared child `id`; the last one to let go ends it (SIGTERM: its orderly stop).
+void Daemon::release(Channel* holder, Executer::ChildId id) {
+  auto it = shared_.find(id);
+  if (it == shared_.end() || !it->second.holders.erase(holder) || !it->second.holders.empty()) return;
+  auto by = shared_by_name_.find(it->second.name);
+  if (by != shared_by_name_.end() && by->second == id) shared_by_name_.erase(by);
+  std::string error;
+  if (!exec_.kill(id, SIGTERM, &error))
+    std::fprintf(stderr, "dca daemon %s: ending shared child %s: %s\n", options_.host.c_str(),
+                 it->second.name.c_str(), error.c_str());
+}
+
+// A child ended: the exit event goes to its requester, or to every holder of a shared child.
+void Daemon::exited(Executer::ChildId id, const std::string& name, const std::weak_ptr<Channel>& requester,
+                    const ExitStatus& s) {
+  child_names_.erase(id);
+  wire::Value ev = wire::Value::map()
+                       .set("child", static_cast<std::int64_t>(id))
+                       .set("pid", static_cast<std::int64_t>(s.pid))
+                       .set("name", name)
+                       .set("host", options_.host);
+  if (s.exited) {
+    ev.set("code", s.code);
+  } else {
+    ev.set("signal", s.signal_name());
+    if (s.core) ev.set("core", true);
+  }
+  std::vector<Channel::Ptr> to;
+  bool released = false;  // a shared child nobody holds any more: its end was asked for
+  if (auto sh = shared_.find(id); sh != shared_.end()) {
+    released = sh->second.holders.empty();
+    for (const auto& [raw, w] : sh->second.holders)
+      if (auto c = w.lock()) to.push_back(c);
+    if (auto by = shared_by_name_.find(name); by != shared_by_name_.end() && by->second == id) shared_by_name_.erase(by);
+    shared_.erase(sh);
+  } else if (auto c = requester.lock()) {
+    to.push_back(c);
+  }
+  bool told = false;
+  for (const auto& c : to)
+    if (c->is_open()) {
+      c->send(wire::Message{"exit", 0, ev});
+      told = true;
+    }
+  if (!told && !released)
+    std::fprintf(stderr, "dca daemon %s: child %s (pid %d) ended (%s) after its requester left\n",
+                 options_.host.c_str(), name.c_str(), static_cast<int>(s.pid), s.str().c_str());
 }
 
 void Daemon::stop() {

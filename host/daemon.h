@@ -4,6 +4,13 @@
 // Requests it answers on any authenticated channel (ARCHITECTURE.md, "How the pieces meet"):
 //   spawn {argv, name?}        -> ok {child, pid}; later the event exit {child, pid, name, code | signal}
 //                                 goes to the channel that asked (signal is a name such as "SIGSEGV")
+//   spawn {argv, name, shared = true} -> ok {child, pid, joined}: a process several requesters share (a shared
+//                                 node, host/node.h): while a child spawned so under `name` runs and is held,
+//                                 the request joins it (joined = true, argv unused) instead of starting another;
+//                                 every holder gets its exit event
+//   release {child}            -> ok {}            the requester no longer holds a shared child; when nobody
+//                                                   does (releases, or holders' channels closed), it is sent
+//                                                   SIGTERM and a later shared spawn of its name starts anew
 //   kill {child, signal?}      -> ok {}            signal "SIGTERM" (default), "KILL", 9, ...; may also be sent
 //                                                   as an event (id 0): no reply, errors go to stderr
 //   register {name, endpoints} -> ok {name, host}  removed when the registering channel closes
@@ -87,6 +94,17 @@ class Daemon {
   void accepted(const Channel::Ptr& ch);
   void handle(const Channel::Ptr& ch, const wire::Message& m);
   void spawn(const Channel::Ptr& ch, const wire::Message& m);
+  bool join(const Channel::Ptr& ch, const wire::Message& m, const std::string& name);
+  void release(Channel* holder, Executer::ChildId id);
+  void exited(Executer::ChildId id, const std::string& name, const std::weak_ptr<Channel>& requester,
+              const ExitStatus& s);
+
+  // A shared child: its pid and the channels that hold it (by address; a closed channel releases).
+  struct Shared {
+    std::string name;
+    int pid = 0;
+    std::map<Channel*, std::weak_ptr<Channel>> holders;
+  };
 
   boost::asio::io_context& io_;
   DaemonOptions options_;
@@ -95,6 +113,8 @@ class Daemon {
   Listener::Ptr listener_;
   std::set<Channel::Ptr> channels_;
   std::map<Executer::ChildId, std::string> child_names_;
+  std::map<Executer::ChildId, Shared> shared_;          // shared children (held or not yet exited)
+  std::map<std::string, Executer::ChildId> shared_by_name_;  // the held ones a shared spawn joins
   std::unique_ptr<ConfigService> config_;
   std::string config_off_;  // why there is no repository
   Handler extra_;

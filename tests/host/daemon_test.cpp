@@ -158,6 +158,55 @@ TEST_F(DaemonTest, SpawnReportsSignalAndKillsOnRequest) {
   EXPECT_EQ(termed->payload["signal"].as_string(), "SIGTERM");
 }
 
+// A shared spawn (a shared node, dca run --placement): the second requester joins the running child, both hear
+// its exit; once every holder has released it (or closed its channel), it is ended and a new one starts.
+TEST_F(DaemonTest, SharedSpawnJoinsTheRunningChildAndEndsItWhenNobodyHoldsIt) {
+  auto d = make("h1");
+  auto a = connect(loop_, d->address());
+  auto b = connect(loop_, d->address());
+  ASSERT_TRUE(a && b);
+  const auto shared = [](const char* name) {
+    return req("spawn", Value::map().set("argv", Value::Array{"/bin/sleep", "100"}).set("name", name).set("shared", true));
+  };
+  auto ra = a->call(shared("leaves@h1"));
+  ASSERT_TRUE(ra.ok()) << ra.error;
+  EXPECT_FALSE(ra.message.payload["joined"].as_bool());
+  auto rb = b->call(shared("leaves@h1"));
+  ASSERT_TRUE(rb.ok()) << rb.error;
+  EXPECT_TRUE(rb.message.payload["joined"].as_bool());
+  EXPECT_EQ(rb.message.payload["child"], ra.message.payload["child"]);
+  EXPECT_EQ(rb.message.payload["pid"], ra.message.payload["pid"]);
+  EXPECT_NE(a->call(shared("other")).message.payload["child"], ra.message.payload["child"]);  // per name
+  // a crash is heard by every holder
+  ASSERT_TRUE(a->call(req("kill", Value::map().set("child", ra.message.payload["child"]).set("signal", "SEGV"))).ok());
+  for (auto* c : {a.get(), b.get()}) {
+    const Message* ev = c->wait_event("exit");
+    ASSERT_NE(ev, nullptr);
+    EXPECT_EQ(ev->payload["signal"].as_string(), "SIGSEGV");
+    EXPECT_EQ(ev->payload["child"], ra.message.payload["child"]);
+  }
+  // after its end a shared spawn starts anew; released by both, it is ended (SIGTERM)
+  a->events.clear();
+  ra = a->call(shared("leaves@h1"));
+  EXPECT_FALSE(ra.message.payload["joined"].as_bool());
+  rb = b->call(shared("leaves@h1"));
+  EXPECT_TRUE(rb.message.payload["joined"].as_bool());
+  ASSERT_TRUE(a->call(req("release", Value::map().set("child", ra.message.payload["child"]))).ok());
+  b->ch->close("gone");  // a closed channel releases too
+  const auto id = static_cast<dca::Executer::ChildId>(ra.message.payload["child"].as_int());
+  const auto running = [&] {
+    for (const auto& [child, pid] : d->executer().children())
+      if (child == id) return true;
+    return false;
+  };
+  ASSERT_TRUE(loop_.run_until([&] { return !running(); }, 20s));
+  EXPECT_EQ(a->wait_event("exit", 0ms), nullptr);  // a released it: no event for a
+  auto rc = a->call(shared("leaves@h1"));
+  EXPECT_FALSE(rc.message.payload["joined"].as_bool());  // nobody held the old one: a new child
+  EXPECT_NE(rc.message.payload["child"], ra.message.payload["child"]);
+  EXPECT_NE(a->call(req("release", Value::map().set("child", 999))).error.find("no shared child 999"), std::string::npos);
+}
+
 TEST_F(DaemonTest, RefusesProgramsNotOnTheAllowList) {
   auto d = make("h1");
   auto c = connect(loop_, d->address());
