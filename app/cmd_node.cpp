@@ -27,7 +27,7 @@ constexpr const char* kUsage =
     "requests on the control address it registered (host/node.h lists them). ARG are the controller's .dca\n"
     "arguments after the host. The daemon (`dca daemon`) normally starts it.\n"
     "With --shared, the node hosts no leaf at first and registers as NAME#PID; its supervisors add leaves with\n"
-    "`add {type, name, args}` and end them with `remove {name}` (dca run --placement group|host).\n"
+    "`add {controller, name, args}` and end them with `remove {name}` (dca run --placement group|host).\n"
     "  --key FILE     the cluster key (default: $DCA_KEY_FILE, else ~/.config/dca/key)\n"
     "  --host NAME    its logical host (default: the daemon's)\n"
     "  --clock sim    simulated time: subscribes to the clock master (the world) and obeys its `advance {t}`\n"

@@ -626,7 +626,7 @@ void Node::Impl::handle(Leaf& leaf, const Channel::Ptr& ch, const Message& m) {
   ch->reply_error(m, "unknown request '" + m.type + "' for node " + leaf.name);
 }
 
-// add {type, name, args} on a shared node: a new leaf, registered under its PATH before the answer.
+// add {controller, name, args} on a shared node: a new leaf, registered under its PATH before the answer.
 void Node::Impl::add(const Channel::Ptr& ch, const Message& m) {
   const auto& p = m.payload;
   std::vector<std::string> args;
@@ -635,13 +635,14 @@ void Node::Impl::add(const Channel::Ptr& ch, const Message& m) {
     args.push_back(a.as_string());
   }
   const std::string name = p["name"].as_string();
-  if (name.empty() || p["type"].as_string().empty()) return void(ch->reply_error(m, "add needs a type and a name"));
+  const std::string type = p["controller"].as_string();
+  if (name.empty() || type.empty()) return void(ch->reply_error(m, "add needs a controller (type) and a name"));
   std::string err;
   if (const std::string pkg = p["package"].as_string(); !pkg.empty()) {
     if (!opts.load_package) return void(ch->reply_error(m, "add: this node cannot load package '" + pkg + "'"));
     if (!opts.load_package(pkg, p["system_dir"].as_string(), &err)) return void(ch->reply_error(m, err));
   }
-  Leaf* leaf = add_leaf(p["type"].as_string(), name, args, &err);
+  Leaf* leaf = add_leaf(type, name, args, &err);
   if (!leaf) return void(ch->reply_error(m, err));
   const Value e = endpoints(leaf);
   daemon->request({"register", 0, Value::map().set("name", name).set("endpoints", e)},

@@ -51,8 +51,9 @@
 // of the process (a set is the supervisor's, activated and removed at every source at once).
 // A shared node (--shared NAME) registers NAME#PID (endpoints {host, control, data_uds, data_tcp, pid, shared =
 // true}) and hosts no leaf at first; on its own control address it takes:
-//   add {type, name, args[, package, system_dir]} -> ok {control, pid} creates the leaf (loading the package of
-//                                                its type first: NodeOptions::load_package), registers its PATH
+//   add {controller, name, args[, package, system_dir]} -> ok {control, ...} creates the leaf (controller: its
+//                                                type; its package loaded first: NodeOptions::load_package),
+//                                                registers its PATH and answers with its endpoints
 //   remove {name}                             -> ok {}   stops it (actuators safe), closes its connections and
 //                                                control channels, unregisters its PATH; a later `add` of the
 //                                                same PATH is a fresh instance (a restart)

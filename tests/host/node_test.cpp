@@ -179,7 +179,7 @@ class NodeTest : public ::testing::Test {
     start_shared("leaves@h", period, sim);
     auto proc = supervise("leaves@h#" + std::to_string(::getpid()));
     for (const auto& n : leaves) {
-      const auto r = call(proc, "add", Value::map().set("type", "Test").set("name", n).set("args", Value::array()));
+      const auto r = call(proc, "add", Value::map().set("controller", "Test").set("name", n).set("args", Value::array()));
       EXPECT_TRUE(r.ok()) << r.error;
     }
     return proc;
@@ -393,9 +393,9 @@ TEST_F(NodeTest, SharedNodeGivesEachLeafItsOwnControlEventsAndRegistration) {
   ASSERT_TRUE(names.count(self));
   EXPECT_EQ(names[self]["shared"].as_bool(), true);
   auto proc = supervise(self);
-  auto r = call(proc, "add", Value::map().set("type", "Test").set("name", "/g/a").set("args", Value::Array{"1.5"}));
+  auto r = call(proc, "add", Value::map().set("controller", "Test").set("name", "/g/a").set("args", Value::Array{"1.5"}));
   ASSERT_TRUE(r.ok()) << r.error;
-  ASSERT_TRUE(call(proc, "add", Value::map().set("type", "Test").set("name", "/g/b").set("args", Value::array())).ok());
+  ASSERT_TRUE(call(proc, "add", Value::map().set("controller", "Test").set("name", "/g/b").set("args", Value::array())).ok());
   EXPECT_EQ(nodes[0]->leaves(), 2u);
   EXPECT_EQ(shared_made["/g/a"]->args, std::vector<std::string>{"1.5"});
   // registered under their paths: their own control addresses, the process's data endpoint and pid
@@ -455,7 +455,7 @@ TEST_F(NodeTest, RemoveThenAddOfALeafIsAFreshInstanceInTheSameProcess) {
   EXPECT_EQ(nodes[0]->leaves(), 1u);
   EXPECT_EQ(call(proc, "remove", Value::map().set("name", "/g/a")).error,
             "remove: /g/a is not hosted by node leaves@h#" + std::to_string(::getpid()));
-  ASSERT_TRUE(call(proc, "add", Value::map().set("type", "Test").set("name", "/g/a").set("args", Value::array())).ok());
+  ASSERT_TRUE(call(proc, "add", Value::map().set("controller", "Test").set("name", "/g/a").set("args", Value::array())).ok());
   EXPECT_EQ(created, 3);
   EXPECT_NE(shared_made["/g/a"], old);  // (the old one is gone: a fresh one may reuse its address)
   EXPECT_EQ(shared_made["/g/a"]->inits, 0);
@@ -463,9 +463,9 @@ TEST_F(NodeTest, RemoveThenAddOfALeafIsAFreshInstanceInTheSameProcess) {
   ASSERT_TRUE(call(sa2, "init").ok());
   EXPECT_TRUE(shared_made["/g/b"]->running);
   // errors: the same PATH twice, an unknown type, a leaf's exit ends that leaf only
-  EXPECT_EQ(call(proc, "add", Value::map().set("type", "Test").set("name", "/g/a").set("args", Value::array())).error,
+  EXPECT_EQ(call(proc, "add", Value::map().set("controller", "Test").set("name", "/g/a").set("args", Value::array())).error,
             "/g/a is already hosted by this node");
-  EXPECT_EQ(call(proc, "add", Value::map().set("type", "Bad").set("name", "/g/c").set("args", Value::array())).error,
+  EXPECT_EQ(call(proc, "add", Value::map().set("controller", "Bad").set("name", "/g/c").set("args", Value::array())).error,
             "unknown controller type 'Bad'");
   ASSERT_TRUE(call(sa2, "exit").ok());
   ASSERT_TRUE(run_until([&] { return nodes[0]->leaves() == 1u; }));

@@ -11,6 +11,7 @@ local ipairs, tostring, tonumber, sformat = ipairs, tostring, tonumber, string.f
 M.summary = "run a .dca system: start its hosts and supervisor tree, run it, report each transition"
 M.usage = [=[usage: dca run FILE.dca [--root NAME] [--hosts FILE] [--repl] [--watch] [--timeout S] [--quiet]
                     [--config FILE | --no-config] [--set KEY=VALUE]... [--state-dir DIR]
+                    [--placement process|group|host]
                     [--sim WORLD [--seed N] [--door-width W] [--record FILE.csv] [--jammed] [--realtime]]
 
 Checks FILE.dca (errors stop here, nothing is started), starts one local daemon per host name on 127.0.0.1
@@ -25,6 +26,11 @@ per group as it comes up and one per process transition, and runs the root expre
   --set KEY=VALUE write KEY into the repository before the start, whatever it holds (repeatable)
   --state-dir DIR the local daemons keep their repositories in DIR/<host> and find them there next time
                   (default: a fresh directory for this run, removed at the end)
+  --placement P   where the leaves run: `process` (default) each in its own `dca node` process, so a crash
+                  ends that leaf only; `group` the leaves of one group on one host in one shared node;
+                  `host` every leaf on one host in one shared node. Leaves that share a node exchange
+                  samples in process and take one lock-step advance per tick; a crash of a shared node
+                  ends each of its leaves (ARCHITECTURE.md, "Placement"). The outcome is the same.
   --sim WORLD     run in simulated time: the daemons on the simulated clock, the world (`dca sim --serve
                   --world WORLD`, e.g. door) started through the first host's daemon before the tree, its
                   device ports wired to the leaves that have them, time started when the root runs; the
@@ -43,11 +49,15 @@ per group as it comes up and one per process transition, and runs the root expre
 Exit code 0 when the root expression ends DONE, 1 when ABORTED, 2 for usage or check errors, 3 when the
 start fails, 130 after Ctrl-C. Ctrl-C stops the whole tree, most recently started first.]=]
 
+--- The values of --placement (dca.supervisor.net).
+M.PLACEMENTS = { process = true, group = true, host = true }
+
 local OPTIONS = {
   ["--root"] = "value", ["--hosts"] = "value", ["--sim"] = "value", ["--seed"] = "number",
   ["--door-width"] = "number", ["--record"] = "value", ["--jammed"] = "flag", ["--realtime"] = "flag",
   ["--timeout"] = "number", ["--repl"] = "flag", ["--watch"] = "flag", ["--quiet"] = "flag",
   ["--config"] = "value", ["--no-config"] = "flag", ["--state-dir"] = "value", ["--set"] = "list:sets",
+  ["--placement"] = "value",
 }
 
 -- The options that exclude each other or need another: the first broken rule. --> error text | nil
@@ -59,6 +69,9 @@ local function rule_broken(o)
   if o.config and o.no_config then return "--config and --no-config exclude each other" end
   if o.state_dir and o.hosts then return "--state-dir is for the local daemons, not those of --hosts" end
   if o.realtime and not o.sim then return "--realtime goes with --sim WORLD" end
+  if o.placement and not M.PLACEMENTS[o.placement] then
+    return "--placement is process, group or host, not '" .. tostring(o.placement) .. "'"
+  end
 end
 
 --- The options of argv. --> o | nil, error text

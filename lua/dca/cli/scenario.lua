@@ -3,15 +3,16 @@
 local scenario = require "dca.scenario"
 local args_mod = require "dca.cli.args"
 
-local USAGE = [[usage: dca scenario [--backend memory|real] FILE.lua
+local USAGE = [[usage: dca scenario [--backend memory|real] [--placement process|group|host] FILE.lua
 
 Runs the scenario in FILE.lua: it starts systems, drives them (events, faults, reloads), waits with timeouts
 and asserts; each step prints one line (ok/FAIL, with the system's time). Exit code 0 when every step passed.
   --backend memory   the supervisor tree in memory with simulated time and the test controllers' behaviour
-  --backend real     local daemons on loopback, real nodes and supervisors (wall-clock time)]]
+  --backend real     local daemons on loopback, real nodes and supervisors (wall-clock time)
+  --placement P      with --backend real: where the leaves run (`dca run --placement`; default process)]]
 
 local function main(argv)
-  local o, perr = args_mod.parse(argv, "dca scenario", { ["--backend"] = "value" })
+  local o, perr = args_mod.parse(argv, "dca scenario", { ["--backend"] = "value", ["--placement"] = "value" })
   if not o then return args_mod.usage_error(perr, USAGE) end
   local file = o[1]
   if o.backend then
@@ -20,6 +21,13 @@ local function main(argv)
       return 2
     end
     scenario.backend = o.backend
+  end
+  if o.placement then
+    if not require("dca.cli.run").PLACEMENTS[o.placement] then
+      io.stderr:write("dca scenario: unknown placement '", tostring(o.placement), "' (process, group, host)\n")
+      return 2
+    end
+    scenario.placement = o.placement
   end
   if not file then io.stderr:write(USAGE, "\n") return 2 end
   local chunk, err = loadfile(file)

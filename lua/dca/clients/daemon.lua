@@ -63,13 +63,15 @@ function M.connect(addr, opts, cb)
   end)
 end
 
---- Starts argv on the daemon's host. opts: name (for reports), on_exit(ev), timeout (s).
+--- Starts argv on the daemon's host. opts: name (for reports), on_exit(ev), timeout (s), shared (join the
+--- running child spawned shared under `name` instead of starting another; host/daemon.h).
 function Client:spawn(argv, opts, cb)
   opts = opts or {}
-  self:request({ type = "spawn", argv = argv, name = opts.name }, opts.timeout, function(reply, err, full)
-    if reply and reply.child and opts.on_exit then self.exit_handlers[reply.child] = opts.on_exit end
-    if cb then cb(reply, err, full) end
-  end)
+  self:request({ type = "spawn", argv = argv, name = opts.name, shared = opts.shared }, opts.timeout,
+    function(reply, err, full)
+      if reply and reply.child and opts.on_exit then self.exit_handlers[reply.child] = opts.on_exit end
+      if cb then cb(reply, err, full) end
+    end)
 end
 
 --- Sends `signal` ("SIGTERM" when nil, a name such as "SIGKILL", or a number) to a child's process group.

@@ -44,7 +44,7 @@ function Proc:configure(ch, msg)
       srt.to_followers(self.followers, line)
       if self.out.verbose then self.out.line(line) end
     end }
-  self.sup = start.tree(ctx, own_host, { progress = msg.progress, timeouts = msg.timeouts })
+  self.sup = start.tree(ctx, own_host, { progress = msg.progress, timeouts = msg.timeouts, placement = msg.placement })
   self.rt = ctx.rt
 end
 

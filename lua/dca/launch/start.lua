@@ -97,13 +97,15 @@ end
 
 --- The supervisor of ctx.spec on the network runtime over ctx.hosts (the root of `dca run` and scenarios, or a
 --- group's in `dca supervise`); its own host (configuration, world lookups) is `daemon_host` (nil: the first
---- host). opts: progress (default true), timeouts. --> sup (also ctx.sup, ctx.rt)
+--- host). opts: progress (default true), timeouts, placement (default ctx.o.placement, else "process": where
+--- the leaves run, dca.supervisor.net). --> sup (also ctx.sup, ctx.rt)
 function M.tree(ctx, daemon_host, opts)
   opts = opts or { progress = true }
+  local placement = opts.placement or (ctx.o and ctx.o.placement)
   local rt = net.new({ hosts = ctx.hosts, key = ctx.key, exe = ctx.exe, daemon_host = daemon_host,
-                       timeouts = opts.timeouts, report = ctx.report, log = ctx.log })
+                       timeouts = opts.timeouts, report = ctx.report, log = ctx.log, placement = placement })
   local sup = supervisor.new(ctx.spec, rt, { progress = opts.progress, timeouts = opts.timeouts, hosts = ctx.hosts,
-                                             console = console.hook })
+                                             console = console.hook, placement = placement })
   sup.hosts = ctx.hosts
   rt.bind(sup)
   ctx.rt, ctx.sup = rt, sup

@@ -55,7 +55,8 @@ end
 function System:start_hosts()
   if self.ctx then return true end
   local o = self.opts
-  local so = { fresh_key = true, sim = o.sim, config = o.config, set = o.set, world_host = o.world_host }
+  local so = { fresh_key = true, sim = o.sim, config = o.config, set = o.set, world_host = o.world_host,
+               placement = o.placement or require("dca.scenario").placement }
   for _, k in ipairs(require("dca.clients.world").OPTIONS) do so[k] = so[k] or o[k] end
   local ctx = start.context(self.spec, so, { report = function(msg) self:_report(msg) end })
   local ok, err = start.hosts(ctx)
@@ -280,7 +281,9 @@ function System:pid(path)
   for _, c in ipairs(r and r.children or {}) do
     if c.name == path then return c.pid end
   end
-  return nil
+  -- a leaf in a shared node (dca run --placement group|host) is no daemon child: its registration has the pid
+  local ep = self:_ask(function(k) clients.lookup(self:_daemon(host), path, 0, k) end, 25, "the lookup of " .. path)
+  return ep and ep.shared and ep.pid or nil
 end
 
 function System:kill(path, sig)

@@ -6,7 +6,8 @@
 -- expression ends (plus progress/log lines when the parent asked for them).
 --
 --   local sup = require("dca.supervisor").new(spec, rt, opts)   -- spec: dca.supervisor.spec
---     opts: progress, timeouts, hosts, and the hook console(sup) --> the console that answers `repl` and
+--     opts: progress, timeouts, hosts, placement (handed to child supervisors; the runtime places the leaves),
+--     and the hook console(sup) --> the console that answers `repl` and
 --     `complete` requests (dca.supervisor.console.hook; none: those requests are refused). The engine requires
 --     neither dca.core nor the console: its runtime and its hooks come from whoever creates it.
 --   sup:configure(cb)         -- start children inactive, connect, cb(true) | cb(nil, reason)  (start+connect)
@@ -82,6 +83,7 @@ function M.new(spec, rt, opts)
     spec = spec, path = spec.path, rt = rt,
     timeouts = setmetatable(opts.timeouts or {}, { __index = M.timeouts }),
     timeouts_override = opts.timeouts,     -- handed down to child supervisors
+    placement = opts.placement,            -- where leaves run (dca.supervisor.net), handed down too
     hosts = opts.hosts,                    -- host name -> daemon address (handed down too)
     progress = opts.progress or false,     -- send progress/transition lines up (dca run asked for them)
     console = opts.console,                -- hook: console(sup) --> the console of `repl` requests
@@ -214,7 +216,7 @@ function Sup:_start_children(cb)
       end
       ch.state = "configuring"
       handle.request({ type = "configure", spec = ch.spec.spec, progress = self.progress, hosts = self.hosts,
-                       timeouts = self.timeouts_override },
+                       timeouts = self.timeouts_override, placement = self.placement },
         self.timeouts.configure, function(reply, rerr, error_reply)
           if answered then return end
           answered = true

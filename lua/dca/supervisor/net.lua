@@ -5,6 +5,12 @@
 -- `dca supervise --name PATH --daemon ADDR`, each by the daemon (Executer) of its host; the supervisor then
 -- looks the new process up by its path (NameServer) and opens a channel to its `control` endpoint.
 -- Exit events from a daemon and closed channels become child_exit(name, reason) on the owning supervisor.
+-- Placement (opts.placement, `dca run --placement`): "process" (default) starts each leaf as its own process;
+-- "group" places the leaves of this group on one host in one shared node (`dca node --shared`), "host" every
+-- leaf of the run on one host, whichever group it belongs to, in one shared node (host/node.h). A shared node
+-- is spawned through the daemon's shared spawn (the first asker starts it, the others join; host/daemon.h);
+-- its leaves are added with `add` and each is then reached at its own control address as any node. Its crash
+-- ends each of its leaves with the signal (one child_exit per leaf); a leaf's kill removes that leaf only.
 --
 --   local rt = require("dca.supervisor.net").new{ hosts = { h1 = "127.0.0.1:7001" }, key = FILE, exe = DCA,
 --                                                report = function(msg) end, log = function(line) end }
@@ -68,6 +74,7 @@ local function argstr(v)
   end
   return tostring(v)
 end
+M.argstr = argstr
 
 -- The argv that starts `child` (a spec child) through the daemon at `addr`.
 local function child_argv(child, addr, key)
@@ -116,6 +123,7 @@ end
 
 function Proc:kill(sig)
   if self.exited then return end
+  if self.shared then self.shared:remove(self) return end
   local rt = self.rt
   self.daemon:kill(self.child, sig or "TERM", function(_, kerr)
     if kerr and not self.exited and not rt.closing then rt.log(sformat("kill %s: %s", self.path, tostring(kerr))) end
@@ -179,6 +187,113 @@ function Proc:handle()
     if self.lost_timer then self.lost_timer:cancel() end
   end
   return h
+end
+
+-- ---------------------------------------------------------------------------------------------------------
+-- A shared node this runtime placed leaves in: its daemon child, its own control channel, its leaves (Procs).
+-- ---------------------------------------------------------------------------------------------------------
+local Shared = {}
+Shared.__index = Shared
+
+--- The name of the shared node a leaf goes to under `placement`: one per group and host, or one per run and
+--- host (the run named by its root). nil for "process".
+function M.shared_name(placement, child, group_path)
+  if placement == "group" then return sformat("leaves:%s@%s", group_path, child.host) end
+  if placement == "host" then return sformat("leaves:%s@%s", child.path:match("^[^.]+"), child.host) end
+  return nil
+end
+
+-- Runs fn(self) once the node is reached (now, or when it is), or fn(nil, err) if it cannot be.
+function Shared:when_ready(fn)
+  if self.ch then fn(self) return end
+  if self.error then fn(nil, self.error) return end
+  self.waiters[#self.waiters + 1] = fn
+end
+
+function Shared:_ready(err)
+  self.error = err
+  if err and self.rt.shared[self.name] == self then self.rt.shared[self.name] = nil end  -- a later spawn retries
+  local ws = self.waiters
+  self.waiters = {}
+  for _, w in ipairs(ws) do if err then w(nil, err) else w(self) end end
+end
+
+-- Spawns or joins the shared node through the daemon `dc`, then connects to its own control address.
+function Shared:open(dc)
+  local rt = self.rt
+  local argv = { "dca", "node", "--shared", self.name, "--daemon", rt.opts.hosts[self.host] }
+  if rt.opts.key then argv[#argv + 1] = "--key" argv[#argv + 1] = rt.opts.key end
+  dc:spawn(argv, { name = self.name, shared = true, timeout = rt.timeouts.spawn }, clients.result(function(r, err)
+    if not r then self:_ready(err) return end
+    self.child, self.pid = r.child, r.pid
+    rt.by_child[self.host .. ":" .. tostring(r.child)] = self
+    local reg = self.name .. "#" .. tostring(r.pid)
+    clients.open(dc, reg, rt.timeouts.lookup, clients.key_opts(rt.opts.key), clients.Plain, function(c, oerr)
+      if not c then self:_ready(sformat("shared node %s on host %s: %s", reg, self.host, tostring(oerr))) return end
+      self.ch = c.channel
+      c:on_close(function() self.ch = nil self.error = "shared node " .. reg .. " closed its channel" end)
+      self:_ready(nil)
+    end)
+  end))
+end
+
+-- Adds leaf `child` (resolved) and reaches it at its own control address: cb(handle) | cb(nil, reason).
+function Shared:add(child, cb)
+  local rt = self.rt
+  local args = {}
+  for i, a in ipairs(child.args or {}) do args[i] = M.argstr(a) end
+  -- (the node loads the type's package by name, as a one-leaf node does with --package)
+  self.ch:request({ type = "add", controller = child.type, name = child.path, args = args, package = child.package,
+                    system_dir = child.package and child.system_dir or nil }, rt.timeouts.spawn,
+    clients.result(function(r, err)
+      if not r then cb(nil, err) return end
+      local p = setmetatable({ rt = rt, daemon = self.dc, name = child.name, host = child.host, kind = "leaf",
+                               child = self.child, pid = self.pid, path = child.path, shared = self }, Proc)
+      self.leaves[p] = true
+      clients.connect(r.control, clients.key_opts(rt.opts.key), clients.Plain, function(c, cerr)
+        if not c then p:kill_wait("KILL") cb(nil, sformat("%s at %s: %s", child.path, r.control, tostring(cerr))) return end
+        rt._attach(p, c, cb)
+      end)
+    end))
+end
+
+-- Removes leaf Proc `p` from the node (Stop, then its instance destroyed): its end. The last leaf this runtime
+-- placed here lets go of the node (the daemon ends it when nobody holds it).
+function Shared:remove(p)
+  local function gone()
+    if p.exited then return end
+    p.exited = true
+    self.leaves[p] = nil
+    p:gone()
+    if next(self.leaves) == nil then self:release() end
+  end
+  if not self.ch then gone() return end
+  self.ch:request({ type = "remove", name = p.path }, self.rt.opts.stop_grace or 5, function() gone() end)
+end
+
+-- Lets go of the node (this runtime places nothing more in it).
+function Shared:release()
+  local rt = self.rt
+  if rt.shared[self.name] == self then rt.shared[self.name] = nil end
+  if self.ch then self.ch:close() self.ch = nil end
+  if self.child and not self.ended then self.dc:request({ type = "release", child = self.child }, nil, function() end) end
+end
+
+-- The node ended (exit event, or its host lost): each of its leaves ends with the reason, named per leaf.
+function Shared:exited_with(rt, reason)
+  if self.ended then return end
+  self.ended = true
+  if rt.shared[self.name] == self then rt.shared[self.name] = nil end
+  local list = {}
+  for p in pairs(self.leaves) do list[#list + 1] = p end
+  table.sort(list, function(a, b) return a.path < b.path end)
+  local why = sformat("%s (shared node %s#%s, %d leaves)", reason, self.name, tostring(self.pid), #list)
+  for _, p in ipairs(list) do p:exited_with(rt, why) end
+end
+
+function Shared:gone()
+  for p in pairs(self.leaves) do p:gone() end
+  self.leaves = {}
 end
 
 -- ---------------------------------------------------------------------------------------------------------
@@ -297,8 +412,23 @@ function Net:spawn(child, cb)
   end)
 end
 
--- Spawns the resolved `child` through its daemon `dc`, then reaches it (see _reach).
+-- Spawns the resolved `child` through its daemon `dc`, then reaches it (see _reach); a leaf under a shared
+-- placement is added to its shared node instead (spawned or joined once per name).
 function Net:_start(child, dc, cb)
+  local sname = child.kind == "leaf" and M.shared_name(self.opts.placement, child, self.sup and self.sup.path)
+  if sname then
+    local sh = self.shared[sname]
+    if not sh then
+      sh = setmetatable({ rt = self, dc = dc, name = sname, host = child.host, leaves = {}, waiters = {} }, Shared)
+      self.shared[sname] = sh
+      sh:open(dc)
+    end
+    sh:when_ready(function(s, err)
+      if not s then cb(nil, err) return end
+      s:add(child, cb)
+    end)
+    return
+  end
   local argv = child_argv(child, self.opts.hosts[child.host], self.opts.key)
   dc:spawn(argv, { name = child.path, timeout = self.timeouts.spawn }, clients.result(function(r, err)
     if not r then cb(nil, err) return end
@@ -314,13 +444,18 @@ end
 function Net:_reach(p, dc, cb)
   clients.open(dc, p.path, self.timeouts.lookup, clients.key_opts(self.opts.key), clients.Plain, function(c, err)
     if not c then p:kill_wait("KILL") cb(nil, err) return end
-    p.ch = c.channel
-    c.channel:on_message(function(msg, id)
-      if (id or 0) == 0 and self.sup then self.sup:child_message(p.name, msg) end
-    end)
-    c:on_close(function(reason) p:channel_closed(reason) end)
-    cb(p:handle())
+    self._attach(p, c, cb)
   end)
+end
+
+-- The control client `c` of the started process `p`: its events go to the supervisor. cb(handle)
+function Net:_attach(p, c, cb)
+  p.ch = c.channel
+  c.channel:on_message(function(msg, id)
+    if (id or 0) == 0 and self.sup then self.sup:child_message(p.name, msg) end
+  end)
+  c:on_close(function(reason) p:channel_closed(reason) end)
+  cb(p:handle())
 end
 
 --- Kills (SIGKILL) every process the lost child supervisor of `group` had started: the daemons of its
@@ -411,6 +546,7 @@ end
 --- Closes every daemon channel (after shutdown).
 function Net:close()
   self.closing = true
+  for _, sh in pairs(self.shared) do if sh.ch then sh.ch:close() end end
   for _, d in pairs(self.daemons) do if d.client then d.client:close() end end
   if self._world and self._world.client then self._world.client:close() end
 end
@@ -419,7 +555,7 @@ end
 --- heartbeat, report(msg), log(line), stop_grace, exit_grace, world_name, world_wait (see the header).
 function M.new(opts)
   local t = opts.timeouts or {}
-  local rt = { opts = opts, daemons = {}, by_child = {}, closing = false,
+  local rt = { opts = opts, daemons = {}, by_child = {}, shared = {}, closing = false,
                timeouts = { spawn = t.spawn or 10, lookup = t.lookup or 10 } }
   for name, f in pairs(Net) do
     rt[name] = function(...) return f(rt, ...) end
