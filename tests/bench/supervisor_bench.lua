@@ -135,7 +135,8 @@ end
 
 ---------------------------------------------------------------------------------------------- real processes
 -- variant *_loopback: local daemons, real `dca node` and `dca supervise` processes (dca.scenario.real),
--- measured with the wall clock. Baseline: a ping round trip to a daemon over the same authenticated
+-- measured with the wall clock; *_loopback_group and *_loopback_host with the leaves co-located in shared nodes
+-- (`dca run --placement group|host`). Baseline: a ping round trip to a daemon over the same authenticated
 -- loopback channel, the least any supervisor-to-process exchange costs.
 local core = require "dca.core"
 local function has_node()
@@ -150,6 +151,12 @@ if not (core.loop and core.connect and has_node()) then
   return 0
 end
 local real = require "dca.scenario.real"
+-- DCA_BENCH_PLACEMENTS="host,group,process" (default: all three) chooses the placements measured.
+local PLACEMENTS, PLACEMENTS_BIG = {}, {}
+for p in (os.getenv("DCA_BENCH_PLACEMENTS") or "process,group,host"):gmatch("[^,%s]+") do
+  PLACEMENTS[#PLACEMENTS + 1] = p
+  PLACEMENTS_BIG[p] = true
+end
 local wall = core.now
 
 -- Every leaf a Gain (In -> Out, periodic, runs until stopped); ports renamed to In/Out.
@@ -186,10 +193,13 @@ local function ping_baseline(sys, n)
   return out
 end
 
-local function real_bringup(name, make, reps)
+-- placement: where the leaves run (`dca run --placement`): "process" (default), "group" or "host"; the variant
+-- names it unless it is the default.
+local function real_bringup(name, make, reps, placement)
   local up_t, base = {}, nil
+  if placement and placement ~= "process" then name = name .. "_" .. placement end
   for _ = 1, reps do
-    local sys = real.system(make(), {})
+    local sys = real.system(make(), { placement = placement })
     assert(sys:start_hosts()) -- the hosts' daemons run before a system is brought up
     -- the baseline before the system runs: 1,000 running nodes saturate a small machine, and a fresh channel
     -- to a daemon then times out
@@ -224,7 +234,9 @@ local function real_preemption(reps)
 end
 
 for _ = 1, 2 do
-  real_bringup("door_shape_3hosts", function() return as_gains(door_spec()) end, 3)
+  for _, placement in ipairs(PLACEMENTS) do
+    real_bringup("door_shape_3hosts", function() return as_gains(door_spec()) end, 3, placement)
+  end
   real_preemption(100)
 end
 -- 1,000 node processes at once: only when asked (DCA_BENCH_BIG=1), it needs several GB of memory
@@ -232,11 +244,18 @@ if os.getenv("DCA_BENCH_BIG") ~= "1" then
   io.stderr:write("supervisor_bench: 1000leaves_100groups_3hosts_loopback skipped (set DCA_BENCH_BIG=1)\n")
   return 0
 end
-real_bringup("1000leaves_100groups_3hosts", function()
+local function big()
   local s = generated(100, 10)
   spec_mod.walk(s, function(n) if n.kind == "leaf" then n.type, n.args = "Gain", { 1.0, 0.01 } end end)
   for _, c in ipairs(s.children) do
     for _, st in ipairs(c.spec.sets) do for _, k in ipairs(st.connections) do k.out, k["in"] = "Out", "In" end end
   end
   return s
-end, 1)
+end
+-- co-location by host first (the target: under 2 s), then by group, then one process per leaf (the baseline
+-- of placements: 1,000 spawns), A B A B
+for _ = 1, 2 do
+  for _, placement in ipairs({ "host", "group", "process" }) do
+    if PLACEMENTS_BIG[placement] then real_bringup("1000leaves_100groups_3hosts", big, 1, placement) end
+  end
+end

@@ -21,6 +21,7 @@
 --   sup:child_message(name, msg)  -- an event from a child (leaf node: done/aborted; child DCAS: done/aborted/log/
 --                                 --   restarted {path}: a leaf below was restarted, its connections made again)
 --   sup:child_exit(name, reason)  -- a child's process exited (Executer) or its channel/host was lost
+--   sup:children_exit(names, reason)  -- several at once (the leaves of one shared node)
 --
 -- The runtime:
 --   rt.spawn(child, cb)       -- child = a spec child (leaf or group); cb(handle) | cb(nil, reason). A handle
@@ -527,8 +528,12 @@ end
 
 function Sup:_abort_child(name)
   local ch = self.children[name]
-  ch.state = "stopping"
-  self:say("%s: aborting", ch.path)
+  -- a leaf whose process already ended (with others of its shared node: children_exit) has nothing to stop
+  local dead = ch.state == "exited"
+  if not dead then
+    ch.state = "stopping"
+    self:say("%s: aborting", ch.path)
+  end
   local ack = self.abort_ack
   if ack then ack.n = ack.n + 1 end
   self.stops_pending = (self.stops_pending or 0) + 1
@@ -537,7 +542,7 @@ function Sup:_abort_child(name)
     if not reply or reply.type == "error" then
       self:log("%s: stop of %s: %s", self.path, ch.path, reply and reply.reason or tostring(err))
     end
-    self:say("%s: stopped", ch.path)
+    if not dead then self:say("%s: stopped", ch.path) end
     self.stops_pending = self.stops_pending - 1
     if self.stops_pending == 0 and self.event_t0 then
       -- preemption latency: the event that caused these aborts to the last abort acknowledged
@@ -557,7 +562,7 @@ function Sup:_abort_child(name)
       if ack.n == 0 and ack.cb then local f = ack.cb ack.cb = nil f() end
     end
   end
-  if not ch.handle or ch.state == "exited" then done({ type = "ok" }) return end
+  if not ch.handle or dead then done({ type = "ok" }) return end
   ch.handle.request({ type = ch.kind == "leaf" and "stop" or "abort" }, self.timeouts.stop, done)
 end
 
@@ -714,26 +719,38 @@ end
 
 --- Child `name`'s process exited (the Executer's signal) or its supervisor/host was lost.
 function Sup:child_exit(name, reason)
-  local ch = self.children[name]
-  if not ch or ch.state == "exited" or ch.state == "lost" or ch.state == "gone" then return end
-  if ch.restarting then
-    -- the old process of a leaf being restarted: its exit was asked for, not a crash
-    self:log("%s: old process exited (%s)", ch.path, tostring(reason))
-    return
+  self:children_exit({ name }, reason)
+end
+
+--- Several children's processes ended at once (the leaves of one shared node, dca.supervisor.net): each is
+--- marked ended first, then the algebra hears of those that ran, in the order given, so none of them is
+--- stopped as a sibling of another.
+function Sup:children_exit(names, reason)
+  local ran = {}
+  for _, name in ipairs(names) do
+    local ch = self.children[name]
+    if not ch or ch.state == "exited" or ch.state == "lost" or ch.state == "gone" then goto next end
+    if ch.restarting then
+      -- the old process of a leaf being restarted: its exit was asked for, not a crash
+      self:log("%s: old process exited (%s)", ch.path, tostring(reason))
+      goto next
+    end
+    if self.run and self.run:is_running(name) then ran[#ran + 1] = name end
+    ch.state = ch.kind == "leaf" and "exited" or "lost"
+    ch.exit_reason = reason
+    ch.handle = nil
+    self:say("%s: %s: %s", ch.path, ch.kind == "leaf" and "exited" or "lost", reason)
+    ::next::
   end
-  local was_running = self.run and self.run:is_running(name)
-  ch.state = ch.kind == "leaf" and "exited" or "lost"
-  ch.exit_reason = reason
-  ch.handle = nil
-  self:say("%s: %s: %s", ch.path, ch.kind == "leaf" and "exited" or "lost", reason)
-  if was_running then
-    self.cause = self.cause or { path = ch.path, reason = reason }
+  for _, name in ipairs(ran) do
+    self.cause = self.cause or { path = self.children[name].path, reason = reason }
     self:_feed(name, "error", reason)
   end
-  if self.starting_cb then
+  local first = self.children[names[1]]
+  if self.starting_cb and first then
     local f = self.starting_cb
     self.starting_cb = nil
-    f(nil, sformat("%s: %s", ch.path, reason))
+    f(nil, sformat("%s: %s", first.path, reason))
   end
 end
 

@@ -288,7 +288,16 @@ function Shared:exited_with(rt, reason)
   for p in pairs(self.leaves) do list[#list + 1] = p end
   table.sort(list, function(a, b) return a.path < b.path end)
   local why = sformat("%s (shared node %s#%s, %d leaves)", reason, self.name, tostring(self.pid), #list)
-  for _, p in ipairs(list) do p:exited_with(rt, why) end
+  local names = {}
+  for _, p in ipairs(list) do
+    if not p.exited then
+      p.exited = true
+      if p.lost_timer then p.lost_timer:cancel() end
+      names[#names + 1] = p.name
+    end
+  end
+  if rt.sup and not rt.closing and #names > 0 then rt.sup:children_exit(names, why) end
+  for _, p in ipairs(list) do if p.ch and not p.ch_closed then p.ch:close() end end
 end
 
 function Shared:gone()
