@@ -3,8 +3,9 @@
 -- node processes in lock-step with the world), beside the raw world opening the same door by its built-in
 -- script (`dca sim`: no nodes, no supervisors, no sockets), alternated A B A B.
 --
---   RESULT bench=door_demo variant=seedN n=<lock-step rounds> p50_us=.. p99_us=.. max_us=.. rtf=.. wall_s=..
---          sim_s=.. door_deg=.. advances=..
+--   RESULT bench=door_demo variant=seedN_<placement>_<period> n=<lock-step rounds> p50_us=.. p99_us=.. max_us=..
+--          rtf=.. wall_s=.. sim_s=.. door_deg=.. advances=.. processes_per_round=.. per_process_p50_us=..
+--   (placement: `dca run --placement process|group|host`; period: MotionControl's, 10ms or 1ms)
 --   RESULT bench=raw_world_scripted_door variant=seedN n=1 ... rtf=.. wall_s=.. sim_s=..
 --
 -- The latency fields of door_demo are the wall time of each lock-step round: one control period of simulated
@@ -35,8 +36,13 @@ local function raw(seed)
     seed, us, us, us, us, sim / wall, wall, sim))
 end
 
-local function demo(seed)
-  local out, code = run(sformat("%s run %s/scripts/systems/door_open.dca --sim door --seed %d --quiet", exe, src, seed))
+-- One supervised run: `placement` (dca run --placement; the variant names it), `period` "10ms" or "1ms"
+-- (MotionControl's period: motion.period).
+local function demo(seed, placement, period)
+  local extra = sformat(" --placement %s", placement)
+  if period == "1ms" then extra = extra .. " --set motion.period=0.001" end
+  local out, code = run(sformat("%s run %s/scripts/systems/door_open.dca --sim door --seed %d --quiet%s", exe, src,
+    seed, extra))
   local deg = out:match("door opened to ([%d.%-]+) deg")
   local sim, wall = out:match("simulated ([%d.]+) s in ([%d.]+) s of wall%-clock time")
   local rounds, adv, p50, p99, max = out:match("lock%-step: (%d+) rounds, (%d+) advances; wall time per round p50 (%d+) us, p99 (%d+) us, max (%d+) us")
@@ -45,17 +51,30 @@ local function demo(seed)
     return
   end
   sim, wall = num(sim), num(wall)
-  print(sformat("RESULT bench=door_demo variant=seed%d n=%d p50_us=%.1f p99_us=%.1f p999_us=%.1f max_us=%.1f rtf=%.2f wall_s=%.3f sim_s=%.3f door_deg=%s advances=%s",
-    seed, num(rounds), num(p50), num(p99), num(max), num(max), sim / wall, wall, sim, deg or "?", adv))
+  -- processes advanced per round, and the round's p50 shared among them: the lock-step cost per process
+  local per_round = num(adv) / math.max(1, num(rounds))
+  print(sformat("RESULT bench=door_demo variant=seed%d_%s_%s n=%d p50_us=%.1f p99_us=%.1f p999_us=%.1f max_us=%.1f rtf=%.2f wall_s=%.3f sim_s=%.3f door_deg=%s advances=%s processes_per_round=%.2f per_process_p50_us=%.1f",
+    seed, placement, period, num(rounds), num(p50), num(p99), num(max), num(max), sim / wall, wall, sim, deg or "?",
+    adv, per_round, num(p50) / math.max(1, per_round)))
 end
 
 local seeds = {}
 for _, a in ipairs(arg or {}) do seeds[#seeds + 1] = math.tointeger(tonumber(a)) end
 if #seeds == 0 then seeds = { 0, 3 } end
+-- DCA_BENCH_PLACEMENTS (default "process,group,host") and DCA_BENCH_PERIODS (default "10ms,1ms") choose the
+-- variants; each round runs them all, A B A B.
+local function list(env, default)
+  local t = {}
+  for w in (os.getenv(env) or default):gmatch("[^,%s]+") do t[#t + 1] = w end
+  return t
+end
+local placements, periods = list("DCA_BENCH_PLACEMENTS", "process,group,host"), list("DCA_BENCH_PERIODS", "10ms,1ms")
 for round = 1, 2 do
   for _, seed in ipairs(seeds) do
     io.stderr:write(sformat("door_bench: round %d, seed %d: raw world, then the supervised system\n", round, seed))
     raw(seed)
-    demo(seed)
+    for _, period in ipairs(periods) do
+      for _, placement in ipairs(placements) do demo(seed, placement, period) end
+    end
   end
 end
