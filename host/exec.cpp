@@ -133,9 +133,10 @@ std::optional<Executer::Child> Executer::spawn(const std::vector<std::string>& a
   if (refusing_) return fail("the executer is stopping");
   auto path = allow_.resolve(argv, error);
   if (!path) return std::nullopt;
-  // `dca node ...`: the lean dca-node beside dca starts several times faster (no Simbody to load), same argv.
-  if (argv.size() >= 2 && argv[1] == "node" && *path == real(self_exe())) {
-    const std::string lean = std::filesystem::path(*path).parent_path() / "dca-node";
+  // `dca node ...` and `dca supervise ...`: the lean dca-node and dca-supervise beside dca start faster (no
+  // Simbody to load), same argv.
+  if (argv.size() >= 2 && (argv[1] == "node" || argv[1] == "supervise") && *path == real(self_exe())) {
+    const std::string lean = std::filesystem::path(*path).parent_path() / ("dca-" + argv[1]);
     if (::access(lean.c_str(), X_OK) == 0) path = lean;
   }
 
