@@ -22,6 +22,7 @@
 --   run:is_running(name)                --> true if this expression runs the leaf `name` now
 --   run:render(mark)                    --> the expression's text with running leaves marked (default *A*)
 --   run:log()                           --> the latest commands and events, oldest first (strings)
+--   run:snapshot() / run:restore(s)     --> a copy of the run's state, and back (dca.verify explores with it)
 --
 -- Expression objects (from parse) are immutable and may be shared by many runs:
 --   expr.text     the source text
@@ -36,8 +37,8 @@
 -- and event() returns nil for it.
 local M = {}
 
-local type, setmetatable, getmetatable, tostring, error, pcall, ipairs =
-  type, setmetatable, getmetatable, tostring, error, pcall, ipairs
+local type, setmetatable, getmetatable, tostring, error, pcall, ipairs, pairs =
+  type, setmetatable, getmetatable, tostring, error, pcall, ipairs, pairs
 local sbyte, ssub, sfind, sformat = string.byte, string.sub, string.find, string.format
 local concat = table.concat
 
@@ -597,6 +598,50 @@ function Run:abort()
   self.busy = false
   if self.queue[1] then self:_drain() end
   return true
+end
+
+-- Copies of the ',' values so far (each list copied), the ',' counters and the bindings of `s`.
+local function copy_state(s)
+  local vals, cnt, bind = {}, {}, {}
+  for id, t in pairs(s.vals) do
+    local cp = { n = t.n }
+    for i = 1, t.n do cp[i] = t[i] end
+    vals[id] = cp
+  end
+  for id, k in pairs(s.cnt) do cnt[id] = k end
+  for id, b in pairs(s.bind) do bind[id] = b end
+  return vals, cnt, bind
+end
+
+--- A copy of the run's state, for dca.verify's exploration: { st =, value =, running = { leaf ids in start
+--- order }, vals = { [par node id] = copy of its values so far }, cnt =, bind = } (node ids as in expr.c).
+--- The log is not part of it. Not while an event is being processed.
+function Run:snapshot()
+  local running, rnext = {}, self.rnext
+  local l, n = self.rhead, 0
+  while l ~= 0 do
+    n = n + 1
+    running[n] = l
+    l = rnext[l]
+  end
+  local vals, cnt, bind = copy_state(self)
+  return { st = self.st, value = self.value, running = running, vals = vals, cnt = cnt, bind = bind }
+end
+
+--- Puts back a state taken by snapshot() (of a run of the same expression). The snapshot stays usable.
+function Run:restore(s)
+  local c, rprev, rnext, byname = self.c, {}, {}, {}
+  local prev = 0
+  for _, l in ipairs(s.running) do
+    rprev[l], rnext[l] = prev, 0
+    if prev ~= 0 then rnext[prev] = l end
+    byname[c.name[l]] = l
+    prev = l
+  end
+  self.rprev, self.rnext, self.byname = rprev, rnext, byname
+  self.rhead, self.rtail = s.running[1] or 0, prev
+  self.vals, self.cnt, self.bind = copy_state(s)
+  self.st, self.value = s.st, s.value
 end
 
 --- "idle" | "running" | "done" | "aborted", and the value when "done".

@@ -7,7 +7,8 @@ local model = require "dca.lang.model"
 local M = {}
 
 M.summary = "check a .dca system file (syntax, instances, ports, expressions) without starting anything"
-M.usage = [[usage: dca check FILE.dca [--root NAME] [--no-registry] [--tree] [--config FILE | --no-config]
+M.usage = [==[usage: dca check FILE.dca [--root NAME] [--no-registry] [--tree] [--config FILE | --no-config]
+                 [--verify [--no-faults] [--traces] [--emit-scenario FILE.lua] [--promela]]
 
 Parses FILE.dca and runs every static check, printing all errors (file:line:col, the instance path, the
 source line and a caret); exits 1 when there are errors, else prints a one-line summary and exits 0.
@@ -18,7 +19,17 @@ source line and a caret); exits 1 when there are errors, else prints a one-line 
   --config FILE   the system's configuration defaults (default FILE.config beside FILE.dca, when there is
                   one): a config("key") parameter whose key it lacks is a warning (the repository may hold
                   it; with a close name: a likely typo), a default of the wrong type for the parameter is an
-                  error, and so is a defaults file that does not read]]
+                  error, and so is a defaults file that does not read
+  --verify        explore every run of every group's expression with the algebra engine (a leaf does what
+                  its type's manifest says: `dca types`, ends) and report, per group, how it can end (DONE
+                  with which value, ABORTED with which reasons), states where it is stuck, operands that can
+                  never start, connection sets active together that feed one input twice, and the
+                  properties of its verify { } section, each finding with a shortest trace; exits 1 when a
+                  property is violated
+  --no-faults     leave out crashes and lost hosts (by default any process can crash, any host be lost)
+  --traces        also print a trace to every outcome
+  --emit-scenario FILE.lua  write the first counter-example as a scenario `dca scenario` replays
+  --promela       print the expression model as Promela (spin) instead of the report]==]
 
 --- The instance tree as indented text: "name : Type @host (params)" per line; groups show their expression.
 function M.tree_text(tree)
@@ -54,7 +65,8 @@ local function plural(n, one) return n == 1 and ("1 " .. one) or (n .. " " .. on
 
 function M.main(argv)
   local o, err = args.parse(argv, "dca check", { ["--root"] = "value", ["--no-registry"] = "flag",
-    ["--tree"] = "flag", ["--config"] = "value", ["--no-config"] = "flag" })
+    ["--tree"] = "flag", ["--config"] = "value", ["--no-config"] = "flag", ["--verify"] = "flag",
+    ["--no-faults"] = "flag", ["--traces"] = "flag", ["--emit-scenario"] = "value", ["--promela"] = "flag" })
   if not o then return args.usage_error(err, M.usage) end
   local file, root, use_registry = o[1], o.root, not o.no_registry
   if not file then io.stderr:write(M.usage, "\n"); return 2 end
@@ -85,7 +97,30 @@ function M.main(argv)
                                 plural(s.connections, "connection"), plural(#s.hosts, "host"),
                                 table.concat(s.hosts, ", ")))
   if o.tree then io.stdout:write(M.tree_text(tree)) end
+  if o.verify then return M.verify(file, ast, tree, o) end
   return 0
+end
+
+--- `--verify`: the report (or the Promela model), the emitted scenario; 1 when a property is violated.
+function M.verify(file, ast, tree, o)
+  local verify = require "dca.verify"
+  local result, errs = verify.system(tree, { faults = not o.no_faults, ast = ast })
+  if not result then
+    io.stderr:write(check.format_all(ast, errs), "\n")
+    return 1
+  end
+  if o.promela then
+    io.stdout:write(require("dca.verify.promela").system(result))
+    return 0
+  end
+  local text, _, violated = require("dca.verify.report").text(result, { file = file, traces = o.traces })
+  io.stdout:write(text)
+  if o.emit_scenario then
+    local ok, werr = require("dca.verify.scenario").write(o.emit_scenario, result, file, o.root)
+    if not ok then io.stderr:write(werr, "\n") return 1 end
+    io.stdout:write(o.emit_scenario, ": ", ok, "\n")
+  end
+  return violated > 0 and 1 or 0
 end
 
 return M

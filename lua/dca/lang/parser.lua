@@ -12,6 +12,7 @@
 --     external_io { Alias = inst, Port; ... }             -- an inner port exported under another name
 --     internal_connections(inst, label) { a, Out -> b, In; ... }     -- any number of these
 --     internal_event_actions { expression }               -- dca.algebra syntax, naming instances
+--     verify { property; ... }                            -- properties for `dca check --verify` (dca.verify.props)
 --   }
 -- Arguments are parameter names, strings ("c1.example"), numbers (30, -0.5, 1e3) or configuration keys
 -- (config("door.stop_distance"): the value in the configuration repository, resolved when the system starts).
@@ -41,6 +42,8 @@
 --       (same length, newlines kept); text_line/text_col: where the text begins (just after '{');
 --       line/col: the expression's first token; section_line/section_col: the keyword.
 --       Every node of expr.root has its file position (pos, line, col).
+--     verify = { text, pos, line, col } | nil,           -- the verify section's text, comments blanked (same
+--                                                        --   length), pos: file offset of its first character
 --     duplicate_sections = { { section = "host", line, col }, ... },
 --   }
 --   inst = { name = "hit", type = "HitDetector", line, col, type_line, type_col, args = { arg, ... } }
@@ -58,7 +61,8 @@ local type, error, pcall, tostring, ipairs, setmetatable, getmetatable =
 local sformat, ssub, sfind, smatch = string.format, string.sub, string.find, string.match
 
 --- The section keywords of a process body.
-M.sections = { "host", "instantiated_processes", "external_io", "internal_connections", "internal_event_actions" }
+M.sections = { "host", "instantiated_processes", "external_io", "internal_connections", "internal_event_actions",
+               "verify" }
 local SECTION = {}
 for _, s in ipairs(M.sections) do SECTION[s] = true end
 
@@ -94,7 +98,8 @@ local string_lit = Cmt(Cp() * P'"' * Cs((escape + (1 - S'"\\\n'))^0) * (C(P'"') 
 -- Where a section (or the next process) begins, including the paper's typos "external io",
 -- "internal connections": used to tell "missing '}'" from other errors in a list. A keyword counts only
 -- when a brace or parenthesis follows, so that `host instof T(h);` still declares an instance "host".
-local section_start = (kw"host" + kw"instantiated_processes" + kw"external_io" + kw"internal_event_actions") * S"{(" +
+local section_start = (kw"host" + kw"instantiated_processes" + kw"external_io" + kw"internal_event_actions" +
+                       kw"verify") * S"{(" +
                       kw"internal_connections" * P"(" + kw"process" * ident * ws * P"(" +
                       (P"external" + P"internal") * -idchar
 
@@ -162,7 +167,11 @@ local actions_section = section("internal_event_actions",
   expect(P"{", "section_open", "section") * pos("text_pos") * Cg(C((comment + (1 - S"}"))^0), "text") *
   expect(tok"}", "actions_close", "open_internal_event_actions"))
 
-local any_section = host_section + instances_section + xio_section + ic_section + actions_section
+local verify_section = section("verify",
+  expect(P"{", "section_open", "section") * pos("text_pos") * Cg(C((comment + (1 - S"}"))^0), "text") *
+  expect(tok"}", "verify_close", "open_verify"))
+
+local any_section = host_section + instances_section + xio_section + ic_section + actions_section + verify_section
 
 local param = Ct(pos() * Cg(NAME, "name"))
 local process = Ct(pos() * pos("open_process") * kw"process" * Cg(expect(NAME, "process_name"), "name") *
@@ -311,6 +320,7 @@ MESSAGES.toplevel = function(_, f, s, p) return toplevel(f, s, p) end
 MESSAGES.process_close = process_close
 MESSAGES.section_close = function(e, f, s, p, idx) return section_close(e[1], e[2], f, s, p, idx) end
 MESSAGES.actions_close = function(e, f, s, p, idx) return section_close("internal_event_actions", e[1], f, s, p, idx) end
+MESSAGES.verify_close = function(e, f, s, p, idx) return section_close("verify", e[1], f, s, p, idx) end
 function MESSAGES.host_open(_, f, s, p)
   if ssub(s, p, p) ~= "(" then return "expected '{' after 'host', found " .. f end
   return sformat("'host' takes braces, not parentheses: write 'host { %s }'", smatch(s, "^%(%s*([^%s%)]*)", p) or "")
@@ -409,6 +419,11 @@ function BUILD.internal_event_actions(proc, sec, idx)
     act.error = { msg = info.msg, pos = p, line = l, col = c }
   end
   proc.actions = act
+end
+
+function BUILD.verify(proc, sec, idx)
+  proc.verify = { text = blank:match(sec.text), pos = sec.text_pos }
+  idx.set(proc.verify, sec.pos)
 end
 
 local function build_process(raw, idx)

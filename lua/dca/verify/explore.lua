@@ -1,0 +1,239 @@
+-- dca.verify.explore: every reachable state of one group's expression, explored with dca.algebra itself (the
+-- engine the supervisor runs), breadth first, so the first trace found to anything is a shortest one.
+--
+--   local explore = require "dca.verify.explore"
+--   local g = explore.group(expr, operands, opts)
+--   -- expr: a dca.algebra expression; operands[name] = { events = { ev, ... } }: what each operand (a leaf's
+--   --   type, or a sub-group's outcomes) can do while it runs; ev = { kind = "done"|"aborted"|"error",
+--   --   value = <done value>, fault = true|nil, reasons = { ... } (aborted/error) }
+--   -- opts: { sets = { { a = "owner[label]", b = "owner[label]", why = ... } ... } (connection sets that must
+--   --   not be active together), monitors = { m ... } (dca.verify.props), max_states = N }
+--
+-- Reductions, both sound for this algebra: a state is the set of running leaf occurrences (not their start
+-- order, which only orders abort commands) with the values collected so far, so interleavings of independent
+-- events meet in one state; and an operand that is a group is only its outcomes (explored once, by the caller).
+--
+-- The result g:
+--   g.done[value] = trace, g.aborted[operand] = { trace =, ev = } (the event that ended the group), g.stuck =
+--   { { trace, waiting = { names } } }, g.started[leaf id] = true, g.conflicts = { { pair, trace } },
+--   g.violations[monitor index] = trace, g.states, g.transitions, g.cycle (a state that can repeat: :;)
+--   A trace is a list of steps { name =, ev = } from the start.
+local algebra = require "dca.algebra"
+
+local M = {}
+
+local ipairs, pairs, type, tostring, concat, sort, sformat = ipairs, pairs, type, tostring, table.concat, table.sort,
+  string.format
+
+-- The text of a value (what a DONE carries: an operand's name, or a ',' list of them).
+local function value_text(v)
+  if type(v) ~= "table" then return tostring(v) end
+  local parts = {}
+  for i = 1, v.n or #v do parts[i] = v[i] == nil and "nil" or value_text(v[i]) end
+  return "{" .. concat(parts, ", ") .. "}"
+end
+M.value_text = value_text
+
+-- The key of a snapshot: running occurrences as a set, the values so far of the live ',' nodes (those with a
+-- running leaf below them: an aborted ',' leaves its values behind, unused), the monitors' state.
+local function key_of(c, s, mon)
+  local ids = {}
+  for i, l in ipairs(s.running) do ids[i] = l end
+  sort(ids)
+  local parts = { concat(ids, " ") }
+  local vids = {}
+  for id in pairs(s.vals) do vids[#vids + 1] = id end
+  sort(vids)
+  local last = c.last
+  for _, id in ipairs(vids) do
+    for _, l in ipairs(ids) do
+      if l > id and l <= last[id] then
+        parts[#parts + 1] = id .. "=" .. value_text(s.vals[id])
+        break
+      end
+    end
+  end
+  parts[#parts + 1] = mon
+  return concat(parts, "|")
+end
+
+-- Which connection-set names ("owner[label]") a snapshot has active: its running labelled occurrences.
+local function active_sets(c, running)
+  local out = {}
+  for _, l in ipairs(running) do
+    local lb = c.label[l]
+    if lb then out[c.name[l] .. "[" .. lb .. "]"] = true end
+  end
+  return out
+end
+
+-- The trace from the start to state i (steps { name, ev }).
+local function trace_to(states, i, last)
+  local rev = {}
+  if last then rev[1] = last end
+  while i and states[i].from do
+    rev[#rev + 1] = states[i].step
+    i = states[i].from
+  end
+  local out = {}
+  for k = #rev, 1, -1 do out[#out + 1] = rev[k] end
+  return out
+end
+M.trace_to = trace_to
+
+-- The commands one step caused, recorded by the run's command callbacks.
+-- (rec.cmds: { "start" | "abort", name } in order).
+local function recorder()
+  local rec = { cmds = {} }
+  rec.commands = {
+    start = function(name) rec.cmds[#rec.cmds + 1] = { "start", name } end,
+    abort = function(name) rec.cmds[#rec.cmds + 1] = { "abort", name } end,
+  }
+  function rec.reset() rec.cmds = {} end
+  return rec
+end
+M.recorder = recorder
+
+-- What the monitors do with one step: the next monitor state, and the index of a violated one (or nil).
+local function monitor_step(monitors, mstate, step, rec, running_names)
+  if #monitors == 0 then return mstate, nil end
+  local next = {}
+  for i, m in ipairs(monitors) do
+    local st, bad = mstate:sub(i, i), false
+    if m.step then st, bad = m.step(st, step, rec, running_names) end
+    next[i] = st
+    if bad then return concat(next) .. mstate:sub(i + 1), i end
+  end
+  return concat(next), nil
+end
+
+local function running_names(c, running)
+  local out = {}
+  for _, l in ipairs(running) do out[c.name[l]] = true end
+  return out
+end
+
+-- Records the findings of a state just reached: stuck, conflicting sets, monitors on states.
+local function findings(g, ctx, i, snap)
+  local c = ctx.c
+  local names = running_names(c, snap.running)
+  local live = false
+  for _, l in ipairs(snap.running) do
+    for _, ev in ipairs(ctx.operands[c.name[l]].events) do
+      if not ev.fault then live = true end
+    end
+  end
+  if not live and #snap.running > 0 then
+    local waiting = {}
+    for _, l in ipairs(snap.running) do waiting[#waiting + 1] = c.name[l] end
+    local w = concat(waiting, ", ")
+    if not g.stuck_seen[w] then  -- the shortest trace to each set of waited-for operands
+      g.stuck_seen[w] = true
+      g.stuck[#g.stuck + 1] = { trace = trace_to(ctx.states, i), waiting = waiting, state = i }
+    end
+  end
+  if ctx.sets[1] then
+    local act = active_sets(c, snap.running)
+    for _, p in ipairs(ctx.sets) do
+      if act[p.a] and act[p.b] and not g.conflict_seen[p] then
+        g.conflict_seen[p] = true
+        g.conflicts[#g.conflicts + 1] = { pair = p, trace = trace_to(ctx.states, i) }
+      end
+    end
+  end
+  for k, m in ipairs(ctx.monitors) do
+    if m.state and not g.violations[k] and m.state(names) then g.violations[k] = trace_to(ctx.states, i) end
+  end
+end
+
+-- Reaching a snapshot: an end (recorded), a known state (skipped), or a new state (queued).
+local function reach(g, ctx, from, step, snap, mstate)
+  if snap.st == "done" then
+    local v = value_text(snap.value)
+    if not g.done[v] then g.done[v] = trace_to(ctx.states, from, step) end
+    return
+  elseif snap.st == "aborted" then
+    local a = g.aborted[step.name .. "\0" .. step.ev.kind .. "\0" .. tostring(step.ev.value)]
+    if not a then
+      g.aborted[step.name .. "\0" .. step.ev.kind .. "\0" .. tostring(step.ev.value)] =
+        { trace = trace_to(ctx.states, from, step), name = step.name, ev = step.ev }
+    end
+    return
+  end
+  local key = key_of(ctx.c, snap, mstate)
+  local known = ctx.seen[key]
+  if known then
+    if known <= from then g.cycle = g.cycle or known end
+    return
+  end
+  local states = ctx.states
+  local i = #states + 1
+  states[i] = { snap = snap, from = from, step = step, mon = mstate }
+  ctx.seen[key] = i
+  for _, l in ipairs(snap.running) do
+    g.started[l] = true
+    local nm = ctx.c.name[l]
+    if not g.first_running[nm] then g.first_running[nm] = trace_to(states, i) end
+  end
+  findings(g, ctx, i, snap)
+end
+
+--- Explores the expression (see the top of the file). Returns g.
+function M.group(expr, operands, opts)
+  opts = opts or {}
+  local rec = recorder()
+  local run = algebra.new(expr, rec.commands)
+  local ctx = { c = expr.c, operands = operands, sets = opts.sets or {}, monitors = opts.monitors or {},
+                seen = {}, states = {} }
+  local g = { done = {}, aborted = {}, stuck = {}, stuck_seen = {}, started = {}, first_running = {}, conflicts = {}, conflict_seen = {},
+              violations = {},
+              states = 0, transitions = 0, expr = expr }
+  local m0 = {}
+  for i, m in ipairs(ctx.monitors) do m0[i] = m.initial or "0" end
+  run:start()
+  local first = { name = nil, ev = { kind = "start" } }
+  local mstate, bad = monitor_step(ctx.monitors, concat(m0), first, rec, nil)
+  if bad and not g.violations[bad] then g.violations[bad] = {} end
+  reach(g, ctx, nil, nil, run:snapshot(), mstate)
+  local max = opts.max_states or 2000000
+  local states, i = ctx.states, 1
+  while states[i] do
+    local st = states[i]
+    local snap = st.snap
+    for _, l in ipairs(snap.running) do
+      local name = ctx.c.name[l]
+      for _, ev in ipairs(operands[name].events) do
+        run:restore(snap)
+        rec.reset()
+        run:event(name, ev.kind, ev.value)
+        g.transitions = g.transitions + 1
+        local step = { name = name, ev = ev }
+        local after = run:snapshot()
+        local ms, viol = monitor_step(ctx.monitors, st.mon, step, rec, running_names(ctx.c, after.running))
+        if viol then
+          if not g.violations[viol] then g.violations[viol] = trace_to(states, i, step) end
+        end
+        reach(g, ctx, i, step, after, ms)
+      end
+    end
+    st.snap = nil  -- expanded: traces need only the links
+    i = i + 1
+    if i > max then g.truncated = true break end
+  end
+  g.states = #states
+  g.state_list = states
+  return g
+end
+
+--- The step names of a trace as text ("a done", "b crashed"), for messages and tests.
+function M.trace_text(trace)
+  local out = {}
+  for i, s in ipairs(trace) do
+    local ev = s.ev
+    local what = ev.kind == "done" and "done" or (ev.fault and "crashed") or "aborted"
+    out[i] = sformat("%s %s", s.name, what)
+  end
+  return concat(out, "; ")
+end
+
+return M

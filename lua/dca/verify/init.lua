@@ -1,0 +1,244 @@
+-- dca.verify: what a system's task expressions can do, proved before anything runs (`dca check --verify`).
+--
+--   local verify = require "dca.verify"
+--   local ast, tree = require("dca.load").file("door_open.dca")
+--   local result = verify.system(tree, { faults = true })
+--   print(require("dca.verify.report").text(result))
+--
+-- Each group's internal_event_actions is explored with dca.algebra itself (dca.verify.explore), bottom up: a
+-- leaf operand can do what its type's manifest says (`ends`: never, done, aborted, done or aborted; nothing
+-- said: anything), plus a crash or a lost host unless faults = false; a group operand can do what its own
+-- exploration found (its DONE values, its ABORTED reasons). A group is explored once per process definition
+-- and its outcomes reused by every parent. A pipeline of passes over one context, like dca.lang.check:
+-- operands, connection sets, properties, exploration, summary.
+--
+-- result = { groups = { R, ... } (children before parents), root = R, states =, transitions =, seconds = }
+-- R = { type, path, node, done = { { value, trace } }, aborted = { { reason, fault, trace } }, stuck =
+--       { { waiting, trace } }, never_ends, dead = { leaf expr nodes }, conflicts = { { a, b, why, trace } },
+--       props = { { prop, ok, trace, note } }, states, transitions, cycle }
+-- A trace is a list of steps { name, ev, pick } of that group; dca.verify.trace expands it to leaf events.
+local explore = require "dca.verify.explore"
+local props = require "dca.verify.props"
+local model = require "dca.lang.model"
+
+local M = {}
+
+local ipairs, pairs, sformat, sort, clock = ipairs, pairs, string.format, table.sort, os.clock
+
+-- What a leaf can do, from its manifest's `ends` (nil: anything).
+local function leaf_events(node, faults)
+  local ends = node.manifest and node.manifest.ends
+  local name = node.name
+  local ev = {}
+  if ends == nil or ends == "done" or ends == "done or aborted" then
+    ev[#ev + 1] = { kind = "done", value = name }
+  end
+  if ends == nil or ends == "aborted" or ends == "done or aborted" then
+    ev[#ev + 1] = { kind = "aborted", value = name .. " aborted", reasons = { { text = name .. " aborted" } } }
+  end
+  if faults then
+    ev[#ev + 1] = { kind = "error", value = "crash", fault = true,
+                    reasons = { { text = name .. " crashed or its host was lost", fault = true } } }
+  end
+  return { events = ev, leaf = true, ends = ends or "undeclared" }
+end
+
+-- What a group operand can do: its outcomes, each with the inner trace that reaches it.
+local function group_events(node, r, faults)
+  local name, ev = node.name, {}
+  for _, d in ipairs(r.done) do
+    ev[#ev + 1] = { kind = "done", value = name .. "(" .. d.value .. ")", inner = d.trace, group = true }
+  end
+  local plain, fault = {}, {}
+  for _, a in ipairs(r.aborted) do
+    local item = { text = name .. "." .. a.reason, fault = a.fault, inner = a.trace }
+    if a.fault then fault[#fault + 1] = item else plain[#plain + 1] = item end
+  end
+  if #plain > 0 then ev[#ev + 1] = { kind = "aborted", value = name .. " aborted", reasons = plain, group = true } end
+  if faults then
+    fault[#fault + 1] = { text = name .. "'s supervisor or its host was lost", fault = true, lost = true }
+    ev[#ev + 1] = { kind = "error", value = "lost", fault = true, reasons = fault, group = true }
+  end
+  return { events = ev, group = r }
+end
+
+-- The pairs of connection sets of `node` that feed one input from two writers.
+local function set_conflicts(node, conns)
+  local by_set = {}
+  for _, c in ipairs(conns) do
+    if c.group == node then
+      local set = c.owner .. "[" .. c.label .. "]"
+      by_set[set] = by_set[set] or {}
+      local dest = c.to.path .. "." .. c["in"]
+      by_set[set][#by_set[set] + 1] = { dest = dest, writer = c.from.path .. "." .. c.out }
+    end
+  end
+  local names = {}
+  for s in pairs(by_set) do names[#names + 1] = s end
+  sort(names)
+  local pairs_out = {}
+  for i, a in ipairs(names) do
+    for j = i, #names do
+      local b = names[j]
+      local why
+      for _, x in ipairs(by_set[a]) do
+        for _, y in ipairs(by_set[b]) do
+          if x.dest == y.dest and x.writer ~= y.writer and not why then
+            why = sformat("%s is fed by %s and %s", x.dest, x.writer, y.writer)
+          end
+        end
+      end
+      if why then pairs_out[#pairs_out + 1] = { a = a, b = b, why = why } end
+    end
+  end
+  return pairs_out
+end
+
+-- The group's properties (its verify section), checked against its operands: parsed list, errors.
+local function group_props(node, ast)
+  local v = node.process.verify
+  if not v then return {}, {} end
+  local list, errors = props.parse(v.text, v.pos)
+  for _, p in ipairs(list) do
+    for _, n in ipairs(props.names(p)) do
+      local own = p.kind == "can_end" and (n.text == node.process.name or n.text == node.name)
+      if not own and not node.children[n.text] then
+        errors[#errors + 1] = { pos = n.pos, msg = sformat("no instance '%s' in process '%s'", n.text,
+                                                            node.process.name) }
+      end
+    end
+  end
+  local out = {}
+  for _, e in ipairs(errors) do
+    local line, col = ast.index:at(e.pos)
+    out[#out + 1] = { line = line, col = col, path = node.path, msg = e.msg }
+  end
+  return list, out
+end
+
+-- Whether a can_end property holds for the outcomes `done`, `aborted` (any/non-fault only).
+local function can_end(p, r, operands)
+  local name = p.a.text
+  local d, a
+  if operands[name] then
+    local beh = operands[name]
+    for _, ev in ipairs(beh.events) do
+      if ev.kind == "done" then d = true elseif not ev.fault then a = true end
+    end
+  else
+    d = #r.done > 0
+    for _, x in ipairs(r.aborted) do if not x.fault then a = true end end
+  end
+  local yes = (p.how == "done" and d) or (p.how == "aborted" and a) or (p.how == nil and (d or a))
+  if p.negated then return not yes end
+  return yes
+end
+
+-- The outcomes of an exploration as lists sorted by text, aborted split by reason.
+local function summarize(g, operands)
+  local r = { done = {}, aborted = {}, stuck = g.stuck, conflicts = {}, dead = {}, states = g.states,
+              transitions = g.transitions, cycle = g.cycle, truncated = g.truncated, first_running = g.first_running }
+  for v, trace in pairs(g.done) do r.done[#r.done + 1] = { value = v, trace = trace } end
+  sort(r.done, function(x, y) return x.value < y.value end)
+  local seen = {}
+  for _, a in pairs(g.aborted) do
+    for k, reason in ipairs(a.ev.reasons or {}) do
+      if not seen[reason.text] then
+        seen[reason.text] = true
+        local trace = {}
+        for i, s in ipairs(a.trace) do trace[i] = s end
+        local last = trace[#trace]
+        trace[#trace] = { name = last.name, ev = last.ev, pick = k }
+        r.aborted[#r.aborted + 1] = { reason = reason.text, fault = reason.fault, trace = trace }
+      end
+    end
+  end
+  sort(r.aborted, function(x, y)
+    if x.fault ~= y.fault then return not x.fault end
+    return x.reason < y.reason
+  end)
+  for _, c in ipairs(g.conflicts) do
+    r.conflicts[#r.conflicts + 1] = { a = c.pair.a, b = c.pair.b, why = c.pair.why, trace = c.trace }
+  end
+  for _, leaf in ipairs(g.expr.leaves) do
+    if not g.started[leaf.id] then r.dead[#r.dead + 1] = leaf end
+  end
+  local plain = #r.done > 0
+  for _, a in ipairs(r.aborted) do plain = plain or not a.fault end
+  r.never_ends = not plain
+  -- nothing can happen from the start but a fault: a group that runs until it is stopped, like a sensor (not a
+  -- finding here; a parent that waits for it gets stuck, and that is one)
+  if r.stuck[1] and r.stuck[1].state == 1 then
+    r.until_stopped, r.stuck = true, {}
+  end
+  r.operands = operands
+  return r
+end
+
+--- Where group r (or a group operand below it, first in the text) gets stuck: { r = the group, stuck = its
+--- first stuck state { trace, waiting } } | nil. The explanation of an end that cannot happen.
+function M.stuck_below(r)
+  if r.stuck[1] then return { r = r, stuck = r.stuck[1] } end
+  for _, leaf in ipairs(r.node.process.actions.expr.leaves) do
+    local op = r.operands[leaf.name]
+    local found = op and op.group and M.stuck_below(op.group)
+    if found then return found end
+  end
+  return nil
+end
+
+-- Explores one group (its children first); memoized by process definition in ctx.memo.
+local function group(ctx, node)
+  local def = node.process
+  if ctx.memo[def.name] then return ctx.memo[def.name] end
+  local operands = {}
+  for _, child in ipairs(node.children) do
+    if child.kind == "group" then
+      operands[child.name] = group_events(child, group(ctx, child), ctx.faults)
+    else
+      operands[child.name] = leaf_events(child, ctx.faults)
+    end
+  end
+  local list, perrs = group_props(node, ctx.ast)
+  for _, e in ipairs(perrs) do ctx.errors[#ctx.errors + 1] = e end
+  local monitors, mprops = {}, {}
+  for _, p in ipairs(list) do
+    local m = props.monitor(p, operands)
+    if m then monitors[#monitors + 1] = m; mprops[#mprops + 1] = p end
+  end
+  local g = explore.group(def.actions.expr, operands, { sets = set_conflicts(node, ctx.conns), monitors = monitors,
+                                                        max_states = ctx.max_states })
+  local r = summarize(g, operands)
+  r.type, r.path, r.node, r.props = def.name, node.path, node, {}
+  for k, p in ipairs(mprops) do
+    r.props[#r.props + 1] = { prop = p, ok = not g.violations[k], trace = g.violations[k] }
+  end
+  for _, p in ipairs(list) do
+    if p.kind == "can_end" then
+      local ok = can_end(p, r, operands)
+      r.props[#r.props + 1] = { prop = p, ok = ok, outcome = true, stuck = not ok and M.stuck_below(r) or nil }
+    end
+  end
+  sort(r.props, function(x, y) return x.prop.pos < y.prop.pos end)
+  ctx.states, ctx.transitions = ctx.states + g.states, ctx.transitions + g.transitions
+  ctx.memo[def.name] = r
+  ctx.groups[#ctx.groups + 1] = r
+  return r
+end
+
+--- Verifies the tree of a checked system (dca.load.file's second result). opts: { faults = true|false,
+--- ast = the AST (for property errors' positions), max_states = N per group }. Returns the result (see the
+--- top), or nil and a list of errors { line, col, path, msg } (a property that does not parse).
+function M.system(tree, opts)
+  opts = opts or {}
+  local t0 = clock()
+  local conns = model.connections(tree) or {}
+  local ctx = { memo = {}, groups = {}, errors = {}, states = 0, transitions = 0, conns = conns,
+                faults = opts.faults ~= false, ast = opts.ast, max_states = opts.max_states }
+  local root = group(ctx, tree)
+  if #ctx.errors > 0 then return nil, ctx.errors end
+  return { groups = ctx.groups, root = root, states = ctx.states, transitions = ctx.transitions,
+           seconds = clock() - t0, faults = ctx.faults, memory_kb = collectgarbage("count") }
+end
+
+return M

@@ -1,0 +1,151 @@
+-- dca.verify.scenario: a counter-example of `dca check --verify` as a scenario (`dca scenario FILE.lua`, see
+-- dca.scenario) that makes the same run happen: the tree comes up, each leaf event of the trace is injected
+-- (done, aborted) or caused (a crash: SIGSEGV; a lost group: its supervisor killed) once its process runs,
+-- and the last step checks that the violation is there. The leaves' own behaviours (a Timer's timeout, a
+-- Counter's count) are switched off, so only the trace drives the run.
+--
+--   local text, what = scenario.text(result, "door.dca", "main")   -- nil when there is no counter-example
+--   local ok, err = scenario.write("cex.lua", result, "door.dca", "main")
+local report = require "dca.verify.report"
+local model = require "dca.lang.model"
+
+local M = {}
+
+local ipairs, sformat, concat = ipairs, string.format, table.concat
+
+-- The first counter-example: a violated property, else a stuck state, else two sets active together.
+-- --> r, { trace, kind, text, prop }
+local function first(result)
+  for _, r in ipairs(result.groups) do
+    for _, p in ipairs(r.props) do
+      if not p.ok and p.trace then return r, { trace = p.trace, kind = p.prop.kind, text = p.prop.text, prop = p.prop } end
+      if not p.ok and p.stuck then
+        return p.stuck.r, { trace = p.stuck.stuck.trace, kind = "stuck", waiting = p.stuck.stuck.waiting,
+                            text = p.prop.text .. " is violated: " .. p.stuck.r.path .. " gets stuck" }
+      end
+    end
+  end
+  for _, r in ipairs(result.groups) do
+    if r.stuck[1] then
+      return r, { trace = r.stuck[1].trace, kind = "stuck", waiting = r.stuck[1].waiting,
+                  text = r.path .. " gets stuck waiting on " .. concat(r.stuck[1].waiting, ", ") }
+    end
+    if r.conflicts[1] then
+      local c = r.conflicts[1]
+      return r, { trace = c.trace, kind = "conflict", sets = { c.a, c.b }, text = c.why }
+    end
+  end
+  return nil
+end
+
+-- The leaf events that bring group r's instance at r.path from the root's start to its own start.
+local function lead_in(result, r)
+  local out = {}
+  local node = r.node
+  local chain = {}
+  while node.parent do
+    table.insert(chain, 1, node)
+    node = node.parent
+  end
+  for _, child in ipairs(chain) do
+    local pr
+    for _, g in ipairs(result.groups) do if g.type == child.parent.process.name then pr = g end end
+    local trace = pr and pr.first_running[child.name]
+    if trace then report.flatten(trace, child.parent.path .. ".", out) end
+  end
+  return out
+end
+
+local function q(s) return sformat("%q", s) end
+
+-- The Lua lines of one event step.
+local function event_step(e)
+  if e.group and not e.direct then return nil end
+  local lines = { sformat("S.step(%q, function()", e.path .. " " .. e.kind) }
+  lines[#lines + 1] = sformat("  sys:wait_state(%s, \"running\", 5)", q(e.path))
+  if e.kind == "done" then
+    lines[#lines + 1] = sformat("  sys:inject(%s, \"done\", %s)", q(e.path), q(tostring(e.value)))
+  elseif e.kind == "aborted" then
+    lines[#lines + 1] = sformat("  sys:inject(%s, \"aborted\", %s)", q(e.path), q("aborted (dca check --verify)"))
+  elseif e.kind == "lost" then
+    lines[#lines + 1] = sformat("  sys:kill(%s, \"KILL\")", q(e.path))
+  else
+    lines[#lines + 1] = sformat("  sys:kill(%s, \"SEGV\")", q(e.path))
+  end
+  lines[#lines + 1] = "end)"
+  return concat(lines, "\n")
+end
+
+-- The Lua lines of the last step: the violation is there.
+local function check_step(r, cex)
+  local base = r.path .. "."
+  local l = { sformat("S.step(%q, function()", "the violation: " .. cex.text) }
+  local k = cex.kind
+  if k == "starts_after_done" or k == "ends_before_start" then
+    local who = k == "starts_after_done" and cex.prop.a.text or cex.prop.b.text
+    l[#l + 1] = sformat("  S.eq(sys:state(%s), \"running\", %q)", q(base .. who), who .. " has started")
+  elseif k == "runs_while" then
+    l[#l + 1] = sformat("  S.ok(sys:state(%s) ~= \"running\", %q)", q(base .. cex.prop.a.text),
+      cex.prop.a.text .. " is not running")
+  elseif k == "exclusive" then
+    for _, n in ipairs(cex.prop.names) do
+      l[#l + 1] = sformat("  S.eq(sys:state(%s), \"running\")", q(base .. n.text))
+    end
+  elseif k == "conflict" then
+    for _, s in ipairs(cex.sets) do
+      l[#l + 1] = sformat("  S.eq(sys:state(%s), \"running\")", q(base .. s:match("^[^%[]+")))
+    end
+  else  -- stuck (also a 'can end' that fails): nothing ends, however long it runs
+    l[#l + 1] = "  sys:settle(3600)"
+    l[#l + 1] = "  S.ok(sys.c == nil or sys.c.outcome == nil, \"no outcome after an hour: \" .. S.show(sys.c and sys.c.outcome))"
+    for _, w in ipairs(cex.waiting or {}) do
+      l[#l + 1] = sformat("  S.ok(sys:state(%s) == \"running\", %q)", q(base .. w), w .. " still runs")
+    end
+  end
+  l[#l + 1] = "end)"
+  return concat(l, "\n")
+end
+
+--- The scenario's text for the first counter-example of result, or nil when there is none.
+function M.text(result, file, root)
+  local r, cex = first(result)
+  if not r then return nil end
+  local types, seen = {}, {}
+  model.walk(result.root.node, function(n)
+    if n.kind == "leaf" and not seen[n.type] then seen[n.type] = true types[#types + 1] = n.type .. " = idle" end
+  end)
+  local out = {
+    "-- The counter-example of `dca check --verify " .. file .. "`: " .. cex.text .. ".",
+    "-- Replay: dca scenario THIS_FILE (each leaf event is injected once its process runs; the leaves' own",
+    "-- behaviours are off, so only this trace drives the run).",
+    "local S = require \"dca.scenario\"",
+    "local function idle() end",
+    sformat("local sys = S.system(%s, { root = %s, behave = { %s } })", q(file), q(root or "main"), concat(types, ", ")),
+    "S.step(\"the tree comes up\", function() sys:up() end)",
+    "S.step(\"run\", function() sys:run() end)",
+  }
+  for _, e in ipairs(lead_in(result, r)) do
+    local s = event_step(e)
+    if s then out[#out + 1] = s end
+  end
+  for _, e in ipairs(report.flatten(cex.trace, r.path .. ".")) do
+    local s = event_step(e)
+    if s then out[#out + 1] = s end
+  end
+  out[#out + 1] = check_step(r, cex)
+  out[#out + 1] = "return S.finish()"
+  return concat(out, "\n") .. "\n", cex.text
+end
+
+--- Writes the scenario to `path`. --> what it shows | nil, error
+function M.write(path, result, file, root)
+  local text, what = M.text(result, file, root)
+  if not text then return nil, "dca check --verify: no counter-example to write (every property holds, nothing is stuck)" end
+  local f, err = io.open(path, "w")
+  if not f then return nil, "dca check: cannot write " .. tostring(err) end
+  f:write(text)
+  f:close()
+  return "the counter-example: " .. what
+end
+
+return M
