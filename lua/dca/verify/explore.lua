@@ -162,12 +162,13 @@ local function reach(g, ctx, from, step, snap, mstate)
   end
   local key = key_of(ctx.c, snap, mstate)
   local known = ctx.seen[key]
-  if known then
-    if known <= from then g.cycle = g.cycle or known end
-    return
-  end
   local states = ctx.states
-  local i = #states + 1
+  local i = known or #states + 1
+  if from then
+    local n = #ctx.efrom + 1
+    ctx.efrom[n], ctx.eto[n] = from, i
+  end
+  if known then return end
   states[i] = { snap = snap, from = from, step = step, mon = mstate }
   ctx.seen[key] = i
   for _, l in ipairs(snap.running) do
@@ -178,13 +179,36 @@ local function reach(g, ctx, from, step, snap, mstate)
   findings(g, ctx, i, snap)
 end
 
+-- Whether the state graph has a cycle (Kahn: the states left once those without predecessors are peeled).
+local function has_cycle(n, efrom, eto)
+  local indeg, out = {}, {}
+  for i = 1, n do indeg[i], out[i] = 0, {} end
+  for k = 1, #efrom do
+    indeg[eto[k]] = indeg[eto[k]] + 1
+    local o = out[efrom[k]]
+    o[#o + 1] = eto[k]
+  end
+  local queue, removed = {}, 0
+  for i = 1, n do if indeg[i] == 0 then queue[#queue + 1] = i end end
+  local h = 1
+  while queue[h] do
+    local v = queue[h]
+    h, removed = h + 1, removed + 1
+    for _, w in ipairs(out[v]) do
+      indeg[w] = indeg[w] - 1
+      if indeg[w] == 0 then queue[#queue + 1] = w end
+    end
+  end
+  return removed < n
+end
+
 --- Explores the expression (see the top of the file). Returns g.
 function M.group(expr, operands, opts)
   opts = opts or {}
   local rec = recorder()
   local run = algebra.new(expr, rec.commands)
   local ctx = { c = expr.c, operands = operands, sets = opts.sets or {}, monitors = opts.monitors or {},
-                seen = {}, states = {} }
+                seen = {}, states = {}, efrom = {}, eto = {} }
   local g = { done = {}, aborted = {}, stuck = {}, stuck_seen = {}, started = {}, first_running = {}, conflicts = {}, conflict_seen = {},
               violations = {},
               states = 0, transitions = 0, expr = expr }
@@ -222,6 +246,7 @@ function M.group(expr, operands, opts)
   end
   g.states = #states
   g.state_list = states
+  g.cycle = has_cycle(#states, ctx.efrom, ctx.eto)
   return g
 end
 

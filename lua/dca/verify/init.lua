@@ -175,6 +175,15 @@ local function summarize(g, operands)
   return r
 end
 
+--- A shortest trace to an end of r that is `how` ("done", "aborted" without a fault, nil: either), or nil.
+function M.outcome_trace(r, how)
+  local best
+  local function consider(trace) if not best or #trace < #best then best = trace end end
+  if how ~= "aborted" then for _, d in ipairs(r.done) do consider(d.trace) end end
+  if how ~= "done" then for _, a in ipairs(r.aborted) do if not a.fault then consider(a.trace) end end end
+  return best
+end
+
 --- Where group r (or a group operand below it, first in the text) gets stuck: { r = the group, stuck = its
 --- first stuck state { trace, waiting } } | nil. The explanation of an end that cannot happen.
 function M.stuck_below(r)
@@ -216,7 +225,10 @@ local function group(ctx, node)
   for _, p in ipairs(list) do
     if p.kind == "can_end" then
       local ok = can_end(p, r, operands)
-      r.props[#r.props + 1] = { prop = p, ok = ok, outcome = true, stuck = not ok and M.stuck_below(r) or nil }
+      local item = { prop = p, ok = ok, outcome = true }
+      if not ok and p.negated then item.trace = M.outcome_trace(r, p.how)
+      elseif not ok then item.stuck = M.stuck_below(r) end
+      r.props[#r.props + 1] = item
     end
   end
   sort(r.props, function(x, y) return x.prop.pos < y.prop.pos end)

@@ -91,6 +91,7 @@ local function outcomes(r, out, traces)
   if faults > 0 then
     out[#out + 1] = sformat("  can end ABORTED by a fault: %s", plural(faults, "crash or lost host", "crashes or lost hosts"))
   end
+  if r.cycle then out[#out + 1] = "  can run for ever: its runs can come back to a state they were in (':;')" end
   if r.until_stopped then
     out[#out + 1] = "  runs until it is stopped: nothing in it ends by itself"
   elseif r.never_ends then

@@ -1,0 +1,50 @@
+-- Golden tests of `dca check --verify`: the report for each tests/lua/verify/golden/NAME.dca (one finding kind
+-- or the property patterns each, with traces) must equal NAME.out exactly; the paper's three systems
+-- (scripts/systems/) and the door written as in the paper (systems/door_paper.dca) likewise, against
+-- golden/paper_NAME.out. DCA_GOLDEN_UPDATE=1 rewrites the .out files (review the diff!).
+local T = require "dca.testing"
+local load = require "dca.load"
+local verify = require "dca.verify"
+local report = require "dca.verify.report"
+local suite = T.suite("golden")
+
+local here = debug.getinfo(1, "S").source:match("^@(.*)/[^/]*$") or "."
+local src = T.src
+
+-- The report for the file at path, named `name` in it.
+local function output(path, name, traces)
+  local ast, tree = load.text(T.read(path), name, {})
+  if not ast then return tree .. "\n" end
+  local result, errs = verify.system(tree, { ast = ast })
+  if not result then
+    local out = {}
+    for _, e in ipairs(errs) do out[#out + 1] = string.format("%s:%d:%d: %s", name, e.line, e.col, e.msg) end
+    return table.concat(out, "\n") .. "\n"
+  end
+  return (report.text(result, { file = name, traces = traces }))
+end
+
+local function golden(case, path, name, out_path, traces)
+  suite:case(case, function()
+    local got = output(path, name, traces)
+    if os.getenv("DCA_GOLDEN_UPDATE") == "1" then T.write(out_path, got) end
+    local ok, want = pcall(T.read, out_path)
+    T.ok(ok, "no golden file " .. out_path .. " (DCA_GOLDEN_UPDATE=1 writes it)")
+    T.eq(got, want, name)
+  end)
+end
+
+local kinds = { "stuck", "never_ends", "dead", "conflict", "props", "loop" }
+for _, k in ipairs(kinds) do
+  golden(k, here .. "/golden/" .. k .. ".dca", k .. ".dca", here .. "/golden/" .. k .. ".out", true)
+end
+for _, s in ipairs({ "door_open", "tidy_up", "compliant_motion" }) do
+  golden("paper_" .. s, src .. "/scripts/systems/" .. s .. ".dca", s .. ".dca",
+         here .. "/golden/paper_" .. s .. ".out", false)
+end
+golden("paper_door_as_written_never_ends_done", here .. "/systems/door_paper.dca", "door_paper.dca",
+       here .. "/golden/paper_door_paper.out", false)
+golden("door_properties", here .. "/systems/door_props.dca", "door_props.dca",
+       here .. "/golden/door_props.out", false)
+
+return suite:run(...)
