@@ -94,17 +94,20 @@ local function recorder()
 end
 M.recorder = recorder
 
--- What the monitors do with one step: the next monitor state, and the index of a violated one (or nil).
+-- What the monitors do with one step: the next monitor state, and the indices of those it violates (or nil).
 local function monitor_step(monitors, mstate, step, rec, running_names)
   if #monitors == 0 then return mstate, nil end
-  local next = {}
+  local next, bad = {}, nil
   for i, m in ipairs(monitors) do
-    local st, bad = mstate:sub(i, i), false
-    if m.step then st, bad = m.step(st, step, rec, running_names) end
+    local st, viol = mstate:sub(i, i), false
+    if m.step then st, viol = m.step(st, step, rec, running_names) end
     next[i] = st
-    if bad then return concat(next) .. mstate:sub(i + 1), i end
+    if viol then
+      bad = bad or {}
+      bad[#bad + 1] = i
+    end
   end
-  return concat(next), nil
+  return concat(next), bad
 end
 
 local function running_names(c, running)
@@ -217,7 +220,7 @@ function M.group(expr, operands, opts)
   run:start()
   local first = { name = nil, ev = { kind = "start" } }
   local mstate, bad = monitor_step(ctx.monitors, concat(m0), first, rec, nil)
-  if bad and not g.violations[bad] then g.violations[bad] = {} end
+  for _, k in ipairs(bad or {}) do g.violations[k] = g.violations[k] or {} end
   reach(g, ctx, nil, nil, run:snapshot(), mstate)
   local max = opts.max_states or 2000000
   local states, i = ctx.states, 1
@@ -234,8 +237,8 @@ function M.group(expr, operands, opts)
         local step = { name = name, ev = ev }
         local after = run:snapshot()
         local ms, viol = monitor_step(ctx.monitors, st.mon, step, rec, running_names(ctx.c, after.running))
-        if viol then
-          if not g.violations[viol] then g.violations[viol] = trace_to(states, i, step) end
+        for _, k in ipairs(viol or {}) do
+          if not g.violations[k] then g.violations[k] = trace_to(states, i, step) end
         end
         reach(g, ctx, i, step, after, ms)
       end

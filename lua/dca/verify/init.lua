@@ -25,10 +25,8 @@ local M = {}
 
 local ipairs, pairs, sformat, sort, clock = ipairs, pairs, string.format, table.sort, os.clock
 
--- What a leaf can do, from its manifest's `ends` (nil: anything).
-local function leaf_events(node, faults)
-  local ends = node.manifest and node.manifest.ends
-  local name = node.name
+--- What a leaf operand `name` can do, from its manifest's `ends` (nil: anything), with faults or not.
+function M.leaf_events(name, ends, faults)
   local ev = {}
   if ends == nil or ends == "done" or ends == "done or aborted" then
     ev[#ev + 1] = { kind = "done", value = name }
@@ -141,6 +139,9 @@ local function summarize(g, operands)
   for v, trace in pairs(g.done) do r.done[#r.done + 1] = { value = v, trace = trace } end
   sort(r.done, function(x, y) return x.value < y.value end)
   local seen = {}
+  r.ends_by = {}
+  for _, a in pairs(g.aborted) do r.ends_by[#r.ends_by + 1] = a.ev.kind .. ":" .. a.name end
+  sort(r.ends_by)
   for _, a in pairs(g.aborted) do
     for k, reason in ipairs(a.ev.reasons or {}) do
       if not seen[reason.text] then
@@ -188,12 +189,40 @@ end
 --- first stuck state { trace, waiting } } | nil. The explanation of an end that cannot happen.
 function M.stuck_below(r)
   if r.stuck[1] then return { r = r, stuck = r.stuck[1] } end
-  for _, leaf in ipairs(r.node.process.actions.expr.leaves) do
+  for _, leaf in ipairs(r.expr.leaves) do
     local op = r.operands[leaf.name]
     local found = op and op.group and M.stuck_below(op.group)
     if found then return found end
   end
   return nil
+end
+
+--- Explores one expression whose operands behave as `operands` (name -> { events }), with the properties
+--- `list` (dca.verify.props) and the pairs of connection sets `sets` that must not be active together.
+--- --> r (see the top; without type, path and node)
+function M.expression(expr, operands, list, sets, max_states)
+  local monitors, mprops = {}, {}
+  for _, p in ipairs(list or {}) do
+    local m = props.monitor(p, operands)
+    if m then monitors[#monitors + 1] = m; mprops[#mprops + 1] = p end
+  end
+  local g = explore.group(expr, operands, { sets = sets, monitors = monitors, max_states = max_states })
+  local r = summarize(g, operands)
+  r.expr, r.props = expr, {}
+  for k, p in ipairs(mprops) do
+    r.props[#r.props + 1] = { prop = p, ok = not g.violations[k], trace = g.violations[k] }
+  end
+  for _, p in ipairs(list or {}) do
+    if p.kind == "can_end" then
+      local ok = can_end(p, r, operands)
+      local item = { prop = p, ok = ok, outcome = true }
+      if not ok and p.negated then item.trace = M.outcome_trace(r, p.how)
+      elseif not ok then item.stuck = M.stuck_below(r) end
+      r.props[#r.props + 1] = item
+    end
+  end
+  sort(r.props, function(x, y) return x.prop.pos < y.prop.pos end)
+  return r
 end
 
 -- Explores one group (its children first); memoized by process definition in ctx.memo.
@@ -205,34 +234,14 @@ local function group(ctx, node)
     if child.kind == "group" then
       operands[child.name] = group_events(child, group(ctx, child), ctx.faults)
     else
-      operands[child.name] = leaf_events(child, ctx.faults)
+      operands[child.name] = M.leaf_events(child.name, child.manifest and child.manifest.ends, ctx.faults)
     end
   end
   local list, perrs = group_props(node, ctx.ast)
   for _, e in ipairs(perrs) do ctx.errors[#ctx.errors + 1] = e end
-  local monitors, mprops = {}, {}
-  for _, p in ipairs(list) do
-    local m = props.monitor(p, operands)
-    if m then monitors[#monitors + 1] = m; mprops[#mprops + 1] = p end
-  end
-  local g = explore.group(def.actions.expr, operands, { sets = set_conflicts(node, ctx.conns), monitors = monitors,
-                                                        max_states = ctx.max_states })
-  local r = summarize(g, operands)
-  r.type, r.path, r.node, r.props = def.name, node.path, node, {}
-  for k, p in ipairs(mprops) do
-    r.props[#r.props + 1] = { prop = p, ok = not g.violations[k], trace = g.violations[k] }
-  end
-  for _, p in ipairs(list) do
-    if p.kind == "can_end" then
-      local ok = can_end(p, r, operands)
-      local item = { prop = p, ok = ok, outcome = true }
-      if not ok and p.negated then item.trace = M.outcome_trace(r, p.how)
-      elseif not ok then item.stuck = M.stuck_below(r) end
-      r.props[#r.props + 1] = item
-    end
-  end
-  sort(r.props, function(x, y) return x.prop.pos < y.prop.pos end)
-  ctx.states, ctx.transitions = ctx.states + g.states, ctx.transitions + g.transitions
+  local r = M.expression(def.actions.expr, operands, list, set_conflicts(node, ctx.conns), ctx.max_states)
+  r.type, r.path, r.node = def.name, node.path, node
+  ctx.states, ctx.transitions = ctx.states + r.states, ctx.transitions + r.transitions
   ctx.memo[def.name] = r
   ctx.groups[#ctx.groups + 1] = r
   return r
