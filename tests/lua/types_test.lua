@@ -37,6 +37,7 @@ end)
 
 suite:case("types_declare_how_a_run_ends", function()
   -- dca check --verify reads these: a sensor never ends by itself, a threshold ends DONE, a Timer after its time
+  T.ok(core.load_package("door"))  -- the door controllers are a package
   local types = core.types()
   T.eq({ types.Timer.ends, types.Timer.ends_after }, { "done", "seconds" })
   T.eq({ types.Deadline.ends, types.Deadline.ends_after }, { "aborted", "seconds" })
