@@ -359,11 +359,14 @@ local function never() return false end
 
 local LOG_SIZE = 256
 
+-- One entry of the ring buffer of the latest commands and events (Run:log() renders them).
 local function log(self, kind, a, b)
   local i = self.logi + 1
   if i > LOG_SIZE then i, self.logfull = 1, true end
   self.logi = i
-  self.logk[i], self.loga[i], self.logb[i] = kind, a, b
+  local k = i * 3
+  local buf = self.logbuf
+  buf[k - 2], buf[k - 1], buf[k] = kind, a, b
 end
 
 local function unlink(self, id)
@@ -404,7 +407,8 @@ start_node = function(self, id, b)
   local o = c.op[id]
   if o == LEAF then
     local nm = c.name[id]
-    if self.byname[nm] or self.cmd_is_running(nm) then
+    local is_running = self.cmd_is_running
+    if self.byname[nm] or (is_running ~= never and is_running(nm)) then
       log(self, "conflict", id)
       self.cmd_log("process " .. nm .. " already running: occurrence aborted")
       return false
@@ -514,7 +518,7 @@ function M.new(expr, commands)
     bind = {}, cnt = {}, vals = {},
     rprev = {}, rnext = {}, rhead = 0, rtail = 0, byname = {},
     busy = false, queue = {},
-    logi = 0, logfull = false, logk = {}, loga = {}, logb = {},
+    logi = 0, logfull = false, logbuf = {},
   }, Run)
 end
 
@@ -700,7 +704,7 @@ function Run:log()
   local i = (self.logi - count) % LOG_SIZE
   for _ = 1, count do
     i = i % LOG_SIZE + 1
-    local k, a, b = self.logk[i], self.loga[i], self.logb[i]
+    local k, a, b = self.logbuf[i * 3 - 2], self.logbuf[i * 3 - 1], self.logbuf[i * 3]
     local s
     if k == "start" then
       s = "start " .. leaf_text(c, a) .. (b ~= nil and (" init=" .. show(b)) or "")

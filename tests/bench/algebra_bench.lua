@@ -1,6 +1,8 @@
 -- Events per second through dca.algebra (BENCHMARKS.md): the paper's door expression and a generated
--- 1,000-leaf expression, each beside an empty Lua loop of the same iteration count (the baseline), alternated
--- A B A B. Per-event times come from batches of BATCH events (os.clock has microsecond resolution).
+-- 1,000-leaf expression, each beside two baselines of the same iteration count, alternated A B A B: an empty
+-- Lua loop, and the raw call (the same driver loop with the same events, each handed to a Lua function that
+-- does nothing: what one event costs before the engine does anything). Per-event times come from batches of
+-- BATCH events (os.clock has microsecond resolution).
 --   dca lua tests/bench/algebra_bench.lua [events]
 local algebra = require "dca.algebra"
 
@@ -34,9 +36,10 @@ local function empty_loop(n)
 end
 
 -- A driver: `next_event()` returns name, kind, value of the next event; the run restarts when it ends.
-local function measure(run, next_event, n)
+-- `event` (default run.event) takes each event.
+local function measure(run, next_event, n, event)
   local times = {}
-  local event = run.event
+  event = event or run.event
   run:start()
   for _ = 1, n // BATCH do
     local t0 = clock()
@@ -114,8 +117,15 @@ end
 
 io.stderr:write(string.format("algebra_bench: %d events per measurement, door expression and a 1,000-leaf expression (%d chars)\n",
                               N, #BIG))
+-- The raw-call baseline: the door's driver and events, each given to a function that does nothing.
+local function raw_call(n)
+  local run, nx = door_setup()
+  return measure(run, nx, n, function() end)
+end
+
 for round = 1, 2 do
   result("lua_empty_loop", "n" .. N, empty_loop(N))
+  result("lua_raw_call", "door_events", raw_call(N), " round=" .. round)
   local run, nx = door_setup()
   result("algebra_events", "door", measure(run, nx, N), " round=" .. round)
   result("lua_empty_loop", "n" .. N, empty_loop(N))
