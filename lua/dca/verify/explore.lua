@@ -223,6 +223,7 @@ function M.group(expr, operands, opts)
   for _, k in ipairs(bad or {}) do g.violations[k] = g.violations[k] or {} end
   reach(g, ctx, nil, nil, run:snapshot(), mstate)
   local max = opts.max_states or 2000000
+  local monitors_n = #ctx.monitors
   local states, i = ctx.states, 1
   while states[i] do
     local st = states[i]
@@ -236,7 +237,10 @@ function M.group(expr, operands, opts)
         g.transitions = g.transitions + 1
         local step = { name = name, ev = ev }
         local after = run:snapshot()
-        local ms, viol = monitor_step(ctx.monitors, st.mon, step, rec, running_names(ctx.c, after.running))
+        local ms, viol = st.mon, nil
+        if monitors_n > 0 then
+          ms, viol = monitor_step(ctx.monitors, st.mon, step, rec, running_names(ctx.c, after.running))
+        end
         for _, k in ipairs(viol or {}) do
           if not g.violations[k] then g.violations[k] = trace_to(states, i, step) end
         end
