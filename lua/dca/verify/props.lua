@@ -156,7 +156,7 @@ function M.parse(text, base)
     local t = toks[k]
     if not t or t.kind == ";" then
       if not t and first <= #toks then
-        errors[#errors + 1] = { pos = toks[#toks].pos, msg = "expected ';' at the end of the property" }
+        errors[#errors + 1] = { pos = toks[#toks].pos + #toks[#toks].text, msg = "expected ';' at the end of the property" }
       elseif t and k == first then
         errors[#errors + 1] = { pos = t.pos, msg = "empty property before ';'" }
       elseif t then

@@ -13,30 +13,32 @@ local M = {}
 
 local ipairs, sformat, concat = ipairs, string.format, table.concat
 
--- The first counter-example: a violated property, else a stuck state, else two sets active together.
--- --> r, { trace, kind, text, prop }
-local function first(result)
+-- Every counter-example, in report order: violated properties, then stuck states and sets active together.
+-- --> { { r, cex = { trace, kind, text, prop | waiting | sets } } ... }
+local function all(result)
+  local out = {}
   for _, r in ipairs(result.groups) do
     for _, p in ipairs(r.props) do
-      if not p.ok and p.trace then return r, { trace = p.trace, kind = p.prop.kind, text = p.prop.text, prop = p.prop } end
-      if not p.ok and p.stuck then
-        return p.stuck.r, { trace = p.stuck.stuck.trace, kind = "stuck", waiting = p.stuck.stuck.waiting,
-                            text = p.prop.text .. " is violated: " .. p.stuck.r.path .. " gets stuck" }
+      if not p.ok and p.trace then
+        out[#out + 1] = { r = r, cex = { trace = p.trace, kind = p.prop.kind, text = p.prop.text, prop = p.prop } }
+      elseif not p.ok and p.stuck then
+        out[#out + 1] = { r = p.stuck.r, cex = { trace = p.stuck.stuck.trace, kind = "stuck",
+          waiting = p.stuck.stuck.waiting, text = p.prop.text .. " is violated: " .. p.stuck.r.path .. " gets stuck" } }
       end
     end
   end
   for _, r in ipairs(result.groups) do
-    if r.stuck[1] then
-      return r, { trace = r.stuck[1].trace, kind = "stuck", waiting = r.stuck[1].waiting,
-                  text = r.path .. " gets stuck waiting on " .. concat(r.stuck[1].waiting, ", ") }
+    for _, st in ipairs(r.stuck) do
+      out[#out + 1] = { r = r, cex = { trace = st.trace, kind = "stuck", waiting = st.waiting,
+                                       text = r.path .. " gets stuck waiting on " .. concat(st.waiting, ", ") } }
     end
-    if r.conflicts[1] then
-      local c = r.conflicts[1]
-      return r, { trace = c.trace, kind = "conflict", sets = { c.a, c.b }, text = c.why }
+    for _, c in ipairs(r.conflicts) do
+      out[#out + 1] = { r = r, cex = { trace = c.trace, kind = "conflict", sets = { c.a, c.b }, text = c.why } }
     end
   end
-  return nil
+  return out
 end
+M.all = all
 
 -- The leaf events that bring group r's instance at r.path from the root's start to its own start.
 local function lead_in(result, r)
@@ -91,6 +93,9 @@ local function check_step(r, cex)
     for _, n in ipairs(cex.prop.names) do
       l[#l + 1] = sformat("  S.eq(sys:state(%s), \"running\")", q(base .. n.text))
     end
+  elseif k == "can_end" then  -- a 'cannot end' that fails: the run ends so
+    l[#l + 1] = "  local out = sys:wait_outcome(5)"
+    if cex.prop.how then l[#l + 1] = sformat("  S.eq(out.type, %q)", cex.prop.how) end
   elseif k == "conflict" then
     for _, s in ipairs(cex.sets) do
       l[#l + 1] = sformat("  S.eq(sys:state(%s), \"running\")", q(base .. s:match("^[^%[]+")))
@@ -106,10 +111,11 @@ local function check_step(r, cex)
   return concat(l, "\n")
 end
 
---- The scenario's text for the first counter-example of result, or nil when there is none.
-function M.text(result, file, root)
-  local r, cex = first(result)
-  if not r then return nil end
+--- The scenario's text for the n-th counter-example of result (default the first), or nil when there is none.
+function M.text(result, file, root, n)
+  local pick = all(result)[n or 1]
+  if not pick then return nil end
+  local r, cex = pick.r, pick.cex
   local types, seen = {}, {}
   model.walk(result.root.node, function(n)
     if n.kind == "leaf" and not seen[n.type] then seen[n.type] = true types[#types + 1] = n.type .. " = idle" end
