@@ -639,8 +639,11 @@ class Trunk final : public DataSocket {
     }
     fail("unexpected data frame kind " + std::to_string(static_cast<int>(kind)));
   }
-  // A frame for a link from this endpoint's outputs (ignored when the link was removed meanwhile).
+  // A frame for a link from this endpoint's outputs (ignored when the link was removed meanwhile); a refusal on
+  // link 0 refuses the whole connection.
   void on_answer(Kind kind, std::uint32_t id, Bytes body) {
+    if (kind == Kind::HelloError && id == 0)
+      return down(Down::Refused, std::string(reinterpret_cast<const char*>(body.data()), body.size()));
     auto it = out_.find(id);
     if (it == out_.end()) return;
     StreamLink* l = it->second;

@@ -450,6 +450,22 @@ TEST_P(EndpointSocketTest, HostileHelloIsRefusedWithItsFieldAndTheEndpointLives)
   expect_only_legit_samples_arrive();
 }
 
+// An authenticated connection introduces its opener before anything else; a hello in its place is refused.
+TEST_P(EndpointSocketTest, AHelloBeforeTheIntroductionIsRefused) {
+  dca::test::RawDataClient c(io, dst_address());
+  ASSERT_EQ(c.handshake(dca::data_key(kKey)), "");
+  c.send_frame(df::Kind::Hello, hello());
+  const auto reply = c.read_frame();
+  ASSERT_TRUE(reply);
+  EXPECT_EQ(reply->kind, df::Kind::HelloError);
+  EXPECT_EQ(reply->link, 0u);
+  EXPECT_EQ(reply->body, "the first data frame after the handshake must introduce the peer");
+  EXPECT_TRUE(c.wait_closed());
+  EXPECT_EQ(dst_ep->refused(), 1u);
+  EXPECT_EQ(dst_ep->accepted(), 0u);
+  expect_only_legit_samples_arrive();
+}
+
 // Regression: a length prefix of 16 MiB made a data port allocate it before anything was authenticated.
 TEST_P(EndpointSocketTest, OversizeLengthPrefixBeforeAuthenticationIsRefusedAtOnce) {
   dca::test::RawDataClient c(io, dst_address());
