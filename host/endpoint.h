@@ -12,7 +12,9 @@
 // sample's reply therefore travels on the socket its request came on, and TCP piggybacks its acknowledgement.
 // A connection stays open, idle or not, until one of the endpoints goes away or it breaks; it then takes every
 // link on it along, each reported `broken` at both ends. Two endpoints that open connections to each other
-// at the same instant may hold two; every link works on either.
+// at the same instant each open one: the links that have sent nothing yet then move to the one opened by the
+// endpoint whose address sorts first, and the other, idle, closes. The links to one process share its
+// connection's order and backlog: a backed-up connection drops the samples of every link on it (counted).
 //
 // Every connection belongs to a connection set (a name chosen by the supervisor) and is created inactive.
 // Activating or deactivating a set flips one flag: no socket is opened or closed. An inactive connection sends
