@@ -8,6 +8,8 @@
 //     hello), over a Unix socket and TCP in one process, beside a raw connect plus one 64-byte round trip (what a
 //     connection with a hello and no authentication costs), alternated A B A B. The difference is what
 //     authentication adds (one more round trip and four HMAC-SHA256);
+//   - a link made on a connection already open (a process's later links to another: one hello's round trip),
+//     beside a raw 64-byte round trip between two processes over the same transport;
 //   - on TCP, the segments sent per round trip (the `segments_per_rt` key of the pingpong lines). The two links
 //     of a round trip ride one socket connection, as the raw ping-pong does, so each reply carries the
 //     acknowledgement of its request.
@@ -423,6 +425,31 @@ void dca_connect_round(bool tcp, int n, Samples& out) {
   b.remove_component("/dst");
 }
 
+// n links made over one open connection (a hello and its answer), each timed to its answer, then removed.
+void dca_link_round(bool tcp, int n, Samples& out) {
+  asio::io_context io;
+  dca::Endpoint a(io, "a", bench_keyed()), b(io, tcp ? "b" : "a", bench_keyed());
+  b.listen("/tmp/dca-bench-link-" + std::to_string(::getpid()), "127.0.0.1:0");
+  dca::PortSet src, dst;
+  src.add_output(dca::vectorx_port("Out"));
+  dst.add_input(dca::vectorx_port("In"));
+  a.add_component("/src", src);
+  b.add_component("/dst", dst);
+  for (int i = 0; i < n + 20; ++i) {
+    const std::string set = "l" + std::to_string(i);
+    std::string err = "pending";
+    const auto t0 = Clock::now();
+    a.connect({"/src", "Out", "/dst", "In", set, dca::Mode::Push, 16}, b.location(), [&](const std::string& e) { err = e; });
+    run_until(io, [&] { return err != "pending"; });
+    const auto t1 = Clock::now();
+    if (!err.empty()) std::fprintf(stderr, "link: %s\n", err.c_str());
+    if (i >= 20) out.add(t1 - t0);  // the first 20 warm up (the first opens the connection)
+    a.disconnect_set(set);
+  }
+  a.remove_component("/src");
+  b.remove_component("/dst");
+}
+
 // n raw connections, each: connect, 64 bytes there and back (an unauthenticated hello and its answer).
 void raw_connect_round(bool tcp, int n, Samples& out) {
   using generic = asio::generic::stream_protocol;
@@ -540,6 +567,17 @@ int main(int argc, char** argv) {
     const std::string v = std::string("setup_") + (tcp ? "tcp" : "uds");
     print("dca_connect", v, d);
     print("raw_connect_roundtrip", v, r);
+  }
+  for (bool tcp : {false, true}) {  // a link on a connection already open, beside a raw 64-byte round trip
+    Samples d, r;
+    for (int round = 0; round < 2; ++round) {
+      std::fprintf(stderr, "link on an open connection %s round %d\n", tcp ? "tcp" : "uds", round + 1);
+      dca_link_round(tcp, n / 10, d);
+      raw_socket_round(tcp, -1, -1, n / 10, r);
+    }
+    const std::string v = std::string("link_") + (tcp ? "tcp" : "uds");
+    print("dca_link", v, d);
+    print(tcp ? "raw_tcp_pingpong" : "raw_uds_pingpong", v, r);
   }
   {  // throughput
     const int m = n * 50;
