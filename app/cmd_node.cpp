@@ -99,7 +99,7 @@ int cmd_node(std::span<char* const> args) {
   dca::Node node(loop, o,
                  [](const std::string& type, const std::string& name, const std::string& host,
                     const std::vector<std::string>& params, dca::TimerServer& timers) -> std::unique_ptr<dca::Component> {
-                   return dca::Registry::global().create(type, {name, host, params, &timers, nullptr});
+                   return dca::Registry::global().create_or_stand_in(type, {name, host, params, &timers, nullptr});
                  });
   bool started = false;
   std::string failure;

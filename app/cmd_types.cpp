@@ -1,9 +1,13 @@
-// `dca types [TYPE...]`: every controller type with its ports and parameters (the registry's manifests).
+// `dca types [--package NAME]... [--dir DIR] [TYPE...]`: every controller type with its ports and parameters (the
+// registry's manifests): the built-ins and the controller packages on the search path, or the named packages.
 #include <cstdio>
 #include <string>
+#include <vector>
 
+#include "controllers/packages.h"
 #include "controllers/registry.h"
 #include "app/subcommand.h"
+#include "host/paths.h"
 
 namespace {
 
@@ -25,6 +29,7 @@ void print(const dca::Manifest& m) {
     else if (!p.required) sig.append("=").append(p.default_value.empty() ? std::string("\"\"") : p.default_value);
   }
   sig += ")";
+  if (!m.package.empty()) sig += "    (package " + m.package + ")";
   std::printf("%s\n    %s\n", sig.c_str(), m.doc.c_str());
   std::string ends(dca::to_string(m.ends.kind));
   if (ends.empty()) ends = "undeclared (taken as: done or aborted)";
@@ -40,14 +45,45 @@ void print(const dca::Manifest& m) {
                 p.device.empty() ? "" : "  -> device ", p.device.c_str());
 }
 
-int cmd_types(std::span<char* const> args) {
-  const auto& reg = dca::Registry::global();
-  if (args.empty()) {
-    for (const auto* m : reg.all()) print(*m);
-    return 0;
+// Loads `names` (every package on the search path when empty and `all`); says what failed. --> false on a failure
+bool load(std::vector<std::string> names, const std::string& dir, bool all) {
+  const auto dirs = dca::controller_dirs(dir);
+  if (names.empty() && all) names = dca::available_packages(dirs);
+  bool ok = true;
+  for (const auto& n : names) {
+    std::string error;
+    if (!dca::load_package(n, dirs, &error)) {
+      std::fprintf(stderr, "dca types: %s\n", error.c_str());
+      ok = false;
+    }
   }
-  int rc = 0;
-  for (const char* a : args) {
+  return ok;
+}
+
+int cmd_types(std::span<char* const> args) {
+  std::vector<std::string> packages, types;
+  std::string dir;
+  for (std::size_t i = 0; i < args.size(); ++i) {
+    const std::string a = args[i];
+    if ((a == "--package" || a == "--dir") && i + 1 >= args.size()) {
+      std::fprintf(stderr, "dca types: %s needs a value\n", a.c_str());
+      return 2;
+    }
+    if (a == "--package") packages.emplace_back(args[++i]);
+    else if (a == "--dir") dir = args[++i];
+    else types.push_back(a);
+  }
+  int rc = load(packages, dir, types.empty()) ? 0 : 1;
+  const auto& reg = dca::Registry::global();
+  if (types.empty()) {
+    for (const auto* m : reg.all()) {
+      bool listed = packages.empty();
+      for (const auto& p : packages) listed = listed || m->package == p;
+      if (listed) print(*m);
+    }
+    return rc;
+  }
+  for (const auto& a : types) {
     if (const auto* m = reg.manifest(a)) {
       print(*m);
     } else {
@@ -61,9 +97,12 @@ int cmd_types(std::span<char* const> args) {
 }  // namespace
 
 DCA_SUBCOMMAND("types", "every controller type with its ports and parameters",
-               "usage: dca types [TYPE...]\n\n"
-               "Lists every registered controller type (or the named ones): its signature as written in a .dca\n"
-               "file (the first argument is the host), its parameters, and its input and output ports with\n"
-               "type (scalar, vector[N], vectorx, value) and units, and how a run ends by itself (never, done, aborted,\n"
-               "done or aborted; `dca check --verify` uses it). Exit code 1 if a named type is unknown.",
+               "usage: dca types [--package NAME]... [--dir DIR] [TYPE...]\n\n"
+               "Lists every controller type (or the named ones): its signature as written in a .dca file (the\n"
+               "first argument is the host), its package unless built in, its parameters, its input and output\n"
+               "ports with type (scalar, vector[N], vectorx, value) and units, and how a run ends by itself (never,\n"
+               "done, aborted, done or aborted; `dca check --verify` uses it). The types are the built-in ones and\n"
+               "those of every controller package on the search path ($DCA_CONTROLLER_PATH,\n"
+               "<prefix>/lib/dca/controllers, DIR/packages with --dir DIR); with --package, that package's only.\n"
+               "Exit code 1 if a named type is unknown or a package does not load (each said on stderr).",
                cmd_types);

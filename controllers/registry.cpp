@@ -6,6 +6,23 @@
 
 namespace dca {
 
+namespace {
+
+// What a node hosts in place of a controller whose constructor threw (Registry::create_or_stand_in).
+class StandIn final : public Controller {
+ public:
+  StandIn(const ControllerContext& ctx, std::string why) : Controller(ctx), why_(std::move(why)) {}
+  bool configure(std::string* error) override {
+    if (error) *error = type() + " " + name() + ": its constructor failed: " + why_;
+    return false;
+  }
+
+ private:
+  std::string why_;
+};
+
+}  // namespace
+
 Registry& Registry::global() {
   static Registry r;
   return r;
@@ -71,6 +88,19 @@ std::unique_ptr<Controller> Registry::create(std::string_view type, ControllerCo
       return e.factory(ctx);
     }
   throw std::invalid_argument(unknown_type(type));
+}
+
+std::unique_ptr<Controller> Registry::create_or_stand_in(std::string_view type, const ControllerContext& ctx) const {
+  const Manifest* m = manifest(type);
+  if (!m) throw std::invalid_argument(unknown_type(type));
+  try {
+    return create(type, ctx);
+  } catch (const std::exception& e) {
+    ControllerContext c = ctx;
+    c.manifest = m;
+    c.params.clear();  // what the constructor refused is not read again
+    return std::make_unique<StandIn>(c, e.what());
+  }
 }
 
 }  // namespace dca

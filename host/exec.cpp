@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <boost/asio/posix/stream_descriptor.hpp>
 #include <cerrno>
 #include <cstring>
@@ -88,6 +89,23 @@ void AllowList::allow(const std::string& program, std::vector<std::string> first
   rules_.push_back(Rule{program == "dca" ? real(self_exe()) : real(program), std::move(first_args)});
 }
 
+namespace {
+
+// Why a `dca node` argv may not load its packages: each --package a word (a name on the node's own search path,
+// controllers/packages.h, never a path), --system-dir absolute. "" when it may.
+std::string package_args_problem(const std::vector<std::string>& argv) {
+  for (std::size_t i = 2; i + 1 < argv.size() && argv[i] != "--"; ++i) {
+    const std::string& v = argv[i + 1];
+    const bool word = !v.empty() && v.size() <= 64 && !std::isdigit(static_cast<unsigned char>(v[0])) &&
+                      std::all_of(v.begin(), v.end(), [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; });
+    if (argv[i] == "--package" && !word) return "--package '" + v + "' is not a package name";
+    if (argv[i] == "--system-dir" && (v.empty() || v[0] != '/')) return "--system-dir '" + v + "' is not absolute";
+  }
+  return "";
+}
+
+}  // namespace
+
 std::optional<std::string> AllowList::resolve(const std::vector<std::string>& argv, std::string* error) const {
   const auto refuse = [&](std::string why) -> std::optional<std::string> {
     if (error != nullptr) *error = std::move(why);
@@ -97,6 +115,8 @@ std::optional<std::string> AllowList::resolve(const std::vector<std::string>& ar
   const std::string& p = argv[0];
   if (p != "dca" && p[0] != '/') return refuse("not allowed: '" + p + "' (give 'dca' or an absolute path)");
   const std::string path = p == "dca" ? real(self_exe()) : real(p);
+  if (path == real(self_exe()) && argv.size() >= 2 && argv[1] == "node")
+    if (std::string why = package_args_problem(argv); !why.empty()) return refuse("not allowed: " + why);
   bool program_known = false;
   for (const auto& r : rules_) {
     if (r.program != path) continue;

@@ -1,6 +1,7 @@
 // Spawn-to-ready (BENCHMARKS.md format): time from a `spawn` request to a `dca node` being ready (registered:
-// the waiting `lookup` answers), beside the time from a `spawn` of /bin/true to its exit event. One local
-// `dca daemon`, alternated A B A B.
+// the waiting `lookup` answers), for a built-in type (Constant) and for a controller package's type (the door
+// package's AddVelocity: the node loads door.dca.so first), beside the time from a `spawn` of /bin/true to its
+// exit event. One local `dca daemon`, alternated A P B A P B.
 // Usage: bench_node_spawn [SPAWNS_PER_ROUND]   (default 20; 2 rounds of each)
 // host/loop.h comes first: it includes Asio with GCC 12's false positives silenced (the one place).
 #include "host/loop.h"
@@ -87,32 +88,35 @@ int main(int argc, char** argv) {
     return r.value_or(dca::Response{});
   };
 
-  std::vector<double> node_us, true_us;
+  std::vector<double> node_us, package_us, true_us;
   int k = 0;
   for (int round = 0; round < 2; ++round) {
     std::fprintf(stderr, "spawn round %d\n", round + 1);
     for (int i = 0; i < n; ++i) {
-      // A: dca node until ready (registered), then it is told to exit.
-      const std::string name = "/bench/n" + std::to_string(k++);
-      exit_event.reset();
-      const auto t0 = Clock::now();
-      std::optional<dca::Response> looked;
-      ch->request({"lookup", 0, Value::map().set("name", name).set("wait_ms", 10000)}, std::chrono::seconds(12),
-                  [&](dca::Response x) { looked = std::move(x); });
-      const auto s = call({"spawn", 0,
-                           Value::map()
-                               .set("argv", Value::Array{"dca", "node", "--type", "Constant", "--name", name, "--daemon",
-                                                         addr, "--key", key_file, "--", "0", "1"})
-                               .set("name", name)});
-      loop.run_until([&] { return looked.has_value(); }, std::chrono::seconds(15));
-      const auto t1 = Clock::now();
-      if (!s.ok() || !looked || !looked->ok()) {
-        std::fprintf(stderr, "node %s: %s %s\n", name.c_str(), s.error.c_str(), looked ? looked->error.c_str() : "no lookup");
-        continue;
+      // A: dca node (built-in type), P: dca node (a package's type), each until ready, then told to exit.
+      for (int variant = 0; variant < 2; ++variant) {
+        const std::string name = "/bench/n" + std::to_string(k++);
+        Value::Array cmd{"dca", "node", "--type", "Constant", "--name", name, "--daemon", addr, "--key", key_file,
+                          "--", "0", "1"};
+        if (variant == 1)
+          cmd = {"dca", "node", "--type", "AddVelocity", "--name", name, "--daemon", addr, "--key", key_file,
+                  "--package", "door"};
+        exit_event.reset();
+        const auto t0 = Clock::now();
+        std::optional<dca::Response> looked;
+        ch->request({"lookup", 0, Value::map().set("name", name).set("wait_ms", 10000)}, std::chrono::seconds(12),
+                    [&](dca::Response x) { looked = std::move(x); });
+        const auto s = call({"spawn", 0, Value::map().set("argv", cmd).set("name", name)});
+        loop.run_until([&] { return looked.has_value(); }, std::chrono::seconds(15));
+        const auto t1 = Clock::now();
+        if (!s.ok() || !looked || !looked->ok()) {
+          std::fprintf(stderr, "node %s: %s %s\n", name.c_str(), s.error.c_str(), looked ? looked->error.c_str() : "no lookup");
+          continue;
+        }
+        (variant == 0 ? node_us : package_us).push_back(std::chrono::duration<double, std::micro>(t1 - t0).count());
+        call({"kill", 0, Value::map().set("child", s.message.payload["child"]).set("signal", "SIGTERM")});
+        loop.run_until([&] { return exit_event.has_value(); }, std::chrono::seconds(10));
       }
-      node_us.push_back(std::chrono::duration<double, std::micro>(t1 - t0).count());
-      call({"kill", 0, Value::map().set("child", s.message.payload["child"]).set("signal", "SIGTERM")});
-      loop.run_until([&] { return exit_event.has_value(); }, std::chrono::seconds(10));
       // B: /bin/true until its exit event.
       exit_event.reset();
       const auto t2 = Clock::now();
@@ -123,6 +127,7 @@ int main(int argc, char** argv) {
     }
   }
   print("dca_spawn_to_ready", "node_Constant", node_us);
+  print("dca_spawn_to_ready", "node_package_door_AddVelocity", package_us);
   print("raw_spawn_bin_true", "to_exit_event", true_us);
   ch->close();
   ::kill(daemon, SIGTERM);

@@ -119,6 +119,20 @@ TEST_F(ExecTest, RefusesWhatIsNotAllowed) {
   EXPECT_FALSE(AllowList::defaults().resolve({"dca"}, &error));
 }
 
+TEST_F(ExecTest, ANodeLoadsPackagesByNameOnly) {
+  // a controller package is a name on the node's own search path, never a path (controllers/packages.h)
+  std::string error;
+  const auto allow = AllowList::defaults();
+  EXPECT_TRUE(allow.resolve({"dca", "node", "--package", "door", "--system-dir", "/a/b", "--", "x"}, &error)) << error;
+  EXPECT_FALSE(allow.resolve({"dca", "node", "--package", "../evil"}, &error));
+  EXPECT_NE(error.find("not allowed: --package '../evil' is not a package name"), std::string::npos) << error;
+  EXPECT_FALSE(allow.resolve({"dca", "node", "--package", "/tmp/evil.so"}, &error));
+  EXPECT_FALSE(allow.resolve({"dca", "node", "--system-dir", "rel"}, &error));
+  EXPECT_NE(error.find("--system-dir 'rel' is not absolute"), std::string::npos) << error;
+  // after "--" come the controller's own arguments
+  EXPECT_TRUE(allow.resolve({"dca", "node", "--", "--package", "../x"}, &error)) << error;
+}
+
 TEST_F(ExecTest, ArgvIsPassedAsIsNeverThroughAShell) {
   Executer ex(loop_.io(), allow_);
   // "$1" is a literal argument: if a shell parsed the argv, `; exit 9` would run.

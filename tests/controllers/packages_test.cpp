@@ -1,0 +1,126 @@
+// Loading controller packages (controllers/packages.h) from the test packages of tests/packages/ and the door
+// package: found by name on a search path, their types in the registry under their package, and every error a
+// controller author meets named with the package, the file and what is wrong.
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "controllers/packages.h"
+#include "controllers/registry.h"
+#include "dca/version.h"
+#include "host/paths.h"
+#include "tests/support/temp_dir.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using dca::Registry;
+
+std::string packages_dir() { return DCA_TEST_PACKAGES_DIR; }
+
+// Loads `name` from the test packages' folder: the error ("" when it loaded).
+std::string load_error(const std::string& name) {
+  std::string error;
+  const auto* p = dca::load_package(name, {packages_dir()}, &error);
+  return p ? "" : error;
+}
+
+TEST(PackagesTest, LoadsAPackageByNameAndMarksItsTypes) {
+  ASSERT_FALSE(packages_dir().empty());
+  EXPECT_EQ(Registry::global().manifest("PkgScale"), nullptr);
+  std::string error;
+  const auto* p = dca::load_package("pkg_ok", {"/nonexistent", packages_dir()}, &error);
+  ASSERT_NE(p, nullptr) << error;
+  EXPECT_EQ(p->name, "pkg_ok");
+  EXPECT_EQ(p->version, DCA_VERSION_STRING);
+  EXPECT_EQ(p->types, std::vector<std::string>{"PkgScale"});
+  const auto* m = Registry::global().manifest("PkgScale");
+  ASSERT_NE(m, nullptr);
+  EXPECT_EQ(m->package, "pkg_ok");
+  EXPECT_EQ(Registry::global().manifest("Gain")->package, "");
+  // loaded once: the same package again
+  EXPECT_EQ(dca::load_package("pkg_ok", {packages_dir()}, &error), p);
+  EXPECT_EQ(dca::loaded_packages().size(), 1u);
+}
+
+TEST(PackagesTest, NotFoundNamesEveryPathSearched) {
+  const std::string e = load_error("nosuch");
+  EXPECT_NE(e.find("package 'nosuch' not found"), std::string::npos) << e;
+  EXPECT_NE(e.find(packages_dir() + "/nosuch.dca.so"), std::string::npos) << e;
+  EXPECT_NE(e.find("DCA_CONTROLLER_PATH"), std::string::npos) << e;
+}
+
+TEST(PackagesTest, ANameIsAWordNeverAPath) {
+  for (const std::string bad : {"../pkg_ok", "/tmp/x", "a.b", "", "pkg ok"}) {
+    const std::string e = load_error(bad);
+    EXPECT_NE(e.find("is not a package name"), std::string::npos) << bad << ": " << e;
+  }
+}
+
+TEST(PackagesTest, ALinkLeadingOutsideTheSearchPathIsNeverLoaded) {
+  dca::test::TempDir dir("packages");
+  fs::create_symlink(packages_dir() + "/pkg_ok.dca.so", dir.path() + "/evil.dca.so");
+  std::string error;
+  EXPECT_EQ(dca::load_package("evil", {dir.path()}, &error), nullptr);
+  EXPECT_NE(error.find("leads outside " + dir.path()), std::string::npos) << error;
+  EXPECT_EQ(Registry::global().manifest("PkgScale"), nullptr);
+}
+
+TEST(PackagesTest, ATypeOfTwoPackagesNamesBoth) {
+  ASSERT_EQ(load_error("pkg_ok"), "");
+  const std::string e = load_error("pkg_twin");
+  EXPECT_NE(e.find("type 'PkgScale' is defined by both package 'pkg_ok' and package 'pkg_twin'"), std::string::npos) << e;
+  EXPECT_EQ(Registry::global().manifest("PkgScale")->package, "pkg_ok");  // all or nothing
+  const std::string b = load_error("pkg_builtin");
+  EXPECT_NE(b.find("type 'Gain' is defined by both dca (a built-in type) and package 'pkg_builtin'"), std::string::npos) << b;
+}
+
+TEST(PackagesTest, AMissingSymbolNamesTheLibraryAndTheSymbol) {
+  const std::string e = load_error("pkg_missing");
+  EXPECT_NE(e.find("package 'pkg_missing' (" + packages_dir() + "/pkg_missing.dca.so)"), std::string::npos) << e;
+  EXPECT_NE(e.find("missing symbol 'dca::missing_for_tests(double)'"), std::string::npos) << e;
+  EXPECT_EQ(Registry::global().manifest("PkgMissing"), nullptr);
+}
+
+TEST(PackagesTest, AnotherDcasPackageNamesBothVersions) {
+  for (const std::string name : {"pkg_old", "pkg_old_missing"}) {  // loadable, and not even loadable
+    const std::string e = load_error(name);
+    EXPECT_NE(e.find("was built against dca 0.0.9 (ABI sdk-0000000000000000); this is dca " DCA_VERSION_STRING),
+              std::string::npos) << e;
+    EXPECT_NE(e.find("rebuild the package against this dca"), std::string::npos) << e;
+  }
+  EXPECT_EQ(Registry::global().manifest("PkgOld"), nullptr);
+}
+
+TEST(PackagesTest, ALibraryWithoutTheEntryPointIsNoPackage) {
+  const std::string e = load_error("pkg_none");
+  EXPECT_NE(e.find("is not a dca controller package: it has no dca_package_entry_v1"), std::string::npos) << e;
+}
+
+TEST(PackagesTest, AFailedLoadMayBeTriedAgain) {
+  EXPECT_NE(load_error("pkg_missing"), "");
+  EXPECT_NE(load_error("pkg_missing"), "");
+  EXPECT_TRUE(dca::loaded_packages().empty());
+}
+
+TEST(PackagesTest, TheSearchPathIsTheVariableThePrefixThenTheSystemsFolder) {
+  ::setenv("DCA_CONTROLLER_PATH", "/a:rel/b::/c", 1);
+  const auto dirs = dca::controller_dirs("/sys/dir");
+  ::unsetenv("DCA_CONTROLLER_PATH");
+  ASSERT_EQ(dirs.size(), 5u);
+  EXPECT_EQ(dirs[0], "/a");
+  EXPECT_EQ(dirs[1], (fs::current_path() / "rel/b").string());
+  EXPECT_EQ(dirs[2], "/c");
+  EXPECT_EQ(dirs[3], (fs::path(dca::exe_dir()).parent_path() / "lib/dca/controllers").string());
+  EXPECT_EQ(dirs[4], "/sys/dir/packages");
+  EXPECT_EQ(dca::available_packages({packages_dir()}),
+            (std::vector<std::string>{"pkg_builtin", "pkg_init_throws", "pkg_missing", "pkg_none", "pkg_ok",
+                                      "pkg_old", "pkg_old_missing", "pkg_throws", "pkg_twin"}));
+}
+
+}  // namespace

@@ -1,0 +1,66 @@
+# A controller package built outside the tree against an installed dca only (README.md, "Write your own
+# controller"): installs dca into a fresh prefix, copies examples/controller_package elsewhere, configures and
+# builds it against that prefix (nothing of the source or build tree on its compile lines), runs its tests and
+# its system with the installed `dca run` to DONE, and has the installed `dca check` report a port typo in the
+# system at file:line:col from the package's manifest.
+#   cmake -DBUILD_DIR=... -DSOURCE_DIR=... -DWORK_DIR=... -P install_package_test.cmake
+file(REMOVE_RECURSE ${WORK_DIR})
+function(run what)
+  execute_process(COMMAND ${ARGN} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+  if(NOT rc EQUAL 0)
+    message(FATAL_ERROR "${what} failed (${rc}):\n${out}${err}")
+  endif()
+  set(out "${out}${err}" PARENT_SCOPE)
+endfunction()
+
+string(TIMESTAMP t0 "%s")
+run("cmake --install" ${CMAKE_COMMAND} --install ${BUILD_DIR} --prefix ${WORK_DIR}/prefix)
+file(COPY ${SOURCE_DIR}/examples/controller_package/ DESTINATION ${WORK_DIR}/mylab)
+set(dca ${CMAKE_COMMAND} -E env --unset=DCA_LUA_DIR --unset=DCA_MODELS_DIR "DCA_CONTROLLER_PATH=${WORK_DIR}/build"
+        ${WORK_DIR}/prefix/bin/dca)
+
+string(TIMESTAMP t1 "%s")
+run("configuring the example" ${CMAKE_COMMAND} -S ${WORK_DIR}/mylab -B ${WORK_DIR}/build -G Ninja
+    -DCMAKE_BUILD_TYPE=Release -DCMAKE_PREFIX_PATH=${WORK_DIR}/prefix)
+run("building the example" ${CMAKE_COMMAND} --build ${WORK_DIR}/build)
+string(TIMESTAMP t2 "%s")
+file(READ ${WORK_DIR}/build/build.ninja ninja)
+foreach(tree ${SOURCE_DIR} ${BUILD_DIR})
+  string(FIND "${ninja}" "${tree}" at)
+  if(NOT at EQUAL -1)
+    message(FATAL_ERROR "the example's build refers to ${tree}: it must use the installed dca only")
+  endif()
+endforeach()
+if(NOT EXISTS ${WORK_DIR}/build/mylab.dca.so)
+  message(FATAL_ERROR "no ${WORK_DIR}/build/mylab.dca.so")
+endif()
+
+run("the example's tests" ${CMAKE_CTEST_COMMAND} --test-dir ${WORK_DIR}/build --output-on-failure)
+run("dca types --package mylab" ${dca} types --package mylab)
+foreach(want "Pid(host, setpoint, kp, ki=0, kd=0, period=0.01)    (package mylab)" "LowPass(host, tau")
+  string(FIND "${out}" "${want}" at)
+  if(at EQUAL -1)
+    message(FATAL_ERROR "dca types --package mylab does not list ${want}:\n${out}")
+  endif()
+endforeach()
+run("dca run lab.dca" ${dca} run ${WORK_DIR}/mylab/lab.dca)
+string(FIND "${out}" "main: DONE" at)
+if(at EQUAL -1)
+  message(FATAL_ERROR "dca run lab.dca did not end DONE:\n${out}")
+endif()
+
+# A port typo: Measured -> Measure, at its line and column, with the manifest's inputs.
+file(READ ${WORK_DIR}/mylab/lab.dca text)
+string(REPLACE "pid, Measured;" "pid, Measure;" text "${text}")
+file(WRITE ${WORK_DIR}/mylab/typo.dca "${text}")
+execute_process(COMMAND ${dca} check ${WORK_DIR}/mylab/typo.dca RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+string(REGEX MATCH "typo.dca:([0-9]+):([0-9]+): [^\n]*Measure[^\n]*" line "${err}")
+if(rc EQUAL 0 OR NOT line OR NOT err MATCHES "Measured")
+  message(FATAL_ERROR "dca check did not report the typo at file:line:col with the manifest's input (${rc}):\n${out}${err}")
+endif()
+string(TIMESTAMP t3 "%s")
+math(EXPR install "${t1} - ${t0}")
+math(EXPR build "${t2} - ${t1}")
+math(EXPR rest "${t3} - ${t2}")
+message(STATUS "${line}")
+message(STATUS "install ${install} s, configure + build of the example ${build} s, its tests + run + check ${rest} s")
