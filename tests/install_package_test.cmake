@@ -3,8 +3,11 @@
 # builds it against that prefix (nothing of the source or build tree on its compile lines), runs its tests and
 # its system with the installed `dca run` to DONE, and has the installed `dca check` report a port typo in the
 # system at file:line:col from the package's manifest.
-#   cmake -DBUILD_DIR=... -DSOURCE_DIR=... -DWORK_DIR=... -P install_package_test.cmake
-file(REMOVE_RECURSE ${WORK_DIR})
+#   cmake -DBUILD_DIR=... -DSOURCE_DIR=... -P install_package_test.cmake
+# It works in a fresh directory outside both trees (so that no path into them can hide in its build), removed
+# at the end when it passed.
+execute_process(COMMAND mktemp -d /tmp/dca_install_package_XXXXXX OUTPUT_VARIABLE WORK_DIR
+                OUTPUT_STRIP_TRAILING_WHITESPACE)
 function(run what)
   execute_process(COMMAND ${ARGN} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
   if(NOT rc EQUAL 0)
@@ -64,3 +67,4 @@ math(EXPR build "${t2} - ${t1}")
 math(EXPR rest "${t3} - ${t2}")
 message(STATUS "${line}")
 message(STATUS "install ${install} s, configure + build of the example ${build} s, its tests + run + check ${rest} s")
+file(REMOVE_RECURSE ${WORK_DIR})
