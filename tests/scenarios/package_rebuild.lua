@@ -71,10 +71,12 @@ process main() {
   }
   internal_connections(src, run) {
     src, Count -> sc, In;
-    sc, Out -> sink, In;
     src, Count -> other, In;
   }
-  internal_event_actions { src[run], sc, sink, other }
+  internal_connections(sc, run) {
+    sc, Out -> sink, In;
+  }
+  internal_event_actions { src[run], sc[run], sink, other }
 }
 ]])
   sys = S.system(root .. "/rebuild.dca")
