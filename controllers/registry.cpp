@@ -95,6 +95,8 @@ std::unique_ptr<Controller> Registry::create_or_stand_in(std::string_view type, 
   if (!m) throw std::invalid_argument(unknown_type(type));
   try {
     return create(type, ctx);
+  } catch (const std::invalid_argument&) {
+    throw;  // a bad parameter (the documented constructor error): the node's start fails, naming it
   } catch (const std::exception& e) {
     ControllerContext c = ctx;
     c.manifest = m;

@@ -35,10 +35,10 @@ class Registry {
   /// A new instance of `type`. Throws std::invalid_argument for an unknown type (listing the known ones) or a
   /// bad parameter.
   std::unique_ptr<Controller> create(std::string_view type, ControllerContext ctx) const;
-  /// As create(), except that a constructor that throws gives a stand-in: a controller with the type's ports whose
+  /// As create(), except that a constructor that throws anything but std::invalid_argument (a bad parameter, which
+  /// is passed on: the node's start fails naming it) gives a stand-in: a controller with the type's ports whose
   /// configure() and start() fail with "<Type> <name>: its constructor failed: <what>", so that the leaf starts and
   /// connects like any other and ends ABORTED with that reason when it runs (the node's factory, app/cmd_node.cpp).
-  /// Throws std::invalid_argument for an unknown type only.
   std::unique_ptr<Controller> create_or_stand_in(std::string_view type, const ControllerContext& ctx) const;
   /// "unknown controller type 'X'; types are: A, B, ..."
   std::string unknown_type(std::string_view type) const;
