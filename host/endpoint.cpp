@@ -172,6 +172,29 @@ class DataSocket : public std::enable_shared_from_this<DataSocket>, private Fram
     const std::array<std::string_view, 2> parts{
         std::string_view(reinterpret_cast<const char*>(h.data()), h.size()),
         std::string_view(reinterpret_cast<const char*>(body.data()), body.size())};
+    if (corked_) {
+      for (const auto& p : parts) batch_.append(p);
+      return true;
+    }
+    return write(parts);
+  }
+  /// Gathers the frames sent until uncork() into one write (the frames that open a connection's links).
+  void cork() { corked_ = true; }
+  void uncork() {
+    corked_ = false;
+    if (!batch_.empty() && !closed_ && !failing_) {
+      const std::array<std::string_view, 1> parts{batch_};
+      write(parts);
+    }
+    batch_.clear();
+  }
+  /// Sends the handshake messages of one step.
+  void send_auth(const auth::Handshake::Step& step) {
+    for (const auto& m : step.out) send(Kind::Auth, 0, as_bytes(data_frame::encode_auth(m)));
+  }
+
+ private:
+  bool write(std::span<const std::string_view> parts) {
     boost::system::error_code ec;
     if (framed_.write_now(parts, shared_from_this(), ec)) return true;
     // A write error breaks the connection from the loop, never inside the sender's call (which may be holding
@@ -180,11 +203,8 @@ class DataSocket : public std::enable_shared_from_this<DataSocket>, private Fram
     asio::post(framed_.socket().get_executor(), [self = shared_from_this(), why = ec.message()] { self->fail(why); });
     return false;
   }
-  /// Sends the handshake messages of one step.
-  void send_auth(const auth::Handshake::Step& step) {
-    for (const auto& m : step.out) send(Kind::Auth, 0, as_bytes(data_frame::encode_auth(m)));
-  }
 
+ public:
   void start_read() {
     if (!closed_) framed_.read(shared_from_this());
   }
@@ -304,7 +324,8 @@ class DataSocket : public std::enable_shared_from_this<DataSocket>, private Fram
   Clock::time_point wake_time_{}, handshake_at_ = Clock::time_point::max(), partial_since_{};
   std::chrono::milliseconds partial_timeout_, handshake_timeout_{0};
   bool waiting_ = false, partial_ = false;
-  bool closed_ = false, close_after_flush_ = false, failing_ = false;
+  bool closed_ = false, close_after_flush_ = false, failing_ = false, corked_ = false;
+  std::string batch_;  // frames gathered while corked
 };
 
 // In-process connection: the sample is copied straight into the input.
@@ -598,12 +619,13 @@ class Trunk final : public DataSocket {
   }
   // The opener, authenticated: says who it is, then opens the links waiting for this connection.
   void introduce() {
+    cork();  // the introduction and the hellos waiting for it go in one write
     send(Kind::Peer, 0, as_bytes(data_frame::encode_peer({ep_->host, ep_->uds_path, ep_->tcp_address})));
     ready_ = true;
     clear_handshake_deadline();
     ep_->converge(transport_, addr_);  // may move this connection's links to the peer's (then this one closes)
-    if (!ep_) return;
     for (const auto& [id, l] : std::map<std::uint32_t, StreamLink*>(out_)) send(Kind::Hello, id, as_bytes(l->hello()));
+    uncork();
     close_if_idle();
   }
   // The acceptor, authenticated: the opener's introduction comes first.
@@ -684,6 +706,7 @@ class Trunk final : public DataSocket {
     if (!opener_ || !ready_ || !out_.empty() || !in_.empty() || !ep_) return false;
     auto keep = shared_from_this();
     std::exchange(ep_, nullptr)->drop_trunk(this);
+    uncork();  // the introduction goes first: the peer then sees an introduced connection close
     shut();
     return true;
   }
