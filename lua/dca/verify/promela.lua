@@ -38,20 +38,23 @@ local function writer()
   return w
 end
 
--- The property monitors' code at a leaf's start, end and abort (flags are bytes f<k>).
+-- The property monitors' code at a leaf's start, end and abort (flags are bytes f<k>; a violation sets the
+-- sticky bit p<k>, which a loop option then marks: the steps themselves are d_steps, without markers).
 local function prop_hooks(props, names)
-  local h = { start = {}, stop = {}, done = {}, state = {} }
+  local h = { start = {}, stop = {}, done = {}, state = {}, step = {} }
   for k, p in ipairs(props or {}) do
     local f = "f" .. k
     local function add(t, n, code) t[n] = t[n] or {} t[n][#t[n] + 1] = { code = code, prop = p } end
     if p.kind == "starts_after_done" then
+      h.step[#h.step + 1] = { k = k, prop = p }
       add(h.done, p.b.text, f .. " = 1")
-      add(h.start, p.a.text, "check:" .. f .. " == 0")
+      add(h.start, p.a.text, "check:" .. k .. ":" .. f .. " == 0")
       add(h.start, p.b.text, f .. " = 0")
     elseif p.kind == "ends_before_start" then
+      h.step[#h.step + 1] = { k = k, prop = p }
       add(h.start, p.a.text, f .. " = 0")
       add(h.stop, p.a.text, f .. " = 1")
-      add(h.start, p.b.text, "check:" .. f .. " == 0")
+      add(h.start, p.b.text, "check:" .. k .. ":" .. f .. " == 0")
     elseif p.kind == "runs_while" or p.kind == "exclusive" then
       h.state[#h.state + 1] = p
     end
@@ -90,15 +93,12 @@ local function state_violation(c, p, operands)
   return "!" .. running_cond(c, p.a.text) .. " && (" .. concat(others, " || ") .. ")"
 end
 
--- Hooks of one kind for a name: plain assignments, and checks that mark a violation.
-local function run_hooks(w, key, list)
+-- Hooks of one kind for a name: plain assignments, and checks that set a violation bit.
+local function run_hooks(w, _, list)
   for _, hk in ipairs(list or {}) do
-    local cond = hk.code:match("^check:(.*)$")
+    local k, cond = hk.code:match("^check:(%d+):(.*)$")
     if cond then
-      w.put("if")
-      w.marks(cond, key, "violated:" .. hk.prop.text)
-      w.put(":: else -> skip")
-      w.put("fi;")
+      w.put(sformat("if :: %s -> p%s = 1 :: else -> skip fi;", cond, k))
     else
       w.put(hk.code .. ";")
     end
@@ -172,27 +172,49 @@ gen_end = function(w, g, id, ok)
 end
 
 -- The loop of one expression's events; `g` = { key, expr, operands, props, index }.
+-- One option of the event loop: `guard`, then the step as a d_step (after `pre`, the nondeterministic choice
+-- of the abort's reason, when there is one).
+local function gen_step(w, g, id, guard, pre, ok)
+  local c = g.c
+  local name = c.name[id]
+  w.put(sformat(":: %s -> %s", guard, pre and "atomic {" or "d_step {"))
+  w.depth = w.depth + 1
+  if pre then
+    w.put(pre)
+    w.put("d_step {")
+  end
+  w.put(sformat("st[%d] = 0;", id))
+  run_hooks(w, g.key, g.hooks.stop[name])
+  if ok then
+    w.put("val = " .. g.vals[name] .. ";")
+    run_hooks(w, g.key, g.hooks.done[name])
+  end
+  gen_end(w, g, id, ok)
+  if pre then w.put("}") end
+  w.depth = w.depth - 1
+  w.put("}")
+end
+
+-- The loop's options for every event of every leaf: DONE; ABORTED or a fault (one option, the reason chosen
+-- first: the same code follows).
 local function gen_events(w, g)
   local c = g.c
   for id = 1, c.n do
     if c.op[id] == LEAF then
       local name = c.name[id]
       local vi = g.vals[name]
+      local aborts, faults = false, false
       for _, ev in ipairs(g.operands[name].events) do
-        w.put(sformat(":: %sst[%d] == 1 -> atomic {", ev.fault and "faults && " or "", id))
-        w.depth = w.depth + 1
-        w.put(sformat("st[%d] = 0;", id))
-        run_hooks(w, g.key, g.hooks.stop[name])
-        if ev.kind == "done" then
-          w.put("val = " .. vi .. ";")
-          run_hooks(w, g.key, g.hooks.done[name])
-          gen_end(w, g, id, true)
-        else
-          w.put(sformat("why = %d;", vi * 4 + (ev.kind == "error" and 1 or 0)))
-          gen_end(w, g, id, false)
-        end
-        w.depth = w.depth - 1
-        w.put("}")
+        if ev.kind == "done" then gen_step(w, g, id, sformat("st[%d] == 1", id), nil, true)
+        elseif ev.fault then faults = true
+        else aborts = true end
+      end
+      if aborts and faults then
+        gen_step(w, g, id, sformat("st[%d] == 1", id),
+                 sformat("if :: why = %d :: faults -> why = %d fi;", vi * 4, vi * 4 + 1), false)
+      elseif aborts or faults then
+        gen_step(w, g, id, sformat("%sst[%d] == 1", faults and "faults && " or "", id),
+                 sformat("why = %d;", vi * 4 + (faults and 1 or 0)), false)
       end
     end
   end
@@ -201,8 +223,8 @@ end
 -- One expression: its start, its loop, its verdict markers.
 local function gen_expr(w, g)
   local c = g.c
-  w.put(sformat("e%d: /* %s */", g.index, g.key))
-  w.put("atomic {")
+  w.put(sformat("e%d: skip; /* %s */", g.index, g.key))
+  w.put("d_step {")
   w.depth = w.depth + 1
   gen_start(w, g, 1)
   w.depth = w.depth - 1
@@ -213,6 +235,13 @@ local function gen_expr(w, g)
     w.put(sformat("  s%d = 1;", k))
     w.put("  if")
     w.marks("true", g.key, "violated:" .. p.text)
+    w.put("  fi }")
+  end
+  for _, sp in ipairs(g.hooks.step) do
+    w.put(sformat(":: p%d == 1 && q%d == 0 -> atomic {", sp.k, sp.k))
+    w.put(sformat("  q%d = 1;", sp.k))
+    w.put("  if")
+    w.marks("true", g.key, "violated:" .. sp.prop.text)
     w.put("  fi }")
   end
   gen_events(w, g)
@@ -251,7 +280,7 @@ function M.model(list)
   local head = { "/* dca check --verify --promela: the expression model (SEMANTICS.md), one expression per run */",
                  sformat("byte st[%d];", maxn + 1), sformat("byte dca_left[%d];", maxn + 1),
                  "byte val, why, res, mark;", "bit faults;" }
-  for k = 1, nflags do head[#head + 1] = "byte f" .. k .. ";" end
+  for k = 1, nflags do head[#head + 1] = "byte f" .. k .. ";" head[#head + 1] = "bit p" .. k .. ", q" .. k .. ";" end
   local nstate = 0
   for _, g in ipairs(gs) do if #g.hooks.state > nstate then nstate = #g.hooks.state end end
   for k = 1, nstate do head[#head + 1] = "bit s" .. k .. ";" end
@@ -299,8 +328,10 @@ function M.spin(model, dir)
   local f = assert(io.open(dir .. "/model.pml", "w"))
   f:write(model.text)
   f:close()
-  local cmd = "cd '" .. dir .. "' && rm -f pan && spin -a -o3 model.pml >spin.log 2>&1 && cc -O0 -w -DSAFETY -DVECTORSZ=4096 " ..
-              "-o pan pan.c >cc.log 2>&1 && ./pan -m1000000 -w20 2>&1"
+  -- clang compiles pan.c about twice as fast as gcc at -O0 (both are in scripts/setup's list)
+  local cmd = "cd '" .. dir .. "' && rm -f pan && spin -a -o3 model.pml >spin.log 2>&1 && " ..
+              "{ CC=cc; command -v clang >/dev/null && CC=clang; $CC -O0 -w -DSAFETY -DVECTORSZ=4096 " ..
+              "-o pan pan.c >cc.log 2>&1; } && ./pan -m1000000 -w20 2>&1"
   local p = io.popen(cmd)
   local out = p:read("a")
   p:close()
