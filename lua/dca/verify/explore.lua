@@ -149,8 +149,47 @@ local function findings(g, ctx, i, snap)
   end
 end
 
+-- Timers (a leaf whose type ends `after` a number of seconds, known: operands[name].after): those started in
+-- one step form a cohort, and in a cohort the shorter ends first (a longer one's own end waits until no
+-- shorter one of its cohort runs). Timers started in different steps may end in any order: the explorer has
+-- no clock. --> { [leaf id] = cohort's smallest member }, its text for the state's key (nil, "" without timers)
+local function cohorts(ctx, prev, prev_running, running)
+  if not ctx.timed_any then return nil, "" end
+  local was = {}
+  for _, l in ipairs(prev_running or {}) do was[l] = true end
+  local groups, order = {}, {}
+  for _, l in ipairs(running) do
+    if ctx.timed[l] then
+      local rep = (prev and was[l] and prev[l]) or "new"
+      if not groups[rep] then groups[rep] = {} order[#order + 1] = rep end
+      local m = groups[rep]
+      m[#m + 1] = l
+    end
+  end
+  local cohort, parts = {}, {}
+  for _, rep in ipairs(order) do
+    local members = groups[rep]
+    sort(members)
+    for _, l in ipairs(members) do cohort[l] = members[1] end
+    parts[#parts + 1] = concat(members, ",")
+  end
+  sort(parts)
+  return cohort, concat(parts, ";")
+end
+
+-- Whether timer l may end by itself now: no shorter timer of its cohort is running.
+local function timer_may_end(ctx, cohort, running, l)
+  local d = ctx.timed[l]
+  if not d or not cohort then return true end
+  for _, m in ipairs(running) do
+    local dm = ctx.timed[m]
+    if m ~= l and dm and dm < d and cohort[m] == cohort[l] then return false end
+  end
+  return true
+end
+
 -- Reaching a snapshot: an end (recorded), a known state (skipped), or a new state (queued).
-local function reach(g, ctx, from, step, snap, mstate)
+local function reach(g, ctx, from, step, snap, mstate, cohort, ckey)
   if snap.st == "done" then
     local v = value_text(snap.value)
     if not g.done[v] then g.done[v] = trace_to(ctx.states, from, step) end
@@ -163,7 +202,7 @@ local function reach(g, ctx, from, step, snap, mstate)
     end
     return
   end
-  local key = key_of(ctx.c, snap, mstate)
+  local key = key_of(ctx.c, snap, mstate .. "|" .. ckey)
   local known = ctx.seen[key]
   local states = ctx.states
   local i = known or #states + 1
@@ -172,7 +211,7 @@ local function reach(g, ctx, from, step, snap, mstate)
     ctx.efrom[n], ctx.eto[n] = from, i
   end
   if known then return end
-  states[i] = { snap = snap, from = from, step = step, mon = mstate }
+  states[i] = { snap = snap, from = from, step = step, mon = mstate, cohort = cohort }
   ctx.seen[key] = i
   for _, l in ipairs(snap.running) do
     g.started[l] = true
@@ -211,7 +250,11 @@ function M.group(expr, operands, opts)
   local rec = recorder()
   local run = algebra.new(expr, rec.commands)
   local ctx = { c = expr.c, operands = operands, sets = opts.sets or {}, monitors = opts.monitors or {},
-                seen = {}, states = {}, efrom = {}, eto = {} }
+                seen = {}, states = {}, efrom = {}, eto = {}, timed = {} }
+  for id = 1, expr.c.n do
+    local op = expr.c.name[id] and operands[expr.c.name[id]]
+    if op and op.after then ctx.timed[id], ctx.timed_any = op.after, true end
+  end
   local g = { done = {}, aborted = {}, stuck = {}, stuck_seen = {}, started = {}, first_running = {}, conflicts = {}, conflict_seen = {},
               violations = {},
               states = 0, transitions = 0, expr = expr }
@@ -221,7 +264,8 @@ function M.group(expr, operands, opts)
   local first = { name = nil, ev = { kind = "start" } }
   local mstate, bad = monitor_step(ctx.monitors, concat(m0), first, rec, nil)
   for _, k in ipairs(bad or {}) do g.violations[k] = g.violations[k] or {} end
-  reach(g, ctx, nil, nil, run:snapshot(), mstate)
+  local snap0 = run:snapshot()
+  reach(g, ctx, nil, nil, snap0, mstate, cohorts(ctx, nil, nil, snap0.running))
   local max = opts.max_states or 2000000
   local monitors_n = #ctx.monitors
   local states, i = ctx.states, 1
@@ -230,7 +274,9 @@ function M.group(expr, operands, opts)
     local snap = st.snap
     for _, l in ipairs(snap.running) do
       local name = ctx.c.name[l]
+      local timer_ok = timer_may_end(ctx, st.cohort, snap.running, l)
       for _, ev in ipairs(operands[name].events) do
+        if not (ev.fault or timer_ok) then goto next_event end
         run:restore(snap)
         rec.reset()
         run:event(name, ev.kind, ev.value)
@@ -244,7 +290,8 @@ function M.group(expr, operands, opts)
         for _, k in ipairs(viol or {}) do
           if not g.violations[k] then g.violations[k] = trace_to(states, i, step) end
         end
-        reach(g, ctx, i, step, after, ms)
+        reach(g, ctx, i, step, after, ms, cohorts(ctx, st.cohort, snap.running, after.running))
+        ::next_event::
       end
     end
     st.snap = nil  -- expanded: traces need only the links

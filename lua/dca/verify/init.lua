@@ -23,7 +23,18 @@ local model = require "dca.lang.model"
 
 local M = {}
 
-local ipairs, pairs, sformat, sort, clock = ipairs, pairs, string.format, table.sort, os.clock
+local ipairs, pairs, type, sformat, sort, clock = ipairs, pairs, type, string.format, table.sort, os.clock
+
+--- The seconds after which leaf node n ends by itself (its type's `ends_after` parameter, when the argument is a
+--- number written in the file), or nil.
+function M.seconds(n)
+  local m = n.manifest
+  if not (m and m.ends_after) then return nil end
+  for i, p in ipairs(m.params or {}) do
+    if p.name == m.ends_after then return type(n.params[i]) == "number" and n.params[i] or nil end
+  end
+  return nil
+end
 
 --- What a leaf operand `name` can do, from its manifest's `ends` (nil: anything), with faults or not.
 function M.leaf_events(name, ends, faults)
@@ -235,6 +246,7 @@ local function group(ctx, node)
       operands[child.name] = group_events(child, group(ctx, child), ctx.faults)
     else
       operands[child.name] = M.leaf_events(child.name, child.manifest and child.manifest.ends, ctx.faults)
+      operands[child.name].after = M.seconds(child)
     end
   end
   local list, perrs = group_props(node, ctx.ast)
