@@ -78,6 +78,10 @@ function M.main(argv)
   if not tree then
     io.stdout:write(string.format("%s: ok: %s, no root process 'main'\n", file,
                                   plural(#ast.processes, "process definition")))
+    if o.verify then
+      io.stderr:write(file, ": --verify explores from a root process: none is named 'main' (--root NAME)\n")
+      return 1
+    end
     return 0
   end
   -- the config("key") parameters against the system's defaults file
