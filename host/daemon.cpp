@@ -2,7 +2,12 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include "host/node.h"
 
 namespace dca {
 
@@ -231,6 +236,20 @@ void Daemon::exited(Executer::ChildId id, const std::string& name, const std::we
   } else {
     ev.set("signal", s.signal_name());
     if (s.core) ev.set("core", true);
+  }
+  if (shared_.count(id)) {
+    // a shared node's crash note (host/node.h): the leaf whose code ran, at most 1 KiB, a hint only
+    const std::string note = crash_note_path(static_cast<int>(s.pid));
+    if (!s.exited) {
+      std::ifstream in(note, std::ios::binary);
+      std::string who(1024, '\0');
+      in.read(who.data(), static_cast<std::streamsize>(who.size()));
+      who.resize(static_cast<std::size_t>(in.gcount()));
+      who.resize(std::min(who.find('\0'), who.size()));
+      if (!who.empty()) ev.set("culprit", who);
+    }
+    std::error_code ec;
+    std::filesystem::remove(note, ec);
   }
   std::vector<Channel::Ptr> to;
   bool released = false;  // a shared child nobody holds any more: its end was asked for

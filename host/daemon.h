@@ -7,7 +7,8 @@
 //   spawn {argv, name, shared = true} -> ok {child, pid, joined}: a process several requesters share (a shared
 //                                 node, host/node.h): while a child spawned so under `name` runs and is held,
 //                                 the request joins it (joined = true, argv unused) instead of starting another;
-//                                 every holder gets its exit event
+//                                 every holder gets its exit event, with `culprit` = the leaf whose code ran when
+//                                 a fatal signal ended it (the node's crash note, host/node.h), if it noted one
 //   release {child}            -> ok {}            the requester no longer holds a shared child; when nobody
 //                                                   does (releases, or holders' channels closed), it is sent
 //                                                   SIGTERM and a later shared spawn of its name starts anew

@@ -1,8 +1,12 @@
 #include "host/node.h"
 
+#include <fcntl.h>
+#include <sys/mman.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <map>
 #include <set>
@@ -34,7 +38,44 @@ Value latest_value(const Port& p) {
   return value_from_msgpack({reinterpret_cast<const std::byte*>(sb.data()), sb.size()});
 }
 
+// The crash note of a shared node (node.h): a small file mapped in memory that holds the PATH of the leaf
+// whose code runs now (empty between callbacks), so that whatever ends the process, the daemon finds there
+// whose code ran. A copy into memory per callback, no system call.
+constexpr std::size_t kCrashNote = 256;
+char* g_crash_note = nullptr;
+
+void note_leaf(const std::string* leaf) {
+  if (!g_crash_note) return;
+  if (!leaf) {
+    g_crash_note[0] = '\0';
+    return;
+  }
+  const std::size_t n = std::min(leaf->size(), kCrashNote - 1);
+  std::memcpy(g_crash_note, leaf->data(), n);
+  g_crash_note[n] = '\0';
+}
+
+void open_crash_note() {
+  const int fd = ::open(crash_note_path(::getpid()).c_str(), O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC | O_NOFOLLOW, 0600);
+  if (fd < 0) return;
+  if (::ftruncate(fd, kCrashNote) == 0) {
+    void* m = ::mmap(nullptr, kCrashNote, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
+    if (m != MAP_FAILED) g_crash_note = static_cast<char*>(m);
+  }
+  ::close(fd);
+}
+
+// Notes the leaf whose component code runs in this scope (a control request), and clears the note after.
+struct CrashScope {
+  explicit CrashScope(const std::string& leaf) { note_leaf(&leaf); }
+  ~CrashScope() { note_leaf(nullptr); }
+  CrashScope(const CrashScope&) = delete;
+  CrashScope& operator=(const CrashScope&) = delete;
+};
+
 }  // namespace
+
+std::string crash_note_path(int pid) { return runtime_dir() + "/node-" + std::to_string(pid) + ".crash"; }
 
 Value value_from_msgpack(Bytes b) {
   Value v;
@@ -209,6 +250,8 @@ void Node::Impl::open_ports(const Done& done_fn) {
     if (!add_leaf(opts.type, opts.name, opts.args, &error)) return fail_start(done_fn, error);
     return register_node(done_fn);
   }
+  open_crash_note();
+  timers->on_enter = note_leaf;
   control = listen(channels, [this](const Channel::Ptr& ch, const Message& m) { handle_process(ch, m); }, &error);
   if (!control) return fail_start(done_fn, "cannot listen for control channels: " + error);
   register_node(done_fn);
@@ -344,7 +387,14 @@ void Node::shutdown(const std::string& why) {
     leaf->supervisors->clear();
   }
   I.endpoint.reset();
-  if (I.control) I.control->close();
+  if (I.control) {
+    I.control->close();
+    if (I.timers) I.timers->on_enter = nullptr;
+    if (g_crash_note) ::munmap(g_crash_note, kCrashNote);
+    g_crash_note = nullptr;
+    std::error_code ec;
+    std::filesystem::remove(crash_note_path(::getpid()), ec);
+  }
   if (I.master) {
     auto c = I.master;
     I.master.reset();
@@ -567,6 +617,7 @@ void Node::Impl::read(Leaf& leaf, const Channel::Ptr& ch, const Message& m) {
 
 // The life-cycle and data requests of one leaf; false for any other.
 bool Node::Impl::handle_control(Leaf& leaf, const Channel::Ptr& ch, const Message& m) {
+  const CrashScope scope(leaf.name);
   const auto& t = m.type;
   const auto& p = m.payload;
   auto& c = *leaf.component;

@@ -58,7 +58,11 @@
 //                                                control channels, unregisters its PATH; a later `add` of the
 //                                                same PATH is a fresh instance (a restart)
 //   advance {t}, exit {}                      as above, for the whole process
-// A crash of the process ends every leaf it hosts (the supervisors learn it from the daemon's exit event).
+// A crash of the process ends every leaf it hosts (the supervisors learn it from the daemon's exit event). A
+// shared node keeps in crash_note_path(pid) (a file mapped in memory) the PATH of the leaf whose code runs now
+// (a timer callback, its MainCalc, or a control request its component handles; empty in between); when a
+// signal ends the node, the daemon reads it and names that leaf in the exit event (`culprit`). A signal sent
+// from outside while no leaf's code runs names none.
 // Simulated time (--clock sim): once registered, the node looks up the clock master (`world`, see --world) at
 // its daemon, opens a channel to its control address and subscribes with `clock {name}` (answered ok {now});
 // it takes the master's time and from then on obeys its `advance {t}` requests (lock-step, ARCHITECTURE.md
@@ -103,6 +107,9 @@ struct NodeOptions {
 using ComponentFactory = std::function<std::unique_ptr<Component>(
     const std::string& type, const std::string& name, const std::string& host, const std::vector<std::string>& args,
     TimerServer& timers)>;
+
+/// Where a shared node with process id `pid` notes the leaf whose code crashed (see above).
+std::string crash_note_path(int pid);
 
 /// msgpack bytes -> a wire value (nil for empty or malformed input).
 wire::Value value_from_msgpack(Bytes b);

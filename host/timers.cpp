@@ -219,8 +219,10 @@ struct TimerServer::Impl {
     current = deadline;
     // Keep the callable alive even if the callback cancels its own timer.
     auto fn = e.period > 0 ? nullptr : std::move(e.fn);
+    if (ts.on_enter) ts.on_enter(&e.name);
     if (fn) fn();
     else e.fn();
+    if (ts.on_enter) ts.on_enter(nullptr);
     current = outer;
     --firing;
     if (ts.on_fire) ts.on_fire(e.name, deadline);

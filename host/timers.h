@@ -179,6 +179,7 @@ class TimerServer {
   /// Inside a timer callback: the deadline it was due at (its tick time); -1 outside callbacks.
   Nanos current_deadline() const;
 
+
   /// Statistics of every timer still known (active ones, and the last finished ones).
   std::vector<TimerStats> stats() const;
   /// Statistics of one timer.
@@ -197,6 +198,9 @@ class TimerServer {
   /// Simulated clock only: advance_to(next_deadline()); 0 when no timer is active.
   std::size_t step();
 
+  /// Called just before every timer callback with its timer's name, and just after it with nullptr (a shared
+  /// node notes whose code runs: host/node.h, the crash note).
+  std::function<void(const std::string* name)> on_enter;
   /// Called after every timer callback with (timer name, deadline): a trace for tests and the simulator.
   std::function<void(const std::string& name, Nanos deadline)> on_fire;
 

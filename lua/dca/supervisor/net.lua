@@ -279,15 +279,20 @@ function Shared:release()
   if self.child and not self.ended then self.dc:request({ type = "release", child = self.child }, nil, function() end) end
 end
 
--- The node ended (exit event, or its host lost): each of its leaves ends with the reason, named per leaf.
-function Shared:exited_with(rt, reason)
+-- The node ended (exit event `msg`, or its host lost): each of its leaves ends with the reason, named per leaf;
+-- the leaf whose code crashed (msg.culprit: the node's crash note, host/node.h) comes first, then path order.
+function Shared:exited_with(rt, reason, msg)
   if self.ended then return end
   self.ended = true
   if rt.shared[self.name] == self then rt.shared[self.name] = nil end
-  local list = {}
+  local list, culprit = {}, msg and msg.culprit
   for p in pairs(self.leaves) do list[#list + 1] = p end
-  table.sort(list, function(a, b) return a.path < b.path end)
-  local why = sformat("%s (shared node %s#%s, %d leaves)", reason, self.name, tostring(self.pid), #list)
+  table.sort(list, function(a, b)
+    if (a.path == culprit) ~= (b.path == culprit) then return a.path == culprit end
+    return a.path < b.path
+  end)
+  local in_it = list[1] and list[1].path == culprit and sformat("; it crashed in %s", culprit) or ""
+  local why = sformat("%s (shared node %s#%s, %d leaves%s)", reason, self.name, tostring(self.pid), #list, in_it)
   local names = {}
   for _, p in ipairs(list) do
     if not p.exited then
@@ -386,7 +391,7 @@ function Net:_watch_daemon(host, d, dc)
   dc:on_exit(function(msg)
     local p = self.by_child[host .. ":" .. tostring(msg.child)]
     if not p then return end
-    p:exited_with(self, daemon_client.describe_exit(msg, host))
+    p:exited_with(self, daemon_client.describe_exit(msg, host), msg)
     p:gone()
   end)
   dc:on_close(function(reason)
