@@ -473,13 +473,16 @@ function Net:_attach(p, c, cb)
 end
 
 --- Kills (SIGKILL) every process the lost child supervisor of `group` had started: the daemons of its
---- subtree's hosts are asked which of their children bear a path below it. Best effort, nothing awaited.
+--- subtree's hosts are asked which of their children bear a path below it; its leaves in shared nodes (which
+--- other supervisors may hold) are ended one by one (`exit` on each leaf's control channel removes it from its
+--- node). Best effort, nothing awaited.
 function Net:reap(group)
   local prefix = group.path .. "."
   local seen = {}
   local function visit(spec)
     for _, c in ipairs(spec.children or {}) do
       if c.host then seen[c.host] = true end
+      if c.kind == "leaf" and self.opts.placement and self.opts.placement ~= "process" then self._reap_leaf(c) end
       if c.kind == "group" and c.spec then visit(c.spec) end
     end
   end
@@ -494,6 +497,19 @@ function Net:reap(group)
       end)
     end)
   end
+end
+
+-- A leaf of a lost supervisor, if it lives in a shared node: asked to exit (its node removes it).
+function Net:_reap_leaf(leaf)
+  self.daemon(leaf.host, function(dc)
+    if not dc then return end
+    clients.lookup(dc, leaf.path, 0, function(ep)
+      if not (ep and ep.shared and ep.control) then return end
+      clients.connect(ep.control, clients.key_opts(self.opts.key), clients.Plain, function(c)
+        if c then c:request({ type = "exit" }, nil, function() c:close() end) end
+      end)
+    end)
+  end)
 end
 
 -- This supervisor's host: opts.daemon_host, else the first host name.
