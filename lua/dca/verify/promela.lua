@@ -294,7 +294,7 @@ function M.model(list)
   local markers, offset = {}, #head
   for line, m in pairs(w.markers) do markers[line + offset] = m end
   local text = concat(head, "\n") .. "\n" .. concat(w.lines, "\n") .. "\n}\n"
-  return { text = text, markers = markers }
+  return { text = text, markers = markers, lines = #head + #w.lines + 1 }
 end
 
 --- The verdicts of a dca.verify group result r in the model's terms: { [verdict] = true }.
@@ -325,6 +325,9 @@ end
 --- Runs spin on the model in directory `dir` (spin -a, cc, pan: a full search) and reads the markers it
 --- reached. --> { [key] = { [verdict] = true } }, pan's output | nil, error
 function M.spin(model, dir)
+  if model.lines > 32000 then  -- spin keeps line numbers in 16 bits: markers past 32,767 would be misread
+    return nil, "a model of more than 32,000 lines: give spin fewer expressions at once"
+  end
   local f = assert(io.open(dir .. "/model.pml", "w"))
   f:write(model.text)
   f:close()

@@ -20,7 +20,7 @@ end
 
 -- Runs spin on the items { key, expr, operands, props, r, r_nofaults } (dca's results with faults and
 -- without) and compares the verdicts.
-local function agree(items)
+local function agree_batch(items)
   local model = promela.model(items)
   local dir = os.tmpname()
   os.remove(dir)
@@ -41,6 +41,15 @@ local function agree(items)
   end
   T.eq(bad, {}, "verdicts that differ")
   return #items
+end
+
+-- The items in batches of 100 expressions (spin's line numbers are 16-bit: a model stays under 32,767 lines).
+local function agree(items)
+  local n = 0
+  for first = 1, #items, 100 do
+    n = n + agree_batch(table.move(items, first, math.min(first + 99, #items), 1, {}))
+  end
+  return n
 end
 
 local SYSTEMS = { T.src .. "/scripts/systems/door_open.dca", T.src .. "/scripts/systems/tidy_up.dca",
@@ -65,12 +74,12 @@ suite:case("spin_agrees_on_the_paper_systems", function()
   agree(items)
 end)
 
-suite:case("spin_agrees_on_300_generated_expressions", function()
+suite:case("spin_agrees_on_300_generated_expressions_with_and_without_faults", function()
   T.ok(have_spin(), "spin and cc are installed (scripts/setup installs spin)")
   local seed = 17
   local function rnd(n) seed = (seed * 1103515245 + 12345) % 2147483648 return seed % n + 1 end
   local items = {}
-  for i = 1, 150 do
+  for i = 1, 300 do
     local text, ends, ptext = gen.expression(rnd, 2 + rnd(6))
     local expr = assert(algebra.parse(text))
     local list = props.parse(ptext, 1)
@@ -82,7 +91,7 @@ suite:case("spin_agrees_on_300_generated_expressions", function()
     items[#items + 1] = { key = "g" .. i, expr = expr, operands = operands, props = list,
                           r = verify.expression(expr, operands, list), r_nofaults = verify.expression(expr, without, list) }
   end
-  T.eq(2 * agree(items), 300)
+  T.eq(agree(items), 300)
 end)
 
 return suite:run(...)
