@@ -17,4 +17,12 @@ angle=$(sed -n 's/^door opened to \([0-9.-]*\) deg.*/\1/p' "$log" | tail -1)
 min="${DOOR_MIN:-70}"; max="${DOOR_MAX:-180}"
 awk -v a="${angle:-0}" -v lo="$min" -v hi="$max" 'BEGIN { exit !(a >= lo && a <= hi) }' ||
   { echo "FAIL: seed $seed: the door opened to ${angle:-?} deg, not between $min and $max"; exit 1; }
+# DOOR_PROCESSES: at most that many processes advanced per lock-step round (a placement's shared nodes take one
+# advance each, whatever the number of their leaves; a few rounds more for the subscriptions at the start)
+if [ -n "${DOOR_PROCESSES:-}" ]; then
+  read -r rounds advances < <(sed -n 's/^lock-step: \([0-9]*\) rounds, \([0-9]*\) advances.*/\1 \2/p' "$log" | tail -1)
+  awk -v r="${rounds:-0}" -v a="${advances:-0}" -v n="$DOOR_PROCESSES" 'BEGIN { exit !(r > 0 && a <= n * (r + 3)) }' ||
+    { echo "FAIL: seed $seed: $advances advances in $rounds rounds: more than $DOOR_PROCESSES processes a round"; exit 1; }
+  echo "lock-step: $advances advances in $rounds rounds, at most $DOOR_PROCESSES processes a round"
+fi
 echo "PASS: seed $seed: the door opened to $angle deg"
