@@ -1,4 +1,4 @@
-// `dca plot FILE.csv [-o FILE.png]`: draws a recording of `dca sim --record` with gnuplot.
+// `dca plot FILE.mcap|FILE.csv [-o FILE.png]`: draws a recording of `dca sim --record` with gnuplot.
 #include <cstdio>
 #include <span>
 #include <string>
@@ -9,10 +9,10 @@
 namespace {
 
 constexpr const char* kUsage =
-    "usage: dca plot FILE.csv [-o FILE.png]\n\n"
-    "Draws a recording made by `dca sim --record FILE.csv` to a PNG (default: FILE.png): the door and handle\n"
-    "angles, the wrist force and the base's position against time, and the base's path. Needs gnuplot\n"
-    "(scripts/setup installs it).";
+    "usage: dca plot FILE.mcap|FILE.csv [-o FILE.png]\n\n"
+    "Draws a recording made by `dca sim --record FILE` (MCAP or CSV) to a PNG (default: FILE.png): the\n"
+    "door and handle angles, the wrist force and the base's position against time, and the base's path.\n"
+    "Needs gnuplot (scripts/setup installs it).";
 
 int cmd_plot(std::span<char* const> args) {
   std::string csv, png;
@@ -38,6 +38,7 @@ int cmd_plot(std::span<char* const> args) {
   if (png.empty()) {
     png = csv;
     if (png.size() > 4 && png.compare(png.size() - 4, 4, ".csv") == 0) png.resize(png.size() - 4);
+    if (dca::sim::is_mcap(png)) png.resize(png.size() - 5);
     png += ".png";
   }
   std::string error;

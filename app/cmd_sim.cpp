@@ -26,7 +26,7 @@ namespace {
 
 constexpr const char* kUsage =
     "usage: dca sim [--world door] [--seed N] [--door-width W] [--duration S] [--period S] [--script FILE]\n"
-    "               [--record FILE.csv] [--record-period S] [--realtime] [--visualize]\n"
+    "               [--record FILE.mcap|FILE.csv] [--record-period S] [--realtime] [--visualize]\n"
     "               [--jammed]\n"
     "               [--print-door-urdf]\n"
     "       dca sim --serve --daemon ADDR [--name world] [--key FILE] [--host NAME] [--go] [--sync S]\n"
@@ -41,8 +41,10 @@ constexpr const char* kUsage =
     "  --duration S      simulated seconds to run (default: until the script or the door opening ends)\n"
     "  --script FILE     open-loop commands, one `TIME WORD ARGS` per line (see sim/script.h):\n"
     "                    base VX VY WZ | arm Q1..Q6 | gripper open|close | stop | door | end\n"
-    "  --record FILE.csv record time, joint angles, base pose, wrench, door and handle angles (see\n"
-    "                    `dca plot`), every --record-period seconds (default 0.01)\n"
+    "  --record FILE     record joint angles, base pose, wrench, door and handle angles, gripper, laser\n"
+    "                    (see `dca plot`) every --record-period seconds (default 0.01): FILE.mcap as MCAP\n"
+    "                    (one JSON channel per signal group, log time = simulated time; Foxglove, Lichtblick\n"
+    "                    and PlotJuggler open it), any other name as CSV\n"
     "  --visualize       show the world in Simbody's 3-D visualizer where a display exists (else a warning)\n"
     "  --jammed          a fault: the handle is seized and the latch never releases\n"
     "  --print-door-urdf print the door's URDF for the chosen width and exit\n\n"
@@ -288,7 +290,7 @@ class LocalRun {
                       door_.phase_start(static_cast<dca::sim::DoorPhase>(p)));
       std::printf("\n");
     }
-    if (recorder_) std::printf("recorded %s\n", o_.record.c_str());
+    if (recorder_) std::printf("recorded %s\n", recorder_->summary().c_str());
     if (door_active_ && door_.phase() == dca::sim::DoorPhase::failed) {
       std::fprintf(stderr, "dca sim: the scripted door opening failed: %s\n", door_.failure().c_str());
       return 1;

@@ -1,15 +1,74 @@
 #include "sim/recorder.h"
 
 #include <cerrno>
+#include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <stdexcept>
 #include <utility>
+#include <vector>
 
 #include <sys/wait.h>
 
+#include "host/mcap.h"
+
 namespace dca::sim {
+
+namespace {
+
+// The MCAP channels: topic and field names, in the order of the CSV's columns after time (phase last).
+struct Group {
+  const char* topic;
+  std::vector<const char*> fields;
+};
+const std::vector<Group>& groups() {
+  static const std::vector<Group> g = {
+      {"/world/arm", {"q1", "q2", "q3", "q4", "q5", "q6"}},
+      {"/world/base", {"x", "y", "yaw"}},
+      {"/world/wrench", {"fx", "fy", "fz", "tx", "ty", "tz"}},
+      {"/world/door", {"door_angle", "handle_angle"}},
+      {"/world/gripper", {"width", "state"}},
+      {"/world/laser", {"range"}},
+      {"/world/phase", {"phase"}},
+  };
+  return g;
+}
+
+// The JSON Schema of a group's messages: an object of numbers.
+std::string schema_of(const Group& g) {
+  std::string s = R"({"type":"object","title":")" + std::string(g.topic) + R"(","properties":{)";
+  for (size_t i = 0; i < g.fields.size(); ++i)
+    s += (i ? "," : "") + std::string("\"") + g.fields[i] + R"(":{"type":"number"})";
+  return s + "}}";
+}
+
+// The values of a row in the CSV's column order after time: q1..q6, base, wrench, door, gripper, laser, phase.
+std::vector<double> values_of(const Sensors& s, int phase) {
+  std::vector<double> v(s.arm_q.begin(), s.arm_q.end());
+  v.insert(v.end(), {s.base_pose.x, s.base_pose.y, s.base_pose.yaw});
+  v.insert(v.end(), s.wrench.begin(), s.wrench.end());
+  v.insert(v.end(), {s.door_angle, s.handle_angle, s.gripper_width, static_cast<double>(s.gripper),
+                     s.laser_range, static_cast<double>(phase)});
+  return v;
+}
+
+}  // namespace
+
+bool is_mcap(const std::string& path) {
+  return path.size() > 5 && path.compare(path.size() - 5, 5, ".mcap") == 0;
+}
+
+struct Recorder::Mcap {
+  explicit Mcap(std::FILE* f)
+      : writer([f](std::string_view b) { return std::fwrite(b.data(), 1, b.size(), f) == b.size(); }, "dca sim",
+               64 * 1024) {
+    for (const Group& g : groups()) writer.add_channel(g.topic, g.topic + 1, schema_of(g));
+  }
+  dca::mcap::Writer writer;
+};
 
 const char* csv_header() {
   return "time,q1,q2,q3,q4,q5,q6,base_x,base_y,base_yaw,fx,fy,fz,tx,ty,tz,door_angle,handle_angle,"
@@ -19,7 +78,11 @@ const char* csv_header() {
 Recorder::Recorder(const std::string& path) : path_(path) {
   f_ = std::fopen(path.c_str(), "w");
   if (!f_) throw std::runtime_error(path + ": cannot write the recording: " + std::strerror(errno));
-  std::fprintf(f_, "%s\n", csv_header());
+  if (is_mcap(path)) {
+    mcap_ = std::make_unique<Mcap>(f_);
+  } else {
+    std::fprintf(f_, "%s\n", csv_header());
+  }
 }
 
 Recorder::~Recorder() {
@@ -29,6 +92,22 @@ Recorder::~Recorder() {
 
 void Recorder::record(const Sensors& s, int phase) {
   if (!f_) return;
+  ++rows_;
+  if (mcap_) {
+    const std::vector<double> v = values_of(s, phase);
+    const auto t = static_cast<uint64_t>(std::llround(s.time * 1e9));
+    size_t k = 0;
+    char num[32];
+    for (size_t c = 0; c < groups().size(); ++c) {
+      std::string json = "{";
+      for (size_t i = 0; i < groups()[c].fields.size(); ++i, ++k) {
+        std::snprintf(num, sizeof num, "%.9g", std::isfinite(v[k]) ? v[k] : 0.0);
+        json += (i ? ",\"" : "\"") + std::string(groups()[c].fields[i]) + "\":" + num;
+      }
+      mcap_->writer.write(static_cast<uint16_t>(c + 1), t, json + "}");
+    }
+    return;
+  }
   std::fprintf(f_, "%.4f", s.time);
   for (double q : s.arm_q) std::fprintf(f_, ",%.6f", q);
   std::fprintf(f_, ",%.6f,%.6f,%.6f", s.base_pose.x, s.base_pose.y, s.base_pose.yaw);
@@ -41,10 +120,23 @@ bool Recorder::close(std::string* error) {
   if (!f_) return true;
   std::FILE* f = f_;
   f_ = nullptr;
-  const bool bad = std::ferror(f) != 0;
+  const bool bad = (mcap_ && !mcap_->writer.finish()) || std::ferror(f) != 0;
   if (std::fclose(f) == 0 && !bad) return true;
   *error = path_ + ": error writing the recording";
   return false;
+}
+
+std::string Recorder::summary() const {
+  if (!mcap_) return path_ + ": " + std::to_string(rows_) + " rows";
+  const dca::mcap::Stats& st = mcap_->writer.stats();
+  std::string s = path_ + ": " + std::to_string(st.messages) + " messages on " + std::to_string(groups().size()) +
+                  " channels (";
+  for (size_t c = 0; c < groups().size(); ++c) {
+    auto n = st.per_channel.find(static_cast<uint16_t>(c + 1));
+    s += (c ? ", " : "") + std::string(groups()[c].topic) + " " +
+         std::to_string(n == st.per_channel.end() ? 0 : n->second);
+  }
+  return s + "), " + std::to_string(st.chunks) + " chunks";
 }
 
 namespace {
@@ -119,11 +211,77 @@ bool run_gnuplot(const std::string& script, const std::string& png, std::string*
   return true;
 }
 
+// The number after "field": in a JSON object's text (our own flat objects of numbers), NaN when absent.
+double field_of(const std::string& json, const char* field) {
+  const std::string key = std::string("\"") + field + "\":";
+  const size_t at = json.find(key);
+  if (at == std::string::npos) return std::nan("");
+  return std::strtod(json.c_str() + at + key.size(), nullptr);
+}
+
+// The CSV rows (by log time, values after time in csv_header()'s order) of the messages in `c`.
+std::map<uint64_t, std::vector<double>> rows_of(const dca::mcap::Contents& c, size_t columns) {
+  std::map<uint16_t, size_t> first_column;  // channel id -> the column its first field fills
+  for (const auto& [id, ch] : c.channels) {
+    size_t k = 0;
+    for (const Group& g : groups()) {
+      if (ch.topic == g.topic) first_column[id] = k;
+      k += g.fields.size();
+    }
+  }
+  std::map<uint64_t, std::vector<double>> rows;
+  for (const auto& m : c.messages) {
+    auto col = first_column.find(m.channel);
+    if (col == first_column.end()) continue;
+    auto& row = rows.try_emplace(m.log_time, columns, 0.0).first->second;
+    size_t k = col->second;
+    for (const Group& g : groups()) {
+      if (g.topic != c.channels.at(m.channel).topic) continue;
+      for (const char* f : g.fields) {
+        const double v = field_of(m.data, f);
+        row[k++] = std::isfinite(v) ? v : 0.0;
+      }
+    }
+  }
+  return rows;
+}
+
 }  // namespace
 
-bool plot_csv(const std::string& csv, const std::string& png, std::string* error) {
+bool mcap_to_csv(const std::string& mcap, const std::string& csv, std::string* error) {
+  std::ifstream in(mcap, std::ios::binary);
+  if (!in) return fail(error, mcap + ": cannot open the recording");
+  std::stringstream bytes;
+  bytes << in.rdbuf();
+  dca::mcap::Contents c;
+  std::string why;
+  if (!dca::mcap::read(bytes.str(), &c, &why)) return fail(error, mcap + ": " + why);
+  size_t columns = 0;
+  for (const Group& g : groups()) columns += g.fields.size();
+  const auto rows = rows_of(c, columns);
+  if (rows.empty()) return fail(error, mcap + ": no /world/... messages (not a recording of dca sim)");
+  std::FILE* out = std::fopen(csv.c_str(), "w");
+  if (!out) return fail(error, csv + ": cannot write: " + std::strerror(errno));
+  std::fprintf(out, "%s\n", csv_header());
+  for (const auto& [t, row] : rows) {
+    std::fprintf(out, "%.4f", static_cast<double>(t) * 1e-9);
+    for (double v : row) std::fprintf(out, ",%.9g", v);
+    std::fprintf(out, "\n");
+  }
+  const bool ok = std::fclose(out) == 0;
+  return ok || fail(error, csv + ": error writing");
+}
+
+bool plot_csv(const std::string& file, const std::string& png, std::string* error) {
   const std::string script = png + ".gnuplot";
-  return check_recording(csv, error) && write_script(csv, png, script, error) && run_gnuplot(script, png, error);
+  if (is_mcap(file)) {
+    const std::string csv = png + ".csv";
+    const bool ok = mcap_to_csv(file, csv, error) && write_script(csv, png, script, error) &&
+                    run_gnuplot(script, png, error);
+    std::remove(csv.c_str());
+    return ok;
+  }
+  return check_recording(file, error) && write_script(file, png, script, error) && run_gnuplot(script, png, error);
 }
 
 }  // namespace dca::sim

@@ -1,6 +1,8 @@
 #pragma once
-// Recording a run of the world as CSV, and drawing such a recording with gnuplot. C++17-clean.
+// Recording a run of the world as MCAP (FILE.mcap: one JSON channel per signal group, log time = simulated
+// time; host/mcap.h) or CSV (any other name), and drawing either with gnuplot. C++17-clean.
 #include <cstdio>
+#include <memory>
 #include <string>
 
 #include "sim/world.h"
@@ -13,8 +15,15 @@ namespace dca::sim {
 /// the scripted DoorPhase, -1 if none).
 const char* csv_header();
 
-/// Writes one row per call of record() to a CSV file. The constructor throws std::runtime_error("FILE: reason")
-/// if the file cannot be written.
+/// The MCAP recording's channels, one per signal group, in channel id order (1, 2, ...): /world/arm (q1..q6),
+/// /world/base (x, y, yaw), /world/wrench (fx, fy, fz, tx, ty, tz), /world/door (door_angle, handle_angle),
+/// /world/gripper (width, state), /world/laser (range), /world/phase (phase). Each message is a JSON object
+/// with these fields (numbers), its log time the simulated time in ns.
+constexpr int kMcapChannels = 7;
+
+/// Writes the world's signals at each call of record(): a CSV row, or one MCAP message per channel when the
+/// path ends in ".mcap". The constructor throws std::runtime_error("FILE: reason") if the file cannot be
+/// written.
 class Recorder {
  public:
   explicit Recorder(const std::string& path);
@@ -27,14 +36,28 @@ class Recorder {
   /// ignores the error.
   bool close(std::string* error);
   const std::string& path() const { return path_; }
+  /// What was recorded, for the run's summary: "FILE: N rows" (CSV) or "FILE: N messages on 7 channels
+  /// (/world/arm N, ...), C chunks" (MCAP).
+  std::string summary() const;
 
  private:
+  struct Mcap;
   std::string path_;
   std::FILE* f_ = nullptr;
+  std::unique_ptr<Mcap> mcap_;  // set when recording MCAP
+  long rows_ = 0;
 };
 
-/// Draws a recording: door and handle angles, wrist force, base position against time, and the base's path,
-/// to a PNG (gnuplot's pngcairo terminal). False with *error (naming the file) when it cannot.
-bool plot_csv(const std::string& csv, const std::string& png, std::string* error);
+/// Draws a recording (CSV, or MCAP when `file` ends in ".mcap"): door and handle angles, wrist force, base
+/// position against time, and the base's path, to a PNG (gnuplot's pngcairo terminal). False with *error
+/// (naming the file) when it cannot.
+bool plot_csv(const std::string& file, const std::string& png, std::string* error);
+
+/// Converts an MCAP recording of Recorder to the CSV Recorder writes (csv_header()'s columns, one row per
+/// log time). False with *error ("FILE: why") when it is not such a recording.
+bool mcap_to_csv(const std::string& mcap, const std::string& csv, std::string* error);
+
+/// Whether `path` names an MCAP file (ends in ".mcap").
+bool is_mcap(const std::string& path);
 
 }  // namespace dca::sim

@@ -148,7 +148,11 @@ WorldNode::WorldNode(Loop& loop, World& world, WorldNodeOptions options)
 
 WorldNode::~WorldNode() {
   std::string error;
-  if (impl_->recorder && !impl_->recorder->close(&error)) std::fprintf(stderr, "dca sim: %s\n", error.c_str());
+  if (!impl_->recorder) return;
+  if (!impl_->recorder->close(&error))
+    std::fprintf(stderr, "dca sim: %s\n", error.c_str());
+  else
+    std::printf("dca sim: recorded %s\n", impl_->recorder->summary().c_str());
 }
 
 std::unique_ptr<Component> WorldNode::make_component(const std::string& name) {

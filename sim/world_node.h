@@ -43,7 +43,7 @@ struct WorldNodeOptions {
   int tick_timeout_ms = 10000;    ///< how long a subscriber may take to answer an advance
   bool realtime = false;          ///< pace time to the wall clock (else as fast as the nodes allow)
   double duration = -1;           ///< s of simulated time after which time holds (-1: never)
-  std::string record;             ///< CSV file to record to ("" = none), see sim/recorder.h
+  std::string record;             ///< file to record to, MCAP or CSV ("" = none), see sim/recorder.h
   double record_period = 0.01;    ///< s between recorded rows
 };
 

@@ -8,8 +8,9 @@ local M = {}
 M.summary = "draw a .dca system: the process tree and expressions as Graphviz DOT, or SVG"
 M.usage = [[usage: dca graph FILE.dca [--root NAME] [--svg] [-o OUT] [--no-registry]
 
-Writes the checked system's tree (groups with their host and expression, leaves with host and parameters,
-connections dotted) as Graphviz DOT to stdout, or to OUT with -o. --svg renders it with `dot -Tsvg`
+Writes the checked system's tree top-down (each group a cluster labelled with its host and expression, its leaves
+inside with host and parameters as written, its child groups below them, connections dotted)
+as Graphviz DOT to stdout, or to OUT with -o. --svg renders it with `dot -Tsvg`
 (graphviz; scripts/setup installs it). The file is checked as by `dca check` first (--no-registry: without
 the controller registry's manifests).]]
 

@@ -12,7 +12,7 @@ M.summary = "run a .dca system: start its hosts and supervisor tree, run it, rep
 M.usage = [=[usage: dca run FILE.dca [--root NAME] [--hosts FILE] [--repl] [--watch] [--timeout S] [--quiet]
                     [--config FILE | --no-config] [--set KEY=VALUE]... [--state-dir DIR]
                     [--placement process|group|host]
-                    [--sim WORLD [--seed N] [--door-width W] [--record FILE.csv] [--jammed] [--realtime]]
+                    [--sim WORLD [--seed N] [--door-width W] [--record FILE.mcap|FILE.csv] [--jammed] [--realtime]]
 
 Checks FILE.dca (errors stop here, nothing is started), starts one local daemon per host name on 127.0.0.1
 (or uses the daemons named in --hosts, lines of "name address"), starts the supervisor tree, shows one line
@@ -38,7 +38,7 @@ per group as it comes up and one per process transition, and runs the root expre
                   simulated and wall time, each step's start and end, and the control periods achieved
                   by the leaves of every MotionControl group: intervals between their MainCalc calls on the
                   simulated and on the wall clock, p50/p99/max)
-  --seed N, --door-width W, --record FILE.csv   passed to the world (see `dca sim --help`)
+  --seed N, --door-width W, --record FILE.mcap|FILE.csv   passed to the world (see `dca sim --help`)
   --jammed        passed to the world: the door handle's latch never releases (a fault to test against)
   --realtime      passed to the world: simulated time is paced to the wall clock (the nodes stay in
                   lock-step with it), so the wall-clock periods in the summary are the real control periods

@@ -6,11 +6,13 @@ local systems = T.src .. "/scripts/systems/"
 
 suite:case("graph_writes_dot", function()
   local out = T.dca("graph --no-registry " .. systems .. "door_open.dca", 0,
-    '"main.dooropensyst" [shape=folder',
-    "motionctrl # ((visualserv[lbl1], camera) # distdetect ; (opengrip, approach[lbl1]) # hit",
-    '"main.dooropensyst" -> "main.dooropensyst.hit";',
+    'subgraph "cluster_main.dooropensyst" {',
+    "dooropensyst : DoorOpenSystem @manipulation\\nmotionctrl # ((visualserv[lbl1], camera) # distdetect ;",
+    'subgraph "cluster_main.dooropensyst.hit" {',
     '"main.dooropensyst.visualserv" -> "main.dooropensyst.motionctrl" [style=dotted',
-    '"main.dooropensyst.opengrip" [shape=box, label="opengrip : GripperControl\\n@manipulation\\n(\\"open\\")"];')
+    'config(\\"door.hit_force\\")',
+    '"main.dooropensyst.opengrip" [label="opengrip : GripperControl\\n@manipulation\\n(\\"open\\")"];')
+  T.ok(not out:find("table: 0x", 1, true), out)
   T.ok(out:match("^digraph dca {\n"), out)
 end)
 

@@ -1,0 +1,48 @@
+-- dca graph's DOT: golden/graph_door_open.dot is exactly what dca.lang.graph prints for the door system
+-- (scripts/systems/door_open.dca, without the registry), so a change of layout or labels is a reviewed diff.
+-- DCA_GOLDEN_UPDATE=1 rewrites it (review the diff, and look at `dot -Tpng` of it).
+local T = require "dca.testing"
+local parser = require "dca.lang.parser"
+local model = require "dca.lang.model"
+local graph = require "dca.lang.graph"
+local suite = T.suite("lang_graph")
+
+local here = debug.getinfo(1, "S").source:match("^@(.*)/[^/]*$") or "."
+local golden = here .. "/golden/graph_door_open.dot"
+local door = here .. "/../../../scripts/systems/door_open.dca"
+
+local function door_tree()
+  local ast = assert(parser.parse(T.read(door), "door_open.dca"))
+  local tree, errs = model.build(ast, { root = "main" })
+  T.ok(tree, errs and errs[1] and errs[1].msg)
+  return tree
+end
+
+suite:case("door_system_golden_dot", function()
+  local got = graph.dot(door_tree())
+  if os.getenv("DCA_GOLDEN_UPDATE") == "1" then
+    local f = assert(io.open(golden, "wb"))
+    f:write(got)
+    f:close()
+    return
+  end
+  T.eq(got, T.read(golden))
+end)
+
+suite:case("config_parameters_print_as_written", function()
+  local got = graph.dot(door_tree())
+  T.ok(got:find('config(\\"door.hit_force\\")', 1, true), "config(\"door.hit_force\") in the DOT")
+  T.ok(not got:find("table: 0x", 1, true), "no table address in the DOT")
+  T.ok(got:find('(\\"open\\")', 1, true), "string parameters quoted")
+end)
+
+suite:case("one_cluster_per_group_hosts_shown", function()
+  local got = graph.dot(door_tree())
+  local clusters = 0
+  for _ in got:gmatch('subgraph "cluster_') do clusters = clusters + 1 end
+  T.eq(clusters, 6)  -- main, dooropensyst, dooropen, motionctrl, hit, distdetect
+  T.ok(got:find("dooropensyst : DoorOpenSystem @manipulation", 1, true))
+  T.ok(got:find("@vision", 1, true) and got:find("@platform", 1, true))
+end)
+
+return suite:run(...)
