@@ -28,7 +28,8 @@ dca::Manifest LowPass::Describe() {
           {dca::vectorx_port("In")},
           {dca::vectorx_port("Out")},
           {P::Required("tau", "number", "the time constant (s)"), PeriodParam("0.01"),
-           P::Number("tolerance", "0", "DONE once |In - Out| <= tolerance everywhere (0: never)")}};
+           P::Number("tolerance", "0", "DONE once |In - Out| <= tolerance everywhere (0: never)")},
+          dca::Ending::Done()};  // if it ends by itself, DONE (settled)
 }
 
 LowPass::LowPass(const dca::ControllerContext& ctx)

@@ -25,7 +25,8 @@ dca::Manifest Pid::Describe() {
           {dca::scalar_port("Command")},
           {P::Required("setpoint", "number", "the value Measured should reach"),
            P::Required("kp", "number", "proportional gain"), P::Number("ki", "0", "integral gain (1/s)"),
-           P::Number("kd", "0", "derivative gain (s)"), PeriodParam("0.01")}};
+           P::Number("kd", "0", "derivative gain (s)"), PeriodParam("0.01")},
+          dca::Ending::Never()};  // how a run ends by itself: a controller runs until stopped
 }
 
 Pid::Pid(const dca::ControllerContext& ctx)

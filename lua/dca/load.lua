@@ -66,7 +66,12 @@ function M.check_options(ast, path, registry)
     if not m.package or (packages[m.package] and not packages[m.package].error) then types[name] = m
     else elsewhere[name] = m.package end
   end
-  return { types = types, packages = packages, elsewhere = elsewhere }
+  -- the packages on the search path the file does not use (names only: nothing of them is loaded), for hints
+  local core, unused = core_or_nil(), {}
+  for _, name in ipairs(core and core.packages(folder(path)) or {}) do
+    if not packages[name] then unused[#unused + 1] = name end
+  end
+  return { types = types, packages = packages, elsewhere = elsewhere, unused_packages = unused }
 end
 
 --- The whole text of the file at path. --> text | nil, "dca: cannot read ..."

@@ -6,7 +6,8 @@
 --     manifest = function(type) end,  -- optional instead of `types`: a manifest or nil
 --     packages = { [name] = { types = {...} } | { error = "..." } },  -- optional: the file's `use`d packages
 --                                 -- as dca.load found them (an error is reported at its `use`)
---     elsewhere = { [Type] = "package" },  -- optional: types of packages the file does not use (for hints)
+--     elsewhere = { [Type] = "package" },  -- optional: types of loaded packages the file does not use (hints)
+--     unused_packages = { "name", ... },   -- optional: packages on the search path the file does not use (hints)
 --   })
 --   -- errors: list of { line =, col =, path = "main.dooropensyst.hit", msg = "..." } in file order;
 --   -- check.format(ast, e) -> "file:line:col: path: msg\n<source line>\n<caret>"
@@ -314,9 +315,11 @@ local function leaves(ctx, p, sc)
             "unknown process type '%s': package '%s' defines it (add 'use %s;' at the top of the file)", inst.type,
             home, home)
       elseif not m and ctx.registry_known then
+        local unused = ctx.opts.unused_packages or {}
         err(ctx, path, inst.type_line, inst.type_col, "unknown process type '%s'%s", inst.type,
             guess_text(inst.type, ctx.known_types) or
-            " (not defined in this file, not built in, not in a package the file uses)")
+            " (not defined in this file, not built in, not in a package the file uses" ..
+            (#unused > 0 and "; packages it could use: " .. concat(unused, ", ") or "") .. ")")
       end
       local h = inst.args[1]
       if not h then
