@@ -167,8 +167,10 @@ bool check_recording(const std::string& csv, std::string* error) {
   return true;
 }
 
-// The gnuplot script that draws `csv` to `png`: four panels (angles, wrist force, base position, base path).
-bool write_script(const std::string& csv, const std::string& png, const std::string& path, std::string* error) {
+// The gnuplot script that draws `csv` (a recording of `title`) to `png`: four panels (angles, wrist force, base
+// position, base path).
+bool write_script(const std::string& csv, const std::string& title, const std::string& png, const std::string& path,
+                  std::string* error) {
   std::ofstream g(path);
   if (!g) return fail(error, path + ": cannot write the gnuplot script");
   const std::string d = quote(csv);
@@ -177,7 +179,7 @@ bool write_script(const std::string& csv, const std::string& png, const std::str
     << "set datafile separator ','\n"
     << "set key autotitle columnhead\n"
     << "set grid\n"
-    << "set multiplot layout 2,2 title " << quote("dca sim: " + csv) << "\n"
+    << "set multiplot layout 2,2 title " << quote("dca sim: " + title) << "\n"
     << "set title 'door and handle angles'\nset xlabel 'time (s)'\nset ylabel 'degrees'\n"
     << "plot " << d << " using 1:($17*180/pi) with lines lw 2 title 'door', '' using 1:($18*180/pi) with lines"
     << " lw 2 title 'handle'\n"
@@ -276,12 +278,12 @@ bool plot_csv(const std::string& file, const std::string& png, std::string* erro
   const std::string script = png + ".gnuplot";
   if (is_mcap(file)) {
     const std::string csv = png + ".csv";
-    const bool ok = mcap_to_csv(file, csv, error) && write_script(csv, png, script, error) &&
+    const bool ok = mcap_to_csv(file, csv, error) && write_script(csv, file, png, script, error) &&
                     run_gnuplot(script, png, error);
     std::remove(csv.c_str());
     return ok;
   }
-  return check_recording(file, error) && write_script(file, png, script, error) && run_gnuplot(script, png, error);
+  return check_recording(file, error) && write_script(file, file, png, script, error) && run_gnuplot(script, png, error);
 }
 
 }  // namespace dca::sim
