@@ -391,12 +391,9 @@ local function abort_range(self, id)
       unlink(self, l)
       local nm = names[l]
       self.cmd_abort(nm)
-      log(self, "abort", l)
+      log(self, "abort", l)  -- and, for a labelled leaf, "-A[l]" (rendered by Run:log)
       local lb = labels[l]
-      if lb then
-        self.cmd_deactivate(nm, lb)
-        log(self, "-", l)
-      end
+      if lb then self.cmd_deactivate(nm, lb) end
     end
     l = before
   end
@@ -414,10 +411,7 @@ start_node = function(self, id, b)
       return false
     end
     local lb = c.label[id]
-    if lb then
-      self.cmd_activate(nm, lb)
-      log(self, "+", id)
-    end
+    if lb then self.cmd_activate(nm, lb) end  -- logged as "+A[l]" with the start
     -- append to the running list (start order)
     local t = self.rtail
     self.rprev[id], self.rnext[id] = t, 0
@@ -546,12 +540,9 @@ local function take(self, name, kind, value)
     return false
   end
   unlink(self, id)
-  log(self, "event", name, kind)
+  log(self, "event", id, kind)  -- and "-A[l]" for a labelled leaf
   local lb = self.c.label[id]
-  if lb then
-    self.cmd_deactivate(name, lb)
-    log(self, "-", id)
-  end
+  if lb then self.cmd_deactivate(name, lb) end
   if kind == "done" then propagate(self, id, true, value) else propagate(self, id, false, nil) end
   return true
 end
@@ -695,27 +686,34 @@ local function show(v)
   return tostring(v)
 end
 
+-- The text of one log entry, with the label switch it implies for a labelled leaf ("+A[l]" before its start,
+-- "-A[l]" after its abort or its event): appended to out.
+local function log_lines(out, c, k, a, b)
+  if k == "start" then
+    if c.label[a] then out[#out + 1] = "+" .. leaf_text(c, a) end
+    out[#out + 1] = "start " .. leaf_text(c, a) .. (b ~= nil and (" init=" .. show(b)) or "")
+  elseif k == "abort" or k == "event" then
+    out[#out + 1] = k == "abort" and ("abort " .. c.name[a]) or ("event " .. c.name[a] .. " " .. b)
+    if c.label[a] then out[#out + 1] = "-" .. leaf_text(c, a) end
+  elseif k == "ignored" then out[#out + 1] = "ignored " .. tostring(a) .. " " .. b
+  elseif k == "conflict" then out[#out + 1] = "conflict " .. c.name[a] .. " (already running)"
+  else out[#out + 1] = "abort (external)" end
+end
+
 --- The latest log entries (at most 256), oldest first, as text:
 --- "start A", "start A[l] init=5", "abort A", "+A[l]", "-A[l]", "event A done", "ignored A done",
 --- "conflict A (already running)", "abort (external)".
 function Run:log()
-  local out, c = {}, self.c
+  local lines, c, buf = {}, self.c, self.logbuf
   local count = self.logfull and LOG_SIZE or self.logi
   local i = (self.logi - count) % LOG_SIZE
   for _ = 1, count do
     i = i % LOG_SIZE + 1
-    local k, a, b = self.logbuf[i * 3 - 2], self.logbuf[i * 3 - 1], self.logbuf[i * 3]
-    local s
-    if k == "start" then
-      s = "start " .. leaf_text(c, a) .. (b ~= nil and (" init=" .. show(b)) or "")
-    elseif k == "abort" then s = "abort " .. c.name[a]
-    elseif k == "+" or k == "-" then s = k .. leaf_text(c, a)
-    elseif k == "event" then s = "event " .. a .. " " .. b
-    elseif k == "ignored" then s = "ignored " .. tostring(a) .. " " .. b
-    elseif k == "conflict" then s = "conflict " .. c.name[a] .. " (already running)"
-    else s = "abort (external)" end
-    out[#out + 1] = s
+    log_lines(lines, c, buf[i * 3 - 2], buf[i * 3 - 1], buf[i * 3])
   end
+  -- an entry may give two lines: the latest 256
+  local out, first = {}, math.max(1, #lines - LOG_SIZE + 1)
+  for j = first, #lines do out[#out + 1] = lines[j] end
   return out
 end
 
