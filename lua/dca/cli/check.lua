@@ -8,7 +8,7 @@ local M = {}
 
 M.summary = "check a .dca system file (syntax, instances, ports, expressions) without starting anything"
 M.usage = [==[usage: dca check FILE.dca [--root NAME] [--no-registry] [--tree] [--config FILE | --no-config]
-                 [--verify [--no-faults] [--traces] [--emit-scenario FILE.lua] [--promela]]
+                 [--verify [--no-faults] [--traces] [--emit-scenario FILE.lua] [--promela] [--max-states N]]
 
 Parses FILE.dca and runs every static check, printing all errors (file:line:col, the instance path, the
 source line and a caret); exits 1 when there are errors, else prints a one-line summary and exits 0.
@@ -29,7 +29,8 @@ source line and a caret); exits 1 when there are errors, else prints a one-line 
   --no-faults     leave out crashes and lost hosts (by default any process can crash, any host be lost)
   --traces        also print a trace to every outcome
   --emit-scenario FILE.lua  write the first counter-example as a scenario `dca scenario` replays
-  --promela       print the expression model as Promela (spin) instead of the report]==]
+  --promela       print the expression model as Promela (spin) instead of the report
+  --max-states N  stop exploring a group after N states (default 500000; the report then says it is partial)]==]
 
 --- The instance tree as indented text: "name : Type @host (params)" per line; groups show their expression.
 function M.tree_text(tree)
@@ -66,7 +67,8 @@ local function plural(n, one) return n == 1 and ("1 " .. one) or (n .. " " .. on
 function M.main(argv)
   local o, err = args.parse(argv, "dca check", { ["--root"] = "value", ["--no-registry"] = "flag",
     ["--tree"] = "flag", ["--config"] = "value", ["--no-config"] = "flag", ["--verify"] = "flag",
-    ["--no-faults"] = "flag", ["--traces"] = "flag", ["--emit-scenario"] = "value", ["--promela"] = "flag" })
+    ["--no-faults"] = "flag", ["--traces"] = "flag", ["--emit-scenario"] = "value", ["--promela"] = "flag",
+    ["--max-states"] = "number" })
   if not o then return args.usage_error(err, M.usage) end
   local file, root, use_registry = o[1], o.root, not o.no_registry
   if not file then io.stderr:write(M.usage, "\n"); return 2 end
@@ -108,7 +110,7 @@ end
 --- `--verify`: the report (or the Promela model), the emitted scenario; 1 when a property is violated.
 function M.verify(file, ast, tree, o)
   local verify = require "dca.verify"
-  local result, errs = verify.system(tree, { faults = not o.no_faults, ast = ast })
+  local result, errs = verify.system(tree, { faults = not o.no_faults, ast = ast, max_states = o.max_states })
   if not result then
     io.stderr:write(check.format_all(ast, errs), "\n")
     return 1

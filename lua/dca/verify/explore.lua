@@ -266,7 +266,7 @@ function M.group(expr, operands, opts)
   for _, k in ipairs(bad or {}) do g.violations[k] = g.violations[k] or {} end
   local snap0 = run:snapshot()
   reach(g, ctx, nil, nil, snap0, mstate, cohorts(ctx, nil, nil, snap0.running))
-  local max = opts.max_states or 2000000
+  local max = opts.max_states or 500000
   local monitors_n = #ctx.monitors
   local states, i = ctx.states, 1
   while states[i] do
@@ -296,7 +296,7 @@ function M.group(expr, operands, opts)
     end
     st.snap = nil  -- expanded: traces need only the links
     i = i + 1
-    if i > max then g.truncated = true break end
+    if i > max and states[i] then g.truncated = true break end
   end
   g.states = #states
   g.state_list = states
