@@ -1,5 +1,6 @@
 #include "sim/recorder.h"
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -68,7 +69,43 @@ struct Recorder::Mcap {
     for (const Group& g : groups()) writer.add_channel(g.topic, g.topic + 1, schema_of(g));
   }
   dca::mcap::Writer writer;
+  uint16_t events = 0;  // the channel /dca/events, once there is a note
 };
+
+namespace {
+
+// s as a JSON string literal.
+std::string json_string(const std::string& s) {
+  std::string out = "\"";
+  char esc[8];
+  for (unsigned char c : s) {
+    if (c == '"' || c == '\\') {
+      out += '\\';
+      out += static_cast<char>(c);
+    } else if (c < 0x20) {
+      std::snprintf(esc, sizeof esc, "\\u%04x", c);
+      out += esc;
+    } else {
+      out += static_cast<char>(c);
+    }
+  }
+  return out + "\"";
+}
+
+}  // namespace
+
+void Recorder::note(double t, const std::string& line, const std::string& path, const std::string& state) {
+  if (!f_ || !mcap_) return;
+  if (mcap_->events == 0)
+    mcap_->events = mcap_->writer.add_channel(
+        "/dca/events", "dca/events",
+        R"({"type":"object","title":"/dca/events","properties":{"line":{"type":"string"},)"
+        R"("path":{"type":"string"},"state":{"type":"string"}}})");
+  const auto ns = static_cast<uint64_t>(std::llround(std::max(0.0, t) * 1e9));
+  mcap_->writer.write(mcap_->events, ns,
+                      "{\"line\":" + json_string(line) + ",\"path\":" + json_string(path) +
+                          ",\"state\":" + json_string(state) + "}");
+}
 
 const char* csv_header() {
   return "time,q1,q2,q3,q4,q5,q6,base_x,base_y,base_yaw,fx,fy,fz,tx,ty,tz,door_angle,handle_angle,"
@@ -129,11 +166,12 @@ bool Recorder::close(std::string* error) {
 std::string Recorder::summary() const {
   if (!mcap_) return path_ + ": " + std::to_string(rows_) + " rows";
   const dca::mcap::Stats& st = mcap_->writer.stats();
-  std::string s = path_ + ": " + std::to_string(st.messages) + " messages on " + std::to_string(groups().size()) +
+  const size_t channels = groups().size() + (mcap_->events ? 1 : 0);
+  std::string s = path_ + ": " + std::to_string(st.messages) + " messages on " + std::to_string(channels) +
                   " channels (";
-  for (size_t c = 0; c < groups().size(); ++c) {
-    auto n = st.per_channel.find(static_cast<uint16_t>(c + 1));
-    s += (c ? ", " : "") + std::string(groups()[c].topic) + " " +
+  for (size_t c = 1; c <= channels; ++c) {
+    auto n = st.per_channel.find(static_cast<uint16_t>(c));
+    s += (c > 1 ? ", " : "") + mcap_->writer.topic(static_cast<uint16_t>(c)) + " " +
          std::to_string(n == st.per_channel.end() ? 0 : n->second);
   }
   return s + "), " + std::to_string(st.chunks) + " chunks";

@@ -32,6 +32,10 @@ class Recorder {
   Recorder& operator=(const Recorder&) = delete;
   /// Appends the world's current sensors (and `phase`).
   void record(const Sensors& s, int phase = -1);
+  /// MCAP only (a CSV ignores it): one message on the channel /dca/events (added at the first note) at simulated
+  /// time `t`: {"line": line, "path": path, "state": state} (path and state empty for a line that is no
+  /// transition), e.g. a progress line of `dca run` ("main.door.hit: running").
+  void note(double t, const std::string& line, const std::string& path, const std::string& state);
   /// Flushes and closes. False with *error ("FILE: reason") on a write error. The destructor closes too, and
   /// ignores the error.
   bool close(std::string* error);

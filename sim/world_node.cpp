@@ -178,6 +178,12 @@ std::unique_ptr<Node> WorldNode::make_node(NodeOptions options) {
 
 bool WorldNode::handle(const std::shared_ptr<Channel>& ch, const Message& m) {
   if (m.type == "status") return ch->reply(m, impl_->status()), true;
+  if (m.type == "note") {  // a line of the run for the recording (dca.launch.sim), at simulated time t
+    if (impl_->recorder)
+      impl_->recorder->note(m.payload["t"].as_float(impl_->world.time()), m.payload["line"].as_string(),
+                            m.payload["path"].as_string(), m.payload["state"].as_string());
+    return ch->reply(m, Value::map()), true;
+  }
   return impl_->clock.handle(ch, m);
 }
 

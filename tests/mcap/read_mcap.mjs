@@ -1,5 +1,7 @@
 // An independent check of a dca MCAP recording with @mcap/core (the reader Foxglove's tools are built on):
 //   node read_mcap.mjs FILE.mcap "<the 'recorded FILE: N messages on K channels (/topic n, ...), C chunks' line>"
+//   node read_mcap.mjs FILE.mcap --lines LINES   (a recording of `dca run --sim`: LINES holds the run's
+//                                                 "[sim T] text" lines, which /dca/events must hold, in order)
 // Opens FILE with the indexed reader (which needs the summary: footer, summary offsets, chunk indexes,
 // channels and schemas), checks that every channel has a JSON Schema and JSON messages, that the statistics
 // and the messages read through the chunk indexes match the counts dca printed, then reads the file again
@@ -16,13 +18,20 @@ if (!file || !recorded) {
 const failures = [];
 const check = (ok, what) => { if (!ok) failures.push(what); };
 
-// What dca printed: total, per topic, chunks.
-const m = recorded.match(/: (\d+) messages on (\d+) channels \((.*)\), (\d+) chunks/);
-if (!m) { console.error(`cannot parse dca's line: ${recorded}`); process.exit(2); }
-const want = { total: BigInt(m[1]), channels: Number(m[2]), chunks: Number(m[4]), topics: new Map() };
-for (const part of m[3].split(", ")) {
-  const [topic, n] = part.split(" ");
-  want.topics.set(topic, BigInt(n));
+// What dca printed: total, per topic, chunks; or, with --lines, the run's stamped lines.
+let want, lines;
+if (recorded === "--lines") {
+  const { readFile } = await import("node:fs/promises");
+  lines = (await readFile(process.argv[4], "utf8")).split("\n").filter((l) => l.startsWith("[sim "))
+    .map((l) => ({ t: Number(l.slice(5, l.indexOf("]"))), text: l.slice(l.indexOf("]") + 2) }));
+} else {
+  const m = recorded.match(/: (\d+) messages on (\d+) channels \((.*)\), (\d+) chunks/);
+  if (!m) { console.error(`cannot parse dca's line: ${recorded}`); process.exit(2); }
+  want = { total: BigInt(m[1]), channels: Number(m[2]), chunks: Number(m[4]), topics: new Map() };
+  for (const part of m[3].split(", ")) {
+    const [topic, n] = part.split(" ");
+    want.topics.set(topic, BigInt(n));
+  }
 }
 
 const handle = await open(file, "r");
@@ -40,8 +49,11 @@ const reader = await McapIndexedReader.Initialize({ readable });
 check(reader.footer.summaryStart > 0n, "footer: no summary section");
 check(reader.footer.summaryOffsetStart > 0n, "footer: no summary offset section");
 for (const op of [0x03, 0x04, 0x08, 0x0b]) check(reader.summaryOffsetsByOpcode.has(op), `no summary offset for op ${op}`);
-check(reader.chunkIndexes.length === want.chunks, `chunk indexes: ${reader.chunkIndexes.length}, dca: ${want.chunks}`);
-check(reader.channelsById.size === want.channels, `channels: ${reader.channelsById.size}, dca: ${want.channels}`);
+check(reader.chunkIndexes.length > 0, "no chunk indexes");
+if (want) {
+  check(reader.chunkIndexes.length === want.chunks, `chunk indexes: ${reader.chunkIndexes.length}, dca: ${want.chunks}`);
+  check(reader.channelsById.size === want.channels, `channels: ${reader.channelsById.size}, dca: ${want.channels}`);
+}
 for (const [id, ch] of reader.channelsById) {
   const schema = reader.schemasById.get(ch.schemaId);
   check(schema !== undefined, `channel ${id} (${ch.topic}) has no schema`);
@@ -51,18 +63,33 @@ for (const [id, ch] of reader.channelsById) {
 }
 const stats = reader.statistics;
 check(stats !== undefined, "no statistics record");
-check(stats?.messageCount === want.total, `statistics: ${stats?.messageCount} messages, dca: ${want.total}`);
+if (want) check(stats?.messageCount === want.total, `statistics: ${stats?.messageCount} messages, dca: ${want.total}`);
 
 const counts = new Map();
+const events = [];
 let last = -1n;
 for await (const msg of reader.readMessages({ validateCrcs: true })) {
   const topic = reader.channelsById.get(msg.channelId).topic;
   counts.set(topic, (counts.get(topic) ?? 0n) + 1n);
   check(msg.logTime >= last, "messages out of log-time order");
   last = msg.logTime;
-  JSON.parse(new TextDecoder().decode(msg.data));
+  const value = JSON.parse(new TextDecoder().decode(msg.data));
+  if (topic === "/dca/events") events.push({ t: Number(msg.logTime) / 1e9, ...value });
 }
-for (const [topic, n] of want.topics) {
+if (lines) {
+  const total = [...counts.values()].reduce((a, b) => a + b, 0n);
+  check(stats?.messageCount === total, `statistics: ${stats?.messageCount} messages, read ${total}`);
+  for (const topic of ["/world/arm", "/world/door"]) check((counts.get(topic) ?? 0n) > 0n, `no ${topic} messages`);
+  check(events.length === lines.length, `/dca/events: ${events.length} messages, the run printed ${lines.length} lines`);
+  // in the order of their times (the indexed reader sorts by log time; equal times keep the run's order)
+  const sorted = lines.map((l, i) => ({ ...l, i })).sort((a, b) => a.t - b.t || a.i - b.i);
+  sorted.forEach((l, i) => {
+    const e = events[i];
+    check(e && e.line === l.text && Math.abs(e.t - l.t) < 0.0006, `event ${i}: ${JSON.stringify(e)} vs ${l.t} ${l.text}`);
+  });
+  check(events.some((e) => e.path === "main.dooropensyst.dooropen" && e.state === "running"), "no transition of dooropen");
+}
+for (const [topic, n] of want?.topics ?? []) {
   check(counts.get(topic) === n, `${topic}: read ${counts.get(topic)}, dca: ${n}`);
   check(stats?.channelMessageCounts.get([...reader.channelsById].find(([, c]) => c.topic === topic)[0]) === n,
         `${topic}: statistics count differs`);
@@ -77,11 +104,12 @@ for (let r; (r = stream.nextRecord()); ) {
   if (r.type === "Message") streamed++;
 }
 check(stream.done(), "streaming reader: file not complete");
-check(streamed === want.total, `streaming reader: ${streamed} messages, dca: ${want.total}`);
+check(streamed === stats?.messageCount, `streaming reader: ${streamed} messages, statistics: ${stats?.messageCount}`);
 await handle.close();
 
 console.log(`@mcap/core: ${reader.channelsById.size} channels with schemas, ${reader.chunkIndexes.length} chunk indexes, ` +
-  `${stats?.messageCount} messages (${[...counts].map(([t, n]) => `${t} ${n}`).join(", ")}), ${records} records streamed`);
+  `${stats?.messageCount} messages (${[...counts].map(([t, n]) => `${t} ${n}`).join(", ")}), ${records} records streamed` +
+  (lines ? `; /dca/events holds the run's ${lines.length} lines` : ""));
 if (failures.length) {
   for (const f of failures) console.error(`FAIL ${f}`);
   process.exit(1);

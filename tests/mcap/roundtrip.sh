@@ -1,23 +1,37 @@
 #!/bin/sh
-# MCAP round trip (issue 19): a short door run of the world (`dca sim`, the scripted door opening, 3 simulated
-# seconds) recorded to MCAP is read back by an independent reader, @mcap/core (read_mcap.mjs: every channel
-# has a JSON Schema, the summary, summary offsets and chunk indexes are present, the message counts match
-# the ones dca printed, every record streams with valid CRCs), and `dca plot` draws it to a PNG.
-#   roundtrip.sh DCA WORK_DIR
+# MCAP round trips (issue 19), read back by an independent reader, @mcap/core (read_mcap.mjs), and drawn by
+# `dca plot` to a PNG:
+#   roundtrip.sh sim DCA SOURCE_DIR WORK_DIR   a short door run of the world (`dca sim`, the scripted door
+#       opening, 3 simulated seconds): every channel has a JSON Schema, the summary, summary offsets and chunk
+#       indexes are present, the message counts match the ones dca printed, every record streams with valid CRCs
+#   roundtrip.sh run DCA SOURCE_DIR WORK_DIR   a supervised door run (`dca run door_open.dca --sim door`) ends
+#       DONE, and beside the world's signals /dca/events holds every line the run printed ("[sim T] path:
+#       state", the transitions among them) at its simulated time
 set -eu
-dca=$1
-work=$2
+mode=$1
+dca=$2
+src=$3
+work=$4
 here=$(cd "$(dirname "$0")" && pwd)
 if [ ! -d "$here/node_modules/@mcap/core" ]; then
   echo "tests/mcap/node_modules/@mcap/core is missing: scripts/setup installs it (npm ci)" >&2
   exit 1
 fi
 mkdir -p "$work"
-rm -f "$work/door.mcap" "$work/door.png"
-out=$("$dca" sim --duration 3 --record "$work/door.mcap")
-echo "$out"
-line=$(echo "$out" | grep '^recorded ')
-node "$here/read_mcap.mjs" "$work/door.mcap" "$line"
+rm -f "$work/door.mcap" "$work/door.png" "$work/door.log"
+if [ "$mode" = sim ]; then
+  "$dca" sim --duration 3 --record "$work/door.mcap" | tee "$work/door.log"
+  node "$here/read_mcap.mjs" "$work/door.mcap" "$(grep '^recorded ' "$work/door.log")"
+else
+  if ! "$dca" run "$src/scripts/systems/door_open.dca" --sim door --record "$work/door.mcap" >"$work/door.log" 2>&1
+  then
+    tail -40 "$work/door.log"
+    echo "FAIL: dca run did not end DONE" >&2
+    exit 1
+  fi
+  grep '^\[sim ' "$work/door.log" | tail -5
+  node "$here/read_mcap.mjs" "$work/door.mcap" --lines "$work/door.log"
+fi
 "$dca" plot "$work/door.mcap" -o "$work/door.png"
 if [ "$(od -An -tx1 -N4 "$work/door.png" | tr -d ' ')" != "89504e47" ]; then
   echo "dca plot did not write a PNG: $work/door.png" >&2

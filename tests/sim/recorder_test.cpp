@@ -1,5 +1,7 @@
-// Recording a run as CSV, and `dca plot` drawing it with gnuplot.
+// Recording a run as CSV and as MCAP, and `dca plot` drawing it with gnuplot.
 #include "sim/recorder.h"
+
+#include "host/mcap.h"
 
 #include <gtest/gtest.h>
 
@@ -108,6 +110,68 @@ TEST(RecorderTest, DcaSimRecordsAndDcaPlotDraws) {
   ASSERT_EQ(std::system((exe + " plot " + csv.string() + " -o " + png.string() + " > /dev/null").c_str()), 0);
   EXPECT_TRUE(fs::exists(png));
   EXPECT_NE(std::system((exe + " sim --bogus 2> /dev/null").c_str()), 0);
+}
+
+}  // namespace
+
+namespace {
+
+std::vector<double> numbers(const std::string& row) {
+  std::vector<double> v;
+  std::stringstream in(row);
+  for (std::string cell; std::getline(in, cell, ',');) v.push_back(std::stod(cell));
+  return v;
+}
+
+// The same run recorded as CSV and as MCAP (with two notes): the MCAP file holds one JSON channel per signal
+// group plus /dca/events, and converted back to CSV it gives the CSV's rows.
+TEST(RecorderTest, McapHoldsTheCsvsRowsAndTheNotes) {
+  const fs::path csv = temp("both.csv"), mcap = temp("both.mcap"), back = temp("back.csv");
+  {
+    dca::sim::World w(dca::sim::door_world());
+    dca::sim::Recorder a(csv.string()), b(mcap.string());
+    dca::sim::Commands c;
+    c.base_vel = {0.2, 0, 0.1};
+    w.set_commands(c);
+    for (int i = 0; i <= 300; ++i) {
+      if (i % 10 == 0) {
+        a.record(w.sensors(), 2);
+        b.record(w.sensors(), 2);
+      }
+      if (i == 100) b.note(w.time(), "main.a: running", "main.a", "running");
+      if (i == 200) b.note(w.time(), "say \"hi\"\n\\", "", "");
+      w.step();
+    }
+    std::string error;
+    ASSERT_TRUE(b.close(&error)) << error;
+    EXPECT_EQ(b.summary().find(mcap.string() + ": 219 messages on 8 channels (/world/arm 31,"), 0u) << b.summary();
+  }
+  std::ifstream in(mcap, std::ios::binary);
+  std::stringstream bytes;
+  bytes << in.rdbuf();
+  dca::mcap::Contents contents;
+  std::string error;
+  ASSERT_TRUE(dca::mcap::read(bytes.str(), &contents, &error)) << error;
+  ASSERT_EQ(contents.channels.size(), 8u);
+  EXPECT_EQ(contents.channels.at(8).topic, "/dca/events");
+  std::vector<std::string> events;
+  for (const auto& m : contents.messages)
+    if (m.channel == 8) events.push_back(m.data);
+  ASSERT_EQ(events.size(), 2u);
+  EXPECT_EQ(events[0], R"({"line":"main.a: running","path":"main.a","state":"running"})");
+  EXPECT_EQ(events[1], R"({"line":"say \"hi\"\u000a\\","path":"","state":""})");
+  ASSERT_TRUE(dca::sim::mcap_to_csv(mcap.string(), back.string(), &error)) << error;
+  const auto want = lines(csv), got = lines(back);
+  ASSERT_EQ(got.size(), want.size());
+  EXPECT_EQ(got[0], dca::sim::csv_header());
+  for (size_t i = 1; i < want.size(); ++i) {
+    const auto w = numbers(want[i]), g = numbers(got[i]);
+    ASSERT_EQ(g.size(), w.size());
+    for (size_t k = 0; k < w.size(); ++k) EXPECT_NEAR(g[k], w[k], 1e-4) << "row " << i << " column " << k;
+  }
+  fs::remove(csv);
+  fs::remove(mcap);
+  fs::remove(back);
 }
 
 }  // namespace

@@ -42,6 +42,16 @@ function S:_step(line, t)
   end
 end
 
+-- With --record FILE.mcap: the line, at its time, to the recording's channel /dca/events (the world writes it;
+-- the reply is not waited for).
+function S:_note(line, t)
+  local file = self.world.o.record
+  if not (file and file:match("%.mcap$") and self.world:connected()) then return end
+  local path, word = transition(line)
+  self.world:request({ type = "note", t = t, line = tostring(line), path = path or "", state = word or "" }, 10,
+                     function() end)
+end
+
 -- Calls back the stamped lines in order, as far as they have their time.
 function S:_flush()
   while self.pending[1] and self.pending[1].t do
@@ -51,6 +61,7 @@ function S:_flush()
     e.t = max(e.t, self.t_flushed or 0)
     self.t_flushed = e.t
     self:_step(e.line, e.t)
+    self:_note(e.line, e.t)
     e.fn(e.t, e.line)
   end
 end
