@@ -77,7 +77,7 @@ end
 
 --- The DOT text of the tree rooted at `tree` (a dca.lang.model node).
 function M.dot(tree)
-  local out = { "digraph dca {", "  rankdir=TB;", "  compound=true;", "  nodesep=0.5;",
+  local out = { "digraph dca {", "  rankdir=TB;", "  compound=true;", "  ordering=out;", "  nodesep=0.5;",
                 "  ranksep=0.35;", '  node [fontname="Helvetica", fontsize=10, shape=box, style=rounded];',
                 '  edge [fontname="Helvetica", fontsize=9];' }
   local function add(indent, s) out[#out + 1] = string.rep("  ", indent) .. s end
@@ -97,15 +97,15 @@ function M.dot(tree)
                             q(group_label(n))))
     local top = q(n.path)
     add(indent + 1, sformat("%s [shape=point, style=invis, width=0, height=0, label=\"\"];", top))
-    local above = { top }
+    local above, column = { top }, nil  -- column: the previous row of leaves, whose i-th is above this one's i-th
     for _, row in ipairs(rows_of(n)) do
-      local below = {}
-      for _, c in ipairs(row) do
+      local below, leaves = {}, row[1].kind ~= "group"
+      for i, c in ipairs(row) do
         local t, bs = emit(c, indent + 1)
-        after(above, t)
+        if leaves and column and column[i] then after({ column[i] }, t) else after(above, t) end
         for _, b in ipairs(bs) do below[#below + 1] = b end
       end
-      above = below
+      above, column = below, leaves and below or nil
     end
     add(indent, "}")
     return top, above
