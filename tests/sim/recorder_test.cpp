@@ -105,7 +105,7 @@ TEST(RecorderTest, DcaSimRecordsAndDcaPlotDraws) {
   ASSERT_EQ(std::system((exe + " sim --script " + script.string() + " --record " + csv.string() + " > " + out).c_str()), 0);
   const auto printed = lines(out);
   ASSERT_FALSE(printed.empty());
-  EXPECT_EQ(printed.back(), "recorded " + csv.string());
+  EXPECT_EQ(printed.back(), "recorded " + csv.string() + ": 101 rows");
   EXPECT_EQ(lines(csv).size(), 102u);  // header, t = 0, and every 10 ms to 1 s
   ASSERT_EQ(std::system((exe + " plot " + csv.string() + " -o " + png.string() + " > /dev/null").c_str()), 0);
   EXPECT_TRUE(fs::exists(png));
