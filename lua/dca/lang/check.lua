@@ -22,6 +22,7 @@
 -- their declared parameters; a group's supervisor runs on its `host { }` (or its parent's host).
 -- The expression of internal_event_actions names *instances* (motionctrl), never types (MotionControl).
 local source = require "dca.lang.source"
+local props = require "dca.verify.props"
 
 local M = {}
 
@@ -525,6 +526,23 @@ local function usable_strings(ctx, p, sc)
   end
 end
 
+--- The verify { } section: its properties parse and name the process's instances (dca.verify.props), so a plain
+--- `dca check` reports them; `--verify` checks what they say.
+local function verify_section(ctx, p, sc)
+  if not p.verify then return end
+  local own = {}
+  for _, q in ipairs(ctx.ast.processes) do
+    for _, inst in ipairs(q.instances) do
+      if inst.type == p.name then own[inst.name] = true end
+    end
+  end
+  local _, errors = props.of_process(p, own)
+  for _, e in ipairs(errors) do
+    local line, col = ctx.ast.index:at(e.pos)
+    err(ctx, sc.base, line, col, "%s", e.msg)
+  end
+end
+
 -- -------------------------------------------------------------------------------------------- the pipeline
 
 --- A pass run for each process definition p, with its scope sc: fn(ctx, p, sc).
@@ -539,6 +557,7 @@ M.passes = {
   known_types, instance_paths, duplicate_definitions, scopes, uses,        -- the context, the packages
   each(parameters), each(process_host), each(instances), each(leaves),     -- each process definition
   each(external_io), each(connection_sets), each(connections), each(actions), each(usable_strings),
+  each(verify_section),                                                    -- its properties' names
   recursion,                                                               -- between process types
 }
 

@@ -6,8 +6,9 @@
 --   -- expr: a dca.algebra expression; operands[name] = { events = { ev, ... } }: what each operand (a leaf's
 --   --   type, or a sub-group's outcomes) can do while it runs; ev = { kind = "done"|"aborted"|"error",
 --   --   value = <done value>, fault = true|nil, reasons = { ... } (aborted/error) }
---   -- opts: { sets = { { a = "owner[label]", b = "owner[label]", why = ... } ... } (connection sets that must
---   --   not be active together), monitors = { m ... } (dca.verify.props), max_states = N }
+--   -- opts: { sets = { { a = "owner[label]", b = "owner[label]" | "operand", why = ... } ... } (connection sets
+--   --   that must not be active together; an operand's name: while it runs), monitors = { m ... }
+--   --   (dca.verify.props), max_states = N }
 --
 -- Reductions, both sound for this algebra: a state is the set of running leaf occurrences (not their start
 -- order, which only orders abort commands) with the values collected so far, so interleavings of independent
@@ -16,6 +17,7 @@
 -- The result g:
 --   g.done[value] = trace, g.aborted[operand] = { trace =, ev = } (the event that ended the group), g.stuck =
 --   { { trace, waiting = { names } } }, g.started[leaf id] = true, g.conflicts = { { pair, trace } },
+--   g.first_running[operand or "owner[label]"] = a shortest trace to a state where it runs,
 --   g.violations[monitor index] = trace, g.states, g.transitions, g.cycle (a state that can repeat: :;)
 --   A trace is a list of steps { name =, ev = } from the start.
 local algebra = require "dca.algebra"
@@ -57,11 +59,13 @@ local function key_of(c, s, mon)
   return concat(parts, "|")
 end
 
--- Which connection-set names ("owner[label]") a snapshot has active: its running labelled occurrences.
+-- Which connection-set names ("owner[label]") a snapshot has active: its running labelled occurrences; and
+-- its running operands' names (a set of a group operand is active only while the group runs).
 local function active_sets(c, running)
   local out = {}
   for _, l in ipairs(running) do
     local lb = c.label[l]
+    out[c.name[l]] = true
     if lb then out[c.name[l] .. "[" .. lb .. "]"] = true end
   end
   return out
@@ -217,6 +221,8 @@ local function reach(g, ctx, from, step, snap, mstate, cohort, ckey)
     g.started[l] = true
     local nm = ctx.c.name[l]
     if not g.first_running[nm] then g.first_running[nm] = trace_to(states, i) end
+    local set = ctx.c.label[l] and (nm .. "[" .. ctx.c.label[l] .. "]")
+    if set and not g.first_running[set] then g.first_running[set] = trace_to(states, i) end
   end
   findings(g, ctx, i, snap)
 end

@@ -14,9 +14,11 @@
 --
 -- result = { groups = { R, ... } (children before parents), root = R, states =, transitions =, seconds = }
 -- R = { type, path, node, done = { { value, trace } }, aborted = { { reason, fault, trace } }, stuck =
---       { { waiting, trace } }, never_ends, dead = { leaf expr nodes }, conflicts = { { a, b, why, trace } },
+--       { { waiting, trace } }, never_ends, dead = { leaf expr nodes }, conflicts = { { a, b, why, trace, inner } },
 --       props = { { prop, ok, trace, note } }, states, transitions, cycle }
--- A trace is a list of steps { name, ev, pick } of that group; dca.verify.trace expands it to leaf events.
+-- A trace is a list of steps { name, ev, pick } of that group; dca.verify.trace expands it to leaf events. A
+-- conflict between a set of R and a set of a group below it (the same leaf input, through external_io) has
+-- inner = { { r, path, trace } ... }: from R's state where both run, the trace inside each group down to it.
 local explore = require "dca.verify.explore"
 local props = require "dca.verify.props"
 local model = require "dca.lang.model"
@@ -103,20 +105,53 @@ local function set_conflicts(node, conns)
   return pairs_out
 end
 
--- The group's properties (its verify section), checked against its operands: parsed list, errors.
-local function group_props(node, ast)
-  local v = node.process.verify
-  if not v then return {}, {} end
-  local list, errors = props.parse(v.text, v.pos)
-  for _, p in ipairs(list) do
-    for _, n in ipairs(props.names(p)) do
-      local own = p.kind == "can_end" and (n.text == node.process.name or n.text == node.name)
-      if not own and not node.children[n.text] then
-        errors[#errors + 1] = { pos = n.pos, msg = sformat("no instance '%s' in process '%s'", n.text,
-                                                            node.process.name) }
+-- The pairs of one set of `node` and one set of a group below it that feed one leaf input (connections resolved
+-- through external_io by model.connections) from two writers. The lower set is active while the child operand
+-- `b` it runs in runs and, inside it, each group of `chain` runs the next one and the last runs `target`.
+local function cross_conflicts(node, conns)
+  local own, below, out, seen = {}, {}, {}, {}
+  local prefix = node.path .. "."
+  for _, c in ipairs(conns) do
+    local item = { dest = c.to.path .. "." .. c["in"], writer = c.from.path .. "." .. c.out, c = c }
+    if c.group == node then own[#own + 1] = item
+    elseif c.group.path:sub(1, #prefix) == prefix then below[#below + 1] = item end
+  end
+  for _, x in ipairs(own) do
+    for _, y in ipairs(below) do
+      local key = x.c.set .. "\0" .. y.c.set
+      if x.dest == y.dest and x.writer ~= y.writer and not seen[key] then
+        seen[key] = true
+        local chain, g = {}, node
+        for name in y.c.group.path:sub(#prefix + 1):gmatch("[^.]+") do
+          g = g.children[name]
+          chain[#chain + 1] = g
+        end
+        out[#out + 1] = { a = x.c.owner .. "[" .. x.c.label .. "]", b = chain[1].name, chain = chain,
+                          target = y.c.owner .. "[" .. y.c.label .. "]", show_a = x.c.set, show_b = y.c.set,
+                          why = sformat("%s is fed by %s and %s", x.dest, x.writer, y.writer) }
       end
     end
   end
+  return out
+end
+
+-- The traces inside the groups of a cross-group conflict's chain (each a shortest one to the state that runs
+-- the next group, or the lower set), or nil when one of them never runs there.
+local function chain_traces(ctx, pair)
+  local inner = {}
+  for i, child in ipairs(pair.chain) do
+    local cr = ctx.memo[child.process.name]
+    local want = pair.chain[i + 1] and pair.chain[i + 1].name or pair.target
+    local trace = cr and cr.first_running[want]
+    if not trace then return nil end
+    inner[i] = { r = cr, path = child.path, trace = trace }
+  end
+  return inner
+end
+
+-- The group's properties (its verify section), checked against its operands: parsed list, errors.
+local function group_props(node, ast)
+  local list, errors = props.of_process(node.process, { [node.name] = true })
   local out = {}
   for _, e in ipairs(errors) do
     local line, col = ast.index:at(e.pos)
@@ -170,7 +205,8 @@ local function summarize(g, operands)
     return x.reason < y.reason
   end)
   for _, c in ipairs(g.conflicts) do
-    r.conflicts[#r.conflicts + 1] = { a = c.pair.a, b = c.pair.b, why = c.pair.why, trace = c.trace }
+    r.conflicts[#r.conflicts + 1] = { a = c.pair.show_a or c.pair.a, b = c.pair.show_b or c.pair.b, why = c.pair.why,
+                                      trace = c.trace, pair = c.pair }
   end
   for _, leaf in ipairs(g.expr.leaves) do
     if not g.started[leaf.id] then r.dead[#r.dead + 1] = leaf end
@@ -251,7 +287,15 @@ local function group(ctx, node)
   end
   local list, perrs = group_props(node, ctx.ast)
   for _, e in ipairs(perrs) do ctx.errors[#ctx.errors + 1] = e end
-  local r = M.expression(def.actions.expr, operands, list, set_conflicts(node, ctx.conns), ctx.max_states)
+  local sets = set_conflicts(node, ctx.conns)
+  for _, p in ipairs(cross_conflicts(node, ctx.conns)) do sets[#sets + 1] = p end
+  local r = M.expression(def.actions.expr, operands, list, sets, ctx.max_states)
+  local kept = {}
+  for _, c in ipairs(r.conflicts) do
+    c.inner = c.pair.chain and chain_traces(ctx, c.pair)
+    if c.inner or not c.pair.chain then kept[#kept + 1] = c end
+  end
+  r.conflicts = kept
   r.type, r.path, r.node = def.name, node.path, node
   ctx.states, ctx.transitions = ctx.states + r.states, ctx.transitions + r.transitions
   ctx.memo[def.name] = r

@@ -179,6 +179,27 @@ function M.names(p)
   return out
 end
 
+--- The properties of process definition `proc`'s verify section (nil: none), each name checked against its
+--- instances (`can end` also takes the process's own name and the names in `own`, a set: the instances of it).
+--- Returns the list and the errors { pos, msg } (file offsets). `dca check` reports these errors with the
+--- file's other ones (dca.lang.check); `--verify` checks the properties.
+function M.of_process(proc, own)
+  local v = proc.verify
+  if not v then return {}, {} end
+  local list, errors = M.parse(v.text, v.pos)
+  local inst = {}
+  for _, i in ipairs(proc.instances) do inst[i.name] = true end
+  for _, p in ipairs(list) do
+    for _, n in ipairs(M.names(p)) do
+      local self = p.kind == "can_end" and (n.text == proc.name or (own and own[n.text]))
+      if not self and not inst[n.text] then
+        errors[#errors + 1] = { pos = n.pos, msg = sformat("no instance '%s' in process '%s'", n.text, proc.name) }
+      end
+    end
+  end
+  return list, errors
+end
+
 ------------------------------------------------------------------------------------------- monitors
 
 -- A monitor sees each step of the exploration (dca.verify.explore): step(ch, step, rec, running) -> next ch,

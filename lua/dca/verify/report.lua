@@ -117,6 +117,10 @@ local function findings(r, out, traces)
   for _, c in ipairs(r.conflicts) do
     out[#out + 1] = sformat("  FINDING connection sets %s and %s can be active together: %s", c.a, c.b, c.why)
     for _, l in ipairs(M.trace_lines(r, c.trace)) do out[#out + 1] = l end
+    for _, inner in ipairs(c.inner or {}) do
+      out[#out + 1] = sformat("      then inside %s (process %s):", inner.path, inner.r.type)
+      for _, l in ipairs(M.trace_lines(inner.r, inner.trace)) do out[#out + 1] = l end
+    end
   end
   for _, p in ipairs(r.props) do
     out[#out + 1] = (p.ok and "  holds     " or "  VIOLATED  ") .. p.prop.text

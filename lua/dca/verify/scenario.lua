@@ -33,7 +33,12 @@ local function all(result)
                                        text = r.path .. " gets stuck waiting on " .. concat(st.waiting, ", ") } }
     end
     for _, c in ipairs(r.conflicts) do
-      out[#out + 1] = { r = r, cex = { trace = c.trace, kind = "conflict", sets = { c.a, c.b }, text = c.why } }
+      local p = c.pair
+      local owners = { r.path .. "." .. p.a:match("^[^%[]+") }
+      owners[2] = c.inner and (c.inner[#c.inner].path .. "." .. p.target:match("^[^%[]+")) or
+        (r.path .. "." .. p.b:match("^[^%[]+"))
+      out[#out + 1] = { r = r, cex = { trace = c.trace, inner = c.inner, kind = "conflict", owners = owners,
+                                       text = c.why } }
     end
   end
   return out
@@ -97,9 +102,7 @@ local function check_step(r, cex)
     l[#l + 1] = "  local out = sys:wait_outcome(5)"
     if cex.prop.how then l[#l + 1] = sformat("  S.eq(out.type, %q)", cex.prop.how) end
   elseif k == "conflict" then
-    for _, s in ipairs(cex.sets) do
-      l[#l + 1] = sformat("  S.eq(sys:state(%s), \"running\")", q(base .. s:match("^[^%[]+")))
-    end
+    for _, path in ipairs(cex.owners) do l[#l + 1] = sformat("  S.eq(sys:state(%s), \"running\")", q(path)) end
   else  -- stuck (also a 'can end' that fails): nothing ends, however long it runs (an hour of simulated time
     -- in memory, 2 s (stretched to 28 s by dca.scenario.real.bound) on the real backend)
     l[#l + 1] = "  local ended, out = pcall(sys.wait_outcome, sys, S.backend == \"real\" and 2 or 3600)"
@@ -142,7 +145,9 @@ function M.text(result, file, root, n)
     local s = event_step(e)
     if s then out[#out + 1] = s end
   end
-  for _, e in ipairs(report.flatten(cex.trace, r.path .. ".")) do
+  local events = report.flatten(cex.trace, r.path .. ".")
+  for _, inner in ipairs(cex.inner or {}) do report.flatten(inner.trace, inner.path .. ".", events) end
+  for _, e in ipairs(events) do
     local s = event_step(e)
     if s then out[#out + 1] = s end
   end
