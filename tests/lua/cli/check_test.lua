@@ -68,6 +68,26 @@ suite:case("errors_are_printed_and_exit_1", function()
   os.remove(path)
 end)
 
+suite:case("verify_section_errors_come_with_the_other_errors", function()
+  -- a plain `dca check` (no --verify) reports a verify { } section's errors at file:line:col, in file order
+  -- with the file's other errors, and exits 1
+  local path = tmpfile([[use door;
+process main() {
+  instantiated_processes {
+    stop instof Timer("h", 1);
+    odd  instof NoSuchType("h");
+  }
+  internal_event_actions { stop }
+  verify { ghost never starts before stop is done; main can end done; }
+}
+]])
+  local out = T.dca("check " .. path, 1, path .. ":5:17: main.odd: unknown process type 'NoSuchType'",
+    path .. ":8:12: main: no instance 'ghost' in process 'main'", path .. ": 2 errors")
+  T.ok(not out:find(": ok:", 1, true), out)
+  T.ok(out:find(":5:17:", 1, true) < out:find(":8:12:", 1, true), "in file order")
+  os.remove(path)
+end)
+
 suite:case("registry_is_used_when_dca_core_has_types", function()
   local path = tmpfile("process main() {\n  instantiated_processes { t instof Timer(\"h\", 30); x instof NoSuchType(\"h\"); }\n" ..
                        "  internal_event_actions { t # x }\n}\n")

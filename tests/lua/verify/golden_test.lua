@@ -47,4 +47,16 @@ golden("paper_door_as_written_never_ends_done", here .. "/systems/door_paper.dca
 golden("door_properties", here .. "/systems/door_props.dca", "door_props.dca",
        here .. "/golden/door_props.out", false)
 
+suite:case("cross_conflict_needs_both_sets_active_together", function()
+  -- the same connections, but main runs inner to its end before outer starts: no conflict
+  local text = T.read(here .. "/golden/cross_conflict.dca")
+  local seq, n = text:gsub("stop # %(outer%[lbl1%], inner%)", "inner ; (stop # outer[lbl1])")
+  T.eq(n, 1)
+  local ast, tree = load.text(seq, "cross_seq.dca", {})
+  T.ok(ast, tree)
+  local result = assert(verify.system(tree, { ast = ast }))
+  for _, r in ipairs(result.groups) do T.eq(#r.conflicts, 0, r.path) end
+  T.ok(not report.text(result):find("connection sets", 1, true))
+end)
+
 return suite:run(...)

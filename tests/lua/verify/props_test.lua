@@ -23,11 +23,14 @@ suite:case("every_pattern_parses", function()
   T.eq(list[8].how, "aborted")
 end)
 
--- `dca check --verify` on a system whose verify section is `body`: exit code 1 and each fragment.
+-- `dca check --verify` on a system whose verify section is `body`: exit code 1 and each fragment; a plain
+-- `dca check` reports the same errors with the file's others (no "ok" line).
 local function bad(body, ...)
   local file = T.tmpfile("process main() {\n  instantiated_processes {\n    a instof Threshold(\"h\", 1);\n" ..
     "    b instof Timer(\"h\", 1);\n  }\n  internal_event_actions { a ; b }\n  verify {\n" .. body .. "\n  }\n}\n")
   T.dca("check " .. file .. " --verify", 1, ...)
+  local out = T.dca("check " .. file, 1, ...)
+  T.ok(out:match(" errors?\n$") and not out:find(": ok:", 1, true), "plain check: errors, no ok line: " .. out)
   os.remove(file)
 end
 

@@ -49,4 +49,10 @@ suite:case("the_door_properties_and_the_stuck_and_conflict_kinds_replay", functi
   replay_all(abs(here .. "/golden/conflict.dca"), { "main.gain.In is fed by main.one.Out and main.two.Out" })
 end)
 
+suite:case("a_conflict_across_groups_replays", function()
+  -- the lead-in runs main's trace, then the trace inside main.inner; the last step sees both owners running
+  replay_all(abs(here .. "/golden/cross_conflict.dca"),
+             { "main.inner.gain.In is fed by main.outer.Out and main.inner.src.Out" })
+end)
+
 return suite:run(...)
