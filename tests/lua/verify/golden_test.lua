@@ -34,7 +34,8 @@ local function golden(case, path, name, out_path, traces)
   end)
 end
 
-local kinds = { "stuck", "never_ends", "dead", "conflict", "cross_conflict", "props", "loop", "timers" }
+local kinds = { "stuck", "never_ends", "dead", "conflict", "cross_conflict", "cross_conflict_deep", "props", "loop",
+                "timers" }
 for _, k in ipairs(kinds) do
   golden(k, here .. "/golden/" .. k .. ".dca", k .. ".dca", here .. "/golden/" .. k .. ".out", true)
 end

@@ -53,6 +53,8 @@ suite:case("a_conflict_across_groups_replays", function()
   -- the lead-in runs main's trace, then the trace inside main.inner; the last step sees both owners running
   replay_all(abs(here .. "/golden/cross_conflict.dca"),
              { "main.inner.gain.In is fed by main.outer.Out and main.inner.src.Out" })
+  replay_all(abs(here .. "/golden/cross_conflict_deep.dca"),
+             { "main.mid.in2.gain.In is fed by main.outer.Out and main.mid.in2.src.Out" })
 end)
 
 return suite:run(...)
