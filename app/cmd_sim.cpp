@@ -30,7 +30,7 @@ constexpr const char* kUsage =
     "               [--jammed]\n"
     "               [--print-door-urdf]\n"
     "       dca sim --serve --daemon ADDR [--name world] [--key FILE] [--host NAME] [--go] [--sync S]\n"
-    "               [--command-timeout S] [--tick-timeout MS] [world options as above]\n\n"
+    "               [--command-timeout S] [--tick-timeout MS] [--trace FILE] [world options as above]\n\n"
     "Runs the simulated world (the mobile manipulator and the door, Simbody, from sim/models/) in lock-step\n"
     "at a fixed control period (default 0.001 s), as fast as the machine allows or, with --realtime, paced to\n"
     "the wall clock. Without --script the built-in scripted door opening drives the robot (drive to the door,\n"
@@ -55,7 +55,9 @@ constexpr const char* kUsage =
     "Prints `dca sim: world ready` once registered and a summary when it exits (`exit` request or SIGTERM).\n"
     "  --sync S             every subscriber is advanced at least every S seconds (default 0.01)\n"
     "  --command-timeout S  base and arm commands older than S count as zero (default 0.05)\n"
-    "  --tick-timeout MS    a node that does not answer an advance in MS is dropped from the clock (10000)\n\n"
+    "  --tick-timeout MS    a node that does not answer an advance in MS is dropped from the clock (10000)\n"
+    "  --trace FILE         writes the lock-step trace: every output's samples per tick (count, digest, value),\n"
+    "                       set switches, events, lost nodes (`dca trace diff` compares two)\n\n"
     "Prints each step of the door opening as it starts and a summary (`door opened to NN.N deg`). Exit code 0\n"
     "on success, 1 if the scripted opening fails or the world cannot be built, 2 on a usage error.";
 
@@ -169,9 +171,9 @@ std::string set_value(const std::string& a, const char* v, Options& o) {
   if (a == "--period")
     return positive(v, o.period) && o.period <= 0.01 ? "" : "--period needs seconds in (0, 0.01]";
   if (a == "--record-period") return positive(v, o.record_period) ? "" : "--record-period needs positive seconds";
-  if (a == "--script" || a == "--record") {
+  if (a == "--script" || a == "--record" || a == "--trace") {
     if (!v) return a + " needs a file";
-    (a == "--script" ? o.script : o.record) = v;
+    (a == "--script" ? o.script : a == "--record" ? o.record : o.node.trace) = v;
     return "";
   }
   if (a == "--daemon" || a == "--name" || a == "--key" || a == "--host") {
@@ -194,7 +196,7 @@ std::string set_value(const std::string& a, const char* v, Options& o) {
 // Parses argv into `o`: 0, or 2 after printing the usage error.
 int parse(std::span<char* const> args, Options& o) {
   static const std::string kValued =
-      " --world --seed --door-width --duration --period --record-period --script --record --daemon --name --key"
+      " --world --seed --door-width --duration --period --record-period --script --record --trace --daemon --name --key"
       " --host --sync --command-timeout --tick-timeout ";
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string a = args[i];

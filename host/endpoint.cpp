@@ -97,6 +97,18 @@ struct Endpoint::Impl {
   std::uint64_t bytes_received = 0;
   std::uint64_t refused = 0;
   bool closing = false;
+  bool gated = false;  // lock-step delivery (set_gated)
+  std::map<std::string, std::unique_ptr<LinkGate>, std::less<>> gates;  // by link_key, never removed
+
+  /// The gate of connection `key` (made on first use; a connection made again under the same name starts
+  /// its counts again).
+  LinkGate& gate(const std::string& key, bool fresh) {
+    auto& g = gates[key];
+    if (!g) g = std::make_unique<LinkGate>();
+    else if (fresh && g->received() > 0) g->reset();
+    g->gated = gated;
+    return *g;
+  }
 
   std::shared_ptr<bool> set_flag(const std::string& name) {
     auto it = sets.find(name);
@@ -331,8 +343,8 @@ class DataSocket : public std::enable_shared_from_this<DataSocket>, private Fram
 // In-process connection: the sample is copied straight into the input.
 class LocalLink final : public Connection, public PullSource, public InputFeeder {
  public:
-  LocalLink(ConnectRequest r, Output* out, Input* in, std::shared_ptr<bool> active)
-      : Connection(std::move(r), Transport::InProcess, out, std::move(active)), in_(in) {
+  LocalLink(ConnectRequest r, Output* out, Input* in, std::shared_ptr<bool> active, LinkGate& gate)
+      : Connection(std::move(r), Transport::InProcess, out, std::move(active)), in_(in), gate_(&gate) {
     in_->add_feeder(this);
     if (info_.request.mode == Mode::Pull) in_->add_pull_source(this);
     else in_->reserve_queue(info_.request.queue);
@@ -349,7 +361,7 @@ class LocalLink final : public Connection, public PullSource, public InputFeeder
       return;
     }
     ++info_.sent;
-    in_->deliver(b);
+    gate_->deliver(*in_, b);
   }
   void input_gone() override { in_ = nullptr; }
   void request() override {
@@ -376,6 +388,7 @@ class LocalLink final : public Connection, public PullSource, public InputFeeder
     in_->deliver_pulled(out_->latest_bytes());
   }
   Input* in_;
+  LinkGate* gate_;
   bool pending_ = false;
 };
 
@@ -444,7 +457,8 @@ class StreamLink final : public Connection {
 // The receiving side of a link over a socket: feeds one local input with what its trunk receives for it.
 class InLink final : public PullSource, public InputFeeder {
  public:
-  InLink(Trunk& trunk, std::uint32_t id, ConnectRequest r, Input* in) : trunk_(&trunk), id_(id), r_(std::move(r)), in_(in) {
+  InLink(Trunk& trunk, std::uint32_t id, ConnectRequest r, Input* in, LinkGate& gate)
+      : trunk_(&trunk), id_(id), r_(std::move(r)), in_(in), gate_(&gate) {
     in_->add_feeder(this);
     if (r_.mode == Mode::Pull) in_->add_pull_source(this);
     else in_->reserve_queue(r_.queue);
@@ -455,7 +469,7 @@ class InLink final : public PullSource, public InputFeeder {
 
   void deliver(Kind kind, Bytes body) {
     if (!in_) return;
-    if (kind == Kind::Sample) in_->deliver(body);
+    if (kind == Kind::Sample) gate_->deliver(*in_, body);
     else in_->deliver_pulled(body);
   }
   void request() override;
@@ -475,6 +489,7 @@ class InLink final : public PullSource, public InputFeeder {
   std::uint32_t id_;
   ConnectRequest r_;
   Input* in_;
+  LinkGate* gate_;
 };
 
 // One socket connection between this endpoint and another, opened by either: the cluster-key handshake (Auth
@@ -689,7 +704,7 @@ class Trunk final : public DataSocket {
       send(Kind::HelloError, id, as_bytes(error));
       return;
     }
-    in_.emplace(id, std::make_unique<InLink>(*this, id, h.request, in));
+    in_.emplace(id, std::make_unique<InLink>(*this, id, h.request, in, ep_->gate(link_key(h.request), true)));
     send(Kind::HelloOk, id, {});
   }
   // The source removed link `id` (reported where it ends, as when its connection closes), or moved it to the
@@ -1014,7 +1029,7 @@ void Endpoint::connect(const ConnectRequest& r, const Location& dest, ConnectDon
     Input* in = nullptr;
     const std::string error = impl_->check_destination(r, out->spec(), in);
     if (!error.empty()) return done(error);
-    impl_->links.push_back(std::make_shared<LocalLink>(r, out, in, flag));
+    impl_->links.push_back(std::make_shared<LocalLink>(r, out, in, flag, impl_->gate(link_key(r), true)));
     return done("");
   }
   std::string error;
@@ -1048,6 +1063,38 @@ void Endpoint::on_event(std::function<void(const CommsEvent&)> fn) { impl_->on_e
 bool Endpoint::active(const std::string& set) const {
   auto it = impl_->sets.find(set);
   return it != impl_->sets.end() && *it->second;
+}
+
+void Endpoint::set_gated(bool on) {
+  impl_->gated = on;
+  for (auto& [key, g] : impl_->gates) g->gated = on;
+}
+
+std::vector<Endpoint::SentCount> Endpoint::sent_counts() const {
+  std::vector<SentCount> v;
+  for (const auto& l : impl_->links)
+    if (l->request().mode == Mode::Push) v.push_back({l->request().to, link_key(l->request()), l->info().sent});
+  return v;
+}
+
+// The input a gate feeds: the destination component's input named in the key ("from|out>to|in@set").
+static Input* gate_input(const Endpoint::Impl& ep, const std::string& key) {
+  const auto gt = key.find('>'), at = key.rfind('@');
+  if (gt == std::string::npos || at == std::string::npos || at < gt) return nullptr;
+  const std::string dest = key.substr(gt + 1, at - gt - 1);
+  const auto bar = dest.find('|');
+  if (bar == std::string::npos) return nullptr;
+  auto it = ep.components.find(std::string_view(dest).substr(0, bar));
+  return it == ep.components.end() ? nullptr : it->second->find_input(std::string_view(dest).substr(bar + 1));
+}
+
+bool Endpoint::release(const std::string& key, std::uint64_t n) {
+  return impl_->gate(key, false).release(gate_input(*impl_, key), n);
+}
+
+std::uint64_t Endpoint::received(const std::string& key) const {
+  auto it = impl_->gates.find(key);
+  return it == impl_->gates.end() ? 0 : it->second->received();
 }
 
 std::vector<LinkInfo> Endpoint::links() const {

@@ -130,6 +130,22 @@ class Endpoint {
   /// Sets the callback for data-plane events (broken connections, first overflow of an input).
   void on_event(std::function<void(const CommsEvent&)> fn);
 
+  /// Lock-step delivery (ARCHITECTURE.md "Time", host/port.h LinkGate): with `on`, a sample pushed into this
+  /// endpoint's inputs waits until release() counts it in. In-process and socket connections alike.
+  void set_gated(bool on);
+  /// One push connection from this endpoint's outputs as the clock master counts it.
+  struct SentCount {
+    std::string to;   ///< the destination component
+    std::string key;  ///< link_key(request)
+    std::uint64_t sent;
+  };
+  /// Every push connection from this endpoint's outputs with the samples it has sent.
+  std::vector<SentCount> sent_counts() const;
+  /// Lets the first `n` samples of connection `key` (link_key) into their input; true when all `n` arrived.
+  bool release(const std::string& key, std::uint64_t n);
+  /// Samples arrived on connection `key` (0 when none yet).
+  std::uint64_t received(const std::string& key) const;
+
   /// Every connection from this endpoint's outputs.
   std::vector<LinkInfo> links() const;
   /// Number of data connections accepted from other processes and still open (one per peer endpoint that

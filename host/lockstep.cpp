@@ -23,9 +23,26 @@ LockstepCore::LockstepCore(LockstepOptions options, LockstepHooks hooks)
   duration_ = opts_.duration >= 0 ? from_seconds(opts_.duration) : -1;
 }
 
-void LockstepCore::subscribe(const void* origin, std::string name, std::shared_ptr<ClockLink> link) {
+void LockstepCore::subscribe(const void* origin, std::string name, std::shared_ptr<ClockLink> link, bool supervisor) {
   for (auto it = subs_.begin(); it != subs_.end();) it = it->second.origin == origin ? subs_.erase(it) : std::next(it);
-  subs_[next_sub_++] = {origin, std::move(name), std::move(link), std::nullopt};
+  Subscriber s;
+  s.origin = origin;
+  s.name = std::move(name);
+  s.link = std::move(link);
+  s.supervisor = supervisor;
+  subs_[next_sub_++] = std::move(s);
+}
+
+void LockstepCore::unsubscribe(const void* origin) {
+  for (auto it = subs_.begin(); it != subs_.end();) {
+    if (it->second.origin != origin) {
+      ++it;
+      continue;
+    }
+    if (it->second.supervisor) gone_received_ += it->second.received;
+    gone_events_ += it->second.events;
+    it = subs_.erase(it);
+  }
 }
 
 bool LockstepCore::go() {
@@ -38,47 +55,87 @@ bool LockstepCore::go() {
 
 // Asks for the next tick, unless one is asked for already, time is held or a round is open.
 void LockstepCore::schedule() {
-  if (scheduled_ || !running_ || waiting_ > 0) return;
+  if (scheduled_ || !running_ || waiting_ > 0 || phase_ != Phase::Idle) return;
   scheduled_ = true;
   hooks_.schedule(opts_.realtime ? std::optional<Nanos>(wall0_ + now() + period_) : std::nullopt);
+}
+
+// The owner's inputs: the samples written to it before this tick, counted by their writers' answers.
+std::string LockstepCore::take_owner() {
+  if (!hooks_.take) return "";
+  Value expect = Value::map();
+  auto it = sent_.find(opts_.owner);
+  if (it != sent_.end())
+    for (const auto& [key, n] : it->second)
+      if (auto [t, fresh] = owner_told_.try_emplace(key, n); fresh || t->second != n) {
+        t->second = n;
+        expect.set(key, n);
+      }
+  return expect.as_map().empty() ? "" : hooks_.take(expect);
 }
 
 // The owner steps to t; the due subscribers (if any) are published to and advanced.
 void LockstepCore::tick() {
   scheduled_ = false;
-  if (!running_ || waiting_ > 0 || (hooks_.ready && !hooks_.ready())) return;
+  if (!running_ || waiting_ > 0 || phase_ != Phase::Idle || (hooks_.ready && !hooks_.ready())) return;
   const Nanos w0 = hooks_.wall_now();
+  if (const auto late = take_owner(); !late.empty()) {
+    std::fprintf(stderr, "%s: time holds: %s\n", opts_.log_name.c_str(), late.c_str());
+    dropped_.push_back("time held at " + std::to_string(to_seconds(now())) + " s: " + late);
+    running_ = false;
+    return;
+  }
   hooks_.step();
   ++steps_;
   const Nanos t = now();
   const auto due = due_at(t);
   if (t % sync_ == 0 || !due.empty()) {
     hooks_.publish();
+    if (hooks_.sent) add_sent(hooks_.sent());
+    if (opts_.trace && hooks_.digests) traced(opts_.owner, t, hooks_.digests(), owner_out_);
     hooks_.settle();  // the samples are on their way before anyone is told to tick
   }
   wall_s_ += to_seconds(hooks_.wall_now() - w0);
-  if (duration_ >= 0 && t >= duration_ && !duration_hit_) {
-    duration_hit_ = true;
+  if ((duration_ >= 0 && t >= duration_ && !duration_hit_) || (hold_at_ && t >= *hold_at_)) {
+    if (hold_at_ && t >= *hold_at_) hold_at_.reset();
+    else duration_hit_ = true;
     running_ = false;
   }
   if (due.empty()) return after_tick();
+  phase_ = Phase::Round;
+  round0_ = hooks_.wall_now();
   advance(due, t);
 }
 
-// Every subscriber at a sync tick, else those whose next deadline has come.
+// Every node at a sync tick, else those whose next deadline has come.
 std::vector<std::uint64_t> LockstepCore::due_at(Nanos t) const {
   std::vector<std::uint64_t> due;
   const bool sync_tick = t % sync_ == 0;
   for (const auto& [id, s] : subs_)
-    if (sync_tick || (s.next && *s.next <= t)) due.push_back(id);
+    if (!s.supervisor && (sync_tick || (s.next && *s.next <= t))) due.push_back(id);
   return due;
 }
 
-// Sends `advance {t}` to each of `due`; the round closes with the last answer (the +1 covers links that
+// The counts of the links into `s` that moved since it was last told: {key = n}.
+Value LockstepCore::expect_for(Subscriber& s) {
+  Value expect = Value::map();
+  const std::vector<std::string> self{s.name};
+  for (const auto& leaf : s.leaves.empty() ? self : s.leaves) {
+    auto it = sent_.find(leaf);
+    if (it == sent_.end()) continue;
+    for (const auto& [key, n] : it->second)
+      if (auto [t, fresh] = s.told.try_emplace(key, n); fresh || t->second != n) {
+        t->second = n;
+        expect.set(key, n);
+      }
+  }
+  return expect;
+}
+
+// Sends `advance {t, expect}` to each of `due`; the phase ends with the last answer (the +1 covers links that
 // answer before the loop is done).
 void LockstepCore::advance(const std::vector<std::uint64_t>& due, Nanos t) {
   waiting_ = static_cast<int>(due.size()) + 1;
-  round0_ = hooks_.wall_now();
   std::weak_ptr<bool> alive = alive_;
   for (const auto id : due) {
     auto it = subs_.find(id);
@@ -86,41 +143,186 @@ void LockstepCore::advance(const std::vector<std::uint64_t>& due, Nanos t) {
       --waiting_;
       continue;
     }
-    it->second.link->advance(t, [this, alive, id, t](const std::string& error, bool replied,
-                                                     std::optional<Nanos> next) {
-      if (!alive.expired()) answered(id, t, error, replied, next);
-    });
+    Value p = Value::map().set("t", t);
+    if (auto e = expect_for(it->second); !e.as_map().empty()) p.set("expect", std::move(e));
+    if (opts_.trace) p.set("trace", true);
+    it->second.link->request("advance", std::move(p),
+                             [this, alive, id, t](const std::string& error, bool replied, const Value& reply) {
+                               if (!alive.expired()) answered(id, t, error, replied, reply);
+                             });
   }
-  if (--waiting_ == 0) after_tick();
+  if (--waiting_ == 0) round_done(t);
 }
 
-void LockstepCore::answered(std::uint64_t id, Nanos t, const std::string& error, bool replied,
-                            std::optional<Nanos> next) {
+void LockstepCore::add_sent(const Value& sent) {
+  for (const auto& [to, links] : sent.as_map())
+    for (const auto& [key, n] : links.as_map())
+      sent_[to.as_string()][key.as_string()] = static_cast<std::uint64_t>(n.as_int(0));
+}
+
+// A node's answer: its next deadline, its events, its links' counts (and, tracing, its outputs).
+void LockstepCore::took(Subscriber& s, Nanos t, const Value& reply) {
+  const auto& n = reply["next"];
+  s.next = n.is_nil() ? std::nullopt : std::optional<Nanos>(n.as_int(0));
+  const auto ev = static_cast<std::uint64_t>(reply["ev"].as_int(0));
+  if (opts_.trace && ev != s.events) trace_lines_.push_back(std::to_string(t) + " E " + s.name + " events=" + std::to_string(ev));
+  s.events = ev;
+  for (const auto& [leaf, count] : reply["evs"].as_map())
+    node_events_[leaf.as_string()] = static_cast<std::uint64_t>(count.as_int(0));
+  if (const auto* l = reply.find("leaves")) {
+    s.leaves.clear();
+    for (const auto& v : l->as_array()) s.leaves.push_back(v.as_string());
+  }
+  add_sent(reply["sent"]);
+  if (opts_.trace) traced(s.name, t, reply["dig"], s.out);
+}
+
+// The trace's lines for one answer: each output whose count moved (count, digest, latest value) and each set
+// switched.
+void LockstepCore::traced(const std::string& who, Nanos t, const Value& dig, std::map<std::string, std::uint64_t>& out) {
+  const std::string at = std::to_string(t);
+  for (const auto& o : dig["out"].as_array()) {
+    const auto& a = o.as_array();
+    if (a.size() < 4) continue;
+    auto& last = out[a[0].as_string()];
+    const auto count = static_cast<std::uint64_t>(a[1].as_int(0));
+    if (count == last) continue;
+    last = count;
+    trace_lines_.push_back(at + " D " + a[0].as_string() + " n=" + std::to_string(count) + " digest=" +
+                           a[2].as_string() + " value=" + a[3].str());
+  }
+  for (const auto& sw : dig["sw"].as_array()) trace_lines_.push_back(at + " S " + who + " " + sw.as_string());
+}
+
+void LockstepCore::answered(std::uint64_t id, Nanos t, const std::string& error, bool replied, const Value& reply) {
   const std::string at = std::to_string(to_seconds(t));
+  auto it = subs_.find(id);
   if (!error.empty()) {
     drop(id, replied ? "advance to " + at + " s refused: " + error
                      : "did not answer the advance to " + at + " s (" + error + ")");
-  } else {
+  } else if (it != subs_.end()) {
     ++advances_;
-    if (auto it = subs_.find(id); it != subs_.end()) it->second.next = next;
+    took(it->second, t, reply);
   }
-  if (--waiting_ == 0) {
+  if (--waiting_ > 0) return;
+  if (phase_ == Phase::Round) {
     rounds_.record(hooks_.wall_now() - round0_);
-    after_tick();
+    return round_done(t);
   }
+  if (phase_ == Phase::SyncBefore) return wave(t);
+  round_done(t);  // after the barrier: a reaction may have caused another event
 }
 
+// A node that did not answer counts as lost: an event its supervisor will hear of (its exit).
 void LockstepCore::drop(std::uint64_t id, const std::string& why) {
   auto it = subs_.find(id);
   if (it == subs_.end()) return;
   const std::string msg = it->second.name + ": " + why;
   std::fprintf(stderr, "%s: dropped from the clock: %s\n", opts_.log_name.c_str(), msg.c_str());
   dropped_.push_back(msg);
+  if (opts_.trace) trace_lines_.push_back(std::to_string(now()) + " L " + it->second.name);
+  if (it->second.supervisor) {
+    gone_received_ += it->second.received;
+    supervisor_lost_ = true;
+  } else {  // each of its leaves ends: one exit each at their supervisors
+    const auto& leaves = it->second.leaves;
+    lost_ += leaves.empty() ? 1 : leaves.size();
+    if (leaves.empty()) lost_names_.push_back(it->second.name);
+    lost_names_.insert(lost_names_.end(), leaves.begin(), leaves.end());
+  }
+  gone_events_ += it->second.events;
   subs_.erase(it);
+}
+
+// Events sent by everyone (nodes' done/aborted, nodes lost, supervisors' outcomes to their parents).
+std::uint64_t LockstepCore::events_sent() const {
+  std::uint64_t n = gone_events_ + lost_;
+  for (const auto& [id, s] : subs_) n += s.events;
+  return n;
+}
+
+// The end of a round (or of a barrier's last sync): a barrier if something happened, else the next tick.
+void LockstepCore::round_done(Nanos t) {
+  bool supervisors = false;
+  for (const auto& [id, s] : subs_) supervisors = supervisors || s.supervisor;
+  if (!supervisors || events_sent() == settled_) {
+    phase_ = Phase::Idle;
+    return after_tick();
+  }
+  ++barriers_;
+  last_wave_.clear();
+  sync_all(t, Phase::SyncBefore);
+}
+
+// Every node advanced to t (nothing new is due: their clocks read t, their counts come in).
+void LockstepCore::sync_all(Nanos t, Phase next) {
+  phase_ = next;
+  std::vector<std::uint64_t> all;
+  for (const auto& [id, s] : subs_)
+    if (!s.supervisor) all.push_back(id);
+  advance(all, t);
+}
+
+// One wave of `quiesce {t}` to every supervisor.
+void LockstepCore::wave(Nanos t) {
+  phase_ = Phase::Waves;
+  ++waves_;
+  std::vector<std::uint64_t> sups;
+  for (const auto& [id, s] : subs_)
+    if (s.supervisor) sups.push_back(id);
+  waiting_ = static_cast<int>(sups.size()) + 1;
+  std::weak_ptr<bool> alive = alive_;
+  Value events = Value::map(), lost = Value::array();
+  for (const auto& [name, n] : node_events_) events.set(name, n);
+  for (const auto& name : lost_names_) lost.array_ref().push_back(Value(name));
+  const Value q = Value::map().set("t", t).set("events", events).set("lost", lost);
+  for (const auto id : sups) {
+    subs_[id].link->request("quiesce", q,
+                            [this, alive, id, t](const std::string& error, bool replied, const Value& reply) {
+                              if (alive.expired()) return;
+                              if (!error.empty()) {
+                                drop(id, replied ? "quiesce refused: " + error : "did not answer quiesce (" + error + ")");
+                              } else if (auto it = subs_.find(id); it != subs_.end()) {
+                                it->second.received = static_cast<std::uint64_t>(reply["received"].as_int(0));
+                                it->second.events = static_cast<std::uint64_t>(reply["sent"].as_int(0));
+                              }
+                              if (--waiting_ == 0) waved(t);
+                            });
+  }
+  if (--waiting_ == 0) waved(t);
+}
+
+// After a wave: settled when every event sent was received and the counts did not move since the last wave.
+void LockstepCore::waved(Nanos t) {
+  std::vector<std::pair<std::uint64_t, std::uint64_t>> counts;
+  std::uint64_t received = gone_received_;
+  for (const auto& [id, s] : subs_)
+    if (s.supervisor) {
+      counts.emplace_back(s.received, s.events);
+      received += s.received;
+    }
+  // Once a supervisor is lost (its host gone), the events meant for it are never received: the barrier then
+  // ends on stable counts alone (a lost host is no part of the exact semantics).
+  const bool stable = counts == last_wave_ && (received >= events_sent() || supervisor_lost_);
+  last_wave_ = std::move(counts);
+  if (!stable) return wave(t);
+  settled_ = events_sent();
+  sync_all(t, Phase::SyncAfter);
+}
+
+void LockstepCore::flush_trace() {
+  if (trace_lines_.empty()) return;
+  std::sort(trace_lines_.begin(), trace_lines_.end());
+  if (hooks_.trace) {
+    for (const auto& l : trace_lines_) hooks_.trace(l);
+    hooks_.trace("");  // the tick's end: written out
+  }
+  trace_lines_.clear();
 }
 
 void LockstepCore::after_tick() {
   hooks_.settle();  // take in what the subscribers wrote at this tick
+  flush_trace();
   if (duration_hit_ && on_duration_pending_) {
     on_duration_pending_ = false;
     if (on_duration) on_duration();
@@ -144,7 +346,9 @@ Value LockstepCore::status() const {
       .set("advances", static_cast<std::int64_t>(advances_))
       .set("round_p50_us", static_cast<double>(rounds_.quantile(0.5)) / 1000.0)
       .set("round_p99_us", static_cast<double>(rounds_.quantile(0.99)) / 1000.0)
-      .set("round_max_us", static_cast<double>(rounds_.max()) / 1000.0);
+      .set("round_max_us", static_cast<double>(rounds_.max()) / 1000.0)
+      .set("barriers", static_cast<std::int64_t>(barriers_))
+      .set("waves", static_cast<std::int64_t>(waves_));
 }
 
 // ---------------------------------------------------------------------------------------------------------
@@ -156,11 +360,10 @@ namespace {
 class ChannelClockLink final : public ClockLink {
  public:
   ChannelClockLink(std::shared_ptr<Channel> ch, int timeout_ms) : ch_(std::move(ch)), timeout_(timeout_ms) {}
-  void advance(Nanos t, AdvanceFn done) override {
-    ch_->request({"advance", 0, Value::map().set("t", t)}, timeout_, [done = std::move(done)](Response r) {
-      if (!r.ok()) return done(r.error, r.replied(), std::nullopt);
-      const auto& n = r.message.payload["next"];
-      done("", true, n.is_nil() ? std::nullopt : std::optional<Nanos>(n.as_int(0)));
+  void request(const std::string& type, Value payload, ReplyFn done) override {
+    ch_->request({type, 0, std::move(payload)}, timeout_, [done = std::move(done)](Response r) {
+      if (!r.ok()) return done(r.error, r.replied(), Value());
+      done("", true, r.message.payload);
     });
   }
 
@@ -227,7 +430,8 @@ bool Lockstep::handle(const std::shared_ptr<Channel>& ch, const Message& m) {
   if (m.type == "clock") {
     std::string name = m.payload["name"].as_string();
     if (name.empty()) return ch->reply_error(m, "clock needs the subscriber's name"), true;
-    core_.subscribe(ch.get(), std::move(name), std::make_shared<ChannelClockLink>(ch, opts_.tick_timeout_ms));
+    const bool sup = m.payload["role"].as_string() == "supervisor";
+    core_.subscribe(ch.get(), std::move(name), std::make_shared<ChannelClockLink>(ch, opts_.tick_timeout_ms), sup);
   } else if (m.type == "go") {
     if (master_.expired()) {
       master_ = ch;
@@ -235,8 +439,12 @@ bool Lockstep::handle(const std::shared_ptr<Channel>& ch, const Message& m) {
       watch_master();
     }
     go();
+  } else if (m.type == "unclock") {
+    core_.unsubscribe(ch.get());
+    return true;
   } else if (m.type == "hold") {
-    core_.hold();
+    if (m.payload.find("at")) core_.hold_at(m.payload["at"].as_int(0));
+    else core_.hold();
   } else if (m.type == "status") {
     return ch->reply(m, core_.status()), true;
   } else {

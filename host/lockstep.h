@@ -1,30 +1,43 @@
 #pragma once
 // The lock-step clock master (ARCHITECTURE.md, "Time"): the process that owns simulated time (the simulated
-// world, a log replay, a real robot's driver) and advances every node on it, one period at a time.
+// world, a log replay, a real robot's driver) and advances every node on it, one period at a time, and waits
+// for every supervisor to have handled what happened before it moves on.
 //
 // Two layers, as the frame codec and the channel are:
-//   - LockstepCore is pure: the subscriber table, the rounds of advances, go/hold, the drop of a subscriber
-//     that did not answer (named), and the figures of `status`. It reads no clock and opens no socket: the
-//     process gives it hooks (step, publish, settle, schedule, the wall clock) and feeds it events (tick, the
-//     answers of its ClockLinks), so tests/host/lockstep_test.cpp drives it with fake subscribers.
+//   - LockstepCore is pure: the subscriber table, the rounds of advances, the data counts, the barrier after
+//     an event, go/hold, the drop of a subscriber that did not answer (named), and the figures of `status`.
+//     It reads no clock and opens no socket: the process gives it hooks (step, publish, settle, schedule, the
+//     wall clock, its own data counts) and feeds it events (tick, the answers of its ClockLinks), so
+//     tests/host/lockstep_test.cpp drives it with fake subscribers.
 //   - Lockstep is the thin shell on a Loop: ticks are posted (or paced to the wall clock on a timer), a
 //     subscriber's link is its control channel, and it serves the control requests below.
 //
 // Requests (Lockstep::handle):
-//   clock {name}  -> ok {now}   the channel's node subscribes to `advance` (host/node.h); dropped when its
-//                                channel closes or it does not answer an advance in time
-//   go {}         -> ok {now}   time starts (or resumes) flowing
-//   hold {}       -> ok {now}   time stops after the current tick
-//   status {}     -> ok {now, t, running, steps, wall_s, subscribers = [names], dropped = [reasons], rounds,
-//                       advances, round_p50_us, round_p99_us, round_max_us}: a round is one tick with
-//                       subscribers due (advances sent -> last reply), in wall time
+//   clock {name, role}  -> ok {now}  role "node" (default): the channel's node subscribes to `advance`
+//                                (host/node.h); "supervisor": the supervisor takes part in the barrier
+//                                (`quiesce`, below). Dropped when it does not answer in time.
+//   unclock {}     (event)       the subscriber leaves in order (a node that stops): not counted as lost
+//   go {}           -> ok {now}  time starts (or resumes) flowing
+//   hold {at}       -> ok {now}  time stops after the current tick (at: ns, once it reaches `at`)
+//   status {}       -> ok {now, t, running, steps, wall_s, subscribers = [names], dropped = [reasons], rounds,
+//                       advances, round_p50_us, round_p99_us, round_max_us, barriers, waves}: a round is one
+//                       tick with subscribers due (advances sent -> last reply), in wall time
 //
-// Each tick: the owner steps one period to t (hook `step`); then, if any subscriber is due (its next deadline
-// <= t, or t is a multiple of the sync period, when every subscriber is advanced so that one whose timers were
-// just made is woken), the owner publishes (hook `publish`), what is in flight is delivered (hook `settle`),
-// `advance {t}` goes to each due subscriber, and the next tick waits for every answer (each answer's `next` is
-// remembered), after which what they wrote is delivered (`settle`). A subscriber that does not answer within
-// the tick timeout is dropped with a message naming it.
+// Each tick t (the semantics are ARCHITECTURE.md "Time"):
+//   1. the owner takes in the samples written to it before t (hook `take`, with the counts its writers
+//      reported) and steps one period to t (hook `step`);
+//   2. if a node is due (its next deadline <= t, or t is a multiple of the sync period), the owner publishes
+//      (hook `publish`; its counts from hook `sent`), and `advance {t, expect}` goes to each due node, where
+//      expect = for each link into it, the samples its writer had sent by its last answer; each answer says
+//      its next deadline, its events so far and the links whose counts moved;
+//   3. if a node sent an event (done, aborted) or was lost in that round, the barrier: every node is advanced
+//      to t (so every clock reads t), then waves of `quiesce {t, events, lost}` go to every supervisor until
+//      two waves in a row answer the same counts and every event sent has been received (each supervisor
+//      first waits for the events of its own leaves counted in `events` = {node = events so far} and for the
+//      exits of those in `lost`, handles them in (time, name) order, and answers when it has nothing left to
+//      do: Mattern's counting), then every node is advanced to t again (what the reactions wrote, e.g. a
+//      stopped drive's zero, is counted at t);
+//   4. the next tick.
 #include <cstdint>
 #include <functional>
 #include <map>
@@ -41,15 +54,15 @@ namespace dca {
 
 class Channel;
 
-/// A subscriber as the clock master sees it: where its `advance {t}` goes.
+/// A subscriber as the clock master sees it: where its `advance` (node) or `quiesce` (supervisor) goes.
 class ClockLink {
  public:
-  /// The answer to one advance: error "" and the subscriber's next deadline (nullopt: none), or why not;
-  /// `replied` is false when no answer came at all (timeout, closed link).
-  using AdvanceFn = std::function<void(const std::string& error, bool replied, std::optional<Nanos> next)>;
+  /// The answer to one request: error "" and the reply's payload, or why not; `replied` is false when no
+  /// answer came at all (timeout, closed link).
+  using ReplyFn = std::function<void(const std::string& error, bool replied, const wire::Value& reply)>;
   virtual ~ClockLink() = default;
-  /// Sends `advance {t}`; calls `done` exactly once, later.
-  virtual void advance(Nanos t, AdvanceFn done) = 0;
+  /// Sends the request `type` with `payload`; calls `done` exactly once, later.
+  virtual void request(const std::string& type, wire::Value payload, ReplyFn done) = 0;
 };
 
 /// How the clock master runs.
@@ -60,6 +73,8 @@ struct LockstepOptions {
   bool realtime = false;          ///< pace time to the wall clock (else as fast as the subscribers allow)
   double duration = -1;           ///< s of simulated time after which time holds (-1: never)
   std::string log_name = "dca lockstep";  ///< prefix of its messages on stderr
+  std::string owner = "world";    ///< the owner's component name (links into it are counted for `take`)
+  bool trace = false;             ///< ask the nodes for their outputs' digests (hook `trace` gets the lines)
 };
 
 /// What the clock master asks of the process it runs in.
@@ -71,6 +86,15 @@ struct LockstepHooks {
   /// Calls LockstepCore::tick once, later: at once, or when the wall clock reaches `wall_due` (ns).
   std::function<void(std::optional<Nanos> wall_due)> schedule;
   std::function<Nanos()> wall_now;  ///< the wall clock (ns, CLOCK_MONOTONIC)
+  /// The owner's links whose counts moved: {to = {key = sent}} (empty: the owner writes to nobody).
+  std::function<wire::Value()> sent;
+  /// Lets the samples counted in `expect` ({key = n}) into the owner's inputs, waiting for late ones: "" or
+  /// why not (the writer named). Empty: the owner reads nothing.
+  std::function<std::string(const wire::Value& expect)> take;
+  /// The owner's outputs' digests ({out = [[port, count, digest, value]]}) for the trace.
+  std::function<wire::Value()> digests;
+  /// One line of the trace (with trace on): "t kind who what"; "" at the end of each tick's lines.
+  std::function<void(const std::string& line)> trace;
 };
 
 /// The clock master's logic, without sockets or clocks of its own.
@@ -82,7 +106,11 @@ class LockstepCore {
 
   /// `clock {name}`: subscribes `name` through `link`. A later subscription from the same `origin` (the
   /// connection it came on; never dereferenced) replaces this one.
-  void subscribe(const void* origin, std::string name, std::shared_ptr<ClockLink> link);
+  void subscribe(const void* origin, std::string name, std::shared_ptr<ClockLink> link, bool supervisor = false);
+  /// `unclock`: the subscriber of `origin` leaves in order.
+  void unsubscribe(const void* origin);
+  /// `hold {at}`: time holds once it reaches `at` (ns).
+  void hold_at(Nanos at) { hold_at_ = at; }
   /// `go`: time starts (or resumes) flowing. True if it was held.
   bool go();
   /// `hold`: time stops after the current tick.
@@ -100,15 +128,33 @@ class LockstepCore {
 
  private:
   struct Subscriber {
-    const void* origin;
+    const void* origin = nullptr;
     std::string name;
     std::shared_ptr<ClockLink> link;
+    bool supervisor = false;
     std::optional<Nanos> next;
+    std::map<std::string, std::uint64_t> told;  // per link key into it: the count last sent in `expect`
+    std::uint64_t events = 0;                   // node: events sent; supervisor: events sent up
+    std::uint64_t received = 0;                 // supervisor: events received
+    std::map<std::string, std::uint64_t> out;   // node, trace: samples per output at its last answer
+    std::vector<std::string> leaves;            // node: the components it hosts (its answers say; else its name)
   };
+  enum class Phase { Idle, Round, SyncBefore, Waves, SyncAfter };
   std::vector<std::uint64_t> due_at(Nanos t) const;
   void advance(const std::vector<std::uint64_t>& due, Nanos t);
-  void answered(std::uint64_t id, Nanos t, const std::string& error, bool replied, std::optional<Nanos> next);
+  wire::Value expect_for(Subscriber& s);
+  void answered(std::uint64_t id, Nanos t, const std::string& error, bool replied, const wire::Value& reply);
+  void took(Subscriber& s, Nanos t, const wire::Value& reply);
+  void traced(const std::string& who, Nanos t, const wire::Value& dig, std::map<std::string, std::uint64_t>& out);
+  void add_sent(const wire::Value& sent);
   void drop(std::uint64_t id, const std::string& why);
+  void round_done(Nanos t);
+  void sync_all(Nanos t, Phase next);
+  void wave(Nanos t);
+  void waved(Nanos t);
+  std::uint64_t events_sent() const;
+  std::string take_owner();
+  void flush_trace();
   void after_tick();
   void schedule();
 
@@ -120,13 +166,29 @@ class LockstepCore {
   std::vector<std::string> dropped_;
   long steps_ = 0;
   bool running_ = false, scheduled_ = false, duration_hit_ = false, on_duration_pending_ = true;
-  int waiting_ = 0;  // advances not yet answered (+1 while they are being sent)
+  int waiting_ = 0;  // requests not yet answered (+1 while they are being sent)
+  Phase phase_ = Phase::Idle;
   Nanos wall0_ = 0;  // the wall time at which simulated time would have been 0
   double wall_s_ = 0;  // wall time spent stepping and publishing while running
   // Wall time of each round (advances sent -> last answer): what a simulated control period costs in real time.
   LatenessHistogram rounds_;
   Nanos round0_ = 0;
   std::uint64_t advances_ = 0;  // advances answered
+  // Data counts: for each destination component, for each link into it, the samples sent by its writer's last
+  // answer (the owner's after its publish).
+  std::map<std::string, std::map<std::string, std::uint64_t>> sent_;
+  std::map<std::string, std::uint64_t> owner_told_;
+  // Events: sent by the nodes (done, aborted; the gone ones' too), nodes lost (no `unclock`), the supervisors'
+  // counts of dropped ones; the total at the last barrier.
+  std::uint64_t gone_events_ = 0, lost_ = 0, gone_received_ = 0, settled_ = 0;
+  std::map<std::string, std::uint64_t> node_events_;  // by node name: its events so far (told in `quiesce`)
+  std::vector<std::string> lost_names_;
+  std::vector<std::pair<std::uint64_t, std::uint64_t>> last_wave_;
+  bool supervisor_lost_ = false;
+  std::uint64_t barriers_ = 0, waves_ = 0;
+  std::optional<Nanos> hold_at_;
+  std::vector<std::string> trace_lines_;  // this tick's, sorted before they are written
+  std::map<std::string, std::uint64_t> owner_out_;
   std::shared_ptr<bool> alive_ = std::make_shared<bool>(true);
 };
 

@@ -165,6 +165,13 @@ struct Node::Impl {
   void read(Leaf& leaf, const Channel::Ptr& ch, const Message& m);
   void connect(Leaf& leaf, const Channel::Ptr& ch, const Message& m);
   void pull(Leaf& leaf, const Channel::Ptr& ch, const Message& m);
+  std::string take_expected(const Value& expect);
+  Value sent_changes();
+  Value digests();
+  Value advance_reply(bool trace);
+  std::map<std::string, std::uint64_t> events;     // per leaf: done and aborted events sent (lock-step counts)
+  std::map<std::string, std::uint64_t> last_sent;  // per link key: the count last told to the master
+  std::vector<std::string> switches;               // activations since the last advance (trace)
   Value ports(const Leaf& leaf) const;
   Value stats(const Leaf& leaf) const;
 };
@@ -242,6 +249,7 @@ void Node::Impl::open_ports(const Done& done_fn) {
     static int made = 0;  // several nodes in one process (tests) need distinct sockets
     uds = runtime_dir() + "/node-" + std::to_string(::getpid()) + (made++ ? "-" + std::to_string(made) : "") + ".sock";
     endpoint->listen(uds, ip + ":0");
+    endpoint->set_gated(opts.gated || (opts.clock == ClockKind::Simulated && !opts.world.empty()));
   } catch (const std::exception& e) {
     return fail_start(done_fn, e.what());
   }
@@ -343,6 +351,7 @@ Value Node::Impl::endpoints(const Leaf* leaf) const {
 
 // Tells a leaf's supervisors that its component finished or aborted (`now`: on this node's clock).
 void Node::Impl::forward(Leaf& leaf, const ComponentEvent& e) {
+  ++events[leaf.name];
   if (e.kind == ComponentEvent::Kind::Done)
     leaf.event({"done", 0,
                 Value::map().set("name", leaf.name).set("now", timers->now()).set("value", value_from_msgpack(
@@ -398,6 +407,7 @@ void Node::shutdown(const std::string& why) {
   if (I.master) {
     auto c = I.master;
     I.master.reset();
+    c->send({"unclock", 0, Value::map()});  // leaving in order: not a lost node
     c->close(why);
   }
   for (auto ch : std::set<Channel::Ptr>(*I.channels)) ch->close(why);
@@ -642,6 +652,8 @@ bool Node::Impl::handle_control(Leaf& leaf, const Channel::Ptr& ch, const Messag
     if (set.empty()) return ch->reply_error(m, t + " needs a set"), true;
     if (t == "activate") endpoint->activate(set);
     else endpoint->deactivate(set);
+    switches.push_back((t == "activate" ? "+" : "-") + set);
+    if (switches.size() > 1000) switches.erase(switches.begin());
     ch->reply(m);
   } else if (t == "read") {
     read(leaf, ch, m);
@@ -706,23 +718,94 @@ void Node::Impl::add(const Channel::Ptr& ch, const Message& m) {
                   });
 }
 
-// advance {t}: the node's clock to t (lock-step, host/node.h), for every leaf at once.
+// advance {t, expect, trace}: lock-step (ARCHITECTURE.md "Time"), for every leaf at once. The samples the
+// master counts in `expect` (link key -> samples its writer had sent by its last answer) are let into the
+// inputs, waiting for those still on their way; later ones stay held. Then every timer due by t runs, what they
+// wrote is flushed, and the answer says the next deadline, the events so far and the links whose counts moved.
 void Node::Impl::advance(const Channel::Ptr& ch, const Message& m) {
   if (timers->kind() != ClockKind::Simulated)
     return void(ch->reply_error(m, "advance: node " + opts.name + " runs on the wall clock"));
-  const Nanos at = m.payload["t"].as_int(-1);
+  const auto& p = m.payload;
+  const Nanos at = p["t"].as_int(-1);
   if (at < timers->now()) return void(ch->reply_error(m, "advance: t must be >= now (" + std::to_string(timers->now()) + ")"));
-  // Drain: every sample sent to this node before the master asked is in its sockets; take it in first, so
-  // that a sample written at one tick is always seen at the next (runs repeat exactly).
-  loop.settle();
+  loop.settle();  // take in what is in the sockets
+  if (done) return;
+  if (const auto late = take_expected(p["expect"]); !late.empty()) return void(ch->reply_error(m, late));
   if (done) return;
   timers->advance_to(at);
-  // Flush what the timers wrote before answering: the master moves on only when it is on its way.
-  loop.settle();
+  loop.settle();  // flush what the timers wrote before answering: the master moves on only when it is on its way
   if (done) return;
-  const auto next = timers->next_deadline();
-  ch->reply(m, Value::map().set("now", timers->now()).set("next", next ? Value(*next) : Value()));
+  ch->reply(m, advance_reply(p["trace"].as_bool()));
 }
+
+Value Node::Impl::advance_reply(bool trace) {
+  const auto next = timers->next_deadline();
+  std::uint64_t total = 0;
+  Value evs = Value::map(), names = Value::array();
+  for (const auto& [name, n] : events) {
+    total += n;
+    evs.set(name, n);
+  }
+  for (const auto& [name, leaf] : leaves) names.array_ref().push_back(Value(name));
+  Value r = Value::map().set("now", timers->now()).set("next", next ? Value(*next) : Value()).set("ev", total);
+  r.set("evs", std::move(evs)).set("leaves", std::move(names));
+  if (auto sent = sent_changes(); !sent.as_map().empty()) r.set("sent", std::move(sent));
+  if (trace) r.set("dig", digests());
+  return r;
+}
+
+// Lets the expected samples in; waits (bounded by the start-up timeout) for those not yet arrived. "" or why
+// not, naming the late writer.
+std::string Node::Impl::take_expected(const Value& expect) {
+  if (!expect.is_map()) return "";
+  bool all = true;
+  for (const auto& [key, n] : expect.as_map()) all = endpoint->release(key.as_string(), n.as_int(0)) && all;
+  if (all) return "";
+  auto arrived = [&] {
+    if (done || !endpoint) return true;
+    for (const auto& [key, n] : expect.as_map())
+      if (!endpoint->release(key.as_string(), n.as_int(0))) return false;
+    return true;
+  };
+  if (loop.run_until(arrived, std::chrono::milliseconds(opts.timeout_ms)) || done) return "";
+  for (const auto& [k, n] : expect.as_map())
+    if (const auto& key = k.as_string(); endpoint->received(key) < static_cast<std::uint64_t>(n.as_int(0)))
+      return "advance: " + opts.name + " waited " + std::to_string(opts.timeout_ms) + " ms for sample " +
+             std::to_string(n.as_int(0)) + " of " + key.substr(0, key.find('>')) + " (link " + key + "), got " +
+             std::to_string(endpoint->received(key));
+  return "";
+}
+
+// The links whose sent count moved since the last answer: {to = {key = sent}}.
+Value Node::Impl::sent_changes() {
+  std::map<std::string, Value> by_to;
+  for (auto& c : endpoint->sent_counts()) {
+    const auto [it, fresh] = last_sent.try_emplace(c.key, c.sent);
+    if (!fresh && it->second == c.sent) continue;
+    it->second = c.sent;
+    by_to[c.to].set(c.key, c.sent);
+  }
+  Value out = Value::map();
+  for (auto& [to, v] : by_to) out.set(to, std::move(v));
+  return out;
+}
+
+// Trace: each output's samples and digest, and the set switches since the last answer.
+Value Node::Impl::digests() {
+  Value d = Value::array();
+  for (const auto& [name, leaf] : leaves)
+    for (const auto& o : leaf->component->ports().outputs())
+      d.array_ref().push_back(Value(Value::Array{Value(name + "." + o->name()), Value(o->stats().samples),
+                                                 Value(std::to_string(o->digest())), latest_value(*o)}));
+  Value sw = Value::array();
+  for (auto& x : switches) sw.array_ref().push_back(Value(x));
+  switches.clear();
+  return Value::map().set("out", d).set("sw", sw);
+}
+
+Value Node::sent_changes() { return impl_->endpoint ? impl_->sent_changes() : Value::map(); }
+std::string Node::take_expected(const Value& expect) { return impl_->endpoint ? impl_->take_expected(expect) : ""; }
+Value Node::digests() { return impl_->endpoint ? impl_->digests() : Value::map(); }
 
 // A request to the process: on the clock master's channel, a shared node's own control channel, or passed on
 // from a leaf's channel (advance, exit).

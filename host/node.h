@@ -36,10 +36,17 @@
 //                                                wall = {...}}] (the periods achieved: time between
 //                                                consecutive MainCalc calls of each periodic timer, on the
 //                                                node's clock and on the wall clock; host/timers.h), clock
-//   advance {t}  (--clock sim only)           -> ok {now, next}  t in ns; first drains the data sockets
-//                                                (every sample already sent to this node is taken in), runs
-//                                                every timer due (host/timers.h), flushes what they wrote, then
-//                                                answers; next = the next deadline (nil when none)
+//   advance {t, expect, trace}  (--clock sim) -> ok {now, next, ev, evs, leaves, sent, dig}  t in ns;
+//                                                lock-step (ARCHITECTURE.md "Time"): expect = {link key = n}
+//                                                the samples of each link into this node its writer had sent
+//                                                by its last answer: they are let into the inputs (waiting
+//                                                up to the timeout for late ones, then an error naming the
+//                                                writer), later ones stay held; then every timer due by t
+//                                                runs (host/timers.h) and what they wrote is flushed. next =
+//                                                the next deadline (nil when none), ev = done/aborted events
+//                                                sent so far (evs: per leaf), leaves = its leaves' PATHs,
+//                                                sent = {to = {key = n}} the links whose counts moved, dig
+//                                                (trace) = {out = [[port, n, digest, value]], sw = [sets]}
 //   exit {}                                   -> ok {}, then the node stops its component and exits 0
 // Leaves: each leaf has everything a one-leaf node has: its own control address (a listener of its own) taking
 // every request above, its events (sent on its own control channels only), and its registration under its PATH
@@ -96,7 +103,8 @@ struct NodeOptions {
   ClockKind clock = ClockKind::Wall;
   std::string world = "world";      ///< simulated clock: the clock master's name ("" = none)
   std::vector<std::string> args;    ///< the .dca arguments after the host
-  int timeout_ms = 5000;            ///< for start-up steps and look-ups
+  int timeout_ms = 5000;            ///< for start-up steps and look-ups (and a late sample in lock-step)
+  bool gated = false;               ///< lock-step delivery without a clock master of its own (the world)
   /// A shared node: loads the controller package an `add` names (package, system_dir) before creating its
   /// leaf; false with *error (`dca node` loads through controllers/packages.h). Unset: `add` with a package fails.
   std::function<bool(const std::string& package, const std::string& system_dir, std::string* error)> load_package;
@@ -138,6 +146,13 @@ class Node {
   /// "unknown request"; it returns true when it handled (answered or will answer) it. The world process uses
   /// this for its clock master requests. Set before start().
   void on_request(std::function<bool(const std::shared_ptr<Channel>&, const wire::Message&)> hook);
+
+  /// Lock-step, for the clock master's owner (the world, in this process): its links whose counts moved
+  /// ({to = {key = sent}}), the expected samples let into its inputs ("" or why not), its outputs' digests
+  /// (ARCHITECTURE.md "Time"; NodeOptions::gated).
+  wire::Value sent_changes();
+  std::string take_expected(const wire::Value& expect);
+  wire::Value digests();
 
   struct Impl;
 

@@ -273,9 +273,43 @@ bool Output::write(const Eigen::Ref<const Eigen::VectorXd>& v) {
 bool Output::write_bytes(Bytes b) {
   if (!accepts(b)) return false;
   ++stats_.samples;
+  for (const std::byte c : b) digest_ = (digest_ ^ static_cast<std::uint64_t>(c)) * 1099511628211ull;
   set_latest(b);
   for (std::size_t i = 0; i < links_.size(); ++i) links_[i]->on_write(b);
   return true;
+}
+
+std::string link_key(const ConnectRequest& r) {
+  return r.from + "|" + r.out + ">" + r.to + "|" + r.in + "@" + r.set;
+}
+
+void LinkGate::deliver(Input& in, Bytes b) {
+  ++received_;
+  if (!gated || (held_head_ == held_.size() && delivered_ < allowed_)) {
+    ++delivered_;
+    return in.deliver(b);
+  }
+  held_.emplace_back(b.begin(), b.end());
+}
+
+bool LinkGate::release(Input* in, std::uint64_t n) {
+  allowed_ = n;
+  while (delivered_ < allowed_ && held_head_ < held_.size()) {
+    ++delivered_;
+    auto& h = held_[held_head_++];
+    if (in) in->deliver({h.data(), h.size()});
+  }
+  if (held_head_ == held_.size()) {
+    held_.clear();
+    held_head_ = 0;
+  }
+  return received_ >= n;
+}
+
+void LinkGate::reset() {
+  received_ = delivered_ = allowed_ = 0;
+  held_.clear();
+  held_head_ = 0;
 }
 
 void Output::attach(Link* l) { links_.push_back(l); }

@@ -191,6 +191,32 @@ class Input final : public Port {
   bool warned_drop_ = false;
 };
 
+/// Lock-step delivery of one push connection (ARCHITECTURE.md "Time"): the samples that arrived on it are
+/// counted, and while the gate is closed to them a sample beyond the count the clock master released waits
+/// here, in order, instead of reaching the input. So a reader at tick t takes exactly the samples its writers
+/// wrote before t, whatever the transport and whichever process ran first. Open (gated false): every sample
+/// goes straight through. Not real-time safe while holding (a held sample is copied).
+class LinkGate {
+ public:
+  /// A sample of this connection for `in`: delivered, or held while gated and beyond the released count.
+  void deliver(Input& in, Bytes b);
+  /// The master's count for this connection: held samples up to `n` go to `in`. Returns true when `n` samples
+  /// have arrived.
+  bool release(Input* in, std::uint64_t n);
+  /// Samples arrived on this connection.
+  std::uint64_t received() const { return received_; }
+  /// The released count (the last `release`).
+  std::uint64_t allowed() const { return allowed_; }
+  /// Held samples and counts forgotten (a new connection under the same name).
+  void reset();
+  bool gated = false;
+
+ private:
+  std::uint64_t received_ = 0, delivered_ = 0, allowed_ = 0;
+  std::vector<std::vector<std::byte>> held_;
+  std::size_t held_head_ = 0;
+};
+
 /// A connection's sending side, attached to an output (host/endpoint implements it for each transport).
 class Link {
  public:
@@ -226,10 +252,13 @@ class Output final : public Port {
   void detach(Link* l);
   /// Number of connections from this output.
   std::size_t links() const { return links_.size(); }
+  /// A digest of every sample written (FNV-1a over their bytes, chained): what a trace compares.
+  std::uint64_t digest() const { return digest_; }
 
  private:
   std::vector<Link*> links_;
   msgpack::sbuffer scratch_;
+  std::uint64_t digest_ = 14695981039346656037ull;
 };
 
 /// The named ports of one component (a controller instance): what a connection names with (PATH, port).
@@ -291,5 +320,8 @@ struct ConnectRequest {
   Mode mode = Mode::Push;
   std::uint32_t queue = 16;  ///< the input's queue capacity for push connections (grown, never shrunk)
 };
+
+/// The name of one connection in the lock-step's counts: "from|out>to|in@set" (paths and port names hold dots).
+std::string link_key(const ConnectRequest& r);
 
 }  // namespace dca

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <stdexcept>
 
 #include "host/channel.h"
 #include "host/lockstep.h"
@@ -48,11 +49,18 @@ struct WorldNode::Impl {
       record_every = std::max<long>(1, std::lround(opts.record_period / world.config().period));
       recorder->record(world.sensors(), -1);
     }
+    if (!opts.trace.empty() && !(trace = std::fopen(opts.trace.c_str(), "w")))
+      throw std::runtime_error("cannot write the trace " + opts.trace);
+  }
+  ~Impl() {
+    if (trace) std::fclose(trace);
   }
   Loop& loop;
   World& world;
   WorldNodeOptions opts;
   WorldComponent* component = nullptr;
+  Node* node = nullptr;  // the node that hosts the component (its data endpoint: lock-step counts)
+  std::FILE* trace = nullptr;
   std::unique_ptr<Recorder> recorder;
   long record_every = 1;
   long steps = 0;
@@ -68,14 +76,23 @@ struct WorldNode::Impl {
     c.realtime = o.realtime;
     c.duration = o.duration;
     c.log_name = "dca sim";
+    c.trace = !o.trace.empty();
     return c;
   }
 
   LockstepHooks hooks() {
     LockstepHooks h;
-    h.ready = [this] { return component != nullptr; };
+    h.ready = [this] { return component != nullptr && node != nullptr; };
     h.step = [this] { step(); };
     h.publish = [this] { publish(); };
+    h.sent = [this] { return node->sent_changes(); };
+    h.take = [this](const Value& expect) { return node->take_expected(expect); };
+    h.digests = [this] { return node->digests(); };
+    h.trace = [this](const std::string& line) {
+      if (!trace) return;
+      if (line.empty()) std::fflush(trace);
+      else std::fprintf(trace, "%s\n", line.c_str());
+    };
     return h;
   }
 
@@ -168,11 +185,13 @@ std::int64_t WorldNode::now() const { return impl_->clock.now(); }
 std::unique_ptr<Node> WorldNode::make_node(NodeOptions options) {
   if (options.type.empty()) options.type = "World";
   options.world.clear();  // the clock master is not on anyone's clock
+  options.gated = true;   // but its inputs take their samples in lock-step
   auto node = std::make_unique<Node>(
       impl_->loop, std::move(options),
       [this](const std::string&, const std::string& name, const std::string&, const std::vector<std::string>&,
              TimerServer&) { return make_component(name); });
   node->on_request([this](const std::shared_ptr<Channel>& ch, const Message& m) { return handle(ch, m); });
+  impl_->node = node.get();
   return node;
 }
 

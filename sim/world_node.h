@@ -45,6 +45,7 @@ struct WorldNodeOptions {
   double duration = -1;           ///< s of simulated time after which time holds (-1: never)
   std::string record;             ///< file to record to, MCAP or CSV ("" = none), see sim/recorder.h
   double record_period = 0.01;    ///< s between recorded rows
+  std::string trace;              ///< file the lock-step trace goes to ("" = none; ARCHITECTURE.md "Time")
 };
 
 /// The world component and its clock master, on one Loop.

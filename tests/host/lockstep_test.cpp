@@ -21,14 +21,23 @@ constexpr Nanos kMs = 1'000'000;
 // A subscriber whose advances wait in a queue until the test answers them.
 class FakeLink final : public ClockLink {
  public:
-  void advance(Nanos t, AdvanceFn done) override { pending.push_back({t, std::move(done)}); }
-  // Answers the oldest advance: ok with `next`, or `error` (replied or not).
-  void answer(std::optional<Nanos> next) { pop()("", true, next); }
-  void fail(const std::string& error, bool replied) { pop()(error, replied, std::nullopt); }
+  void request(const std::string& type, dca::wire::Value payload, ReplyFn done) override {
+    types.push_back(type);
+    payloads.push_back(payload);
+    pending.push_back({payload["t"].as_int(-1), std::move(done)});
+  }
+  // Answers the oldest request: ok with `next` (and `reply`'s other fields), or `error` (replied or not).
+  void answer(std::optional<Nanos> next, dca::wire::Value reply = dca::wire::Value::map()) {
+    reply.set("next", next ? dca::wire::Value(*next) : dca::wire::Value());
+    pop()("", true, reply);
+  }
+  void fail(const std::string& error, bool replied) { pop()(error, replied, dca::wire::Value()); }
   struct Pending {
     Nanos t;
-    AdvanceFn done;
+    ReplyFn done;
   };
+  std::vector<std::string> types;
+  std::vector<dca::wire::Value> payloads;
   std::deque<Pending> pending;
   std::vector<Nanos> seen() const {
     std::vector<Nanos> ts;
@@ -37,7 +46,7 @@ class FakeLink final : public ClockLink {
   }
 
  private:
-  AdvanceFn pop() {
+  ReplyFn pop() {
     auto done = std::move(pending.front().done);
     pending.pop_front();
     return done;
@@ -75,9 +84,9 @@ class LockstepTest : public ::testing::Test {
     }
     return n;
   }
-  std::shared_ptr<FakeLink> subscribe(const std::string& name, const void* origin) {
+  std::shared_ptr<FakeLink> subscribe(const std::string& name, const void* origin, bool supervisor = false) {
     auto link = std::make_shared<FakeLink>();
-    core->subscribe(origin, name, link);
+    core->subscribe(origin, name, link, supervisor);
     return link;
   }
 
@@ -85,7 +94,7 @@ class LockstepTest : public ::testing::Test {
   int steps = 0, publishes = 0, settles = 0, scheduled = 0, durations = 0;
   std::optional<Nanos> wall_due;
   Nanos wall = 5'000 * kMs;
-  int origin_a = 0, origin_b = 0;
+  int origin_a = 0, origin_b = 0, origin_s = 0;
 };
 
 TEST_F(LockstepTest, TimeStandsStillUntilGo) {
@@ -224,6 +233,58 @@ TEST_F(LockstepTest, RoundsAreTimedOnTheWallClock) {
   const auto st = core->status();
   EXPECT_EQ(st["rounds"].as_int(0), 1);
   EXPECT_NEAR(st["round_max_us"].as_float(), 250.0, 1.0);
+}
+
+// Data counts: what a writer's answer says it sent on a link reaches the reader with its next advance, and
+// only the links that moved since the reader was last told.
+TEST_F(LockstepTest, AWritersCountsGoToTheReaderWithItsNextAdvance) {
+  make();
+  auto a = subscribe("/a", &origin_a);
+  auto b = subscribe("/b", &origin_b);
+  core->go();
+  run_ticks(100);
+  using dca::wire::Value;
+  const Value sent = Value::map().set("/b", Value::map().set("/a|Out>/b|In@s", 3));
+  b->answer(std::nullopt);
+  a->answer(std::nullopt, Value::map().set("sent", sent));
+  run_ticks(100);
+  ASSERT_EQ(b->payloads.size(), 2u);
+  EXPECT_FALSE(b->payloads[0].find("expect"));  // at 10 ms nothing was counted yet
+  EXPECT_EQ(b->payloads[1]["expect"]["/a|Out>/b|In@s"].as_int(0), 3);
+  EXPECT_FALSE(a->payloads[1].find("expect"));
+  a->answer(std::nullopt);
+  b->answer(std::nullopt);
+  run_ticks(100);
+  EXPECT_FALSE(b->payloads[2].find("expect"));  // unchanged: not said again
+}
+
+// The barrier: an event in a round holds time until every supervisor has answered two waves of quiesce
+// with the same counts, every event sent received; every node is advanced to the same t before and after.
+TEST_F(LockstepTest, AnEventHoldsTimeUntilTheSupervisorsHaveHandledIt) {
+  make();
+  auto a = subscribe("/a", &origin_a);
+  auto s = subscribe("/sup", &origin_s, true);
+  core->go();
+  run_ticks(100);
+  using dca::wire::Value;
+  a->answer(std::nullopt, Value::map().set("ev", 1));  // /a ended at 10 ms
+  ASSERT_EQ(a->types.size(), 2u);                      // the sync before the waves
+  EXPECT_EQ(a->types[1], "advance");
+  EXPECT_EQ(a->pending.front().t, 10 * kMs);
+  a->answer(std::nullopt, Value::map().set("ev", 1));
+  ASSERT_EQ(s->types.size(), 1u);
+  EXPECT_EQ(s->types[0], "quiesce");
+  s->answer(std::nullopt, Value::map().set("received", 0).set("sent", 0));  // not yet received
+  s->answer(std::nullopt, Value::map().set("received", 1).set("sent", 0));  // received, counts moved
+  EXPECT_EQ(scheduled, 0);
+  s->answer(std::nullopt, Value::map().set("received", 1).set("sent", 0));  // stable
+  ASSERT_EQ(a->types.size(), 3u);  // the sync after the waves
+  EXPECT_EQ(scheduled, 0);
+  a->answer(std::nullopt, Value::map().set("ev", 1));
+  EXPECT_EQ(scheduled, 1);
+  EXPECT_EQ(core->now(), 10 * kMs);
+  EXPECT_EQ(core->status()["barriers"].as_int(0), 1);
+  EXPECT_EQ(core->status()["waves"].as_int(0), 3);
 }
 
 }  // namespace

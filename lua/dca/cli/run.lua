@@ -12,7 +12,8 @@ M.summary = "run a .dca system: start its hosts and supervisor tree, run it, rep
 M.usage = [=[usage: dca run FILE.dca [--root NAME] [--hosts FILE] [--repl] [--watch] [--timeout S] [--quiet]
                     [--config FILE | --no-config] [--set KEY=VALUE]... [--state-dir DIR]
                     [--placement process|group|host]
-                    [--sim WORLD [--seed N] [--door-width W] [--record FILE.mcap|FILE.csv] [--jammed] [--realtime]]
+                    [--sim WORLD [--seed N] [--door-width W] [--record FILE.mcap|FILE.csv] [--jammed] [--realtime]
+                    [--trace FILE]]
 
 Checks FILE.dca (errors stop here, nothing is started), starts one local daemon per host name on 127.0.0.1
 (or uses the daemons named in --hosts, lines of "name address"), starts the supervisor tree, shows one line
@@ -42,6 +43,9 @@ per group as it comes up and one per process transition, and runs the root expre
   --jammed        passed to the world: the door handle's latch never releases (a fault to test against)
   --realtime      passed to the world: simulated time is paced to the wall clock (the nodes stay in
                   lock-step with it), so the wall-clock periods in the summary are the real control periods
+  --trace FILE    write the run's trace (simulated time): every output's samples per tick (count, digest,
+                  value), every set switch, event and transition with its tick; `dca trace diff A B` gives
+                  the first divergence of two (ARCHITECTURE.md "Time")
   --repl          open a console on the root supervisor once the system runs
   --watch         reload the system file when it is saved (inotify)
   --timeout S     stop with an error when the start does not finish within S seconds (default 30)
@@ -57,14 +61,14 @@ local OPTIONS = {
   ["--door-width"] = "number", ["--record"] = "value", ["--jammed"] = "flag", ["--realtime"] = "flag",
   ["--timeout"] = "number", ["--repl"] = "flag", ["--watch"] = "flag", ["--quiet"] = "flag",
   ["--config"] = "value", ["--no-config"] = "flag", ["--state-dir"] = "value", ["--set"] = "list:sets",
-  ["--placement"] = "value",
+  ["--placement"] = "value", ["--trace"] = "value",
 }
 
 -- The options that exclude each other or need another: the first broken rule. --> error text | nil
 local function rule_broken(o)
   if not o.file then return "which .dca file?" end
-  if (o.seed or o.door_width or o.record or o.jammed) and not o.sim then
-    return "--seed, --door-width, --record and --jammed go with --sim WORLD"
+  if (o.seed or o.door_width or o.record or o.jammed or o.trace) and not o.sim then
+    return "--seed, --door-width, --record, --jammed and --trace go with --sim WORLD"
   end
   if o.config and o.no_config then return "--config and --no-config exclude each other" end
   if o.state_dir and o.hosts then return "--state-dir is for the local daemons, not those of --hosts" end
@@ -87,7 +91,10 @@ local function parse_args(args)
   end
   local broken = rule_broken(o)
   if broken then return nil, "dca run: " .. broken end
-  if o.record and o.record:sub(1, 1) ~= "/" then o.record = (os.getenv("PWD") or ".") .. "/" .. o.record end
+  for _, k in ipairs({ "record", "trace" }) do
+    if o[k] and o[k]:sub(1, 1) ~= "/" then o[k] = (os.getenv("PWD") or ".") .. "/" .. o[k] end
+  end
+  if o.trace then o.trace_file, o.trace = o.trace, o.trace .. ".world" end
   return o
 end
 

@@ -24,7 +24,7 @@ local W = {}
 W.__index = W
 
 --- The options a world takes besides where it runs (see the header): what a system's start passes through.
-M.OPTIONS = { "world", "seed", "door_width", "record", "jammed", "realtime", "wait" }
+M.OPTIONS = { "world", "seed", "door_width", "record", "jammed", "realtime", "wait", "trace" }
 
 --- The argv of the world process for options `o` (see the header).
 function M.argv(o)
@@ -34,6 +34,7 @@ function M.argv(o)
   if o.door_width then argv[#argv + 1] = "--door-width" argv[#argv + 1] = tostring(o.door_width) end
   if o.record then argv[#argv + 1] = "--record" argv[#argv + 1] = o.record end
   if o.jammed then argv[#argv + 1] = "--jammed" end
+  if o.trace then argv[#argv + 1] = "--trace" argv[#argv + 1] = o.trace end
   if o.realtime then argv[#argv + 1] = "--realtime" end
   return argv
 end

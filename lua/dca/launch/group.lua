@@ -35,7 +35,7 @@ end
 function Proc:configure(ch, msg)
   local own_host
   for h, a in pairs(msg.hosts or {}) do if a == self.o.daemon then own_host = h end end
-  local ctx = { spec = msg.spec, hosts = msg.hosts, key = self.key, exe = "dca",
+  local ctx = { spec = msg.spec, hosts = msg.hosts, key = self.key, exe = "dca", to_parent = true,
     report = function(m)
       ch:send(m)
       if m.type == "log" then srt.to_followers(self.followers, m.line) end

@@ -37,6 +37,8 @@ end
 
 -- A progress line, stamped with the world's time (with --sim, in order) or the wall time since the start.
 function Run:say(line, at)
+  -- the trace keeps the lines that carry their event's simulated time (dca.trace)
+  if self.o.trace_file and at then self.trace_lines[#self.trace_lines + 1] = { math.floor(at * 1e9 + 0.5), line } end
   local s = self.ctx.sim
   if s and s.world:connected() then
     s:stamp(line, function(t, l) if not self.o.quiet then self:emit(sformat("[sim %8.3f] %s", t, l)) end end, at)
@@ -58,9 +60,11 @@ end
 
 -- What the root reports: its lines and its outcome (which ends the run unless a console holds it).
 function Run:report(msg)
+  -- the trace ends at the root's outcome: what follows (the shutdown) is no part of the run
+  if (msg.type == "done" or msg.type == "aborted") and tonumber(msg.now) then self.trace_end = tonumber(msg.now) end
   if msg.type == "log" then self:say(msg.line, msg.at)
   elseif msg.type == "done" then
-    self:say(sformat("%s: DONE %s", self.spec.path, supervisor.show(msg.value)))
+    self:say(sformat("%s: DONE %s", self.spec.path, supervisor.show(msg.value)), tonumber(msg.now) and msg.now / 1e9)
     if not self.o.repl then self.code = self.code or 0 self:wind_up() end
   elseif msg.type == "aborted" then
     self:say_aborted(msg)
@@ -72,8 +76,17 @@ end
 function Run:down()
   local s = self.ctx.sim
   self.sup:shutdown(function()
-    if s then s.world:stop(function() self.loop:stop() end) else self.loop:stop() end
+    if s then s.world:stop(function() self:write_trace() self.loop:stop() end) else self.loop:stop() end
   end)
+end
+
+-- With --trace: the world's trace and the transition lines merged into the file (dca.trace).
+function Run:write_trace()
+  local o = self.o
+  if not o.trace_file then return end
+  local ok, err = require("dca.trace").merge(o.trace, self.trace_lines, o.trace_file, self.trace_end)
+  core.remove_tree(o.trace)
+  if ok then self:emit("trace: " .. o.trace_file) else err_line(self, "--trace: ", tostring(err)) end
 end
 
 -- The end of a run: the world's summary (with --sim), then down.
@@ -228,7 +241,7 @@ end
 
 --- Runs the system of `spec` with options `o`, talking through `out` (see the header). --> exit code
 function M.main(spec, o, out)
-  local r = setmetatable({ o = o, spec = spec, out = out, followers = {}, t0 = core.now() }, Run)
+  local r = setmetatable({ o = o, spec = spec, out = out, followers = {}, t0 = core.now(), trace_lines = {} }, Run)
   r.ctx = start.context(spec, o, { say = function(line) r:say(line) end, report = function(msg) r:report(msg) end,
                                    log = function(line, at) r:say(line, at) end })
   local pok, code = r:prepare()

@@ -103,7 +103,8 @@ function M.tree(ctx, daemon_host, opts)
   opts = opts or { progress = true }
   local placement = opts.placement or (ctx.o and ctx.o.placement)
   local rt = net.new({ hosts = ctx.hosts, key = ctx.key, exe = ctx.exe, daemon_host = daemon_host,
-                       timeouts = opts.timeouts, report = ctx.report, log = ctx.log, placement = placement })
+                       timeouts = opts.timeouts, report = ctx.report, log = ctx.log, placement = placement,
+                       to_parent = ctx.to_parent })
   local sup = supervisor.new(ctx.spec, rt, { progress = opts.progress, timeouts = opts.timeouts, hosts = ctx.hosts,
                                              console = console.hook, placement = placement })
   sup.hosts = ctx.hosts

@@ -26,7 +26,7 @@
 -- --serve`, as `dca run --sim` does, through the daemon of world_host, default the first host name) before the
 -- tree; run() sends the world `go` once the root's run has been answered. sys:world_status() is the world's
 -- `status {}` (t, door_angle, base_pose, latched, ...), sys:world_read(port) its `read {port}` (the latest
--- base.cmd_vel / arm.cmd_qd it received, or a sensor output such as arm.q), sys:world_hold() / world_go()
+-- base.cmd_vel / arm.cmd_qd it received, or a sensor output such as arm.q), sys:world_hold() / world_hold_at(t) / world_go()
 -- stop and restart its time, sys:wait_world(what, pred(status), t) waits for a condition on its status.
 --
 -- Configuration: a system's config("key") parameters read the repository; S.system(file, { config = FILE,

@@ -158,6 +158,16 @@ function System:world_hold()
   return (tonumber(r.now) or 0) / 1e9
 end
 
+--- Time flows (if held) and holds once it reaches `t` (seconds; the tick at or after it): waits until it has.
+--- --> the time held at
+function System:world_hold_at(t, timeout)
+  self:_world({ type = "hold", at = math.floor(t * 1e9 + 0.5) }, "the world's hold")
+  self:_world({ type = "go" }, "the world's go")
+  local st = self:wait_world(sformat("time held at %g s", t), function(s) return not s.running and s.t >= t - 1e-9 end,
+    timeout)
+  return st.t
+end
+
 --- Lets the world's time flow again.
 function System:world_go() self:_world({ type = "go" }, "the world's go") end
 

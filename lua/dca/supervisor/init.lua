@@ -435,9 +435,17 @@ function Sup:configure(cb)
         if #self.device_ports > 0 then
           self:say("%s: %d device ports wired to the world", self.path, #self.device_ports)
         end
-        self.state = "configured"
-        self:say("%s: configured", self.path)
-        cb(true)
+        local function configured()
+          self.state = "configured"
+          self:say("%s: configured", self.path)
+          cb(true)
+        end
+        -- on simulated time, this supervisor takes part in the clock's barrier (dca.supervisor.net)
+        if not self.rt.join_clock then configured() return end
+        self.rt.join_clock(self.path, function(ok4, err4)
+          if not ok4 then self.state = "failed" cb(nil, err4) return end
+          configured()
+        end)
       end)
     end)
   end)

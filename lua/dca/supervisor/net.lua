@@ -117,6 +117,14 @@ function Proc:exited_with(rt, reason)
   if self.exited then return end
   self.exited = true
   if self.lost_timer then self.lost_timer:cancel() end
+  -- a leaf that ends without being asked is what the clock master counts as a lost node: in lock-step its
+  -- exit waits for the barrier (Net:_quiesce)
+  if self.kind == "leaf" and not self.stopping and rt.ls.joined and not rt.closing then
+    rt.ls.exited[self.path] = true
+    rt.ls.queue[#rt.ls.queue + 1] = { now = math.huge, name = self.name, exit = reason }
+    if self.ch and not self.ch_closed then self.ch:close() end
+    return
+  end
   if rt.sup and not rt.closing then rt.sup:child_exit(self.name, reason) end
   if self.ch and not self.ch_closed then self.ch:close() end
 end
@@ -171,10 +179,14 @@ function Proc:channel_closed(reason)
   end)
 end
 
--- The handle the supervisor holds (see dca.supervisor: request, send, kill, lost, pid, host).
+-- The handle the supervisor holds (see dca.supervisor: request, send, kill, lost, pid, host). Its requests
+-- (but the heartbeat's pings) keep the supervisor busy for the lock-step's barrier until answered.
 function Proc:handle()
-  local ch, h = self.ch, { pid = self.pid, host = self.host }
-  function h.request(msg, timeout, rcb) ch:request(msg, timeout, rcb) end
+  local ch, h, rt = self.ch, { pid = self.pid, host = self.host }, self.rt
+  function h.request(msg, timeout, rcb)
+    if msg.type == "ping" then ch:request(msg, timeout, rcb) return end
+    ch:request(msg, timeout, rt.busy_while(rcb))
+  end
   function h.send(msg) ch:send(msg) end
   function h.kill(sig, kcb)
     self.stopping = true
@@ -301,7 +313,14 @@ function Shared:exited_with(rt, reason, msg)
       names[#names + 1] = p.name
     end
   end
-  if rt.sup and not rt.closing and #names > 0 then rt.sup:children_exit(names, why) end
+  if rt.sup and not rt.closing and #names > 0 then
+    if rt.ls.joined then  -- in lock-step the exits wait for the barrier (Net:_quiesce), one event per leaf
+      for _, p in ipairs(list) do rt.ls.exited[p.path] = true end
+      rt.ls.queue[#rt.ls.queue + 1] = { now = math.huge, name = names[1], exits = names, exit = why }
+    else
+      rt.sup:children_exit(names, why)
+    end
+  end
   for _, p in ipairs(list) do if p.ch and not p.ch_closed then p.ch:close() end end
 end
 
@@ -317,10 +336,106 @@ local Net = {}
 
 function Net:bind(s) self.sup = s end
 function Net:now() return core.now() end
-function Net:defer(fn) return core.after(0, fn) end
+function Net:defer(fn)
+  local f = self.busy_while(fn)
+  return core.after(0, function() f() end)
+end
 function Net:after(s, fn) return core.after(s, fn) end
 function Net:every(s, fn) return core.every(s, fn) end
-function Net:report(msg) if self.opts.report then self.opts.report(msg) end end
+function Net:report(msg)
+  if self.opts.to_parent and (msg.type == "done" or msg.type == "aborted") then self.ls.sent = self.ls.sent + 1 end
+  if self.opts.report then self.opts.report(msg) end
+end
+
+-- ---------------------------------------------------------------------------------------------------------
+-- Lock-step (ARCHITECTURE.md "Time"): on simulated time this supervisor takes part in the clock master's
+-- barrier. It counts the events it received (its leaves' done/aborted, its groups' outcomes, a leaf that
+-- ended unasked) and sent (its outcome to its parent), and answers `quiesce {t}` with them once it has
+-- nothing left to do: no request of its own unanswered (pings aside), nothing deferred.
+-- ---------------------------------------------------------------------------------------------------------
+
+--- `fn` wrapped so that the supervisor is busy until it has run (and its own requests made meanwhile).
+function Net:busy_while(fn)
+  local ls = self.ls
+  ls.pending = ls.pending + 1
+  return function(...)
+    local ok, err = true, nil
+    if fn then ok, err = pcall(fn, ...) end
+    ls.pending = ls.pending - 1
+    if ls.pending == 0 and #ls.waiters > 0 then
+      local ws = ls.waiters
+      ls.waiters = {}
+      for _, w in ipairs(ws) do w() end
+    end
+    if not ok then error(err, 0) end
+  end
+end
+
+-- An event from a started process: in lock-step a leaf's end waits for the barrier (its node may be one of
+-- several that ended in the same round); everything else is handled at once. A group's outcome counts.
+function Net:_child_event(p, msg)
+  local ls, ends = self.ls, msg.type == "done" or msg.type == "aborted"
+  if ends and p.kind == "leaf" and ls.joined then
+    ls.per[p.path] = (ls.per[p.path] or 0) + 1
+    ls.queue[#ls.queue + 1] = { now = tonumber(msg.now) or 0, name = p.name, msg = msg }
+    return
+  end
+  self.sup:child_message(p.name, msg)
+  if ends then ls.received = ls.received + 1 end
+end
+
+-- True when every event of this supervisor's leaves that the master counted (`events`, `lost`) is here.
+function Net:_arrived(q)
+  local ls = self.ls
+  for path, n in pairs(q.events or {}) do
+    if self.my_leaves[path] and (ls.per[path] or 0) < n then return false end
+  end
+  for _, path in ipairs(q.lost or {}) do
+    if self.my_leaves[path] and not ls.exited[path] then return false end
+  end
+  return true
+end
+
+-- `quiesce {t, events, lost}` from the clock master: once the counted events of its leaves are here, they are
+-- handled in (time, name) order, whatever order they came in; answered once idle, with the counts.
+function Net:_quiesce(ch, id, q)
+  local ls = self.ls
+  if not self._arrived(q) then
+    core.after(0.0005, function() self._quiesce(ch, id, q) end)
+    return
+  end
+  local queue = ls.queue
+  ls.queue = {}
+  table.sort(queue, function(a, b) if a.now ~= b.now then return a.now < b.now end return a.name < b.name end)
+  for _, e in ipairs(queue) do
+    if e.exits then self.sup:children_exit(e.exits, e.exit)
+    elseif e.exit then self.sup:child_exit(e.name, e.exit)
+    else self.sup:child_message(e.name, e.msg) end
+    ls.received = ls.received + (e.exits and #e.exits or 1)
+  end
+  local function answer() M.reply(ch, id, { type = "ok", received = ls.received, sent = ls.sent }) end
+  if ls.pending == 0 then answer() else ls.waiters[#ls.waiters + 1] = answer end
+end
+
+--- On simulated time (this host's daemon says so) with a world: subscribes to its clock as a supervisor.
+--- cb(true) (also when there is nothing to join) | cb(nil, err)
+function Net:join_clock(name, cb)
+  self.daemon(self.own_host(), function(dc)
+    if not dc then cb(true) return end
+    dc:request({ type = "ping" }, 10, function(r)
+      if not r or r.clock ~= "sim" then cb(true) return end
+      self.world({ type = "clock", name = name, role = "supervisor" }, 10, function(rr, err, missing)
+        if missing then cb(true) return end
+        if not rr or rr.type == "error" then
+          cb(nil, sformat("%s cannot join the simulated clock: %s", name, tostring(rr and rr.reason or err)))
+          return
+        end
+        self.ls.joined = true
+        cb(true)
+      end)
+    end)
+  end)
+end
 function Net:log(line) if self.opts.log then self.opts.log(line) end end
 -- The manifests: the built-ins and the packages of this group's leaves (loaded here too, so that a child
 -- supervisor on another host knows their device ports; one that fails to load fails its node's start instead).
@@ -465,8 +580,9 @@ end
 -- The control client `c` of the started process `p`: its events go to the supervisor. cb(handle)
 function Net:_attach(p, c, cb)
   p.ch = c.channel
+  if p.kind == "leaf" then self.my_leaves[p.path] = true end
   c.channel:on_message(function(msg, id)
-    if (id or 0) == 0 and self.sup then self.sup:child_message(p.name, msg) end
+    if (id or 0) == 0 and self.sup then self._child_event(p, msg) end
   end)
   c:on_close(function(reason) p:channel_closed(reason) end)
   cb(p:handle())
@@ -537,6 +653,7 @@ end
 --- the daemon of this supervisor's host (lookups reach the peers) and reached on its control channel (opened
 --- once). cb(reply) | cb(nil, err, missing)
 function Net:world(msg, timeout, cb)
+  cb = self.busy_while(cb)
   local w = self._world
   if w and w.client then w.client:request(msg, timeout, cb) return end
   local function go(c, err, missing)
@@ -568,6 +685,9 @@ function Net:_open_world(w, finish)
         end
         if not c then finish(nil, err) return end
         c:on_close(function() if self._world == w then self._world = nil end end)
+        function c._event(_, msg, id)
+          if msg.type == "quiesce" and (id or 0) ~= 0 then self._quiesce(c.channel, id, msg) end
+        end
         finish(c)
       end)
   end)
@@ -586,6 +706,8 @@ end
 function M.new(opts)
   local t = opts.timeouts or {}
   local rt = { opts = opts, daemons = {}, by_child = {}, shared = {}, closing = false,
+               ls = { received = 0, sent = 0, pending = 0, waiters = {}, per = {}, exited = {}, queue = {} },
+               my_leaves = {},
                timeouts = { spawn = t.spawn or 10, lookup = t.lookup or 10 } }
   for name, f in pairs(Net) do
     rt[name] = function(...) return f(rt, ...) end

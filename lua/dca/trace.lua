@@ -1,0 +1,87 @@
+-- dca.trace: the trace of a run in simulated time (`dca run --trace FILE`, ARCHITECTURE.md "Time"), and the
+-- first divergence of two. One line per fact, sorted by tick (ns), then by text:
+--   T_NS D PATH.PORT n=COUNT digest=FNV value=LATEST   an output wrote at this tick (the world's and every node's)
+--   T_NS S PATH +SET | -SET                            a connection set switched at this node
+--   T_NS E PATH events=N                               the node's done/aborted events so far
+--   T_NS L PATH                                        the node was lost (did not answer its advance)
+--   T_NS T LINE                                        a supervisor's transition line at the event's time
+-- The clock master (the world) writes D, S, E and L lines as the rounds end; the run adds the T lines and
+-- merges both, so two runs of the same seed give the same file, byte for byte, whatever the load.
+--
+--   trace.merge(world_file, t_lines, out_file, last) --> true | nil, err (t_lines: { {ns, text} ... }; the
+--                                                lines after tick `last`, the root's outcome, are left out)
+--   trace.diff(file_a, file_b)                 --> nil (identical) | text of the first divergence, or nil, err
+local M = {}
+
+local sformat, tonumber, ipairs = string.format, tonumber, ipairs
+
+local function read_lines(file)
+  local f, err = io.open(file, "r")
+  if not f then return nil, err end
+  local lines = {}
+  for l in f:lines() do lines[#lines + 1] = l end
+  f:close()
+  return lines
+end
+
+local function split(line)
+  local t, rest = line:match("^(%d+) (.*)$")
+  return tonumber(t) or -1, rest or line
+end
+
+--- Writes the sorted union of the world's trace and the transition lines, up to tick `last` (ns; nil: all).
+function M.merge(world_file, t_lines, out_file, last)
+  local lines, err = read_lines(world_file)
+  if not lines then return nil, err end
+  for _, e in ipairs(t_lines) do lines[#lines + 1] = sformat("%d T %s", e[1], e[2]) end
+  local keyed = {}
+  for _, l in ipairs(lines) do
+    local t, rest = split(l)
+    if not last or t <= last then keyed[#keyed + 1] = { t = t, rest = rest, line = l } end
+  end
+  table.sort(keyed, function(a, b)
+    if a.t ~= b.t then return a.t < b.t end
+    return a.rest < b.rest
+  end)
+  local f, ferr = io.open(out_file, "w")
+  if not f then return nil, ferr end
+  for _, k in ipairs(keyed) do f:write(k.line, "\n") end
+  f:close()
+  return true
+end
+
+-- "D main.x.Out n=3 digest=... value=..." --> kind, who, fields
+local function parts(rest)
+  local kind, who, what = rest:match("^(%u) (%S+) ?(.*)$")
+  return kind or "?", who or rest, what or ""
+end
+
+local function show(t, rest)
+  if t < 0 then return "(end of trace)" end
+  return rest
+end
+
+--- The first line where the two traces differ, told as tick, process, port and both values.
+function M.diff(file_a, file_b)
+  local a, aerr = read_lines(file_a)
+  if not a then return nil, aerr end
+  local b, berr = read_lines(file_b)
+  if not b then return nil, berr end
+  for i = 1, math.max(#a, #b) do
+    if a[i] ~= b[i] then
+      local ta, ra = split(a[i] or "")
+      local tb, rb = split(b[i] or "")
+      if not a[i] then ta = -1 end
+      if not b[i] then tb = -1 end
+      local t = (ta >= 0 and tb >= 0) and math.min(ta, tb) or math.max(ta, tb)
+      local ka, wa = parts(ra)
+      local _, wb = parts(rb)
+      local who = (wa == wb) and wa or (wa .. " / " .. wb)
+      return sformat("first divergence at line %d, tick %.9f s (%d ns), %s %s:\n  %s: %s\n  %s: %s", i,
+        t / 1e9, t, ka == "D" and "port" or "process", who, file_a, show(ta, ra), file_b, show(tb, rb))
+    end
+  end
+  return nil
+end
+
+return M
