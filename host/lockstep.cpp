@@ -33,6 +33,11 @@ void LockstepCore::subscribe(const void* origin, std::string name, std::shared_p
   subs_[next_sub_++] = std::move(s);
 }
 
+void LockstepCore::set_leaves(const void* origin, std::vector<std::string> leaves) {
+  for (auto& [id, s] : subs_)
+    if (s.origin == origin) s.leaves = leaves;
+}
+
 void LockstepCore::unsubscribe(const void* origin) {
   for (auto it = subs_.begin(); it != subs_.end();) {
     if (it->second.origin != origin) {
@@ -92,7 +97,7 @@ void LockstepCore::tick() {
   if (t % sync_ == 0 || !due.empty()) {
     hooks_.publish();
     if (hooks_.sent) add_sent(hooks_.sent());
-    if (opts_.trace && hooks_.digests) traced(opts_.owner, t, hooks_.digests(), owner_out_);
+    if (opts_.trace && hooks_.digests) traced(t, hooks_.digests(), owner_out_);
     hooks_.settle();  // the samples are on their way before anyone is told to tick
   }
   wall_s_ += to_seconds(hooks_.wall_now() - w0);
@@ -165,21 +170,25 @@ void LockstepCore::took(Subscriber& s, Nanos t, const Value& reply) {
   const auto& n = reply["next"];
   s.next = n.is_nil() ? std::nullopt : std::optional<Nanos>(n.as_int(0));
   const auto ev = static_cast<std::uint64_t>(reply["ev"].as_int(0));
-  if (opts_.trace && ev != s.events) trace_lines_.push_back(std::to_string(t) + " E " + s.name + " events=" + std::to_string(ev));
   s.events = ev;
-  for (const auto& [leaf, count] : reply["evs"].as_map())
-    node_events_[leaf.as_string()] = static_cast<std::uint64_t>(count.as_int(0));
+  for (const auto& [leaf, count] : reply["evs"].as_map()) {
+    auto& known = node_events_[leaf.as_string()];
+    const auto now_n = static_cast<std::uint64_t>(count.as_int(0));
+    if (opts_.trace && known != now_n)
+      trace_lines_.push_back(std::to_string(t) + " E " + leaf.as_string() + " events=" + std::to_string(now_n));
+    known = now_n;
+  }
   if (const auto* l = reply.find("leaves")) {
     s.leaves.clear();
     for (const auto& v : l->as_array()) s.leaves.push_back(v.as_string());
   }
   add_sent(reply["sent"]);
-  if (opts_.trace) traced(s.name, t, reply["dig"], s.out);
+  if (opts_.trace) traced(t, reply["dig"], s.out);
 }
 
 // The trace's lines for one answer: each output whose count moved (count, digest, latest value) and each set
 // switched.
-void LockstepCore::traced(const std::string& who, Nanos t, const Value& dig, std::map<std::string, std::uint64_t>& out) {
+void LockstepCore::traced(Nanos t, const Value& dig, std::map<std::string, std::uint64_t>& out) {
   const std::string at = std::to_string(t);
   for (const auto& o : dig["out"].as_array()) {
     const auto& a = o.as_array();
@@ -191,7 +200,7 @@ void LockstepCore::traced(const std::string& who, Nanos t, const Value& dig, std
     trace_lines_.push_back(at + " D " + a[0].as_string() + " n=" + std::to_string(count) + " digest=" +
                            a[2].as_string() + " value=" + a[3].str());
   }
-  for (const auto& sw : dig["sw"].as_array()) trace_lines_.push_back(at + " S " + who + " " + sw.as_string());
+  for (const auto& sw : dig["sw"].as_array()) trace_lines_.push_back(at + " S " + sw.as_string());
 }
 
 void LockstepCore::answered(std::uint64_t id, Nanos t, const std::string& error, bool replied, const Value& reply) {
@@ -220,7 +229,9 @@ void LockstepCore::drop(std::uint64_t id, const std::string& why) {
   const std::string msg = it->second.name + ": " + why;
   std::fprintf(stderr, "%s: dropped from the clock: %s\n", opts_.log_name.c_str(), msg.c_str());
   dropped_.push_back(msg);
-  if (opts_.trace) trace_lines_.push_back(std::to_string(now()) + " L " + it->second.name);
+  if (opts_.trace)
+    for (const auto& leaf : it->second.leaves.empty() ? std::vector<std::string>{it->second.name} : it->second.leaves)
+      trace_lines_.push_back(std::to_string(now()) + " L " + leaf);
   if (it->second.supervisor) {
     gone_received_ += it->second.received;
     supervisor_lost_ = true;
@@ -441,6 +452,11 @@ bool Lockstep::handle(const std::shared_ptr<Channel>& ch, const Message& m) {
     go();
   } else if (m.type == "unclock") {
     core_.unsubscribe(ch.get());
+    return true;
+  } else if (m.type == "leaves") {
+    std::vector<std::string> names;
+    for (const auto& v : m.payload["leaves"].as_array()) names.push_back(v.as_string());
+    core_.set_leaves(ch.get(), std::move(names));
     return true;
   } else if (m.type == "hold") {
     if (m.payload.find("at")) core_.hold_at(m.payload["at"].as_int(0));

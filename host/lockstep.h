@@ -17,6 +17,7 @@
 //                                (host/node.h); "supervisor": the supervisor takes part in the barrier
 //                                (`quiesce`, below). Dropped when it does not answer in time.
 //   unclock {}     (event)       the subscriber leaves in order (a node that stops): not counted as lost
+//   leaves {leaves} (event)      the components a (shared) node hosts, sent when they change
 //   go {}           -> ok {now}  time starts (or resumes) flowing
 //   hold {at}       -> ok {now}  time stops after the current tick (at: ns, once it reaches `at`)
 //   status {}       -> ok {now, t, running, steps, wall_s, subscribers = [names], dropped = [reasons], rounds,
@@ -107,6 +108,8 @@ class LockstepCore {
   /// `clock {name}`: subscribes `name` through `link`. A later subscription from the same `origin` (the
   /// connection it came on; never dereferenced) replaces this one.
   void subscribe(const void* origin, std::string name, std::shared_ptr<ClockLink> link, bool supervisor = false);
+  /// `leaves {leaves}`: the components the node of `origin` hosts (its samples' counts go by them).
+  void set_leaves(const void* origin, std::vector<std::string> leaves);
   /// `unclock`: the subscriber of `origin` leaves in order.
   void unsubscribe(const void* origin);
   /// `hold {at}`: time holds once it reaches `at` (ns).
@@ -145,7 +148,7 @@ class LockstepCore {
   wire::Value expect_for(Subscriber& s);
   void answered(std::uint64_t id, Nanos t, const std::string& error, bool replied, const wire::Value& reply);
   void took(Subscriber& s, Nanos t, const wire::Value& reply);
-  void traced(const std::string& who, Nanos t, const wire::Value& dig, std::map<std::string, std::uint64_t>& out);
+  void traced(Nanos t, const wire::Value& dig, std::map<std::string, std::uint64_t>& out);
   void add_sent(const wire::Value& sent);
   void drop(std::uint64_t id, const std::string& why);
   void round_done(Nanos t);

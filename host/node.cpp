@@ -169,6 +169,13 @@ struct Node::Impl {
   Value sent_changes();
   Value digests();
   Value advance_reply(bool trace);
+  // Tells the clock master which leaves this node hosts (lock-step routes their samples' counts by them).
+  void tell_leaves() {
+    if (!master) return;
+    Value names = Value::array();
+    for (const auto& [name, l] : leaves) names.array_ref().push_back(Value(name));
+    master->send({"leaves", 0, Value::map().set("leaves", std::move(names))});
+  }
   std::map<std::string, std::uint64_t> events;     // per leaf: done and aborted events sent (lock-step counts)
   std::map<std::string, std::uint64_t> last_sent;  // per link key: the count last told to the master
   std::vector<std::string> switches;               // activations since the last advance (trace)
@@ -315,6 +322,7 @@ Leaf* Node::Impl::add_leaf(const std::string& type, const std::string& name, con
   }
   l->component->on_event = [this, l](const ComponentEvent& e) { forward(*l, e); };
   leaves.emplace(name, leaf);
+  tell_leaves();
   return l;
 }
 
@@ -325,6 +333,7 @@ void Node::Impl::remove_leaf(const std::string& name) {
   if (it == leaves.end()) return;
   std::shared_ptr<Leaf> leaf = it->second;
   leaves.erase(it);
+  tell_leaves();
   leaf->component->halt();
   endpoint->remove_component(name);
   leaf->control->close();
@@ -463,6 +472,7 @@ void Node::Impl::connect_master(const Address& address, const Done& done_fn) {
                   if (!r.ok()) return fail_start(done_fn, who + ": the clock master refused the subscription: " + r.error);
                   const Nanos now = r.message.payload["now"].as_int(0);
                   if (now > timers->now()) timers->advance_to(now);
+                  tell_leaves();
                   done_fn("");
                 });
   });
@@ -652,7 +662,7 @@ bool Node::Impl::handle_control(Leaf& leaf, const Channel::Ptr& ch, const Messag
     if (set.empty()) return ch->reply_error(m, t + " needs a set"), true;
     if (t == "activate") endpoint->activate(set);
     else endpoint->deactivate(set);
-    switches.push_back((t == "activate" ? "+" : "-") + set);
+    switches.push_back(leaf.name + " " + (t == "activate" ? "+" : "-") + set);
     if (switches.size() > 1000) switches.erase(switches.begin());
     ch->reply(m);
   } else if (t == "read") {

@@ -1,9 +1,9 @@
 -- dca.trace: the trace of a run in simulated time (`dca run --trace FILE`, ARCHITECTURE.md "Time"), and the
 -- first divergence of two. One line per fact, sorted by tick (ns), then by text:
 --   T_NS D PATH.PORT n=COUNT digest=FNV value=LATEST   an output wrote at this tick (the world's and every node's)
---   T_NS S PATH +SET | -SET                            a connection set switched at this node
---   T_NS E PATH events=N                               the node's done/aborted events so far
---   T_NS L PATH                                        the node was lost (did not answer its advance)
+--   T_NS S PATH +SET | -SET                            a connection set switched at this leaf (its source)
+--   T_NS E PATH events=N                               the leaf's done/aborted events so far
+--   T_NS L PATH                                        the leaf's node was lost (did not answer its advance)
 --   T_NS T LINE                                        a supervisor's transition line at the event's time
 -- The clock master (the world) writes D, S, E and L lines as the rounds end; the run adds the T lines and
 -- merges both, so two runs of the same seed give the same file, byte for byte, whatever the load.

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Repeatable simulated time (issue 16, ARCHITECTURE.md "Time"): the door system, one seed, run several times
 # with --trace gives the same trace, byte for byte: RUNS times as it is, once more while two busy loops burn
-# both cores, and once with its three hosts mapped to one daemon (Unix sockets instead of TCP between them).
+# both cores, once with its three hosts mapped to one daemon (Unix sockets instead of TCP between them), and
+# once per placement of the leaves in shared nodes (`--placement group`, `--placement host`: in-process links).
 # Any difference fails and prints `dca trace diff` (the first divergence: tick, process, port, both values),
 # the seed and the trace files, which are kept for a re-run.
 #   tests/door/door_repeat.sh DCA_EXE SEED [RUNS] [dca run options...]
@@ -31,6 +32,7 @@ one() {  # one run: NAME [extra dca run options...]
 
 one first
 for i in $(seq 2 "$runs"); do one "run$i"; done
+for placement in group host; do one "placement_$placement" --placement "$placement"; done
 # under load: two busy loops on the two cores
 for _ in 1 2; do (while :; do :; done) & burners+=($!); done
 one loaded
@@ -42,5 +44,5 @@ for _ in $(seq 100); do [ -S "$dir/daemon.sock" ] && break; sleep 0.1; done
 printf 'vision unix:%s\nplatform unix:%s\nmanipulation unix:%s\n' "$dir/daemon.sock" "$dir/daemon.sock" \
   "$dir/daemon.sock" >"$dir/hosts"
 DCA_KEY_FILE="$dir/key" one one_daemon --hosts "$dir/hosts"
-echo "PASS: seed $seed: $((runs + 2)) runs, identical traces ($(wc -l <"$dir/first.trace") lines)"
+echo "PASS: seed $seed: $((runs + 4)) runs, identical traces ($(wc -l <"$dir/first.trace") lines)"
 rm -rf "$dir"
