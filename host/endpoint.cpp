@@ -110,10 +110,29 @@ struct Endpoint::Impl {
     return *g;
   }
 
-  std::shared_ptr<bool> set_flag(const std::string& name) {
-    auto it = sets.find(name);
+  // One flag per source component and set: in a node hosting several leaves, a set switched at one of them
+  // (its own control channel) never switches the others' links, whichever channel is read first.
+  static std::string flag_key(const std::string& from, const std::string& set) { return from + '\x1f' + set; }
+  std::shared_ptr<bool> set_flag(const std::string& from, const std::string& name) {
+    const std::string key = flag_key(from, name);
+    auto it = sets.find(key);
     if (it != sets.end()) return it->second;
-    return sets.emplace(name, std::make_shared<bool>(false)).first->second;
+    return sets.emplace(key, std::make_shared<bool>(false)).first->second;
+  }
+  // Sets every flag of `set` (of source `from` only, when given) to `on`.
+  void switch_set(const std::string& set, const std::string& from, bool on) {
+    if (!from.empty()) {
+      *set_flag(from, set) = on;
+      return;
+    }
+    bool any = false;
+    for (auto& [key, flag] : sets)
+      if (key.size() > set.size() && key.compare(key.size() - set.size(), set.size(), set) == 0 &&
+          key[key.size() - set.size() - 1] == '\x1f') {
+        *flag = on;
+        any = true;
+      }
+    if (!any) *set_flag("", set) = on;
   }
   void report(CommsEvent e) {
     if (on_event && !closing) on_event(e);
@@ -1024,7 +1043,8 @@ void Endpoint::connect(const ConnectRequest& r, const Location& dest, ConnectDon
     impl_->remove_link(l.get());
     break;
   }
-  auto flag = impl_->set_flag(r.set);
+  auto flag = impl_->set_flag(r.from, r.set);
+  if (auto pre = impl_->sets.find(Impl::flag_key("", r.set)); pre != impl_->sets.end() && *pre->second) *flag = true;
   if (t == Transport::InProcess) {
     Input* in = nullptr;
     const std::string error = impl_->check_destination(r, out->spec(), in);
@@ -1050,19 +1070,23 @@ void Endpoint::disconnect_set(const std::string& set) {
   impl_->links.swap(keep);
 }
 
-void Endpoint::activate(const std::string& set) {
-  *impl_->set_flag(set) = true;
+void Endpoint::activate(const std::string& set, const std::string& from) {
+  impl_->switch_set(set, from, true);
   for (std::size_t i = 0; i < impl_->links.size(); ++i)
-    if (impl_->links[i]->request().set == set) impl_->links[i]->on_activate();
+    if (impl_->links[i]->request().set == set && (from.empty() || impl_->links[i]->request().from == from))
+      impl_->links[i]->on_activate();
 }
 
-void Endpoint::deactivate(const std::string& set) { *impl_->set_flag(set) = false; }
+void Endpoint::deactivate(const std::string& set, const std::string& from) { impl_->switch_set(set, from, false); }
 
 void Endpoint::on_event(std::function<void(const CommsEvent&)> fn) { impl_->on_event = std::move(fn); }
 
 bool Endpoint::active(const std::string& set) const {
-  auto it = impl_->sets.find(set);
-  return it != impl_->sets.end() && *it->second;
+  for (const auto& [key, flag] : impl_->sets)
+    if (*flag && key.size() > set.size() && key.compare(key.size() - set.size(), set.size(), set) == 0 &&
+        key[key.size() - set.size() - 1] == '\x1f')
+      return true;
+  return false;
 }
 
 void Endpoint::set_gated(bool on) {

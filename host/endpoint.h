@@ -120,10 +120,11 @@ class Endpoint {
   /// connections under them stay open).
   void disconnect_set(const std::string& set);
 
-  /// Activates a set: a flag flip, no socket opened. Pending pull requests of the set are answered.
-  void activate(const std::string& set);
-  /// Deactivates a set: a flag flip, no socket closed.
-  void deactivate(const std::string& set);
+  /// Activates a set: a flag flip, no socket opened. Pending pull requests of the set are answered. With
+  /// `from`, only the links from that component (a node hosting several leaves switches each leaf's own).
+  void activate(const std::string& set, const std::string& from = "");
+  /// Deactivates a set (of `from` only, when given): a flag flip, no socket closed.
+  void deactivate(const std::string& set, const std::string& from = "");
   /// True when `set` is active.
   bool active(const std::string& set) const;
 

@@ -660,8 +660,8 @@ bool Node::Impl::handle_control(Leaf& leaf, const Channel::Ptr& ch, const Messag
   } else if (t == "activate" || t == "deactivate") {
     const auto& set = p["set"].as_string();
     if (set.empty()) return ch->reply_error(m, t + " needs a set"), true;
-    if (t == "activate") endpoint->activate(set);
-    else endpoint->deactivate(set);
+    if (t == "activate") endpoint->activate(set, leaf.name);  // this leaf's links only (host/endpoint.h)
+    else endpoint->deactivate(set, leaf.name);
     switches.push_back(leaf.name + " " + (t == "activate" ? "+" : "-") + set);
     if (switches.size() > 1000) switches.erase(switches.begin());
     ch->reply(m);

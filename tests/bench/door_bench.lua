@@ -7,6 +7,9 @@
 --          rtf=.. wall_s=.. sim_s=.. door_deg=.. advances=.. processes_per_round=.. per_process_p50_us=..
 --   (placement: `dca run --placement process|group|host`; period: MotionControl's, 10ms or 1ms)
 --   RESULT bench=raw_world_scripted_door variant=seedN n=1 ... rtf=.. wall_s=.. sim_s=..
+--   RESULT bench=door_harness variant=seedN_motionPms n=<10 ms periods> ... rtf=.. wall_s=.. sim_s=.. door_deg=..
+--   (the baseline: tests/sim/door_harness.h in one process, same seed and period, run before each period's
+--   supervised runs; door_demo's vs_harness is its rtf over that one's)
 --
 -- The latency fields of door_demo are the wall time of each lock-step round: one control period of simulated
 -- time (10 ms, the controllers' period; MotionControl runs at it) with every due node advanced, answered and
@@ -23,6 +26,18 @@ local run = require("dca.testing").sh  -- output (stdout and stderr), exit code
 
 local function num(s) return tonumber(s) or 0 end
 
+-- The baseline: the in-process closed-loop harness (tests/sim/door_harness.h, bench_door_harness) on the same
+-- seed and MotionControl period: the same controllers and world in one process, no sockets, no supervisors.
+-- --> its rtf | nil
+local function harness(seed, period)
+  local build = os.getenv("DCA_BUILD_DIR") or (src .. "/build/release")
+  local out, code = run(sformat("%s/bench/bench_door_harness %d %s", build, seed, period == "1ms" and "0.001" or "0.01"))
+  local line = out:match("RESULT[^\n]*")
+  if code ~= 0 or not line then io.stderr:write("door harness failed:\n" .. out .. "\n") return end
+  print(line)
+  return num(line:match("rtf=([%d.]+)"))
+end
+
 local function raw(seed)
   local out, code = run(sformat("%s sim --seed %d", exe, seed))
   local sim, wall = out:match("simulated ([%d.]+) s in ([%d.]+) s wall")
@@ -38,7 +53,7 @@ end
 
 -- One supervised run: `placement` (dca run --placement; the variant names it), `period` "10ms" or "1ms"
 -- (MotionControl's period: motion.period).
-local function demo(seed, placement, period)
+local function demo(seed, placement, period, base)
   local extra = sformat(" --placement %s", placement)
   if period == "1ms" then extra = extra .. " --set motion.period=0.001" end
   local out, code = run(sformat("%s run %s/scripts/systems/door_open.dca --sim door --seed %d --quiet%s", exe, src,
@@ -53,9 +68,9 @@ local function demo(seed, placement, period)
   sim, wall = num(sim), num(wall)
   -- processes advanced per round, and the round's p50 shared among them: the lock-step cost per process
   local per_round = num(adv) / math.max(1, num(rounds))
-  print(sformat("RESULT bench=door_demo variant=seed%d_%s_%s n=%d p50_us=%.1f p99_us=%.1f p999_us=%.1f max_us=%.1f rtf=%.2f wall_s=%.3f sim_s=%.3f door_deg=%s advances=%s processes_per_round=%.2f per_process_p50_us=%.1f",
+  print(sformat("RESULT bench=door_demo variant=seed%d_%s_%s n=%d p50_us=%.1f p99_us=%.1f p999_us=%.1f max_us=%.1f rtf=%.2f wall_s=%.3f sim_s=%.3f door_deg=%s advances=%s processes_per_round=%.2f per_process_p50_us=%.1f vs_harness=%.2f",
     seed, placement, period, num(rounds), num(p50), num(p99), num(max), num(max), sim / wall, wall, sim, deg or "?",
-    adv, per_round, num(p50) / math.max(1, per_round)))
+    adv, per_round, num(p50) / math.max(1, per_round), (base or 0) > 0 and sim / wall / base or 0))
 end
 
 local seeds = {}
@@ -74,7 +89,8 @@ for round = 1, 2 do
     io.stderr:write(sformat("door_bench: round %d, seed %d: raw world, then the supervised system\n", round, seed))
     raw(seed)
     for _, period in ipairs(periods) do
-      for _, placement in ipairs(placements) do demo(seed, placement, period) end
+      local base = harness(seed, period)
+      for _, placement in ipairs(placements) do demo(seed, placement, period, base) end
     end
   end
 end

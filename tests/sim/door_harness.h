@@ -67,13 +67,23 @@ class DoorHarness {
   static constexpr const char* kRoot = "/main/dooropensyst/";
 
   /// The world from `config`; every controller of door_open.dca with the arguments the .dca file gives.
-  explicit DoorHarness(const sim::WorldConfig& config) : world_(config) {
+  /// `motion_period` > 0: MotionControl's three controllers at that period (s), holding each command 10 ms,
+  /// as `dca run ... --set motion.period=P` runs them (door_open.config's other values).
+  explicit DoorHarness(const sim::WorldConfig& config, double motion_period = 0) : world_(config) {
     testing::add_door_types();
     ep_.add_component("world", world_ports_);
     for (const auto& s : sim::kSensorSignals) world_ports_.add_output(vector_port(s.name, s.size, s.units));
     for (const auto& s : sim::kCommandSignals) world_ports_.add_input(vector_port(s.name, s.size, s.units), 16);
 
-    for (const auto& i : Instances()) add(i.type, i.name, i.params);
+    for (auto i : Instances()) {
+      if (motion_period > 0 && std::string(i.name).rfind("motionctrl/", 0) == 0) {
+        const std::string p = std::to_string(motion_period);
+        i.params = std::string(i.name) == "motionctrl/redundancy"
+                       ? std::vector<std::string>{"10.0", "1.0", "0.02", p, "0.01"}
+                       : std::vector<std::string>{p, "0.01"};
+      }
+      add(i.type, i.name, i.params);
+    }
     for (const auto& l : Connections()) connect(l.from, l.out, l.to, l.in, l.set);
 
     steps_ = {
