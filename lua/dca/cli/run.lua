@@ -67,8 +67,10 @@ local OPTIONS = {
 -- The options that exclude each other or need another: the first broken rule. --> error text | nil
 local function rule_broken(o)
   if not o.file then return "which .dca file?" end
-  if (o.seed or o.door_width or o.record or o.jammed or o.trace) and not o.sim then
-    return "--seed, --door-width, --record, --jammed and --trace go with --sim WORLD"
+  if (o.seed or o.door_width or o.record or o.jammed) and not o.sim then
+    return "--seed, --door-width, --record and --jammed go with --sim WORLD"
+  end
+  if o.trace and not o.sim then return "--trace goes with --sim WORLD"
   end
   if o.config and o.no_config then return "--config and --no-config exclude each other" end
   if o.state_dir and o.hosts then return "--state-dir is for the local daemons, not those of --hosts" end
