@@ -358,6 +358,7 @@ Value LockstepCore::status() const {
       .set("round_p50_us", static_cast<double>(rounds_.quantile(0.5)) / 1000.0)
       .set("round_p99_us", static_cast<double>(rounds_.quantile(0.99)) / 1000.0)
       .set("round_max_us", static_cast<double>(rounds_.max()) / 1000.0)
+      .set("settled", phase_ == Phase::Idle)
       .set("barriers", static_cast<std::int64_t>(barriers_))
       .set("waves", static_cast<std::int64_t>(waves_));
 }

@@ -21,8 +21,9 @@
 //   go {}           -> ok {now}  time starts (or resumes) flowing
 //   hold {at}       -> ok {now}  time stops after the current tick (at: ns, once it reaches `at`)
 //   status {}       -> ok {now, t, running, steps, wall_s, subscribers = [names], dropped = [reasons], rounds,
-//                       advances, round_p50_us, round_p99_us, round_max_us, barriers, waves}: a round is one
-//                       tick with subscribers due (advances sent -> last reply), in wall time
+//                       advances, round_p50_us, round_p99_us, round_max_us, settled, barriers, waves}: a round is one
+//                       tick with subscribers due (advances sent -> last reply), in wall time; settled:
+//                       no round or barrier open
 //
 // Each tick t (the semantics are ARCHITECTURE.md "Time"):
 //   1. the owner takes in the samples written to it before t (hook `take`, with the counts its writers

@@ -93,9 +93,22 @@ end
 function Run:wind_up()
   local s = self.ctx.sim
   if not s then self:down() return end
-  s:summary(core.now() - self.t0, function(lines)
-    for _, l in ipairs(lines) do self:emit(l) end
-    self:down()
+  local function summary()
+    s:summary(core.now() - self.t0, function(lines)
+      for _, l in ipairs(lines) do self:emit(l) end
+      self:down()
+    end)
+  end
+  if not self.o.trace_file then summary() return end
+  -- with --trace: time held once the outcome's tick has ended (its barrier done, its lines written), within 10 s
+  local deadline = core.now() + 10
+  s.world:hold(function()
+    local function check()
+      s.world:request({ type = "status" }, 10, function(r)
+        if (r and not r.running and r.settled) or core.now() > deadline then summary() else core.after(0.005, check) end
+      end)
+    end
+    check()
   end)
 end
 
