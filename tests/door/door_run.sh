@@ -18,11 +18,14 @@ min="${DOOR_MIN:-70}"; max="${DOOR_MAX:-180}"
 awk -v a="${angle:-0}" -v lo="$min" -v hi="$max" 'BEGIN { exit !(a >= lo && a <= hi) }' ||
   { echo "FAIL: seed $seed: the door opened to ${angle:-?} deg, not between $min and $max"; exit 1; }
 # DOOR_PROCESSES: at most that many processes advanced per lock-step round (a placement's shared nodes take one
-# advance each, whatever the number of their leaves; a few rounds more for the subscriptions at the start)
+# advance each, whatever the number of their leaves; a few rounds more for the subscriptions at the start), and
+# two more per barrier (after an event every node is advanced to t before the supervisors quiesce, and again after)
 if [ -n "${DOOR_PROCESSES:-}" ]; then
-  read -r rounds advances < <(sed -n 's/^lock-step: \([0-9]*\) rounds, \([0-9]*\) advances.*/\1 \2/p' "$log" | tail -1)
-  awk -v r="${rounds:-0}" -v a="${advances:-0}" -v n="$DOOR_PROCESSES" 'BEGIN { exit !(r > 0 && a <= n * (r + 3)) }' ||
+  read -r rounds advances barriers < <(sed -n \
+    's/^lock-step: \([0-9]*\) rounds, \([0-9]*\) advances.*; \([0-9]*\) barriers$/\1 \2 \3/p' "$log" | tail -1)
+  awk -v r="${rounds:-0}" -v a="${advances:-0}" -v b="${barriers:-0}" -v n="$DOOR_PROCESSES" \
+    'BEGIN { exit !(r > 0 && a <= n * (r + 3 + 2 * b)) }' ||
     { echo "FAIL: seed $seed: $advances advances in $rounds rounds: more than $DOOR_PROCESSES processes a round"; exit 1; }
-  echo "lock-step: $advances advances in $rounds rounds, at most $DOOR_PROCESSES processes a round"
+  echo "lock-step: $advances advances in $rounds rounds and $barriers barriers, at most $DOOR_PROCESSES processes a round"
 fi
 echo "PASS: seed $seed: the door opened to $angle deg"

@@ -85,9 +85,9 @@ end
 function S:_figures(r, wall, lines)
   lines[#lines + 1] = sformat("simulated %.3f s in %.3f s of wall-clock time", tonumber(r.t) or 0, wall)
   if tonumber(r.rounds) and r.rounds > 0 then
-    lines[#lines + 1] = sformat("lock-step: %d rounds, %d advances; wall time per round p50 %.0f us, p99 %.0f us, max %.0f us",
-      r.rounds, tonumber(r.advances) or 0, tonumber(r.round_p50_us) or 0, tonumber(r.round_p99_us) or 0,
-      tonumber(r.round_max_us) or 0)
+    lines[#lines + 1] = sformat("lock-step: %d rounds, %d advances; wall time per round p50 %.0f us, p99 %.0f us, "
+      .. "max %.0f us; %d barriers", r.rounds, tonumber(r.advances) or 0, tonumber(r.round_p50_us) or 0,
+      tonumber(r.round_p99_us) or 0, tonumber(r.round_max_us) or 0, tonumber(r.barriers) or 0)
   end
   for _, d in ipairs(r.dropped or {}) do lines[#lines + 1] = "dropped from the clock: " .. tostring(d) end
   if #self.order == 0 then return end
