@@ -335,7 +335,7 @@ void Node::Impl::remove_leaf(const std::string& name) {
   leaves.erase(it);
   tell_leaves();
   leaf->component->halt();
-  endpoint->remove_component(name);
+  if (endpoint) endpoint->remove_component(name);  // null once shut down (shutdown removed every leaf's)
   leaf->control->close();
   for (auto ch : std::set<Channel::Ptr>(*leaf->supervisors)) ch->close("leaf " + name + " removed");
   if (daemon && opts.shared)
@@ -720,6 +720,9 @@ void Node::Impl::add(const Channel::Ptr& ch, const Message& m) {
   const Value e = endpoints(leaf);
   daemon->request({"register", 0, Value::map().set("name", name).set("endpoints", e)},
                   std::chrono::milliseconds(opts.timeout_ms), [this, ch, m, name, e](Response r) {
+                    // shutdown() closes the daemon channel last, which answers this request at once with an
+                    // error: the node (endpoint included) is already gone, so there is nothing to undo.
+                    if (done) return;
                     if (!r.ok()) {
                       remove_leaf(name);
                       return void(ch->reply_error(m, "cannot register " + name + ": " + r.error));

@@ -95,6 +95,7 @@ class NodeTest : public ::testing::Test {
   }
   void serve(const dca::Channel::Ptr& ch, const Message& m) {
     if (m.type == "ping") return void(ch->reply(m, Value::map().set("host", "h").set("pid", 1)));
+    if (m.type == "register" && hold_register) return void(++held);  // never answered
     if (m.type == "register") {
       names[m.payload["name"].as_string()] = m.payload["endpoints"];
       return void(ch->reply(m, Value::map().set("name", m.payload["name"]).set("host", "h")));
@@ -219,6 +220,8 @@ class NodeTest : public ::testing::Test {
   std::vector<Message> events;
   std::map<std::string, TestComponent*> shared_made;  // a shared node's leaves (start_shared)
   int created = 0;
+  bool hold_register = false;  // the stand-in daemon leaves register requests unanswered (counted in held)
+  int held = 0;
 };
 
 TEST_F(NodeTest, RegistersItsEndpointsWithTheDaemon) {
@@ -470,6 +473,21 @@ TEST_F(NodeTest, RemoveThenAddOfALeafIsAFreshInstanceInTheSameProcess) {
   ASSERT_TRUE(call(sa2, "exit").ok());
   ASSERT_TRUE(run_until([&] { return nodes[0]->leaves() == 1u; }));
   EXPECT_FALSE(nodes[0]->finished());
+}
+
+// A shared node shutting down while an add waits for its registration: closing the daemon channel answers that
+// request at once, with an error, after shutdown let go of the data endpoint; undoing the add must not touch it.
+TEST_F(NodeTest, ShutdownWhileAnAddWaitsForItsRegistrationIsSafe) {
+  auto proc = shared_with({});
+  hold_register = true;
+  std::optional<dca::Response> r;
+  proc->request({"add", 0, Value::map().set("controller", "Test").set("name", "/g/a").set("args", Value::array())}, 3s,
+                [&](dca::Response x) { r = std::move(x); });
+  ASSERT_TRUE(run_until([&] { return held == 1; }));
+  EXPECT_EQ(nodes[0]->leaves(), 1u);
+  nodes[0]->shutdown("test");
+  ASSERT_TRUE(run_until([&] { return r.has_value(); }));
+  EXPECT_FALSE(r->ok());
 }
 
 TEST_F(NodeTest, OneAdvanceRunsTheTimersOfEveryLeafOfASharedNode) {
