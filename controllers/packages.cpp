@@ -2,6 +2,8 @@
 
 #include <cxxabi.h>
 #include <dlfcn.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cctype>
@@ -42,6 +44,17 @@ bool inside(const fs::path& file, const fs::path& dir) {
   if (ec) return false;
   const auto rel = f.lexically_relative(d);
   return !rel.empty() && *rel.begin() != ".." && rel.is_relative();
+}
+
+// Why `path` (a package file or its folder) may not be trusted with this process's code: writable by its group
+// or by anyone, or owned by someone other than this user or root. "" when it may.
+std::string untrusted(const fs::path& path) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) return path.string() + " cannot be examined";
+  if ((st.st_mode & (S_IWGRP | S_IWOTH)) != 0) return path.string() + " is group- or world-writable";
+  if (st.st_uid != 0 && st.st_uid != ::geteuid())
+    return path.string() + " is owned by uid " + std::to_string(st.st_uid) + ", not by this user or root";
+  return "";
 }
 
 // The version and ABI a package file says it was built with (its stamp, controllers/package.h), without running it.
@@ -160,7 +173,13 @@ std::optional<std::string> find_package(const std::string& name, const std::vect
       *error = "package '" + name + "': " + file.string() + " leads outside " + d + " (not loaded)";
       return std::nullopt;
     }
-    return fs::canonical(file, ec).string();
+    const fs::path real = fs::canonical(file, ec);
+    for (const fs::path& p : {real, real.parent_path()})
+      if (std::string why = untrusted(p); !why.empty()) {
+        *error = "package '" + name + "': " + why + " (not loaded)";
+        return std::nullopt;
+      }
+    return real.string();
   }
   *error = "package '" + name + "' not found (searched: " + (searched.empty() ? "no directory" : searched) +
            "; set DCA_CONTROLLER_PATH to the directory that holds " + name + std::string(kSuffix) + ")";

@@ -92,9 +92,11 @@ void AllowList::allow(const std::string& program, std::vector<std::string> first
 namespace {
 
 // Why a `dca node` argv may not load its packages: each --package a word (a name on the node's own search path,
-// controllers/packages.h, never a path), --system-dir absolute. "" when it may.
+// controllers/packages.h, never a path), --system-dir absolute. "" when it may. Read as `dca node` reads it
+// (app/cmd_node.cpp): option and value in pairs, and only a `--` in an option's place ends them (a `--` given as
+// a value, `--name --`, is that value).
 std::string package_args_problem(const std::vector<std::string>& argv) {
-  for (std::size_t i = 2; i + 1 < argv.size() && argv[i] != "--"; ++i) {
+  for (std::size_t i = 2; i + 1 < argv.size() && argv[i] != "--"; i += 2) {
     const std::string& v = argv[i + 1];
     const bool word = !v.empty() && v.size() <= 64 && !std::isdigit(static_cast<unsigned char>(v[0])) &&
                       std::all_of(v.begin(), v.end(), [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; });

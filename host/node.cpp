@@ -712,6 +712,10 @@ void Node::Impl::add(const Channel::Ptr& ch, const Message& m) {
   if (name.empty() || type.empty()) return void(ch->reply_error(m, "add needs a controller (type) and a name"));
   std::string err;
   if (const std::string pkg = p["package"].as_string(); !pkg.empty()) {
+    // the folder of the .dca file, as `dca node --system-dir` takes it (host/exec.cpp): never relative to
+    // wherever this node happens to run
+    if (const std::string sys = p["system_dir"].as_string(); !sys.empty() && sys[0] != '/')
+      return void(ch->reply_error(m, "add: system_dir '" + sys + "' is not absolute"));
     if (!opts.load_package) return void(ch->reply_error(m, "add: this node cannot load package '" + pkg + "'"));
     if (!opts.load_package(pkg, p["system_dir"].as_string(), &err)) return void(ch->reply_error(m, err));
   }

@@ -71,6 +71,25 @@ TEST(PackagesTest, ALinkLeadingOutsideTheSearchPathIsNeverLoaded) {
   EXPECT_EQ(Registry::global().manifest("PkgScale"), nullptr);
 }
 
+// Loading a package runs its code: its file and its folder must be writable by their owner only, and that owner
+// this user or root.
+TEST(PackagesTest, AFileOrFolderOthersMayWriteIsNeverLoaded) {
+  dca::test::TempDir dir("packages");
+  const std::string file = dir.path() + "/pkg_ok.dca.so";
+  fs::copy_file(packages_dir() + "/pkg_ok.dca.so", file);
+  fs::permissions(dir.path(), fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec);
+  fs::permissions(file, fs::perms::owner_read | fs::perms::owner_write | fs::perms::others_write);
+  std::string error;
+  EXPECT_FALSE(dca::find_package("pkg_ok", {dir.path()}, &error));
+  EXPECT_EQ(error, "package 'pkg_ok': " + fs::canonical(file).string() + " is group- or world-writable (not loaded)");
+  fs::permissions(file, fs::perms::owner_read | fs::perms::owner_write);
+  fs::permissions(dir.path(), fs::perms::owner_all | fs::perms::group_all);
+  EXPECT_FALSE(dca::find_package("pkg_ok", {dir.path()}, &error));
+  EXPECT_EQ(error, "package 'pkg_ok': " + fs::canonical(dir.path()).string() + " is group- or world-writable (not loaded)");
+  fs::permissions(dir.path(), fs::perms::owner_all);
+  EXPECT_TRUE(dca::find_package("pkg_ok", {dir.path()}, &error)) << error;
+}
+
 TEST(PackagesTest, ATypeOfTwoPackagesNamesBoth) {
   ASSERT_EQ(load_error("pkg_ok"), "");
   const std::string e = load_error("pkg_twin");

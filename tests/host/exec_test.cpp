@@ -131,6 +131,11 @@ TEST_F(ExecTest, ANodeLoadsPackagesByNameOnly) {
   EXPECT_NE(error.find("--system-dir 'rel' is not absolute"), std::string::npos) << error;
   // after "--" come the controller's own arguments
   EXPECT_TRUE(allow.resolve({"dca", "node", "--", "--package", "../x"}, &error)) << error;
+  // read in option/value pairs as `dca node` reads them: a "--" given as a value ends nothing
+  EXPECT_FALSE(allow.resolve({"dca", "node", "--name", "--", "--system-dir", "rel"}, &error));
+  EXPECT_NE(error.find("--system-dir 'rel' is not absolute"), std::string::npos) << error;
+  EXPECT_FALSE(allow.resolve({"dca", "node", "--type", "T", "--name", "--", "--package", "../evil"}, &error));
+  EXPECT_TRUE(allow.resolve({"dca", "node", "--type", "T", "--", "--system-dir", "rel"}, &error)) << error;
 }
 
 TEST_F(ExecTest, ArgvIsPassedAsIsNeverThroughAShell) {

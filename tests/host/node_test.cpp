@@ -470,6 +470,9 @@ TEST_F(NodeTest, RemoveThenAddOfALeafIsAFreshInstanceInTheSameProcess) {
             "/g/a is already hosted by this node");
   EXPECT_EQ(call(proc, "add", Value::map().set("controller", "Bad").set("name", "/g/c").set("args", Value::array())).error,
             "unknown controller type 'Bad'");
+  EXPECT_EQ(call(proc, "add", Value::map().set("controller", "Test").set("name", "/g/c").set("args", Value::array())
+                                  .set("package", "door").set("system_dir", "rel")).error,
+            "add: system_dir 'rel' is not absolute");
   ASSERT_TRUE(call(sa2, "exit").ok());
   ASSERT_TRUE(run_until([&] { return nodes[0]->leaves() == 1u; }));
   EXPECT_FALSE(nodes[0]->finished());
