@@ -47,6 +47,9 @@ inline constexpr std::uint8_t kLastKind = 10;
 inline constexpr std::size_t kHeader = 9;
 /// Largest accepted frame (length field), like the control plane's default.
 inline constexpr std::uint32_t kMaxFrame = 16u << 20;
+/// Largest body a frame can carry: the receiver fails the whole connection on a longer one, so the sender
+/// refuses it (the endpoint drops that sample and counts it).
+inline constexpr std::size_t kMaxBody = kMaxFrame - (kHeader - 4);
 /// Largest frame (length field) accepted before the peer has authenticated: the handshake's messages are
 /// under 200 bytes, so a connection announcing more is refused as soon as its length prefix arrives.
 inline constexpr std::uint32_t kMaxAuthFrame = 512;

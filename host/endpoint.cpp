@@ -197,6 +197,7 @@ class DataSocket : public std::enable_shared_from_this<DataSocket>, private Fram
   /// Sends a frame on `link`; false when the backlog is full (the frame is dropped) or the socket is closed.
   bool send(Kind kind, std::uint32_t link, Bytes body) {
     if (closed_ || failing_) return false;
+    if (body.size() > data_frame::kMaxBody) return false;  // the peer would fail the connection (every link on it)
     if (!framed_.idle() && framed_.queued() > kMaxBacklog) return false;
     std::array<std::byte, data_frame::kHeader> h;
     data_frame::put_header(h.data(), kind, link, body.size());
@@ -461,6 +462,7 @@ class StreamLink final : public Connection {
 
  private:
   void answer();
+  bool oversized(Bytes b);
   void finish(const std::string& error);
 
   Endpoint::Impl* ep_;
@@ -471,6 +473,7 @@ class StreamLink final : public Connection {
   std::string peer_, peer_addr_;
   bool connected_ = false;
   bool pending_ = false;
+  bool oversize_reported_ = false;
 };
 
 // The receiving side of a link over a socket: feeds one local input with what its trunk receives for it.
@@ -838,6 +841,7 @@ void StreamLink::on_write(Bytes b) {
     ++info_.skipped;
     return;
   }
+  if (oversized(b)) return;
   if (trunk_->send(Kind::Sample, id_, b)) {
     ++info_.sent;
     info_.bytes += data_frame::kHeader + b.size();
@@ -887,10 +891,23 @@ void StreamLink::answer() {
   if (!out_ || !out_->has_latest() || !trunk_) return;
   pending_ = false;
   const Bytes b = out_->latest_bytes();
+  if (oversized(b)) return;
   if (trunk_->send(Kind::Pulled, id_, b)) {
     ++info_.sent;
     info_.bytes += data_frame::kHeader + b.size();
   }
+}
+
+// A sample too big for one data frame is dropped here, counted in tx_dropped and reported once per link, as an
+// overflow: sent, it would make the peer fail the whole connection, every link between the two processes.
+bool StreamLink::oversized(Bytes b) {
+  if (b.size() <= data_frame::kMaxBody) return false;
+  ++info_.tx_dropped;
+  if (!std::exchange(oversize_reported_, true) && ep_)
+    ep_->report({CommsEvent::Kind::Overflow, info_.request.from, info_.request.out, peer_, info_.request.set,
+                 "sample of " + std::to_string(b.size()) + " bytes exceeds the data frame limit of " +
+                     std::to_string(data_frame::kMaxBody) + " bytes: dropped (counted in tx_dropped)"});
+  return true;
 }
 
 // Opening failed: report once, then remove this link.

@@ -290,6 +290,33 @@ TEST_P(EndpointSocketTest, PushOverflowIsCountedAtTheDestination) {
   EXPECT_EQ(dst_events[0].kind, dca::CommsEvent::Kind::Overflow);
 }
 
+// A sample too big for one data frame would make the destination fail the whole connection (every link between
+// the two processes): the sender drops it, counts it and reports it once; the links on the connection go on.
+TEST_P(EndpointSocketTest, ASampleTooBigForAFrameIsDroppedAtTheSender) {
+  auto* big = &src.add_output(dca::vectorx_port("Big"));
+  auto* big_in = &dst.add_input(dca::vectorx_port("BigIn"));
+  ASSERT_EQ(connect(*src_ep, req("/src", "Big", "/dst", "BigIn", "s"), dst_ep->location()), "");
+  ASSERT_EQ(connect(*src_ep, req("/src", "Out", "/dst", "In", "s"), dst_ep->location()), "");
+  src_ep->activate("s");
+  big->write(Eigen::VectorXd::Zero(static_cast<Eigen::Index>(df::kMaxBody / sizeof(double) + 1)));
+  big->write(Eigen::VectorXd::Constant(3, 2.0));
+  out->write(sample(1));
+  ASSERT_TRUE(run_until(io, [&] { return big_in->queued() == 1 && in->queued() == 1; }));
+  ASSERT_TRUE(big_in->pop());
+  EXPECT_EQ(big_in->vector(), Eigen::VectorXd::Constant(3, 2.0));
+  const auto links = src_ep->links();
+  ASSERT_EQ(links.size(), 2u);
+  const auto& l = links[0].request.out == "Big" ? links[0] : links[1];
+  EXPECT_EQ(l.tx_dropped, 1u);
+  EXPECT_EQ(l.sent, 1u);
+  EXPECT_FALSE(l.broken);
+  ASSERT_EQ(src_events.size(), 1u);
+  EXPECT_EQ(src_events[0].kind, dca::CommsEvent::Kind::Overflow);
+  EXPECT_EQ(src_events[0].port, "Big");
+  EXPECT_NE(src_events[0].reason.find("exceeds the data frame limit"), std::string::npos) << src_events[0].reason;
+  EXPECT_TRUE(dst_events.empty());
+}
+
 TEST_P(EndpointSocketTest, RefusalNamesTheValidPorts) {
   EXPECT_EQ(connect(*src_ep, req("/src", "Out", "/dst", "Inn", "s"), dst_ep->location()),
             "no input 'Inn' on /dst; inputs are: In");
