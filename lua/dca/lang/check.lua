@@ -279,13 +279,79 @@ local function parameters(ctx, p, sc)
   end
 end
 
+-- A host argument `a` of process p (its host { } or a standby host): a declared parameter or a string.
+local function host_arg(ctx, p, sc, a, what)
+  check_param_arg(ctx, p, sc, a, sc.base)
+  if a.kind == "number" then
+    err(ctx, sc.base, a.line, a.col, "%s must be a parameter or a string, not a number", what)
+  end
+end
+
 local function process_host(ctx, p, sc)
   if not p.host then return end
-  check_param_arg(ctx, p, sc, p.host, sc.base)
-  if p.host.kind == "number" then
-    err(ctx, sc.base, p.host.line, p.host.col, "the host of process '%s' must be a parameter or a string, not a number",
-        p.name)
+  host_arg(ctx, p, sc, p.host, sformat("the host of process '%s'", p.name))
+  for _, a in ipairs(p.standby_hosts or {}) do host_arg(ctx, p, sc, a, sformat("a standby host of process '%s'", p.name)) end
+end
+
+-- ------------------------------------------------------------------------------------ the supervision section
+-- supervision { strategy S; intensity N in T s|ms; restart on KIND, ...; standby INST on HOST, ...; }: each
+-- clause once (standby once per instance), known names, a whole number of restarts, a period above zero.
+
+M.strategies = { "one_for_one", "one_for_all", "rest_for_one" }
+M.fault_kinds = { "crash", "lost", "aborted" }
+M.units = { s = 1, ms = 0.001 }
+local function is_in(list, v) for _, x in ipairs(list) do if x == v then return true end end return false end
+
+local SUPERVISION_CLAUSE = {}
+function SUPERVISION_CLAUSE.strategy(ctx, p, sc, cl)
+  if is_in(M.strategies, cl.name) then return end
+  err(ctx, sc.base, cl.name_line, cl.name_col, "unknown strategy '%s'%s", cl.name,
+      guess_text(cl.name, M.strategies) or sformat(" (strategies: %s)", concat(M.strategies, ", ")))
+end
+function SUPERVISION_CLAUSE.intensity(ctx, p, sc, cl)
+  if math.type(cl.count) ~= "integer" or cl.count < 0 then
+    err(ctx, sc.base, cl.count_line, cl.count_col, "the restart intensity is a whole number of restarts (0 or more), "
+        .. "not %s", tostring(cl.count))
   end
+  if not M.units[cl.unit] then
+    err(ctx, sc.base, cl.unit_line, cl.unit_col, "unknown unit '%s' of the intensity's period (write s or ms)%s",
+        cl.unit, guess_text(cl.unit, { "s", "ms" }) or "")
+  end
+  if not (cl.within > 0) or cl.within == math.huge then
+    err(ctx, sc.base, cl.within_line, cl.within_col, "the intensity's period must be a positive number, not %s",
+        tostring(cl.within))
+  end
+end
+function SUPERVISION_CLAUSE.restart(ctx, p, sc, cl)
+  each_repeat(cl.kinds, function(k) return k.name end, function(k)
+    err(ctx, sc.base, k.line, k.col, "fault '%s' is named twice in 'restart on'", k.name)
+  end)
+  for _, k in ipairs(cl.kinds) do
+    if not is_in(M.fault_kinds, k.name) then
+      err(ctx, sc.base, k.line, k.col, "unknown fault '%s' in 'restart on'%s", k.name,
+          guess_text(k.name, M.fault_kinds) or sformat(" (faults: %s)", concat(M.fault_kinds, ", ")))
+    end
+  end
+end
+function SUPERVISION_CLAUSE.standby(ctx, p, sc, cl)
+  local inst = p.instances[cl.instance]
+  if not inst then
+    unknown_instance(ctx, p, sc, sc.base, cl.instance_line, cl.instance_col, cl.instance, "in 'standby'")
+  elseif ctx.defs[inst.type] then
+    err(ctx, sc.base, cl.instance_line, cl.instance_col, "'%s' is a group (%s): its standby hosts go in its own "
+        .. "'host { primary, standby... }'", cl.instance, inst.type)
+  end
+  for _, a in ipairs(cl.hosts) do host_arg(ctx, p, sc, a, sformat("a standby host of '%s'", cl.instance)) end
+end
+
+local function supervision(ctx, p, sc)
+  if not p.supervision then return end
+  each_repeat(p.supervision.clauses, function(cl) return cl.kw == "standby" and "standby " .. cl.instance or cl.kw end,
+    function(cl, first)
+      err(ctx, sc.base, cl.line, cl.col, "'%s%s' is given twice in supervision (first at line %d)", cl.kw,
+          cl.kw == "standby" and " " .. cl.instance or "", first.line)
+    end)
+  for _, cl in ipairs(p.supervision.clauses) do SUPERVISION_CLAUSE[cl.kw](ctx, p, sc, cl) end
 end
 
 local function instances(ctx, p, sc)
@@ -516,6 +582,14 @@ end
 --- The host of each process definition and the string arguments of its instances (a leaf's first is its host).
 local function usable_strings(ctx, p, sc)
   if p.host then usable_string(ctx, sc.base, p.host, sformat("the host of process '%s'", p.name), true) end
+  for _, a in ipairs(p.standby_hosts or {}) do
+    usable_string(ctx, sc.base, a, sformat("a standby host of process '%s'", p.name), true)
+  end
+  for _, cl in ipairs(p.supervision and p.supervision.clauses or {}) do
+    for _, a in ipairs(cl.hosts or {}) do
+      usable_string(ctx, sc.base, a, sformat("a standby host of '%s'", cl.instance), true)
+    end
+  end
   for _, inst in ipairs(p.instances) do
     local path, leaf = sc.base .. "." .. inst.name, not ctx.defs[inst.type]
     for i, a in ipairs(inst.args) do
@@ -557,6 +631,7 @@ M.passes = {
   known_types, instance_paths, duplicate_definitions, scopes, uses,        -- the context, the packages
   each(parameters), each(process_host), each(instances), each(leaves),     -- each process definition
   each(external_io), each(connection_sets), each(connections), each(actions), each(usable_strings),
+  each(supervision),                                                       -- its supervision policy
   each(verify_section),                                                    -- its properties' names
   recursion,                                                               -- between process types
 }

@@ -39,6 +39,7 @@ end
 
 local function leaf_label(n)
   local lines = { sformat("%s : %s", n.name, n.type), "@" .. tostring(n.host) }
+  if n.standby then lines[2] = lines[2] .. " (standby " .. concat(n.standby, ", ") .. ")" end
   if #n.params > 0 then
     local ps = {}
     for i, v in ipairs(n.params) do ps[i] = param_text(v) end
@@ -50,6 +51,14 @@ end
 local function group_label(n)
   local head = sformat("%s : %s", n.name, n.type)
   if n.host ~= nil then head = head .. " @" .. tostring(n.host) end
+  if n.hosts and #n.hosts > 1 then head = head .. " (standby " .. concat(n.hosts, ", ", 2) .. ")" end
+  local pol = n.supervision
+  if pol then
+    local on = {}
+    for _, k in ipairs({ "crash", "lost", "aborted" }) do if pol.on[k] then on[#on + 1] = k end end
+    head = head .. sformat("\n%s, %d in %g s, on %s", pol.strategy, pol.intensity, pol.within,
+                           #on > 0 and concat(on, ", ") or "nothing")
+  end
   local act = n.process.actions
   if act and act.expr then head = head .. "\n" .. wrap(algebra.tostring(act.expr), WRAP) end
   return head

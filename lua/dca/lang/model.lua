@@ -10,6 +10,9 @@
 --     kind = "group" | "leaf",
 --     host = "c3.nada.kth.se",         -- leaf: its first argument; group: its host { } (else the parent's host;
 --                                      --   the root without host { } has opts.host, possibly nil)
+--     hosts = { "h1", "h1b" },          -- group: its host, then the standby hosts of its host { } (bound)
+--     standby = { "h2b" } | nil,        -- leaf: its standby hosts (its group's `standby` clause, bound)
+--     supervision = policy | nil,       -- group: its supervision section resolved (M.policy), nil without one
 --     args = { v1, v2, ... },          -- every argument bound to a value, in order (leaf: host first)
 --     params = { v2, ... },            -- leaf: the arguments after the host (what the controller gets)
 --     bindings = { host1 = "c1..." },  -- group: its parameters by name
@@ -25,6 +28,9 @@
 --   model.connections(tree)         every connection resolved to leaf ports, with its set name
 --                                   "<group path>:<instance>[<label>]" (ARCHITECTURE.md, nodes)
 --   model.summary(tree)             counts for `dca check`'s summary line
+--   model.policy(proc)              the supervision policy of a process definition (defaults filled in), or nil:
+--                                   { strategy = "one_for_one", intensity = 1, within = 5 (seconds),
+--                                     on = { crash = true, lost = true, aborted = false } }
 local check = require "dca.lang.check"
 
 local M = {}
@@ -53,6 +59,43 @@ local function shown(v)
   return (sformat("%q", v):gsub("\\\n", "\\n"))
 end
 
+--- The defaults of a supervision section's missing clauses (OTP's: one restart in five seconds).
+M.POLICY_DEFAULTS = { strategy = "one_for_one", intensity = 1, within = 5, on = { "crash", "lost" } }
+
+--- The supervision policy of the (checked) process definition `proc`, or nil when it declares none.
+function M.policy(proc)
+  local sec = proc.supervision
+  if not sec then return nil end
+  local d = M.POLICY_DEFAULTS
+  local pol = { strategy = d.strategy, intensity = d.intensity, within = d.within,
+                on = { crash = false, lost = false, aborted = false } }
+  local kinds = d.on
+  for _, cl in ipairs(sec.clauses) do
+    if cl.kw == "strategy" then pol.strategy = cl.name
+    elseif cl.kw == "intensity" then
+      pol.intensity, pol.within = cl.count, cl.within * (check.units[cl.unit] or 1)
+    elseif cl.kw == "restart" then
+      kinds = {}
+      for i, k in ipairs(cl.kinds) do kinds[i] = k.name end
+    end
+  end
+  for _, k in ipairs(kinds) do pol.on[k] = true end
+  return pol
+end
+
+-- The bound standby hosts of each leaf instance of `def` (its `standby` clauses): { [instance] = { host... } }.
+local function standby_of(def, env, bind_host)
+  local out = {}
+  for _, cl in ipairs(def.supervision and def.supervision.clauses or {}) do
+    if cl.kw == "standby" then
+      local list = {}
+      for i, a in ipairs(cl.hosts) do list[i] = bind_host(a, env, "standby host of leaf " .. cl.instance) end
+      out[cl.instance] = list
+    end
+  end
+  return out
+end
+
 --- Checks `ast` (dca.lang.check, same opts) and instantiates the tree rooted at opts.root (default "main").
 --- Returns the root node, or nil and the list of errors.
 function M.build(ast, opts)
@@ -76,18 +119,26 @@ function M.build(ast, opts)
   local function group(def, path, name, argv, parent_host, parent, decl)
     local env = {}
     for i, prm in ipairs(def.params) do env[prm.name] = argv[i] end
-    local host = parent_host
-    if def.host then host = bind(def.host, env) end
-    local unusable = def.host and unusable_host(host, def.host)
-    if unusable then
-      local why = def.host.kind == "param" and sformat(" (its parameter '%s')", def.host.value) or ""
-      local at = decl or def.host
-      berrors[#berrors + 1] = { line = at.line, col = at.col, path = path,
-                                msg = sformat("the host of %s is %s%s, not a host name%s", path, shown(host), why,
-                                              unusable) }
+    -- a host argument bound, or an error naming what it is (`what`) and where it came from
+    local function bind_host(a, benv, what)
+      local v = bind(a, benv)
+      local unusable = unusable_host(v, a)
+      if unusable then
+        local why = a.kind == "param" and sformat(" (its parameter '%s')", a.value) or ""
+        local at = decl or a
+        berrors[#berrors + 1] = { line = at.line, col = at.col, path = path,
+                                  msg = sformat("the %s of %s is %s%s, not a host name%s", what, path, shown(v), why,
+                                                unusable) }
+      end
+      return v
     end
-    local node = { path = path, name = name, type = def.name, kind = "group", host = host, args = argv,
-                   bindings = env, process = def, children = {}, parent = parent,
+    local host = parent_host
+    if def.host then host = bind_host(def.host, env, "host") end
+    local hosts = { host }
+    for i, a in ipairs(def.standby_hosts or {}) do hosts[i + 1] = bind_host(a, env, "standby host") end
+    local standby = standby_of(def, env, bind_host)
+    local node = { path = path, name = name, type = def.name, kind = "group", host = host, hosts = hosts, args = argv,
+                   bindings = env, process = def, children = {}, parent = parent, supervision = M.policy(def),
                    line = decl and decl.line or def.line, col = decl and decl.col or def.col }
     for _, inst in ipairs(def.instances) do
       local values = {}
@@ -101,7 +152,8 @@ function M.build(ast, opts)
         local params = {}
         for i = 2, #values do params[i - 1] = values[i] end
         child = { path = cpath, name = inst.name, type = inst.type, kind = "leaf", host = values[1], args = values,
-                  params = params, manifest = manifest(inst.type), parent = node, line = inst.line, col = inst.col }
+                  params = params, manifest = manifest(inst.type), parent = node, line = inst.line, col = inst.col,
+                  standby = standby[inst.name] }
         local a = inst.args[1]
         local unusable = a and unusable_host(values[1], a)
         if unusable then

@@ -7,7 +7,14 @@
 -- The language:
 --   use mylab, door;                                      -- the controller packages the file's types come from
 --   process Name(param, ...) {
---     host { arg }                                        -- where this group's supervisor runs
+--     host { arg, standby... }                            -- where this group's supervisor runs (then its
+--                                                         --   standby hosts, in order: failover)
+--     supervision {                                       -- how its supervisor treats its children's faults
+--       strategy one_for_one;                             --   one_for_one | one_for_all | rest_for_one
+--       intensity 3 in 10 s;                              --   at most N restarts within T (s | ms), then escalate
+--       restart on crash, lost;                           --   which faults restart: crash | lost | aborted
+--       standby inst on arg, ...;                         --   standby hosts of a leaf instance, in order
+--     }
 --     instantiated_processes { inst instof Type(arg, ...); ... }
 --     external_io { Alias = inst, Port; ... }             -- an inner port exported under another name
 --     internal_connections(inst, label) { a, Out -> b, In; ... }     -- any number of these
@@ -28,7 +35,12 @@
 --   proc = {
 --     name = "DoorOpenSystem", line, col,
 --     params = { { name = "host1", line, col }, ... },
---     host = arg | nil,                                  -- the argument of host { }
+--     host = arg | nil,                                  -- the first argument of host { }
+--     standby_hosts = { arg, ... },                      -- the others (standby hosts, in order; often empty)
+--     supervision = { line, col, clauses = { clause, ... } } | nil,   -- the section, as written (checked by
+--       -- dca.lang.check, resolved by dca.lang.model): clause = { kw = "strategy" | "intensity" | "restart" |
+--       -- "standby", line, col, name (strategy), count, count_line/col, within, unit, unit_line/col (intensity),
+--       -- kinds = { { name, line, col }, ... } (restart), instance, instance_line/col, hosts = { arg, ... } (standby) }
 --     instances = { inst, ...; [name] = inst ... },      -- list in order, and by name (first wins)
 --     external_io = { x, ...; [alias] = x ... },         -- x = { alias, instance, port, line, col,
 --                                                        --   instance_line/col, port_line/col }
@@ -56,13 +68,13 @@ local M = {}
 
 local P, R, S, C, Cc, Cg, Ct, Cp, Cb, Cmt, Cs =
   lpeg.P, lpeg.R, lpeg.S, lpeg.C, lpeg.Cc, lpeg.Cg, lpeg.Ct, lpeg.Cp, lpeg.Cb, lpeg.Cmt, lpeg.Cs
-local type, error, pcall, tostring, ipairs, setmetatable, getmetatable =
-  type, error, pcall, tostring, ipairs, setmetatable, getmetatable
+local type, error, pcall, tostring, ipairs, pairs, setmetatable, getmetatable =
+  type, error, pcall, tostring, ipairs, pairs, setmetatable, getmetatable
 local sformat, ssub, sfind, smatch = string.format, string.sub, string.find, string.match
 
 --- The section keywords of a process body.
 M.sections = { "host", "instantiated_processes", "external_io", "internal_connections", "internal_event_actions",
-               "verify" }
+               "verify", "supervision" }
 local SECTION = {}
 for _, s in ipairs(M.sections) do SECTION[s] = true end
 
@@ -99,7 +111,7 @@ local string_lit = Cmt(Cp() * P'"' * Cs((escape + (1 - S'"\\\n'))^0) * (C(P'"') 
 -- "internal connections": used to tell "missing '}'" from other errors in a list. A keyword counts only
 -- when a brace or parenthesis follows, so that `host instof T(h);` still declares an instance "host".
 local section_start = (kw"host" + kw"instantiated_processes" + kw"external_io" + kw"internal_event_actions" +
-                       kw"verify") * S"{(" +
+                       kw"verify" + kw"supervision") * S"{(" +
                       kw"internal_connections" * P"(" + kw"process" * ident * ws * P"(" +
                       (P"external" + P"internal") * -idchar
 
@@ -137,7 +149,24 @@ local function section(name, body)
 end
 
 local host_section = section("host",
-  expect(tok"{", "host_open") * Cg(expect(arg, "host_arg"), "arg") * expect(tok"}", "host_close"))
+  expect(tok"{", "host_open") * Cg(Ct(expect(arg, "host_arg") * (tok"," * expect(arg, "host_arg"))^0), "args") *
+  expect(tok"}", "host_close"))
+
+-- supervision { strategy NAME; intensity N in T UNIT; restart on KIND, ...; standby INSTANCE on HOST, ...; }
+local kind_name = Ct(pos() * Cg(NAME, "name"))
+local sup_strategy = Cg(C"strategy", "kw") * -idchar * ws * pos("name_pos") * Cg(expect(NAME, "sup_strategy"), "name")
+local sup_intensity = Cg(C"intensity", "kw") * -idchar * ws * pos("count_pos") * Cg(expect(number, "sup_count"), "count") *
+  expect(kw"in", "sup_in") * pos("within_pos") * Cg(expect(number, "sup_within"), "within") *
+  pos("unit_pos") * Cg(expect(NAME, "sup_unit"), "unit")
+local sup_restart = Cg(C"restart", "kw") * -idchar * ws * expect(kw"on", "sup_on") *
+  Cg(Ct(expect(kind_name, "sup_kind") * (tok"," * expect(kind_name, "sup_kind"))^0), "kinds")
+local sup_standby = Cg(C"standby", "kw") * -idchar * ws * pos("instance_pos") * Cg(expect(NAME, "sup_instance"), "instance") *
+  expect(kw"on", "sup_standby_on") * Cg(Ct(expect(arg, "sup_host") * (tok"," * expect(arg, "sup_host"))^0), "hosts")
+local sup_clause = Ct(pos() * -section_start * (sup_strategy + sup_intensity + sup_restart + sup_standby) *
+                      expect(tok";", "sup_semi"))
+local supervision_section = section("supervision",
+  expect(tok"{", "section_open", "section") * Cg(Ct(sup_clause^0), "items") *
+  expect(tok"}", "sup_close", "open_supervision"))
 
 local instances_section = section("instantiated_processes",
   expect(tok"{", "section_open", "section") * Cg(Ct(instance^0), "items") *
@@ -171,7 +200,8 @@ local verify_section = section("verify",
   expect(P"{", "section_open", "section") * pos("text_pos") * Cg(C((comment + (1 - S"}"))^0), "text") *
   expect(tok"}", "verify_close", "open_verify"))
 
-local any_section = host_section + instances_section + xio_section + ic_section + actions_section + verify_section
+local any_section = host_section + instances_section + xio_section + ic_section + actions_section + verify_section +
+                    supervision_section
 
 local param = Ct(pos() * Cg(NAME, "name"))
 local process = Ct(pos() * pos("open_process") * kw"process" * Cg(expect(NAME, "process_name"), "name") *
@@ -286,7 +316,18 @@ param             expected a parameter name after ',' in process '$1', found $f
 params_close      expected ',' or ')' in the parameters of process '$1', found $f
 process_open      expected '{' to open process '$1', found $f
 host_arg          expected the host in 'host { }': a parameter name or a string, found $f
-host_close        expected '}' after the host (one argument), found $f
+host_close        expected ',' and a standby host, or '}' after the hosts, found $f
+sup_strategy      expected a strategy after 'strategy' (one_for_one, one_for_all or rest_for_one), found $f
+sup_count         expected the number of restarts after 'intensity' (write 'intensity 3 in 10 s;'), found $f
+sup_in            expected 'in' after the number of restarts (write 'intensity 3 in 10 s;'), found $f
+sup_within        expected the period after 'in' (write 'intensity 3 in 10 s;'), found $f
+sup_unit          expected the period's unit, s or ms (write 'intensity 3 in 10 s;'), found $f
+sup_on            expected 'on' after 'restart' (write 'restart on crash, lost;'), found $f
+sup_kind          expected a fault (crash, lost or aborted) in 'restart on', found $f
+sup_instance      expected an instance name after 'standby' (write 'standby inst on host2;'), found $f
+sup_standby_on    expected 'on' after the instance (write 'standby inst on host2;'), found $f
+sup_host          expected a host (a parameter name or a string) in 'standby ... on', found $f
+sup_semi          expected ';' to end the supervision clause, found $f
 section_open      expected '{' after '$1', found $f
 instof            expected 'instof' after the instance name '$1', found $f
 type_name         expected a process type after '$1 instof', found $f
@@ -321,6 +362,15 @@ MESSAGES.process_close = process_close
 MESSAGES.section_close = function(e, f, s, p, idx) return section_close(e[1], e[2], f, s, p, idx) end
 MESSAGES.actions_close = function(e, f, s, p, idx) return section_close("internal_event_actions", e[1], f, s, p, idx) end
 MESSAGES.verify_close = function(e, f, s, p, idx) return section_close("verify", e[1], f, s, p, idx) end
+function MESSAGES.sup_close(e, f, s, p, idx)
+  local w = smatch(s, "^[%a_][%w_]*", p)
+  if w and not SECTION[w] and w ~= "process" then
+    local guess = source.closest(w, { "strategy", "intensity", "restart", "standby" })
+    return sformat("unknown supervision clause '%s'%s (clauses: strategy, intensity, restart, standby)", w,
+                   guess and sformat(": did you mean '%s'?", guess) or "")
+  end
+  return section_close("supervision", e[1], f, s, p, idx)
+end
 function MESSAGES.host_open(_, f, s, p)
   if ssub(s, p, p) ~= "(" then return "expected '{' after 'host', found " .. f end
   return sformat("'host' takes braces, not parentheses: write 'host { %s }'", smatch(s, "^%(%s*([^%s%)]*)", p) or "")
@@ -345,8 +395,9 @@ end
 local BUILD = {}
 
 function BUILD.host(proc, sec, idx)
-  proc.host = sec.arg
-  idx.set(sec.arg, sec.arg.pos)
+  for _, a in ipairs(sec.args) do idx.set(a, a.pos) end
+  proc.host = sec.args[1]
+  for i = 2, #sec.args do proc.standby_hosts[i - 1] = sec.args[i] end
   proc.host_line, proc.host_col = idx:at(sec.pos)
 end
 
@@ -356,6 +407,19 @@ local function locate(idx, t, ...)
     local stem = field:match("^(.*)_pos$")
     idx.set(t, t[field], stem and stem .. "_line" or "line", stem and stem .. "_col" or "col")
   end
+end
+
+function BUILD.supervision(proc, sec, idx)
+  local sup = { pos = sec.pos, clauses = {} }
+  idx.set(sup, sec.pos)
+  for i, cl in ipairs(sec.items) do
+    local fields = {}
+    for k in pairs(cl) do if k:match("_pos$") or k == "pos" then fields[#fields + 1] = k end end
+    locate(idx, cl, table.unpack(fields))
+    for _, x in ipairs(cl.kinds or cl.hosts or {}) do idx.set(x, x.pos) end
+    sup.clauses[i] = cl
+  end
+  proc.supervision = sup
 end
 
 -- Appends item to list, reachable by name too (the first of a name wins).
@@ -428,7 +492,7 @@ end
 
 local function build_process(raw, idx)
   local proc = { name = raw.name, pos = raw.pos, params = {}, instances = {}, external_io = {},
-                 internal_connections = {}, duplicate_sections = {} }
+                 internal_connections = {}, duplicate_sections = {}, standby_hosts = {} }
   idx.set(proc, raw.pos)
   for i, prm in ipairs(raw.params) do
     proc.params[i] = prm

@@ -13,11 +13,19 @@
 --                                                                   -- { config = "door.stop_distance" }
 --                                                                   -- for config("door.stop_distance")
 --         params = { { name = "distance", type = "number" } },      -- the manifest's parameters (if known)
---         package = "door", system_dir = "/abs/dir" },              -- a package's type: its package, and the
+--         package = "door", system_dir = "/abs/dir",                -- a package's type: its package, and the
 --                                                                   -- .dca file's folder (dca.load.spec)
+--         standby = { "h1b" } },                                    -- its standby hosts in order (the group's
+--                                                                   --   `standby hit on h1b;`), nil: none
 --       { name = "mc", path = "main.door.mc", kind = "group", type = "MotionControl", host = "h3",
 --         spec = <the child's group spec> },
 --     },
+--     hosts = { "h2", "h2b" },                                       -- host, then its standby hosts in order
+--                                                                   --   (host { h2, h2b }; failover uses them)
+--     supervision = { strategy = "one_for_one",                      -- its supervision { } section resolved
+--                     intensity = 3, within = 10,                    --   (dca.lang.model.policy: defaults filled
+--                     on = { crash = true, lost = true, aborted = false } } | nil,  -- in); nil: none declared
+--                                                                   --   (today's behaviour: faults go to the algebra)
 --     external_io = { { alias = "Vel", instance = "mc", port = "In" }, ... },
 --     sets = { { instance = "forcedata", label = "lbl1",
 --                connections = { { from = "forcedata", out = "Out1", to = "hit", ["in"] = "In1" } } } },
@@ -131,6 +139,14 @@ end
 
 ---------------------------------------------------------------------------------------------- from the model
 
+-- A deep copy of plain data (nil stays nil): the spec shares nothing with the model.
+local function copy(v)
+  if type(v) ~= "table" then return v end
+  local t = {}
+  for k, x in pairs(v) do t[k] = copy(x) end
+  return t
+end
+
 --- The spec of a dca.lang.model tree (checked, arguments bound, hosts resolved). `file` names the source for
 --- messages. A group without a host (the root of a file without host { }) gets `default_host`.
 function M.from_model(node, file, default_host)
@@ -138,8 +154,9 @@ function M.from_model(node, file, default_host)
   local host = node.host or default_host
   local spec = {
     path = node.path, type = node.type, host = host, file = file, line = proc.line, col = proc.col,
-    children = {}, external_io = {}, sets = {},
+    children = {}, external_io = {}, sets = {}, hosts = { host }, supervision = copy(node.supervision),
   }
+  for i = 2, #(node.hosts or {}) do spec.hosts[i] = node.hosts[i] end
   local actions = proc.actions
   if actions and actions.text then
     -- the parser's expression text has its comments blanked out (positions kept)
@@ -166,7 +183,8 @@ function M.from_model(node, file, default_host)
       end
       spec.children[#spec.children + 1] = { name = c.name, path = c.path, kind = "leaf", type = c.type,
                                             host = c.host, args = args, params = info,
-                                            package = c.manifest and c.manifest.package or nil }
+                                            package = c.manifest and c.manifest.package or nil,
+                                            standby = copy(c.standby) }
     end
   end
   for _, x in ipairs(proc.external_io or {}) do
@@ -183,7 +201,7 @@ function M.from_model(node, file, default_host)
     -- a root without host { } (and no default) runs on the first host its tree uses
     local first = M.hosts(spec)[1] or "localhost"
     M.walk(spec, function(n)
-      if n.kind == "group" and not n.spec.host then n.spec.host = first end
+      if n.kind == "group" and not n.spec.host then n.spec.host, n.spec.hosts[1] = first, first end
     end)
     M.walk(spec, function(n)
       if n.kind == "group" then

@@ -45,4 +45,19 @@ suite:case("one_cluster_per_group_hosts_shown", function()
   T.ok(got:find("@vision", 1, true) and got:find("@platform", 1, true))
 end)
 
+suite:case("supervision_policy_and_standby_hosts_shown", function()
+  local ast = assert(parser.parse([[
+process V(h, hb) {
+  host { h, hb }
+  supervision { strategy rest_for_one; intensity 2 in 10 s; restart on crash, aborted; standby t on hb; }
+  instantiated_processes { t instof Timer(h, 1); }
+  internal_event_actions { t }
+}
+process main() { instantiated_processes { v instof V("h1", "h2"); } internal_event_actions { v } }
+]], "g.dca"))
+  local got = graph.dot(assert(model.build(ast)))
+  T.ok(got:find("v : V @h1 (standby h2)\\nrest_for_one, 2 in 10 s, on crash, aborted", 1, true), got)
+  T.ok(got:find("@h1 (standby h2)", 1, true))
+end)
+
 return suite:run(...)

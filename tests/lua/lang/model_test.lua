@@ -105,4 +105,39 @@ suite:case("connections_resolve_through_exports", function()
   T.eq(why, "main.dooropensyst.dooropen (DoorOpen) exports no port 'Nope'")
 end)
 
+suite:case("supervision_policy_hosts_and_standby_reach_the_spec", function()
+  local ast = assert(parser.parse([[
+process Vision(h1, h1b, spare) {
+  host { h1, h1b }
+  supervision { strategy one_for_all; intensity 3 in 250 ms; restart on lost; standby cam on spare, "h9"; }
+  instantiated_processes { cam instof Timer(h1, 1); servo instof Timer(h1, 2); }
+  internal_event_actions { cam , servo }
+}
+process Plain(h) { host { h } instantiated_processes { t instof Timer(h, 1); } internal_event_actions { t } }
+process main() {
+  supervision { }
+  instantiated_processes { v instof Vision("vision", "vision2", "spare1"); p instof Plain("h3"); }
+  internal_event_actions { v , p }
+}
+]], "m.dca"))
+  local tree = assert(model.build(ast))
+  local v = tree.children.v
+  T.eq(v.hosts, { "vision", "vision2" })
+  T.eq(v.supervision, { strategy = "one_for_all", intensity = 3, within = 0.25,
+                        on = { crash = false, lost = true, aborted = false } })
+  T.eq(v.children.cam.standby, { "spare1", "h9" })
+  T.eq(v.children.servo.standby, nil)
+  -- an empty section: the defaults (OTP's: one restart in five seconds, on a crash or a lost host)
+  T.eq(tree.supervision, { strategy = "one_for_one", intensity = 1, within = 5,
+                           on = { crash = true, lost = true, aborted = false } })
+  T.eq({ tree.children.p.supervision, tree.children.p.hosts }, { nil, { "h3" } })
+  local spec = require("dca.supervisor.spec").from_model(tree, "m.dca")
+  local vs = spec.children[1].spec
+  T.eq({ vs.hosts, vs.supervision.strategy, vs.supervision.within }, { { "vision", "vision2" }, "one_for_all", 0.25 })
+  T.eq(vs.children[1].standby, { "spare1", "h9" })
+  T.ok(vs.children[1].standby ~= v.children.cam.standby, "the spec shares nothing with the model")
+  T.eq({ spec.children[2].spec.supervision, spec.children[2].spec.hosts }, { nil, { "h3" } })
+  T.eq(spec.hosts, { spec.host }, "a root without host { } gets its host in hosts too")
+end)
+
 return suite:run(...)

@@ -158,4 +158,34 @@ suite:case("paper_systems_parse", function()
        "presshandle[lbl1] # (pressft, pressjoints) ; dooropen[lbl1])")
 end)
 
+suite:case("supervision_section_and_standby_hosts", function()
+  local ast = assert(parser.parse([[
+process Vision(h1, h1b) {
+  host { h1, h1b, "h1c" }
+  supervision {
+    strategy rest_for_one;
+    intensity 3 in 500 ms;
+    restart on crash, aborted;
+    standby cam on "h2b", h1b;
+  }
+  instantiated_processes { cam instof Timer(h1, 1); }
+  internal_event_actions { cam }
+}
+]], "v.dca"))
+  local p = ast.by_name.Vision
+  T.eq({ p.host.value, #p.standby_hosts, p.standby_hosts[1].value, p.standby_hosts[2].kind },
+       { "h1", 2, "h1b", "string" })
+  T.eq({ p.standby_hosts[2].line, p.standby_hosts[2].col }, { 2, 19 })
+  local cl = p.supervision.clauses
+  T.eq({ p.supervision.line, p.supervision.col, #cl }, { 3, 3, 4 })
+  T.eq({ cl[1].kw, cl[1].name, cl[1].name_line, cl[1].name_col }, { "strategy", "rest_for_one", 4, 14 })
+  T.eq({ cl[2].kw, cl[2].count, cl[2].within, cl[2].unit, cl[2].unit_col }, { "intensity", 3, 500, "ms", 24 })
+  T.eq({ cl[3].kw, cl[3].kinds[1].name, cl[3].kinds[2].name, cl[3].kinds[2].col }, { "restart", "crash", "aborted", 23 })
+  T.eq({ cl[4].kw, cl[4].instance, cl[4].instance_col, cl[4].hosts[1].value, cl[4].hosts[2].value },
+       { "standby", "cam", 13, "h2b", "h1b" })
+  -- without the section: no policy, no standby hosts
+  local plain = assert(parser.parse("process main(h) { host { h } internal_event_actions { } }", "p.dca"))
+  T.eq({ plain.by_name.main.supervision, #plain.by_name.main.standby_hosts }, { nil, 0 })
+end)
+
 return suite:run(...)

@@ -66,4 +66,17 @@ suite:case("a_violated_property_exits_1_and_one_that_holds_0", function()
   os.remove(file)
 end)
 
+suite:case("a_supervision_section_is_checked_and_ignored_by_the_verifier", function()
+  -- the verifier explores the algebra with every fault possible; a restart policy only takes some faults away,
+  -- so its verdicts stay sound (ARCHITECTURE.md, "Supervision policies")
+  local file = T.tmpfile("process main() {\n  host { \"h\", \"h2\" }\n  supervision { strategy one_for_all; " ..
+    "intensity 2 in 10 s; standby a on \"h3\"; }\n  instantiated_processes {\n    a instof Threshold(\"h\", 1);\n" ..
+    "    b instof Timer(\"h\", 1);\n  }\n  internal_event_actions { a ; b }\n" ..
+    "  verify { b never starts before a is done; }\n}\n")
+  T.dca("check " .. file .. " --verify", 0, "holds     b never starts before a is done")
+  T.dca("check " .. file, 0)
+  T.dca("graph " .. file, 0, "one_for_all, 2 in 10 s, on crash, lost")
+  os.remove(file)
+end)
+
 return suite:run(...)
