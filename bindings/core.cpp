@@ -3,6 +3,7 @@
 #include <lua.hpp>
 
 #include "bindings/lua_loop.h"
+#include "bindings/wrap_web.h"
 #include "host/paths.h"
 #include "host/version.h"
 
@@ -27,5 +28,6 @@ extern "C" int luaopen_dca_core(lua_State* L) {
   dca::bindings::open_process(L);
   dca::lua::register_loop(L);     // core.loop, core.after, core.every (wrap_loop.cpp)
   dca::lua::register_channel(L);  // core.connect, core.listen (wrap_channel.cpp)
+  dca::lua::register_web(L);      // core.web_listen, core.json_encode/decode (wrap_web.cpp)
   return 1;
 }

@@ -1,0 +1,449 @@
+// dca.WebServer and dca.WebConnection: the monitor's HTTP/WebSocket server (host/web) for Lua, and JSON.
+//
+//   local srv, err = core.web_listen("127.0.0.1:0", { max_connections = 64, max_message = 65536,
+//                                                      max_queue = 4 MiB, close_queue = 16 MiB })
+//   srv:address()  srv:token()  srv:add_token(t)
+//   srv:page("/", html, "text/html; charset=utf-8", true)    -- public (true) or with a token only (false)
+//   srv:protocol("dca.monitor.v1", { open = function(conn) end, message = function(conn, text, binary) end,
+//                                    close = function(conn, reason) end })
+//   local id = srv:topic("/world/door", { "door_angle", "handle_angle" })   -- live samples (host/sample_hub)
+//   srv:publish(id, t_seconds, { 0.1, 0.2 })   srv:remove_topic(id)   srv:topics()
+//   srv:stats()  srv:close()
+//   conn:send(text [, droppable])   conn:subscribe(topic_id, rate_per_s)   conn:close(reason)
+//   conn:id()  conn:is_open()  conn:peer()  conn:protocol()  conn:stats()
+//   core.json_encode(value) --> text | nil, err     core.json_decode(text) --> value | nil, err
+// A connection is the same userdata in every callback from open to close. An open server is never garbage
+// collected: close it.
+#include "bindings/wrap_web.h"
+
+#include <lua.hpp>
+
+#include <cstdio>
+#include <map>
+#include <vector>
+
+#include "bindings/lua_loop.h"
+#include "bindings/lua_support.h"
+#include "bindings/lua_value.h"
+#include "host/json.h"
+
+namespace dca::lua {
+namespace {
+
+constexpr const char* kServerMeta = "dca.WebServer";
+constexpr const char* kConnMeta = "dca.WebConnection";
+
+struct ServerUD {
+  std::shared_ptr<web::Server> s;
+  LoopState* ls = nullptr;
+  int self = LUA_NOREF;
+};
+
+struct ConnUD {
+  web::Connection::Ptr c;
+};
+
+ServerUD* check_server_ud(lua_State* L) { return static_cast<ServerUD*>(luaL_checkudata(L, 1, kServerMeta)); }
+ConnUD* check_conn(lua_State* L) { return static_cast<ConnUD*>(luaL_checkudata(L, 1, kConnMeta)); }
+
+// A subprotocol handled by Lua functions; each connection's userdata is anchored from open to close.
+class LuaProtocol : public web::Protocol {
+ public:
+  LuaProtocol(LoopState& ls, std::shared_ptr<LuaRef> open, std::shared_ptr<LuaRef> message,
+              std::shared_ptr<LuaRef> close)
+      : ls_(ls), open_(std::move(open)), message_(std::move(message)), close_(std::move(close)) {}
+
+  void on_open(const web::Connection::Ptr& c) override {
+    // the userdata is made inside the protected call (a memory error there unwinds no C++ frame)
+    invoke(*open_, [this, c](lua_State* S) {
+      auto* ud = static_cast<ConnUD*>(lua_newuserdatauv(S, sizeof(ConnUD), 0));
+      new (ud) ConnUD{c};
+      luaL_setmetatable(S, kConnMeta);
+      refs_[c->id()] = anchor(S, -1);
+      return 1;
+    });
+  }
+  void on_message(const web::Connection::Ptr& c, std::string_view data, bool binary) override {
+    auto it = refs_.find(c->id());
+    if (it == refs_.end() || !message_) return;
+    const int ref = it->second;
+    invoke(*message_, [ref, data, binary](lua_State* S) {
+      push_anchored(S, ref);
+      lua_pushlstring(S, data.data(), data.size());
+      lua_pushboolean(S, binary);
+      return 3;
+    });
+  }
+  void on_close(const web::Connection::Ptr& c, const std::string& reason) override {
+    auto it = refs_.find(c->id());
+    if (it == refs_.end()) return;
+    int ref = it->second;
+    refs_.erase(it);
+    if (close_) invoke(*close_, [ref, &reason](lua_State* S) {
+        push_anchored(S, ref);
+        lua_pushlstring(S, reason.data(), reason.size());
+        return 2;
+      });
+    unanchor(ls_, ref);
+  }
+
+ private:
+  LoopState& ls_;
+  std::shared_ptr<LuaRef> open_, message_, close_;
+  std::map<std::uint64_t, int> refs_;
+};
+
+// A size option of opts (table at 2) in [1, 1 GiB], else `fallback`.
+std::size_t size_option(lua_State* L, const char* name, std::size_t fallback) {
+  if (lua_type(L, 2) != LUA_TTABLE) return fallback;
+  lua_getfield(L, 2, name);
+  std::size_t v = fallback;
+  if (lua_isinteger(L, -1) && lua_tointeger(L, -1) > 0 && lua_tointeger(L, -1) <= (1 << 30))
+    v = static_cast<std::size_t>(lua_tointeger(L, -1));
+  lua_pop(L, 1);
+  return v;
+}
+
+int core_web_listen(lua_State* L) {
+  std::size_t n = 0;
+  const char* addr_text = luaL_checklstring(L, 1, &n);
+  if (!lua_isnoneornil(L, 2)) luaL_checktype(L, 2, LUA_TTABLE);
+  LoopState& ls = loop_state(L);
+  web::Limits limits;
+  limits.max_connections = size_option(L, "max_connections", limits.max_connections);
+  limits.max_message_bytes = size_option(L, "max_message", limits.max_message_bytes);
+  limits.max_queue_bytes = size_option(L, "max_queue", limits.max_queue_bytes);
+  limits.close_queue_bytes = size_option(L, "close_queue", limits.close_queue_bytes);
+  char err[512] = {};
+  std::shared_ptr<web::Server> server;
+  {
+    std::string error;
+    auto addr = Address::parse(std::string_view(addr_text, n), &error);
+    if (addr) server = web::Server::listen(ls.loop.io(), *addr, limits, &error);
+    if (!server) std::snprintf(err, sizeof err, "%s", error.c_str());
+  }
+  if (!server) {
+    lua_pushnil(L);
+    lua_pushstring(L, err);
+    return 2;
+  }
+  auto* ud = static_cast<ServerUD*>(lua_newuserdatauv(L, sizeof(ServerUD), 0));
+  new (ud) ServerUD{std::move(server), &ls, LUA_NOREF};
+  luaL_setmetatable(L, kServerMeta);
+  ud->self = anchor(L, -1);
+  return 1;
+}
+
+web::Server& open_server(lua_State* L) {
+  ServerUD* ud = check_server_ud(L);
+  if (!ud->s) luaL_error(L, "dca.WebServer: closed");
+  return *ud->s;
+}
+
+int srv_address(lua_State* L) {
+  lua_pushstring(L, open_server(L).address().str().c_str());
+  return 1;
+}
+
+int srv_token(lua_State* L) {
+  lua_pushstring(L, open_server(L).token().c_str());
+  return 1;
+}
+
+int srv_add_token(lua_State* L) {
+  web::Server& s = open_server(L);
+  std::size_t n = 0;
+  const char* t = luaL_checklstring(L, 2, &n);
+  luaL_argcheck(L, n >= 16, 2, "a token has at least 16 characters");
+  s.add_token(std::string(t, n));
+  return 0;
+}
+
+int srv_page(lua_State* L) {
+  web::Server& s = open_server(L);
+  std::size_t pn = 0, bn = 0;
+  const char* path = luaL_checklstring(L, 2, &pn);
+  const char* body = luaL_checklstring(L, 3, &bn);
+  const char* type = luaL_optstring(L, 4, "text/html; charset=utf-8");
+  const bool pub = lua_isnoneornil(L, 5) || lua_toboolean(L, 5);
+  s.set_page(std::string(path, pn), web::Page{type, std::string(body, bn)}, pub);
+  return 0;
+}
+
+// The function in field `name` of the table at `index`, as a reference (nullptr when absent).
+std::shared_ptr<LuaRef> field_fn(lua_State* L, int index, const char* name, LoopState& ls) {
+  lua_getfield(L, index, name);
+  std::shared_ptr<LuaRef> r;
+  if (lua_type(L, -1) == LUA_TFUNCTION) r = std::make_shared<LuaRef>(L, -1, ls);
+  lua_pop(L, 1);
+  return r;
+}
+
+int srv_protocol(lua_State* L) {
+  web::Server& s = open_server(L);
+  ServerUD* ud = check_server_ud(L);
+  const char* name = luaL_checkstring(L, 2);
+  luaL_checktype(L, 3, LUA_TTABLE);
+  auto open = field_fn(L, 3, "open", *ud->ls);
+  luaL_argcheck(L, open != nullptr, 3, "{ open = function(conn) ..., message = ..., close = ... }");
+  auto message = field_fn(L, 3, "message", *ud->ls);
+  auto close = field_fn(L, 3, "close", *ud->ls);
+  s.add_protocol(name, std::make_shared<LuaProtocol>(*ud->ls, open, message, close));
+  return 0;
+}
+
+int srv_topic(lua_State* L) {
+  web::Server& s = open_server(L);
+  const char* name = luaL_checkstring(L, 2);
+  std::vector<std::string> fields;
+  if (lua_istable(L, 3)) {
+    const lua_Integer n = luaL_len(L, 3);
+    for (lua_Integer i = 1; i <= n && i <= 4096; i++) {
+      lua_geti(L, 3, i);
+      if (lua_type(L, -1) == LUA_TSTRING) fields.emplace_back(lua_tostring(L, -1));
+      lua_pop(L, 1);
+    }
+  }
+  lua_pushinteger(L, s.samples().add_topic(name, std::move(fields)));
+  return 1;
+}
+
+int srv_publish(lua_State* L) {
+  web::Server& s = open_server(L);
+  const lua_Integer id = luaL_checkinteger(L, 2);
+  const double t = luaL_checknumber(L, 3);
+  luaL_checktype(L, 4, LUA_TTABLE);
+  double values[256];
+  const lua_Integer n = std::min<lua_Integer>(luaL_len(L, 4), 256);
+  for (lua_Integer i = 1; i <= n; i++) {
+    lua_geti(L, 4, i);
+    values[i - 1] = lua_tonumber(L, -1);
+    lua_pop(L, 1);
+  }
+  const bool ok = id > 0 && s.samples().publish(static_cast<std::uint32_t>(id), static_cast<std::int64_t>(t * 1e9),
+                                                std::span<const double>(values, static_cast<std::size_t>(n)));
+  lua_pushboolean(L, ok);
+  return 1;
+}
+
+int srv_remove_topic(lua_State* L) {
+  web::Server& s = open_server(L);
+  s.samples().remove_topic(static_cast<std::uint32_t>(luaL_checkinteger(L, 2)));
+  return 0;
+}
+
+int srv_topics(lua_State* L) {
+  web::Server& s = open_server(L);
+  lua_newtable(L);
+  int i = 1;
+  for (const auto& [id, t] : s.samples().topics()) {
+    lua_createtable(L, 0, 4);
+    lua_pushinteger(L, id);
+    lua_setfield(L, -2, "id");
+    lua_pushstring(L, t.name.c_str());
+    lua_setfield(L, -2, "name");
+    lua_pushinteger(L, static_cast<lua_Integer>(t.samples));
+    lua_setfield(L, -2, "samples");
+    lua_createtable(L, static_cast<int>(t.fields.size()), 0);
+    for (std::size_t k = 0; k < t.fields.size(); k++) {
+      lua_pushstring(L, t.fields[k].c_str());
+      lua_rawseti(L, -2, static_cast<lua_Integer>(k + 1));
+    }
+    lua_setfield(L, -2, "fields");
+    lua_rawseti(L, -2, i++);
+  }
+  return 1;
+}
+
+void set_int(lua_State* L, const char* name, std::uint64_t v) {
+  lua_pushinteger(L, static_cast<lua_Integer>(v));
+  lua_setfield(L, -2, name);
+}
+
+int srv_stats(lua_State* L) {
+  const web::ServerStats st = open_server(L).stats();
+  lua_newtable(L);
+  set_int(L, "http_requests", st.http_requests);
+  set_int(L, "websockets", st.websockets);
+  set_int(L, "refused", st.refused);
+  set_int(L, "bad_requests", st.bad_requests);
+  set_int(L, "over_limit", st.over_limit);
+  set_int(L, "open", st.open);
+  return 1;
+}
+
+int srv_close(lua_State* L) {
+  ServerUD* ud = check_server_ud(L);
+  if (ud->s) ud->s->close();
+  ud->s.reset();
+  unanchor(*ud->ls, ud->self);
+  return 0;
+}
+
+int srv_gc(lua_State* L) {
+  ServerUD* ud = check_server_ud(L);
+  if (ud->s && *ud->ls->alive) ud->s->close();
+  ud->~ServerUD();
+  return 0;
+}
+
+int srv_tostring(lua_State* L) {
+  ServerUD* ud = check_server_ud(L);
+  lua_pushfstring(L, "dca.WebServer(%s)", ud->s ? ud->s->address().str().c_str() : "closed");
+  return 1;
+}
+
+// --- connections ----------------------------------------------------------------------------------------------
+
+int conn_send(lua_State* L) {
+  ConnUD* ud = check_conn(L);
+  std::size_t n = 0;
+  const char* text = luaL_checklstring(L, 2, &n);
+  const bool droppable = lua_toboolean(L, 3);
+  bool sent = false;
+  {
+    std::string data(text, n);
+    sent = ud->c && ud->c->send(std::move(data), false, droppable);
+  }
+  lua_pushboolean(L, sent);
+  return 1;
+}
+
+int conn_subscribe(lua_State* L) {
+  ConnUD* ud = check_conn(L);
+  const lua_Integer topic = luaL_checkinteger(L, 2);
+  const double rate = luaL_optnumber(L, 3, 30);
+  if (ud->c && topic > 0) ud->c->subscribe(static_cast<std::uint32_t>(topic), rate);
+  return 0;
+}
+
+int conn_close(lua_State* L) {
+  ConnUD* ud = check_conn(L);
+  const char* reason = luaL_optstring(L, 2, "closed by the server");
+  {
+    const std::string why(reason);
+    if (ud->c) ud->c->close(why);
+  }
+  return 0;
+}
+
+int conn_id(lua_State* L) {
+  ConnUD* ud = check_conn(L);
+  lua_pushinteger(L, ud->c ? static_cast<lua_Integer>(ud->c->id()) : 0);
+  return 1;
+}
+
+int conn_is_open(lua_State* L) {
+  ConnUD* ud = check_conn(L);
+  lua_pushboolean(L, ud->c && ud->c->is_open());
+  return 1;
+}
+
+int conn_peer(lua_State* L) {
+  ConnUD* ud = check_conn(L);
+  lua_pushstring(L, ud->c ? ud->c->peer().c_str() : "");
+  return 1;
+}
+
+int conn_protocol(lua_State* L) {
+  ConnUD* ud = check_conn(L);
+  lua_pushstring(L, ud->c ? ud->c->protocol().c_str() : "");
+  return 1;
+}
+
+int conn_stats(lua_State* L) {
+  ConnUD* ud = check_conn(L);
+  const web::ConnectionStats st = ud->c ? ud->c->stats() : web::ConnectionStats{};
+  lua_newtable(L);
+  set_int(L, "sent", st.sent);
+  set_int(L, "sent_bytes", st.sent_bytes);
+  set_int(L, "dropped", st.dropped);
+  set_int(L, "received", st.received);
+  set_int(L, "queued_bytes", st.queued_bytes);
+  return 1;
+}
+
+int conn_gc(lua_State* L) {
+  check_conn(L)->~ConnUD();
+  return 0;
+}
+
+int conn_tostring(lua_State* L) {
+  ConnUD* ud = check_conn(L);
+  lua_pushfstring(L, "dca.WebConnection(%d)", ud->c ? static_cast<int>(ud->c->id()) : 0);
+  return 1;
+}
+
+// --- JSON -----------------------------------------------------------------------------------------------------
+
+int core_json_encode(lua_State* L) {
+  luaL_checkany(L, 1);
+  char err[256] = {};
+  bool ok = false;
+  {
+    wire::Value v;
+    std::string error;
+    if (to_value(L, 1, v, &error)) {
+      const std::string text = json::encode(v);
+      lua_pushlstring(L, text.data(), text.size());
+      ok = true;
+    } else {
+      std::snprintf(err, sizeof err, "%s", error.c_str());
+    }
+  }
+  if (ok) return 1;
+  lua_pushnil(L);
+  lua_pushstring(L, err);
+  return 2;
+}
+
+int core_json_decode(lua_State* L) {
+  std::size_t n = 0;
+  const char* text = luaL_checklstring(L, 1, &n);
+  char err[256] = {};
+  bool ok = false;
+  {
+    wire::Value v;
+    std::string error;
+    if (json::decode(std::string_view(text, n), &v, &error)) {
+      push_value(L, v);
+      ok = true;
+    } else {
+      std::snprintf(err, sizeof err, "%s", error.c_str());
+    }
+  }
+  if (ok) return 1;
+  lua_pushnil(L);
+  lua_pushstring(L, err);
+  return 2;
+}
+
+}  // namespace
+
+std::shared_ptr<web::Server> check_web_server(lua_State* L, int index) {
+  auto* ud = static_cast<ServerUD*>(luaL_checkudata(L, index, kServerMeta));
+  if (!ud->s) luaL_error(L, "dca.WebServer: closed");
+  return ud->s;
+}
+
+void register_web(lua_State* L) {
+  static const luaL_Reg srv_methods[] = {
+      {"address", srv_address}, {"token", srv_token},   {"add_token", srv_add_token},
+      {"page", srv_page},       {"protocol", srv_protocol}, {"topic", srv_topic},
+      {"publish", srv_publish}, {"remove_topic", srv_remove_topic}, {"topics", srv_topics},
+      {"stats", srv_stats},     {"close", srv_close},   {nullptr, nullptr}};
+  register_type(L, kServerMeta, srv_methods, {srv_gc, srv_close, srv_tostring});
+  static const luaL_Reg conn_methods[] = {
+      {"send", conn_send}, {"subscribe", conn_subscribe}, {"close", conn_close}, {"id", conn_id},
+      {"is_open", conn_is_open}, {"peer", conn_peer}, {"protocol", conn_protocol}, {"stats", conn_stats},
+      {nullptr, nullptr}};
+  register_type(L, kConnMeta, conn_methods, {conn_gc, nullptr, conn_tostring});
+  lua_pushcfunction(L, core_web_listen);
+  lua_setfield(L, -2, "web_listen");
+  lua_pushcfunction(L, core_json_encode);
+  lua_setfield(L, -2, "json_encode");
+  lua_pushcfunction(L, core_json_decode);
+  lua_setfield(L, -2, "json_decode");
+}
+
+}  // namespace dca::lua

@@ -1,0 +1,56 @@
+#include "host/sample_hub.h"
+
+#include <algorithm>
+
+namespace dca {
+
+std::uint32_t SampleHub::add_topic(const std::string& name, std::vector<std::string> fields) {
+  auto it = by_name_.find(name);
+  std::uint32_t id = it != by_name_.end() ? it->second : next_id_++;
+  Topic& t = topics_[id];
+  t.id = id;
+  t.name = name;
+  t.fields = std::move(fields);
+  by_name_[name] = id;
+  const auto observers = observers_;  // an observer may remove itself
+  for (Observer* o : observers) o->on_topic(t);
+  return id;
+}
+
+void SampleHub::remove_topic(std::uint32_t id) {
+  auto it = topics_.find(id);
+  if (it == topics_.end()) return;
+  by_name_.erase(it->second.name);
+  topics_.erase(it);
+  const auto observers = observers_;
+  for (Observer* o : observers) o->on_topic_removed(id);
+}
+
+bool SampleHub::publish(std::uint32_t id, std::int64_t t_ns, std::span<const double> values) {
+  auto it = topics_.find(id);
+  if (it == topics_.end()) return false;
+  it->second.samples++;
+  const auto observers = observers_;
+  for (Observer* o : observers) o->on_sample(it->second, t_ns, values);
+  return true;
+}
+
+const SampleHub::Topic* SampleHub::topic(std::uint32_t id) const {
+  auto it = topics_.find(id);
+  return it == topics_.end() ? nullptr : &it->second;
+}
+
+const SampleHub::Topic* SampleHub::find(const std::string& name) const {
+  auto it = by_name_.find(name);
+  return it == by_name_.end() ? nullptr : topic(it->second);
+}
+
+void SampleHub::add_observer(Observer* o) {
+  if (std::find(observers_.begin(), observers_.end(), o) == observers_.end()) observers_.push_back(o);
+}
+
+void SampleHub::remove_observer(Observer* o) {
+  observers_.erase(std::remove(observers_.begin(), observers_.end(), o), observers_.end());
+}
+
+}  // namespace dca

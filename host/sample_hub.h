@@ -1,0 +1,62 @@
+#pragma once
+// Live samples for viewers (the web monitor, a Foxglove client): named topics of numbered fields, and the
+// samples published on them as they flow. Pure, no I/O, one thread (the loop's): whoever gets samples (a tap on a
+// port, the world's signals) publishes them here; whoever shows them (host/web's connections, a Foxglove
+// protocol handler) observes the hub and decides what to send (decimation is the observer's business).
+//
+//   SampleHub hub;
+//   auto id = hub.add_topic("main.door.hit.Force", {"fx", "fy", "fz"});
+//   hub.publish(id, t_ns, values);          // every observer's on_sample, in the order they were added
+//   hub.remove_topic(id);                   // on_topic_removed
+#include <cstdint>
+#include <map>
+#include <span>
+#include <string>
+#include <vector>
+
+namespace dca {
+
+class SampleHub {
+ public:
+  /// A stream of samples: a name ("main.door.hit.Force", "/world/door"), its fields (one name per value).
+  struct Topic {
+    std::uint32_t id = 0;
+    std::string name;
+    std::vector<std::string> fields;
+    std::uint64_t samples = 0;  ///< published so far
+  };
+  /// Told of topics and samples. Called on the hub's thread, from inside add_topic/publish/remove_topic.
+  class Observer {
+   public:
+    virtual ~Observer() = default;
+    virtual void on_topic(const Topic&) {}
+    virtual void on_topic_removed(std::uint32_t /*id*/) {}
+    /// One sample: `t_ns` its time (simulated or wall, ns), `values` one per field (fewer or more are allowed:
+    /// a port whose size changes).
+    virtual void on_sample(const Topic& topic, std::int64_t t_ns, std::span<const double> values) = 0;
+  };
+
+  /// A new topic (or the one of that name, its fields replaced). Returns its id (1, 2, ...), stable per name.
+  std::uint32_t add_topic(const std::string& name, std::vector<std::string> fields);
+  /// Removes a topic (no effect on an unknown id).
+  void remove_topic(std::uint32_t id);
+  /// Publishes a sample; false for an unknown topic.
+  bool publish(std::uint32_t id, std::int64_t t_ns, std::span<const double> values);
+  /// The topic `id`, or nullptr.
+  const Topic* topic(std::uint32_t id) const;
+  /// The topic named `name`, or nullptr.
+  const Topic* find(const std::string& name) const;
+  const std::map<std::uint32_t, Topic>& topics() const { return topics_; }
+
+  /// Adds an observer (not owned; remove it before it dies). It is told of no existing topic: read topics().
+  void add_observer(Observer* o);
+  void remove_observer(Observer* o);
+
+ private:
+  std::map<std::uint32_t, Topic> topics_;
+  std::map<std::string, std::uint32_t> by_name_;
+  std::vector<Observer*> observers_;
+  std::uint32_t next_id_ = 1;
+};
+
+}  // namespace dca

@@ -1,0 +1,65 @@
+// json: values out and back, escapes, and refusals of what is not JSON (never a crash, bounded depth).
+#include "host/json.h"
+
+#include <gtest/gtest.h>
+
+#include <random>
+#include <string>
+
+namespace {
+
+using dca::wire::Value;
+
+TEST(JsonTest, EncodesValuesAndDecodesThemBack) {
+  Value v = Value::map();
+  v.set("type", "tree").set("n", 3).set("x", 0.25).set("ok", true).set("none", Value());
+  v.set("list", Value(Value::Array{Value(1), Value("a\"b\\c\n"), Value(Value::Array{})}));
+  const std::string text = dca::json::encode(v);
+  EXPECT_EQ(text, R"({"type":"tree","n":3,"x":0.25,"ok":true,"none":null,"list":[1,"a\"b\\c\u000a",[]]})");
+  Value back;
+  std::string error;
+  ASSERT_TRUE(dca::json::decode(text, &back, &error)) << error;
+  EXPECT_EQ(back["type"].as_string(), "tree");
+  EXPECT_EQ(back["n"].as_int(), 3);
+  EXPECT_DOUBLE_EQ(back["x"].as_float(), 0.25);
+  EXPECT_EQ(back["list"].as_array()[1].as_string(), "a\"b\\c\n");
+}
+
+TEST(JsonTest, NonFiniteNumbersAndBadUtf8AreStillJson) {
+  EXPECT_EQ(dca::json::encode(Value(std::numeric_limits<double>::quiet_NaN())), "null");
+  EXPECT_EQ(dca::json::encode(Value(std::string("\xff""a"))), "\"\\u00ffa\"");
+  EXPECT_EQ(dca::json::encode(Value(std::string("\xc3\xa9"))), "\"\xc3\xa9\"");
+  Value v;
+  ASSERT_TRUE(dca::json::decode(R"("\u00e9\ud83d\ude00")", &v, nullptr));
+  EXPECT_EQ(v.as_string(), "\xc3\xa9\xf0\x9f\x98\x80");
+}
+
+TEST(JsonTest, RefusesWhatIsNotJsonWithTheOffset) {
+  Value v;
+  std::string error;
+  for (const char* bad : {"", "{", "[1,]", "{\"a\" 1}", "tru", "\"abc", "1 2", "{1:2}", "[1e]", "-", "\"\\x\""}) {
+    EXPECT_FALSE(dca::json::decode(bad, &v, &error)) << bad;
+    EXPECT_EQ(error.rfind("offset ", 0), 0u) << bad << ": " << error;
+  }
+  EXPECT_FALSE(dca::json::decode(std::string(100000, '['), &v, &error));
+  EXPECT_NE(error.find("nested too deep"), std::string::npos) << error;
+}
+
+TEST(JsonTest, RandomBytesNeverCrashTheDecoder) {
+  std::mt19937 rng(11);
+  const std::string alphabet = "{}[]\",:0123456789.eE+-truefalsnl \\u";
+  int accepted = 0;
+  for (int i = 0; i < 20000; i++) {
+    std::string s(rng() % 40, ' ');
+    for (auto& c : s) c = (rng() % 4 == 0) ? static_cast<char>(rng()) : alphabet[rng() % alphabet.size()];
+    Value v;
+    if (dca::json::decode(s, &v, nullptr)) {
+      accepted++;
+      Value again;
+      EXPECT_TRUE(dca::json::decode(dca::json::encode(v), &again, nullptr)) << s;
+    }
+  }
+  EXPECT_GT(accepted, 0);
+}
+
+}  // namespace
