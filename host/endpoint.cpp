@@ -54,6 +54,8 @@ class Connection : public Link, public std::enable_shared_from_this<Connection> 
     return i;
   }
   const ConnectRequest& request() const { return info_.request; }
+  /// The destination leaf's instance (Location::instance) when the link was made.
+  std::uint64_t dest_instance = 0;
   /// The destination's data address ("" in-process).
   virtual const std::string& address() const {
     static const std::string none;
@@ -1055,8 +1057,9 @@ void Endpoint::connect(const ConnectRequest& r, const Location& dest, ConnectDon
     const auto& q = l->request();
     if (q.from != r.from || q.out != r.out || q.to != r.to || q.in != r.in || q.set != r.set) continue;
     // The same connection is the one already made, unless it broke or its destination now lives elsewhere
-    // (a restarted process): then it is replaced.
-    if (!l->info().broken && l->address() == addr) return done("");
+    // (a restarted process) or is another instance at the same address (a leaf removed and added again in a
+    // shared node, whose `Gone` for the old link may still be on its way): then it is replaced.
+    if (!l->info().broken && l->address() == addr && l->dest_instance == dest.instance) return done("");
     impl_->remove_link(l.get());
     break;
   }
@@ -1067,12 +1070,14 @@ void Endpoint::connect(const ConnectRequest& r, const Location& dest, ConnectDon
     const std::string error = impl_->check_destination(r, out->spec(), in);
     if (!error.empty()) return done(error);
     impl_->links.push_back(std::make_shared<LocalLink>(r, out, in, flag, impl_->gate(link_key(r), true)));
+    impl_->links.back()->dest_instance = dest.instance;
     return done("");
   }
   std::string error;
   auto trunk = impl_->trunk_to(t, addr, &error);
   if (!trunk) return done("cannot connect to " + r.to + "." + r.in + ": " + error);
   auto link = std::make_shared<StreamLink>(*impl_, r, t, out, flag);
+  link->dest_instance = dest.instance;
   out->attach(link.get());
   impl_->links.push_back(link);
   link->start(std::move(trunk), addr, std::move(done), timeout_ms);

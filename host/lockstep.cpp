@@ -30,12 +30,40 @@ void LockstepCore::subscribe(const void* origin, std::string name, std::shared_p
   s.name = std::move(name);
   s.link = std::move(link);
   s.supervisor = supervisor;
+  if (!supervisor) forget(s.name);
   subs_[next_sub_++] = std::move(s);
 }
 
 void LockstepCore::set_leaves(const void* origin, std::vector<std::string> leaves) {
   for (auto& [id, s] : subs_)
-    if (s.origin == origin) s.leaves = leaves;
+    if (s.origin == origin) hosts(s, leaves);
+}
+
+// The leaves node `s` hosts now: one it did not host before is a new instance (a shared node's add, after a
+// remove when restarted), whose links start their counts afresh.
+void LockstepCore::hosts(Subscriber& s, std::vector<std::string> leaves) {
+  for (const auto& l : leaves)
+    if (std::find(s.leaves.begin(), s.leaves.end(), l) == s.leaves.end()) forget(l);
+  s.leaves = std::move(leaves);
+}
+
+// A leaf (re)started in a new process or instance: the counts of every link into it (its inputs are new) or
+// out of it (its outputs count from zero again) are forgotten, here and in what each reader was told, so no
+// reader is told to wait for samples of a link that no longer exists. Links are keyed
+// "from|out>to|in@set" (host/endpoint link_key).
+void LockstepCore::forget(const std::string& leaf) {
+  auto touches = [&leaf](const std::string& key) {
+    const auto gt = key.find('>');
+    if (gt == std::string::npos) return false;
+    const auto bar = key.find('|', gt);
+    return key.compare(0, key.find('|'), leaf) == 0 || key.compare(gt + 1, bar - gt - 1, leaf) == 0;
+  };
+  auto prune = [&touches](std::map<std::string, std::uint64_t>& m) { std::erase_if(m, [&](const auto& kv) {
+    return touches(kv.first); }); };
+  sent_.erase(leaf);
+  for (auto& [to, links] : sent_) prune(links);
+  for (auto& [id, s] : subs_) prune(s.told);
+  prune(owner_told_);
 }
 
 void LockstepCore::unsubscribe(const void* origin) {
@@ -156,7 +184,7 @@ void LockstepCore::advance(const std::vector<std::uint64_t>& due, Nanos t) {
                                if (!alive.expired()) answered(id, t, error, replied, reply);
                              });
   }
-  if (--waiting_ == 0) round_done(t);
+  if (--waiting_ == 0) advanced(t);
 }
 
 void LockstepCore::add_sent(const Value& sent) {
@@ -172,15 +200,20 @@ void LockstepCore::took(Subscriber& s, Nanos t, const Value& reply) {
   const auto ev = static_cast<std::uint64_t>(reply["ev"].as_int(0));
   s.events = ev;
   for (const auto& [leaf, count] : reply["evs"].as_map()) {
+    // per leaf, the events of all its processes so far: a restarted leaf's new process counts from zero
     auto& known = node_events_[leaf.as_string()];
-    const auto now_n = static_cast<std::uint64_t>(count.as_int(0));
+    auto& seen = s.evs[leaf.as_string()];
+    const auto c = static_cast<std::uint64_t>(count.as_int(0));
+    const auto now_n = known + (c >= seen ? c - seen : c);
+    seen = c;
     if (opts_.trace && known != now_n)
       trace_lines_.push_back(std::to_string(t) + " E " + leaf.as_string() + " events=" + std::to_string(now_n));
     known = now_n;
   }
   if (const auto* l = reply.find("leaves")) {
-    s.leaves.clear();
-    for (const auto& v : l->as_array()) s.leaves.push_back(v.as_string());
+    std::vector<std::string> names;
+    for (const auto& v : l->as_array()) names.push_back(v.as_string());
+    hosts(s, std::move(names));
   }
   add_sent(reply["sent"]);
   if (opts_.trace) traced(t, reply["dig"], s.out);
@@ -213,7 +246,11 @@ void LockstepCore::answered(std::uint64_t id, Nanos t, const std::string& error,
     ++advances_;
     took(it->second, t, reply);
   }
-  if (--waiting_ > 0) return;
+  if (--waiting_ == 0) advanced(t);
+}
+
+// Every advance of the phase answered (or none to send): the next step of the tick.
+void LockstepCore::advanced(Nanos t) {
   if (phase_ == Phase::Round) {
     rounds_.record(hooks_.wall_now() - round0_);
     return round_done(t);
@@ -238,11 +275,15 @@ void LockstepCore::drop(std::uint64_t id, const std::string& why) {
   } else {  // each of its leaves ends: one exit each at their supervisors
     const auto& leaves = it->second.leaves;
     lost_ += leaves.empty() ? 1 : leaves.size();
-    if (leaves.empty()) lost_names_.push_back(it->second.name);
-    lost_names_.insert(lost_names_.end(), leaves.begin(), leaves.end());
+    if (leaves.empty()) ++lost_names_[it->second.name];
+    for (const auto& l : leaves) ++lost_names_[l];
   }
   gone_events_ += it->second.events;
+  // told: a node whose process lives on (it stalled) stops rather than staying frozen at its last tick, so
+  // its supervisor hears of its exit (and a restart replaces it)
+  auto link = it->second.supervisor ? nullptr : it->second.link;
   subs_.erase(it);
+  if (link) link->close("dropped from the clock: " + msg);
 }
 
 // Events sent by everyone (nodes' done/aborted, nodes lost, supervisors' outcomes to their parents).
@@ -283,9 +324,9 @@ void LockstepCore::wave(Nanos t) {
     if (s.supervisor) sups.push_back(id);
   waiting_ = static_cast<int>(sups.size()) + 1;
   std::weak_ptr<bool> alive = alive_;
-  Value events = Value::map(), lost = Value::array();
+  Value events = Value::map(), lost = Value::map();
   for (const auto& [name, n] : node_events_) events.set(name, n);
-  for (const auto& name : lost_names_) lost.array_ref().push_back(Value(name));
+  for (const auto& [name, n] : lost_names_) lost.set(name, n);
   const Value q = Value::map().set("t", t).set("events", events).set("lost", lost);
   for (const auto id : sups) {
     subs_[id].link->request("quiesce", q,
@@ -378,6 +419,7 @@ class ChannelClockLink final : public ClockLink {
       done("", true, r.message.payload);
     });
   }
+  void close(const std::string& why) override { ch_->close(why); }
 
  private:
   std::shared_ptr<Channel> ch_;

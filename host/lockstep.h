@@ -36,7 +36,7 @@
 //      to t (so every clock reads t), then waves of `quiesce {t, events, lost}` go to every supervisor until
 //      two waves in a row answer the same counts and every event sent has been received (each supervisor
 //      first waits for the events of its own leaves counted in `events` = {node = events so far} and for the
-//      exits of those in `lost`, handles them in (time, name) order, and answers when it has nothing left to
+//      exits counted in `lost` = {leaf = nodes of it lost so far} (a restarted leaf can be lost again), handles them in (time, name) order, and answers when it has nothing left to
 //      do: Mattern's counting), then every node is advanced to t again (what the reactions wrote, e.g. a
 //      stopped drive's zero, is counted at t);
 //   4. the next tick.
@@ -65,6 +65,8 @@ class ClockLink {
   virtual ~ClockLink() = default;
   /// Sends the request `type` with `payload`; calls `done` exactly once, later.
   virtual void request(const std::string& type, wire::Value payload, ReplyFn done) = 0;
+  /// The subscriber was dropped from the clock (`why`): a node is told so by its link closing, and stops.
+  virtual void close(const std::string& why) { (void)why; }
 };
 
 /// How the clock master runs.
@@ -142,15 +144,19 @@ class LockstepCore {
     std::uint64_t received = 0;                 // supervisor: events received
     std::map<std::string, std::uint64_t> out;   // node, trace: samples per output at its last answer
     std::vector<std::string> leaves;            // node: the components it hosts (its answers say; else its name)
+    std::map<std::string, std::uint64_t> evs;   // node: per leaf, the events count of its last answer
   };
   enum class Phase { Idle, Round, SyncBefore, Waves, SyncAfter };
   std::vector<std::uint64_t> due_at(Nanos t) const;
   void advance(const std::vector<std::uint64_t>& due, Nanos t);
   wire::Value expect_for(Subscriber& s);
   void answered(std::uint64_t id, Nanos t, const std::string& error, bool replied, const wire::Value& reply);
+  void advanced(Nanos t);
   void took(Subscriber& s, Nanos t, const wire::Value& reply);
   void traced(Nanos t, const wire::Value& dig, std::map<std::string, std::uint64_t>& out);
   void add_sent(const wire::Value& sent);
+  void hosts(Subscriber& s, std::vector<std::string> leaves);
+  void forget(const std::string& leaf);
   void drop(std::uint64_t id, const std::string& why);
   void round_done(Nanos t);
   void sync_all(Nanos t, Phase next);
@@ -186,7 +192,7 @@ class LockstepCore {
   // counts of dropped ones; the total at the last barrier.
   std::uint64_t gone_events_ = 0, lost_ = 0, gone_received_ = 0, settled_ = 0;
   std::map<std::string, std::uint64_t> node_events_;  // by node name: its events so far (told in `quiesce`)
-  std::vector<std::string> lost_names_;
+  std::map<std::string, std::uint64_t> lost_names_;  // by leaf: times its node was lost (told in `quiesce`)
   std::vector<std::pair<std::uint64_t, std::uint64_t>> last_wave_;
   bool supervisor_lost_ = false;
   std::uint64_t barriers_ = 0, waves_ = 0;

@@ -94,6 +94,7 @@ namespace {
 // One hosted leaf: its component, its own control listener and the channels its supervisors opened there.
 struct Leaf {
   std::string type, name;
+  std::uint64_t instance = 0;  // this process's count of leaves added, at its add (Location::instance)
   std::unique_ptr<Component> component;
   Listener::Ptr control;
   std::shared_ptr<std::set<Channel::Ptr>> supervisors = std::make_shared<std::set<Channel::Ptr>>();
@@ -154,6 +155,7 @@ struct Node::Impl {
   Value endpoints(const Leaf* leaf) const;
   void forward(Leaf& leaf, const ComponentEvent& e);
   void forward(const CommsEvent& e);
+  void enlist(const Done& done_fn);
   void register_node(const Done& done_fn);
   void subscribe(const Done& done_fn);
   void connect_master(const Address& address, const Done& done_fn);
@@ -179,6 +181,7 @@ struct Node::Impl {
   std::map<std::string, std::uint64_t> events;     // per leaf: done and aborted events sent (lock-step counts)
   std::map<std::string, std::uint64_t> last_sent;  // per link key: the count last told to the master
   std::vector<std::string> switches;               // activations since the last advance (trace)
+  std::uint64_t instances = 0;                      // leaves added so far (each one's Leaf::instance)
   Value ports(const Leaf& leaf) const;
   Value stats(const Leaf& leaf) const;
 };
@@ -197,8 +200,8 @@ int Node::exit_code() const { return impl_->code; }
 
 // Start-up as a list of named steps, each ending by calling the next one or fail_start:
 //   start (key, daemon address) -> connect_daemon -> learn_host (ping, unless --host) -> open_ports (the
-//   timers, the data endpoint, the one leaf or a shared node's control listener) -> register_node ->
-//   subscribe (simulated time: lookup, connect, clock; see below).
+//   timers, the data endpoint, the one leaf or a shared node's control listener) -> enlist: on simulated time
+//   subscribe (lookup, connect, clock; see below), then register_node.
 void Node::start(std::function<void(const std::string& error)> done) {
   auto& I = *impl_;
   std::string error;
@@ -263,12 +266,20 @@ void Node::Impl::open_ports(const Done& done_fn) {
   endpoint->on_event([this](const CommsEvent& e) { forward(e); });
   if (!opts.shared) {
     if (!add_leaf(opts.type, opts.name, opts.args, &error)) return fail_start(done_fn, error);
-    return register_node(done_fn);
+    return enlist(done_fn);
   }
   open_crash_note();
   timers->on_enter = note_leaf;
   control = listen(channels, [this](const Channel::Ptr& ch, const Message& m) { handle_process(ch, m); }, &error);
   if (!control) return fail_start(done_fn, "cannot listen for control channels: " + error);
+  enlist(done_fn);
+}
+
+// On simulated time the node subscribes to the clock before it registers: nobody can find it (to connect to
+// it, or to restart what it replaces) before the clock master knows it, so the master forgets the counts of
+// the links of a leaf it hosted before (a restart) before any link to the new process is counted.
+void Node::Impl::enlist(const Done& done_fn) {
+  if (opts.clock == ClockKind::Simulated && !opts.world.empty()) return subscribe(done_fn);
   register_node(done_fn);
 }
 
@@ -303,6 +314,7 @@ Leaf* Node::Impl::add_leaf(const std::string& type, const std::string& name, con
   auto leaf = std::make_shared<Leaf>();
   leaf->type = type;
   leaf->name = name;
+  leaf->instance = ++instances;
   try {
     leaf->component = factory(type, name, host, args, *timers);
     endpoint->add_component(name, leaf->component->ports());
@@ -355,6 +367,7 @@ Value Node::Impl::endpoints(const Leaf* leaf) const {
                 .set("pid", static_cast<std::int64_t>(::getpid()));
   if (leaf) e.set("type", leaf->type);
   if (opts.shared) e.set("shared", leaf ? Value(process_name()) : Value(true));
+  if (opts.shared && leaf) e.set("instance", static_cast<std::int64_t>(leaf->instance));
   return e;
 }
 
@@ -380,15 +393,13 @@ void Node::Impl::forward(const CommsEvent& e) {
     leaf->event({"overflow", 0, Value::map().set("name", e.component).set("port", e.port).set("reason", e.reason)});
 }
 
-// Registers the one leaf's PATH (or the shared node's NAME#PID) with the daemon; on simulated time, then
-// subscribes to the clock master.
+// Registers the one leaf's PATH (or the shared node's NAME#PID) with the daemon: the start is done.
 void Node::Impl::register_node(const Done& done_fn) {
   const Leaf* leaf = opts.shared ? nullptr : find(opts.name);
   const std::string name = process_name();
   daemon->request({"register", 0, Value::map().set("name", name).set("endpoints", endpoints(leaf))},
                   std::chrono::milliseconds(opts.timeout_ms), [this, done_fn, name](Response r) {
                     if (!r.ok()) return fail_start(done_fn, "cannot register " + name + ": " + r.error);
-                    if (opts.clock == ClockKind::Simulated && !opts.world.empty()) return subscribe(done_fn);
                     done_fn("");
                   });
 }
@@ -473,7 +484,7 @@ void Node::Impl::connect_master(const Address& address, const Done& done_fn) {
                   const Nanos now = r.message.payload["now"].as_int(0);
                   if (now > timers->now()) timers->advance_to(now);
                   tell_leaves();
-                  done_fn("");
+                  register_node(done_fn);
                 });
   });
 }
@@ -582,7 +593,8 @@ void Node::Impl::connect(Leaf& leaf, const Channel::Ptr& ch, const Message& m) {
                     if (!endpoint) return;
                     if (!resp.ok()) return finish("connect: cannot find " + r.to + ": " + resp.error);
                     const auto& e = resp.message.payload["endpoints"];
-                    Location loc{e["host"].as_string(), e["data_uds"].as_string(), e["data_tcp"].as_string()};
+                    Location loc{e["host"].as_string(), e["data_uds"].as_string(), e["data_tcp"].as_string(),
+                                 static_cast<std::uint64_t>(e["instance"].as_int(0))};
                     if (loc.host.empty()) loc.host = resp.message.payload["host"].as_string();
                     endpoint->connect(r, loc, finish, timeout);
                   });

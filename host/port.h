@@ -305,6 +305,9 @@ struct Location {
   std::string host;      ///< logical host name
   std::string data_uds;  ///< its node's Unix-socket data endpoint (path)
   std::string data_tcp;  ///< its node's TCP data endpoint ("127.0.0.1:port")
+  /// The leaf instance in its node (a shared node's add count; 0 for a one-leaf node): a leaf removed and added
+  /// again in the same node lives at the same address, so this tells the new instance from the old one.
+  std::uint64_t instance = 0;
 };
 
 /// In-process when `dest_local`, else Unix socket when the host names match, else TCP.

@@ -32,6 +32,8 @@ class FakeLink final : public ClockLink {
     pop()("", true, reply);
   }
   void fail(const std::string& error, bool replied) { pop()(error, replied, dca::wire::Value()); }
+  void close(const std::string& why) override { closed = why; }
+  std::string closed;
   struct Pending {
     Nanos t;
     ReplyFn done;
@@ -285,6 +287,104 @@ TEST_F(LockstepTest, AnEventHoldsTimeUntilTheSupervisorsHaveHandledIt) {
   EXPECT_EQ(core->now(), 10 * kMs);
   EXPECT_EQ(core->status()["barriers"].as_int(0), 1);
   EXPECT_EQ(core->status()["waves"].as_int(0), 3);
+}
+
+// A node dropped from the clock is told so (its link closed: a node that still lives stops), so its supervisor
+// hears of its exit; a supervisor dropped is not (its link is its own channel to the world).
+TEST_F(LockstepTest, ADroppedNodeIsToldAndASupervisorIsNot) {
+  make();
+  auto a = subscribe("/a", &origin_a);
+  auto b = subscribe("/b", &origin_b);
+  core->go();
+  run_ticks(100);
+  a->answer(std::nullopt);
+  b->fail("timed out after 300 ms", false);
+  EXPECT_EQ(b->closed, "dropped from the clock: /b: did not answer the advance to 0.010000 s (timed out after 300 ms)");
+  EXPECT_EQ(a->closed, "");
+}
+
+// A restarted reader (a new process subscribing under the leaf's name) starts its links' counts afresh: it is
+// never told to wait for the samples its old process's links carried, and its new writer's counts from zero
+// reach it as they come. The same for a restarted writer: its new link's counts replace the old ones.
+TEST_F(LockstepTest, ARestartedLeafsLinksStartTheirCountsAfresh) {
+  make();
+  using dca::wire::Value;
+  const std::string key = "/a|Out>/b|In@s";
+  auto a = subscribe("/a", &origin_a);
+  auto b = subscribe("/b", &origin_b);
+  core->go();
+  run_ticks(100);
+  b->answer(std::nullopt);
+  a->answer(std::nullopt, Value::map().set("sent", Value::map().set("/b", Value::map().set(key, 500))));
+  run_ticks(100);
+  EXPECT_EQ(b->payloads[1]["expect"][key].as_int(0), 500);
+  a->answer(std::nullopt);
+  b->answer(std::nullopt);
+  // /b restarts: a new process (another origin) subscribes under its name; the old one is gone
+  core->unsubscribe(&origin_b);
+  int origin_b2 = 0;
+  auto b2 = subscribe("/b", &origin_b2);
+  run_ticks(100);
+  EXPECT_FALSE(b2->payloads[0].find("expect"));  // not told to wait for the old link's 500
+  b2->answer(std::nullopt);
+  a->answer(std::nullopt, Value::map().set("sent", Value::map().set("/b", Value::map().set(key, 2))));
+  run_ticks(100);
+  EXPECT_EQ(b2->payloads[1]["expect"][key].as_int(0), 2);
+  a->answer(std::nullopt);
+  b2->answer(std::nullopt);
+  // /a restarts: its new link counts from 0 again, and the reader is told the new count, however small
+  core->unsubscribe(&origin_a);
+  int origin_a2 = 0;
+  auto a2 = subscribe("/a", &origin_a2);
+  run_ticks(100);
+  b2->answer(std::nullopt);
+  a2->answer(std::nullopt, Value::map().set("sent", Value::map().set("/b", Value::map().set(key, 1))));
+  run_ticks(100);
+  EXPECT_EQ(b2->payloads[3]["expect"][key].as_int(0), 1);
+}
+
+// A leaf added again to a shared node (remove, then add: a restart in the same process) is a new instance: its
+// links' counts start afresh, and its events go on counting from those of its old instance.
+TEST_F(LockstepTest, ALeafAddedAgainToASharedNodeStartsAfresh) {
+  make();
+  using dca::wire::Value;
+  const std::string key = "/w|Out>/r|In@s";
+  auto w = subscribe("/w", &origin_a);
+  auto n = subscribe("leaves:g@h#1", &origin_b);
+  core->set_leaves(&origin_b, {"/r", "/x"});
+  core->go();
+  run_ticks(100);
+  n->answer(std::nullopt);
+  w->answer(std::nullopt, Value::map().set("sent", Value::map().set("/r", Value::map().set(key, 7))));
+  run_ticks(100);
+  EXPECT_EQ(n->payloads[1]["expect"][key].as_int(0), 7);
+  w->answer(std::nullopt);
+  n->answer(std::nullopt);
+  core->set_leaves(&origin_b, {"/x"});
+  core->set_leaves(&origin_b, {"/r", "/x"});
+  run_ticks(100);
+  EXPECT_FALSE(n->payloads[2].find("expect"));
+}
+
+// The barrier counts a leaf's losses: a leaf restarted after its node was lost can be lost again, and its
+// supervisor is told to wait for that second exit too.
+TEST_F(LockstepTest, QuiesceCountsTheLossesOfEachLeaf) {
+  make();
+  using dca::wire::Value;
+  auto a = subscribe("/a", &origin_a);
+  auto s = subscribe("/sup", &origin_s, true);
+  core->go();
+  run_ticks(100);
+  a->fail("closed", false);
+  ASSERT_EQ(s->payloads.size(), 1u);
+  EXPECT_EQ(s->payloads[0]["lost"]["/a"].as_int(0), 1);
+  s->answer(std::nullopt, Value::map().set("received", 1).set("sent", 0));
+  s->answer(std::nullopt, Value::map().set("received", 1).set("sent", 0));
+  int origin_a2 = 0;
+  auto a2 = subscribe("/a", &origin_a2);
+  run_ticks(100);
+  a2->fail("closed", false);
+  EXPECT_EQ(s->payloads.back()["lost"]["/a"].as_int(0), 2);
 }
 
 }  // namespace

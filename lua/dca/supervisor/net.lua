@@ -120,7 +120,7 @@ function Proc:exited_with(rt, reason)
   -- a leaf that ends without being asked is what the clock master counts as a lost node: in lock-step its
   -- exit waits for the barrier (Net:_quiesce)
   if self.kind == "leaf" and not self.stopping and rt.ls.joined and not rt.closing then
-    rt.ls.exited[self.path] = true
+    rt.ls.exited[self.path] = (rt.ls.exited[self.path] or 0) + 1
     rt.ls.queue[#rt.ls.queue + 1] = { now = math.huge, name = self.name, exit = reason }
     if self.ch and not self.ch_closed then self.ch:close() end
     return
@@ -189,6 +189,8 @@ function Proc:handle()
   end
   function h.send(msg) ch:send(msg) end
   function h.kill(sig, kcb)
+    -- (in lock-step the barrier waits for the exit: a restart replaces the process at the tick it happens)
+    if kcb then kcb = rt.busy_while(kcb) end
     self.stopping = true
     if self.lost_timer then self.lost_timer:cancel() end
     self:kill_wait(sig, kcb)
@@ -315,7 +317,7 @@ function Shared:exited_with(rt, reason, msg)
   end
   if rt.sup and not rt.closing and #names > 0 then
     if rt.ls.joined then  -- in lock-step the exits wait for the barrier (Net:_quiesce), one event per leaf
-      for _, p in ipairs(list) do rt.ls.exited[p.path] = true end
+      for _, p in ipairs(list) do rt.ls.exited[p.path] = (rt.ls.exited[p.path] or 0) + 1 end
       rt.ls.queue[#rt.ls.queue + 1] = { now = math.huge, name = names[1], exits = names, exit = why }
     else
       rt.sup:children_exit(names, why)
@@ -390,8 +392,8 @@ function Net:_arrived(q)
   for path, n in pairs(q.events or {}) do
     if self.my_leaves[path] and (ls.per[path] or 0) < n then return false end
   end
-  for _, path in ipairs(q.lost or {}) do
-    if self.my_leaves[path] and not ls.exited[path] then return false end
+  for path, n in pairs(q.lost or {}) do
+    if self.my_leaves[path] and (ls.exited[path] or 0) < n then return false end
   end
   return true
 end
@@ -401,6 +403,7 @@ end
 function Net:_quiesce(ch, id, q)
   local ls = self.ls
   if not self._arrived(q) then
+    self._end_lost(q.lost)
     core.after(0.0005, function() self._quiesce(ch, id, q) end)
     return
   end
@@ -415,6 +418,23 @@ function Net:_quiesce(ch, id, q)
   end
   local function answer() M.reply(ch, id, { type = "ok", received = ls.received, sent = ls.sent }) end
   if ls.pending == 0 then answer() else ls.waiters[#ls.waiters + 1] = answer end
+end
+
+-- The clock master dropped these leaves' nodes (`lost`): one that still lives (it stalled rather than crashed;
+-- the master closed its clock channel, which stops a node that still reads it) is killed, once, so that its
+-- exit comes and the barrier waiting for it ends. A shared node is killed whole: the master drops a process.
+function Net:_end_lost(lost)
+  local ls = self.ls
+  for path, n in pairs(lost or {}) do
+    if self.my_leaves[path] and (ls.exited[path] or 0) < n and (ls.ended[path] or 0) < n then
+      ls.ended[path] = n
+      for _, p in pairs(self.by_child) do
+        local hit = p.path == path
+        for leaf in pairs(p.leaves or {}) do hit = hit or leaf.path == path end
+        if hit and not p.exited and not p.ended then (p.daemon or p.dc):kill(p.child, "KILL") end
+      end
+    end
+  end
 end
 
 --- On simulated time (this host's daemon says so) with a world: subscribes to its clock as a supervisor.
@@ -532,6 +552,8 @@ end
 --- arguments are read first from the configuration replica of its host's daemon (dca.config), checked against
 --- the parameter's type: a missing key or a wrong type fails the start, naming the parameter and the key.
 function Net:spawn(child, cb)
+  -- in lock-step the supervisor is busy until the process is up: a (re)start at a barrier takes effect at its tick
+  cb = self.busy_while(cb)
   self.daemon(child.host, function(dc, err)
     if not dc then cb(nil, err) return end
     spec_mod.resolve_leaf(child, config.over_channel(dc.channel, self.timeouts.lookup), function(c, rerr)
@@ -706,7 +728,7 @@ end
 function M.new(opts)
   local t = opts.timeouts or {}
   local rt = { opts = opts, daemons = {}, by_child = {}, shared = {}, closing = false,
-               ls = { received = 0, sent = 0, pending = 0, waiters = {}, per = {}, exited = {}, queue = {} },
+               ls = { received = 0, sent = 0, pending = 0, waiters = {}, per = {}, exited = {}, queue = {}, ended = {} },
                my_leaves = {},
                timeouts = { spawn = t.spawn or 10, lookup = t.lookup or 10 } }
   for name, f in pairs(Net) do
