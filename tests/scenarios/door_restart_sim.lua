@@ -1,0 +1,43 @@
+-- Restart of a leaf in simulated time (ARCHITECTURE.md "Time", "A restart in simulated time"): the door system
+-- (real backend, seed 1) holds its time at a fixed tick mid-approach (2 s) and VisualServoing is restarted
+-- there: a fresh process, its links made again both ways (from the camera, to the motion controller), run
+-- again (Init, Run at 2 s). Its links' counts start afresh at the clock master, so its new links' samples are
+-- delivered as any others and the task carries on: the door opens past 70 degrees, the run ends DONE.
+--
+-- With DCA_SCENARIO_TRACE=FILE the world writes the run's trace there (tests/door/restart_repeat.sh runs this
+-- twice and compares the traces: a restart at a defined tick repeats exactly).
+local S = require "dca.scenario"
+S.backends = { "real" }
+local door = dofile((os.getenv("DCA_SOURCE_DIR") or ".") .. "/tests/support/door_scenario.lua")
+local sys = door.system(S, { trace = os.getenv("DCA_SCENARIO_TRACE") })
+local VS = "main.dooropensyst.visualserv"
+local t_hold, pid0
+
+door.up(S, sys, "the tree comes up on three hosts on the simulated clock, with the world")
+
+S.step("VisualServoing runs (time held at 2 s)", function()
+  sys:run()
+  sys:wait_state(VS, "running", 30)
+  t_hold = sys:world_hold_at(2.0, 60)
+  pid0 = sys:pid(VS)
+end)
+
+S.step("restart(visualserv) at the held tick: a new process, running again at that tick", function()
+  local res
+  sys.sup:restart(VS, function(ok, err) res = { ok, err } end)
+  sys:wait("the restart", function() return res ~= nil end, 60)
+  S.ok(res[1], "restarted: " .. tostring(res[2]))
+  S.ok(sys:pid(VS) ~= pid0, "a new process")
+  S.eq(sys:state(VS), "running")
+  S.eq(sys:world_status().t, t_hold, "time did not move during the restart")
+end)
+
+S.step("time flows on: the door opens past 70 degrees and the task ends DONE", function()
+  sys:world_go()
+  local out = sys:wait_outcome(300)
+  door.end_trace(sys)
+  S.eq(out.type, "done", "outcome " .. S.show(out))
+  local angle = math.deg(sys:world_status().door_angle)
+  S.ok(angle >= 70, "door angle " .. tostring(angle))
+end)
+return S.finish()
