@@ -20,6 +20,7 @@ LockstepCore::LockstepCore(LockstepOptions options, LockstepHooks hooks)
     : opts_(std::move(options)), hooks_(std::move(hooks)), period_(std::max<Nanos>(1, opts_.period)) {
   sync_ = std::max<Nanos>(period_, from_seconds(opts_.sync_period));
   sync_ = (sync_ / period_) * period_;  // a multiple of the period, so sync ticks happen
+  idle_ = std::max<Nanos>(sync_, (from_seconds(opts_.idle_period) / sync_) * sync_);
   duration_ = opts_.duration >= 0 ? from_seconds(opts_.duration) : -1;
 }
 
@@ -82,6 +83,7 @@ bool LockstepCore::go() {
   if (running_) return false;
   running_ = true;
   wall0_ = hooks_.wall_now() - now();
+  if (!first_go_) first_go_ = hooks_.wall_now();
   schedule();
   return true;
 }
@@ -122,7 +124,7 @@ void LockstepCore::tick() {
   ++steps_;
   const Nanos t = now();
   const auto due = due_at(t);
-  if (t % sync_ == 0 || !due.empty()) {
+  if (!due.empty()) {
     hooks_.publish();
     if (hooks_.sent) add_sent(hooks_.sent());
     if (opts_.trace && hooks_.digests) traced(t, hooks_.digests(), owner_out_);
@@ -140,12 +142,13 @@ void LockstepCore::tick() {
   advance(due, t);
 }
 
-// Every node at a sync tick, else those whose next deadline has come.
+// Those whose next deadline has come; at a sync tick those that have not answered yet (their deadlines are
+// not known: a node just started); at an idle tick every node.
 std::vector<std::uint64_t> LockstepCore::due_at(Nanos t) const {
   std::vector<std::uint64_t> due;
-  const bool sync_tick = t % sync_ == 0;
+  const bool sync_tick = t % sync_ == 0, idle_tick = t % idle_ == 0;
   for (const auto& [id, s] : subs_)
-    if (!s.supervisor && (sync_tick || (s.next && *s.next <= t))) due.push_back(id);
+    if (!s.supervisor && (idle_tick || (sync_tick && !s.answered) || (s.next && *s.next <= t))) due.push_back(id);
   return due;
 }
 
@@ -197,6 +200,7 @@ void LockstepCore::add_sent(const Value& sent) {
 void LockstepCore::took(Subscriber& s, Nanos t, const Value& reply) {
   const auto& n = reply["next"];
   s.next = n.is_nil() ? std::nullopt : std::optional<Nanos>(n.as_int(0));
+  s.answered = true;
   const auto ev = static_cast<std::uint64_t>(reply["ev"].as_int(0));
   s.events = ev;
   for (const auto& [leaf, count] : reply["evs"].as_map()) {
@@ -392,6 +396,7 @@ Value LockstepCore::status() const {
       .set("running", running_)
       .set("steps", static_cast<std::int64_t>(steps_))
       .set("wall_s", wall_s_)
+      .set("run_wall_s", first_go_ ? to_seconds(hooks_.wall_now() - *first_go_) : 0.0)
       .set("subscribers", names)
       .set("dropped", drops)
       .set("rounds", static_cast<std::int64_t>(rounds_.count()))

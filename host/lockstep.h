@@ -20,15 +20,17 @@
 //   leaves {leaves} (event)      the components a (shared) node hosts, sent when they change
 //   go {}           -> ok {now}  time starts (or resumes) flowing
 //   hold {at}       -> ok {now}  time stops after the current tick (at: ns, once it reaches `at`)
-//   status {}       -> ok {now, t, running, steps, wall_s, subscribers = [names], dropped = [reasons], rounds,
+//   status {}       -> ok {now, t, running, steps, wall_s, run_wall_s, subscribers = [names], dropped = [reasons], rounds,
 //                       advances, round_p50_us, round_p99_us, round_max_us, settled, barriers, waves}: a round is one
 //                       tick with subscribers due (advances sent -> last reply), in wall time; settled:
-//                       no round or barrier open
+//                       no round or barrier open; wall_s: wall time the owner spent stepping and publishing;
+//                       run_wall_s: wall time since time first started (the run without its start-up)
 //
 // Each tick t (the semantics are ARCHITECTURE.md "Time"):
 //   1. the owner takes in the samples written to it before t (hook `take`, with the counts its writers
 //      reported) and steps one period to t (hook `step`);
-//   2. if a node is due (its next deadline <= t, or t is a multiple of the sync period), the owner publishes
+//   2. if a node is due (its next deadline <= t; one that has not answered yet at each multiple of the sync
+//      period; every node at each multiple of the idle period), the owner publishes
 //      (hook `publish`; its counts from hook `sent`), and `advance {t, expect}` goes to each due node, where
 //      expect = for each link into it, the samples its writer had sent by its last answer; each answer says
 //      its next deadline, its events so far and the links whose counts moved;
@@ -72,7 +74,10 @@ class ClockLink {
 /// How the clock master runs.
 struct LockstepOptions {
   Nanos period = 1'000'000;       ///< one step of the owner (ns)
-  double sync_period = 0.01;      ///< s: every subscriber is advanced at least this often
+  double sync_period = 0.01;      ///< s: a subscriber that has not answered yet is advanced at its multiples
+  /// s: every subscriber is advanced at least this often (a node with nothing due, e.g. only idle leaves, is
+  /// otherwise left alone: this bounds the samples its gates hold and wakes timers made outside a barrier)
+  double idle_period = 1.0;
   int tick_timeout_ms = 10000;    ///< how long a subscriber may take to answer an advance
   bool realtime = false;          ///< pace time to the wall clock (else as fast as the subscribers allow)
   double duration = -1;           ///< s of simulated time after which time holds (-1: never)
@@ -139,6 +144,7 @@ class LockstepCore {
     std::shared_ptr<ClockLink> link;
     bool supervisor = false;
     std::optional<Nanos> next;
+    bool answered = false;                      // node: it answered an advance (its `next` is known)
     std::map<std::string, std::uint64_t> told;  // per link key into it: the count last sent in `expect`
     std::uint64_t events = 0;                   // node: events sent; supervisor: events sent up
     std::uint64_t received = 0;                 // supervisor: events received
@@ -170,7 +176,7 @@ class LockstepCore {
 
   LockstepOptions opts_;
   LockstepHooks hooks_;
-  Nanos period_, sync_, duration_;
+  Nanos period_, sync_, idle_, duration_;
   std::map<std::uint64_t, Subscriber> subs_;  // by subscription order
   std::uint64_t next_sub_ = 1;
   std::vector<std::string> dropped_;
@@ -180,6 +186,7 @@ class LockstepCore {
   Phase phase_ = Phase::Idle;
   Nanos wall0_ = 0;  // the wall time at which simulated time would have been 0
   double wall_s_ = 0;  // wall time spent stepping and publishing while running
+  std::optional<Nanos> first_go_;  // the wall time at which time first started
   // Wall time of each round (advances sent -> last answer): what a simulated control period costs in real time.
   LatenessHistogram rounds_;
   Nanos round0_ = 0;

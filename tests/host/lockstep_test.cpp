@@ -57,11 +57,12 @@ class FakeLink final : public ClockLink {
 
 class LockstepTest : public ::testing::Test {
  protected:
-  // A 1 ms owner, sync every 10 ms; `duration` in seconds (-1: none).
+  // A 1 ms owner, sync every 10 ms, every node at least every 50 ms; `duration` in seconds (-1: none).
   void make(double duration = -1, bool realtime = false) {
     dca::LockstepOptions o;
     o.period = kMs;
     o.sync_period = 0.01;
+    o.idle_period = 0.05;
     o.duration = duration;
     o.realtime = realtime;
     dca::LockstepHooks h;
@@ -109,13 +110,13 @@ TEST_F(LockstepTest, TimeStandsStillUntilGo) {
   EXPECT_FALSE(wall_due.has_value());  // not paced: at once
 }
 
-TEST_F(LockstepTest, WithoutSubscribersTheOwnerStepsAndPublishesAtSyncTicks) {
+TEST_F(LockstepTest, WithoutSubscribersTheOwnerStepsAndPublishesNothing) {
   make();
   core->go();
   EXPECT_EQ(run_ticks(25), 25);
   EXPECT_EQ(steps, 25);
   EXPECT_EQ(core->now(), 25 * kMs);
-  EXPECT_EQ(publishes, 2);  // at 10 and 20 ms
+  EXPECT_EQ(publishes, 0);  // it publishes for the nodes due at a tick: none
 }
 
 TEST_F(LockstepTest, EverySubscriberIsAdvancedAtASyncTickAndTheNextWaitsForAllAnswers) {
@@ -147,8 +148,31 @@ TEST_F(LockstepTest, ASubscriberIsAdvancedAtItsNextDeadline) {
   EXPECT_EQ(a->seen(), std::vector<Nanos>{13 * kMs});
   EXPECT_EQ(publishes, 2);  // published before each advance
   a->answer(std::nullopt);
-  EXPECT_EQ(run_ticks(100), 7);  // nothing due until the next sync tick at 20 ms
+  EXPECT_EQ(run_ticks(100), 37);  // nothing due: left alone until the idle tick at 50 ms
+  EXPECT_EQ(a->seen(), std::vector<Nanos>{50 * kMs});
+}
+
+// A node that has not answered yet is advanced at the next sync tick; one that answered, only when due (or
+// at an idle tick): the leaves the supervisor does not run cost the rounds nothing.
+TEST_F(LockstepTest, ANodeIsAdvancedWhenDueAndEveryNodeAtTheIdleTick) {
+  make();
+  auto a = subscribe("/a", &origin_a);
+  auto idle = subscribe("/idle", &origin_b);
+  core->go();
+  run_ticks(100);
+  a->answer(20 * kMs);
+  idle->answer(std::nullopt);
+  auto late = subscribe("/late", &origin_s);  // e.g. a restarted node
+  run_ticks(100);
   EXPECT_EQ(a->seen(), std::vector<Nanos>{20 * kMs});
+  EXPECT_EQ(late->seen(), std::vector<Nanos>{20 * kMs});  // its first sync tick
+  EXPECT_TRUE(idle->seen().empty());
+  a->answer(50 * kMs);
+  late->answer(std::nullopt);
+  EXPECT_EQ(run_ticks(100), 30);
+  EXPECT_EQ(a->seen(), std::vector<Nanos>{50 * kMs});
+  EXPECT_EQ(idle->seen(), std::vector<Nanos>{50 * kMs});  // the idle tick: everyone
+  EXPECT_EQ(late->seen(), std::vector<Nanos>{50 * kMs});
 }
 
 TEST_F(LockstepTest, AStalledSubscriberIsDroppedByNameAndTheOthersGoOn) {
@@ -163,8 +187,8 @@ TEST_F(LockstepTest, AStalledSubscriberIsDroppedByNameAndTheOthersGoOn) {
   ASSERT_EQ(st["dropped"].as_array().size(), 1u);
   EXPECT_EQ(st["dropped"].as_array()[0].as_string(), "/stalled: did not answer the advance to 0.010000 s (timed out after 300 ms)");
   EXPECT_EQ(st["subscribers"].as_array().size(), 1u);
-  EXPECT_EQ(run_ticks(100), 10);
-  EXPECT_EQ(a->seen(), std::vector<Nanos>{20 * kMs});
+  EXPECT_EQ(run_ticks(100), 40);
+  EXPECT_EQ(a->seen(), std::vector<Nanos>{50 * kMs});
   EXPECT_TRUE(stalled->pending.empty());
 }
 
@@ -251,7 +275,7 @@ TEST_F(LockstepTest, AWritersCountsGoToTheReaderWithItsNextAdvance) {
   a->answer(std::nullopt, Value::map().set("sent", sent));
   run_ticks(100);
   ASSERT_EQ(b->payloads.size(), 2u);
-  EXPECT_FALSE(b->payloads[0].find("expect"));  // at 10 ms nothing was counted yet
+  EXPECT_FALSE(b->payloads[0].find("expect"));  // at 10 ms nothing was counted yet (then: the idle tick)
   EXPECT_EQ(b->payloads[1]["expect"]["/a|Out>/b|In@s"].as_int(0), 3);
   EXPECT_FALSE(a->payloads[1].find("expect"));
   a->answer(std::nullopt);

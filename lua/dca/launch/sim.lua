@@ -83,7 +83,8 @@ end
 
 -- The summary's own lines from the world's status `r` (after the hook's head).
 function S:_figures(r, wall, lines)
-  lines[#lines + 1] = sformat("simulated %.3f s in %.3f s of wall-clock time", tonumber(r.t) or 0, wall)
+  lines[#lines + 1] = sformat("simulated %.3f s in %.3f s of wall-clock time (%.3f s since time started, "
+    .. "%.3f s of it stepping the world)", tonumber(r.t) or 0, wall, tonumber(r.run_wall_s) or 0, tonumber(r.wall_s) or 0)
   if tonumber(r.rounds) and r.rounds > 0 then
     lines[#lines + 1] = sformat("lock-step: %d rounds, %d advances; wall time per round p50 %.0f us, p99 %.0f us, "
       .. "max %.0f us; %d barriers", r.rounds, tonumber(r.advances) or 0, tonumber(r.round_p50_us) or 0,
