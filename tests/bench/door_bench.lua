@@ -5,11 +5,14 @@
 --
 --   RESULT bench=door_demo variant=seedN_<placement>_<period> n=<lock-step rounds> p50_us=.. p99_us=.. max_us=..
 --          rtf=.. wall_s=.. sim_s=.. door_deg=.. advances=.. processes_per_round=.. per_process_p50_us=..
+--          vs_harness=.. run_rtf=.. run_wall_s=.. vs_harness_run=.. world_step_s=..
+--   (rtf and wall_s: the whole `dca run`, start-up included; run_*: from time's start to the outcome, as the
+--   harness is timed without building its world and controllers; world_step_s: the world's stepping in it)
 --   (placement: `dca run --placement process|group|host`; period: MotionControl's, 10ms or 1ms)
 --   RESULT bench=raw_world_scripted_door variant=seedN n=1 ... rtf=.. wall_s=.. sim_s=..
 --   RESULT bench=door_harness variant=seedN_motionPms n=<10 ms periods> ... rtf=.. wall_s=.. sim_s=.. door_deg=..
---   (the baseline: tests/sim/door_harness.h in one process, same seed and period, run before each period's
---   supervised runs; door_demo's vs_harness is its rtf over that one's)
+--   (the baseline: tests/sim/door_harness.h in one process, same seed and period, run just before each
+--   supervised run, so the two alternate H A H B ...; door_demo's vs_harness is its rtf over that one's)
 --
 -- The latency fields of door_demo are the wall time of each lock-step round: one control period of simulated
 -- time (10 ms, the controllers' period; MotionControl runs at it) with every due node advanced, answered and
@@ -59,18 +62,21 @@ local function demo(seed, placement, period, base)
   local out, code = run(sformat("%s run %s/scripts/systems/door_open.dca --sim door --seed %d --quiet%s", exe, src,
     seed, extra))
   local deg = out:match("door opened to ([%d.%-]+) deg")
-  local sim, wall = out:match("simulated ([%d.]+) s in ([%d.]+) s of wall%-clock time")
+  local sim, wall, run_wall, step = out:match(
+    "simulated ([%d.]+) s in ([%d.]+) s of wall%-clock time %(([%d.]+) s since time started, ([%d.]+) s of it")
   local rounds, adv, p50, p99, max = out:match("lock%-step: (%d+) rounds, (%d+) advances; wall time per round p50 (%d+) us, p99 (%d+) us, max (%d+) us")
   if code ~= 0 or not sim or not rounds then
     io.stderr:write(sformat("door run (seed %d) failed (exit %s):\n%s\n", seed, tostring(code), out))
     return
   end
-  sim, wall = num(sim), num(wall)
+  sim, wall, run_wall = num(sim), num(wall), num(run_wall)
   -- processes advanced per round, and the round's p50 shared among them: the lock-step cost per process
   local per_round = num(adv) / math.max(1, num(rounds))
-  print(sformat("RESULT bench=door_demo variant=seed%d_%s_%s n=%d p50_us=%.1f p99_us=%.1f p999_us=%.1f max_us=%.1f rtf=%.2f wall_s=%.3f sim_s=%.3f door_deg=%s advances=%s processes_per_round=%.2f per_process_p50_us=%.1f vs_harness=%.2f",
+  local run_rtf = run_wall > 0 and sim / run_wall or 0
+  local function vs(rtf) return (base or 0) > 0 and rtf / base or 0 end
+  print(sformat("RESULT bench=door_demo variant=seed%d_%s_%s n=%d p50_us=%.1f p99_us=%.1f p999_us=%.1f max_us=%.1f rtf=%.2f wall_s=%.3f sim_s=%.3f door_deg=%s advances=%s processes_per_round=%.2f per_process_p50_us=%.1f vs_harness=%.2f run_rtf=%.2f run_wall_s=%.3f vs_harness_run=%.2f world_step_s=%.3f",
     seed, placement, period, num(rounds), num(p50), num(p99), num(max), num(max), sim / wall, wall, sim, deg or "?",
-    adv, per_round, num(p50) / math.max(1, per_round), (base or 0) > 0 and sim / wall / base or 0))
+    adv, per_round, num(p50) / math.max(1, per_round), vs(sim / wall), run_rtf, run_wall, vs(run_rtf), num(step)))
 end
 
 local seeds = {}
@@ -89,8 +95,7 @@ for round = 1, 2 do
     io.stderr:write(sformat("door_bench: round %d, seed %d: raw world, then the supervised system\n", round, seed))
     raw(seed)
     for _, period in ipairs(periods) do
-      local base = harness(seed, period)
-      for _, placement in ipairs(placements) do demo(seed, placement, period, base) end
+      for _, placement in ipairs(placements) do demo(seed, placement, period, harness(seed, period)) end
     end
   end
 end
