@@ -6,14 +6,14 @@ local hosts_mod, args_mod = require "dca.launch.hosts", require "dca.cli.args"
 
 local M = {}
 
-local ipairs, tostring, tonumber, sformat = ipairs, tostring, tonumber, string.format
+local ipairs, tostring, tonumber, type, sformat = ipairs, tostring, tonumber, type, string.format
 
 M.summary = "run a .dca system: start its hosts and supervisor tree, run it, report each transition"
 M.usage = [=[usage: dca run FILE.dca [--root NAME] [--hosts FILE] [--repl] [--watch] [--timeout S] [--quiet]
                     [--config FILE | --no-config] [--set KEY=VALUE]... [--state-dir DIR]
                     [--placement process|group|host]
                     [--sim WORLD [--seed N] [--door-width W] [--record FILE.mcap|FILE.csv] [--jammed] [--realtime]
-                    [--trace FILE]]
+                    [--trace FILE]] [--monitor [ADDR] [--monitor-wait]]
 
 Checks FILE.dca (errors stop here, nothing is started), starts one local daemon per host name on 127.0.0.1
 (or uses the daemons named in --hosts, lines of "name address"), starts the supervisor tree, shows one line
@@ -46,6 +46,10 @@ per group as it comes up and one per process transition, and runs the root expre
   --trace FILE    write the run's trace (simulated time): every output's samples per tick (count, digest,
                   value), every set switch, event and transition with its tick; `dca trace diff A B` gives
                   the first divergence of two (ARCHITECTURE.md "Time")
+  --monitor [ADDR] serve the web monitor from the root (default 127.0.0.1:0, a free port) and print its
+                  address with its token: the tree, the expressions, the timeline, live plots, the
+                  configuration; without the token the page shows nothing and changes nothing
+  --monitor-wait  with --sim: simulated time starts only once a monitor page is connected
   --repl          open a console on the root supervisor once the system runs
   --watch         reload the system file when it is saved (inotify)
   --timeout S     stop with an error when the start does not finish within S seconds (default 30)
@@ -61,8 +65,24 @@ local OPTIONS = {
   ["--door-width"] = "number", ["--record"] = "value", ["--jammed"] = "flag", ["--realtime"] = "flag",
   ["--timeout"] = "number", ["--repl"] = "flag", ["--watch"] = "flag", ["--quiet"] = "flag",
   ["--config"] = "value", ["--no-config"] = "flag", ["--state-dir"] = "value", ["--set"] = "list:sets",
-  ["--placement"] = "value", ["--trace"] = "value",
+  ["--placement"] = "value", ["--trace"] = "value", ["--monitor"] = "flag", ["--monitor-wait"] = "flag",
 }
+
+-- `--monitor ADDR`: the address, when the argument after --monitor is one (else --monitor alone). --> argv
+local function monitor_address(args)
+  local out, n = {}, args.n or #args
+  local i = 1
+  while i <= n do
+    out[#out + 1] = args[i]
+    if args[i] == "--monitor" and type(args[i + 1]) == "string" and args[i + 1]:match("^[%w%.%-%[%]:]*:%d+$") then
+      out.monitor_addr = args[i + 1]
+      i = i + 1
+    end
+    i = i + 1
+  end
+  out.n = #out
+  return out
+end
 
 -- The options that exclude each other or need another: the first broken rule. --> error text | nil
 local function rule_broken(o)
@@ -75,6 +95,7 @@ local function rule_broken(o)
   if o.config and o.no_config then return "--config and --no-config exclude each other" end
   if o.state_dir and o.hosts then return "--state-dir is for the local daemons, not those of --hosts" end
   if o.realtime and not o.sim then return "--realtime goes with --sim WORLD" end
+  if o.monitor_wait and not (o.monitor and o.sim) then return "--monitor-wait goes with --monitor and --sim WORLD" end
   if o.placement and not M.PLACEMENTS[o.placement] then
     return "--placement is process, group or host, not '" .. tostring(o.placement) .. "'"
   end
@@ -82,8 +103,10 @@ end
 
 --- The options of argv. --> o | nil, error text
 local function parse_args(args)
+  args = monitor_address(args)
   local o, err = args_mod.parse(args, "dca run", OPTIONS)
   if not o then return nil, err end
+  if o.monitor and args.monitor_addr then o.monitor = args.monitor_addr end
   o.file, o.timeout = o[1], o.timeout or 30
   for _, a in ipairs(o.sets or {}) do
     local k, v = require("dca.config").parse_assignment(a)

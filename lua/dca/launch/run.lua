@@ -39,11 +39,15 @@ end
 function Run:say(line, at)
   -- the trace keeps the lines that carry their event's simulated time (dca.trace)
   if self.o.trace_file and at then self.trace_lines[#self.trace_lines + 1] = { math.floor(at * 1e9 + 0.5), line } end
-  local s = self.ctx.sim
+  local s, mon = self.ctx.sim, self.monitor
   if s and s.world:connected() then
-    s:stamp(line, function(t, l) if not self.o.quiet then self:emit(sformat("[sim %8.3f] %s", t, l)) end end, at)
-  elseif not self.o.quiet then
-    self:emit(sformat("[%7.3f] %s", core.now() - self.t0, line))
+    s:stamp(line, function(t, l)
+      if mon then mon:line(l, t) end
+      if not self.o.quiet then self:emit(sformat("[sim %8.3f] %s", t, l)) end
+    end, at)
+  else
+    if mon then mon:line(line, core.now() - self.t0) end
+    if not self.o.quiet then self:emit(sformat("[%7.3f] %s", core.now() - self.t0, line)) end
   end
 end
 
@@ -137,6 +141,29 @@ function Run:listen()
   end)
 end
 
+-- --monitor: the web monitor on the root's loop (dca.monitor.server). Its commands are console requests,
+-- answered as the root's console answers `dca repl` (srt.console: the same requests, the same checks). --> ok | nil, err
+function Run:start_monitor()
+  local function request(msg, cb)
+    local ch = { reply = function(_, _, p) p.type = p.type or "ok" cb(p) return true end,
+                 reply_error = function(_, _, reason) cb({ type = "error", reason = reason }) return true end }
+    srt.console(ch, 1, msg, self.sup, {})
+  end
+  -- the world (with --sim) once it is started
+  local world = self.o.sim and function(msg, cb)
+    local s = self.ctx.sim
+    if s and s.world:connected() then s.world:request(msg, 2, cb) else cb(nil) end
+  end
+  local mon, err = require("dca.monitor.server").start{
+    addr = self.o.monitor ~= true and self.o.monitor or nil, name = self.spec.path, root = self.spec.path,
+    mode = "live",
+    request = request, world = world }
+  if not mon then return nil, err end
+  self.monitor = mon
+  self:say("monitor: " .. mon:url())
+  return true
+end
+
 -- reload: the file again (validated first; on an error the old version keeps running), or the modules.
 function Run:reload(what, cb)
   local reload = require "dca.reload"
@@ -174,15 +201,24 @@ function Run:open_console()
   end)
 end
 
--- The root runs; simulated time starts once every process the start ran has its run (a repeatable start).
+-- The root runs; simulated time starts once every process the start ran has its run (a repeatable start), and
+-- with --monitor-wait once a monitor page is connected.
 function Run:run_root()
   self:say(self.spec.path .. ": the whole tree is configured: run")
   self.sup:run_expr(nil, function()
     local s = self.ctx.sim
     if not s then return end
-    s.world:go(function(r, gerr)
-      if not r then err_line(self, "the world did not start its time: ", tostring(gerr)) self:stop_all(3) end
-    end)
+    local function go()
+      s.world:go(function(r, gerr)
+        if not r then err_line(self, "the world did not start its time: ", tostring(gerr)) self:stop_all(3) end
+      end)
+    end
+    if self.monitor and self.o.monitor_wait then
+      self:say("monitor: time starts when a page is connected")
+      self.monitor:on_page(go)
+    else
+      go()
+    end
   end)
   if self.o.repl and self.listener then self:open_console() end
 end
@@ -266,10 +302,15 @@ function M.main(spec, o, out)
   -- one that came between the last start step and on_signal: held since main (bindings/stop_signals.h)
   if core.pending_signal() then core.after(0, function() interrupted(core.pending_signal()) end) end
   r:listen()
+  if o.monitor then
+    local mok, merr = r:start_monitor()
+    if not mok then err_line(r, merr) start.cleanup(r.ctx) return 2 end
+  end
   r.sup.reload_hook = function(what, cb) r:reload(what, cb) end
   if o.watch then r:watch() end
   r:start_world()
   r.loop:run()
+  if r.monitor then r.monitor:close() end
   start.cleanup(r.ctx)
   return r.code or 1
 end

@@ -1,0 +1,425 @@
+// The dca monitor's page: no dependencies. It speaks `dca.monitor.v1` (lua/dca/monitor/server.lua) over one
+// WebSocket: a snapshot, then deltas; every view is redrawn at most once per animation frame, and only the parts
+// that changed. Live: the view is the run now. Replay: the view is the recording at the slider's time.
+'use strict';
+(() => {
+  const $ = (id) => document.getElementById(id);
+  const arr = (x) => (Array.isArray(x) ? x : []);
+  const obj = (x) => (x && typeof x === 'object' && !Array.isArray(x) ? x : {});
+  const token = new URLSearchParams(location.search).get('token') || '';
+  const ROW = 18;            // px per tree row (the tree is virtualised: only rows in view are in the page)
+  const BIG_GROUP = 30;      // groups with more children start collapsed
+  const PLOT_KEEP = 4000;    // samples kept per plot
+  const COLORS = ['#1565c0', '#c62828', '#2e7d32', '#ef6c00', '#6a1b9a', '#00838f'];
+
+  const S = {
+    mode: 'live', nodes: new Map(), order: [], kids: new Map(), exprs: {}, events: [], config: new Map(),
+    lines: [], topics: new Map(), series: new Map(), t: 0, viewT: 0, expanded: new Set(), collapsed: new Set(),
+    replayStates: null, plot: { topic: '', fields: [], rows: [], received: 0 }, playing: false, ws: null,
+    nextId: 1, dirty: { tree: true, states: true, exprs: true, timeline: true, plot: true, config: true, lines: true },
+  };
+
+  // ------------------------------------------------------------------------------------------ the model
+
+  function addNode(n) {
+    const old = S.nodes.get(n.path);
+    if (!old) {
+      S.order.push(n.path);
+      const list = S.kids.get(n.parent) || [];
+      list.push(n.path);
+      S.kids.set(n.parent, list);
+      S.dirty.tree = true;
+    } else if (old.host !== n.host || old.kind !== n.kind || old.type !== n.type) {
+      S.dirty.tree = true;
+    }
+    S.nodes.set(n.path, Object.assign(old || {}, n));
+  }
+
+  function snapshot(m) {
+    S.nodes.clear(); S.order = []; S.kids.clear(); S.events = []; S.config.clear(); S.lines = [];
+    S.exprs = obj(m.exprs);
+    arr(m.nodes).forEach(addNode);
+    S.events = arr(m.events);
+    arr(m.config).forEach((c) => S.config.set(c.key, c));
+    S.lines = arr(m.lines);
+    setTopics(arr(m.topics));
+    S.t = m.t || 0;
+    if (S.mode === 'replay') replayRange();
+    markAll();
+  }
+
+  function delta(m) {
+    arr(m.nodes).forEach(addNode);
+    Object.assign(S.exprs, obj(m.exprs));
+    if (Object.keys(obj(m.exprs)).length) S.dirty.exprs = true;
+    const evs = arr(m.events);
+    evs.forEach((e) => S.events.push(e));
+    arr(m.config).forEach((c) => { S.config.set(c.key, Object.assign({ changed: Date.now() }, c)); });
+    arr(m.lines).forEach((l) => S.lines.push(l));
+    if (S.lines.length > 300) S.lines.splice(0, S.lines.length - 300);
+    if (m.topics) setTopics(arr(m.topics));
+    S.t = Math.max(S.t, m.t || 0);
+    if (evs.length || arr(m.nodes).length) { S.dirty.states = true; S.dirty.timeline = true; }
+    if (arr(m.config).length) S.dirty.config = true;
+    if (arr(m.lines).length) S.dirty.lines = true;
+  }
+
+  function markAll() { for (const k of Object.keys(S.dirty)) S.dirty[k] = true; }
+
+  // The state of process `path` in the view (live: now; replay: at the slider's time).
+  function stateOf(path) {
+    if (S.mode === 'replay') return (S.replayStates && S.replayStates.get(path)) || { state: 'new' };
+    return S.nodes.get(path) || { state: 'new' };
+  }
+
+  // ------------------------------------------------------------------------------------------ the tree
+
+  function isExpanded(path) {
+    if (S.collapsed.has(path)) return false;
+    if (S.expanded.has(path)) return true;
+    return (S.kids.get(path) || []).length <= BIG_GROUP;
+  }
+
+  // The rows in view order: every process whose ancestors are expanded.
+  function visibleRows() {
+    const out = [];
+    const walk = (path, depth) => {
+      out.push({ path, depth });
+      if (!isExpanded(path)) return;
+      for (const k of S.kids.get(path) || []) walk(k, depth + 1);
+    };
+    for (const p of S.order) if (!S.nodes.has(S.nodes.get(p).parent)) walk(p, 0);
+    return out;
+  }
+
+  function rowHtml(r) {
+    const n = S.nodes.get(r.path);
+    const st = stateOf(r.path);
+    const kids = (S.kids.get(r.path) || []).length;
+    const name = r.path.slice(r.path.lastIndexOf('.') + 1);
+    const toggle = kids ? (isExpanded(r.path) ? '▾' : '▸') : '';
+    const live = S.mode === 'live';
+    return `<div class="row" data-path="${esc(r.path)}" data-host="${esc(n.host)}" data-kind="${esc(n.kind)}"` +
+      ` data-state="${esc(st.state)}" style="padding-left:${r.depth * 14}px">` +
+      `<span class="toggle">${toggle}</span><span class="name">${esc(name)}</span>` +
+      `<span class="state state-${esc(st.state)}">${esc(st.state)}</span>` +
+      `<span class="type">${esc(n.type)}${kids ? ` (${kids})` : ''}</span><span class="host">@${esc(n.host)}</span>` +
+      `<span class="restarts">${n.restarts ? '↻' + n.restarts : ''}</span>` +
+      `<span class="fault" title="${esc(st.fault || '')}">${esc(st.fault || '')}</span>` +
+      (live ? '<button data-cmd="restart">restart</button><button data-cmd="abort">abort</button>' : '') + '</div>';
+  }
+
+  let treeRows = [];
+  function renderTree() {
+    const box = $('tree');
+    treeRows = visibleRows();
+    $('tree-count').textContent = `(${S.nodes.size} processes)`;
+    const pane = $('tree-pane');
+    const first = Math.max(0, Math.floor((pane.scrollTop - 30) / ROW) - 20);
+    const last = Math.min(treeRows.length, first + Math.ceil(pane.clientHeight / ROW) + 60);
+    let html = `<div style="height:${first * ROW}px"></div>`;
+    for (let i = first; i < last; i++) html += rowHtml(treeRows[i]);
+    html += `<div style="height:${(treeRows.length - last) * ROW}px"></div>`;
+    box.innerHTML = html;
+  }
+
+  $('tree').addEventListener('click', (ev) => {
+    const row = ev.target.closest('.row');
+    if (!row) return;
+    const path = row.dataset.path;
+    if (ev.target.dataset.cmd) { command({ cmd: ev.target.dataset.cmd, path }); return; }
+    if (ev.target.classList.contains('toggle')) {
+      if (isExpanded(path)) { S.collapsed.add(path); S.expanded.delete(path); }
+      else { S.expanded.add(path); S.collapsed.delete(path); }
+      S.dirty.tree = true; S.dirty.exprs = true;
+    }
+  });
+  $('tree-pane').addEventListener('scroll', () => { S.dirty.tree = true; });
+
+  // ------------------------------------------------------------------------------------------ expressions
+
+  const OPS = { ',': 'par', ';': 'seq', '#': 'dis', ':': 'cond', ':;': 'rec' };
+  function exprHtml(group, e) {
+    if (!e) return '';
+    if (e.op === 'leaf') {
+      const path = group + '.' + e.name;
+      const label = e.label ? `[${esc(e.label)}]` : '';
+      return `<span class="leaf" data-path="${esc(path)}">${esc(e.name)}${label}</span>`;
+    }
+    const kids = arr(e.kids).map((k) => exprHtml(group, k));
+    return `<span class="op op-${OPS[e.op] || 'x'}" title="${esc(e.op)}">` +
+      kids.join(`<span class="sym">${esc(e.op)}</span>`) + '</span>';
+  }
+
+  function renderExprs() {
+    let html = '';
+    for (const r of treeRows.length ? treeRows : visibleRows()) {
+      const e = S.exprs[r.path];
+      if (e && isExpanded(r.path)) html += `<div class="expr" data-group="${esc(r.path)}"><h3>${esc(r.path)}</h3>${exprHtml(r.path, e)}</div>`;
+    }
+    $('exprs').innerHTML = html;
+    S.dirty.states = true;
+  }
+
+  // States changed: the tree's badges and the expressions' highlights, in place.
+  function renderStates() {
+    for (const row of $('tree').querySelectorAll('.row')) {
+      const st = stateOf(row.dataset.path);
+      if (row.dataset.state === st.state) continue;
+      row.dataset.state = st.state;
+      const badge = row.querySelector('.state');
+      badge.className = `state state-${st.state}`;
+      badge.textContent = st.state;
+      row.querySelector('.fault').textContent = st.fault || '';
+    }
+    for (const leaf of $('exprs').querySelectorAll('.leaf')) {
+      const st = stateOf(leaf.dataset.path).state;
+      leaf.classList.toggle('running', st === 'running');
+      leaf.classList.toggle('done', st === 'done');
+      leaf.classList.toggle('aborted', st === 'aborted' || st === 'exited' || st === 'lost');
+    }
+  }
+
+  // ------------------------------------------------------------------------------------------ timeline
+
+  // Each process that ran: its periods [start, end) up to time T.
+  function periods(T) {
+    const rows = new Map();
+    for (const e of S.events) {
+      if (e.t > T) break;
+      let r = rows.get(e.path);
+      if (e.state === 'running') {
+        if (!r) { r = []; rows.set(e.path, r); }
+        if (!r.length || r[r.length - 1].end !== undefined) r.push({ start: e.t });
+      } else if (r && r.length && r[r.length - 1].end === undefined) {
+        r[r.length - 1].end = e.t; r[r.length - 1].how = e.state === 'aborting' ? 'stopped' : e.state;
+      }
+    }
+    return rows;
+  }
+
+  function renderTimeline() {
+    const T = viewTime();
+    const rows = periods(T);
+    const c = $('timeline');
+    const w = c.parentElement.clientWidth || 600;
+    const h = 20 + rows.size * 14;
+    c.width = w; c.height = h; c.style.height = h + 'px';
+    const g = c.getContext('2d');
+    const label = 220, span = Math.max(T, 1e-3);
+    const x = (t) => label + (t / span) * (w - label - 10);
+    g.font = '10px sans-serif'; g.fillStyle = '#555';
+    for (let k = 0; k <= 5; k++) g.fillText((span * k / 5).toFixed(2), x(span * k / 5) - 8, 10);
+    let y = 16;
+    for (const [path, list] of rows) {
+      g.fillStyle = '#333';
+      g.fillText(path.length > 38 ? '…' + path.slice(-37) : path, 2, y + 9);
+      for (const p of list) {
+        const end = p.end === undefined ? T : p.end;
+        g.fillStyle = p.end === undefined ? '#43a047' : (p.how === 'done' ? '#1e88e5' : (p.how === 'stopped' ? '#90a4ae' : '#e53935'));
+        g.fillRect(x(p.start), y + 1, Math.max(1, x(end) - x(p.start)), 10);
+      }
+      y += 14;
+    }
+    c.dataset.rows = String(rows.size);
+  }
+
+  // ------------------------------------------------------------------------------------------ plot
+
+  function setTopics(list) {
+    const sel = $('topic');
+    for (const t of list) {
+      if (S.topics.has(String(t.id))) continue;
+      S.topics.set(String(t.id), t);
+      const o = document.createElement('option');
+      o.value = String(t.id); o.textContent = t.name;
+      sel.appendChild(o);
+    }
+  }
+
+  $('topic').addEventListener('change', () => choose($('topic').value));
+  function choose(id) {
+    if (S.plot.topic && S.mode === 'live') send({ type: 'subscribe', topic: Number(S.plot.topic), rate: 0 });
+    const t = S.topics.get(id);
+    S.plot = { topic: id, fields: t ? arr(t.fields) : [], rows: [], received: 0 };
+    if (t && S.mode === 'live') send({ type: 'subscribe', topic: Number(id), rate: 60 });
+    if (t && S.mode === 'replay') S.plot.rows = arr(t.rows);
+    $('legend').innerHTML = S.plot.fields.map((f, i) => `<span style="color:${COLORS[i % COLORS.length]}">${esc(f)}</span>`).join('');
+    S.dirty.plot = true;
+  }
+
+  function samples(m) {
+    if (String(m.topic) !== S.plot.topic) return;
+    const rows = arr(m.rows);
+    for (const r of rows) S.plot.rows.push(r);
+    if (S.plot.rows.length > PLOT_KEEP) S.plot.rows.splice(0, S.plot.rows.length - PLOT_KEEP);
+    S.plot.received += rows.length;
+    S.dirty.plot = true;
+  }
+
+  function renderPlot() {
+    const c = $('plot');
+    const T = viewTime();
+    const rows = S.mode === 'replay' ? S.plot.rows.filter((r) => r[0] <= T) : S.plot.rows;
+    c.dataset.samples = String(S.mode === 'replay' ? rows.length : S.plot.received);
+    const w = c.clientWidth || 400, h = c.clientHeight || 200;
+    c.width = w; c.height = h;
+    const g = c.getContext('2d');
+    g.clearRect(0, 0, w, h);
+    if (rows.length < 2) return;
+    let t0 = rows[0][0], t1 = rows[rows.length - 1][0], lo = Infinity, hi = -Infinity;
+    for (const r of rows) for (let k = 1; k < r.length; k++) if (r[k] !== null) { lo = Math.min(lo, r[k]); hi = Math.max(hi, r[k]); }
+    if (hi - lo < 1e-9) { hi += 1; lo -= 1; }
+    if (t1 - t0 < 1e-9) t1 = t0 + 1;
+    const X = (t) => 40 + (t - t0) / (t1 - t0) * (w - 50), Y = (v) => h - 15 - (v - lo) / (hi - lo) * (h - 25);
+    g.font = '10px sans-serif'; g.fillStyle = '#555';
+    g.fillText(hi.toPrecision(3), 2, 12); g.fillText(lo.toPrecision(3), 2, h - 15);
+    g.fillText(t0.toFixed(2) + ' s', 40, h - 2); g.fillText(t1.toFixed(2) + ' s', w - 50, h - 2);
+    for (let k = 1; k < rows[0].length; k++) {
+      g.strokeStyle = COLORS[(k - 1) % COLORS.length];
+      g.beginPath();
+      rows.forEach((r, i) => (i ? g.lineTo(X(r[0]), Y(r[k])) : g.moveTo(X(r[0]), Y(r[k]))));
+      g.stroke();
+    }
+  }
+
+  // ------------------------------------------------------------------------------------------ config, lines
+
+  function renderConfig() {
+    const body = $('config').tBodies[0];
+    const keys = [...S.config.keys()].sort();
+    body.innerHTML = keys.map((k) => {
+      const c = S.config.get(k);
+      const changed = c.changed && Date.now() - c.changed < 3000 ? ' class="changed"' : '';
+      return `<tr data-key="${esc(k)}"${changed}><td>${esc(k)}</td><td>${esc(c.value)}</td><td>${esc(c.origin || '')}</td></tr>`;
+    }).join('');
+  }
+
+  function renderLines() {
+    const T = viewTime();
+    const lines = S.mode === 'replay' ? S.lines.filter((l) => l.t <= T).slice(-300) : S.lines;
+    const pre = $('lines');
+    pre.textContent = lines.map((l) => `[${Number(l.t).toFixed(3)}] ${l.line}`).join('\n');
+    pre.scrollTop = pre.scrollHeight;
+  }
+
+  $('config-set').addEventListener('submit', (ev) => {
+    ev.preventDefault();
+    command({ cmd: 'config_set', key: $('config-key').value, value: $('config-value').value });
+  });
+  $('abort-all').addEventListener('click', () => command({ cmd: 'abort' }));
+
+  // ------------------------------------------------------------------------------------------ replay
+
+  function viewTime() { return S.mode === 'replay' ? S.viewT : S.t; }
+
+  function replayRange() {
+    let t1 = S.t;
+    for (const e of S.events) t1 = Math.max(t1, e.t);
+    for (const t of S.topics.values()) for (const r of arr(t.rows)) t1 = Math.max(t1, r[0]);
+    S.t = t1;
+    $('slider').max = String(t1);
+    seek(0);
+  }
+
+  function seek(T) {
+    S.viewT = Math.max(0, Math.min(T, S.t));
+    $('slider').value = String(S.viewT);
+    const states = new Map();
+    for (const e of S.events) {
+      if (e.t > S.viewT) break;
+      const prev = states.get(e.path) || {};
+      states.set(e.path, { state: e.state, fault: e.fault || (e.state === 'running' ? '' : prev.fault) });
+    }
+    S.replayStates = states;
+    S.dirty.states = true; S.dirty.timeline = true; S.dirty.plot = true; S.dirty.lines = true;
+  }
+
+  $('slider').addEventListener('input', () => { S.playing = false; $('play').textContent = 'play'; seek(Number($('slider').value)); });
+  $('play').addEventListener('click', () => {
+    S.playing = !S.playing;
+    if (S.playing && S.viewT >= S.t) seek(0);
+    $('play').textContent = S.playing ? 'pause' : 'play';
+  });
+
+  // ------------------------------------------------------------------------------------------ connection
+
+  function send(m) { if (S.ws && S.ws.readyState === 1) S.ws.send(JSON.stringify(m)); }
+  function command(c) { send(Object.assign({ type: 'command', id: S.nextId++ }, c)); }
+
+  function deny() {
+    $('main').hidden = true;
+    $('denied').hidden = false;
+    document.body.dataset.access = 'denied';
+    $('status').textContent = 'no access';
+  }
+
+  function onHello(m) {
+    S.mode = m.mode === 'replay' ? 'replay' : 'live';
+    $('system').textContent = m.name || '';
+    $('main').hidden = false;
+    $('replay').hidden = S.mode !== 'replay';
+    for (const e of document.querySelectorAll('.live-only')) e.hidden = S.mode !== 'live';
+    document.body.dataset.connected = 'yes';
+    document.body.dataset.mode = S.mode;
+    $('status').textContent = S.mode === 'replay' ? 'replay' : 'live';
+  }
+
+  function handle(m) {
+    if (m.type === 'snapshot') snapshot(m);
+    else if (m.type === 'delta') delta(m);
+    else if (m.type === 'samples') samples(m);
+    else if (m.type === 'reply') $('reply').textContent = `${m.ok ? 'ok' : 'refused'}: ${m.text || ''}`;
+    else if (m.type === 'error') $('reply').textContent = 'error: ' + m.reason;
+  }
+
+  let everGreeted = false;
+  function connect() {
+    if (!token) { deny(); return; }
+    let greeted = false;
+    const ws = new WebSocket(`ws://${location.host}/ws?token=${encodeURIComponent(token)}`, 'dca.monitor.v1');
+    S.ws = ws;
+    ws.onmessage = (ev) => {
+      let m;
+      try { m = JSON.parse(ev.data); } catch (e) { return; }
+      if (m.type === 'hello') { greeted = everGreeted = true; onHello(m); } else handle(m);
+    };
+    ws.onclose = () => {
+      document.body.dataset.connected = 'no';
+      if (!greeted && !everGreeted) { deny(); return; }
+      $('status').textContent = S.mode === 'replay' ? 'replay (server gone)' : 'disconnected';
+      if (S.mode === 'live') setTimeout(connect, 2000);
+    };
+  }
+
+  // ------------------------------------------------------------------------------------------ the frame loop
+
+  let lastFrame = 0, lastTimeline = 0;
+  function frame(now) {
+    if (S.playing) {
+      const speed = Number($('speed').value) || 1;
+      seek(S.viewT + Math.min(0.1, (now - lastFrame) / 1000) * speed);
+      if (S.viewT >= S.t) { S.playing = false; $('play').textContent = 'play'; }
+    }
+    lastFrame = now;
+    const d = S.dirty;
+    $('clock').textContent = viewTime().toFixed(3);
+    if (d.tree) { d.tree = false; renderTree(); d.exprs = true; }
+    if (d.exprs) { d.exprs = false; renderExprs(); }
+    if (d.states) { d.states = false; renderStates(); }
+    if (d.timeline && now - lastTimeline > 150) { d.timeline = false; lastTimeline = now; renderTimeline(); }
+    if (d.plot) { d.plot = false; renderPlot(); }
+    if (d.config) { d.config = false; renderConfig(); }
+    if (d.lines) { d.lines = false; renderLines(); }
+    requestAnimationFrame(frame);
+  }
+
+  function esc(s) {
+    return String(s === undefined || s === null ? '' : s).replace(/[&<>"']/g,
+      (c) => ({ '&': '&amp;', '<': '&lt;', '>': '&gt;', '"': '&quot;', "'": '&#39;' }[c]));
+  }
+
+  window.dcaMonitor = S;  // for tests and the curious
+  connect();
+  requestAnimationFrame(frame);
+})();

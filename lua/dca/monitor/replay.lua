@@ -1,0 +1,93 @@
+-- dca.monitor.replay: a recorded run (MCAP, `dca run --sim ... --record FILE.mcap`) as the monitor's model and
+-- signals: the lines of /dca/events at their simulated times (the transitions among them are the events the
+-- page replays with its slider), and every other JSON channel (the world's signals) as a series of rows.
+--
+--   local replay = require "dca.monitor.replay"
+--   local rec, err = replay.load(FILE, spec)   -- spec: the system's spec (dca.load.spec), for hosts, types and
+--                                              -- expressions; nil: the tree from the recorded paths alone
+--   rec.model    -- dca.monitor.model with the tree and every line
+--   rec.series   -- { { id = "r1", name = "/world/door", fields = { ... }, rows = { { t, v1, ... }, ... } }, ... }
+local core = require "dca.core"
+local model_mod = require "dca.monitor.model"
+local spec_mod = require "dca.supervisor.spec"
+
+local M = {}
+
+local ipairs, pairs, type, tonumber, max = ipairs, pairs, type, tonumber, math.max
+
+--- Rows kept per signal: longer ones are thinned evenly (the page plots them whole).
+M.MAX_ROWS = 5000
+
+--- The tree of a spec in Sup:tree's shape (no states: a replay starts from nothing).
+function M.spec_tree(spec)
+  local node = { path = spec.path, kind = "group", type = spec.type, host = spec.host, expr = spec.expr,
+                 children = {} }
+  for i, c in ipairs(spec.children) do
+    if c.kind == "group" then node.children[i] = M.spec_tree(c.spec)
+    else node.children[i] = { path = c.path, kind = "leaf", type = c.type, host = c.host } end
+  end
+  return node
+end
+
+-- The field names of a flat JSON object, in the order written.
+local function fields_of(text)
+  local out = {}
+  for k in text:gmatch('"([^"]+)"%s*:') do out[#out + 1] = k end
+  return out
+end
+
+-- A channel's messages as rows { t, v1, ... } of its numeric fields (thinned to MAX_ROWS).
+local function series(id, topic, msgs)
+  local fields, rows = nil, {}
+  local step = max(1, #msgs / M.MAX_ROWS)
+  local next_i = 1
+  for i, m in ipairs(msgs) do
+    if i >= next_i then
+      next_i = next_i + step
+      local v = core.json_decode(m.data)
+      if type(v) == "table" then
+        fields = fields or fields_of(m.data)
+        local row = { m.t / 1e9 }
+        for k, f in ipairs(fields) do row[k + 1] = tonumber(v[f]) or 0 end
+        rows[#rows + 1] = row
+      end
+    end
+  end
+  return { id = "r" .. id, name = topic, fields = fields or {}, rows = rows }
+end
+
+--- Loads a recording. --> { model, series, root } | nil, err
+function M.load(file, spec)
+  local rec, err = core.mcap_read(file)
+  if not rec then return nil, err end
+  local events, by_channel = nil, {}
+  for id, ch in pairs(rec.channels) do
+    if ch.topic == "/dca/events" then events = id else by_channel[id] = {} end
+  end
+  if not events then return nil, file .. ": no /dca/events channel (record with `dca run --sim WORLD --record`)" end
+  local m = model_mod.new(spec and spec.path or nil)
+  if spec then m:tree(M.spec_tree(spec), 0) end
+  for _, msg in ipairs(rec.messages) do
+    if msg.channel == events then
+      local v = core.json_decode(msg.data)
+      if type(v) == "table" and v.line then
+        if not m.root and v.path and v.path ~= "" then m.root = v.path:match("^[^.]+") end
+        m:line(v.line, msg.t / 1e9)
+      end
+    elseif by_channel[msg.channel] then
+      local list = by_channel[msg.channel]
+      list[#list + 1] = msg
+    end
+  end
+  local out = {}
+  local ids = {}
+  for id in pairs(by_channel) do ids[#ids + 1] = id end
+  table.sort(ids)
+  for _, id in ipairs(ids) do
+    if #by_channel[id] > 0 then out[#out + 1] = series(id, rec.channels[id].topic, by_channel[id]) end
+  end
+  m:take_delta()
+  return { model = m, series = out, root = m.root }
+end
+
+return M

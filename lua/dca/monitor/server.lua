@@ -1,0 +1,267 @@
+-- dca.monitor.server: the web monitor of a run: the page (lua/dca/monitor/page/), the `dca.monitor.v1`
+-- WebSocket protocol and the model (dca.monitor.model) it sends, on a core.web_listen server (host/web).
+--
+--   local mon, err = require("dca.monitor.server").start{
+--     addr = "127.0.0.1:0",            -- where to listen (default 127.0.0.1:0: a free port)
+--     name = "main",                   -- the system shown in the title
+--     root = "main",                   -- its root path (lines about other names are no processes)
+--     mode = "live" | "replay",
+--     request = function(msg, cb) end, -- a console request (net.CONSOLE: tree, inject, restart, repl, ...): the
+--                                      -- same authenticated path as the REPL; cb(reply) with reply.type
+--     world = function(msg, cb) end,   -- optional: a request to the world (status polled for the plots)
+--     model = m,                       -- optional: a model already filled (a replay: dca.monitor.replay)
+--     series = { {id, name, fields, rows} },  -- optional: recorded signals, sent whole with the snapshot
+--   }
+--   mon:url()                 --> "http://127.0.0.1:PORT/?token=..."
+--   mon:line(line, t)         -- a line of the run at time t (seconds)
+--   mon:on_page(fn)           -- fn() once, when the first page has connected (dca run --monitor-wait)
+--   mon.model, mon.srv        -- the model (dca.monitor.model), the server (dca.WebServer: topics, publish)
+--   mon:close()
+--
+-- Protocol (JSON text messages). Server -> page: {type = "hello", mode, name, token_ok}, {type = "snapshot",
+-- nodes, exprs, events, config, lines, topics, t}, {type = "delta", ...the same fields, only what changed},
+-- coalesced every 50 ms; {type = "samples", topic, name, rows} (host/web); {type = "reply", id, ok, text}.
+-- Page -> server: {type = "subscribe", topic, rate}, {type = "command", id, cmd = "abort" | "restart" |
+-- "event" | "config_set" | "eval", path, kind, value, key, line}. A message that is not JSON, or not one of
+-- these, is answered {type = "error", reason} and counted; the page's connection stays.
+local core = require "dca.core"
+local model_mod = require "dca.monitor.model"
+
+local M = {}
+
+local ipairs, pairs, tostring, type, tonumber, sformat = ipairs, pairs, tostring, type, tonumber, string.format
+
+--- The subprotocol of the monitor's page.
+M.PROTOCOL = "dca.monitor.v1"
+--- Seconds between deltas, tree refreshes and world polls.
+M.FLUSH, M.TREE_PERIOD, M.WORLD_PERIOD = 0.05, 1.0, 0.05
+
+-- The page's files: path -> file name, content type.
+local PAGES = {
+  ["/"] = { "index.html", "text/html; charset=utf-8" },
+  ["/monitor.js"] = { "monitor.js", "text/javascript; charset=utf-8" },
+  ["/monitor.css"] = { "monitor.css", "text/css; charset=utf-8" },
+}
+
+local Mon = {}
+Mon.__index = Mon
+
+-- Reads a page file. --> text | nil, err
+local function read_page(name)
+  local path = core.lua_dir .. "/dca/monitor/page/" .. name
+  local f, err = io.open(path, "rb")
+  if not f then return nil, err end
+  local text = f:read("a")
+  f:close()
+  return text
+end
+
+--- Starts the monitor's server. --> monitor | nil, err
+function M.start(o)
+  local srv, err = core.web_listen(o.addr or "127.0.0.1:0", { max_connections = 64 })
+  if not srv then return nil, "--monitor: " .. tostring(err) end
+  for path, p in pairs(PAGES) do
+    local text, perr = read_page(p[1])
+    if not text then srv:close() return nil, "the monitor's page: " .. tostring(perr) end
+    srv:page(path, text, p[2], true)
+  end
+  local self = setmetatable({ o = o, srv = srv, model = o.model or model_mod.new(o.root), pages = {}, page_waiters = {},
+                              commands = 0, errors = 0 }, Mon)
+  self.topics_seen = self:_topics_key(self:_topics())
+  srv:protocol(M.PROTOCOL, {
+    open = function(c) self:_open(c) end,
+    message = function(c, text) self:_message(c, text) end,
+    close = function(c) self.pages[c] = nil end,
+  })
+  self.timer = core.every(M.FLUSH, function() self:_flush() end)
+  if o.request then self:_refresh_tree() self.tree_timer = core.every(M.TREE_PERIOD, function() self:_refresh_tree() end) end
+  if o.world then self.world_timer = core.every(M.WORLD_PERIOD, function() self:_poll_world() end) end
+  if o.request then self:_watch_config() end
+  return self
+end
+
+function Mon:url() return sformat("http://%s/?token=%s", self.srv:address(), self.srv:token()) end
+
+-- Sends table `t` as JSON to page `c` (droppable ones may be left out for a slow page).
+local function send(c, t, droppable)
+  local text = core.json_encode(t)
+  if text then c:send(text, droppable) end
+end
+
+-- The live sample topics, for the page.
+function Mon:_topics()
+  local out = {}
+  for _, t in ipairs(self.srv:topics()) do out[#out + 1] = { id = t.id, name = t.name, fields = t.fields } end
+  for _, t in ipairs(self.o.series or {}) do out[#out + 1] = t end
+  return out
+end
+
+function Mon:_open(c)
+  self.pages[c] = true
+  send(c, { type = "hello", mode = self.o.mode or "live", name = self.o.name or "", version = 1 })
+  local snap = self.model:snapshot()
+  snap.type, snap.topics = "snapshot", self:_topics()
+  send(c, snap)
+  if self.o.on_open then self.o.on_open(self, c) end
+  local waiters = self.page_waiters
+  self.page_waiters = {}
+  for _, fn in ipairs(waiters) do fn() end
+end
+
+--- fn() once, as soon as a page is connected (now, if one is).
+function Mon:on_page(fn)
+  if next(self.pages) then fn() return end
+  self.page_waiters[#self.page_waiters + 1] = fn
+end
+
+-- The ids of `topics` as one text (a change of it is sent to the pages).
+function Mon:_topics_key(topics)
+  local ids = {}
+  for _, t in ipairs(topics) do ids[#ids + 1] = tostring(t.id) end
+  return table.concat(ids, ",")
+end
+
+-- The deltas since the last flush, to every page; new topics too.
+function Mon:_flush()
+  local d = self.model:take_delta()
+  local topics = self:_topics()
+  local key = self:_topics_key(topics)
+  if key ~= self.topics_seen then
+    self.topics_seen = key
+    d = d or { t = self.model.t }
+    d.topics = topics
+  end
+  if not d or not next(self.pages) then return end
+  d.type = "delta"
+  local text = core.json_encode(d)
+  for c in pairs(self.pages) do c:send(text) end
+end
+
+-- The tree again (hosts, states, expressions), through the console request.
+function Mon:_refresh_tree()
+  if self.tree_pending then return end
+  self.tree_pending = true
+  self.o.request({ type = "tree" }, function(r)
+    self.tree_pending = false
+    if r and r.type ~= "error" and type(r.tree) == "table" then self.model:tree(r.tree) end
+  end)
+end
+
+-- The configuration: its keys now (config.list) and every change after (config.watch's lines), through the
+-- console's commands like any REPL.
+function Mon:_watch_config()
+  self.o.request({ type = "repl", line = "return config.list()" }, function(r)
+    if not (r and type(r.output) == "string") then return end
+    for key, text in r.output:gmatch("([^\n=]-) = ([^\n]*)") do self.model:set_config(key, text, "") end
+    self.o.request({ type = "repl", line = "config.watch()" }, function() end)
+  end)
+end
+
+-- The world's status, published as the topics /world/door and /world/base (the plots' live source until
+-- port taps feed the same hub).
+function Mon:_poll_world()
+  if self.world_pending or not next(self.pages) then return end
+  self.world_pending = true
+  self.o.world({ type = "status" }, function(r)
+    self.world_pending = false
+    if not (r and tonumber(r.t)) then return end
+    local srv, t = self.srv, tonumber(r.t)
+    if t == self.world_t then return end
+    self.world_t = t
+    self.door_topic = self.door_topic or srv:topic("/world/door", { "door_angle", "handle_angle" })
+    srv:publish(self.door_topic, t, { tonumber(r.door_angle) or 0, tonumber(r.handle_angle) or 0 })
+    if type(r.base_pose) == "table" then
+      self.base_topic = self.base_topic or srv:topic("/world/base", { "x", "y", "yaw" })
+      srv:publish(self.base_topic, t, r.base_pose)
+    end
+  end)
+end
+
+--- A line of the run at time `t` (seconds); "[sim 1.000] " or "[  1.000] " prefixes give the time.
+function Mon:line(line, t)
+  line = tostring(line)
+  local st, rest = line:match("^%[sim%s+([%d.]+)%] (.*)$")
+  if not st then st, rest = line:match("^%[%s*([%d.]+)%] (.*)$") end
+  if st then line, t = rest, t or tonumber(st) end
+  local key, text, origin = line:match("^config: (.-) = (.*) %(written on (.-)%)$")
+  if key then self.model:set_config(key, text, origin) end
+  self.model:line(line, t)
+end
+
+-- A value typed in the page for config_set, as a Lua literal (dca.literal reads it: never evaluated).
+-- --> literal text | nil, err
+local function literal(key, text)
+  local k, v = require("dca.config").parse_assignment(tostring(key) .. "=" .. tostring(text))
+  if not k then return nil, v end
+  local function lit(x)
+    if type(x) == "string" then return sformat("%q", x) end
+    if math.type(x) == "float" then return sformat("%.17g", x) end
+    if type(x) ~= "table" then return tostring(x) end
+    local parts = {}
+    for kk, vv in pairs(x) do parts[#parts + 1] = "[" .. lit(kk) .. "]=" .. lit(vv) end
+    return "{" .. table.concat(parts, ",") .. "}"
+  end
+  return sformat("return config.set(%q, %s)", k, lit(v))
+end
+
+-- A page's command as a console request. --> msg | nil, err
+local function command_request(m)
+  local path = m.path ~= nil and tostring(m.path) or nil
+  if m.cmd == "restart" and path then return { type = "restart", path = path } end
+  if m.cmd == "abort" and path then
+    return { type = "inject", path = path, msg = { type = "aborted", reason = "aborted from the monitor" } }
+  end
+  if m.cmd == "abort" then return { type = "repl", line = "return abort()" } end
+  if m.cmd == "event" and path and (m.kind == "done" or m.kind == "aborted") then
+    local msg = { type = m.kind }
+    if m.kind == "done" then msg.value = m.value else msg.reason = tostring(m.value or "from the monitor") end
+    return { type = "inject", path = path, msg = msg }
+  end
+  if m.cmd == "config_set" and m.key then
+    local line, err = literal(m.key, m.value)
+    if not line then return nil, err end
+    return { type = "repl", line = line }
+  end
+  if m.cmd == "eval" and type(m.line) == "string" then return { type = "repl", line = m.line } end
+  return nil, "unknown command " .. tostring(m.cmd)
+end
+
+function Mon:_command(c, m)
+  local id = tonumber(m.id) or 0
+  local req, err = self.o.request and command_request(m)
+  if not self.o.request then err = "this monitor replays a recording: nothing to change" end
+  if not req then send(c, { type = "reply", id = id, ok = false, text = tostring(err) }) return end
+  self.commands = self.commands + 1
+  self.o.request(req, function(r)
+    local ok = r and r.type ~= "error"
+    local text = r and (r.reason or r.output) or "no answer"
+    if c:is_open() then send(c, { type = "reply", id = id, ok = ok and true or false, text = tostring(text or "") }) end
+  end)
+end
+
+function Mon:_message(c, text)
+  local m, err = core.json_decode(text)
+  if type(m) ~= "table" then
+    self.errors = self.errors + 1
+    send(c, { type = "error", reason = "not JSON: " .. tostring(err) })
+    return
+  end
+  if m.type == "subscribe" and tonumber(m.topic) then
+    c:subscribe(math.floor(tonumber(m.topic)), math.min(tonumber(m.rate) or 30, 200))
+  elseif m.type == "command" then
+    self:_command(c, m)
+  elseif self.o.on_message and self.o.on_message(self, c, m) then
+    return
+  else
+    self.errors = self.errors + 1
+    send(c, { type = "error", reason = "unknown message type " .. tostring(m.type) })
+  end
+end
+
+--- Stops the timers and the server (the pages see the connection close).
+function Mon:close()
+  for _, k in ipairs({ "timer", "tree_timer", "world_timer" }) do if self[k] then self[k]:cancel() end end
+  self.srv:close()
+end
+
+return M

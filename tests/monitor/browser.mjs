@@ -1,0 +1,168 @@
+// The web monitor in a real browser: Debian's chromium, headless, driven by puppeteer-core (no browser download).
+//   node browser.mjs live DCA_EXE SOURCE_DIR OUT_DIR     a door run in simulated time, watched live
+//   node browser.mjs replay DCA_EXE SOURCE_DIR OUT_DIR   a recorded door run, replayed by `dca monitor FILE.mcap`
+// Every wait is for something the page shows, with a deadline; the screenshots go to OUT_DIR.
+import { spawn } from 'node:child_process';
+import { mkdirSync, rmSync } from 'node:fs';
+import { join } from 'node:path';
+import puppeteer from 'puppeteer-core';
+
+const [mode, exe, src, out] = process.argv.slice(2);
+const CHROMIUM = process.env.DCA_CHROMIUM || '/usr/bin/chromium';
+mkdirSync(out, { recursive: true });
+const door = join(src, 'scripts/systems/door_open.dca');
+let failures = 0;
+function check(ok, what) {
+  console.log(`${ok ? 'ok  ' : 'FAIL'} ${what}`);
+  if (!ok) failures++;
+}
+
+// Starts `dca ARGS` and resolves with the process and the monitor's URL once it is printed (within 60 s).
+function start(args) {
+  const p = spawn(exe, args, { stdio: ['ignore', 'pipe', 'pipe'] });
+  let text = '';
+  return new Promise((resolve, reject) => {
+    const deadline = setTimeout(() => reject(new Error(`no monitor address within 60 s:\n${text}`)), 60000);
+    const look = (chunk) => {
+      text += chunk;
+      const m = text.match(/monitor: (http:\/\/\S+)/);
+      if (m) { clearTimeout(deadline); resolve({ p, url: m[1], output: () => text }); }
+    };
+    p.stdout.on('data', look);
+    p.stderr.on('data', look);
+    p.on('exit', (code) => { clearTimeout(deadline); reject(new Error(`dca exited (${code}) before its monitor:\n${text}`)); });
+  });
+}
+
+// The value of `fn` in the page once it is truthy (polled), or null after `seconds`.
+async function until(page, fn, seconds, ...args) {
+  try {
+    const h = await page.waitForFunction(fn, { timeout: seconds * 1000, polling: 50 }, ...args);
+    return await h.jsonValue();
+  } catch (e) {
+    return null;
+  }
+}
+
+// Chooses the signal `name` for the plot once the page offers it.
+async function pick(page, name) {
+  const value = await until(page, (n) => [...document.querySelectorAll('#topic option')]
+    .find((o) => o.textContent === n)?.value, 20, name);
+  check(value, `the page offers the signal ${name}`);
+  if (value) await page.select('#topic', value);
+}
+
+async function noToken(browser, url) {
+  const bare = url.replace(/\?token=.*$/, '');
+  for (const [what, u] of [['no token', bare], ['a wrong token', bare + '?token=0123456789abcdef0123456789abcdef']]) {
+    const page = await browser.newPage();
+    await page.goto(u);
+    const denied = await until(page, () => document.body.dataset.access === 'denied', 10);
+    const shown = await page.evaluate(() => ({ rows: document.querySelectorAll('.row').length,
+      main: !document.getElementById('main').hidden }));
+    check(denied && shown.rows === 0 && !shown.main, `with ${what} the page shows nothing (rows ${shown.rows})`);
+    await page.close();
+  }
+}
+
+async function live(browser) {
+  const run = await start(['run', door, '--sim', 'door', '--realtime', '--monitor', '--monitor-wait']);
+  try {
+    await noToken(browser, run.url);
+    const page = await browser.newPage();
+    await page.setViewport({ width: 1400, height: 1000 });
+    await page.goto(run.url);
+    const rows = await until(page, () => document.querySelectorAll('.row').length >= 28 &&
+      [...document.querySelectorAll('.row')].map((r) => [r.dataset.path, r.dataset.host]), 20);
+    const instances = (rows || []).filter(([p]) => p !== 'main');
+    check(instances.length === 27, `the tree shows 27 instances below main (${instances.length})`);
+    check(instances.every(([, h]) => ['vision', 'platform', 'manipulation'].includes(h)),
+      'every instance shows its host (vision, platform or manipulation)');
+    const sel = '.row[data-path="main.dooropensyst.distdetect"]';
+    const ran = await until(page, (s) => document.querySelector(s)?.dataset.state === 'running', 20, sel);
+    check(ran, 'distdetect is shown running');
+    const hi = await until(page, () => document.querySelector(
+      '.leaf.running[data-path="main.dooropensyst.distdetect"]') !== null, 10);
+    check(hi, 'the expression view highlights the running step (distdetect)');
+    await pick(page, '/world/door');
+    const ended = await until(page, (s) => document.querySelector(s)?.dataset.state === 'done', 30, sel);
+    check(ended, 'distdetect is shown done when its step ends');
+    const next = await until(page, () => document.querySelector('.leaf.running[data-path="main.dooropensyst.hit"]') !== null ||
+      document.querySelector('.leaf.running[data-path="main.dooropensyst.approach"]') !== null, 20);
+    check(next, 'the highlight moves to the next step (approach # hit)');
+    const n = await until(page, () => Number(document.getElementById('plot').dataset.samples) >= 20 &&
+      Number(document.getElementById('plot').dataset.samples), 20);
+    check(n >= 20, `the live plot of /world/door receives samples (${n})`);
+    const tl = await page.evaluate(() => Number(document.getElementById('timeline').dataset.rows || 0));
+    check(tl >= 10, `the timeline shows the steps so far (${tl} rows)`);
+    const cfg = await page.evaluate(() => document.querySelectorAll('#config tr').length);
+    check(cfg >= 5, `the configuration repository is shown (${cfg} keys)`);
+    await page.screenshot({ path: join(out, 'monitor_live.png') });
+    console.log(`screenshot: ${join(out, 'monitor_live.png')}`);
+  } finally {
+    run.p.kill('SIGTERM');
+  }
+}
+
+async function replay(browser) {
+  const rec = join(out, 'door.mcap');
+  rmSync(rec, { force: true });
+  const code = await new Promise((resolve) => {
+    const p = spawn(exe, ['run', door, '--sim', 'door', '--record', rec, '--quiet'], { stdio: 'ignore' });
+    p.on('exit', resolve);
+  });
+  check(code === 0, `the door run recorded ${rec} (exit ${code})`);
+  const mon = await start(['monitor', rec, '--system', door]);
+  try {
+    await noToken(browser, mon.url);
+    const page = await browser.newPage();
+    await page.setViewport({ width: 1400, height: 1000 });
+    await page.goto(mon.url);
+    const ready = await until(page, () => document.body.dataset.mode === 'replay' &&
+      document.querySelectorAll('.row').length >= 28, 20);
+    check(ready, 'the recording is shown in replay mode with its tree');
+    const at = async (t) => {
+      await page.evaluate((v) => {
+        const s = document.getElementById('slider');
+        s.value = String(v);
+        s.dispatchEvent(new Event('input'));
+      }, t);
+      await page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
+      return page.evaluate(() => ({
+        distdetect: document.querySelector('.row[data-path="main.dooropensyst.distdetect"]')?.dataset.state,
+        dooropen: document.querySelector('.row[data-path="main.dooropensyst.dooropen"]')?.dataset.state,
+        clock: document.getElementById('clock').textContent,
+      }));
+    };
+    const early = await at(1.0);
+    const late = await at(15.0);
+    check(early.distdetect === 'running' && late.distdetect === 'done',
+      `the slider moves the view: distdetect ${early.distdetect} at 1 s, ${late.distdetect} at 15 s`);
+    check(late.dooropen === 'running', `dooropen is running at 15 s (${late.dooropen})`);
+    await pick(page, '/world/door');
+    const n = await until(page, () => Number(document.getElementById('plot').dataset.samples), 10);
+    check(n > 100, `the recorded /world/door signal is plotted up to the slider (${n} samples)`);
+    await page.click('#play');
+    const moved = await until(page, () => Number(document.getElementById('clock').textContent) > 15.2, 10);
+    check(moved, 'play advances the time');
+    await page.screenshot({ path: join(out, 'monitor_replay.png') });
+    console.log(`screenshot: ${join(out, 'monitor_replay.png')}`);
+  } finally {
+    mon.p.kill('SIGTERM');
+  }
+}
+
+const browser = await puppeteer.launch({
+  executablePath: CHROMIUM, headless: true,
+  args: ['--no-sandbox', '--disable-gpu', '--disable-dev-shm-usage', '--no-first-run'],
+});
+try {
+  if (mode === 'replay') await replay(browser); else await live(browser);
+} catch (e) {
+  console.log(`FAIL ${e.stack || e}`);
+  failures++;
+} finally {
+  await browser.close();
+}
+console.log(failures ? `${failures} check(s) failed` : 'all checks passed');
+process.exit(failures ? 1 : 0);
