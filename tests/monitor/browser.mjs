@@ -1,6 +1,7 @@
 // The web monitor in a real browser: Debian's chromium, headless, driven by puppeteer-core (no browser download).
 //   node browser.mjs live DCA_EXE SOURCE_DIR OUT_DIR     a door run in simulated time, watched live
 //   node browser.mjs replay DCA_EXE SOURCE_DIR OUT_DIR   a recorded door run, replayed by `dca monitor FILE.mcap`
+//   node browser.mjs attach DCA_EXE SOURCE_DIR OUT_DIR   `dca monitor PATH --daemon ADDR --key FILE` on a door run
 // Every wait is for something the page shows, with a deadline; the screenshots go to OUT_DIR.
 import { spawn } from 'node:child_process';
 import { mkdirSync, rmSync } from 'node:fs';
@@ -97,10 +98,61 @@ async function live(browser) {
     check(tl >= 10, `the timeline shows the steps so far (${tl} rows)`);
     const cfg = await page.evaluate(() => document.querySelectorAll('#config tr').length);
     check(cfg >= 5, `the configuration repository is shown (${cfg} keys)`);
+    await configFromThePage(page);
     await page.screenshot({ path: join(out, 'monitor_live.png') });
     console.log(`screenshot: ${join(out, 'monitor_live.png')}`);
   } finally {
     run.p.kill('SIGTERM');
+  }
+}
+
+// A value set from the page goes through the console's config.set; the repository's change comes back as a
+// config.watch line and is shown.
+async function configFromThePage(page) {
+  await page.type('#config-key', 'door.hit_force');
+  await page.type('#config-value', '7.5');
+  await page.click('#config-set button');
+  const shown = await until(page, () => document.querySelector('#config tr[data-key="door.hit_force"] td:nth-child(2)')
+    ?.textContent === '7.5', 15);
+  check(shown, 'a configuration value set from the page is written and shown as it changes');
+}
+
+// `dca monitor PATH --daemon ADDR --key FILE` attached to a running system through its root's console.
+async function attach(browser) {
+  const run = spawn(exe, ['run', door, '--sim', 'door', '--realtime'], { stdio: ['ignore', 'pipe', 'pipe'] });
+  let text = '';
+  const consoleLine = await new Promise((resolve, reject) => {
+    const deadline = setTimeout(() => reject(new Error(`no console line within 60 s:\n${text}`)), 60000);
+    run.stdout.on('data', (c) => {
+      text += c;
+      const m = text.match(/console: dca repl (\S+) --daemon (\S+) --key (\S+)/);
+      if (m) { clearTimeout(deadline); resolve(m); }
+    });
+  });
+  const mon = await start(['monitor', consoleLine[1], '--daemon', consoleLine[2], '--key', consoleLine[3]]);
+  try {
+    await noToken(browser, mon.url);
+    const page = await browser.newPage();
+    await page.setViewport({ width: 1400, height: 1000 });
+    await page.goto(mon.url);
+    const rows = await until(page, () => document.querySelectorAll('.row').length >= 28 &&
+      [...document.querySelectorAll('.row')].filter((r) => r.dataset.host).length, 20);
+    check(rows >= 28, `the attached monitor shows the tree with hosts (${rows} rows)`);
+    const sel = '.row[data-path="main.dooropensyst.hit"]';
+    const ran = await until(page, (s) => document.querySelector(s)?.dataset.state === 'running', 30, sel);
+    const ended = ran && await until(page, (s) => document.querySelector(s)?.dataset.state === 'done', 30, sel);
+    check(ran && ended, 'the attached monitor follows the states (hit running, then done)');
+    await configFromThePage(page);
+    await page.screenshot({ path: join(out, 'monitor_attach.png') });
+    const exit = new Promise((resolve) => run.on('exit', resolve));
+    await page.click('#abort-all');
+    const aborted = await until(page, () => document.querySelector('.row[data-path="main"]')?.dataset.state === 'aborted', 20);
+    check(aborted, 'the page aborts the run (ABORTED injected into the running step, as abort(path) in the REPL): main is shown aborted');
+    const code = await Promise.race([exit, new Promise((r) => setTimeout(() => r('still running'), 20000))]);
+    check(code === 1, `the run ends ABORTED (exit ${code})`);
+  } finally {
+    mon.p.kill('SIGTERM');
+    run.kill('SIGTERM');
   }
 }
 
@@ -157,7 +209,9 @@ const browser = await puppeteer.launch({
   args: ['--no-sandbox', '--disable-gpu', '--disable-dev-shm-usage', '--no-first-run'],
 });
 try {
-  if (mode === 'replay') await replay(browser); else await live(browser);
+  if (mode === 'replay') await replay(browser);
+  else if (mode === 'attach') await attach(browser);
+  else await live(browser);
 } catch (e) {
   console.log(`FAIL ${e.stack || e}`);
   failures++;

@@ -307,7 +307,15 @@
     ev.preventDefault();
     command({ cmd: 'config_set', key: $('config-key').value, value: $('config-value').value });
   });
-  $('abort-all').addEventListener('click', () => command({ cmd: 'abort' }));
+  // The run's abort: each running child of the root is aborted (an injected ABORTED, as the REPL's abort(path)),
+  // so the root's expression ends ABORTED and the run with it.
+  $('abort-all').addEventListener('click', () => {
+    for (const [path, n] of S.nodes) {
+      if (!S.nodes.has(n.parent) && S.kids.get(path)) {
+        for (const k of S.kids.get(path)) if (stateOf(k).state === 'running') command({ cmd: 'abort', path: k });
+      }
+    }
+  });
 
   // ------------------------------------------------------------------------------------------ replay
 
