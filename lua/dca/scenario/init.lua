@@ -29,6 +29,10 @@
 -- base.cmd_vel / arm.cmd_qd it received, or a sensor output such as arm.q), sys:world_hold() / world_hold_at(t) / world_go()
 -- stop and restart its time, sys:wait_world(what, pred(status), t) waits for a condition on its status.
 --
+-- The trace (ARCHITECTURE.md "Time"): the first system in simulated time writes the run's trace (`dca scenario
+-- --trace FILE`, else a temporary file kept only on a failure); a failing scenario prints `seed N, trace FILE,
+-- rerun: COMMAND`. `dca scenario --seed N` replaces the seed of the systems in simulated time.
+--
 -- Configuration: a system's config("key") parameters read the repository; S.system(file, { config = FILE,
 -- set = { key = value } }) seeds it as `dca run --config FILE --set KEY=VALUE` does (default: FILE.config
 -- beside the .dca file, when there is one). The memory backend reads the same values.
@@ -52,6 +56,7 @@ M.eq, M.ok, M.contains, M.show = T.eq, T.ok, T.contains, T.show
 
 local steps = { n = 0, failed = 0, lines = {} }
 local systems = {}
+local traced  -- the system in simulated time whose trace is written: { file, keep, seed }
 
 --- Loads, checks and builds the system in FILE (root opts.root or "main"). Errors stop the scenario.
 function M.spec(file, root)
@@ -84,10 +89,36 @@ function M.system(file, opts)
   local backend = require(M.backend == "real" and "dca.scenario.real" or "dca.scenario.memory")
   local bo = { file = file, config = cfile }
   for k, v in pairs(opts) do if bo[k] == nil then bo[k] = v end end
+  if opts.sim then M._traced(bo) end
   local s = backend.system(spec, bo)
   s.commands, s.host = Shared.commands, Shared.host
   systems[#systems + 1] = s
   return s
+end
+
+-- A system in simulated time: `dca scenario --seed` over the scenario's own seed, and the first one traced
+-- (`--trace FILE`, else a temporary file kept only if the scenario fails): the world writes FILE.world, the
+-- backend merges it with the transition lines into FILE when the system stops (dca.trace).
+function M._traced(bo)
+  if M.seed then bo.seed = M.seed end
+  if bo.trace or traced then return end
+  traced = { file = M.trace or os.tmpname(), keep = M.trace ~= nil, seed = bo.seed or 0 }
+  if traced.file:sub(1, 1) ~= "/" then traced.file = (os.getenv("PWD") or ".") .. "/" .. traced.file end
+  bo.trace, bo.trace_file = traced.file .. ".world", traced.file
+end
+
+-- After a failed step: how to see it again (a system in simulated time repeats exactly, ARCHITECTURE.md "Time").
+local function rerun_line()
+  if not traced then return end
+  traced.keep = true
+  local a = M.argv or {}
+  local cmd = { "dca scenario", "--backend " .. M.backend }
+  if a.placement then cmd[#cmd + 1] = "--placement " .. a.placement end
+  cmd[#cmd + 1] = "--seed " .. tostring(traced.seed)
+  cmd[#cmd + 1] = "--trace " .. traced.file .. ".again"
+  cmd[#cmd + 1] = a.file or "FILE.lua"
+  print(sformat("  seed %s, trace %s, rerun: %s (then: dca trace diff %s %s.again)", tostring(traced.seed),
+    traced.file, table.concat(cmd, " "), traced.file, traced.file))
 end
 
 --- The leaves' run and stop commands in the order their supervisors issued them ("main.a run",
@@ -140,11 +171,13 @@ function M.finish()
       end
     end
   end
+  if steps.failed > 0 then rerun_line() end
+  if traced and not traced.keep then os.remove(traced.file) end
   print(sformat("%d steps, %d failed", steps.n, steps.failed))
   return steps.failed == 0 and 0 or 1
 end
 
 --- Resets the step counters (for running several scenarios in one process).
-function M.reset() steps = { n = 0, failed = 0, lines = {} } systems = {} M.backends = nil end
+function M.reset() steps = { n = 0, failed = 0, lines = {} } systems = {} M.backends = nil traced = nil end
 
 return M

@@ -7,7 +7,7 @@ local hosts_mod, start = require "dca.launch.hosts", require "dca.launch.start"
 
 local M = {}
 
-local ipairs, pairs, type, tostring, sformat, error = ipairs, pairs, type, tostring, string.format, error
+local ipairs, pairs, type, tostring, tonumber, sformat, error = ipairs, pairs, type, tostring, tonumber, string.format, error
 
 local System = {}
 System.__index = System
@@ -70,6 +70,7 @@ end
 
 -- A report of the root: transition lines (kept, and the states seen per path) and the outcome.
 function System:_report(msg)
+  self:_trace_line(msg)
   if msg.type == "log" then
     self.lines[#self.lines + 1] = msg.line
     local path, state = transition(msg.line)
@@ -82,6 +83,38 @@ function System:_report(msg)
     self.outcome = { type = msg.type, value = msg.value, path = msg.path, reason = msg.reason }
     self.outcome_now = msg.now
   end
+end
+
+-- With a trace (opts.trace_file): the root's lines that carry their event's simulated time, and the outcome's
+-- tick (where the trace ends), as `dca run --trace` keeps them (dca.launch.run).
+function System:_trace_line(msg)
+  if not self.opts.trace_file then return end
+  local lines = self.trace_lines or {}
+  self.trace_lines = lines
+  if msg.type == "log" and msg.at then lines[#lines + 1] = { math.floor(msg.at * 1e9 + 0.5), msg.line } end
+  if (msg.type == "done" or msg.type == "aborted") and tonumber(msg.now) then self.trace_end = tonumber(msg.now) end
+  if msg.type == "done" and tonumber(msg.now) then
+    lines[#lines + 1] = { tonumber(msg.now), sformat("%s: DONE %s", self.spec.path,
+      require("dca.supervisor").show(msg.value)) }
+  end
+end
+
+-- Before the stop, with a trace: time held once its tick has settled (its lines written), within 10 s.
+function System:_hold_for_trace()
+  if not (self.opts.trace_file and self.world and self.world:connected()) then return end
+  pcall(function()
+    self:world_hold()
+    self:wait_world("time held, settled", function(st) return not st.running and st.settled end, 1)
+  end)
+end
+
+-- After the world stopped: its trace and the transition lines merged into the trace file, cut at the outcome.
+function System:_write_trace()
+  local o = self.opts
+  if not (o.trace_file and o.trace) then return end
+  local ok, err = require("dca.trace").merge(o.trace, self.trace_lines or {}, o.trace_file, self.trace_end)
+  os.remove(o.trace)
+  if not ok then print("trace: " .. tostring(err)) end
 end
 
 --- Brings the system up (hosts, world, tree: dca.launch.start). --> true | nil, reason
@@ -379,6 +412,7 @@ end
 function System:stop()
   for _, r in pairs(self.configs or {}) do r.client:close() end
   self.configs = nil
+  self:_hold_for_trace()
   if self.sup then self:_ask(function(k) self.sup:shutdown(k) end, 100, "the stop") end
   if self.world then
     -- then the world (a child of its host's daemon, so counted by alive())
@@ -386,6 +420,7 @@ function System:stop()
     self.world:stop(function() stopped = true end)
     self:_until(function() return stopped end, 20)
     self.world:close()
+    self:_write_trace()
   end
   -- the shutdown saw every exit event; the daemons reap their children just after: a bounded check
   local deadline = now() + 15

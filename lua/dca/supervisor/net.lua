@@ -411,9 +411,13 @@ function Net:_quiesce(ch, id, q)
   ls.queue = {}
   table.sort(queue, function(a, b) if a.now ~= b.now then return a.now < b.now end return a.name < b.name end)
   for _, e in ipairs(queue) do
+    -- an exit (a node lost at tick q.t) happened at the barrier's tick: the reactions carry that time
+    local saved = self.sup.event_at
+    if e.exit and tonumber(q.t) then self.sup.event_at = q.t / 1e9 end
     if e.exits then self.sup:children_exit(e.exits, e.exit)
     elseif e.exit then self.sup:child_exit(e.name, e.exit)
     else self.sup:child_message(e.name, e.msg) end
+    self.sup.event_at = saved
     ls.received = ls.received + (e.exits and #e.exits or 1)
   end
   local function answer() M.reply(ch, id, { type = "ok", received = ls.received, sent = ls.sent }) end
