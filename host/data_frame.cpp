@@ -73,7 +73,7 @@ bool decode_auth(Bytes body, wire::Message& m, std::string* error) {
 
 std::string encode_hello(const Hello& h) {
   const auto& r = h.request;
-  const auto v = wire::Value::map()
+  auto v = wire::Value::map()
                      .set("from", r.from)
                      .set("out", r.out)
                      .set("to", r.to)
@@ -83,6 +83,7 @@ std::string encode_hello(const Hello& h) {
                      .set("queue", static_cast<std::int64_t>(r.queue))
                      .set("type", to_string(h.out.type))
                      .set("size", static_cast<std::int64_t>(h.out.size));
+  if (r.stamped) v.set("stamped", true);
   std::string out;
   wire::encode_value(v, out);
   return out;
@@ -145,6 +146,11 @@ std::string decode_map(const wire::Value& v, Hello& h) {
   for (const auto& [key, val] : v.as_map()) {
     if (!key.is_string()) continue;
     have_type = have_type || key.as_string() == "type";
+    if (key.as_string() == "stamped") {
+      if (!val.is_bool()) return "hello: 'stamped' is not a boolean";
+      h.request.stamped = val.as_bool();
+      continue;
+    }
     if (auto why = set_field(key.as_string(), val, h, mode, type); !why.empty()) return why;
   }
   const auto m = mode_from(mode);

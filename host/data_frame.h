@@ -15,7 +15,8 @@
 //   Peer       opener -> acceptor, first frame after Auth: msgpack map {host, uds, tcp}, the opener's own data
 //              addresses, so that the acceptor's links towards it use this connection too
 //   Hello      source -> destination: opens link `link`: msgpack map {from, out, to, in, set, mode, queue, type,
-//              size}
+//              size[, stamped = true]} (stamped: a tap's link, host/tap.h: each Sample body is the writer's clock
+//              time, 8 bytes in host order, then the sample)
 //   HelloOk    destination -> source: the input exists and fits; samples may flow
 //   HelloError destination -> source: body is the reason (UTF-8). Link 0: the connection is refused and closes
 //   Sample     source -> destination: body is the sample's bytes (push)

@@ -61,11 +61,25 @@ class Connection : public Link, public std::enable_shared_from_this<Connection> 
     static const std::string none;
     return none;
   }
+  /// A stamped link's clock: the writer's time put before each sample (Endpoint::set_clock; host/tap.h).
+  std::function<std::int64_t()> clock;
 
  protected:
+  /// What travels for the sample `b`: `b` itself, or on a stamped link the writer's time (8 bytes, host order)
+  /// then `b` (allocates only when a sample is bigger than any before).
+  Bytes body(Bytes b) {
+    if (!info_.request.stamped) return b;
+    const std::int64_t t = clock ? clock() : 0;
+    if (stamped_.size() < sizeof t + b.size()) stamped_.resize(sizeof t + b.size());
+    std::memcpy(stamped_.data(), &t, sizeof t);
+    if (!b.empty()) std::memcpy(stamped_.data() + sizeof t, b.data(), b.size());
+    return {stamped_.data(), sizeof t + b.size()};
+  }
+
   Output* out_;
   std::shared_ptr<bool> active_;
   LinkInfo info_;
+  std::vector<std::byte> stamped_;
 };
 
 using Socket = FramedSocket::Socket;
@@ -154,6 +168,7 @@ struct Endpoint::Impl {
     if (it == components.end()) return "no component '" + r.to + "' at " + host;
     in = it->second->find_input(r.in);
     if (!in) return it->second->no_such_input(r.to, r.in);
+    if (r.stamped) return is_tap_input(in->spec()) ? "" : "a tap's link goes to a tap input, not to '" + r.in + "'";
     return compatibility_error(out, in->spec());
   }
   /// Accepts data connections on `acceptor` until it closes, each into a Trunk; failures back off.
@@ -174,6 +189,7 @@ struct Endpoint::Impl {
   void converge(Transport t, const std::string& addr);
 
   std::function<void(const CommsEvent&)> on_event;
+  std::function<std::int64_t()> clock;  // the time stamped links put before their samples (set_clock)
 };
 
 namespace endpoint_detail {
@@ -383,7 +399,7 @@ class LocalLink final : public Connection, public PullSource, public InputFeeder
       return;
     }
     ++info_.sent;
-    gate_->deliver(*in_, b);
+    gate_->deliver(*in_, body(b));
   }
   void input_gone() override { in_ = nullptr; }
   void request() override {
@@ -843,10 +859,11 @@ void StreamLink::on_write(Bytes b) {
     ++info_.skipped;
     return;
   }
-  if (oversized(b)) return;
-  if (trunk_->send(Kind::Sample, id_, b)) {
+  const Bytes sample = body(b);
+  if (oversized(sample)) return;
+  if (trunk_->send(Kind::Sample, id_, sample)) {
     ++info_.sent;
-    info_.bytes += data_frame::kHeader + b.size();
+    info_.bytes += data_frame::kHeader + sample.size();
   } else {
     ++info_.tx_dropped;
   }
@@ -1071,6 +1088,7 @@ void Endpoint::connect(const ConnectRequest& r, const Location& dest, ConnectDon
     if (!error.empty()) return done(error);
     impl_->links.push_back(std::make_shared<LocalLink>(r, out, in, flag, impl_->gate(link_key(r), true)));
     impl_->links.back()->dest_instance = dest.instance;
+    impl_->links.back()->clock = impl_->clock;
     return done("");
   }
   std::string error;
@@ -1078,6 +1096,7 @@ void Endpoint::connect(const ConnectRequest& r, const Location& dest, ConnectDon
   if (!trunk) return done("cannot connect to " + r.to + "." + r.in + ": " + error);
   auto link = std::make_shared<StreamLink>(*impl_, r, t, out, flag);
   link->dest_instance = dest.instance;
+  link->clock = impl_->clock;
   out->attach(link.get());
   impl_->links.push_back(link);
   link->start(std::move(trunk), addr, std::move(done), timeout_ms);
@@ -1102,6 +1121,8 @@ void Endpoint::activate(const std::string& set, const std::string& from) {
 void Endpoint::deactivate(const std::string& set, const std::string& from) { impl_->switch_set(set, from, false); }
 
 void Endpoint::on_event(std::function<void(const CommsEvent&)> fn) { impl_->on_event = std::move(fn); }
+
+void Endpoint::set_clock(std::function<std::int64_t()> now) { impl_->clock = std::move(now); }
 
 bool Endpoint::active(const std::string& set) const {
   for (const auto& [key, flag] : impl_->sets)

@@ -130,6 +130,9 @@ class Endpoint {
 
   /// Sets the callback for data-plane events (broken connections, first overflow of an input).
   void on_event(std::function<void(const CommsEvent&)> fn);
+  /// The clock of this endpoint's writers (ns): a stamped link (a tap's, host/tap.h) puts its time before each
+  /// sample. Set it before making links (a link keeps the clock it was made with); unset, the stamp is 0.
+  void set_clock(std::function<std::int64_t()> now);
 
   /// Lock-step delivery (ARCHITECTURE.md "Time", host/port.h LinkGate): with `on`, a sample pushed into this
   /// endpoint's inputs waits until release() counts it in. In-process and socket connections alike.

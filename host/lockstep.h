@@ -129,6 +129,10 @@ class LockstepCore {
   /// The tick the schedule hook was asked for is due.
   void tick();
 
+  /// Lets the samples counted for the owner so far into its inputs (hook `take`), as at the start of a tick:
+  /// "" or why not. The world calls it when it closes a recording, so that what was written at the last tick
+  /// (time held) is in it too.
+  std::string take_owner();
   /// Simulated time (ns).
   Nanos now() const { return steps_ * period_; }
   bool running() const { return running_; }
@@ -169,7 +173,6 @@ class LockstepCore {
   void wave(Nanos t);
   void waved(Nanos t);
   std::uint64_t events_sent() const;
-  std::string take_owner();
   void flush_trace();
   void after_tick();
   void schedule();
@@ -226,6 +229,8 @@ class Lockstep {
   Nanos now() const { return core_.now(); }
   /// The clock's part of `status`.
   wire::Value status() const { return core_.status(); }
+  /// LockstepCore::take_owner.
+  std::string take_owner() { return core_.take_owner(); }
   /// Called once when the duration is reached (time then holds).
   std::function<void()> on_duration;
   /// Called once, with why, when the channel that said `go` (the master: a run's root) has closed: time then

@@ -42,6 +42,8 @@ class Writer {
   bool ok() const { return ok_; }
   const Stats& stats() const { return stats_; }
   const std::string& topic(uint16_t channel) const { return channels_.at(channel - 1).topic; }
+  /// Channels added so far (their ids are 1..channels()).
+  size_t channels() const { return channels_.size(); }
 
  private:
   struct Channel {

@@ -260,6 +260,7 @@ void Node::Impl::open_ports(const Done& done_fn) {
     uds = runtime_dir() + "/node-" + std::to_string(::getpid()) + (made++ ? "-" + std::to_string(made) : "") + ".sock";
     endpoint->listen(uds, ip + ":0");
     endpoint->set_gated(opts.gated || (opts.clock == ClockKind::Simulated && !opts.world.empty()));
+    endpoint->set_clock(opts.stamp_clock ? opts.stamp_clock : [this] { return timers->now(); });
   } catch (const std::exception& e) {
     return fail_start(done_fn, e.what());
   }
@@ -573,6 +574,7 @@ void Node::Impl::connect(Leaf& leaf, const Channel::Ptr& ch, const Message& m) {
   if (!md) return void(ch->reply_error(m, "connect: mode must be push or pull, not '" + mode + "'"));
   r.mode = *md;
   r.queue = static_cast<std::uint32_t>(p["queue"].is_nil() ? 16 : std::max<std::int64_t>(1, p["queue"].as_int(16)));
+  r.stamped = p["stamped"].as_bool();  // a tap's link (host/tap.h)
   if (r.out.empty() || r.to.empty() || r.in.empty())
     return void(ch->reply_error(m, "connect needs out, to and in"));
   const int timeout = opts.timeout_ms;
@@ -674,8 +676,10 @@ bool Node::Impl::handle_control(Leaf& leaf, const Channel::Ptr& ch, const Messag
     if (set.empty()) return ch->reply_error(m, t + " needs a set"), true;
     if (t == "activate") endpoint->activate(set, leaf.name);  // this leaf's links only (host/endpoint.h)
     else endpoint->deactivate(set, leaf.name);
-    switches.push_back(leaf.name + " " + (t == "activate" ? "+" : "-") + set);
-    if (switches.size() > 1000) switches.erase(switches.begin());
+    if (set.rfind("tap:", 0) != 0) {  // a tap only looks: no part of the run's trace (host/tap.h)
+      switches.push_back(leaf.name + " " + (t == "activate" ? "+" : "-") + set);
+      if (switches.size() > 1000) switches.erase(switches.begin());
+    }
     ch->reply(m);
   } else if (t == "read") {
     read(leaf, ch, m);

@@ -18,9 +18,12 @@
 //   init {}                                   -> ok {}
 //   run {init}                                -> ok {}         init: the initial value (nil outside bindings)
 //   stop {}                                   -> ok {}
-//   connect {out, to, in, set, mode, queue}   -> ok {transport = "inprocess"|"unix"|"tcp"}
+//   connect {out, to, in, set, mode, queue, stamped}
+//                                             -> ok {transport = "inprocess"|"unix"|"tcp"}
 //                                                to: the destination's PATH, looked up at the daemon (peers
-//                                                included); mode "push" (default) or "pull"; queue default 16
+//                                                included); mode "push" (default) or "pull"; queue default 16;
+//                                                stamped: a tap's link (host/tap.h; its set "tap:...", whose
+//                                                switches the trace leaves out)
 //   disconnect {set}                          -> ok {}
 //   activate {set} / deactivate {set}         -> ok {}         a flag flip, never a socket opened or closed
 //   read {port}                               -> ok {value, count}  the latest sample of any port (nil before)
@@ -79,6 +82,8 @@
 // Events it sends on every open control channel:
 //   done {name, now, value}  aborted {name, now, reason} (now: ns on its clock)  broken {name, port, peer, set, reason}
 //   overflow {name, port, reason}
+#include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -105,6 +110,8 @@ struct NodeOptions {
   std::vector<std::string> args;    ///< the .dca arguments after the host
   int timeout_ms = 5000;            ///< for start-up steps and look-ups (and a late sample in lock-step)
   bool gated = false;               ///< lock-step delivery without a clock master of its own (the world)
+  /// The time a tap's link stamps on each sample (host/tap.h); unset: the node's clock (its timers' now).
+  std::function<std::int64_t()> stamp_clock;
   /// A shared node: loads the controller package an `add` names (package, system_dir) before creating its
   /// leaf; false with *error (`dca node` loads through controllers/packages.h). Unset: `add` with a package fails.
   std::function<bool(const std::string& package, const std::string& system_dir, std::string* error)> load_package;

@@ -72,6 +72,8 @@ std::string compatibility_error(const PortSpec& out, const PortSpec& in) {
   return "output '" + out.name + "' is " + describe(out) + " but input '" + in.name + "' is " + describe(in);
 }
 
+bool is_tap_input(const PortSpec& in) { return in.type == PortType::Value && in.name.rfind("tap:", 0) == 0; }
+
 Transport choose_transport(std::string_view my_host, bool dest_local, const Location& dest) {
   if (dest_local) return Transport::InProcess;
   if (dest.host == my_host && !dest.data_uds.empty()) return Transport::Unix;

@@ -63,6 +63,9 @@ PortSpec vectorx_port(std::string name, std::string units = "");
 /// A msgpack value port spec.
 PortSpec value_port(std::string name, std::string units = "");
 
+/// A tap input (host/tap.h): a Value input named "tap:...", which takes stamped samples of any output.
+bool is_tap_input(const PortSpec& in);
+
 /// Why two ports cannot be connected ("" when they can): type or size differ.
 std::string compatibility_error(const PortSpec& out, const PortSpec& in);
 
@@ -322,6 +325,9 @@ struct ConnectRequest {
   std::string set;   ///< connection set
   Mode mode = Mode::Push;
   std::uint32_t queue = 16;  ///< the input's queue capacity for push connections (grown, never shrunk)
+  /// A tap's link (host/tap.h): each sample travels with the writer's clock time before it (8 bytes, host order),
+  /// into a tap input (a Value input named "tap:..."), whatever the output's type.
+  bool stamped = false;
 };
 
 /// The name of one connection in the lock-step's counts: "from|out>to|in@set" (paths and port names hold dots).

@@ -107,6 +107,16 @@ void Recorder::note(double t, const std::string& line, const std::string& path, 
                           ",\"state\":" + json_string(state) + "}");
 }
 
+uint16_t Recorder::add_channel(const std::string& topic, const std::string& schema) {
+  if (!f_ || !mcap_) return 0;
+  return mcap_->writer.add_channel(topic, topic.size() > 1 ? topic.substr(1) : topic, schema);
+}
+
+void Recorder::write(uint16_t channel, int64_t t_ns, const std::string& json) {
+  if (!f_ || !mcap_ || channel == 0) return;
+  mcap_->writer.write(channel, static_cast<uint64_t>(std::max<int64_t>(0, t_ns)), json);
+}
+
 const char* csv_header() {
   return "time,q1,q2,q3,q4,q5,q6,base_x,base_y,base_yaw,fx,fy,fz,tx,ty,tz,door_angle,handle_angle,"
          "gripper_width,gripper_state,laser,phase";
@@ -166,7 +176,7 @@ bool Recorder::close(std::string* error) {
 std::string Recorder::summary() const {
   if (!mcap_) return path_ + ": " + std::to_string(rows_) + " rows";
   const dca::mcap::Stats& st = mcap_->writer.stats();
-  const size_t channels = groups().size() + (mcap_->events ? 1 : 0);
+  const size_t channels = mcap_->writer.channels();
   std::string s = path_ + ": " + std::to_string(st.messages) + " messages on " + std::to_string(channels) +
                   " channels (";
   for (size_t c = 1; c <= channels; ++c) {
@@ -174,7 +184,8 @@ std::string Recorder::summary() const {
     s += (c > 1 ? ", " : "") + mcap_->writer.topic(static_cast<uint16_t>(c)) + " " +
          std::to_string(n == st.per_channel.end() ? 0 : n->second);
   }
-  return s + "), " + std::to_string(st.chunks) + " chunks";
+  s += "), " + std::to_string(st.chunks) + " chunks";
+  return dropped_ ? s + ", " + std::to_string(dropped_) + " tap samples dropped" : s;
 }
 
 namespace {

@@ -3,10 +3,12 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <map>
 #include <stdexcept>
 
 #include "host/channel.h"
 #include "host/lockstep.h"
+#include "host/tap.h"
 #include "host/timers.h"
 #include "sim/recorder.h"
 
@@ -37,6 +39,9 @@ class WorldComponent final : public Component {
  private:
   std::string name_;
   PortSet ports_;
+
+ public:
+  tap::Taps taps{ports_};  // inputs "tap:PATH" (host/tap.h), added by `tap` requests
 };
 
 }  // namespace
@@ -62,6 +67,7 @@ struct WorldNode::Impl {
   Node* node = nullptr;  // the node that hosts the component (its data endpoint: lock-step counts)
   std::FILE* trace = nullptr;
   std::unique_ptr<Recorder> recorder;
+  std::map<const tap::Taps::Tap*, std::uint16_t> channels;  // each tap's recording channel
   long record_every = 1;
   long steps = 0;
   Commands cmd;
@@ -96,12 +102,25 @@ struct WorldNode::Impl {
     return h;
   }
 
-  // One period: the commands that arrived are applied, the world steps, every record_every steps a row.
+  // One period: the tapped samples written before it recorded (at their writers' ticks), the commands that
+  // arrived applied, the world steps, every record_every steps a row.
   void step() {
+    record_taps();
     take_commands();
     world.step();
     ++steps;
     if (recorder && steps % record_every == 0) recorder->record(world.sensors(), -1);
+  }
+
+  // The tapped samples taken in, recorded at their writers' ticks (the stamps), with the count of those dropped.
+  void record_taps() {
+    if (component->taps.all().empty()) return;
+    component->taps.drain([this](tap::Taps::Tap& t, std::int64_t at, Bytes sample) {
+      if (recorder) recorder->write(channels[&t], at, tap::sample_json(t.spec, sample));
+    });
+    std::uint64_t dropped = 0;
+    for (const auto& t : component->taps.all()) dropped += t->dropped() + t->malformed;
+    if (recorder) recorder->set_dropped(dropped);
   }
 
   void take_commands() {
@@ -135,6 +154,39 @@ struct WorldNode::Impl {
                             &width,          &grip};
     for (std::size_t i = 0; i < component->outputs.size(); ++i)
       component->outputs[i]->write(Eigen::Map<const Eigen::VectorXd>(data[i], kSensorSignals[i].size));
+  }
+
+  // tap {path, port_type, size, units, queue}: a tap input for the output at `path` (host/tap.h), recorded on a
+  // channel of its own (its topic, tap::topic_of) when recording MCAP. Answers {input}.
+  void add_tap(const std::shared_ptr<Channel>& ch, const Message& m) {
+    const auto& p = m.payload;
+    const auto type = port_type_from(p["port_type"].as_string());
+    if (!type) return void(ch->reply_error(m, "tap: unknown port type '" + p["port_type"].as_string() + "'"));
+    PortSpec spec{p["path"].as_string(), *type, static_cast<std::uint32_t>(p["size"].as_int(1)), p["units"].as_string(), {}};
+    if (spec.type == PortType::Scalar) spec.size = 1;
+    const auto queue = static_cast<std::size_t>(std::clamp<std::int64_t>(p["queue"].as_int(256), 1, 4096));
+    std::string error;
+    const auto* t = component->taps.add(spec.name, spec, queue, &error);
+    if (!t) return void(ch->reply_error(m, error));
+    if (recorder && !channels.count(t)) {
+      const std::string topic = tap::topic_of(t->path);
+      channels[t] = recorder->add_channel(topic, tap::json_schema(topic, t->spec));
+    }
+    ch->reply(m, Value::map().set("input", t->input->name()));
+  }
+
+  // record_end {}: the recording closed now (what comes later is not recorded); answers {summary}.
+  void end_recording(const std::shared_ptr<Channel>& ch, const Message& m) {
+    if (!recorder) return void(ch->reply(m, Value::map()));
+    // what was written at the last tick (time held after the run's end) counted in, at its ticks
+    if (const auto late = clock.take_owner(); !late.empty()) std::fprintf(stderr, "dca sim: %s\n", late.c_str());
+    record_taps();
+    std::string error;
+    if (!recorder->close(&error)) return void(ch->reply_error(m, error));
+    const std::string summary = recorder->summary();
+    std::printf("dca sim: recorded %s\n", summary.c_str());
+    recorder.reset();
+    ch->reply(m, Value::map().set("summary", summary));
   }
 
   // The clock's status and the world's state.
@@ -186,6 +238,7 @@ std::unique_ptr<Node> WorldNode::make_node(NodeOptions options) {
   if (options.type.empty()) options.type = "World";
   options.world.clear();  // the clock master is not on anyone's clock
   options.gated = true;   // but its inputs take their samples in lock-step
+  options.stamp_clock = [this] { return impl_->clock.now(); };  // a tap of its signals: at simulated time
   auto node = std::make_unique<Node>(
       impl_->loop, std::move(options),
       [this](const std::string&, const std::string& name, const std::string&, const std::vector<std::string>&,
@@ -197,6 +250,8 @@ std::unique_ptr<Node> WorldNode::make_node(NodeOptions options) {
 
 bool WorldNode::handle(const std::shared_ptr<Channel>& ch, const Message& m) {
   if (m.type == "status") return ch->reply(m, impl_->status()), true;
+  if (m.type == "tap") return impl_->add_tap(ch, m), true;
+  if (m.type == "record_end") return impl_->end_recording(ch, m), true;
   if (m.type == "note") {  // a line of the run for the recording (dca.launch.sim), at simulated time t
     if (impl_->recorder)
       impl_->recorder->note(m.payload["t"].as_float(impl_->world.time()), m.payload["line"].as_string(),

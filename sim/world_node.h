@@ -14,6 +14,14 @@
 // world's `status {}` adds its state to the clock's: door_angle, handle_angle, gripper_state,
 // base_pose = [x, y, yaw], latched, grasping.
 //
+// Taps (host/tap.h): `tap {path, port_type, size, units, queue}` adds a tap input "tap:PATH" to the world component
+// (answered {input}); the supervisor then links the output at PATH to it. Being the clock's owner, the world
+// takes in exactly the samples written before each tick (counted like every link into it), and at each step
+// records them (with --record FILE.mcap) at their writers' ticks (the stamps), on one channel per port
+// (tap::topic_of, JSON Schema tap::json_schema). `record_end {}` closes the recording now and answers {summary}
+// (Recorder::summary: the per-channel counts, the tap samples dropped). The world's own writes are stamped with
+// simulated time too (a tap of its signals elsewhere).
+//
 // Each tick (host/lockstep.h): the commands that arrived are applied (base and arm commands older than
 // command_timeout count as zero, as a drive's watchdog would; the gripper keeps its last command) and the world
 // steps one period to t; when subscribers are due, the sensors are written to the outputs and flushed before

@@ -13,7 +13,7 @@ M.usage = [=[usage: dca run FILE.dca [--root NAME] [--hosts FILE] [--repl] [--wa
                     [--config FILE | --no-config] [--set KEY=VALUE]... [--state-dir DIR]
                     [--placement process|group|host]
                     [--sim WORLD [--seed N] [--door-width W] [--record FILE.mcap|FILE.csv] [--jammed] [--realtime]
-                    [--trace FILE]] [--monitor [ADDR] [--monitor-wait]]
+                    [--record-ports all|PATH.PORT,...] [--trace FILE]] [--monitor [ADDR] [--monitor-wait]]
 
 Checks FILE.dca (errors stop here, nothing is started), starts one local daemon per host name on 127.0.0.1
 (or uses the daemons named in --hosts, lines of "name address"), starts the supervisor tree, shows one line
@@ -40,6 +40,11 @@ per group as it comes up and one per process transition, and runs the root expre
                   by the leaves of every MotionControl group: intervals between their MainCalc calls on the
                   simulated and on the wall clock, p50/p99/max)
   --seed N, --door-width W, --record FILE.mcap|FILE.csv   passed to the world (see `dca sim --help`)
+  --record-ports all|PATH.PORT,...
+                  with --record FILE.mcap: the samples of these output ports (every leaf's with `all`, e.g.
+                  main.dooropensyst.dooropen.visualserv.Vel) recorded too, one channel per port
+                  (/main/.../Vel, JSON with its JSON Schema), each sample at the tick its leaf wrote it: taps
+                  into the world, which is in lock-step, so the recording is exact and the run unchanged
   --jammed        passed to the world: the door handle's latch never releases (a fault to test against)
   --realtime      passed to the world: simulated time is paced to the wall clock (the nodes stay in
                   lock-step with it), so the wall-clock periods in the summary are the real control periods
@@ -66,6 +71,7 @@ local OPTIONS = {
   ["--timeout"] = "number", ["--repl"] = "flag", ["--watch"] = "flag", ["--quiet"] = "flag",
   ["--config"] = "value", ["--no-config"] = "flag", ["--state-dir"] = "value", ["--set"] = "list:sets",
   ["--placement"] = "value", ["--trace"] = "value", ["--monitor"] = "flag", ["--monitor-wait"] = "flag",
+  ["--record-ports"] = "value",
 }
 
 -- `--monitor ADDR`: the address, when the argument after --monitor is one (else --monitor alone). --> argv
@@ -91,6 +97,9 @@ local function rule_broken(o)
     return "--seed, --door-width, --record and --jammed go with --sim WORLD"
   end
   if o.trace and not o.sim then return "--trace goes with --sim WORLD"
+  end
+  if o.record_ports and not (o.record and o.record:match("%.mcap$")) then
+    return "--record-ports goes with --record FILE.mcap"
   end
   if o.config and o.no_config then return "--config and --no-config exclude each other" end
   if o.state_dir and o.hosts then return "--state-dir is for the local daemons, not those of --hosts" end
@@ -147,6 +156,11 @@ function M.main(args)
   if o.config then
     local defaults, derr = require("dca.config").read_file(o.config)
     if not defaults then io.stderr:write("dca run: ", derr, "\n") return 2 end
+  end
+  if o.record_ports then
+    -- the ports named must exist before anything starts (the manifests of the file's packages are loaded)
+    local ok, terr = require("dca.supervisor.taps").select(spec, require("dca.core").types(), o.record_ports)
+    if not ok then io.stderr:write("dca run: --record-ports: ", terr, "\n") return 2 end
   end
   o.check, o.summary, o.wait = true, true, o.timeout
   return require("dca.launch.run").main(spec, o, OUT)

@@ -76,11 +76,41 @@ function Run:report(msg)
   end
 end
 
--- The tree, then the world stopped, then the loop.
+-- The tree, then the recording closed and the world stopped, then the loop.
 function Run:down()
   local s = self.ctx.sim
   self.sup:shutdown(function()
-    if s then s.world:stop(function() self:write_trace() self.loop:stop() end) else self.loop:stop() end
+    if not s then self.loop:stop() return end
+    self:end_recording(function() s.world:stop(function() self:write_trace() self.loop:stop() end) end)
+  end)
+end
+
+-- With --record FILE.mcap: the world closes the recording and says what it holds ("recorded FILE: N messages
+-- on K channels (/world/arm n, ..., /main/door/hit/Out n), C chunks"). k() after.
+function Run:end_recording(k)
+  local s, file = self.ctx.sim, self.o.record
+  if not (file and file:match("%.mcap$") and s.world:connected()) then k() return end
+  s.world:request({ type = "record_end" }, 10, function(r, err)
+    if r and r.summary then self:emit("recorded " .. tostring(r.summary))
+    elseif not r then err_line(self, "--record: ", tostring(err)) end
+    k()
+  end)
+end
+
+-- With --record-ports: each output named linked to the world (a tap, host/tap.h), which records its samples at
+-- their ticks on a channel of their own. cb(true) | cb(nil, err)
+function Run:record_ports(cb)
+  local o, s = self.o, self.ctx.sim
+  if not (o.record_ports and s) then cb(true) return end
+  local taps = require "dca.supervisor.taps"
+  local list, err = taps.select(self.spec, self.ctx.rt.types and self.ctx.rt.types() or {}, o.record_ports)
+  if not list then cb(nil, err) return end
+  taps.connect(self.sup, list, "world", { prepare = function(p, k)
+    s.world:request({ type = "tap", path = p.path, port_type = p.type, size = p.size, units = p.units }, 10,
+      function(r, werr) k(r ~= nil, werr) end)
+  end }, function(ok, terr)
+    if ok then self:say(sformat("recording %d ports to %s", #list, tostring(o.record))) end
+    cb(ok, terr)
   end)
 end
 
@@ -233,8 +263,11 @@ function Run:bring_up()
   end)
   self.sup:configure(function(ok, err)
     if not ok then err_line(self, "start failed: ", tostring(err)) self:stop_all(3) return end
-    deadline:cancel()
-    self:run_root()
+    self:record_ports(function(tok, terr)
+      if not tok then err_line(self, "--record-ports: ", tostring(terr)) self:stop_all(3) return end
+      deadline:cancel()
+      self:run_root()
+    end)
   end)
 end
 
