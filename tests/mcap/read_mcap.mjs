@@ -2,6 +2,10 @@
 //   node read_mcap.mjs FILE.mcap "<the 'recorded FILE: N messages on K channels (/topic n, ...), C chunks' line>"
 //   node read_mcap.mjs FILE.mcap --lines LINES   (a recording of `dca run --sim`: LINES holds the run's
 //                                                 "[sim T] text" lines, which /dca/events must hold, in order)
+//   node read_mcap.mjs FILE.mcap "<recorded line>" --trace TRACE   (a recording with --record-ports and --trace:
+//       each port's channel /main/... holds, at every tick of the trace, as many messages up to that tick as the
+//       trace counts for the port then (so every sample is at the tick its leaf wrote it), and its last message
+//       is the trace's last value; every message fits its channel's JSON Schema)
 // Opens FILE with the indexed reader (which needs the summary: footer, summary offsets, chunk indexes,
 // channels and schemas), checks that every channel has a JSON Schema and JSON messages, that the statistics
 // and the messages read through the chunk indexes match the counts dca printed, then reads the file again
@@ -11,6 +15,7 @@ import { open } from "node:fs/promises";
 import { McapIndexedReader, McapStreamReader } from "@mcap/core";
 
 const [file, recorded] = process.argv.slice(2);
+const traceFile = process.argv[4] === "--trace" ? process.argv[5] : undefined;
 if (!file || !recorded) {
   console.error("usage: node read_mcap.mjs FILE.mcap RECORDED_LINE");
   process.exit(2);
@@ -67,6 +72,7 @@ if (want) check(stats?.messageCount === want.total, `statistics: ${stats?.messag
 
 const counts = new Map();
 const events = [];
+const portMessages = new Map();  // topic -> [{t, value}] in log-time order
 let last = -1n;
 for await (const msg of reader.readMessages({ validateCrcs: true })) {
   const topic = reader.channelsById.get(msg.channelId).topic;
@@ -75,6 +81,15 @@ for await (const msg of reader.readMessages({ validateCrcs: true })) {
   last = msg.logTime;
   const value = JSON.parse(new TextDecoder().decode(msg.data));
   if (topic === "/dca/events") events.push({ t: Number(msg.logTime) / 1e9, ...value });
+  if (topic.startsWith("/main/")) {
+    if (!portMessages.has(topic)) portMessages.set(topic, []);
+    portMessages.get(topic).push({ t: msg.logTime, value: value.value });
+    const schema = JSON.parse(new TextDecoder().decode(reader.schemasById.get(reader.channelsById.get(msg.channelId).schemaId).data));
+    const v = schema.properties?.value;
+    if (v?.type === "array") check(Array.isArray(value.value) && (v.maxItems === undefined || value.value.length === v.maxItems),
+      `${topic}: ${JSON.stringify(value.value)} does not fit its schema`);
+    if (v?.type === "number") check(typeof value.value === "number" || value.value === null, `${topic}: not a number`);
+  }
 }
 if (lines) {
   const total = [...counts.values()].reduce((a, b) => a + b, 0n);
@@ -93,6 +108,41 @@ for (const [topic, n] of want?.topics ?? []) {
   check(counts.get(topic) === n, `${topic}: read ${counts.get(topic)}, dca: ${n}`);
   check(stats?.channelMessageCounts.get([...reader.channelsById].find(([, c]) => c.topic === topic)[0]) === n,
         `${topic}: statistics count differs`);
+}
+
+// With --trace: every port at its ticks, as the trace counts it.
+if (traceFile) {
+  const { readFile } = await import("node:fs/promises");
+  const trace = new Map();  // port path -> [{t, n, value}]
+  for (const line of (await readFile(traceFile, "utf8")).split("\n")) {
+    const m = line.match(/^(\d+) D (\S+) n=(\d+) digest=\S+ value=(.*)$/);
+    if (!m) continue;
+    if (!trace.has(m[2])) trace.set(m[2], []);
+    trace.get(m[2]).push({ t: BigInt(m[1]), n: Number(m[3]), value: m[4] });
+  }
+  let ports = 0, ticks = 0;
+  for (const [topic, msgs] of portMessages) {
+    const path = topic.slice(1).replaceAll("/", ".");
+    const points = trace.get(path);
+    check(points !== undefined, `${topic}: the trace has no port ${path}`);
+    if (!points) continue;
+    ports++;
+    let k = 0;
+    points.forEach((p, i) => {  // messages with log time <= the tick: the trace's count at that tick's end
+      if (i + 1 < points.length && points[i + 1].t === p.t) return;  // a barrier: the tick's last count
+      while (k < msgs.length && msgs[k].t <= p.t) k++;
+      ticks++;
+      check(k === p.n, `${topic}: ${k} messages by ${p.t} ns, the trace counts ${p.n}`);
+    });
+    const last = points[points.length - 1];
+    check(msgs.length === last.n, `${topic}: ${msgs.length} messages, the trace's last count ${last.n}`);
+    check(JSON.stringify(msgs[msgs.length - 1].value) === JSON.stringify(JSON.parse(last.value)),
+          `${topic}: last value ${JSON.stringify(msgs[msgs.length - 1].value)}, the trace's ${last.value}`);
+  }
+  check(ports > 0, "no port channels (/main/...)");
+  for (const path of trace.keys())  // every leaf's output (the world's signals are on /world/... channels)
+    if (!path.startsWith("world.")) check(portMessages.has("/" + path.replaceAll(".", "/")), `${path}: in the trace, not recorded`);
+  console.log(`trace ${traceFile}: ${ports} ports recorded at their ticks (${ticks} trace points checked)`);
 }
 
 // Front to back, every record.

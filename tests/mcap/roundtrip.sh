@@ -7,6 +7,9 @@
 #   roundtrip.sh run DCA SOURCE_DIR WORK_DIR   a supervised door run (`dca run door_open.dca --sim door`) ends
 #       DONE, and beside the world's signals /dca/events holds every line the run printed ("[sim T] path:
 #       state", the transitions among them) at its simulated time
+#   roundtrip.sh ports DCA SOURCE_DIR WORK_DIR   the supervised door run with --record-ports all --trace: every
+#       port's channel holds its samples at the ticks the trace gives (read_mcap.mjs --trace), and the trace is
+#       identical to the one of the same run without taps or recording (`dca trace diff`)
 set -eu
 mode=$1
 dca=$2
@@ -19,7 +22,24 @@ if [ ! -d "$here/node_modules/@mcap/core" ]; then
 fi
 mkdir -p "$work"
 rm -f "$work/door.mcap" "$work/door.png" "$work/door.log"
-if [ "$mode" = sim ]; then
+if [ "$mode" = ports ]; then
+  system="$src/scripts/systems/door_open.dca"
+  if ! "$dca" run "$system" --sim door --record "$work/door.mcap" --record-ports all --trace "$work/taps.trace" \
+      >"$work/door.log" 2>&1; then
+    tail -40 "$work/door.log"
+    echo "FAIL: dca run --record-ports all did not end DONE" >&2
+    exit 1
+  fi
+  if ! "$dca" run "$system" --sim door --trace "$work/plain.trace" >"$work/plain.log" 2>&1; then
+    tail -40 "$work/plain.log"
+    echo "FAIL: dca run without taps did not end DONE" >&2
+    exit 1
+  fi
+  "$dca" trace diff "$work/taps.trace" "$work/plain.trace"
+  grep '^recorded ' "$work/door.log"
+  node "$here/read_mcap.mjs" "$work/door.mcap" "$(grep '^recorded ' "$work/door.log" | sed 's/^recorded //')" \
+    --trace "$work/taps.trace"
+elif [ "$mode" = sim ]; then
   "$dca" sim --duration 3 --record "$work/door.mcap" | tee "$work/door.log"
   node "$here/read_mcap.mjs" "$work/door.mcap" "$(grep '^recorded ' "$work/door.log")"
 else
