@@ -14,8 +14,12 @@
 -- Every wait has a timeout (seconds of the system's time). Steps are reported one line each
 -- ("ok   2 hit ends the group (t=2.000)"); the first failing step ends the scenario and the system is stopped.
 --
--- Faults: sys:kill(path, sig), sys:lose_host(host), sys:freeze(path) / sys:freeze_host(host) (SIGSTOP: sockets
--- stay open, the heartbeat finds the silence), sys:drop(path, set). Conditions: sys:wait(what, pred, t),
+-- Faults: sys:kill(path, sig), sys:lose_host(host) (its daemon killed, and what it started), sys:freeze(path) /
+-- sys:freeze_host(host) (SIGSTOP: sockets stay open, the heartbeat finds the silence), sys:drop(path, set),
+-- sys:crash(path, n, sig, t) (kills `path` n times, default SIGSEGV, each time waiting for its restart by its
+-- group's supervision policy; it stops early when the group gives up). Supervision (every wait on a
+-- transition line, from line `from`, default: the lines so far): sys:wait_line(what, pattern, t, from),
+-- sys:wait_restart(path, t, from), sys:wait_escalation(group, t, from); sys:lines_matching(pattern, from). Conditions: sys:wait(what, pred, t),
 -- sys:wait_state(path, state, t), sys:wait_read(path, port, pred, t), sys:wait_outcome(t); sys:host(path).
 -- In the real backend (wall clock) a timeout only bounds a hang (it is stretched, see dca.scenario.real.bound) and
 -- wait_state is met when the process has been in the state since the last run() (from the transition
@@ -91,7 +95,7 @@ function M.system(file, opts)
   for k, v in pairs(opts) do if bo[k] == nil then bo[k] = v end end
   if opts.sim then M._traced(bo) end
   local s = backend.system(spec, bo)
-  s.commands, s.host = Shared.commands, Shared.host
+  for k, f in pairs(Shared) do s[k] = s[k] or f end
   systems[#systems + 1] = s
   return s
 end
@@ -140,6 +144,61 @@ function Shared:host(path)
   local host
   spec_mod.walk(self.spec, function(n) if n.path == path then host = n.host end end)
   return host
+end
+
+--- The transition lines after line number `from` (default 0) that match the Lua pattern `pattern`.
+function Shared:lines_matching(pattern, from)
+  local out, lines = {}, self:transitions()
+  for i = (from or 0) + 1, #lines do
+    if lines[i]:find(pattern) then out[#out + 1] = lines[i] end
+  end
+  return out
+end
+
+--- Waits for a transition line after line number `from` (default: the lines so far) that matches `pattern`
+--- (a Lua pattern, or a list of them: any), at most `timeout` seconds. --> the line, its number
+function Shared:wait_line(what, pattern, timeout, from)
+  from = from or #self:transitions()
+  local patterns = type(pattern) == "table" and pattern or { pattern }
+  local found, at
+  self:wait(what, function()
+    local lines = self:transitions()
+    for i = from + 1, #lines do
+      for _, p in ipairs(patterns) do
+        if lines[i]:find(p) then found, at = lines[i], i return true end
+      end
+    end
+    return false
+  end, timeout)
+  return found, at
+end
+
+local function escape(s) return (s:gsub("%p", "%%%0")) end
+local function restarted(path) return "^" .. escape(path) .. ": restarted" end
+local function gave_up(path) return "^" .. escape(path) .. ": restart intensity .* exceeded" end
+
+--- Waits until the process at `path` has been restarted (its line "PATH: restarted ..."). --> the line
+function Shared:wait_restart(path, timeout, from)
+  return self:wait_line(path .. "'s restart", restarted(path), timeout, from)
+end
+
+--- Waits until the group `path` gives up: its restart intensity exceeded. --> the line
+function Shared:wait_escalation(path, timeout, from)
+  return self:wait_line(path .. "'s escalation", gave_up(path), timeout, from)
+end
+
+--- Kills the process at `path` with `sig` (default SEGV) `n` times, each time once it lives again: waits for its
+--- restart, or for its group to give up (then it stops). --> the number of kills, the escalation line or nil
+function Shared:crash(path, n, sig, timeout)
+  local group = path:match("^(.*)%.[^.]+$") or path
+  for i = 1, n do
+    local from = #self:transitions()
+    self:kill(path, sig or "SEGV")
+    local line = self:wait_line(sformat("%s's restart or %s's escalation after kill %d", path, group, i),
+      { restarted(path), gave_up(group) }, timeout, from)
+    if line:find(gave_up(group)) then return i, line end
+  end
+  return n, nil
 end
 
 --- Runs one named step; its failure is reported with the reason and ends the scenario.

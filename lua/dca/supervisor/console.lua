@@ -18,7 +18,8 @@ local cocreate, coresume, coyield, costatus = coroutine.create, coroutine.resume
 local traceback = debug.traceback
 
 local HELP = [[
-tree()                        the whole tree: each process with its state and host
+tree()                        the whole tree: each process with its state and host, how often it was
+                              restarted, and each policy's budget ([strategy: used/intensity in T s used])
 status(path)                  one process: kind, type, host, state
 expr(path)                    a group's expression, running operands marked *X*
 log(n)                        the last n events and commands of this supervisor (default 20)
@@ -55,8 +56,15 @@ local function render_tree(node, out, depth)
   depth = depth or 0
   local pad = string.rep("  ", depth)
   local name = pad .. node.path:match("[^.]+$")
-  out[#out + 1] = sformat("%-30s %-6s %-28s %s", name, node.kind, node.type .. "@" .. tostring(node.host),
-    tostring(node.state))
+  local extra = ""
+  if (node.restarts or 0) > 0 then extra = sformat("  restarted %d", node.restarts) end
+  local pol = node.policy
+  if pol then
+    extra = extra .. sformat("  [%s: %d/%d in %g s used, %d restarts%s]", pol.strategy, pol.used, pol.intensity,
+      pol.within, pol.total, pol.escalated and ", escalated" or "")
+  end
+  out[#out + 1] = sformat("%-30s %-6s %-28s %s%s", name, node.kind, node.type .. "@" .. tostring(node.host),
+    tostring(node.state), extra)
   for _, c in ipairs(node.children or {}) do render_tree(c, out, depth + 1) end
   return out
 end

@@ -45,6 +45,7 @@
 -- updates in place, so running supervisors pick up new code and keep their state.
 local algebra = require "dca.algebra"
 local spec_mod = require "dca.supervisor.spec"
+local policy = require "dca.supervisor.policy"
 
 local previous = package.loaded["dca.supervisor"]
 local M = type(previous) == "table" and previous or {}
@@ -144,7 +145,7 @@ end
 -- stamps lines with it in simulated time.
 function Sup:say(fmt, ...)
   local line = self:log(fmt, ...)
-  if self.progress then self.rt.report({ type = "log", line = line, at = self.event_at })
+  if self.progress then self.rt.report({ type = "log", line = line, at = self.event_at or self.recovery_at })
   elseif self.rt.log then self.rt.log(line) end
 end
 
@@ -216,9 +217,7 @@ function Sup:_start_children(cb)
         return
       end
       ch.state = "configuring"
-      handle.request({ type = "configure", spec = ch.spec.spec, progress = self.progress, hosts = self.hosts,
-                       timeouts = self.timeouts_override, placement = self.placement },
-        self.timeouts.configure, function(reply, rerr, error_reply)
+      handle.request(self:_configure_msg(ch), self.timeouts.configure, function(reply, rerr, error_reply)
           if answered then return end
           answered = true
           if not reply or reply.type == "error" then
@@ -234,6 +233,12 @@ function Sup:_start_children(cb)
         end)
     end)
   end
+end
+
+-- What a child supervisor is configured with: its group's spec and what this one hands down.
+function Sup:_configure_msg(ch)
+  return { type = "configure", spec = ch.spec.spec, progress = self.progress, hosts = self.hosts,
+           timeouts = self.timeouts_override, placement = self.placement }
 end
 
 -- Heartbeat of a child supervisor: pinged every rt.heartbeat() period; no answer within the silence bound
@@ -512,6 +517,8 @@ function Sup:_start_child(name, init)
   self:say("%s: running", ch.path)
   local function check(reply, err)
     if (not reply or reply.type == "error") and ch.state == "running" and ch.run_no == run_no then
+      -- a channel closed under a policy: the process's exit (or loss) follows and the policy takes it
+      if not reply and self.spec.supervision and tostring(err):find("closed") then return end
       self:_fail_later(name, sformat("%s: %s", ch.path, reply and reply.reason or tostring(err)))
     end
   end
@@ -621,7 +628,7 @@ function Sup:run_expr(init, started)
     self.expr, self.pending_expr = self.pending_expr, nil
     self:say("%s: new event actions in effect", self.path)
   end
-  self.cause, self.outcome = nil, nil
+  self.cause, self.outcome, self.escalated = nil, nil, nil
   self.state = "running"
   self.last_init = init
   self.run = algebra.new(self.expr, self:_commands())
@@ -684,16 +691,7 @@ function Sup:child_message(name, msg)
       self:log("%s: stale done from %s ignored", self.path, ch.path)
     end
   elseif t == "aborted" then
-    local path, reason = msg.path or ch.path, msg.reason or "aborted"
-    local taken = self.run and self.run:is_running(name)
-    if taken then
-      ch.state = "aborted"
-      self:say("%s: aborted: %s", ch.path, reason)
-      self.cause = self.cause or { path = path, reason = reason }
-    end
-    if not self:_feed(name, "aborted", reason) and not taken then
-      self:log("%s: stale aborted from %s ignored", self.path, ch.path)
-    end
+    self:_child_aborted(name, ch, msg)
   end
   if t == "overflow" and self:_is_device_input(ch.path, msg.port) then
     -- a device input holds the robot's latest sample (a queue of one): the older one dropped is expected
@@ -718,6 +716,29 @@ function Sup:child_message(name, msg)
   self.event_at = saved_at
 end
 
+-- A child's ABORTED (a leaf's Abort, a sub-group's outcome): restarted by the group's policy when it covers the
+-- fault (the algebra sees nothing), else an event of the algebra.
+function Sup:_child_aborted(name, ch, msg)
+  local path, reason = msg.path or ch.path, msg.reason or "aborted"
+  local taken = self.run and self.run:is_running(name)
+  local how = ch.kind == "group" and msg.escalated and "escalated" or "aborted"
+  local kind = policy.kind(how, reason)
+  if taken and self:_policy_takes(kind) then
+    ch.state = "aborted"
+    self:say("%s: %s: %s", ch.path, how, reason)
+    self:_fault({ name }, how, kind, reason, { path = path, reason = reason })
+    return
+  end
+  if taken then
+    ch.state = "aborted"
+    self:say("%s: aborted: %s", ch.path, reason)
+    self.cause = self.cause or { path = path, reason = reason }
+  end
+  if not self:_feed(name, "aborted", reason) and not taken then
+    self:log("%s: stale aborted from %s ignored", self.path, ch.path)
+  end
+end
+
 function Sup:_is_device_input(leaf, port)
   for _, p in ipairs(self.device_ports or {}) do
     if p.leaf == leaf and p.port == port and p.dir == "in" then return true end
@@ -734,7 +755,7 @@ end
 --- marked ended first, then the algebra hears of those that ran, in the order given, so none of them is
 --- stopped as a sibling of another.
 function Sup:children_exit(names, reason)
-  local ran = {}
+  local ran, faulted, kind = {}, {}, policy.kind("exit", reason)
   for _, name in ipairs(names) do
     local ch = self.children[name]
     if not ch or ch.state == "exited" or ch.state == "lost" or ch.state == "gone" then goto next end
@@ -743,13 +764,16 @@ function Sup:children_exit(names, reason)
       self:log("%s: old process exited (%s)", ch.path, tostring(reason))
       goto next
     end
-    if self.run and self.run:is_running(name) then ran[#ran + 1] = name end
+    if self:_policy_takes(kind) then faulted[#faulted + 1] = name
+    elseif self.run and self.run:is_running(name) then ran[#ran + 1] = name end
     ch.state = ch.kind == "leaf" and "exited" or "lost"
     ch.exit_reason = reason
     ch.handle = nil
     self:say("%s: %s: %s", ch.path, ch.kind == "leaf" and "exited" or "lost", reason)
     ::next::
   end
+  -- the group's supervision policy restarts these (one fault, whichever number of leaves it ended)
+  if #faulted > 0 then self:_fault(faulted, "exit", kind, reason) end
   for _, name in ipairs(ran) do
     self.cause = self.cause or { path = self.children[name].path, reason = reason }
     self:_feed(name, "error", reason)
@@ -846,7 +870,7 @@ function Sup:_restore(name, was_running, cb)
       self.rt.report({ type = "restarted", path = ch.path })
       -- (unless its group's expression aborted it meanwhile)
       if was_running and self.run and self.run:is_running(name) then self:_start_child(name, ch.init) end
-      self:say("%s: restarted (pid %s)", ch.path, tostring(ch.handle and ch.handle.pid or "?"))
+      self:_restarted_line(ch)
       cb(true)
     end)
   end, ch.path)
@@ -866,28 +890,54 @@ function Sup:_restart_failed(name, was_running, reason, cb)
   ch.handle, ch.state, ch.exit_reason = nil, "exited", reason
   if h then h.kill("KILL") end
   self:say("%s: restart failed: %s", ch.path, tostring(reason))
-  if was_running and self.run and self.run:is_running(name) then
+  -- (a restart by the group's policy escalates instead: Sup:_recover)
+  if was_running and not ch.policy_restart and self.run and self.run:is_running(name) then
     self.cause = self.cause or { path = ch.path, reason = reason }
     self:_feed(name, "aborted", reason)
   end
   cb(nil, reason)
 end
 
---- Makes again this group's connections of leaf `path` (started anew): each one it is the source of at the new
---- process, activated at once when its set is active; each one it is the destination of at its source, whose
---- endpoint replaces its link to the old process (host/endpoint). cb(true) | cb(nil, reason)
+-- Whether the leaf `leaf` is `path` or lies below it (a restarted group's subtree).
+local function under(leaf, path) return leaf == path or leaf:sub(1, #path + 1) == path .. "." end
+
+--- Makes again this group's connections of leaf `path` (started anew), or of every leaf below the group `path`
+--- (a subtree started anew): each one it is the source of at the new process, each one it is the destination of
+--- at its source, whose endpoint replaces its link to the old process (host/endpoint); each activated at its
+--- source when its set is active. cb(true) | cb(nil, reason)
 function Sup:_rewire(path, cb)
   local list = {}
   for _, w in ipairs(self.wires or {}) do
-    if w.src == path or w.dst == path then list[#list + 1] = w end
+    -- (a connection with a child still waiting for its own restart is made when that one is started)
+    local other = under(w.src, path) and w.dst or w.src
+    if (under(w.src, path) or under(w.dst, path)) and (under(other, path) or not self:_pending(other)) then
+      list[#list + 1] = w
+    end
   end
   self:_connect_wires(list, cb, function(w, k)
-    if w.src ~= path or not (self.active_sets and self.active_sets[w.set]) then k(true) return end
-    self:to_leaf(path, { type = "activate", set = w.set }, self.timeouts.connect, function(r, err)
+    -- the set active again at a new source: this one, or one started earlier by the same restart whose
+    -- connection waited for this one
+    if not (self.active_sets and self.active_sets[w.set]) or not (under(w.src, path) or self:_fresh(w.src)) then
+      k(true)
+      return
+    end
+    self:to_leaf(w.src, { type = "activate", set = w.set }, self.timeouts.connect, function(r, err)
       if r and r.type ~= "error" then k(true) return end
-      k(nil, sformat("%s: activating %s at %s: %s", self.path, w.set, path, r and r.reason or tostring(err)))
+      k(nil, sformat("%s: activating %s at %s: %s", self.path, w.set, w.src, r and r.reason or tostring(err)))
     end)
   end)
+end
+
+-- Whether the process of leaf `leaf` is being started anew by this group's restart and is not up yet.
+function Sup:_pending(leaf)
+  local ch = self:_via(leaf)
+  return ch ~= nil and ch.restarting == true and ch.handle == nil
+end
+
+-- Whether the process of leaf `leaf` was started anew by the restart in progress (Sup:_recover).
+function Sup:_fresh(leaf)
+  local ch = self:_via(leaf)
+  return ch ~= nil and self.recovering ~= nil and self.recovering.started[ch.name] == true
 end
 
 -- A leaf below this group was restarted (the `restarted` event of a child group): this group's own
@@ -898,6 +948,226 @@ function Sup:_leaf_restarted(path)
     if not ok then self:say("%s: reconnecting restarted %s: %s", self.path, path, tostring(err)) end
     self.rt.report({ type = "restarted", path = path })
   end)
+end
+
+---------------------------------------------------------------------------------------------- supervision policy
+-- A group with a policy (spec.supervision, from its `supervision { }` section: dca.supervisor.policy) restarts
+-- its children's faults of the kinds it names instead of telling the algebra: one_for_one the faulted child,
+-- one_for_all every child, rest_for_one the faulted one and those after it in instantiation order. The children
+-- are stopped in reverse start order (a running leaf: Stop(), actuators at zero, then its process ended; a
+-- sub-group: its whole subtree shut down), then started again in order with the restart of a leaf's machinery
+-- (fresh process, connections both ways by every group that owns one, active sets, Run with its last init; a
+-- sub-group: a fresh supervisor configured with its spec, this group's connections of its leaves made again,
+-- its expression run again if it ran). The algebra sees nothing. Past the restart intensity (N restarts within
+-- T seconds, a sliding window on rt.now()) the group escalates: it stops its running children (LIFO, the
+-- algebra's abort) and ends ABORTED with a reason that says so and names the fault that exceeded it, its
+-- outcome's path the first cause (a leaf); the parent's policy then applies to it as a `crash` of that child.
+-- Faults that arrive while a restart runs wait for it, in order.
+
+--- Whether this group's policy restarts a fault of `kind` now (it runs, and is not being stopped).
+function Sup:_policy_takes(kind)
+  local pol = self.spec.supervision
+  return pol ~= nil and pol.on ~= nil and pol.on[kind] == true and self.state == "running" and not self.escalated
+    and self.shutdown_waiters == nil
+end
+
+--- A fault of the children `names` (all ended by it), `how` it ended ("exit" | "aborted" | "escalated"), its
+--- kind and reason; `cause` = { path, reason } of the first cause (a sub-group's outcome names its leaf).
+function Sup:_fault(names, how, kind, reason, cause)
+  local first = self.children[names[1]]
+  local f = { names = names, how = how, kind = kind, reason = reason, at = self.event_at,
+              cause = cause or { path = first.path, reason = reason } }
+  f.last = how == "exit" and sformat("%s %s", first.name, reason) or sformat("%s %s: %s", first.name, how, reason)
+  self.rt.defer(function() self:_recover(f) end)
+end
+
+--- The host a child restarts on after fault `f` (nil: the host it had). The hook for failover: a `lost` fault
+--- may move the child to the next of its standby hosts (spec child `standby`, group spec `hosts`).
+function Sup:restart_host(ch, f)  -- luacheck: no unused args
+  return nil
+end
+
+-- The children a restart after fault `f` takes down and starts again, in start order (those with a process
+-- or a fault: never started ones, or those already stopped for good, are left alone).
+function Sup:_restart_plan(f)
+  local order, faulted = {}, {}
+  for _, c in ipairs(self.spec.children) do order[#order + 1] = c.name end
+  for _, n in ipairs(f.names) do faulted[n] = true end
+  local out = {}
+  for _, name in ipairs(policy.plan(self.spec.supervision.strategy, order, faulted)) do
+    local st = self.children[name].state
+    if faulted[name] or not (st == "new" or st == "failed" or st == "gone" or st == "starting") then
+      out[#out + 1] = name
+    end
+  end
+  return out, faulted
+end
+
+--- Applies the policy to fault `f`: within the intensity, the strategy's restart; past it, escalation.
+function Sup:_recover(f)
+  if self.recovering then
+    local q = self.recovering.queue
+    q[#q + 1] = f
+    return
+  end
+  if not self:_policy_takes(f.kind) then return end
+  local pol = self.spec.supervision
+  local now = self.rt.now()
+  self.restart_times = policy.window(self.restart_times or {}, now, pol.within)
+  if #self.restart_times >= pol.intensity then self:_escalate(f, policy.exceeded(pol, f.last)) return end
+  self.restart_times[#self.restart_times + 1] = now
+  self.restarts_total = (self.restarts_total or 0) + 1
+  local plan, faulted = self:_restart_plan(f)
+  local rec = { queue = {}, plan = plan, running = {}, started = {}, f = f }
+  self.recovering, self.recovery_at = rec, f.at
+  self.restarting_below = self.restarting_below or {}
+  for _, name in ipairs(plan) do
+    local ch = self.children[name]
+    rec.running[name] = self.run ~= nil and self.run:is_running(name)
+    ch.restarting, ch.policy_restart = true, true
+    ch.restarts = (ch.restarts or 0) + 1
+    if faulted[name] then
+      ch.restart_note = sformat(" %d/%d in %g s", #self.restart_times, pol.intensity, pol.within)
+    end
+    self.restarting_below[ch.path] = (self.restarting_below[ch.path] or 0) + 1
+  end
+  self:say("%s: %s after %s: restarting %s (%d/%s)", self.path, pol.strategy, f.last, concat(plan, ", "),
+    #self.restart_times, policy.budget(pol))
+  local i = #plan + 1
+  local function up(k)
+    if k > #plan then self:_recovered(rec) return end
+    rec.started[plan[k]] = true
+    self:_bring_up(plan[k], rec.running[plan[k]], function(ok, err)
+      if self.recovering ~= rec then return end
+      if not ok then self:_escalate(f, sformat("restart of %s failed: %s", plan[k], tostring(err))) return end
+      up(k + 1)
+    end)
+  end
+  local function down()
+    i = i - 1
+    if i < 1 then up(1) return end
+    self:_take_down(plan[i], rec.running[plan[i]], function()
+      if self.recovering ~= rec then return end
+      down()
+    end)
+  end
+  down()
+end
+
+-- The restart after `rec` is over: the children's marks cleared, the faults that waited handled in order.
+function Sup:_recovered(rec)
+  self.recovering, self.recovery_at = nil, nil
+  self:_unmark(rec)
+  for _, f in ipairs(rec.queue) do self:_recover(f) end
+end
+
+function Sup:_unmark(rec)
+  for _, name in ipairs(rec.plan) do
+    local ch = self.children[name]
+    ch.policy_restart, ch.restart_note = nil, nil
+    local path = ch.path
+    local n = (self.restarting_below[path] or 1) - 1
+    self.restarting_below[path] = n > 0 and n or nil
+  end
+end
+
+-- Stops child `name` for a restart and ends its process (a sub-group: its subtree shut down first). cb()
+function Sup:_take_down(name, was_running, cb)
+  local ch = self.children[name]
+  ch.state = "restarting"
+  local old = ch.handle
+  if not old then cb() return end
+  self:say("%s: stopping to restart", ch.path)
+  local function ended(ok, err)
+    if not ok then self:log("%s: end of %s: %s", self.path, ch.path, tostring(err)) end
+    if ch.handle == old then ch.handle = nil end
+    cb()
+  end
+  local function kill() old.kill("TERM", ended) end
+  if ch.kind == "group" then
+    old.request({ type = "shutdown" }, self.timeouts.shutdown, kill)
+  elseif was_running then
+    old.request({ type = "stop" }, self.timeouts.stop, kill)
+  else
+    kill()
+  end
+end
+
+-- Starts child `name` anew (after _take_down), on the host restart_host picks. cb(true) | cb(nil, reason)
+function Sup:_bring_up(name, was_running, cb)
+  local ch = self.children[name]
+  if self:_stopping_all(ch) then ch.restarting = nil cb(nil, ch.path .. ": stopped while restarting") return end
+  local host = self:restart_host(ch, self.recovering and self.recovering.f)
+  if host and host ~= ch.host then
+    self:say("%s: moves from host %s to host %s", ch.path, tostring(ch.host), tostring(host))
+    ch.spec = setmetatable({ host = host }, { __index = ch.spec })
+    ch.host = host
+  end
+  if ch.kind == "leaf" then self:_respawn(name, was_running, cb) return end
+  self:_respawn_group(name, was_running, cb)
+end
+
+-- A fresh supervisor of the sub-group `name`, configured with its spec (its subtree started and wired), this
+-- group's connections of its leaves made again, the groups above told (`restarted`), run again if it ran.
+function Sup:_respawn_group(name, was_running, cb)
+  local ch = self.children[name]
+  local answered = false
+  local function failed(err)
+    if answered then return end
+    answered = true
+    self:_restart_failed(name, was_running, err, cb)
+  end
+  local timer = self.rt.after(self.timeouts.spawn + self.timeouts.configure, function()
+    failed(sformat("%s (supervisor on host %s) did not start within %gs", ch.path, tostring(ch.host),
+      self.timeouts.spawn + self.timeouts.configure))
+  end)
+  self.rt.spawn(ch.spec, function(handle, err)
+    if answered then if handle then handle.kill("KILL") end return end
+    if not handle then timer:cancel() failed(sformat("%s: could not start on host %s: %s", ch.path,
+      tostring(ch.host), tostring(err))) return end
+    ch.handle = handle
+    handle.request(self:_configure_msg(ch), self.timeouts.configure, function(reply, rerr)
+      timer:cancel()
+      if answered then return end
+      if not reply or reply.type == "error" then failed(reply and reply.reason or tostring(rerr)) return end
+      if self:_stopping_all(ch) then answered = true ch.restarting = nil cb(nil, ch.path .. ": stopped") return end
+      answered = true
+      ch.restarting, ch.state = nil, "inactive"
+      self:_watch(name, handle)
+      self:_rewire(ch.path, function(ok, werr)
+        if not ok then self:_restart_failed(name, was_running, werr, cb) return end
+        self.rt.report({ type = "restarted", path = ch.path })
+        if was_running and self.run and self.run:is_running(name) then self:_start_child(name, ch.init) end
+        self:_restarted_line(ch)
+        cb(true)
+      end)
+    end)
+  end)
+end
+
+function Sup:_restarted_line(ch)
+  local pid = ch.handle and ch.handle.pid
+  self:say("%s: restarted%s%s", ch.path, ch.restart_note or "", pid and sformat(" (pid %s)", tostring(pid)) or "")
+end
+
+--- Past the restart intensity: the running children stopped (LIFO), the group ended ABORTED with `reason`, its
+--- outcome naming the first cause's path; the parent's policy (or algebra) takes it from there.
+function Sup:_escalate(f, reason)
+  local rec = self.recovering
+  self.recovering, self.recovery_at = nil, f.at
+  if rec then self:_unmark(rec) end
+  self.escalated = true
+  self:say("%s: %s", self.path, reason)
+  self.cause = { path = f.cause.path, reason = reason }
+  if self.run and self.state == "running" then
+    self.state = "aborting"
+    self.run:abort()
+  end
+  self.state = "aborted"
+  self.outcome = { status = "aborted", path = f.cause.path, reason = reason, escalated = true }
+  self:say("%s: aborted (%s: %s)", self.path, f.cause.path, reason)
+  self.recovery_at = nil
+  self:_report({ type = "aborted", path = f.cause.path, reason = reason, escalated = true, now = now_ns(f.at) })
 end
 
 ---------------------------------------------------------------------------------------------- stop
@@ -1168,10 +1438,20 @@ function M.find(node, path)
   end
 end
 
+--- This group's policy and how much of its budget is used: { strategy, intensity, within, on = {...},
+--- used = restarts in the window now, total = restarts so far, escalated = bool }, or nil without a policy.
+function Sup:policy_status()
+  local pol = self.spec.supervision
+  if not pol then return nil end
+  local used = policy.window(self.restart_times or {}, self.rt.now(), pol.within)
+  return { strategy = pol.strategy, intensity = pol.intensity, within = pol.within, on = pol.on, used = #used,
+           total = self.restarts_total or 0, escalated = self.escalated or false }
+end
+
 --- The tree below this group: { path, kind, type, host, state, children = {...}, expr = rendered }. Async.
 function Sup:tree(cb)
   local node = { path = self.path, kind = "group", type = self.spec.type, host = self.spec.host, state = self.state,
-                 expr = self.run and self.run:render() or self.spec.expr, children = {} }
+                 expr = self.run and self.run:render() or self.spec.expr, children = {}, policy = self:policy_status() }
   local pending = 1
   local function fin()
     pending = pending - 1
@@ -1180,13 +1460,18 @@ function Sup:tree(cb)
   for i, c in ipairs(self.spec.children) do
     local ch = self.children[c.name]
     if c.kind == "leaf" then
-      node.children[i] = { path = ch.path, kind = "leaf", type = c.type, host = c.host, state = ch.state }
+      node.children[i] = { path = ch.path, kind = "leaf", type = c.type, host = ch.host, state = ch.state,
+                           restarts = ch.restarts }
     else
-      node.children[i] = { path = ch.path, kind = "group", type = c.type, host = c.host, state = ch.state, children = {} }
+      node.children[i] = { path = ch.path, kind = "group", type = c.type, host = ch.host, state = ch.state, children = {},
+                           restarts = ch.restarts }
       if ch.handle then
         pending = pending + 1
         ch.handle.request({ type = "tree" }, self.timeouts.request, function(r)
-          if r and r.tree then r.tree.state = r.tree.state or ch.state node.children[i] = r.tree end
+          if r and r.tree then
+            r.tree.state, r.tree.restarts = r.tree.state or ch.state, ch.restarts
+            node.children[i] = r.tree
+          end
           fin()
         end)
       end

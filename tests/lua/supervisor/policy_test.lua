@@ -1,0 +1,228 @@
+-- Supervision policies (dca.supervisor.policy and the engine's strategies, intensity and escalation) on the
+-- in-memory cluster: which children restart, in which order they stop and start, the budget's window, the
+-- escalation up the tree with the first cause, and that nothing changes without a policy.
+local T = require "dca.testing"
+local fake = require "dca.supervisor.memory"
+local policy = require "dca.supervisor.policy"
+local suite = T.suite("policy")
+
+local leaf, group, root = fake.leaf, fake.group, fake.root
+
+-- A group `w` on h1 of three leaves a, b, c (running until stopped; c ends DONE when injected), with `pol`.
+local function workers(pol, expr)
+  local g = group("w", "Workers", "h1", expr or "c # (a, b)", {
+    leaf("a", "Run", "h1"), leaf("b", "Run", "h2"), leaf("c", "Run", "h1"),
+  })
+  g.spec.supervision = pol
+  return root("main", "h1", "w", { g })
+end
+
+local function pol(strategy, n, within, on)
+  local kinds = {}
+  for _, k in ipairs(on or { "crash", "lost" }) do kinds[k] = true end
+  return { strategy = strategy or "one_for_one", intensity = n or 3, within = within or 10, on = kinds }
+end
+
+local function running(spec)
+  local c = fake.cluster({ behave = {} })
+  c:root(spec)
+  assert(c:configure())
+  c:start()
+  c:settle(c.t + 1)
+  return c
+end
+
+-- Lets `s` seconds of the cluster's time pass (an idle cluster's time stands still otherwise).
+local function pass(c, s)
+  c:after(s, function() end)
+  c:settle(c.t + s)
+end
+
+local function pid(c, path)
+  for _, p in ipairs(c.procs) do if p.path == path and p.alive then return p.pid end end
+end
+
+local function pids(c, paths)
+  local t = {}
+  for _, p in ipairs(paths) do t[p] = pid(c, p) end
+  return t
+end
+
+-- The lines matching `pattern`, each reduced to its first capture.
+local function lines(c, pattern)
+  local out = {}
+  for _, l in ipairs(c.lines) do
+    local m = l:match(pattern)
+    if m then out[#out + 1] = m end
+  end
+  return out
+end
+
+local ABC = { "main.w.a", "main.w.b", "main.w.c" }
+
+-- The workers with `strategy` (3 in 10 s), `who` killed by SIGSEGV. --> the cluster, the pids before and after
+local function crash(strategy, who)
+  local c = running(workers(pol(strategy)))
+  local before = pids(c, ABC)
+  c:kill("main.w." .. who, "SEGV")
+  c:settle(c.t + 1)
+  T.eq(c.outcome, nil, "the algebra saw nothing")
+  return c, before, pids(c, ABC)
+end
+
+suite:case("pure_parts_plan_window_kind_texts", function()
+  local order = { "a", "b", "c", "d" }
+  T.eq(policy.plan("one_for_one", order, { c = true }), { "c" })
+  T.eq(policy.plan("one_for_all", order, { c = true }), order)
+  T.eq(policy.plan("rest_for_one", order, { b = true }), { "b", "c", "d" })
+  T.eq(policy.plan("rest_for_one", order, { d = true, b = true }), { "b", "c", "d" })
+  T.eq(policy.window({ 1, 2, 5, 9 }, 11, 8), { 5, 9 })
+  T.eq(policy.kind("exit", "killed by SIGSEGV on host h1"), "crash")
+  T.eq(policy.kind("exit", "exited with code 3 on host h1"), "crash")
+  T.eq(policy.kind("exit", "host h3 lost (daemon gone)"), "lost")
+  T.eq(policy.kind("exit", "supervisor lost on host h2 (no answer for 5s: timeout)"), "lost")
+  T.eq(policy.kind("aborted", "lost the door"), "aborted")
+  T.eq(policy.kind("escalated", "whatever"), "crash")
+  T.eq(policy.exceeded(pol(nil, 3, 10), "vs killed by SIGSEGV on host vision"),
+       "restart intensity 3 in 10 s exceeded; last: vs killed by SIGSEGV on host vision")
+end)
+
+suite:case("without_a_policy_a_crash_aborts_as_today", function()
+  local c = running(workers(nil))
+  c:kill("main.w.b", "SEGV")
+  c:settle(c.t + 1)
+  T.eq(c.outcome and c.outcome.type, "aborted")
+  T.eq(c.outcome.path, "main.w.b")
+  T.contains(c.outcome.reason, "killed by SIGSEGV")
+end)
+
+suite:case("one_for_one_restarts_only_the_crashed_child_and_the_task_carries_on", function()
+  local c, before, now = crash("one_for_one", "b")
+  T.ok(now["main.w.b"] and now["main.w.b"] ~= before["main.w.b"], "b is a new process")
+  T.eq({ now["main.w.a"], now["main.w.c"] }, { before["main.w.a"], before["main.w.c"] })
+  T.eq(c:node("main.w.b").running, true, "b runs again")
+  T.eq(lines(c, "^(main%.w%.b: restarted 1/3 in 10 s)"), { "main.w.b: restarted 1/3 in 10 s" })
+  c:node("main.w.c"):done(7)
+  c:settle(c.t + 1)
+  T.eq({ c.outcome.type, c.outcome.value }, { "done", 7 })
+end)
+
+suite:case("one_for_all_stops_in_reverse_and_starts_in_order", function()
+  local c, before, now = crash("one_for_all", "a")
+  for _, p in ipairs(ABC) do T.ok(now[p] ~= before[p], p .. " is a new process") end
+  T.eq(lines(c, "^(main%.w%.%a): stopping to restart"), { "main.w.c", "main.w.b" }, "LIFO (a had crashed)")
+  T.eq(lines(c, "^(main%.w%.%a): restarted"), { "main.w.a", "main.w.b", "main.w.c" })
+  for _, p in ipairs(ABC) do T.eq(c:node(p).running, true, p .. " runs again") end
+end)
+
+suite:case("rest_for_one_restarts_the_crashed_child_and_those_after_it", function()
+  local c, before, now = crash("rest_for_one", "b")
+  T.eq(now["main.w.a"], before["main.w.a"], "a is before b: untouched")
+  T.ok(now["main.w.b"] ~= before["main.w.b"] and now["main.w.c"] ~= before["main.w.c"])
+  T.eq(lines(c, "^(main%.w%.%a): stopping to restart"), { "main.w.c" })
+  T.eq(lines(c, "^(main%.w%.%a): restarted"), { "main.w.b", "main.w.c" })
+end)
+
+suite:case("past_the_intensity_the_group_escalates_and_names_the_crash", function()
+  local c = running(workers(pol("one_for_one", 2, 10)))
+  for _ = 1, 2 do
+    c:kill("main.w.b", "SEGV")
+    c:settle(c.t + 1)
+    T.eq(c.outcome, nil)
+  end
+  T.eq(#lines(c, "^(main%.w%.b: restarted %d/2 in 10 s)"), 2)
+  c:kill("main.w.b", "SEGV")
+  c:settle(c.t + 1)
+  T.eq(c.outcome and c.outcome.type, "aborted")
+  T.eq(c.outcome.path, "main.w.b")
+  T.eq(c.outcome.reason, "restart intensity 2 in 10 s exceeded; last: b killed by SIGSEGV on host h2")
+  T.eq(c:node("main.w.a").running, false, "the other children were stopped")
+end)
+
+suite:case("the_window_slides_restarts_older_than_it_do_not_count", function()
+  local c = running(workers(pol("one_for_one", 1, 5)))
+  for _ = 1, 3 do
+    c:kill("main.w.b", "SEGV")
+    pass(c, 6)
+    T.eq(c.outcome, nil, "one restart per 5 s is within the budget")
+  end
+  c:kill("main.w.b", "SEGV")
+  c:settle(c.t + 1)
+  c:kill("main.w.b", "SEGV")
+  c:settle(c.t + 1)
+  T.eq(c.outcome and c.outcome.type, "aborted", "two within 5 s is not")
+end)
+
+suite:case("faults_the_policy_does_not_name_go_to_the_algebra", function()
+  local c = running(workers(pol("one_for_one", 3, 10, { "lost" })))
+  c:kill("main.w.b", "SEGV")
+  c:settle(c.t + 1)
+  T.eq(c.outcome and c.outcome.path, "main.w.b")
+  local c2 = running(workers(pol("one_for_one", 3, 10, { "aborted" })))
+  local before = pid(c2, "main.w.b")
+  c2:node("main.w.b"):aborted("sensor fault")
+  c2:settle(c2.t + 1)
+  T.eq(c2.outcome, nil, "an ABORTED leaf restarted")
+  T.ok(pid(c2, "main.w.b") ~= before)
+  T.eq(c2:node("main.w.b").running, true)
+end)
+
+suite:case("a_lost_host_is_a_lost_fault", function()
+  local c = running(workers(pol("one_for_one", 3, 10, { "lost" })))
+  c:lose_host("h2")
+  c:settle(c.t + 1)
+  -- the restart on the same host fails (it is gone): the group escalates at once, naming it
+  T.eq(c.outcome and c.outcome.type, "aborted")
+  T.contains(c.outcome.reason, "restart of b failed: ")
+  T.contains(c.outcome.reason, "host h2 unreachable")
+end)
+
+-- Three levels: main (h1) > mid (h2) > low (h3) > leaf; each level's budget is `n` restarts.
+local function three_levels(n)
+  local low = group("low", "Low", "h3", "leaf , other", { leaf("leaf", "Run", "h3"), leaf("other", "Run", "h3") })
+  low.spec.supervision = pol("one_for_one", 2, 60)
+  local mid = group("mid", "Mid", "h2", "low", { low })
+  mid.spec.supervision = pol("one_for_one", n, 60)
+  local spec = root("main", "h1", "mid", { mid })
+  spec.supervision = pol("one_for_one", n, 60)
+  return spec
+end
+
+suite:case("escalation_climbs_three_levels_and_the_root_names_the_first_cause", function()
+  local c = running(three_levels(1))
+  local kills = 0
+  while not c.outcome and kills < 20 do
+    T.ok(c:kill("main.mid.low.leaf", "SEGV"), "the leaf lives (kill " .. kills + 1 .. ")")
+    kills = kills + 1
+    c:settle(c.t + 1)
+  end
+  -- low gives up after 3 crashes; mid restarts it once, then gives up; main restarts mid once, then gives up
+  T.eq(kills, 12)
+  T.eq(c.outcome.type, "aborted")
+  T.eq(c.outcome.path, "main.mid.low.leaf")
+  T.eq(c.outcome.reason, "restart intensity 1 in 60 s exceeded; last: mid escalated: restart intensity 1 in 60 s "
+    .. "exceeded; last: low escalated: restart intensity 2 in 60 s exceeded; last: leaf killed by SIGSEGV on host h3")
+  T.eq(#lines(c, "^(main%.mid: restarted 1/1 in 60 s)"), 1)
+  T.eq(#lines(c, "^(main%.mid%.low: restarted 1/1 in 60 s)"), 2)
+  c:settle(c.t + 5)
+end)
+
+suite:case("a_restarted_sub_group_is_wired_again_by_the_group_above", function()
+  -- main.src writes into main.g.x (a connection of main): after g's subtree restarts, the new x hears it
+  local g = group("g", "G", "h2", "x", { leaf("x", "Run", "h2") }, {}, { { alias = "In", instance = "x", port = "In" } })
+  local spec = root("main", "h1", "src[run] , g", { leaf("src", "Run", "h1"), g },
+    { fake.set("src", "run", { { "src", "Out", "g", "In" } }) })
+  spec.supervision = pol("one_for_one", 3, 10, { "crash", "lost", "aborted" })
+  local c = running(spec)
+  local before = pid(c, "main.g.x")
+  c:node("main.g.x"):aborted("stuck")
+  c:settle(c.t + 1)
+  T.eq(c.outcome, nil)
+  T.ok(pid(c, "main.g.x") ~= before, "a new subtree")
+  T.eq(c:node("main.g.x").running, true)
+  c:node("main.src"):write("Out", 5)
+  c:settle(c.t + 1)
+  T.eq(c:node("main.g.x").ports.In, 5, "the new leaf hears the writer of the group above")
+end)
+
+return suite:run(...)

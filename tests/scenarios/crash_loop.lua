@@ -1,0 +1,21 @@
+-- A crash loop ends by escalation (scripts/systems/test_crash_loop.dca), in memory and with real processes:
+-- crashy dies by SIGSEGV at its 5th tick every time it runs; its group restarts it 3 times within 60 s, then
+-- gives up: its other child stopped, the group ABORTED saying so, and the run ends ABORTED with that reason,
+-- rather than looping for ever.
+local S = require "dca.scenario"
+local src = os.getenv("DCA_SOURCE_DIR") or "."
+local sys = S.system(src .. "/scripts/systems/test_crash_loop.dca")
+
+S.step("the loop runs; crashy crashes and is restarted 3 times, then its group gives up", function()
+  sys:up()
+  local from = #sys:transitions()
+  sys:run()
+  local out = sys:wait_outcome(60)
+  S.eq(#sys:lines_matching("^main%.loop%.crashy: exited: killed by SIGSEGV", from), 4)
+  S.eq(#sys:lines_matching("^main%.loop%.crashy: restarted %d/3 in 60 s", from), 3)
+  S.eq(out.type, "aborted")
+  S.eq(out.path, "main.loop.crashy")
+  S.eq(out.reason, "restart intensity 3 in 60 s exceeded; last: crashy killed by SIGSEGV on host h1")
+  S.eq(#sys:lines_matching("^main%.loop%.steady: stopped", from), 1, "the other child stopped")
+end)
+return S.finish()

@@ -1,0 +1,55 @@
+-- Escalation through three levels on three hosts (scripts/systems/test_escalation.dca), in memory and with real
+-- processes (three daemons on loopback): main (h1) > mid (h2) > low (h3) > leaf. SIGSEGVs of the leaf are
+-- restarted by low twice (2 in 60 s); the third makes low give up (its children stopped, ABORTED, saying so);
+-- mid restarts low's whole subtree once (1 in 60 s), then gives up; main restarts mid's once, then gives up:
+-- the run ends ABORTED, the root's reason naming the leaf's crash, the first cause. Nothing loops.
+local S = require "dca.scenario"
+local src = os.getenv("DCA_SOURCE_DIR") or "."
+local sys = S.system(src .. "/scripts/systems/test_escalation.dca")
+local LEAF = "main.mid.low.leaf"
+
+-- Waits until `group` has been restarted (after line `from`) and the leaf runs in its new subtree.
+local function restarted(group, budget, from)
+  local line, at = sys:wait_restart(group, 30, from)
+  S.contains(line, group .. ": restarted " .. budget)
+  sys:wait_line(LEAF .. " running again", "^main%.mid%.low%.leaf: running", 30, at)
+end
+
+S.step("the tree runs on three hosts", function()
+  sys:up()
+  sys:run()
+  sys:wait_state(LEAF, "running", 10)
+  S.eq({ sys:host("main"), sys:host("main.mid"), sys:host("main.mid.low"), sys:host(LEAF) }, { "h1", "h2", "h3", "h3" })
+end)
+
+S.step("low restarts its leaf twice, then gives up; mid restarts low", function()
+  local from = #sys:transitions()
+  local kills, gave_up = sys:crash(LEAF, 3, "SEGV", 30)
+  S.eq(kills, 3)
+  S.eq(gave_up, "main.mid.low: restart intensity 2 in 60 s exceeded; last: leaf killed by SIGSEGV on host h3")
+  S.eq(#sys:lines_matching("^main%.mid%.low%.leaf: restarted %d/2 in 60 s", from), 2)
+  restarted("main.mid.low", "1/1 in 60 s", from)
+  S.eq(sys.outcome, nil, "the root's algebra saw nothing")
+end)
+
+S.step("low gives up again: mid is past its budget and gives up; main restarts mid", function()
+  local from = #sys:transitions()
+  S.eq(select(2, sys:crash(LEAF, 3, "SEGV", 30)) ~= nil, true)
+  S.contains(sys:wait_escalation("main.mid", 30, from),
+    "main.mid: restart intensity 1 in 60 s exceeded; last: low escalated: restart intensity 2 in 60 s exceeded")
+  restarted("main.mid", "1/1 in 60 s", from)
+end)
+
+S.step("the third time up: main gives up, the run ends ABORTED naming the leaf's crash", function()
+  local from = #sys:transitions()
+  sys:crash(LEAF, 3, "SEGV", 30)
+  restarted("main.mid.low", "1/1 in 60 s", from)
+  sys:crash(LEAF, 3, "SEGV", 30)
+  local out = sys:wait_outcome(30)
+  S.eq(out.type, "aborted")
+  S.eq(out.path, LEAF)
+  S.eq(out.reason, "restart intensity 1 in 60 s exceeded; last: mid escalated: restart intensity 1 in 60 s "
+    .. "exceeded; last: low escalated: restart intensity 2 in 60 s exceeded; last: leaf killed by SIGSEGV on host h3")
+  sys:wait_escalation("main", 30, from)
+end)
+return S.finish()
