@@ -17,6 +17,9 @@
 --   sup:restart(path, cb)     -- a group below: its expression again; a leaf below: a fresh process of it, wired
 --                             --   and running as before while the rest runs (sup:restart_leaf(name, cb) in the
 --                             --   leaf's own group). cb(true) | cb(nil, reason)
+--   sup:restart_host(ch, fault)  -- hook (failover): the host a child restarts on after `fault` (nil: its own)
+--   sup:policy_status()       -- the group's supervision policy and its budget used (nil without a policy)
+-- With spec.supervision, faults of its children are restarted by the policy (section "supervision policy").
 --   sup:handle(msg, reply)    -- a request from the parent (configure/run/abort/shutdown/node/tree/...)
 --   sup:child_message(name, msg)  -- an event from a child (leaf node: done/aborted; child DCAS: done/aborted/log/
 --                                 --   restarted {path}: a leaf below was restarted, its connections made again)
