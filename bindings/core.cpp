@@ -13,6 +13,7 @@ void open_inotify(lua_State* L);   // wrap_inotify.cpp
 void open_types(lua_State* L);     // wrap_types.cpp
 void open_process(lua_State* L);   // wrap_process.cpp
 void open_mcap(lua_State* L);      // wrap_mcap.cpp
+void open_taps(lua_State* L);      // wrap_taps.cpp
 }  // namespace dca::bindings
 
 extern "C" int luaopen_dca_core(lua_State* L) {
@@ -28,6 +29,7 @@ extern "C" int luaopen_dca_core(lua_State* L) {
   dca::bindings::open_types(L);
   dca::bindings::open_process(L);
   dca::bindings::open_mcap(L);
+  dca::bindings::open_taps(L);     // core.tap_point, core.foxglove
   dca::lua::register_loop(L);     // core.loop, core.after, core.every (wrap_loop.cpp)
   dca::lua::register_channel(L);  // core.connect, core.listen (wrap_channel.cpp)
   dca::lua::register_web(L);      // core.web_listen, core.json_encode/decode (wrap_web.cpp)

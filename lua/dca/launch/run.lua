@@ -194,6 +194,21 @@ function Run:start_monitor()
   return true
 end
 
+-- With --monitor: the run's live samples (dca.launch.live) on the monitor's server: every port (and world
+-- signal) a topic, tapped when a viewer subscribes (the page, or Foxglove on the same server). cb() after; a
+-- failure is said and the run goes on without them.
+function Run:start_live(cb)
+  local mon = self.monitor
+  if not mon then cb() return end
+  self.live = require("dca.launch.live").start(self.ctx, self.sup, mon.srv, function(ok, err)
+    if not ok then err_line(self, "live taps: ", tostring(err)) cb() return end
+    mon.on_subscribe = function(id) self.live:tap_id(id) end
+    self:say(sformat("foxglove: ws://%s/?token=%s (Foxglove, Lichtblick: foxglove.websocket.v1)", mon.srv:address(),
+      mon.srv:token()))
+    cb()
+  end)
+end
+
 -- reload: the file again (validated first; on an error the old version keeps running), or the modules.
 function Run:reload(what, cb)
   local reload = require "dca.reload"
@@ -266,7 +281,7 @@ function Run:bring_up()
     self:record_ports(function(tok, terr)
       if not tok then err_line(self, "--record-ports: ", tostring(terr)) self:stop_all(3) return end
       deadline:cancel()
-      self:run_root()
+      self:start_live(function() self:run_root() end)
     end)
   end)
 end
@@ -343,6 +358,7 @@ function M.main(spec, o, out)
   if o.watch then r:watch() end
   r:start_world()
   r.loop:run()
+  if r.live then r.live:close() end
   if r.monitor then r.monitor:close() end
   start.cleanup(r.ctx)
   return r.code or 1

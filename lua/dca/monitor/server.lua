@@ -248,6 +248,7 @@ function Mon:_message(c, text)
   end
   if m.type == "subscribe" and tonumber(m.topic) then
     c:subscribe(math.floor(tonumber(m.topic)), math.min(tonumber(m.rate) or 30, 200))
+    if self.on_subscribe then self.on_subscribe(math.floor(tonumber(m.topic))) end  -- a port's tap (dca.launch.live)
   elseif m.type == "command" then
     self:_command(c, m)
   elseif self.o.on_message and self.o.on_message(self, c, m) then

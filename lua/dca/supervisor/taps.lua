@@ -10,7 +10,9 @@
 --   taps.connect(sup, list, to, opts, cb)  -- each output linked to the tap input "tap:PATH" of component `to`
 --                                             (stamped, in its own set "tap:PATH", activated); opts.prepare(p, k)
 --                                             first if given (e.g. the world's `tap` request; k(true) |
---                                             k(nil, err)), opts.queue (the tap input's queue, default 256).
+--                                             k(nil, err)), opts.queue (the tap input's queue, default 256),
+--                                             opts.send(leaf, msg, timeout, cb(reply | nil, err)) (default
+--                                             sup:to_leaf: e.g. the world's own signals go to the world).
 --                                             cb(true) | cb(nil, the first error, naming the port)
 local spec_mod = require "dca.supervisor.spec"
 
@@ -71,11 +73,12 @@ local function tap_one(sup, p, to, opts, k)
   local function fail(what, r, err)
     k(nil, sformat("tap %s: %s: %s", p.path, what, r and r.reason or tostring(err)))
   end
+  local send = opts.send or function(leaf, msg, timeout, cb) sup:to_leaf(leaf, msg, timeout, cb) end
   local function link()
-    sup:to_leaf(p.leaf, { type = "connect", out = p.port, to = to, ["in"] = set, set = set, mode = "push",
-                          queue = opts.queue or 256, stamped = true }, sup.timeouts.connect, function(r, err)
+    send(p.leaf, { type = "connect", out = p.port, to = to, ["in"] = set, set = set, mode = "push",
+                   queue = opts.queue or 256, stamped = true }, sup.timeouts.connect, function(r, err)
       if not r or r.type == "error" then fail("connecting", r, err) return end
-      sup:to_leaf(p.leaf, { type = "activate", set = set }, sup.timeouts.connect, function(r2, err2)
+      send(p.leaf, { type = "activate", set = set }, sup.timeouts.connect, function(r2, err2)
         if not r2 or r2.type == "error" then fail("activating", r2, err2) return end
         k(true)
       end)

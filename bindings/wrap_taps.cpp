@@ -1,0 +1,228 @@
+// dca.TapPoint and core.foxglove: live taps (host/tap.h) whose samples feed the live samples of the monitor's
+// server (host/web, host/sample_hub), and the Foxglove WebSocket protocol (host/foxglove.h) on that server.
+//
+//   local tp, err = core.tap_point{ name = "taps:main@123", host = "h1", key_file = PATH, tcp = "127.0.0.1:0",
+//                                   server = srv }       -- srv: a dca.WebServer (core.web_listen)
+//   tp:endpoints()   --> { host =, data_uds =, data_tcp = }   (what the daemon's `register` takes)
+//   tp:add(path, port_type, size, units, queue) --> the topic ("/main/door/hit/Force") | nil, err: its samples go
+//                    to that topic of srv's samples (fields "value", or "value[0]".. for a vector; a value
+//                    port's samples are counted, not published)
+//   tp:stats()       --> { [path] = { taken =, dropped =, unpublished = } }
+//   tp:close()
+//   core.foxglove(srv, { name = "dca main", subscribe = fn(topic), unsubscribe = fn(topic) })
+//                    -- serves foxglove.websocket.v1 on srv: subscribe(topic) runs when a channel gets its first
+//                    -- subscriber, unsubscribe(topic) when it loses its last
+#include <lua.hpp>
+
+#include <unistd.h>
+
+#include <cstdio>
+#include <map>
+#include <memory>
+#include <vector>
+
+#include "bindings/lua_loop.h"
+#include "bindings/lua_support.h"
+#include "bindings/wrap_web.h"
+#include "host/auth.h"
+#include "host/foxglove.h"
+#include "host/paths.h"
+#include "host/tap.h"
+
+namespace dca::bindings {
+namespace {
+
+constexpr const char* kMeta = "dca.TapPoint";
+
+struct TapUD {
+  std::unique_ptr<tap::TapPoint> point;
+  std::weak_ptr<web::Server> server;
+  std::map<std::string, std::uint32_t> topics;        // path -> topic id in the server's samples
+  std::map<std::string, std::uint64_t> unpublished;  // path -> samples not published (value ports, no server)
+};
+
+TapUD* check(lua_State* L) {
+  auto* ud = static_cast<TapUD*>(luaL_checkudata(L, 1, kMeta));
+  if (!ud->point) luaL_error(L, "dca.TapPoint: closed");
+  return ud;
+}
+
+std::string string_field(lua_State* L, int index, const char* name, const char* fallback) {
+  lua_getfield(L, index, name);
+  std::string s = lua_type(L, -1) == LUA_TSTRING ? lua_tostring(L, -1) : fallback;
+  lua_pop(L, 1);
+  return s;
+}
+
+// Publishes a tap's sample into the server's topic of its path.
+void publish(TapUD& ud, tap::Taps::Tap& t, std::int64_t at, Bytes sample) {
+  auto server = ud.server.lock();
+  auto id = ud.topics.find(t.path);
+  thread_local std::vector<double> values;
+  if (!server || id == ud.topics.end() || !tap::sample_values(t.spec, sample, values)) {
+    ++ud.unpublished[t.path];
+    return;
+  }
+  server->samples().publish(id->second, at, values);
+}
+
+int core_tap_point(lua_State* L) {
+  luaL_checktype(L, 1, LUA_TTABLE);
+  const std::string name = string_field(L, 1, "name", "");
+  const std::string host = string_field(L, 1, "host", "");
+  const std::string key_file = string_field(L, 1, "key_file", "");
+  const std::string tcp = string_field(L, 1, "tcp", "127.0.0.1:0");
+  luaL_argcheck(L, !name.empty() && !host.empty(), 1, "{ name = ..., host = ... } needed");
+  std::shared_ptr<web::Server> server;
+  lua_getfield(L, 1, "server");
+  if (!lua_isnil(L, -1)) server = lua::check_web_server(L, -1);
+  lua_pop(L, 1);
+  auto* ud = static_cast<TapUD*>(lua_newuserdatauv(L, sizeof(TapUD), 0));
+  new (ud) TapUD{};
+  luaL_setmetatable(L, kMeta);
+  char err[512] = {};
+  {
+    std::string error;
+    try {
+      auto key = auth::load_key(auth::key_file_path(key_file), &error);
+      if (key) {
+        EndpointOptions o;
+        o.key = *key;
+        static int made = 0;
+        const std::string uds = runtime_dir() + "/taps-" + std::to_string(::getpid()) + "-" + std::to_string(made++) + ".sock";
+        ud->point = std::make_unique<tap::TapPoint>(lua::loop_state(L).loop.io(), host, name, std::move(o), uds, tcp);
+        ud->server = server;
+        ud->point->on_sample = [ud](tap::Taps::Tap& t, std::int64_t at, Bytes sample) { publish(*ud, t, at, sample); };
+      }
+    } catch (const std::exception& e) {
+      error = e.what();
+    }
+    if (!ud->point) std::snprintf(err, sizeof err, "tap point %s: %s", name.c_str(), error.c_str());
+  }
+  if (ud->point) return 1;
+  lua_pushnil(L);
+  lua_pushstring(L, err);
+  return 2;
+}
+
+int tp_endpoints(lua_State* L) {
+  TapUD* ud = check(L);
+  const Location loc = ud->point->location();
+  lua_createtable(L, 0, 3);
+  lua_pushstring(L, ud->point->endpoint().host().c_str());
+  lua_setfield(L, -2, "host");
+  lua_pushstring(L, loc.data_uds.c_str());
+  lua_setfield(L, -2, "data_uds");
+  lua_pushstring(L, loc.data_tcp.c_str());
+  lua_setfield(L, -2, "data_tcp");
+  return 1;
+}
+
+// The topic's fields for a port of spec `s`: "value", "value[0]".. (vector), none (a vector of any size).
+std::vector<std::string> fields_of(const PortSpec& s) {
+  if (s.type == PortType::Scalar) return {"value"};
+  std::vector<std::string> f;
+  if (s.type == PortType::Vector)
+    for (std::uint32_t i = 0; i < s.size; ++i) f.push_back("value[" + std::to_string(i) + "]");
+  return f;
+}
+
+int tp_add(lua_State* L) {
+  TapUD* ud = check(L);
+  const std::string path = luaL_checkstring(L, 2);
+  const char* type = luaL_checkstring(L, 3);
+  const auto size = static_cast<std::uint32_t>(luaL_optinteger(L, 4, 1));
+  const char* units = luaL_optstring(L, 5, "");
+  const auto queue = static_cast<std::size_t>(luaL_optinteger(L, 6, 64));
+  char err[512] = {};
+  std::string topic;
+  {
+    std::string error;
+    const auto t = port_type_from(type);
+    if (!t) {
+      error = std::string("unknown port type '") + type + "'";
+    } else if (ud->point->add(path, {path, *t, size, units, {}}, std::min<std::size_t>(queue, 4096), &error)) {
+      topic = tap::topic_of(path);
+      auto server = ud->server.lock();
+      if (server && *t != PortType::Value && !ud->topics.count(path))
+        ud->topics[path] = server->samples().add_topic(topic, fields_of({path, *t, size, units, {}}));
+    }
+    if (topic.empty()) std::snprintf(err, sizeof err, "tap %s: %s", path.c_str(), error.c_str());
+  }
+  if (!topic.empty()) {
+    lua_pushlstring(L, topic.data(), topic.size());
+    return 1;
+  }
+  lua_pushnil(L);
+  lua_pushstring(L, err);
+  return 2;
+}
+
+int tp_stats(lua_State* L) {
+  TapUD* ud = check(L);
+  lua_newtable(L);
+  for (const auto& t : ud->point->taps().all()) {
+    lua_createtable(L, 0, 3);
+    lua_pushinteger(L, static_cast<lua_Integer>(t->taken));
+    lua_setfield(L, -2, "taken");
+    lua_pushinteger(L, static_cast<lua_Integer>(t->dropped() + t->malformed));
+    lua_setfield(L, -2, "dropped");
+    lua_pushinteger(L, static_cast<lua_Integer>(ud->unpublished[t->path]));
+    lua_setfield(L, -2, "unpublished");
+    lua_setfield(L, -2, t->path.c_str());
+  }
+  return 1;
+}
+
+int tp_close(lua_State* L) {
+  auto* ud = static_cast<TapUD*>(luaL_checkudata(L, 1, kMeta));
+  ud->point.reset();
+  return 0;
+}
+
+int tp_gc(lua_State* L) {
+  auto* ud = static_cast<TapUD*>(luaL_checkudata(L, 1, kMeta));
+  ud->~TapUD();
+  return 0;
+}
+
+int core_foxglove(lua_State* L) {
+  auto server = lua::check_web_server(L, 1);
+  luaL_checktype(L, 2, LUA_TTABLE);
+  const std::string name = string_field(L, 2, "name", "dca");
+  lua::LoopState& ls = lua::loop_state(L);
+  std::shared_ptr<lua::LuaRef> on_sub, on_unsub;
+  lua_getfield(L, 2, "subscribe");
+  if (lua_isfunction(L, -1)) on_sub = std::make_shared<lua::LuaRef>(L, -1, ls);
+  lua_getfield(L, 2, "unsubscribe");
+  if (lua_isfunction(L, -1)) on_unsub = std::make_shared<lua::LuaRef>(L, -1, ls);
+  lua_pop(L, 2);
+  auto proto = std::make_shared<foxglove::Protocol>(server, name);
+  auto call = [](const std::shared_ptr<lua::LuaRef>& fn) {
+    return [fn](const std::string& topic) {
+      if (fn) lua::invoke(*fn, [topic](lua_State* S) {
+          lua_pushlstring(S, topic.data(), topic.size());
+          return 1;
+        });
+    };
+  };
+  proto->on_first_subscribe = call(on_sub);
+  proto->on_last_unsubscribe = call(on_unsub);
+  server->add_protocol(foxglove::kSubprotocol, proto);
+  lua_pushboolean(L, 1);
+  return 1;
+}
+
+}  // namespace
+
+void open_taps(lua_State* L) {
+  static const luaL_Reg methods[] = {{"endpoints", tp_endpoints}, {"add", tp_add},   {"stats", tp_stats},
+                                     {"close", tp_close},         {nullptr, nullptr}};
+  lua::register_type(L, kMeta, methods, {tp_gc, tp_close, nullptr});
+  lua_pushcfunction(L, core_tap_point);
+  lua_setfield(L, -2, "tap_point");
+  lua_pushcfunction(L, core_foxglove);
+  lua_setfield(L, -2, "foxglove");
+}
+
+}  // namespace dca::bindings

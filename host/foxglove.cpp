@@ -1,0 +1,224 @@
+#include "host/foxglove.h"
+
+#include <cstring>
+
+#include "host/json.h"
+
+namespace dca::foxglove {
+
+using wire::Value;
+
+namespace {
+
+// A topic's fields grouped: "x[0]", "x[1]" -> one array "x" of 2; "door_angle" -> one number.
+struct Field {
+  std::string name;
+  bool array = false;
+  std::size_t count = 1;
+};
+
+std::vector<Field> layout(const SampleHub::Topic& t) {
+  std::vector<Field> out;
+  if (t.fields.empty()) return {{"value", true, 0}};  // every value, as one array
+  for (const auto& f : t.fields) {
+    const auto open = f.find('[');
+    const bool indexed = open != std::string::npos && open > 0 && f.back() == ']';
+    const std::string base = indexed ? f.substr(0, open) : f;
+    if (indexed && !out.empty() && out.back().array && out.back().name == base) {
+      ++out.back().count;
+      continue;
+    }
+    out.push_back({base, indexed, 1});
+  }
+  return out;
+}
+
+}  // namespace
+
+std::string schema_of(const SampleHub::Topic& topic) {
+  std::string s = "{\"type\":\"object\",\"title\":";
+  json::append_string(s, topic.name);
+  s += ",\"properties\":{";
+  bool first = true;
+  for (const auto& f : layout(topic)) {
+    if (!first) s += ',';
+    first = false;
+    json::append_string(s, f.name);
+    if (!f.array) {
+      s += ":{\"type\":\"number\"}";
+    } else {
+      s += ":{\"type\":\"array\",\"items\":{\"type\":\"number\"}";
+      if (f.count) s += ",\"minItems\":" + std::to_string(f.count) + ",\"maxItems\":" + std::to_string(f.count);
+      s += '}';
+    }
+  }
+  return s + "}}";
+}
+
+std::string message_of(const SampleHub::Topic& topic, std::span<const double> values) {
+  std::string s = "{";
+  std::size_t k = 0;
+  bool first = true;
+  for (const auto& f : layout(topic)) {
+    if (k >= values.size()) break;
+    if (!first) s += ',';
+    first = false;
+    json::append_string(s, f.name);
+    s += ':';
+    if (!f.array) {
+      json::append_number(s, values[k++]);
+      continue;
+    }
+    const std::size_t n = f.count ? f.count : values.size() - k;
+    s += '[';
+    for (std::size_t i = 0; i < n && k < values.size(); ++i, ++k) {
+      if (i) s += ',';
+      json::append_number(s, values[k]);
+    }
+    s += ']';
+  }
+  return s + "}";
+}
+
+Protocol::Protocol(const std::shared_ptr<web::Server>& server, std::string name) : server_(server), name_(std::move(name)) {
+  server->samples().add_observer(this);
+}
+
+Protocol::~Protocol() {
+  if (auto s = server_.lock()) s->samples().remove_observer(this);
+}
+
+void Protocol::on_open(const web::Connection::Ptr& c) {
+  Client& cl = clients_[c->id()];
+  cl.conn = c;
+  const Value info = Value::map()
+                         .set("op", "serverInfo")
+                         .set("name", name_)
+                         .set("capabilities", Value::array())
+                         .set("sessionId", web::random_token(8));
+  c->send(json::encode(info));
+  std::vector<const SampleHub::Topic*> all;
+  if (auto s = server_.lock())
+    for (const auto& [id, t] : s->samples().topics()) all.push_back(&t);
+  advertise(cl, all);
+}
+
+void Protocol::advertise(Client& c, const std::vector<const SampleHub::Topic*>& topics) {
+  Value channels = Value::array();
+  for (const auto* t : topics)
+    channels.array_ref().push_back(Value::map()
+                                       .set("id", static_cast<std::int64_t>(t->id))
+                                       .set("topic", t->name)
+                                       .set("encoding", "json")
+                                       .set("schemaName", t->name)
+                                       .set("schema", schema_of(*t))
+                                       .set("schemaEncoding", "jsonschema"));
+  c.conn->send(json::encode(Value::map().set("op", "advertise").set("channels", std::move(channels))));
+}
+
+void Protocol::status(Client& c, int level, const std::string& message) {
+  c.conn->send(json::encode(Value::map().set("op", "status").set("level", level).set("message", message)));
+}
+
+void Protocol::on_message(const web::Connection::Ptr& c, std::string_view data, bool binary) {
+  auto it = clients_.find(c->id());
+  if (it == clients_.end()) return;
+  Client& cl = it->second;
+  if (binary) return status(cl, 2, "this server takes no client messages (no clientPublish)");
+  Value msg;
+  std::string error;
+  if (!json::decode(data, &msg, &error) || !msg.is_map()) return status(cl, 2, "not a JSON object: " + error);
+  const std::string op = msg["op"].as_string();
+  if (op == "subscribe") return subscribe(cl, msg);
+  if (op == "unsubscribe") return unsubscribe(cl, msg);
+  status(cl, 1, "unsupported operation '" + op + "'");
+}
+
+void Protocol::subscribe(Client& c, const Value& msg) {
+  for (const auto& s : msg["subscriptions"].as_array()) {
+    if (!s["id"].is_int() || !s["channelId"].is_int() || s["id"].as_int() < 0) {
+      status(c, 2, "subscribe: each subscription needs an id and a channelId");
+      continue;
+    }
+    const auto id = static_cast<std::uint32_t>(s["id"].as_int());
+    const auto channel = static_cast<std::uint32_t>(s["channelId"].as_int());
+    if (c.subs.count(id)) {
+      status(c, 2, "subscribe: subscription id " + std::to_string(id) + " is in use");
+      continue;
+    }
+    const auto server = server_.lock();
+    const auto* t = server ? server->samples().topic(channel) : nullptr;
+    if (!t) {
+      status(c, 2, "subscribe: no channel " + std::to_string(channel));
+      continue;
+    }
+    c.subs[id] = channel;
+    count(channel, 1);
+  }
+}
+
+void Protocol::unsubscribe(Client& c, const Value& msg) {
+  for (const auto& s : msg["subscriptionIds"].as_array()) {
+    auto it = c.subs.find(static_cast<std::uint32_t>(s.as_int(-1)));
+    if (it == c.subs.end()) continue;
+    const auto channel = it->second;
+    c.subs.erase(it);
+    count(channel, -1);
+  }
+}
+
+// The subscriptions of `channel` over every client: the first and the last are told.
+void Protocol::count(std::uint32_t channel, int delta) {
+  int& n = subscribers_[channel];
+  n += delta;
+  const auto server = server_.lock();
+  const auto* t = server ? server->samples().topic(channel) : nullptr;
+  if (delta > 0 && n == 1 && t && on_first_subscribe) on_first_subscribe(t->name);
+  if (n <= 0) {
+    subscribers_.erase(channel);
+    if (delta < 0 && t && on_last_unsubscribe) on_last_unsubscribe(t->name);
+  }
+}
+
+void Protocol::on_close(const web::Connection::Ptr& c, const std::string&) {
+  auto it = clients_.find(c->id());
+  if (it == clients_.end()) return;
+  const auto subs = std::move(it->second.subs);
+  clients_.erase(it);
+  for (const auto& [id, channel] : subs) count(channel, -1);
+}
+
+void Protocol::on_topic(const SampleHub::Topic& t) {
+  for (auto& [id, c] : clients_) advertise(c, {&t});
+}
+
+void Protocol::on_topic_removed(std::uint32_t id) {
+  const std::string m =
+      json::encode(Value::map().set("op", "unadvertise").set("channelIds", Value::Array{Value(static_cast<std::int64_t>(id))}));
+  for (auto& [cid, c] : clients_) {
+    std::erase_if(c.subs, [id](const auto& s) { return s.second == id; });
+    c.conn->send(m);
+  }
+  subscribers_.erase(id);
+}
+
+void Protocol::on_sample(const SampleHub::Topic& t, std::int64_t t_ns, std::span<const double> values) {
+  if (!subscribers_.count(t.id)) return;
+  std::string payload;
+  for (auto& [cid, c] : clients_) {
+    for (const auto& [sub, channel] : c.subs) {
+      if (channel != t.id) continue;
+      if (payload.empty()) payload = message_of(t, values);
+      std::string frame(1 + 4 + 8, '\0');
+      frame[0] = 1;  // Message Data
+      const std::uint64_t ts = t_ns < 0 ? 0 : static_cast<std::uint64_t>(t_ns);
+      for (int i = 0; i < 4; ++i) frame[1 + i] = static_cast<char>((sub >> (8 * i)) & 0xff);
+      for (int i = 0; i < 8; ++i) frame[5 + i] = static_cast<char>((ts >> (8 * i)) & 0xff);
+      frame += payload;
+      if (c.conn->send(std::move(frame), true, true)) ++sent_;
+      else ++dropped_;
+    }
+  }
+}
+
+}  // namespace dca::foxglove

@@ -1,0 +1,85 @@
+#pragma once
+// The Foxglove WebSocket protocol (`foxglove.websocket.v1`, github.com/foxglove/ws-protocol docs/spec.md) on the
+// monitor's server (host/web): Foxglove, Lichtblick and any ws-protocol client connect to a running system on the
+// same port as the monitor's page (the subprotocol chooses), with the same token (`?token=T` in the URL), and
+// plot its ports and the world's signals live.
+//
+// Channels are the topics of the server's SampleHub (host/sample_hub.h): the ports tapped live (host/tap.h,
+// "/main/door/hit/Force") and whatever else publishes there ("/world/door"). Each is advertised with encoding
+// "json" and a JSON Schema (schemaEncoding "jsonschema") made from the topic's fields: fields named "x[0]",
+// "x[1]", ... form one array "x"; a topic without fields has one array "value". A message is one sample as such
+// a JSON object, its timestamp the sample's time (simulated time in simulated runs), the same objects and topics
+// as the MCAP recordings (`--record-ports`), so one layout serves both.
+//
+// Server -> client: serverInfo (at open; no optional capability), advertise (at open: every topic; later: each
+// new one), unadvertise (a topic removed), status (a refused request), binary Message Data (opcode 1,
+// subscription id, timestamp in ns, the JSON payload; little-endian). Client -> server: subscribe
+// {subscriptions: [{id, channelId}]}, unsubscribe {subscriptionIds}. Anything else is answered with a status
+// (level 1 or 2) and ignored; a malformed message too; the connection stays. Samples are sent droppable
+// (host/web: a slow client loses samples, counted, and never stalls the loop).
+//
+// When a channel gets its first subscriber (over every connection) on_first_subscribe(topic) runs, and when its
+// last one goes on_last_unsubscribe(topic): the run makes its tap then (a tap costs nothing until someone looks).
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "host/sample_hub.h"
+#include "host/web.h"
+#include "host/wire.h"
+
+namespace dca::foxglove {
+
+/// The subprotocol's name.
+inline constexpr const char* kSubprotocol = "foxglove.websocket.v1";
+
+/// The JSON Schema of a topic's messages (see the header).
+std::string schema_of(const SampleHub::Topic& topic);
+/// One sample of `topic` as its JSON message (non-finite numbers as null).
+std::string message_of(const SampleHub::Topic& topic, std::span<const double> values);
+
+class Protocol final : public web::Protocol, public SampleHub::Observer {
+ public:
+  /// Serves the topics of `server`'s samples() as `name` (serverInfo's name); observes them while the server lives
+  /// (a connection may hold the protocol longer than the server).
+  Protocol(const std::shared_ptr<web::Server>& server, std::string name);
+  ~Protocol() override;
+  Protocol(const Protocol&) = delete;
+  Protocol& operator=(const Protocol&) = delete;
+
+  void on_open(const web::Connection::Ptr& c) override;
+  void on_message(const web::Connection::Ptr& c, std::string_view data, bool binary) override;
+  void on_close(const web::Connection::Ptr& c, const std::string& reason) override;
+
+  void on_topic(const SampleHub::Topic& t) override;
+  void on_topic_removed(std::uint32_t id) override;
+  void on_sample(const SampleHub::Topic& t, std::int64_t t_ns, std::span<const double> values) override;
+
+  std::function<void(const std::string& topic)> on_first_subscribe, on_last_unsubscribe;
+  /// Message Data frames sent, and those the connections dropped (slow clients).
+  std::uint64_t sent() const { return sent_; }
+  std::uint64_t dropped() const { return dropped_; }
+
+ private:
+  struct Client {
+    web::Connection::Ptr conn;
+    std::map<std::uint32_t, std::uint32_t> subs;  // subscription id -> channel (topic id)
+  };
+  void advertise(Client& c, const std::vector<const SampleHub::Topic*>& topics);
+  void status(Client& c, int level, const std::string& message);
+  void subscribe(Client& c, const wire::Value& msg);
+  void unsubscribe(Client& c, const wire::Value& msg);
+  void count(std::uint32_t channel, int delta);
+
+  std::weak_ptr<web::Server> server_;
+  std::string name_;
+  std::map<std::uint64_t, Client> clients_;          // by connection id
+  std::map<std::uint32_t, int> subscribers_;         // channel -> subscriptions over every client
+  std::uint64_t sent_ = 0, dropped_ = 0;
+};
+
+}  // namespace dca::foxglove

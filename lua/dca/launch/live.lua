@@ -1,0 +1,141 @@
+-- dca.launch.live: the live samples of a run for its viewers (ARCHITECTURE.md "Taps"): every output of the tree,
+-- and with --sim every signal of the world, is a topic of the monitor's server's live samples ("/main/door/hit/
+-- Force", "/world/arm/q": the recordings' topics), tapped (host/tap.h) into a tap point of the root's process when
+-- a viewer first subscribes to it. The server also speaks the Foxglove WebSocket protocol (core.foxglove), so
+-- Foxglove and Lichtblick connect to ws://ADDR/?token=T and plot them; the monitor's page subscribes to the same
+-- topics (live:tap_topic).
+--
+--   local live, err = require("dca.launch.live").start(ctx, sup, srv, cb)
+--       ctx: the start context (spec, hosts, key, sim), sup: the root supervisor, srv: the dca.WebServer;
+--       cb(true) | cb(nil, err) once the topics are made (the world's signals asked of the world)
+--   live:tap_topic(topic, cb)  -- the tap of that topic, made once: cb(true) | cb(nil, err)
+--   live:tap_id(id, cb)        -- the same by the topic's id (the monitor's page subscribes by id)
+--   live:stats()               -- { [path] = { taken, dropped, unpublished } }
+--   live:close()
+local core = require "dca.core"
+local clients = require "dca.clients"
+local taps = require "dca.supervisor.taps"
+
+local M = {}
+
+local ipairs, tostring, sformat, concat = ipairs, tostring, string.format, table.concat
+
+local Live = {}
+Live.__index = Live
+
+--- The topic of the output at `path` (host/tap.h tap::topic_of).
+function M.topic_of(path) return "/" .. path:gsub("%.", "/") end
+
+-- The fields of a port's topic (as bindings/wrap_taps.cpp makes them): "value", "value[0]".., none (vectorx).
+local function fields_of(p)
+  if p.type == "scalar" then return { "value" } end
+  local f = {}
+  if p.type == "vector" then for i = 0, (p.size or 0) - 1 do f[#f + 1] = sformat("value[%d]", i) end end
+  return f
+end
+
+-- Makes the topics of `list` (value ports have none: not numbers).
+function Live:_topics(list)
+  local have = {}
+  for _, t in ipairs(self.srv:topics()) do have[t.name] = true end
+  for _, p in ipairs(list) do
+    local topic = M.topic_of(p.path)
+    if p.type ~= "value" and not have[topic] then
+      self.by_topic[topic] = p
+      self.srv:topic(topic, fields_of(p))
+    end
+  end
+end
+
+--- Starts the tap point, registers it at the root's daemon, makes the topics and serves Foxglove. (see the header)
+function M.start(ctx, sup, srv, cb)
+  local spec = ctx.spec
+  local daemon = ctx.hosts[spec.host]
+  local ip = tostring(daemon):match("^(%d+%.%d+%.%d+%.%d+):%d+$") or "127.0.0.1"
+  local name = sformat("taps:%s@%d", spec.path, core.pid())
+  local tp, err = core.tap_point{ name = name, host = spec.host, key_file = ctx.key, tcp = ip .. ":0", server = srv }
+  if not tp then cb(nil, err) return end
+  local self = setmetatable({ tp = tp, name = name, sup = sup, srv = srv, ctx = ctx, by_topic = {}, tapped = {} }, Live)
+  self:_topics(taps.outputs(spec, sup.rt.types and sup.rt.types() or core.types()))
+  core.foxglove(srv, { name = "dca " .. spec.path, subscribe = function(topic) self:tap_topic(topic) end })
+  require("dca.clients.daemon").connect(daemon, clients.key_opts(ctx.key), function(d, derr)
+    if not d then cb(nil, sformat("live taps: the daemon of %s: %s", spec.host, tostring(derr))) return end
+    self.daemon = d
+    d:register(name, tp:endpoints(), clients.result(function(r, rerr)
+      if not r then cb(nil, "live taps: " .. tostring(rerr)) return end
+      self:_world_topics(cb)
+    end))
+  end)
+  return self
+end
+
+-- With --sim: the world's signals ("world.arm.q": its outputs, as its `ports` lists them) are topics too.
+function Live:_world_topics(cb)
+  local s = self.ctx.sim
+  if not (s and s.world:connected()) then cb(true) return end
+  s.world:request({ type = "ports" }, 10, function(r)
+    local list = {}
+    for _, o in ipairs(r and r.outputs or {}) do
+      list[#list + 1] = { path = "world." .. o.name, leaf = "world", port = o.name, type = o.type, size = o.size,
+                          units = o.units or "" }
+    end
+    self:_topics(list)
+    cb(true)
+  end)
+end
+
+-- The connection requests of a tap: to the world on its own channel, to a leaf through the tree.
+function Live:_send(leaf, msg, timeout, k)
+  if leaf ~= "world" then self.sup:to_leaf(leaf, msg, timeout, k) return end
+  local s = self.ctx.sim
+  if not (s and s.world:connected()) then k(nil, "the world is not connected") return end
+  s.world:request(msg, timeout, function(r, err) k(r or { type = "error", reason = err }) end)
+end
+
+function Live:tap_topic(topic, cb)
+  cb = cb or function(ok, err) if not ok then io.stderr:write("dca run: live tap ", tostring(topic), ": ", tostring(err), "\n") end end
+  local p = self.by_topic[topic]
+  if not p then cb(nil, "no port has the topic " .. tostring(topic)) return end
+  local state = self.tapped[topic]
+  if state == true then cb(true) return end
+  if state then state[#state + 1] = cb return end  -- being made
+  local waiting = { cb }
+  self.tapped[topic] = waiting
+  local added, aerr = self.tp:add(p.path, p.type, p.size, p.units, 64)
+  local function finish(ok, err)
+    self.tapped[topic] = ok and true or nil
+    if ok then self.ctx.say(sformat("live: tapped %s (%s)", p.path, topic)) end
+    for _, w in ipairs(waiting) do w(ok, err) end
+  end
+  if not added then finish(nil, aerr) return end
+  taps.connect(self.sup, { p }, self.name, { queue = 64, send = function(leaf, msg, timeout, k) self:_send(leaf, msg, timeout, k) end },
+    finish)
+end
+
+--- The tap of the topic with id `id` in the server's live samples (the monitor's page subscribes by id).
+function Live:tap_id(id, cb)
+  for _, t in ipairs(self.srv:topics()) do
+    if t.id == id then
+      if self.by_topic[t.name] then self:tap_topic(t.name, cb) elseif cb then cb(true) end
+      return
+    end
+  end
+  if cb then cb(nil, "no topic " .. tostring(id)) end
+end
+
+function Live:stats() return self.tp:stats() end
+
+function Live:close()
+  if self.daemon then self.daemon:close() self.daemon = nil end
+  self.tp:close()
+end
+
+-- The names of the topics, for messages.
+function Live:topics()
+  local out = {}
+  for t in pairs(self.by_topic) do out[#out + 1] = t end
+  table.sort(out)
+  return concat(out, ", ")
+end
+
+return M

@@ -1,0 +1,98 @@
+// The Foxglove WebSocket protocol (host/foxglove.h) on a fake connection: serverInfo and advertise at open, JSON
+// Schemas and messages from a topic's fields, subscribe/unsubscribe (first and last told), binary Message Data
+// (subscription id, timestamp, payload; little-endian), malformed and unknown requests answered with a status.
+#include "host/foxglove.h"
+
+#include <gtest/gtest.h>
+
+#include <boost/asio/io_context.hpp>
+
+#include "host/json.h"
+
+namespace {
+
+class FakeConnection : public dca::web::Connection {
+ public:
+  bool send(std::string data, bool binary, bool) override {
+    (binary ? frames : texts).push_back(std::move(data));
+    return true;
+  }
+  void close(const std::string&) override {}
+  bool is_open() const override { return true; }
+  void subscribe(std::uint32_t, double) override {}
+  std::uint64_t id() const override { return 1; }
+  const std::string& protocol() const override { return proto; }
+  const std::string& peer() const override { return proto; }
+  dca::web::ConnectionStats stats() const override { return {}; }
+  std::string proto = "foxglove.websocket.v1";
+  std::vector<std::string> texts, frames;
+};
+
+dca::wire::Value decoded(const std::string& text) {
+  dca::wire::Value v;
+  std::string error;
+  EXPECT_TRUE(dca::json::decode(text, &v, &error)) << error;
+  return v;
+}
+
+TEST(Foxglove, SchemasAndMessagesFollowTheTopicsFields) {
+  dca::SampleHub::Topic vec{1, "/main/a/Vel", {"value[0]", "value[1]"}, 0};
+  dca::SampleHub::Topic door{2, "/world/door", {"door_angle", "handle_angle"}, 0};
+  dca::SampleHub::Topic any{3, "/main/a/X", {}, 0};
+  EXPECT_EQ(dca::foxglove::schema_of(vec),
+            "{\"type\":\"object\",\"title\":\"/main/a/Vel\",\"properties\":{\"value\":{\"type\":\"array\",\"items\":"
+            "{\"type\":\"number\"},\"minItems\":2,\"maxItems\":2}}}");
+  const double v[] = {1.5, -2};
+  EXPECT_EQ(dca::foxglove::message_of(vec, v), "{\"value\":[1.5,-2]}");
+  EXPECT_EQ(dca::foxglove::message_of(door, v), "{\"door_angle\":1.5,\"handle_angle\":-2}");
+  EXPECT_EQ(dca::foxglove::message_of(any, v), "{\"value\":[1.5,-2]}");
+}
+
+TEST(Foxglove, SubscribersGetMessageDataAndBadRequestsAStatus) {
+  boost::asio::io_context io;
+  std::string error;
+  auto server = dca::web::Server::listen(io, *dca::Address::parse("127.0.0.1:0"), {}, &error);
+  ASSERT_TRUE(server) << error;
+  auto& hub = server->samples();
+  const auto id = hub.add_topic("/main/a/Out", {"value"});
+  dca::foxglove::Protocol p(server, "dca main");
+  std::vector<std::string> first, last;
+  p.on_first_subscribe = [&](const std::string& t) { first.push_back(t); };
+  p.on_last_unsubscribe = [&](const std::string& t) { last.push_back(t); };
+  auto c = std::make_shared<FakeConnection>();
+  p.on_open(c);
+  ASSERT_EQ(c->texts.size(), 2u);
+  EXPECT_EQ(decoded(c->texts[0])["op"].as_string(), "serverInfo");
+  const auto adv = decoded(c->texts[1]);
+  EXPECT_EQ(adv["op"].as_string(), "advertise");
+  EXPECT_EQ(adv["channels"].as_array().at(0)["topic"].as_string(), "/main/a/Out");
+  EXPECT_EQ(adv["channels"].as_array().at(0)["schemaEncoding"].as_string(), "jsonschema");
+
+  p.on_message(c, "{\"op\":\"subscribe\",\"subscriptions\":[{\"id\":7,\"channelId\":" + std::to_string(id) + "}]}", false);
+  EXPECT_EQ(first, std::vector<std::string>{"/main/a/Out"});
+  const double x = 0.25;
+  hub.publish(id, 0x0102030405060708, {&x, 1});
+  ASSERT_EQ(c->frames.size(), 1u);
+  const std::string& f = c->frames[0];
+  EXPECT_EQ(f[0], 1);
+  EXPECT_EQ(std::string(f.data() + 1, 4), std::string("\x07\0\0\0", 4));
+  EXPECT_EQ(std::string(f.data() + 5, 8), std::string("\x08\x07\x06\x05\x04\x03\x02\x01", 8));
+  EXPECT_EQ(f.substr(13), "{\"value\":0.25}");
+
+  const auto before = c->texts.size();
+  p.on_message(c, "not json", false);
+  p.on_message(c, "{\"op\":\"setParameters\"}", false);
+  p.on_message(c, "\x01\x02", true);
+  p.on_message(c, "{\"op\":\"subscribe\",\"subscriptions\":[{\"id\":8,\"channelId\":999}]}", false);
+  ASSERT_EQ(c->texts.size(), before + 4);
+  for (std::size_t i = before; i < c->texts.size(); ++i) EXPECT_EQ(decoded(c->texts[i])["op"].as_string(), "status");
+
+  p.on_message(c, "{\"op\":\"unsubscribe\",\"subscriptionIds\":[7]}", false);
+  EXPECT_EQ(last, std::vector<std::string>{"/main/a/Out"});
+  hub.publish(id, 2, {&x, 1});
+  EXPECT_EQ(c->frames.size(), 1u);
+  p.on_close(c, "bye");
+  server->close();
+}
+
+}  // namespace
