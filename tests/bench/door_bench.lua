@@ -11,6 +11,8 @@
 --   (placement: `dca run --placement process|group|host`; period: MotionControl's, 10ms or 1ms)
 --   RESULT bench=raw_world_scripted_door variant=seedN n=1 ... rtf=.. wall_s=.. sim_s=..
 --   RESULT bench=door_harness variant=seedN_motionPms n=<10 ms periods> ... rtf=.. wall_s=.. sim_s=.. door_deg=..
+--          opened_s=..   (the tick DoorOpen ended DONE; door_demo's opened_s beside it: the same tick, as the
+--          harness follows the same time semantics; sim_s goes 0.101 s further, the robot coming to rest)
 --   (the baseline: tests/sim/door_harness.h in one process, same seed and period, run just before each
 --   supervised run, so the two alternate H A H B ...; door_demo's vs_harness is its rtf over that one's)
 --
@@ -31,14 +33,15 @@ local function num(s) return tonumber(s) or 0 end
 
 -- The baseline: the in-process closed-loop harness (tests/sim/door_harness.h, bench_door_harness) on the same
 -- seed and MotionControl period: the same controllers and world in one process, no sockets, no supervisors.
--- --> its rtf | nil
+-- --> its rtf, the time DoorOpen ended | nil
 local function harness(seed, period)
   local build = os.getenv("DCA_BUILD_DIR") or (src .. "/build/release")
   local out, code = run(sformat("%s/bench/bench_door_harness %d %s", build, seed, period == "1ms" and "0.001" or "0.01"))
   local line = out:match("RESULT[^\n]*")
   if code ~= 0 or not line then io.stderr:write("door harness failed:\n" .. out .. "\n") return end
-  print(line)
-  return num(line:match("rtf=([%d.]+)"))
+  local opened = out:match("[%d.]+ %-%s+([%d.]+)%s+DoorOpen")
+  print(sformat("%s opened_s=%s", line, opened or "?"))
+  return num(line:match("rtf=([%d.]+)")), opened
 end
 
 local function raw(seed)
@@ -56,7 +59,7 @@ end
 
 -- One supervised run: `placement` (dca run --placement; the variant names it), `period` "10ms" or "1ms"
 -- (MotionControl's period: motion.period).
-local function demo(seed, placement, period, base)
+local function demo(seed, placement, period, base, base_opened)
   local extra = sformat(" --placement %s", placement)
   if period == "1ms" then extra = extra .. " --set motion.period=0.001" end
   local out, code = run(sformat("%s run %s/scripts/systems/door_open.dca --sim door --seed %d --quiet%s", exe, src,
@@ -74,9 +77,11 @@ local function demo(seed, placement, period, base)
   local per_round = num(adv) / math.max(1, num(rounds))
   local run_rtf = run_wall > 0 and sim / run_wall or 0
   local function vs(rtf) return (base or 0) > 0 and rtf / base or 0 end
-  print(sformat("RESULT bench=door_demo variant=seed%d_%s_%s n=%d p50_us=%.1f p99_us=%.1f p999_us=%.1f max_us=%.1f rtf=%.2f wall_s=%.3f sim_s=%.3f door_deg=%s advances=%s processes_per_round=%.2f per_process_p50_us=%.1f vs_harness=%.2f run_rtf=%.2f run_wall_s=%.3f vs_harness_run=%.2f world_step_s=%.3f",
+  local opened = out:match("[%d.]+ %-%s+([%d.]+)%s+main%.dooropensyst%.dooropen%s")
+  print(sformat("RESULT bench=door_demo variant=seed%d_%s_%s n=%d p50_us=%.1f p99_us=%.1f p999_us=%.1f max_us=%.1f rtf=%.2f wall_s=%.3f sim_s=%.3f door_deg=%s advances=%s processes_per_round=%.2f per_process_p50_us=%.1f vs_harness=%.2f run_rtf=%.2f run_wall_s=%.3f vs_harness_run=%.2f world_step_s=%.3f opened_s=%s harness_opened_s=%s",
     seed, placement, period, num(rounds), num(p50), num(p99), num(max), num(max), sim / wall, wall, sim, deg or "?",
-    adv, per_round, num(p50) / math.max(1, per_round), vs(sim / wall), run_rtf, run_wall, vs(run_rtf), num(step)))
+    adv, per_round, num(p50) / math.max(1, per_round), vs(sim / wall), run_rtf, run_wall, vs(run_rtf), num(step),
+    opened or "?", base_opened or "?"))
 end
 
 local seeds = {}

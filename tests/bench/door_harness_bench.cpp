@@ -25,5 +25,10 @@ int main(int argc, char** argv) {
   std::printf("RESULT bench=door_harness variant=seed%d_motion%gms n=%ld p50_us=%.1f p99_us=%.1f p999_us=%.1f max_us=%.1f "
               "rtf=%.2f wall_s=%.3f sim_s=%.3f door_deg=%.1f\n",
               seed, motion * 1e3, static_cast<long>(r.time / 0.01), us, us, us, us, r.time / wall, wall, r.time, r.door_angle);
+  // the steps' simulated times, as `dca run`'s summary lists them (stderr: not a RESULT line)
+  for (std::size_t i = 0; i < r.step_start.size(); ++i)
+    std::fprintf(stderr, "  %8.3f - %8.3f  %s (door at %.17g rad)\n", r.step_start[i],
+                 i < r.step_end.size() ? r.step_end[i] : -1.0, h.steps()[i].name.c_str(),
+                 i < r.step_end_door_angle.size() ? r.step_end_door_angle[i] : 0.0);
   return r.failure.empty() ? 0 : 1;
 }

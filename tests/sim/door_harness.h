@@ -7,14 +7,17 @@
 //   - every connection between controllers costs one tick: a sample written at tick k is delivered just
 //     before tick k+1 (each connection goes through a relay pumped between ticks, as a node drains its data
 //     sockets before it runs its due timers);
-//   - device outputs (commands) written at tick t act on the world from the step after t's (one world period
-//     later), are held between ticks, and a velocity command not refreshed for `stale` (50 ms) counts as zero.
-//     The gripper command is a position command: the world holds the last one;
+//   - device outputs (commands) written at tick t act on the world in its step from t to t + 1 ms, are held
+//     between ticks, and a velocity command not refreshed for `stale` (50 ms) counts as zero. The gripper
+//     command is a position command: the world holds the last one;
 //   - the task is sequenced as the algebra runs it: MotionControl throughout; each step starts by activating its
 //     connection sets and running (Init + Run) its controllers, ends on its deciding controller's DONE (then
 //     its other controllers are stopped and its sets deactivated) and fails on any of its controllers'
-//     ABORTED. The next step starts at the same tick (or `reaction` later), so its first ticks are one period
-//     later.
+//     ABORTED. With no `reaction` the supervisor reacts at the tick of the event, before the world steps: the
+//     stopped drives' zeros act from that step, the next step's controllers start at that tick (their first
+//     MainCalc one period later), as the barrier of the lock-step runs them;
+//   so the timing is that of ARCHITECTURE.md "Time" (logical execution time) and the harness opens the door
+//   of a seed at the same tick as `dca run --sim door` (tests/bench/door_bench.lua prints both).
 // Controllers use only their ports; the harness reads the world's ground truth only to record and report.
 #include <algorithm>
 #include <cmath>
@@ -51,6 +54,7 @@ struct DoorStep {
 struct DoorRunResult {
   std::vector<double> step_start;  ///< simulated time (s) each step started, in order
   std::vector<double> step_end;
+  std::vector<double> step_end_door_angle;  ///< rad, the world's at each step's end
   int steps_done = 0;              ///< steps that ended DONE
   std::string failure;             ///< "" or "<step>: <instance> ABORTED: <reason>" / "<step>: timed out"
   std::string failed_instance;     ///< the instance that aborted
@@ -121,7 +125,7 @@ class DoorHarness {
   /// The time of the last tick the controllers ran at (the world is one period ahead).
   Nanos now() const { return timers_.now(); }
   double seconds() const { return to_seconds(timers_.now()); }
-  /// The commands the world acts on in the coming step.
+  /// The commands the world acted on in its last step.
   const sim::Commands& applied() const { return applied_; }
   /// How long the supervisor takes to end a step after its deciding event (0: at the same tick).
   Nanos reaction = 0;
@@ -139,44 +143,47 @@ class DoorHarness {
     DoorRunResult r;
     start_motion_control();
     const Nanos deadline = now_ + from_seconds(budget);
+    r.step_start.push_back(seconds());
+    start_step(steps_[0]);
     for (int i = 0; i <= last; ++i) {
       const DoorStep& s = steps_[static_cast<std::size_t>(i)];
-      r.step_start.push_back(seconds());
-      start_step(s);
       std::optional<std::pair<std::string, ComponentEvent>> ended;
       while (!ended && now_ < deadline) {
-        tick();
-        for (auto& [who, e] : events_) {
-          const bool mine = std::find(s.run.begin(), s.run.end(), who) != s.run.end();
-          if (!mine) continue;
-          if (e.kind == ComponentEvent::Kind::Aborted || who == s.decider) {
-            ended = std::make_pair(who, e);
-            break;
-          }
-        }
+        tick_controllers();
+        ended = step_event(s);
         events_.clear();
+        if (ended && reaction == 0) break;  // the supervisor reacts at this tick, before the world steps
+        tick_world();
         track(r);
       }
       // The supervisor reacts after `reaction` (the event's trip to it and its orders' trip back): until then
       // the step's other controllers keep running.
-      for (const Nanos until = now_ + reaction; now_ < until;) {
+      for (const Nanos until = now_ + reaction; reaction > 0 && now_ < until;) {
         tick();
         events_.clear();
         track(r);
       }
       end_step(s);
       r.step_end.push_back(seconds());
+      r.step_end_door_angle.push_back(world_.sensors().door_angle);
+      const bool done = ended && ended->second.kind != ComponentEvent::Kind::Aborted;
+      if (done && i < last) start_step(steps_[static_cast<std::size_t>(i + 1)]);  // at this tick too
+      if (ended && reaction == 0) {
+        tick_world();  // the tick of the reaction ends
+        track(r);
+      }
       if (!ended) {
         r.failure = s.name + ": not ended after " + std::to_string(budget) + " s of simulated time";
         break;
       }
-      if (ended->second.kind == ComponentEvent::Kind::Aborted) {
+      if (!done) {
         r.failed_instance = ended->first;
         r.abort_reason = ended->second.reason;
         r.failure = s.name + ": " + ended->first + " ABORTED: " + ended->second.reason;
         break;
       }
       ++r.steps_done;
+      if (i < last) r.step_start.push_back(seconds());
     }
     // Let the robot come to rest under MotionControl (no step drives it).
     for (int k = 0; k < 100; ++k) {
@@ -188,17 +195,25 @@ class DoorHarness {
     return r;
   }
 
-  /// One world period: deliver the samples written at the previous tick, publish the sensors, run the
-  /// controllers due now, collect the commands, step the world.
+  /// One world period: tick_controllers, then tick_world.
   void tick() {
+    tick_controllers();
+    tick_world();
+  }
+  /// The tick's first half: deliver the samples written at the previous tick, publish the sensors, run the
+  /// controllers due now.
+  void tick_controllers() {
     for (auto& r : relays_)
       while (r.in->pop()) r.out->write_bytes(r.in->current_bytes());
     publish_sensors();
     timers_.advance_to(now_);
+  }
+  /// Its second half: the commands written at this tick act in the world's step from it to the next.
+  void tick_world() {
     collect_commands();
+    applied_ = staged_commands();
     world_.set_commands(applied_);
     world_.step();
-    applied_ = staged_commands();
     now_ += kMs;
     if (on_tick) on_tick(*this);
   }
@@ -396,6 +411,15 @@ class DoorHarness {
     auto g = held_.find("gripper.cmd");
     c.gripper_close = g != held_.end() && g->second.v.size() == 1 && g->second.v[0] > 0.5;
     return c;
+  }
+
+  /// The event that ends step `s` among those of this tick: its decider's DONE or any of its ABORTED.
+  std::optional<std::pair<std::string, ComponentEvent>> step_event(const DoorStep& s) const {
+    for (const auto& [who, e] : events_) {
+      if (std::find(s.run.begin(), s.run.end(), who) == s.run.end()) continue;
+      if (e.kind == ComponentEvent::Kind::Aborted || who == s.decider) return std::make_pair(who, e);
+    }
+    return std::nullopt;
   }
 
   void track(DoorRunResult& r) const {
