@@ -2,6 +2,7 @@
 --   local door = dofile((os.getenv("DCA_SOURCE_DIR") or ".") .. "/tests/support/door_scenario.lua")
 --   local sys = door.system(S, { jammed = true })   -- door_open.dca with the door world, seed 1, and these options
 --   door.up(S, sys, "the tree comes up ...")         -- the step that starts it: up, the world's time at 0
+--   door.variant("DoorOpenSystem", "supervision { ... }")  -- door_open.dca with that section: file, options
 --   door.norm(v)                                     -- the Euclidean norm of a vector read from the world
 --   door.end_trace(sys)                              -- after the outcome, with DCA_SCENARIO_TRACE: time held
 --                                                    --   once settled, the outcome's tick written to TRACE.end
@@ -12,7 +13,22 @@ local src = os.getenv("DCA_SOURCE_DIR") or "."
 function M.system(S, opts)
   local o = { sim = "door", seed = 1 }
   for k, v in pairs(opts or {}) do o[k] = v end
-  return S.system(src .. "/scripts/systems/door_open.dca", o)
+  local file = o.file or src .. "/scripts/systems/door_open.dca"
+  o.file = nil
+  return S.system(file, o)
+end
+
+-- door_open.dca with `section` (a `supervision { }` section) in process `proc`, after its host { } line, written
+-- to a temporary file (the package is found on the search path, the defaults come from door_open.config).
+-- --> the file, the options for M.system; remove the file once the system is up
+function M.variant(proc, section)
+  local f = assert(io.open(src .. "/scripts/systems/door_open.dca")) local text = f:read("a") f:close()
+  local n
+  text, n = text:gsub("(\nprocess " .. proc .. "%b()%s*{%s*host%s*%b{})", "%1\n  " .. section)
+  assert(n == 1, "door_open.dca: no process " .. proc .. " with a host { } line")
+  local file = os.tmpname() .. ".dca"
+  f = assert(io.open(file, "w")) f:write(text) f:close()
+  return file, { file = file, config = src .. "/scripts/systems/door_open.config" }
 end
 
 function M.up(S, sys, name)

@@ -1,0 +1,66 @@
+-- The door survives a transient crash (issue 18): the door system with a restart policy on its DoorOpenSystem
+-- group (`supervision { strategy one_for_one; restart on crash; }`) in simulated time; VisualServoing crashes
+-- (SIGSEGV) mid-approach, at a fixed tick (time held at 2 s, as tests/scenarios/door_crash.lua does). The clock
+-- master finds its node lost at the next tick and the group's supervisor restarts it within that tick's barrier
+-- (a fresh process, its links made again both ways, Init and Run at that tick): the algebra sees nothing and
+-- the task carries on, the door opens to at least 70 degrees and the run ends DONE.
+--   DCA_SEED=N (default 1) the world's seed; DCA_DOOR_POLICY=off: the same file without the section, which
+--   aborts as door_crash.lua shows (ABORTED naming VisualServoing and the signal);
+--   DCA_SCENARIO_TRACE=FILE the world's trace (tests/door/scenario_repeat.sh compares two runs).
+local S = require "dca.scenario"
+S.backends = { "real" }
+local door = dofile((os.getenv("DCA_SOURCE_DIR") or ".") .. "/tests/support/door_scenario.lua")
+local policy = os.getenv("DCA_DOOR_POLICY") ~= "off"
+local file, opts = door.variant("DoorOpenSystem",
+  policy and "supervision { strategy one_for_one; restart on crash; }" or "")
+opts.seed = tonumber(os.getenv("DCA_SEED")) or 1
+opts.trace = os.getenv("DCA_SCENARIO_TRACE")
+local sys = door.system(S, opts)
+local VS = "main.dooropensyst.visualserv"
+local t_crash, pid0
+
+door.up(S, sys, "the tree comes up on three hosts on the simulated clock, with the world")
+os.remove(file)
+
+S.step("VisualServoing runs and the base moves (time held at 2 s)", function()
+  sys:run()
+  sys:wait_state(VS, "running", 30)
+  t_crash = sys:world_hold_at(2.0, 60)
+  pid0 = sys:pid(VS)
+  S.ok(door.norm(sys:world_read("base.cmd_vel")) > 1e-4, "base.cmd_vel " .. S.show(sys:world_read("base.cmd_vel")))
+end)
+
+if not policy then
+  S.step("without the policy: VisualServoing's SIGSEGV aborts the task, naming it and the signal", function()
+    sys:kill(VS, "SEGV")
+    sys:world_hold_at(t_crash + 0.02, 60)
+    local out = sys:wait_outcome(30)
+    S.eq(out.type, "aborted")
+    S.eq(out.path, VS)
+    S.contains(out.reason, "SIGSEGV")
+  end)
+  return S.finish()
+end
+
+S.step("VisualServoing crashes (SIGSEGV): restarted at the tick its loss is found, nothing else stops", function()
+  sys:kill(VS, "SEGV")
+  local t = sys:world_hold_at(t_crash + 0.02, 60)
+  S.eq(sys:state(VS), "running")
+  S.ok(sys:pid(VS) ~= pid0, "a new process: " .. tostring(sys:pid(VS)) .. " (was " .. tostring(pid0) .. ")")
+  S.eq(sys.outcome, nil, "the task runs on")
+  local restarted
+  for _, l in ipairs(sys:transitions()) do if l:find(VS .. ": restarted", 1, true) then restarted = l end end
+  S.ok(restarted, "a transition line says " .. VS .. " restarted")
+  S.eq(sys:state("main.dooropensyst.camera"), "running", "its peer never stopped")
+  S.ok(t > t_crash, "time held after the crash")
+end)
+
+S.step("time flows on: the door opens to at least 70 degrees and the task ends DONE", function()
+  sys:world_go()
+  local out = sys:wait_outcome(300)
+  door.end_trace(sys)
+  S.eq(out.type, "done", "outcome " .. S.show(out))
+  local angle = math.deg(sys:world_status().door_angle)
+  S.ok(angle >= 70, "door angle " .. tostring(angle))
+end)
+return S.finish()
