@@ -115,11 +115,15 @@ function M.walk(spec, fn, depth)
   end
 end
 
---- The host names used anywhere in the tree, sorted.
+--- The host names used anywhere in the tree (standby hosts included), sorted.
 function M.hosts(spec)
   local seen, list = {}, {}
+  local function add(h) if h and not seen[h] then seen[h] = true list[#list + 1] = h end end
   M.walk(spec, function(n)
-    if n.host and not seen[n.host] then seen[n.host] = true list[#list + 1] = n.host end
+    add(n.host)
+    -- the standby hosts too: a child fails over to them (dca.supervisor.failover), so their daemons must run
+    for _, h in ipairs(n.standby or {}) do add(h) end
+    for _, h in ipairs(n.spec and n.spec.hosts or {}) do add(h) end
   end)
   sort(list)
   return list
