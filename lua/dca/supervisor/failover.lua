@@ -12,9 +12,11 @@
 --   failover.next_host(list, current)  --> the host after `current` in `list`, or nil
 --   failover.moved(group_spec, from, to) --> a copy of the group spec with every host `from` of its subtree
 --                                          (the group's own, its leaves', its sub-groups') replaced by `to`
+local spec_mod = require "dca.supervisor.spec"
+
 local M = {}
 
-local ipairs, pairs, type = ipairs, pairs, type
+local ipairs = ipairs
 
 function M.hosts(child, group_spec)
   if child.kind == "group" then return child.spec and child.spec.hosts end
@@ -35,15 +37,8 @@ function M.next_host(list, current)
   return nil
 end
 
-local function copy(v)
-  if type(v) ~= "table" then return v end
-  local t = {}
-  for k, x in pairs(v) do t[k] = copy(x) end
-  return t
-end
-
 function M.moved(group_spec, from, to)
-  local s = copy(group_spec)
+  local s = spec_mod.copy(group_spec)
   local function visit(g)
     if g.host == from then g.host = to end
     for _, c in ipairs(g.children or {}) do

@@ -150,6 +150,7 @@ local function copy(v)
   for k, x in pairs(v) do t[k] = copy(x) end
   return t
 end
+M.copy = copy
 
 --- The spec of a dca.lang.model tree (checked, arguments bound, hosts resolved). `file` names the source for
 --- messages. A group without a host (the root of a file without host { }) gets `default_host`.
