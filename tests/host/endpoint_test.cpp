@@ -370,6 +370,29 @@ TEST_P(EndpointSocketTest, ConnectingAgainToADestinationStartedAnewReplacesTheLi
   fresh.remove_component("/dst");
 }
 
+// A leaf removed and added again in a shared node lives at the same address: the new instance (its registration's
+// `instance`, Location::instance) tells it from the old one, so the connection asked again is made anew even
+// though the old instance's `Gone` has not arrived yet; asked again for the same instance it is the one made.
+TEST_P(EndpointSocketTest, ConnectingAgainToANewInstanceAtTheSameAddressReplacesTheLink) {
+  auto loc = dst_ep->location();
+  loc.instance = 1;
+  ASSERT_EQ(connect(*src_ep, req("/src", "Out", "/dst", "In", "s"), loc), "");
+  src_ep->activate("s");
+  ASSERT_EQ(connect(*src_ep, req("/src", "Out", "/dst", "In", "s"), loc), "");
+  const auto first = src_ep->links()[0].sent;
+  out->write(sample(1));
+  ASSERT_TRUE(run_until(io, [&] { return in->queued() == 1; }));
+  in->pop();
+  loc.instance = 2;
+  ASSERT_EQ(connect(*src_ep, req("/src", "Out", "/dst", "In", "s"), loc), "");
+  ASSERT_EQ(src_ep->links().size(), 1u);
+  EXPECT_EQ(src_ep->links()[0].sent, first) << "a new link: its count starts again";
+  out->write(sample(2));
+  ASSERT_TRUE(run_until(io, [&] { return in->queued() == 1; }));
+  ASSERT_TRUE(in->pop());
+  EXPECT_EQ(in->vector(), sample(2));
+}
+
 // Regression: a data port took a hello from anyone (one injected sample changed a system's result).
 TEST_P(EndpointSocketTest, UnauthenticatedHelloIsRefusedAndDeliversNothing) {
   dca::test::RawDataClient c(io, dst_address());
