@@ -6,7 +6,7 @@
 -- the task carries on, the door opens to at least 70 degrees and the run ends DONE.
 --   DCA_SEED=N (default 1) the world's seed; DCA_DOOR_POLICY=off: the same file without the section, which
 --   aborts as door_crash.lua shows (ABORTED naming VisualServoing and the signal);
---   DCA_SCENARIO_TRACE=FILE the world's trace (tests/door/scenario_repeat.sh compares two runs).
+--   `dca scenario --trace FILE` the run's trace (door.crash_restart_repeat compares two runs).
 local S = require "dca.scenario"
 S.backends = { "real" }
 local door = dofile((os.getenv("DCA_SOURCE_DIR") or ".") .. "/tests/support/door_scenario.lua")
@@ -14,7 +14,6 @@ local policy = os.getenv("DCA_DOOR_POLICY") ~= "off"
 local file, opts = door.variant("DoorOpenSystem",
   policy and "supervision { strategy one_for_one; restart on crash; }" or "")
 opts.seed = tonumber(os.getenv("DCA_SEED")) or 1
-opts.trace = os.getenv("DCA_SCENARIO_TRACE")
 local sys = door.system(S, opts)
 local VS = "main.dooropensyst.visualserv"
 local t_crash, pid0
@@ -58,7 +57,6 @@ end)
 S.step("time flows on: the door opens to at least 70 degrees and the task ends DONE", function()
   sys:world_go()
   local out = sys:wait_outcome(300)
-  door.end_trace(sys)
   S.eq(out.type, "done", "outcome " .. S.show(out))
   local angle = math.deg(sys:world_status().door_angle)
   S.ok(angle >= 70, "door angle " .. tostring(angle))

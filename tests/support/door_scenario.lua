@@ -4,8 +4,6 @@
 --   door.up(S, sys, "the tree comes up ...")         -- the step that starts it: up, the world's time at 0
 --   door.variant("DoorOpenSystem", "supervision { ... }")  -- door_open.dca with that section: file, options
 --   door.norm(v)                                     -- the Euclidean norm of a vector read from the world
---   door.end_trace(sys)                              -- after the outcome, with DCA_SCENARIO_TRACE: time held
---                                                    --   once settled, the outcome's tick written to TRACE.end
 local M = {}
 
 local src = os.getenv("DCA_SOURCE_DIR") or "."
@@ -36,19 +34,6 @@ function M.up(S, sys, name)
     sys:up(60)
     S.eq(sys:world_status().t, 0)
   end)
-end
-
--- The world's trace (DCA_SCENARIO_TRACE) ends at the root's outcome, as `dca run --trace` cuts it: time is held
--- once the outcome's tick has settled (no tick, so no line, while the scenario tears the system down), and that
--- tick is written beside the trace for tests/door/scenario_repeat.sh to cut at.
-function M.end_trace(sys)
-  local file = os.getenv("DCA_SCENARIO_TRACE")
-  if not file then return end
-  sys:world_hold()
-  sys:wait_world("time held, settled", function(s) return not s.running and s.settled end, 30)
-  local f = assert(io.open(file .. ".end", "w"))
-  f:write(tostring(math.tointeger(sys.outcome_now) or sys.outcome_now), "\n")
-  f:close()
 end
 
 function M.norm(v)
