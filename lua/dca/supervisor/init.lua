@@ -49,6 +49,7 @@
 local algebra = require "dca.algebra"
 local spec_mod = require "dca.supervisor.spec"
 local policy = require "dca.supervisor.policy"
+local failover = require "dca.supervisor.failover"
 
 local previous = package.loaded["dca.supervisor"]
 local M = type(previous) == "table" and previous or {}
@@ -984,10 +985,18 @@ function Sup:_fault(names, how, kind, reason, cause)
   self.rt.defer(function() self:_recover(f) end)
 end
 
---- The host a child restarts on after fault `f` (nil: the host it had). The hook for failover: a `lost` fault
---- may move the child to the next of its standby hosts (spec child `standby`, group spec `hosts`).
-function Sup:restart_host(ch, f)  -- luacheck: no unused args
-  return nil
+--- The host a child restarts on after fault `f` (nil: the host it had): after its host was lost, the next of its
+--- hosts (dca.supervisor.failover: a leaf's standby hosts, or its group's when it ran on the group's host; a
+--- sub-group's host { } list), and a sub-group moves with the part of its subtree that ran on the lost host.
+function Sup:restart_host(ch, f)
+  if not f or f.kind ~= "lost" then return nil end
+  local faulted = false
+  for _, n in ipairs(f.names or {}) do faulted = faulted or n == ch.name end
+  if not faulted then return nil end
+  ch.failover_hosts = ch.failover_hosts or failover.hosts(ch.spec, self.spec)
+  local to = failover.next_host(ch.failover_hosts, ch.host)
+  if to and ch.kind == "group" then ch.spec.spec = failover.moved(ch.spec.spec, ch.host, to) end
+  return to
 end
 
 -- The children a restart after fault `f` takes down and starts again, in start order (those with a process
