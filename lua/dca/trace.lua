@@ -5,6 +5,7 @@
 --   T_NS E PATH events=N                               the leaf's done/aborted events so far
 --   T_NS L PATH                                        the leaf's node was lost (did not answer its advance)
 --   T_NS T LINE                                        a supervisor's transition line at the event's time
+--                                                      (a pid in it written "(pid)": it differs from run to run)
 -- The clock master (the world) writes D, S, E and L lines as the rounds end; the run adds the T lines and
 -- merges both, so two runs of the same seed give the same file, byte for byte, whatever the load.
 --
@@ -33,7 +34,8 @@ end
 function M.merge(world_file, t_lines, out_file, last)
   local lines, err = read_lines(world_file)
   if not lines then return nil, err end
-  for _, e in ipairs(t_lines) do lines[#lines + 1] = sformat("%d T %s", e[1], e[2]) end
+  -- (a process id is no part of a run: a restart's line names its new pid, which differs from run to run)
+  for _, e in ipairs(t_lines) do lines[#lines + 1] = sformat("%d T %s", e[1], (e[2]:gsub("%(pid %d+%)", "(pid)"))) end
   local keyed = {}
   for _, l in ipairs(lines) do
     local t, rest = split(l)
