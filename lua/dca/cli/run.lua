@@ -53,7 +53,9 @@ per group as it comes up and one per process transition, and runs the root expre
                   the first divergence of two (ARCHITECTURE.md "Time")
   --monitor [ADDR] serve the web monitor from the root (default 127.0.0.1:0, a free port) and print its
                   address with its token: the tree, the expressions, the timeline, live plots, the
-                  configuration; without the token the page shows nothing and changes nothing
+                  configuration; without the token the page shows nothing and changes nothing. The same
+                  port speaks Foxglove's WebSocket protocol (printed: foxglove: ws://ADDR/?token=T): every
+                  port and world signal a channel, tapped when first subscribed to
   --monitor-wait  with --sim: simulated time starts only once a monitor page is connected
   --repl          open a console on the root supervisor once the system runs
   --watch         reload the system file when it is saved (inotify)
