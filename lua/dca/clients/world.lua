@@ -11,7 +11,8 @@
 --   w:go(cb)  w:hold(cb)               -- time flows / stops after the current tick
 --   w:stop(cb)                         -- `exit` to the world, then waits for its exit (SIGKILL after a grace)
 --   w.on_lost = function(reason) end   -- the world exited by itself (every node on its clock stops)
---   o.jammed: the handle's latch never releases; o.realtime: simulated time paced to the wall clock
+--   o.jammed: the handle's latch never releases; o.realtime: simulated time paced to the wall clock;
+--   o.tick_timeout: ms a node may take to answer an advance before it is dropped from the clock
 local core = require "dca.core"
 local clients = require "dca.clients"
 local daemon_client = require "dca.clients.daemon"
@@ -24,7 +25,7 @@ local W = {}
 W.__index = W
 
 --- The options a world takes besides where it runs (see the header): what a system's start passes through.
-M.OPTIONS = { "world", "seed", "door_width", "record", "jammed", "realtime", "wait", "trace" }
+M.OPTIONS = { "world", "seed", "door_width", "record", "jammed", "realtime", "wait", "trace", "tick_timeout" }
 
 --- The argv of the world process for options `o` (see the header).
 function M.argv(o)
@@ -36,6 +37,8 @@ function M.argv(o)
   if o.jammed then argv[#argv + 1] = "--jammed" end
   if o.trace then argv[#argv + 1] = "--trace" argv[#argv + 1] = o.trace end
   if o.realtime then argv[#argv + 1] = "--realtime" end
+  -- (ms: a node that does not answer an advance within it is dropped from the clock; default 10000)
+  if o.tick_timeout then argv[#argv + 1] = "--tick-timeout" argv[#argv + 1] = tostring(o.tick_timeout) end
   return argv
 end
 
