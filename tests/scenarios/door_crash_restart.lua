@@ -15,24 +15,16 @@ local file, opts = door.variant("DoorOpenSystem",
   policy and "supervision { strategy one_for_one; restart on crash; }" or "")
 opts.seed = tonumber(os.getenv("DCA_SEED")) or 1
 local sys = door.system(S, opts)
-local VS = "main.dooropensyst.visualserv"
-local t_crash, pid0
+local VS = door.VS
 
 door.up(S, sys, "the tree comes up on three hosts on the simulated clock, with the world")
 os.remove(file)
-
-S.step("VisualServoing runs and the base moves (time held at 2 s)", function()
-  sys:run()
-  sys:wait_state(VS, "running", 30)
-  t_crash = sys:world_hold_at(2.0, 60)
-  pid0 = sys:pid(VS)
-  S.ok(door.norm(sys:world_read("base.cmd_vel")) > 1e-4, "base.cmd_vel " .. S.show(sys:world_read("base.cmd_vel")))
-end)
+local at = door.held(S, sys, 2.0)
 
 if not policy then
   S.step("without the policy: VisualServoing's SIGSEGV aborts the task, naming it and the signal", function()
     sys:kill(VS, "SEGV")
-    sys:world_hold_at(t_crash + 0.02, 60)
+    sys:world_hold_at(at.t + 0.02, 60)
     local out = sys:wait_outcome(30)
     S.eq(out.type, "aborted")
     S.eq(out.path, VS)
@@ -43,22 +35,16 @@ end
 
 S.step("VisualServoing crashes (SIGSEGV): restarted at the tick its loss is found, nothing else stops", function()
   sys:kill(VS, "SEGV")
-  local t = sys:world_hold_at(t_crash + 0.02, 60)
+  local t = sys:world_hold_at(at.t + 0.02, 60)
   S.eq(sys:state(VS), "running")
-  S.ok(sys:pid(VS) ~= pid0, "a new process: " .. tostring(sys:pid(VS)) .. " (was " .. tostring(pid0) .. ")")
+  S.ok(sys:pid(VS) ~= at.pid, "a new process: " .. tostring(sys:pid(VS)) .. " (was " .. tostring(at.pid) .. ")")
   S.eq(sys.outcome, nil, "the task runs on")
   local restarted
   for _, l in ipairs(sys:transitions()) do if l:find(VS .. ": restarted", 1, true) then restarted = l end end
   S.ok(restarted, "a transition line says " .. VS .. " restarted")
   S.eq(sys:state("main.dooropensyst.camera"), "running", "its peer never stopped")
-  S.ok(t > t_crash, "time held after the crash")
+  S.ok(t > at.t, "time held after the crash")
 end)
 
-S.step("time flows on: the door opens to at least 70 degrees and the task ends DONE", function()
-  sys:world_go()
-  local out = sys:wait_outcome(300)
-  S.eq(out.type, "done", "outcome " .. S.show(out))
-  local angle = math.deg(sys:world_status().door_angle)
-  S.ok(angle >= 70, "door angle " .. tostring(angle))
-end)
+door.opens(S, sys)
 return S.finish()

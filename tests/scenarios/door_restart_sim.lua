@@ -10,17 +10,10 @@ local S = require "dca.scenario"
 S.backends = { "real" }
 local door = dofile((os.getenv("DCA_SOURCE_DIR") or ".") .. "/tests/support/door_scenario.lua")
 local sys = door.system(S)
-local VS = "main.dooropensyst.visualserv"
-local t_hold, pid0
+local VS = door.VS
 
 door.up(S, sys, "the tree comes up on three hosts on the simulated clock, with the world")
-
-S.step("VisualServoing runs (time held at 2 s)", function()
-  sys:run()
-  sys:wait_state(VS, "running", 30)
-  t_hold = sys:world_hold_at(2.0, 60)
-  pid0 = sys:pid(VS)
-end)
+local at = door.held(S, sys, 2.0)
 
 S.step("restart(visualserv) at the held tick: a new process, running again at that tick", function()
   local res
@@ -28,16 +21,10 @@ S.step("restart(visualserv) at the held tick: a new process, running again at th
   sys:wait("the restart", function() return res ~= nil end, 60)
   S.ok(res[1], "restarted: " .. tostring(res[2]))
   -- (under a shared placement, `dca scenario --placement group|host`, a fresh instance in the same node)
-  if (S.placement or "process") == "process" then S.ok(sys:pid(VS) ~= pid0, "a new process") end
+  if (S.placement or "process") == "process" then S.ok(sys:pid(VS) ~= at.pid, "a new process") end
   S.eq(sys:state(VS), "running")
-  S.eq(sys:world_status().t, t_hold, "time did not move during the restart")
+  S.eq(sys:world_status().t, at.t, "time did not move during the restart")
 end)
 
-S.step("time flows on: the door opens past 70 degrees and the task ends DONE", function()
-  sys:world_go()
-  local out = sys:wait_outcome(300)
-  S.eq(out.type, "done", "outcome " .. S.show(out))
-  local angle = math.deg(sys:world_status().door_angle)
-  S.ok(angle >= 70, "door angle " .. tostring(angle))
-end)
+door.opens(S, sys)
 return S.finish()

@@ -3,6 +3,9 @@
 --   local sys = door.system(S, { jammed = true })   -- door_open.dca with the door world, seed 1, and these options
 --   door.up(S, sys, "the tree comes up ...")         -- the step that starts it: up, the world's time at 0
 --   door.variant("DoorOpenSystem", "supervision { ... }")  -- door_open.dca with that section: file, options
+--   local at = door.held(S, sys, 2.0)                -- the step that runs it until time is held at 2 s with
+--                                                    --   VisualServoing running: at.t (time held), at.pid (its pid)
+--   door.opens(S, sys)                               -- the last step: time flows, DONE, the door at >= 70 degrees
 --   door.norm(v)                                     -- the Euclidean norm of a vector read from the world
 local M = {}
 
@@ -33,6 +36,30 @@ function M.up(S, sys, name)
   S.step(name, function()
     sys:up(60)
     S.eq(sys:world_status().t, 0)
+  end)
+end
+
+M.VS = "main.dooropensyst.visualserv"
+
+function M.held(S, sys, t)
+  local at = {}
+  S.step(string.format("VisualServoing runs and the base moves (time held at %g s)", t), function()
+    sys:run()
+    sys:wait_state(M.VS, "running", 30)
+    at.t = sys:world_hold_at(t, 60)
+    at.pid = sys:pid(M.VS)
+    S.ok(M.norm(sys:world_read("base.cmd_vel")) > 1e-4, "base.cmd_vel " .. S.show(sys:world_read("base.cmd_vel")))
+  end)
+  return at
+end
+
+function M.opens(S, sys)
+  S.step("time flows on: the door opens to at least 70 degrees and the task ends DONE", function()
+    sys:world_go()
+    local out = sys:wait_outcome(300)
+    S.eq(out.type, "done", "outcome " .. S.show(out))
+    local angle = math.deg(sys:world_status().door_angle)
+    S.ok(angle >= 70, "door angle " .. tostring(angle))
   end)
 end
 
