@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <map>
 #include <optional>
@@ -163,6 +164,37 @@ TEST_F(TapTest, ATapPointTakesStampedSamplesOverAnAuthenticatedSocket) {
     EXPECT_EQ(writer.links().at(0).sent, 1u);
     EXPECT_EQ(writer.links().at(0).transport, tcp ? dca::Transport::Tcp : dca::Transport::Unix);
   }
+}
+
+// A tap point that takes nothing in for a while (its loop busy elsewhere): the writer's writes all return, the
+// socket's backlog drops beyond its limit at the writer (counted), the tap input keeps its newest (counted);
+// every sample is accounted for.
+TEST_F(TapTest, ASlowTapPointNeverBlocksTheWriterAndCountsWhatItLoses) {
+  dca::Endpoint writer(io, "a", keyed());
+  writer.listen(dca::test::temp_socket("tap", "slow-w"), "127.0.0.1:0");
+  dca::PortSet src;
+  auto& out = src.add_output(dca::vector_port("Big", 128));
+  writer.add_component("main.a", src);
+  tap::TapPoint point(io, "a", "taps:slow", keyed(), dca::test::temp_socket("tap", "slow-p"));
+  std::string error;
+  auto* t = point.add("main.a.Big", out.spec(), 64, &error);
+  ASSERT_NE(t, nullptr) << error;
+  std::uint64_t got_n = 0;
+  point.on_sample = [&](tap::Taps::Tap&, std::int64_t, dca::Bytes) { ++got_n; };
+  auto r = tap_link("main.a", "Big", "taps:slow");
+  r.queue = 64;
+  ASSERT_EQ(connect(writer, r, point.location()), "");
+  writer.activate(tap::input_name("main.a.Big"));
+  constexpr int kWrites = 20000;  // 20,000 x 1 KiB: more than the socket's buffers and the 8 MiB backlog
+  const Eigen::VectorXd v = Eigen::VectorXd::Ones(128);
+  for (int i = 0; i < kWrites; ++i) out.write(v);  // the loop does not run: nobody takes anything in
+  const auto link = writer.links().at(0);
+  EXPECT_GT(link.tx_dropped, 0u);
+  EXPECT_EQ(link.sent + link.tx_dropped, static_cast<std::uint64_t>(kWrites));
+  ASSERT_TRUE(run_until(io, [&] { return t->input->stats().samples == link.sent && t->input->queued() == 0; },
+                        std::chrono::seconds(20)));
+  EXPECT_EQ(got_n + t->dropped(), link.sent);
+  EXPECT_EQ(got_n, t->taken);
 }
 
 TEST_F(TapTest, AStampedHelloRoundTripsAndAnOldHelloIsUnstamped) {

@@ -7,9 +7,10 @@
 #   roundtrip.sh run DCA SOURCE_DIR WORK_DIR   a supervised door run (`dca run door_open.dca --sim door`) ends
 #       DONE, and beside the world's signals /dca/events holds every line the run printed ("[sim T] path:
 #       state", the transitions among them) at its simulated time
-#   roundtrip.sh ports DCA SOURCE_DIR WORK_DIR   the supervised door run with --record-ports all --trace: every
-#       port's channel holds its samples at the ticks the trace gives (read_mcap.mjs --trace), and the trace is
-#       identical to the one of the same run without taps or recording (`dca trace diff`)
+#   roundtrip.sh ports DCA SOURCE_DIR WORK_DIR [PLACEMENT]   the supervised door run with --record-ports all
+#       --trace (and --placement PLACEMENT: leaves in shared nodes are tapped alike): every port's channel holds
+#       its samples at the ticks the trace gives (read_mcap.mjs --trace), and the trace is identical to the one
+#       of the same run without taps or recording, one leaf per process (`dca trace diff`)
 set -eu
 mode=$1
 dca=$2
@@ -24,8 +25,8 @@ mkdir -p "$work"
 rm -f "$work/door.mcap" "$work/door.png" "$work/door.log"
 if [ "$mode" = ports ]; then
   system="$src/scripts/systems/door_open.dca"
-  if ! "$dca" run "$system" --sim door --record "$work/door.mcap" --record-ports all --trace "$work/taps.trace" \
-      >"$work/door.log" 2>&1; then
+  if ! "$dca" run "$system" --sim door --placement "${5:-process}" --record "$work/door.mcap" --record-ports all \
+      --trace "$work/taps.trace" >"$work/door.log" 2>&1; then
     tail -40 "$work/door.log"
     echo "FAIL: dca run --record-ports all did not end DONE" >&2
     exit 1
