@@ -10,6 +10,7 @@
 --       cb(true) | cb(nil, err) once the topics are made (the world's signals asked of the world)
 --   live:tap_topic(topic, cb)  -- the tap of that topic, made once: cb(true) | cb(nil, err)
 --   live:tap_id(id, cb)        -- the same by the topic's id (the monitor's page subscribes by id)
+--   live:retap(below)          -- the taps of the ports below(p) made again (their leaf was restarted)
 --   live:stats()               -- { [path] = { taken, dropped, unpublished } }
 --   live:close()
 local core = require "dca.core"
@@ -121,6 +122,17 @@ function Live:tap_id(id, cb)
     end
   end
   if cb then cb(nil, "no topic " .. tostring(id)) end
+end
+
+--- The taps of the ports `below(p)` says were restarted, made again on their new processes.
+function Live:retap(below)
+  for topic, state in pairs(self.tapped) do
+    local p = self.by_topic[topic]
+    if state == true and below(p) then
+      self.tapped[topic] = nil
+      self:tap_topic(topic)
+    end
+  end
 end
 
 function Live:stats() return self.tp:stats() end

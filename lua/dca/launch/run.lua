@@ -66,6 +66,7 @@ end
 function Run:report(msg)
   -- the trace ends at the root's outcome: what follows (the shutdown) is no part of the run
   if (msg.type == "done" or msg.type == "aborted") and tonumber(msg.now) then self.trace_end = tonumber(msg.now) end
+  if msg.type == "restarted" then self:retap(msg.path) return end
   if msg.type == "log" then self:say(msg.line, msg.at)
   elseif msg.type == "done" then
     self:say(sformat("%s: DONE %s", self.spec.path, supervisor.show(msg.value)), tonumber(msg.now) and msg.now / 1e9)
@@ -109,7 +110,7 @@ function Run:record_ports(cb)
     s.world:request({ type = "tap", path = p.path, port_type = p.type, size = p.size, units = p.units }, 10,
       function(r, werr) k(r ~= nil, werr) end)
   end }, function(ok, terr)
-    if ok then self:say(sformat("recording %d ports to %s", #list, tostring(o.record))) end
+    if ok then self:say(sformat("recording %d ports to %s", #list, tostring(o.record))) self.recorded = list end
     cb(ok, terr)
   end)
 end
@@ -192,6 +193,21 @@ function Run:start_monitor()
   self.monitor = mon
   self:say("monitor: " .. mon:url())
   return true
+end
+
+-- A leaf restarted (a fresh process), or every leaf below a group: its taps made again (the recording's, the
+-- live ones), since its new process has none of its old links.
+function Run:retap(path)
+  path = tostring(path)
+  local function below(p) return p.leaf == path or p.leaf:sub(1, #path + 1) == path .. "." end
+  local list = {}
+  for _, p in ipairs(self.recorded or {}) do if below(p) then list[#list + 1] = p end end
+  if #list > 0 then
+    require("dca.supervisor.taps").connect(self.sup, list, "world", {}, function(ok, err)
+      if not ok then err_line(self, "--record-ports: after the restart of ", path, ": ", tostring(err)) end
+    end)
+  end
+  if self.live then self.live:retap(below) end
 end
 
 -- With --monitor: the run's live samples (dca.launch.live) on the monitor's server: every port (and world

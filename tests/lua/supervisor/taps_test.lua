@@ -1,0 +1,67 @@
+-- dca.supervisor.taps (ARCHITECTURE.md "Taps"): the ports a selection names, the errors for unknown ones, and
+-- `dca run --record-ports`: refused without an MCAP recording or for an unknown port before anything starts, and
+-- a tapped port of a leaf restarted by its group's policy recorded on after every restart.
+local T = require "dca.testing"
+local taps = require "dca.supervisor.taps"
+local suite = T.suite("taps")
+
+local dca, src = T.exe, T.src
+
+local function door_spec()
+  return assert(require("dca.load").spec(src .. "/scripts/systems/door_open.dca", {}))
+end
+
+suite:case("all_selects_every_leaf_output_of_the_tree", function()
+  local list = assert(taps.select(door_spec(), require("dca.core").types(), "all"))
+  T.eq(#list, 22, "outputs of the door system")
+  local by = {}
+  for _, p in ipairs(list) do by[p.path] = p end
+  local cmd = by["main.dooropensyst.motionctrl.xr4000.Cmd"]
+  T.ok(cmd, "xr4000.Cmd is selected")
+  T.eq(cmd.leaf, "main.dooropensyst.motionctrl.xr4000")
+  T.eq(cmd.type, "vector")
+  T.eq(cmd.size, 3)
+end)
+
+suite:case("unknown_ports_are_named_with_their_leafs_outputs", function()
+  local spec, types = door_spec(), require("dca.core").types()
+  local list = assert(taps.select(spec, types, "main.dooropensyst.hit.force.Wrench, main.dooropensyst.camera.Feature"))
+  T.eq(#list, 2)
+  local none, err = taps.select(spec, types, "main.dooropensyst.hit.force.Nope,main.nowhere.X")
+  T.eq(none, nil)
+  T.contains(err, "main.dooropensyst.hit.force has no output 'Nope' (outputs: Wrench)")
+  T.contains(err, "no leaf main.nowhere in main")
+end)
+
+suite:case("record_ports_needs_an_mcap_recording_and_known_ports", function()
+  local system = src .. "/scripts/systems/door_open.dca"
+  local out, rc = T.sh(dca .. " run " .. system .. " --sim door --record-ports all")
+  T.eq(rc, 2, "exit code")
+  T.contains(out, "--record-ports goes with --record FILE.mcap")
+  out, rc = T.sh(dca .. " run " .. system .. " --sim door --record /tmp/x.mcap --record-ports main.x.Y")
+  T.eq(rc, 2, "exit code")
+  T.contains(out, "--record-ports: no leaf main.x in main")
+  T.ok(not out:find("daemon at", 1, true), "nothing started:\n" .. out)
+end)
+
+suite:case("a_restarted_leafs_port_is_recorded_on_its_new_process", function()
+  local file = os.tmpname() .. ".mcap"
+  local out, rc = T.sh("timeout 120 " .. dca .. " run " .. src .. "/scripts/systems/test_taps_restart.dca --sim door"
+    .. " --record " .. file .. " --record-ports main.loop.steady.Count")
+  T.eq(rc, 1, "the run ends ABORTED (restart intensity)\n" .. out)
+  T.contains(out, "main.loop.steady: restarted")
+  local rec = assert(require("dca.core").mcap_read(file))
+  os.remove(file)
+  local id
+  for k, c in pairs(rec.channels) do if c.topic == "/main/loop/steady/Count" then id = k end end
+  T.ok(id, "the port's channel")
+  -- the Counter counts 1, 2, 3, 4 every 20 ms, and again from 1 on each of its three new processes
+  local after = {}
+  for _, m in ipairs(rec.messages) do
+    if m.channel == id and m.data == '{"value":1}' then after[#after + 1] = m.t end
+  end
+  T.eq(#after, 4, "a first sample of each of its four processes")
+  for i = 2, 4 do T.ok(after[i] > after[i - 1], "each process's samples after the one before") end
+end)
+
+return suite:run(...)
