@@ -97,6 +97,7 @@ function Mon:_topics()
 end
 
 function Mon:_open(c)
+  self:_flush()  -- what is pending goes to the pages already open: the snapshot holds it for this one
   self.pages[c] = true
   send(c, { type = "hello", mode = self.o.mode or "live", name = self.o.name or "", version = 1 })
   local snap = self.model:snapshot()

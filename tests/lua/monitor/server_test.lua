@@ -1,0 +1,117 @@
+-- dca.monitor.server: the dca.monitor.v1 protocol as a page sees it (a connection stand-in records what is sent),
+-- commands as console requests, bad input answered and counted, and the pages served with and without the token.
+local T = require "dca.testing"
+local core = require "dca.core"
+local server = require "dca.monitor.server"
+local suite = T.suite("monitor_server")
+
+local loop = core.loop()
+
+-- A page's connection: what the server sends it, decoded.
+local function page()
+  local p = { got = {}, subs = {} }
+  function p:send(text) self.got[#self.got + 1] = core.json_decode(text) return true end
+  function p:subscribe(topic, rate) self.subs[topic] = rate end
+  function p:is_open() return true end
+  return p
+end
+
+-- A monitor whose console requests are recorded and answered by `answer(msg)`.
+local function monitor(answer)
+  local asked = {}
+  local mon = T.ok(server.start{ name = "main", root = "main", mode = "live", request = function(msg, cb)
+    asked[#asked + 1] = msg
+    cb(answer and answer(msg) or { type = "ok", output = "" })
+  end })
+  return mon, asked
+end
+
+-- A page gets hello and a snapshot, then deltas coalesced.
+suite:case("hello_snapshot_then_coalesced_deltas", function()
+  local mon = monitor(function(msg)
+    if msg.type == "tree" then return { type = "ok", tree = { path = "main", kind = "group", type = "M", host = "h1",
+      state = "running", children = { { path = "main.a", kind = "leaf", type = "A", host = "h2", state = "running" } } } } end
+    return { type = "ok", output = "k = 1" }
+  end)
+  local p = page()
+  mon:_open(p)
+  T.eq(p.got[1].type, "hello")
+  T.eq(p.got[2].type, "snapshot")
+  T.eq(#p.got[2].nodes, 2)
+  T.eq(p.got[2].config[1].key, "k")
+  mon:line("[sim    1.500] main.a: done 1", nil)
+  mon:line("[sim    1.600] main: done 1", nil)
+  T.ok(loop:run_until(function() return #p.got >= 3 end, 5), "a delta came")
+  local d = p.got[3]
+  T.eq(d.type, "delta")
+  T.eq(#d.events, 2, "both lines in one delta")
+  T.eq(d.events[1].t, 1.5)
+  mon:close()
+end)
+
+-- Commands are console requests; a config value is read as a literal, never evaluated.
+suite:case("commands_are_console_requests_values_literals", function()
+  local mon, asked = monitor()
+  local p = page()
+  mon:_message(p, core.json_encode{ type = "command", id = 1, cmd = "restart", path = "main.a" })
+  mon:_message(p, core.json_encode{ type = "command", id = 2, cmd = "abort", path = "main.a" })
+  mon:_message(p, core.json_encode{ type = "command", id = 3, cmd = "config_set", key = "door.w", value = "0.5" })
+  mon:_message(p, core.json_encode{ type = "command", id = 4, cmd = "config_set", key = "x", value = "os.exit()" })
+  local n = #asked
+  T.eq(asked[n - 2], { type = "restart", path = "main.a" })
+  T.eq(asked[n - 1].type, "inject")
+  T.eq(asked[n - 1].msg.type, "aborted")
+  T.eq(asked[n].line, 'return config.set("door.w", 0.5)')
+  T.eq(p.got[#p.got].type, "reply")
+  T.eq(p.got[#p.got].ok, false, "os.exit() is no literal: refused before any request")
+  mon:close()
+end)
+
+-- What is not JSON or not a message is answered and counted; the page's connection stays.
+suite:case("bad_messages_answered_and_counted", function()
+  local mon = monitor()
+  local p = page()
+  for _, bad in ipairs({ "", "{", "[1,2", "null", "{\"type\":\"nothing\"}", string.rep("[", 100) }) do
+    mon:_message(p, bad)
+    T.eq(p.got[#p.got].type, "error", bad)
+  end
+  T.eq(mon.errors, 6)
+  mon:_message(p, core.json_encode{ type = "subscribe", topic = 3, rate = 1e9 })
+  T.eq(p.subs[3], 200, "the rate is bounded")
+  mon:close()
+end)
+
+-- curl's answer (the HTTP status) for its arguments, run while the loop serves the request.
+local function http_status(args)
+  local out = os.tmpname()
+  local argv = { "/usr/bin/curl", "-s", "-o", "/dev/null", "-w", "%{http_code}", "-m", "5" }
+  for _, a in ipairs(args) do argv[#argv + 1] = a end
+  local pid = T.ok(core.spawn(argv, { stdout = out }))
+  local ended
+  T.ok(loop:run_until(function() ended = core.reap(pid) return ended ~= nil end, 10), "curl ended")
+  local code = T.read(out)
+  os.remove(out)
+  return code
+end
+
+-- The page loads without the token; the WebSocket needs it.
+suite:case("page_public_websocket_needs_token", function()
+  local mon = monitor()
+  local base = "http://" .. mon.srv:address()
+  T.eq(http_status({ base .. "/" }), "200")
+  T.eq(http_status({ base .. "/monitor.js" }), "200")
+  local ws = { "-H", "Connection: Upgrade", "-H", "Upgrade: websocket", "-H", "Sec-WebSocket-Version: 13",
+               "-H", "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==", "-H", "Sec-WebSocket-Protocol: dca.monitor.v1" }
+  local function upgrade(target)
+    local a = { table.unpack(ws) }
+    a[#a + 1] = base .. target
+    return http_status(a)
+  end
+  T.eq(upgrade("/ws"), "401")
+  T.eq(upgrade("/ws?token=" .. string.rep("0", 32)), "401")
+  T.eq(mon.srv:stats().refused, 2)
+  T.contains(mon:url(), "?token=" .. mon.srv:token())
+  mon:close()
+end)
+
+return suite:run(...)
