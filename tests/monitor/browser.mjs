@@ -8,6 +8,11 @@ import { mkdirSync, rmSync } from 'node:fs';
 import { join } from 'node:path';
 import puppeteer from 'puppeteer-core';
 
+// dca's children stop when the process that started them is gone (DCA_PARENT_PID, host/spawn.h): this script's
+// own children must not inherit the variable meant for this script.
+const childEnv = { ...process.env };
+delete childEnv.DCA_PARENT_PID;
+
 const [mode, exe, src, out] = process.argv.slice(2);
 const CHROMIUM = process.env.DCA_CHROMIUM || '/usr/bin/chromium';
 mkdirSync(out, { recursive: true });
@@ -20,7 +25,7 @@ function check(ok, what) {
 
 // Starts `dca ARGS` and resolves with the process and the monitor's URL once it is printed (within 60 s).
 function start(args) {
-  const p = spawn(exe, args, { stdio: ['ignore', 'pipe', 'pipe'] });
+  const p = spawn(exe, args, { stdio: ['ignore', 'pipe', 'pipe'], env: childEnv });
   let text = '';
   return new Promise((resolve, reject) => {
     const deadline = setTimeout(() => reject(new Error(`no monitor address within 60 s:\n${text}`)), 60000);
@@ -119,7 +124,7 @@ async function configFromThePage(page) {
 
 // `dca monitor PATH --daemon ADDR --key FILE` attached to a running system through its root's console.
 async function attach(browser) {
-  const run = spawn(exe, ['run', door, '--sim', 'door', '--realtime'], { stdio: ['ignore', 'pipe', 'pipe'] });
+  const run = spawn(exe, ['run', door, '--sim', 'door', '--realtime'], { stdio: ['ignore', 'pipe', 'pipe'], env: childEnv });
   let text = '';
   const consoleLine = await new Promise((resolve, reject) => {
     const deadline = setTimeout(() => reject(new Error(`no console line within 60 s:\n${text}`)), 60000);
@@ -160,7 +165,7 @@ async function replay(browser) {
   const rec = join(out, 'door.mcap');
   rmSync(rec, { force: true });
   const code = await new Promise((resolve) => {
-    const p = spawn(exe, ['run', door, '--sim', 'door', '--record', rec, '--quiet'], { stdio: 'ignore' });
+    const p = spawn(exe, ['run', door, '--sim', 'door', '--record', rec, '--quiet'], { stdio: 'ignore', env: childEnv });
     p.on('exit', resolve);
   });
   check(code === 0, `the door run recorded ${rec} (exit ${code})`);

@@ -138,9 +138,11 @@ function Mon:_flush()
   for c in pairs(self.pages) do c:send(text) end
 end
 
--- The tree again (hosts, states, expressions), through the console request.
+-- The tree again (hosts, states, expressions), through the console request: once at the start, then every
+-- TREE_PERIOD while a page is open (the lines keep the states between; the tree catches what no line says).
 function Mon:_refresh_tree()
-  if self.tree_pending then return end
+  if self.tree_pending or (self.tree_once and not next(self.pages)) then return end
+  self.tree_once = true
   self.tree_pending = true
   self.o.request({ type = "tree" }, function(r)
     self.tree_pending = false

@@ -74,10 +74,12 @@
 
   // ------------------------------------------------------------------------------------------ the tree
 
+  // Expanded unless closed by hand; a group of more than BIG_GROUP children starts closed, the root never.
   function isExpanded(path) {
     if (S.collapsed.has(path)) return false;
     if (S.expanded.has(path)) return true;
-    return (S.kids.get(path) || []).length <= BIG_GROUP;
+    const n = S.nodes.get(path);
+    return (n && !S.nodes.has(n.parent)) || (S.kids.get(path) || []).length <= BIG_GROUP;
   }
 
   // The rows in view order: every process whose ancestors are expanded.
@@ -109,7 +111,7 @@
       (live ? '<button data-cmd="restart">restart</button><button data-cmd="abort">abort</button>' : '') + '</div>';
   }
 
-  let treeRows = [];
+  let treeRows = [], treeWindow = [];
   function renderTree() {
     const box = $('tree');
     treeRows = visibleRows();
@@ -119,6 +121,7 @@
     const last = Math.min(treeRows.length, first + Math.ceil(pane.clientHeight / ROW) + 60);
     let html = `<div style="height:${first * ROW}px"></div>`;
     for (let i = first; i < last; i++) html += rowHtml(treeRows[i]);
+    treeWindow = treeRows.slice(first, last);
     html += `<div style="height:${(treeRows.length - last) * ROW}px"></div>`;
     box.innerHTML = html;
   }
@@ -135,6 +138,7 @@
     }
   });
   $('tree-pane').addEventListener('scroll', () => { S.dirty.tree = true; });
+  $('timeline-box').addEventListener('scroll', () => { S.dirty.timeline = true; });
 
   // ------------------------------------------------------------------------------------------ expressions
 
@@ -151,9 +155,11 @@
       kids.join(`<span class="sym">${esc(e.op)}</span>`) + '</span>';
   }
 
+  // The expressions of the expanded groups in the tree's window (what the tree shows, so a big tree costs what a
+  // screenful costs).
   function renderExprs() {
     let html = '';
-    for (const r of treeRows.length ? treeRows : visibleRows()) {
+    for (const r of treeWindow) {
       const e = S.exprs[r.path];
       if (e && isExpanded(r.path)) html += `<div class="expr" data-group="${esc(r.path)}"><h3>${esc(r.path)}</h3>${exprHtml(r.path, e)}</div>`;
     }
@@ -198,20 +204,27 @@
     return rows;
   }
 
+  // The timeline is one canvas the size of its box, drawing the rows scrolled into view; a spacer gives the box
+  // the whole height.
   function renderTimeline() {
     const T = viewTime();
     const rows = periods(T);
-    const c = $('timeline');
-    const w = c.parentElement.clientWidth || 600;
-    const h = 20 + rows.size * 14;
+    const c = $('timeline'), box = $('timeline-box');
+    const w = box.clientWidth || 600;
+    const total = 20 + rows.size * 14;
+    const h = Math.min(total, 320);
+    $('timeline-spacer').style.height = Math.max(0, total - h) + 'px';
     c.width = w; c.height = h; c.style.height = h + 'px';
+    const skip = Math.max(0, Math.min(rows.size, Math.floor(box.scrollTop / 14)));
     const g = c.getContext('2d');
     const label = 220, span = Math.max(T, 1e-3);
     const x = (t) => label + (t / span) * (w - label - 10);
     g.font = '10px sans-serif'; g.fillStyle = '#555';
     for (let k = 0; k <= 5; k++) g.fillText((span * k / 5).toFixed(2), x(span * k / 5) - 8, 10);
-    let y = 16;
+    let y = 16, i = 0;
     for (const [path, list] of rows) {
+      if (i++ < skip) continue;
+      if (y > h) break;
       g.fillStyle = '#333';
       g.fillText(path.length > 38 ? '…' + path.slice(-37) : path, 2, y + 9);
       for (const p of list) {
