@@ -2,7 +2,10 @@
 // server (host/web, host/sample_hub), and the Foxglove WebSocket protocol (host/foxglove.h) on that server.
 //
 //   local tp, err = core.tap_point{ name = "taps:main@123", host = "h1", key_file = PATH, tcp = "127.0.0.1:0",
-//                                   server = srv }       -- srv: a dca.WebServer (core.web_listen)
+//                                   server = srv,        -- srv: a dca.WebServer (core.web_listen)
+//                                   stamp = "writer" | "arrival" }  -- a sample's time: the writer's clock (simulated
+//                                   -- time), or its arrival here on the Unix epoch (wall-clock runs: the nodes'
+//                                   -- monotonic clocks mean nothing to a viewer, nor across hosts)
 //   tp:endpoints()   --> { host =, data_uds =, data_tcp = }   (what the daemon's `register` takes)
 //   tp:add(path, port_type, size, units, queue) --> the topic ("/main/door/hit/Force") | nil, err: its samples go
 //                    to that topic of srv's samples (fields "value", or "value[0]".. for a vector; a value
@@ -16,6 +19,7 @@
 
 #include <unistd.h>
 
+#include <chrono>
 #include <cstdio>
 #include <map>
 #include <memory>
@@ -39,6 +43,7 @@ struct TapUD {
   std::weak_ptr<web::Server> server;
   std::map<std::string, std::uint32_t> topics;        // path -> topic id in the server's samples
   std::map<std::string, std::uint64_t> unpublished;  // path -> samples not published (value ports, no server)
+  bool arrival = false;  // published at their arrival (the Unix epoch), not at the writer's stamp
 };
 
 TapUD* check(lua_State* L) {
@@ -63,6 +68,8 @@ void publish(TapUD& ud, tap::Taps::Tap& t, std::int64_t at, Bytes sample) {
     ++ud.unpublished[t.path];
     return;
   }
+  if (ud.arrival)
+    at = std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch()).count();
   server->samples().publish(id->second, at, values);
 }
 
@@ -72,6 +79,7 @@ int core_tap_point(lua_State* L) {
   const std::string host = string_field(L, 1, "host", "");
   const std::string key_file = string_field(L, 1, "key_file", "");
   const std::string tcp = string_field(L, 1, "tcp", "127.0.0.1:0");
+  const std::string stamp = string_field(L, 1, "stamp", "writer");
   luaL_argcheck(L, !name.empty() && !host.empty(), 1, "{ name = ..., host = ... } needed");
   std::shared_ptr<web::Server> server;
   lua_getfield(L, 1, "server");
@@ -92,6 +100,7 @@ int core_tap_point(lua_State* L) {
         const std::string uds = runtime_dir() + "/taps-" + std::to_string(::getpid()) + "-" + std::to_string(made++) + ".sock";
         ud->point = std::make_unique<tap::TapPoint>(lua::loop_state(L).loop.io(), host, name, std::move(o), uds, tcp);
         ud->server = server;
+        ud->arrival = stamp == "arrival";
         ud->point->on_sample = [ud](tap::Taps::Tap& t, std::int64_t at, Bytes sample) { publish(*ud, t, at, sample); };
       }
     } catch (const std::exception& e) {
@@ -144,8 +153,12 @@ int tp_add(lua_State* L) {
     } else if (ud->point->add(path, {path, *t, size, units, {}}, std::min<std::size_t>(queue, 4096), &error)) {
       topic = tap::topic_of(path);
       auto server = ud->server.lock();
-      if (server && *t != PortType::Value && !ud->topics.count(path))
-        ud->topics[path] = server->samples().add_topic(topic, fields_of({path, *t, size, units, {}}));
+      // the topic the run made at start (dca.launch.live) is used as it is: made again, it would be advertised
+      // again to every viewer
+      if (server && *t != PortType::Value && !ud->topics.count(path)) {
+        const auto* known = server->samples().find(topic);
+        ud->topics[path] = known ? known->id : server->samples().add_topic(topic, fields_of({path, *t, size, units, {}}));
+      }
     }
     if (topic.empty()) std::snprintf(err, sizeof err, "tap %s: %s", path.c_str(), error.c_str());
   }

@@ -60,8 +60,10 @@ try {
   let subscription;
   client.on("serverInfo", (i) => { info = i; });
   client.on("error", (e) => failures.push(`client error: ${e.message}`));
+  let advertisedPort = 0;
   const advertised = new Promise((resolve) => client.on("advertise", (list) => {
     for (const c of list) channels.set(c.topic, c);
+    advertisedPort += list.filter((c) => c.topic === PORT).length;
     if (channels.has(PORT)) resolve();
   }));
   client.on("message", ({ subscriptionId, timestamp, data }) => {
@@ -116,6 +118,7 @@ try {
           `at ${g.t} ns: ${JSON.stringify(g.value)}, the trace: ${p.value}`);
   }
   check(compared >= MIN / 2, `only ${compared} samples compared with the trace`);
+  check(advertisedPort === 1, `${PORT} advertised ${advertisedPort} times (its tap must not advertise it again)`);
   console.log(`foxglove: ${channels.size} channels advertised, ${got.length} samples of ${PORT} received ` +
               `(${Number(got[0]?.t) / 1e9} .. ${Number(got.at(-1)?.t) / 1e9} s simulated), ${compared} equal to the ` +
               `trace's; refused without the token and with a wrong one (401)`);

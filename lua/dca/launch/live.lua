@@ -54,7 +54,9 @@ function M.start(ctx, sup, srv, cb)
   local daemon = ctx.hosts[spec.host]
   local ip = tostring(daemon):match("^(%d+%.%d+%.%d+%.%d+):%d+$") or "127.0.0.1"
   local name = sformat("taps:%s@%d", spec.path, core.pid())
-  local tp, err = core.tap_point{ name = name, host = spec.host, key_file = ctx.key, tcp = ip .. ":0", server = srv }
+  -- a sample's time: its tick in simulated time; in a wall-clock run its arrival, on the Unix epoch
+  local tp, err = core.tap_point{ name = name, host = spec.host, key_file = ctx.key, tcp = ip .. ":0", server = srv,
+                                  stamp = ctx.o.sim and "writer" or "arrival" }
   if not tp then cb(nil, err) return end
   local self = setmetatable({ tp = tp, name = name, sup = sup, srv = srv, ctx = ctx, by_topic = {}, tapped = {} }, Live)
   self:_topics(taps.outputs(spec, sup.rt.types and sup.rt.types() or core.types()))
