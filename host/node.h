@@ -63,7 +63,9 @@
 // true}) and hosts no leaf at first; on its own control address it takes:
 //   add {controller, name, args[, package, system_dir]} -> ok {control, ...} creates the leaf (controller: its
 //                                                type; its package loaded first: NodeOptions::load_package),
-//                                                registers its PATH and answers with its endpoints
+//                                                registers its PATH and answers with its endpoints (with
+//                                                `instance`: this process's count of adds, telling a leaf
+//                                                added again from its old instance at the same address)
 //   remove {name}                             -> ok {}   stops it (actuators safe), closes its connections and
 //                                                control channels, unregisters its PATH; a later `add` of the
 //                                                same PATH is a fresh instance (a restart)
@@ -73,9 +75,10 @@
 // (a timer callback, its MainCalc, or a control request its component handles; empty in between); when a
 // signal ends the node, the daemon reads it and names that leaf in the exit event (`culprit`). A signal sent
 // from outside while no leaf's code runs names none.
-// Simulated time (--clock sim): once registered, the node looks up the clock master (`world`, see --world) at
-// its daemon, opens a channel to its control address and subscribes with `clock {name}` (answered ok {now});
-// it takes the master's time and from then on obeys its `advance {t}` requests (lock-step, ARCHITECTURE.md
+// Simulated time (--clock sim): before it registers, the node looks up the clock master (`world`, see --world)
+// at its daemon, opens a channel to its control address and subscribes with `clock {name}` (answered ok {now}),
+// so the master knows a new process of a leaf (a restart: its links' counts start afresh) before anybody can
+// connect to it; it takes the master's time and from then on obeys its `advance {t}` requests (lock-step, ARCHITECTURE.md
 // "Time"). Periodic timers are aligned (host/timers.h set_aligned). If the master's channel closes, the node
 // stops as it would on daemon loss. With --world none it subscribes to nothing and any control channel may
 // advance it.
