@@ -27,7 +27,9 @@ function M.variant(proc, section)
   local n
   text, n = text:gsub("(\nprocess " .. proc .. "%b()%s*{%s*host%s*%b{})", "%1\n  " .. section)
   assert(n == 1, "door_open.dca: no process " .. proc .. " with a host { } line")
-  local file = os.tmpname() .. ".dca"
+  local base = os.tmpname()  -- (made empty by os.tmpname: the .dca beside it is the file)
+  os.remove(base)
+  local file = base .. ".dca"
   f = assert(io.open(file, "w")) f:write(text) f:close()
   return file, { file = file, config = src .. "/scripts/systems/door_open.config" }
 end
