@@ -56,7 +56,9 @@ local function result(bench, variant, samples)
   io.stdout:flush()
 end
 
-local file = os.tmpname() .. ".dca"
+local base = os.tmpname()
+os.remove(base)
+local file = base .. ".dca"
 do
   local f = assert(io.open(file, "w"))
   f:write(SYSTEM)
