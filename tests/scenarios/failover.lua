@@ -11,6 +11,9 @@ local S = require "dca.scenario"
 local src = os.getenv("DCA_SOURCE_DIR") or "."
 local sys = S.system(src .. "/scripts/systems/test_failover.dca")
 local real = sys.backend == "real"
+-- two leaves on one host: a Unix socket between their nodes, or in process in one shared node (`dca scenario
+-- --placement group|host`, ARCHITECTURE.md "Placement")
+local together = (S.placement or "process") == "process" and "unix" or "inprocess"
 
 local GAIN, SINK, CAM, TRACK = "main.ctrl.gain", "main.ctrl.sink", "main.vision.cam", "main.vision.track"
 
@@ -72,7 +75,7 @@ S.step("host manip lost: ctrl.gain restarts on its standby host base, its links 
   -- its input again from vision.track (the root's connection), its output again to ctrl.sink
   flows(GAIN, "In")
   flows(SINK, "In")
-  if real then S.eq(transport(GAIN, SINK), "unix", "both on base now: a Unix socket") end
+  if real then S.eq(transport(GAIN, SINK), together, "both on base now") end
   S.eq(sys.outcome, nil, "the task runs on")
 end)
 
@@ -85,7 +88,7 @@ S.step("host vision lost: the group vision restarts on vision2 with its subtree,
   S.ok(where(CAM).pid ~= before, "a new process")
   flows(TRACK, "In")
   flows(SINK, "In")
-  if real then S.eq(transport(CAM, TRACK), "unix", "cam and track together on vision2") end
+  if real then S.eq(transport(CAM, TRACK), together, "cam and track together on vision2") end
   S.eq(sys.outcome, nil, "the task runs on")
   S.eq(sys:state(GAIN), "running", "ctrl.gain never stopped")
 end)
