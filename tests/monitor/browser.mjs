@@ -99,6 +99,12 @@ async function live(browser) {
     const n = await until(page, () => Number(document.getElementById('plot').dataset.samples) >= 20 &&
       Number(document.getElementById('plot').dataset.samples), 20);
     check(n >= 20, `the live plot of /world/door receives samples (${n})`);
+    // a port: its samples tapped (taps, host/tap.h) into the server's live samples once the page subscribes
+    const port = '/main/dooropensyst/motionctrl/redundancy/BaseVel';
+    await pick(page, port);
+    const k = await until(page, () => Number(document.getElementById('plot').dataset.samples) >= 20 &&
+      Number(document.getElementById('plot').dataset.samples), 20);
+    check(k >= 20, `the live plot of the port ${port} receives samples (${k})`);
     const tl = await page.evaluate(() => Number(document.getElementById('timeline').dataset.rows || 0));
     check(tl >= 10, `the timeline shows the steps so far (${tl} rows)`);
     const cfg = await page.evaluate(() => document.querySelectorAll('#config tr').length);
