@@ -104,14 +104,14 @@ function Live:tap_topic(topic, cb)
   if state then state[#state + 1] = cb return end  -- being made
   local waiting = { cb }
   self.tapped[topic] = waiting
-  local added, aerr = self.tp:add(p.path, p.type, p.size, p.units, 64)
+  local added, aerr = self.tp:add(p.path, p.type, p.size, p.units, 256)
   local function finish(ok, err)
     self.tapped[topic] = ok and true or nil
     if ok then self.ctx.say(sformat("live: tapped %s (%s)", p.path, topic)) end
     for _, w in ipairs(waiting) do w(ok, err) end
   end
   if not added then finish(nil, aerr) return end
-  taps.connect(self.sup, { p }, self.name, { queue = 64, send = function(leaf, msg, timeout, k) self:_send(leaf, msg, timeout, k) end },
+  taps.connect(self.sup, { p }, self.name, { queue = 256, send = function(leaf, msg, timeout, k) self:_send(leaf, msg, timeout, k) end },
     finish)
 end
 

@@ -82,8 +82,19 @@ function Run:down()
   local s = self.ctx.sim
   self.sup:shutdown(function()
     if not s then self.loop:stop() return end
+    self:live_summary()
     self:end_recording(function() s.world:stop(function() self:write_trace() self.loop:stop() end) end)
   end)
+end
+
+-- With --monitor: what the live taps took in and dropped (a busy root drops the oldest, counted).
+function Run:live_summary()
+  if not self.live then return end
+  local n, taken, dropped = 0, 0, 0
+  for _, st in pairs(self.live:stats()) do
+    n, taken, dropped = n + 1, taken + (st.taken or 0), dropped + (st.dropped or 0)
+  end
+  if n > 0 then self:emit(sformat("live taps: %d ports, %d samples taken, %d dropped", n, taken, dropped)) end
 end
 
 -- With --record FILE.mcap: the world closes the recording and says what it holds ("recorded FILE: N messages
