@@ -225,4 +225,63 @@ suite:case("a_restarted_sub_group_is_wired_again_by_the_group_above", function()
   T.eq(c:node("main.g.x").ports.In, 5, "the new leaf hears the writer of the group above")
 end)
 
+suite:case("restart_lines_go_up_with_the_fault_time_for_the_trace", function()
+  -- a root asked for progress (dca run): its lines go up as `log {line, at}`; those of a restart carry the
+  -- time of the event that caused it (dca run --trace keeps the lines that carry one)
+  local spec = root("main", "h1", "a , b", { leaf("a", "Run", "h1"), leaf("b", "Run", "h1") })
+  spec.supervision = pol("one_for_one", 3, 10, { "aborted" })
+  local c = fake.cluster({ behave = {} })
+  c:root(spec, { progress = true })
+  assert(c:configure())
+  c:start()
+  c:settle(c.t + 1)
+  c.root_sup:child_message("b", { type = "aborted", reason = "sensor fault", now = 2500000000 })
+  c:settle(c.t + 1)
+  local got = {}
+  for _, m in ipairs(c.reports) do
+    if m.type == "log" and m.line:find("restart") then got[#got + 1] = { m.line, m.at } end
+  end
+  T.eq(got, {
+    { "main: one_for_one after b aborted: sensor fault: restarting b (1/3 in 10 s)", 2.5 },
+    { "main.b: stopping to restart", 2.5 },   -- (an ABORTED leaf's process lives: stopped, then ended)
+    { "main.b: restarted 1/3 in 10 s", 2.5 },
+  })
+  T.eq(c.outcome, nil)
+end)
+
+suite:case("tree_shows_the_policy_budget_and_restart_counts", function()
+  local c = running(workers(pol("one_for_one", 3, 10)))
+  c:kill("main.w.b", "SEGV")
+  c:settle(c.t + 1)
+  local tree
+  c.root_sup:tree(function(t) tree = t end)
+  c:settle(c.t, function() return tree ~= nil end)
+  local w = tree.children[1]
+  T.eq(w.policy, { strategy = "one_for_one", intensity = 3, within = 10, on = { crash = true, lost = true },
+                   used = 1, total = 1, escalated = false })
+  T.eq({ w.children[1].restarts, w.children[2].restarts }, { nil, 1 })
+  local text = table.concat(require("dca.supervisor.console").render_tree(tree, {}), "\n")
+  T.contains(text, "[one_for_one: 1/3 in 10 s used, 1 restarts]")
+  T.ok(text:find("b%s+leaf%s.-running  restarted 1"), text)
+end)
+
+suite:case("a_silent_sub_supervisor_is_lost_and_its_subtree_restarted", function()
+  local g = group("g", "G", "h2", "x", { leaf("x", "Run", "h2") })
+  local spec = root("main", "h1", "g", { g })
+  spec.supervision = pol("one_for_one", 3, 60, { "lost" })
+  local c = fake.cluster({ behave = {}, heartbeat = { 1, 5 } })
+  c:root(spec)
+  assert(c:configure())
+  c:start()
+  c:settle(c.t + 1)
+  local sup_pid, leaf_pid = pid(c, "main.g"), pid(c, "main.g.x")
+  c:freeze("main.g")
+  c:settle(c.t + 10, function() return #lines(c, "^(main%.g: restarted 1/3 in 60 s)") == 1 end)
+  T.eq(#lines(c, "^(main%.g: lost: supervisor lost on host h2)"), 1)
+  T.ok(pid(c, "main.g") ~= sup_pid and pid(c, "main.g.x") ~= leaf_pid, "a new supervisor and leaf")
+  c:settle(c.t + 1)
+  T.eq(c:node("main.g.x").running, true)
+  T.eq(c.outcome, nil)
+end)
+
 return suite:run(...)
