@@ -7,6 +7,8 @@ local S = require "dca.scenario"
 local src = os.getenv("DCA_SOURCE_DIR") or "."
 local sys = S.system(src .. "/scripts/systems/test_escalation.dca")
 local LEAF = "main.mid.low.leaf"
+-- Under a shared placement (`--placement group|host`) a crash reason ends with the shared node's note.
+local function begins(got, want) S.eq(tostring(got):sub(1, #want), want) end
 
 -- Waits until `group` has been restarted (after line `from`) and the leaf runs in its new subtree.
 local function restarted(group, budget, from)
@@ -26,7 +28,7 @@ S.step("low restarts its leaf twice, then gives up; mid restarts low", function(
   local from = #sys:transitions()
   local kills, gave_up = sys:crash(LEAF, 3, "SEGV", 30)
   S.eq(kills, 3)
-  S.eq(gave_up, "main.mid.low: restart intensity 2 in 60 s exceeded; last: leaf killed by SIGSEGV on host h3")
+  begins(gave_up, "main.mid.low: restart intensity 2 in 60 s exceeded; last: leaf killed by SIGSEGV on host h3")
   S.eq(#sys:lines_matching("^main%.mid%.low%.leaf: restarted %d/2 in 60 s", from), 2)
   restarted("main.mid.low", "1/1 in 60 s", from)
   S.eq(sys.outcome, nil, "the root's algebra saw nothing")
@@ -48,7 +50,7 @@ S.step("the third time up: main gives up, the run ends ABORTED naming the leaf's
   local out = sys:wait_outcome(30)
   S.eq(out.type, "aborted")
   S.eq(out.path, LEAF)
-  S.eq(out.reason, "restart intensity 1 in 60 s exceeded; last: mid escalated: restart intensity 1 in 60 s "
+  begins(out.reason, "restart intensity 1 in 60 s exceeded; last: mid escalated: restart intensity 1 in 60 s "
     .. "exceeded; last: low escalated: restart intensity 2 in 60 s exceeded; last: leaf killed by SIGSEGV on host h3")
   sys:wait_escalation("main", 30, from)
 end)

@@ -187,16 +187,24 @@ function Shared:wait_escalation(path, timeout, from)
   return self:wait_line(path .. "'s escalation", gave_up(path), timeout, from)
 end
 
---- Kills the process at `path` with `sig` (default SEGV) `n` times, each time once it lives again: waits for its
---- restart, or for its group to give up (then it stops). --> the number of kills, the escalation line or nil
+--- Kills the process at `path` with `sig` (default SEGV) `n` times, each time once it lives again: waits until
+--- its group has restarted every child it restarts for it, or gives up (then it stops).
+--- --> the number of kills, the escalation line or nil
 function Shared:crash(path, n, sig, timeout)
   local group = path:match("^(.*)%.[^.]+$") or path
+  local restarting = "^" .. escape(group) .. ": %S+ after .*: restarting ([%w_, ]+) %(%d+/"
   for i = 1, n do
     local from = #self:transitions()
     self:kill(path, sig or "SEGV")
-    local line = self:wait_line(sformat("%s's restart or %s's escalation after kill %d", path, group, i),
-      { restarted(path), gave_up(group) }, timeout, from)
+    local line, at = self:wait_line(sformat("%s's restart or %s's escalation after kill %d", path, group, i),
+      { restarting, gave_up(group) }, timeout, from)
     if line:find(gave_up(group)) then return i, line end
+    for name in line:match(restarting):gmatch("[%w_]+") do
+      local _, at2 = self:wait_line(sformat("%s's restart after kill %d", group .. "." .. name, i),
+        { restarted(group .. "." .. name), gave_up(group) }, timeout, at)
+      local l2 = self:transitions()[at2]
+      if l2:find(gave_up(group)) then return i, l2 end
+    end
   end
   return n, nil
 end

@@ -278,8 +278,9 @@ function Shared:remove(p)
     if p.exited then return end
     p.exited = true
     self.leaves[p] = nil
-    p:gone()
+    -- (let go first: a waiter told of the end may place a leaf at once, in a node of its own)
     if next(self.leaves) == nil then self:release() end
+    p:gone()
   end
   if not self.ch then gone() return end
   self.ch:request({ type = "remove", name = p.path }, self.rt.opts.stop_grace or 5, function() gone() end)
