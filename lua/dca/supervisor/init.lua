@@ -1051,6 +1051,7 @@ function Sup:_recover(f)
     rec.started[plan[k]] = true
     self:_bring_up(plan[k], rec.running[plan[k]], function(ok, err)
       if self.recovering ~= rec then return end
+      if not ok and self.state ~= "running" then self:_recovered(rec) return end  -- stopped or aborted meanwhile
       if not ok then self:_escalate(f, sformat("restart of %s failed: %s", plan[k], tostring(err))) return end
       up(k + 1)
     end)
@@ -1168,6 +1169,7 @@ function Sup:_escalate(f, reason)
   local rec = self.recovering
   self.recovering, self.recovery_at = nil, f.at
   if rec then self:_unmark(rec) end
+  if self.state ~= "running" then self.recovery_at = nil return end  -- aborted or stopped meanwhile: no outcome
   self.escalated = true
   self:say("%s: %s", self.path, reason)
   self.cause = { path = f.cause.path, reason = reason }
@@ -1404,6 +1406,11 @@ function Sup:update(new, cb)
   end
   if not same(shape(old), shape(new)) then
     lines[#lines + 1] = name .. ": processes or connections changed; takes effect when the system is started again"
+  end
+  if not same(old.supervision, new.supervision) then
+    -- a policy is data: the new one applies from the next fault on (the restarts so far still count)
+    self.spec.supervision = new.supervision
+    lines[#lines + 1] = name .. ": supervision policy changed; in effect now"
   end
   if old.expr ~= new.expr then
     local algebra = require "dca.algebra"

@@ -284,4 +284,35 @@ suite:case("a_silent_sub_supervisor_is_lost_and_its_subtree_restarted", function
   T.eq(c.outcome, nil)
 end)
 
+suite:case("a_shutdown_during_a_restart_starts_nothing_more_and_reports_nothing", function()
+  local c = running(workers(pol("one_for_all")))
+  c.spawn_delay["main.w.b"] = 3
+  c:kill("main.w.a", "SEGV")
+  c:settle(c.t + 1)   -- a is up again, b's start waits
+  local done = false
+  c.root_sup:shutdown(function() done = true end)
+  c:settle(c.t + 30, function() return done end)
+  T.ok(done, "the shutdown ends")
+  c:settle(c.t + 10)
+  T.eq(c.outcome, nil, "no escalation reported")
+  T.eq(c:alive(), {}, "nothing left")
+end)
+
+suite:case("a_reload_with_a_new_policy_applies_it_at_once", function()
+  local c = running(workers(pol("one_for_one", 1, 60)))
+  local w = c.sups["main.w"]
+  local new = fake.copy(w.spec)
+  new.supervision = pol("one_for_one", 5, 60)
+  local got
+  w:update(new, function(l) got = l end)
+  c:settle(c.t, function() return got ~= nil end)
+  T.eq(got, { "main.w (Workers): supervision policy changed; in effect now" })
+  for _ = 1, 3 do
+    c:kill("main.w.b", "SEGV")
+    c:settle(c.t + 1)
+  end
+  T.eq(c.outcome, nil, "3 restarts within the new budget of 5")
+  T.eq(#lines(c, "^(main%.w%.b: restarted %d/5 in 60 s)"), 3)
+end)
+
 return suite:run(...)
