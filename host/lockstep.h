@@ -15,7 +15,10 @@
 // Requests (Lockstep::handle):
 //   clock {name, role}  -> ok {now}  role "node" (default): the channel's node subscribes to `advance`
 //                                (host/node.h); "supervisor": the supervisor takes part in the barrier
-//                                (`quiesce`, below). Dropped when it does not answer in time.
+//                                (`quiesce`, below). Dropped when it does not answer in time (a node's
+//                                channel is then closed: it stops). A node subscribing under a leaf's name,
+//                                or hosting a leaf it did not host before, is a new process or instance of
+//                                it: every count of a link into or out of that leaf is forgotten (a restart)
 //   unclock {}     (event)       the subscriber leaves in order (a node that stops): not counted as lost
 //   leaves {leaves} (event)      the components a (shared) node hosts, sent when they change
 //   go {}           -> ok {now}  time starts (or resumes) flowing
