@@ -4,7 +4,9 @@
 --     controller, pointing directly at it) is made again by the root, and its link to ctrl.sink, which runs on
 --     base, is now a Unix socket instead of TCP.
 --  2. host vision lost: the supervisor of the group vision is lost with both its leaves; the root restarts the
---     whole group on its standby host vision2, and samples flow from its new cam through to ctrl.sink again.
+--     whole group on its standby host vision2, and samples flow from its new cam through to ctrl.sink again;
+--     track, with a standby host of its own, comes up on vision3: cam -> track was a Unix socket (in process
+--     under a shared placement), it is TCP now.
 -- With real processes: one daemon per host name on loopback (base, manip, manip's standby is base, vision,
 -- vision2), a host lost as tests/scenarios/host_lost.lua loses it (its daemon and its processes killed).
 local S = require "dca.scenario"
@@ -81,14 +83,16 @@ end)
 
 S.step("host vision lost: the group vision restarts on vision2 with its subtree, samples flow again", function()
   local before = where(CAM).pid
+  if real then S.eq(transport(CAM, TRACK), together, "cam and track together on vision") end
   sys:lose_host("vision")
-  sys:wait("vision's leaves on vision2", function()
-    return where(CAM).host == "vision2" and where(TRACK).host == "vision2" and sys:state(CAM) == "running"
+  sys:wait("vision's leaves on vision2 and vision3", function()
+    return where(CAM).host == "vision2" and where(TRACK).host == "vision3" and sys:state(CAM) == "running"
+      and sys:state(TRACK) == "running"
   end, 30)
   S.ok(where(CAM).pid ~= before, "a new process")
   flows(TRACK, "In")
   flows(SINK, "In")
-  if real then S.eq(transport(CAM, TRACK), together, "cam and track together on vision2") end
+  if real then S.eq(transport(CAM, TRACK), "tcp", "cam on vision2, track on vision3") end
   S.eq(sys.outcome, nil, "the task runs on")
   S.eq(sys:state(GAIN), "running", "ctrl.gain never stopped")
 end)

@@ -11,7 +11,8 @@
 --   failover.hosts(child, group_spec)  --> { host... } | nil   (child: a spec child of group_spec)
 --   failover.next_host(list, current)  --> the host after `current` in `list`, or nil
 --   failover.moved(group_spec, from, to) --> a copy of the group spec with every host `from` of its subtree
---                                          (the group's own, its leaves', its sub-groups') replaced by `to`
+--                                          (the group's own, its leaves', its sub-groups') replaced by `to`,
+--                                          but a leaf's with standby hosts of its own, by the first of them
 local spec_mod = require "dca.supervisor.spec"
 
 local M = {}
@@ -42,7 +43,8 @@ function M.moved(group_spec, from, to)
   local function visit(g)
     if g.host == from then g.host = to end
     for _, c in ipairs(g.children or {}) do
-      if c.host == from then c.host = to end
+      -- a leaf with standby hosts of its own goes to the first of them, any other to `to`
+      if c.host == from then c.host = c.kind == "leaf" and c.standby and c.standby[1] or to end
       if c.kind == "group" and c.spec then visit(c.spec) end
     end
   end

@@ -24,6 +24,7 @@ suite:case("a_sub_group_takes_its_host_list_and_moves_with_what_ran_on_the_lost_
   local sub = { host = "v", hosts = { "v", "v2" }, children = {
     { kind = "leaf", name = "cam", host = "v" },
     { kind = "leaf", name = "arm", host = "m" },
+    { kind = "leaf", name = "track", host = "v", standby = { "v3", "v4" } },
     { kind = "group", name = "inner", host = "v", spec = { host = "v", hosts = { "v" }, children = {
       { kind = "leaf", name = "x", host = "v" } } } },
   } }
@@ -33,8 +34,9 @@ suite:case("a_sub_group_takes_its_host_list_and_moves_with_what_ran_on_the_lost_
   T.eq(moved.hosts, { "v", "v2" }, "its list stays: the order of the next failover")
   T.eq(moved.children[1].host, "v2")
   T.eq(moved.children[2].host, "m", "a leaf on another host stays there")
-  T.eq(moved.children[3].host, "v2")
-  T.eq(moved.children[3].spec.children[1].host, "v2")
+  T.eq(moved.children[3].host, "v3", "a leaf with standby hosts of its own: the first of them")
+  T.eq(moved.children[4].host, "v2")
+  T.eq(moved.children[4].spec.children[1].host, "v2")
   T.eq(sub.children[1].host, "v", "the original is untouched")
 end)
 
