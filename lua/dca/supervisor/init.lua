@@ -510,6 +510,12 @@ end
 
 function Sup:_start_child(name, init)
   local ch = self.children[name]
+  if ch.policy_fault or ch.policy_restart then
+    -- being restarted by the group's policy: it runs once its new process is up (Sup:_run_again)
+    ch.init, ch.start_pending = init, true
+    self:say("%s: running once restarted", ch.path)
+    return
+  end
   if not ch.handle or ch.state == "exited" or ch.state == "lost" then
     self:_fail_later(name, sformat("%s is not running (%s)", ch.path, ch.exit_reason or ch.state))
     return
@@ -547,6 +553,7 @@ end
 
 function Sup:_abort_child(name)
   local ch = self.children[name]
+  ch.start_pending = nil
   -- a leaf whose process already ended (with others of its shared node: children_exit) has nothing to stop
   local dead = ch.state == "exited"
   if not dead then
@@ -873,7 +880,7 @@ function Sup:_restore(name, was_running, cb)
       if not ok2 then failed(err2) return end
       self.rt.report({ type = "restarted", path = ch.path })
       -- (unless its group's expression aborted it meanwhile)
-      if was_running and self.run and self.run:is_running(name) then self:_start_child(name, ch.init) end
+      self:_run_again(name, was_running)
       self:_restarted_line(ch)
       cb(true)
     end)
@@ -982,6 +989,7 @@ function Sup:_fault(names, how, kind, reason, cause)
   local f = { names = names, how = how, kind = kind, reason = reason, at = self.event_at,
               cause = cause or { path = first.path, reason = reason } }
   f.last = how == "exit" and sformat("%s %s", first.name, reason) or sformat("%s %s: %s", first.name, how, reason)
+  for _, n in ipairs(names) do self.children[n].policy_fault = true end
   self.rt.defer(function() self:_recover(f) end)
 end
 
@@ -1022,7 +1030,7 @@ function Sup:_recover(f)
     q[#q + 1] = f
     return
   end
-  if not self:_policy_takes(f.kind) then return end
+  if not self:_policy_takes(f.kind) then self:_unfault(f) return end
   local pol = self.spec.supervision
   local now = self.rt.now()
   self.restart_times = policy.window(self.restart_times or {}, now, pol.within)
@@ -1074,10 +1082,18 @@ function Sup:_recovered(rec)
   for _, f in ipairs(rec.queue) do self:_recover(f) end
 end
 
+-- The faulted children of `f` are no longer waiting for a restart (it was not made).
+function Sup:_unfault(f)
+  for _, n in ipairs(f.names) do
+    local ch = self.children[n]
+    ch.policy_fault, ch.start_pending = nil, nil
+  end
+end
+
 function Sup:_unmark(rec)
   for _, name in ipairs(rec.plan) do
     local ch = self.children[name]
-    ch.policy_restart, ch.restart_note = nil, nil
+    ch.policy_restart, ch.restart_note, ch.policy_fault, ch.start_pending = nil, nil, nil, nil
     local path = ch.path
     local n = (self.restarting_below[path] or 1) - 1
     self.restarting_below[path] = n > 0 and n or nil
@@ -1150,12 +1166,21 @@ function Sup:_respawn_group(name, was_running, cb)
       self:_rewire(ch.path, function(ok, werr)
         if not ok then self:_restart_failed(name, was_running, werr, cb) return end
         self.rt.report({ type = "restarted", path = ch.path })
-        if was_running and self.run and self.run:is_running(name) then self:_start_child(name, ch.init) end
+        self:_run_again(name, was_running)
         self:_restarted_line(ch)
         cb(true)
       end)
     end)
   end)
+end
+
+-- A child started anew runs with its last init if it ran (or its run was asked for meanwhile) and the
+-- expression still runs it.
+function Sup:_run_again(name, was_running)
+  local ch = self.children[name]
+  local pending = ch.start_pending
+  ch.start_pending, ch.policy_fault, ch.policy_restart = nil, nil, nil
+  if (was_running or pending) and self.run and self.run:is_running(name) then self:_start_child(name, ch.init) end
 end
 
 function Sup:_restarted_line(ch)
@@ -1169,6 +1194,7 @@ function Sup:_escalate(f, reason)
   local rec = self.recovering
   self.recovering, self.recovery_at = nil, f.at
   if rec then self:_unmark(rec) end
+  self:_unfault(f)
   if self.state ~= "running" then self.recovery_at = nil return end  -- aborted or stopped meanwhile: no outcome
   self.escalated = true
   self:say("%s: %s", self.path, reason)

@@ -315,4 +315,21 @@ suite:case("a_reload_with_a_new_policy_applies_it_at_once", function()
   T.eq(#lines(c, "^(main%.w%.b: restarted %d/5 in 60 s)"), 3)
 end)
 
+suite:case("a_child_started_while_it_is_being_restarted_runs_once_it_is_up", function()
+  -- `a ; b`: b crashes while it waits; a ends before b's new process is up: b runs once it is, no abort
+  local c = running(workers(pol("one_for_one"), "a ; b"))
+  c.spawn_delay["main.w.b"] = 2
+  c:kill("main.w.b", "SEGV")
+  c:node("main.w.a"):done(1)
+  c:settle(c.t + 1)
+  T.eq(c:node("main.w.b") and c:node("main.w.b").running, false, "not yet")
+  T.eq(#lines(c, "^(main%.w%.b: running once restarted)"), 1)
+  c:settle(c.t + 3)
+  T.eq(c.outcome, nil, "the algebra saw nothing")
+  T.eq(c:node("main.w.b").running, true, "b runs in its new process")
+  c:node("main.w.b"):done(2)
+  c:settle(c.t + 1)
+  T.eq({ c.outcome.type, c.outcome.value }, { "done", 2 })
+end)
+
 return suite:run(...)
