@@ -4,7 +4,8 @@
 // 1. Without the token, and with a wrong one, the WebSocket is refused (401) and nothing is advertised.
 // 2. With it: serverInfo, then the channels (every port of the tree and every world signal, JSON Schema); the
 //    client subscribes to PORT (below), waits until dca says it tapped it, then opens the monitor's page protocol
-//    (dca.monitor.v1), which starts time (--monitor-wait), and receives the port's samples as binary Message Data:
+//    (dca.monitor.v1), which starts time (--monitor-wait), and receives the port's samples as binary Message Data
+//    (and those of a world signal, /world/door/angle, tapped at the world):
 //    at least MIN of them, timestamps never going back (simulated time, ns), each message its channel's JSON
 //    and, where the trace has one sample at that tick, the trace's value.
 // 3. The run ends DONE. Prints what it received; exit 1 on a failure.
@@ -17,6 +18,7 @@ const { FoxgloveClient } = foxglove;
 
 const [dca, system, work] = process.argv.slice(2);
 const PORT = "/main/dooropensyst/motionctrl/xr4000/Cmd";
+const SIGNAL = "/world/door/angle";  // a world signal, tapped at the world
 const MIN = 500;
 const failures = [];
 const check = (ok, what) => { if (!ok) failures.push(what); };
@@ -66,9 +68,13 @@ try {
     advertisedPort += list.filter((c) => c.topic === PORT).length;
     if (channels.has(PORT)) resolve();
   }));
+  const door = [];
+  let doorSubscription;
   client.on("message", ({ subscriptionId, timestamp, data }) => {
+    const value = JSON.parse(new TextDecoder().decode(data));
+    if (subscriptionId === doorSubscription) return door.push({ t: timestamp, value });
     if (subscriptionId !== subscription) return failures.push(`a message for subscription ${subscriptionId}`);
-    got.push({ t: timestamp, value: JSON.parse(new TextDecoder().decode(data)) });
+    got.push({ t: timestamp, value });
   });
   await Promise.race([advertised, deadline(20000, `the advertise of ${PORT}`)]);
   check(info?.name?.startsWith("dca"), `serverInfo: ${JSON.stringify(info)}`);
@@ -78,7 +84,10 @@ try {
   check(schema.properties?.value?.maxItems === 3, `${PORT}: schema ${cmd.schema}`);
   check([...channels.keys()].some((t) => t.startsWith("/world/")), "no world signal advertised");
   subscription = client.subscribe(cmd.id);
+  check(channels.has(SIGNAL), `${SIGNAL} not advertised`);
+  if (channels.has(SIGNAL)) doorSubscription = client.subscribe(channels.get(SIGNAL).id);
   await said(/live: tapped main\.dooropensyst\.motionctrl\.xr4000\.Cmd/, 20000, "dca's tap of the port");
+  await said(/live: tapped world\.door\.angle/, 20000, "dca's tap of the world's door angle");
 
   // time starts when a monitor page connects
   const page = new WebSocket(url, ["dca.monitor.v1"]);
@@ -118,7 +127,12 @@ try {
           `at ${g.t} ns: ${JSON.stringify(g.value)}, the trace: ${p.value}`);
   }
   check(compared >= MIN / 2, `only ${compared} samples compared with the trace`);
+  // the world's door angle: its samples at the ticks the world published them, the door opening
+  check(door.length >= MIN, `${door.length} samples of ${SIGNAL}`);
+  check(door.every((d, i) => i === 0 || d.t >= door[i - 1].t), `${SIGNAL}: timestamps going back`);
+  check(Math.max(...door.map((d) => d.value.value[0])) > 1.0, `${SIGNAL}: the door never opened past 1 rad`);
   check(advertisedPort === 1, `${PORT} advertised ${advertisedPort} times (its tap must not advertise it again)`);
+  console.log(`foxglove: ${door.length} samples of ${SIGNAL} (up to ${Math.max(...door.map((d) => d.value.value[0])).toFixed(3)} rad)`);
   console.log(`foxglove: ${channels.size} channels advertised, ${got.length} samples of ${PORT} received ` +
               `(${Number(got[0]?.t) / 1e9} .. ${Number(got.at(-1)?.t) / 1e9} s simulated), ${compared} equal to the ` +
               `trace's; refused without the token and with a wrong one (401)`);
