@@ -289,9 +289,43 @@ function Sup:to_leaf(leaf_path, msg, timeout, cb)
   end
   timeout = timeout or self.timeouts.request
   if ch.kind == "leaf" then
+    M.note_tap(ch, msg)
     ch.handle.request(msg, timeout, cb)
   else
     ch.handle.request({ type = "node", leaf = leaf_path, msg = msg }, timeout, cb)
+  end
+end
+
+-- A tap's link to one of this group's leaves (dca.supervisor.taps: a stamped connect, the activation of its set
+-- "tap:..."), remembered on the child so that a restart makes it again on the new process, inside the restart
+-- (Sup:_retap: so in simulated time at the restart's tick, before the barrier ends).
+function M.note_tap(ch, msg)
+  local set = type(msg.set) == "string" and msg.set or ""
+  local tap = (msg.type == "connect" and msg.stamped == true) or
+    ((msg.type == "activate" or msg.type == "deactivate") and set:sub(1, 4) == "tap:")
+  if not tap then return end
+  ch.taps = ch.taps or { order = {} }
+  local t = ch.taps[set]
+  if not t then t = {} ch.taps[set] = t ch.taps.order[#ch.taps.order + 1] = set end
+  if msg.type == "connect" then t.connect = msg else t.active = msg.type == "activate" end
+end
+
+-- The taps remembered for leaf `ch` made again (each connected, then activated if it was), k() after; a tap that
+-- fails is logged, the restart goes on.
+function Sup:_retap(ch, k)
+  local order = ch.taps and ch.taps.order or {}
+  local left = #order
+  if left == 0 then k() return end
+  local function one() left = left - 1 if left == 0 then k() end end
+  for _, set in ipairs(order) do
+    local t = ch.taps[set]
+    self:to_leaf(ch.path, t.connect, self.timeouts.connect, function(r, err)
+      if not r or r.type == "error" then
+        self:log("%s: tap %s of restarted %s: %s", self.path, set, ch.path, r and r.reason or tostring(err))
+        one()
+      elseif t.active then self:to_leaf(ch.path, { type = "activate", set = set }, self.timeouts.connect, one)
+      else one() end
+    end)
   end
 end
 
@@ -878,11 +912,13 @@ function Sup:_restore(name, was_running, cb)
     if not ok then failed(err) return end
     self:_rewire(ch.path, function(ok2, err2)
       if not ok2 then failed(err2) return end
-      self.rt.report({ type = "restarted", path = ch.path })
-      -- (unless its group's expression aborted it meanwhile)
-      self:_run_again(name, was_running)
-      self:_restarted_line(ch)
-      cb(true)
+      self:_retap(ch, function()
+        self.rt.report({ type = "restarted", path = ch.path })
+        -- (unless its group's expression aborted it meanwhile)
+        self:_run_again(name, was_running)
+        self:_restarted_line(ch)
+        cb(true)
+      end)
     end)
   end, ch.path)
 end
