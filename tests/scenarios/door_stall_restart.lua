@@ -1,7 +1,7 @@
 -- A node that stalls in simulated time (ARCHITECTURE.md "Time", "A dropped node"): VisualServoing's process is
 -- stopped (SIGSTOP) at a fixed tick, mid-approach, in the door system with a restart policy on its group (as
 -- tests/scenarios/door_crash_restart.lua). The clock master drops it when its advance is not answered within the
--- tick timeout (here 1 s of wall time) and tells it (its clock channel closed); its supervisor, told by the
+-- tick timeout (here 3 s of wall time) and tells it (its clock channel closed); its supervisor, told by the
 -- barrier to wait for the exit of a lost leaf whose process lives on, kills it (SIGKILL), hears its exit, and
 -- the policy restarts it within that tick. The door still opens. (Before: the supervisor waited for an exit
 -- that never came, and the run stalled.)
@@ -9,7 +9,7 @@ local S = require "dca.scenario"
 S.backends = { "real" }
 local door = dofile((os.getenv("DCA_SOURCE_DIR") or ".") .. "/tests/support/door_scenario.lua")
 local file, opts = door.variant("DoorOpenSystem", "supervision { strategy one_for_one; restart on crash; }")
-opts.tick_timeout = 1000
+opts.tick_timeout = 3000
 local sys = door.system(S, opts)
 local VS = door.VS
 

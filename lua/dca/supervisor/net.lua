@@ -425,19 +425,24 @@ function Net:_quiesce(ch, id, q)
   if ls.pending == 0 then answer() else ls.waiters[#ls.waiters + 1] = answer end
 end
 
--- The clock master dropped these leaves' nodes (`lost`): one that still lives (it stalled rather than crashed;
--- the master closed its clock channel, which stops a node that still reads it) is killed, once, so that its
--- exit comes and the barrier waiting for it ends. A shared node is killed whole: the master drops a process.
+-- The clock master dropped these leaves' nodes (`lost`): one whose exit has not come within a grace
+-- (opts.lost_grace, default 1 s: a crashed process's exit, with its own signal, comes first; the master closed
+-- the clock channel, which stops a node that still reads it) stalled rather than crashed, and is killed, once,
+-- so that its exit comes and the barrier waiting for it ends. A shared node is killed whole: the master drops
+-- a process.
 function Net:_end_lost(lost)
   local ls = self.ls
   for path, n in pairs(lost or {}) do
     if self.my_leaves[path] and (ls.exited[path] or 0) < n and (ls.ended[path] or 0) < n then
       ls.ended[path] = n
-      for _, p in pairs(self.by_child) do
-        local hit = p.path == path
-        for leaf in pairs(p.leaves or {}) do hit = hit or leaf.path == path end
-        if hit and not p.exited and not p.ended then (p.daemon or p.dc):kill(p.child, "KILL") end
-      end
+      core.after(self.opts.lost_grace or 1, function()
+        if (ls.exited[path] or 0) >= n or self.closing then return end
+        for _, p in pairs(self.by_child) do
+          local hit = p.path == path
+          for leaf in pairs(p.leaves or {}) do hit = hit or leaf.path == path end
+          if hit and not p.exited and not p.ended then (p.daemon or p.dc):kill(p.child, "KILL") end
+        end
+      end)
     end
   end
 end
