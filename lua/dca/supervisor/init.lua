@@ -1462,8 +1462,9 @@ function Sup:update(new, cb)
   local old = self.spec
   local name = self.path .. " (" .. tostring(new.type) .. ")"
   local function shape(sp)
-    local t = { children = {}, external_io = sp.external_io, sets = sp.sets, host = sp.host, type = sp.type }
-    for i, c in ipairs(sp.children) do t.children[i] = { c.name, c.kind, c.type, c.host, c.args } end
+    local t = { children = {}, external_io = sp.external_io, sets = sp.sets, host = sp.host, type = sp.type,
+                hosts = sp.hosts }
+    for i, c in ipairs(sp.children) do t.children[i] = { c.name, c.kind, c.type, c.host, c.args, c.standby } end
     return t
   end
   if not same(shape(old), shape(new)) then

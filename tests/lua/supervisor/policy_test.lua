@@ -307,6 +307,12 @@ suite:case("a_reload_with_a_new_policy_applies_it_at_once", function()
   w:update(new, function(l) got = l end)
   c:settle(c.t, function() return got ~= nil end)
   T.eq(got, { "main.w (Workers): supervision policy changed; in effect now" })
+  new = fake.copy(w.spec)
+  new.hosts = { "h1", "h1b" }
+  got = nil
+  w:update(new, function(l) got = l end)
+  c:settle(c.t, function() return got ~= nil end)
+  T.eq(got, { "main.w (Workers): processes or connections changed; takes effect when the system is started again" })
   for _ = 1, 3 do
     c:kill("main.w.b", "SEGV")
     c:settle(c.t + 1)
@@ -330,6 +336,14 @@ suite:case("a_child_started_while_it_is_being_restarted_runs_once_it_is_up", fun
   c:node("main.w.b"):done(2)
   c:settle(c.t + 1)
   T.eq({ c.outcome.type, c.outcome.value }, { "done", 2 })
+end)
+
+suite:case("an_intensity_of_zero_gives_up_at_the_first_fault", function()
+  local c = running(workers(pol("one_for_one", 0, 5)))
+  c:kill("main.w.a", "SEGV")
+  c:settle(c.t + 1)
+  T.eq(c.outcome and c.outcome.reason, "restart intensity 0 in 5 s exceeded; last: a killed by SIGSEGV on host h1")
+  T.eq(#lines(c, "(restarted)"), 0)
 end)
 
 return suite:run(...)
