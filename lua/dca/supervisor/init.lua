@@ -44,6 +44,8 @@
 --   rt.report(msg)            -- to the parent ({type="done", value=}, {type="aborted", path=, reason=}, log)
 --   rt.log(line)              -- a line for this process's own output
 --   rt.now()                  --> seconds
+--   rt.on_sim_time()          --> optional: true when the events carry simulated time (lock-step): a supervision
+--                             --   policy's restart window then counts in it
 -- State lives in the object (a plain table); the methods live in M.Sup, which a reload of this module
 -- updates in place, so running supervisors pick up new code and keep their state.
 local algebra = require "dca.algebra"
@@ -1006,7 +1008,7 @@ end
 -- (fresh process, connections both ways by every group that owns one, active sets, Run with its last init; a
 -- sub-group: a fresh supervisor configured with its spec, this group's connections of its leaves made again,
 -- its expression run again if it ran). The algebra sees nothing. Past the restart intensity (N restarts within
--- T seconds, a sliding window on rt.now()) the group escalates: it stops its running children (LIFO, the
+-- T seconds, a sliding window on simulated time or rt.now(): Sup:_policy_now) the group escalates: it stops its running children (LIFO, the
 -- algebra's abort) and ends ABORTED with a reason that says so and names the fault that exceeded it, its
 -- outcome's path the first cause (a leaf); the parent's policy then applies to it as a `crash` of that child.
 -- Faults that arrive while a restart runs wait for it, in order.
@@ -1068,7 +1070,7 @@ function Sup:_recover(f)
   end
   if not self:_policy_takes(f.kind) then self:_unfault(f) return end
   local pol = self.spec.supervision
-  local now = self.rt.now()
+  local now = self:_policy_now(f.at)
   self.restart_times = policy.window(self.restart_times or {}, now, pol.within)
   if #self.restart_times >= pol.intensity then self:_escalate(f, policy.exceeded(pol, f.last)) return end
   self.restart_times[#self.restart_times + 1] = now
@@ -1520,12 +1522,20 @@ function M.find(node, path)
   end
 end
 
+-- The time of the restart window: on simulated time (rt.on_sim_time()), the simulated time of the fault's event
+-- (`at`; without one, the latest seen), else rt.now() (the memory runtime's simulated time, or the wall clock).
+function Sup:_policy_now(at)
+  if not (self.rt.on_sim_time and self.rt.on_sim_time()) then return self.rt.now() end
+  self.sim_seen = math.max(self.sim_seen or 0, at or 0)
+  return self.sim_seen
+end
+
 --- This group's policy and how much of its budget is used: { strategy, intensity, within, on = {...},
 --- used = restarts in the window now, total = restarts so far, escalated = bool }, or nil without a policy.
 function Sup:policy_status()
   local pol = self.spec.supervision
   if not pol then return nil end
-  local used = policy.window(self.restart_times or {}, self.rt.now(), pol.within)
+  local used = policy.window(self.restart_times or {}, self:_policy_now(), pol.within)
   return { strategy = pol.strategy, intensity = pol.intensity, within = pol.within, on = pol.on, used = #used,
            total = self.restarts_total or 0, escalated = self.escalated or false }
 end

@@ -447,6 +447,10 @@ function Net:_end_lost(lost)
   end
 end
 
+--- Whether this supervisor takes part in the simulated clock (events then carry the simulated time, which a
+--- supervision policy's restart window counts in).
+function Net:on_sim_time() return self.ls.joined == true end
+
 --- On simulated time (this host's daemon says so) with a world: subscribes to its clock as a supervisor.
 --- cb(true) (also when there is nothing to join) | cb(nil, err)
 function Net:join_clock(name, cb)

@@ -346,4 +346,21 @@ suite:case("an_intensity_of_zero_gives_up_at_the_first_fault", function()
   T.eq(#lines(c, "(restarted)"), 0)
 end)
 
+suite:case("on_simulated_time_the_window_counts_the_events_time", function()
+  -- a runtime in lock-step (rt.on_sim_time): the restarts are counted at their events' simulated time, not at
+  -- the runtime's clock (which stands still here)
+  local c = running(workers(pol("one_for_one", 1, 5, { "aborted" })))
+  local w = c.sups["main.w"]
+  w.rt.on_sim_time = function() return true end
+  local function abort_at(s)
+    w:child_message("b", { type = "aborted", reason = "stuck", now = math.floor(s * 1e9) })
+    c:settle(c.t)
+  end
+  abort_at(1)
+  abort_at(7)
+  T.eq(c.outcome, nil, "6 s apart: one restart in each 5 s")
+  abort_at(8)
+  T.eq(c.outcome and c.outcome.reason, "restart intensity 1 in 5 s exceeded; last: b aborted: stuck")
+end)
+
 return suite:run(...)
