@@ -2,6 +2,7 @@
 //   node browser.mjs live DCA_EXE SOURCE_DIR OUT_DIR     a door run in simulated time, watched live
 //   node browser.mjs replay DCA_EXE SOURCE_DIR OUT_DIR   a recorded door run, replayed by `dca monitor FILE.mcap`
 //   node browser.mjs attach DCA_EXE SOURCE_DIR OUT_DIR   `dca monitor PATH --daemon ADDR --key FILE` on a door run
+//   node browser.mjs faults DCA_EXE SOURCE_DIR OUT_DIR   restart counts and faults (test_strategy.dca, wall clock)
 // Every wait is for something the page shows, with a deadline; the screenshots go to OUT_DIR.
 import { spawn } from 'node:child_process';
 import { mkdirSync, rmSync } from 'node:fs';
@@ -167,6 +168,56 @@ async function attach(browser) {
   }
 }
 
+// Clicks the element `sel` from inside the page, in one step (the tree's rows are redrawn as the run goes: a
+// row found, then hovered and clicked from here, may have been replaced in between).
+async function clickIn(page, sel) {
+  const ok = await page.evaluate((s) => { const b = document.querySelector(s); if (b) b.click(); return !!b; }, sel);
+  check(ok, `clicked ${sel}`);
+}
+
+// Restart counts and faults: test_strategy.dca (one_for_one, restart on crash) with the monitor. A restart from
+// the page, then a crash of the restarted process (SIGSEGV to the pid its line names): the row counts both
+// restarts and shows the crash's reason; an abort from the page ends the run ABORTED with its reason shown.
+async function faults(browser) {
+  const strategy = join(src, 'scripts/systems/test_strategy.dca');
+  const run = await start(['run', strategy, '--monitor']);
+  let pid = null;
+  const exit = new Promise((resolve) => run.p.on('exit', resolve));
+  try {
+    const page = await browser.newPage();
+    await page.setViewport({ width: 1400, height: 800 });
+    await page.goto(run.url);
+    const gain = '.row[data-path="main.line.gain"]';
+    check(await until(page, (s) => document.querySelector(s)?.dataset.state === 'running', 20, gain), 'gain is shown running');
+    await clickIn(page, `${gain} button[data-cmd="restart"]`);
+    check(await until(page, (s) => document.querySelector(`${s} .restarts`)?.textContent === '↻1', 20, gain),
+      'a restart from the page is counted on the row (↻1)');
+    for (let i = 0; i < 200 && !pid; i++) {
+      const m = run.output().match(/main\.line\.gain: restarted \(pid (\d+)\)/);
+      if (m) pid = Number(m[1]); else await new Promise((r) => setTimeout(r, 50));
+    }
+    check(pid, `the restarted process's pid is in its line (${pid})`);
+    if (pid) process.kill(pid, 'SIGSEGV');
+    const crashed = await until(page, (s) => {
+      const r = document.querySelector(s);
+      return r && r.querySelector('.restarts').textContent === '↻2' && r.querySelector('.fault').textContent;
+    }, 20, gain);
+    check(crashed && /signal|SEGV/i.test(crashed), `the crash is restarted by its policy, counted (↻2), its fault shown (${crashed})`);
+    const count = '.row[data-path="main.line.count"]';
+    await clickIn(page, `${count} button[data-cmd="abort"]`);
+    const fault = await until(page, (s) => document.querySelector(`${s} .fault`)?.textContent, 20, count);
+    const main = await until(page, () => document.querySelector('.row[data-path="main"]')?.dataset.state === 'aborted', 20);
+    check(fault === 'aborted from the monitor' && main,
+      `an abort from the page: count's fault shown (${fault}), the run aborted`);
+    if (!fault) console.log(run.output().split('\n').filter((l) => /count|line:|main:/.test(l)).slice(-12).join('\n'));
+    await page.screenshot({ path: join(out, 'monitor_faults.png') });
+    const code = await Promise.race([exit, new Promise((r) => setTimeout(() => r('still running'), 20000))]);
+    check(code === 1, `the run ends ABORTED (exit ${code})`);
+  } finally {
+    run.p.kill('SIGTERM');
+  }
+}
+
 async function replay(browser) {
   const rec = join(out, 'door.mcap');
   rmSync(rec, { force: true });
@@ -222,6 +273,7 @@ const browser = await puppeteer.launch({
 try {
   if (mode === 'replay') await replay(browser);
   else if (mode === 'attach') await attach(browser);
+  else if (mode === 'faults') await faults(browser);
   else await live(browser);
 } catch (e) {
   console.log(`FAIL ${e.stack || e}`);

@@ -32,7 +32,7 @@ local function serve(mon, what)
   local loop = core.loop()
   core.on_signal(function() loop:stop() end)
   loop:run()
-  mon:close()
+  mon:close(loop)
   return 0
 end
 

@@ -386,7 +386,7 @@ function M.main(spec, o, out)
   r:start_world()
   r.loop:run()
   if r.live then r.live:close() end
-  if r.monitor then r.monitor:close() end
+  if r.monitor then r.monitor:close(r.loop) end  -- the run's end reaches the pages
   start.cleanup(r.ctx)
   return r.code or 1
 end

@@ -16,7 +16,7 @@
 --   mon:line(line, t)         -- a line of the run at time t (seconds)
 --   mon:on_page(fn)           -- fn() once, when the first page has connected (dca run --monitor-wait)
 --   mon.model, mon.srv        -- the model (dca.monitor.model), the server (dca.WebServer: topics, publish)
---   mon:close()
+--   mon:close([loop])       -- with the run's loop: the last delta reaches the pages first
 --
 -- Protocol (JSON text messages). Server -> page: {type = "hello", mode, name, token_ok}, {type = "snapshot",
 -- nodes, exprs, events, config, lines, topics, t}, {type = "delta", ...the same fields, only what changed},
@@ -262,8 +262,16 @@ function Mon:_message(c, text)
   end
 end
 
---- Stops the timers and the server (the pages see the connection close).
-function Mon:close()
+--- Stops the timers and the server (the pages see the connection close). With `loop` (a loop that has stopped:
+--- the end of a run), what is pending is sent first and the loop runs until the pages have it (at most 1 s).
+function Mon:close(loop)
+  if loop then
+    self:_flush()
+    loop:run_until(function()
+      for c in pairs(self.pages) do if c:is_open() and c:stats().queued_bytes > 0 then return false end end
+      return true
+    end, 1)
+  end
   for _, k in ipairs({ "timer", "tree_timer", "world_timer" }) do if self[k] then self[k]:cancel() end end
   self.srv:close()
 end

@@ -171,12 +171,18 @@
   function renderStates() {
     for (const row of $('tree').querySelectorAll('.row')) {
       const st = stateOf(row.dataset.path);
-      if (row.dataset.state === st.state) continue;
+      const restarts = (S.nodes.get(row.dataset.path) || {}).restarts;
+      const key = `${st.state}|${st.fault || ''}|${restarts || 0}`;
+      if (row.dataset.shown === key) continue;
+      row.dataset.shown = key;
       row.dataset.state = st.state;
       const badge = row.querySelector('.state');
       badge.className = `state state-${st.state}`;
       badge.textContent = st.state;
-      row.querySelector('.fault').textContent = st.fault || '';
+      const fault = row.querySelector('.fault');
+      fault.textContent = st.fault || '';
+      fault.title = st.fault || '';
+      row.querySelector('.restarts').textContent = restarts ? '↻' + restarts : '';
     }
     for (const leaf of $('exprs').querySelectorAll('.leaf')) {
       const st = stateOf(leaf.dataset.path).state;
