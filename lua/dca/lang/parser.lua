@@ -154,14 +154,17 @@ local host_section = section("host",
 
 -- supervision { strategy NAME; intensity N in T UNIT; restart on KIND, ...; standby INSTANCE on HOST, ...; }
 local kind_name = Ct(pos() * Cg(NAME, "name"))
+local period = C(P"-"^-1 * digits * (P"." * digits)^-1) / tonumber * ws  -- its unit may follow at once: 10s
 local sup_strategy = Cg(C"strategy", "kw") * -idchar * ws * pos("name_pos") * Cg(expect(NAME, "sup_strategy"), "name")
-local sup_intensity = Cg(C"intensity", "kw") * -idchar * ws * pos("count_pos") * Cg(expect(number, "sup_count"), "count") *
-  expect(kw"in", "sup_in") * pos("within_pos") * Cg(expect(number, "sup_within"), "within") *
+local sup_intensity = Cg(C"intensity", "kw") * -idchar * ws *
+  pos("count_pos") * Cg(expect(number, "sup_count"), "count") * expect(kw"in", "sup_in") *
+  pos("within_pos") * Cg(expect(period, "sup_within"), "within") *
   pos("unit_pos") * Cg(expect(NAME, "sup_unit"), "unit")
 local sup_restart = Cg(C"restart", "kw") * -idchar * ws * expect(kw"on", "sup_on") *
   Cg(Ct(expect(kind_name, "sup_kind") * (tok"," * expect(kind_name, "sup_kind"))^0), "kinds")
-local sup_standby = Cg(C"standby", "kw") * -idchar * ws * pos("instance_pos") * Cg(expect(NAME, "sup_instance"), "instance") *
-  expect(kw"on", "sup_standby_on") * Cg(Ct(expect(arg, "sup_host") * (tok"," * expect(arg, "sup_host"))^0), "hosts")
+local sup_standby = Cg(C"standby", "kw") * -idchar * ws *
+  pos("instance_pos") * Cg(expect(NAME, "sup_instance"), "instance") * expect(kw"on", "sup_standby_on") *
+  Cg(Ct(expect(arg, "sup_host") * (tok"," * expect(arg, "sup_host"))^0), "hosts")
 local sup_clause = Ct(pos() * -section_start * (sup_strategy + sup_intensity + sup_restart + sup_standby) *
                       expect(tok";", "sup_semi"))
 local supervision_section = section("supervision",

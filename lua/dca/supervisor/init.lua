@@ -1008,9 +1008,10 @@ end
 -- (fresh process, connections both ways by every group that owns one, active sets, Run with its last init; a
 -- sub-group: a fresh supervisor configured with its spec, this group's connections of its leaves made again,
 -- its expression run again if it ran). The algebra sees nothing. Past the restart intensity (N restarts within
--- T seconds, a sliding window on simulated time or rt.now(): Sup:_policy_now) the group escalates: it stops its running children (LIFO, the
--- algebra's abort) and ends ABORTED with a reason that says so and names the fault that exceeded it, its
--- outcome's path the first cause (a leaf); the parent's policy then applies to it as a `crash` of that child.
+-- T seconds, a sliding window on simulated time or rt.now(): Sup:_policy_now) the group escalates: it stops
+-- its running children (LIFO, the algebra's abort) and ends ABORTED with a reason that says so and names the
+-- fault that exceeded it, its outcome's path the first cause (a leaf); the parent's policy then applies to it
+-- as a `crash` of that child.
 -- Faults that arrive while a restart runs wait for it, in order.
 
 --- Whether this group's policy restarts a fault of `kind` now (it runs, and is not being stopped).

@@ -183,6 +183,10 @@ process Vision(h1, h1b) {
   T.eq({ cl[3].kw, cl[3].kinds[1].name, cl[3].kinds[2].name, cl[3].kinds[2].col }, { "restart", "crash", "aborted", 23 })
   T.eq({ cl[4].kw, cl[4].instance, cl[4].instance_col, cl[4].hosts[1].value, cl[4].hosts[2].value },
        { "standby", "cam", 13, "h2b", "h1b" })
+  -- the unit may follow the period at once
+  local tight = assert(parser.parse("process m(h) { supervision { intensity 2 in 10s; } }", "t.dca"))
+  local ti = tight.by_name.m.supervision.clauses[1]
+  T.eq({ ti.count, ti.within, ti.unit, ti.unit_col }, { 2, 10, "s", 47 })
   -- without the section: no policy, no standby hosts
   local plain = assert(parser.parse("process main(h) { host { h } internal_event_actions { } }", "p.dca"))
   T.eq({ plain.by_name.main.supervision, #plain.by_name.main.standby_hosts }, { nil, 0 })
