@@ -48,4 +48,15 @@ suite:case("executable_config_values_fail_the_run_at_their_position_and_start_no
   os.remove(dir)
 end)
 
+-- Issue 18: a crash loop under a supervision policy ends by escalation: `dca run` shows each restart with its
+-- count, the group giving up, and exits 1 with the root's ABORTED naming the crash.
+suite:case("a_crash_loop_ends_by_escalation_with_counts_and_the_first_cause", function()
+  local out, rc = run_bounded(src .. "/scripts/systems/test_crash_loop.dca")
+  T.eq(rc, 1, "exit code")
+  for n = 1, 3 do T.contains(out, "main.loop.crashy: restarted " .. n .. "/3 in 60 s (pid ") end
+  T.contains(out, "main.loop: restart intensity 3 in 60 s exceeded; last: crashy killed by SIGSEGV on host h1")
+  T.contains(out, "main: ABORTED at main.loop.crashy: restart intensity 3 in 60 s exceeded; last: crashy killed by "
+    .. "SIGSEGV on host h1")
+end)
+
 return suite:run(...)
