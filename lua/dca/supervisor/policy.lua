@@ -20,8 +20,12 @@ local ipairs, sformat, tostring = ipairs, string.format, tostring
 function M.kind(how, reason)
   if how == "aborted" then return "aborted" end
   if how == "escalated" then return "crash" end
-  -- the runtimes' texts: "host h3 lost (daemon gone)", "supervisor lost on host h2 (...)", "node lost on host ..."
-  if tostring(reason):find("%f[%w]lost%f[%W]") then return "lost" end
+  -- the runtimes' texts (they begin the reason): "host h3 lost (daemon gone)", "supervisor lost on host h2
+  -- (no answer ...)", "node lost on host h1: ..."; a shared node's note that follows names paths, not losses
+  local r = tostring(reason)
+  if r:find("^host %S+ lost %(") or r:find("^supervisor lost on host ") or r:find("^node lost on host ") then
+    return "lost"
+  end
   return "crash"
 end
 

@@ -81,6 +81,8 @@ suite:case("pure_parts_plan_window_kind_texts", function()
   T.eq(policy.kind("exit", "exited with code 3 on host h1"), "crash")
   T.eq(policy.kind("exit", "host h3 lost (daemon gone)"), "lost")
   T.eq(policy.kind("exit", "supervisor lost on host h2 (no answer for 5s: timeout)"), "lost")
+  T.eq(policy.kind("exit", "node lost on host h1: closed"), "lost")
+  T.eq(policy.kind("exit", "killed by SIGSEGV on host lost (shared node leaves:main.lost@lost#4, 2 leaves)"), "crash")
   T.eq(policy.kind("aborted", "lost the door"), "aborted")
   T.eq(policy.kind("escalated", "whatever"), "crash")
   T.eq(policy.exceeded(pol(nil, 3, 10), "vs killed by SIGSEGV on host vision"),
