@@ -365,4 +365,23 @@ suite:case("on_simulated_time_the_window_counts_the_events_time", function()
   T.eq(c.outcome and c.outcome.reason, "restart intensity 1 in 5 s exceeded; last: b aborted: stuck")
 end)
 
+suite:case("the_leaves_of_one_shared_node_ended_together_are_one_fault", function()
+  -- a shared node's crash ends its leaves together (children_exit with several names): one restart counted
+  local c = running(workers(pol("one_for_one", 3, 10)))
+  local w = c.sups["main.w"]
+  local before = pids(c, ABC)
+  for _, p in ipairs(c.procs) do
+    if p.path == "main.w.a" or p.path == "main.w.c" then p.alive = false end
+  end
+  w:children_exit({ "c", "a" }, "killed by SIGSEGV on host h1 (shared node leaves:main.w@h1#7, 2 leaves)")
+  c:settle(c.t + 1)
+  T.eq(lines(c, "^main%.w: one_for_one after c killed by SIGSEGV on host h1 %(shared node [^)]*%): restarting (.*)$"),
+       { "a, c (1/3 in 10 s)" }, "one fault, the children in start order")
+  local now = pids(c, ABC)
+  T.ok(now["main.w.a"] ~= before["main.w.a"] and now["main.w.c"] ~= before["main.w.c"])
+  T.eq(now["main.w.b"], before["main.w.b"])
+  T.eq(w:policy_status().used, 1)
+  T.eq(c.outcome, nil)
+end)
+
 return suite:run(...)
