@@ -310,8 +310,10 @@ void WsSession::start(http::request<http::string_body> req) {
       self->closed("handshake: " + ec.message());
       return;
     }
+    // an idle page is pinged; one that answers nothing within the idle timeout (a dead peer, a half-sent
+    // frame) is closed
     self->ws_.set_option(websocket::stream_base::timeout{self->limits_.request_timeout,
-                                                         websocket::stream_base::none(), false});
+                                                         self->limits_.idle_timeout, true});
     self->open_ = true;
     self->handler_->on_open(self->shared_from_this());
     if (self->open_) self->read();

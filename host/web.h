@@ -12,11 +12,13 @@
 //
 // Bounds (Limits): at most `max_connections` sockets; an HTTP request's header and body, and a WebSocket
 // message received, are limited in size (a bigger one closes that connection); an HTTP request must arrive
-// within `request_timeout`. What the server sends to a WebSocket client is queued per connection: a message
-// sent as droppable (samples, progress) is dropped and counted when the connection's queue holds more than
-// `max_queue_bytes`; any message is refused and the connection closed ("too slow") when the queue would pass
-// `close_queue_bytes`. So a slow or stalled client costs bounded memory and never stalls the loop; a client
-// that lost messages reconnects and gets a fresh snapshot. A malformed frame closes its connection only.
+// within `request_timeout`; a WebSocket silent for `idle_timeout` is pinged, and closed when nothing comes back
+// (a dead peer, or one that stopped in the middle of a frame). What the server sends to a WebSocket client is
+// queued per connection: a message sent as droppable (samples, progress) is dropped and counted when the
+// connection's queue holds more than `max_queue_bytes`; any message is refused and the connection closed ("too
+// slow") when the queue would pass `close_queue_bytes`. So a slow or stalled client costs bounded memory and
+// never stalls the loop; a client that lost messages reconnects and gets a fresh snapshot. A malformed frame
+// closes its connection only.
 //
 // Live samples: samples() is the server's SampleHub (host/sample_hub.h). A connection subscribes to a topic
 // (subscribe(), e.g. on a protocol message) with a rate: the server then sends it, every `sample_flush` (50 ms),
@@ -50,6 +52,7 @@ struct Limits {
   std::size_t close_queue_bytes = 16 << 20;    ///< beyond it, the connection is closed ("too slow")
   std::chrono::milliseconds request_timeout{10000};  ///< an HTTP request (and the WebSocket handshake)
   std::chrono::milliseconds sample_flush{50};         ///< how often subscribed samples are sent
+  std::chrono::milliseconds idle_timeout{30000};      ///< a WebSocket silent this long is pinged, then closed
 };
 
 /// What a WebSocket connection counted.

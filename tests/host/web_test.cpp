@@ -198,6 +198,40 @@ TEST_F(WebServerTest, GarbageAndMalformedRequestsNeverHurtTheServer) {
   EXPECT_GT(server->stats().bad_requests + server->stats().over_limit, 0u);
 }
 
+// After an accepted upgrade, frames of random bytes (bad opcodes, reserved bits, unmasked, lengths up to 2^63,
+// invalid UTF-8 in text): each connection is closed or left waiting, the protocol handler sees at most whole
+// messages, and a well-behaved client is served throughout.
+TEST_F(WebServerTest, RandomWebSocketFramesCloseOnlyTheirConnection) {
+  std::mt19937 rng(19);
+  const std::string upgrade = "GET /ws?token=" + server->token() +
+                              " HTTP/1.1\r\nHost: x\r\nConnection: Upgrade\r\nUpgrade: websocket\r\n"
+                              "Sec-WebSocket-Version: 13\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n"
+                              "Sec-WebSocket-Protocol: test.echo\r\n\r\n";
+  websocket::stream<beast::tcp_stream> good(io);
+  ASSERT_EQ(ws_connect(good, with_token("/ws")), "");
+  for (int round = 0; round < 60; round++) {
+    tcp::socket s(io);
+    s.connect(endpoint());
+    std::string frames;
+    const int n = 1 + static_cast<int>(rng() % 4);
+    for (int f = 0; f < n; f++) {
+      frames += static_cast<char>(rng());                         // FIN, RSV, opcode: anything
+      frames += static_cast<char>((rng() % 3 ? 0x80 : 0) | (rng() % 128));  // mask bit, length (126/127: longer)
+      std::string rest(rng() % 64, '\0');
+      for (auto& c : rest) c = static_cast<char>(rng());
+      frames += rest;
+    }
+    const std::string bytes = upgrade + frames;
+    bool written = false;
+    boost::asio::async_write(s, boost::asio::buffer(bytes), [&](beast::error_code, std::size_t) { written = true; });
+    ASSERT_TRUE(run_until(io, [&] { return written; }));
+    ASSERT_TRUE(ws_write(good, "ping " + std::to_string(round)));
+    ASSERT_EQ(ws_read(good), "ping " + std::to_string(round));
+    s.close();
+  }
+  ASSERT_TRUE(run_until(io, [&] { return server->stats().open == 1; })) << server->stats().open;
+}
+
 TEST_F(WebServerTest, ASlowClientCostsBoundedMemoryAndIsClosedWhenItWouldCostMore) {
   websocket::stream<beast::tcp_stream> ws(io);
   ASSERT_EQ(ws_connect(ws, with_token("/ws")), "");

@@ -1,8 +1,10 @@
 // The web monitor's benchmarks (BENCHMARKS.md: RESULT lines on stdout, the rest on stderr), run by
 // tests/bench/monitor_bench.lua:
 //   node bench.mjs rtf DCA SOURCE_DIR ROUNDS   the door run in simulated time, alternated (A B C A B C ...):
-//       A no monitor, B --monitor without a page, C --monitor with a page in headless chromium (the tree, the
-//       expressions, the timeline and a live plot of /world/door). rtf = 20.06 simulated s / the wall time from
+//       A no monitor, B --monitor without a page, C --monitor with a headless WebSocket client reading everything
+//       (the snapshot, every delta, the samples of /world/door and of a port), D --monitor with a page in headless
+//       chromium (the tree, the expressions, the timeline and a live plot of /world/door; chromium's rendering
+//       shares the machine's cores with the run). rtf = 20.06 simulated s / the wall time from
 //       the root's first step running to its DONE, as both lines reach this script (the same measure for all).
 //   node bench.mjs big DCA SOURCE_DIR ROUNDS   the 1,000-leaf / 100-group system (supervisor_bench's generated
 //       shape) run by the real supervisor engine on the in-memory cluster (big_system.lua), paced to wall time,
@@ -10,6 +12,7 @@
 import { spawn } from 'node:child_process';
 import { join } from 'node:path';
 import puppeteer from 'puppeteer-core';
+import WebSocket from 'ws';  // puppeteer-core's own WebSocket client (in the lockfile)
 
 // dca's children stop when the process that started them is gone (DCA_PARENT_PID, host/spawn.h): this script's
 // own children must not inherit the variable meant for this script.
@@ -45,7 +48,7 @@ function run(args, onLine) {
 async function doorOnce(browser, variant) {
   const args = ['run', door, '--sim', 'door'];
   if (variant !== 'no_monitor') args.push('--monitor');
-  if (variant === 'browser') args.push('--monitor-wait');
+  if (variant === 'browser' || variant === 'ws_reader') args.push('--monitor-wait');
   let t0 = null, t1 = null, url = null, page = null, summary = null;
   const r = run(args, (line, ms) => {
     if (t0 === null && /main\.dooropensyst: running/.test(line)) t0 = ms;
@@ -67,15 +70,40 @@ async function doorOnce(browser, variant) {
       .find((o) => o.textContent === '/world/door')?.value, { timeout: 30000, polling: 20 });
     await page.select('#topic', await id.jsonValue());
   }
+  let reader = null;
+  if (variant === 'ws_reader') {
+    while (!url) await new Promise((res) => setTimeout(res, 10));
+    reader = read(url);
+  }
   const code = await r.done;
-  const samples = page ? await page.evaluate(() => Number(document.getElementById('plot').dataset.samples)) : 0;
+  const samples = page ? await page.evaluate(() => Number(document.getElementById('plot').dataset.samples))
+    : (reader ? reader.samples : 0);
   if (page) await page.close();
   if (code !== 0 || t0 === null || t1 === null) throw new Error(`door run (${variant}) failed: exit ${code}`);
   return { wall_ms: t1 - t0, rtf: 20.06 / ((t1 - t0) / 1000), summary, samples };
 }
 
+// A WebSocket client of dca.monitor.v1 that reads everything and subscribes to the world's door signal and a port.
+function read(url) {
+  const u = new URL(url);
+  const ws = new WebSocket(`ws://${u.host}/ws?token=${u.searchParams.get('token')}`, 'dca.monitor.v1');
+  const st = { samples: 0, bytes: 0 };
+  const want = ['/world/door', '/main/dooropensyst/motionctrl/redundancy/BaseVel'];
+  const subscribe = (topics) => {
+    for (const t of Array.isArray(topics) ? topics : []) if (want.includes(t.name)) ws.send(JSON.stringify({ type: 'subscribe', topic: t.id, rate: 200 }));
+  };
+  ws.on('message', (data) => {
+    st.bytes += data.length;
+    const m = JSON.parse(data);
+    if (m.type === 'samples') st.samples += m.rows.length;
+    if (m.topics) subscribe(m.topics);
+  });
+  ws.on('error', () => {});
+  return st;
+}
+
 async function rtf(browser) {
-  const variants = ['no_monitor', 'monitor_no_page', 'browser'];
+  const variants = ['no_monitor', 'monitor_no_page', 'ws_reader', 'browser'];
   const res = Object.fromEntries(variants.map((v) => [v, []]));
   for (let i = 0; i < rounds; i++) {
     for (const v of variants) {
@@ -87,7 +115,7 @@ async function rtf(browser) {
   for (const v of variants) {
     const rs = res[v];
     const med = [...rs.map((r) => r.rtf)].sort((a, b) => a - b)[Math.floor((rs.length - 1) / 2)];
-    const extra = v === 'browser' ? ` plot_samples=${Math.min(...rs.map((r) => r.samples))}` : '';
+    const extra = v === 'browser' || v === 'ws_reader' ? ` samples_received=${Math.min(...rs.map((r) => r.samples))}` : '';
     console.log(`RESULT bench=monitor_door_rtf variant=${v} ${stats(rs.map((r) => r.wall_ms * 1000))} ` +
       `rtf=${med.toFixed(2)}${extra}`);
   }

@@ -124,6 +124,7 @@ end
 
 -- The deltas since the last flush, to every page; new topics too.
 function Mon:_flush()
+  if not next(self.pages) then self.model:take_delta() return end  -- a new page gets a snapshot
   local d = self.model:take_delta()
   local topics = self:_topics()
   local key = self:_topics_key(topics)
@@ -132,7 +133,7 @@ function Mon:_flush()
     d = d or { t = self.model.t }
     d.topics = topics
   end
-  if not d or not next(self.pages) then return end
+  if not d then return end
   d.type = "delta"
   local text = core.json_encode(d)
   for c in pairs(self.pages) do c:send(text) end
