@@ -113,33 +113,45 @@ std::string LockstepCore::take_owner() {
 void LockstepCore::tick() {
   scheduled_ = false;
   if (!running_ || waiting_ > 0 || phase_ != Phase::Idle || (hooks_.ready && !hooks_.ready())) return;
-  const Nanos w0 = hooks_.wall_now();
-  if (const auto late = take_owner(); !late.empty()) {
-    std::fprintf(stderr, "%s: time holds: %s\n", opts_.log_name.c_str(), late.c_str());
-    dropped_.push_back("time held at " + std::to_string(to_seconds(now())) + " s: " + late);
-    running_ = false;
-    return;
+  for (;;) {
+    const Nanos w0 = hooks_.wall_now();
+    const auto late = take_owner();
+    take_s_ += to_seconds(hooks_.wall_now() - w0);
+    if (!late.empty()) {
+      std::fprintf(stderr, "%s: time holds: %s\n", opts_.log_name.c_str(), late.c_str());
+      dropped_.push_back("time held at " + std::to_string(to_seconds(now())) + " s: " + late);
+      running_ = false;
+      return;
+    }
+    const Nanos s0 = hooks_.wall_now();
+    hooks_.step();
+    step_s_ += to_seconds(hooks_.wall_now() - s0);
+    ++steps_;
+    const Nanos t = now();
+    const auto due = due_at(t);
+    if (!due.empty()) {
+      hooks_.publish();
+      if (hooks_.sent) add_sent(hooks_.sent());
+      if (opts_.trace && hooks_.digests) traced(t, hooks_.digests(), owner_out_);
+      hooks_.settle();  // the samples are on their way before anyone is told to tick
+    }
+    wall_s_ += to_seconds(hooks_.wall_now() - w0);
+    if ((duration_ >= 0 && t >= duration_ && !duration_hit_) || (hold_at_ && t >= *hold_at_)) {
+      if (hold_at_ && t >= *hold_at_) hold_at_.reset();
+      else duration_hit_ = true;
+      running_ = false;
+    }
+    if (!due.empty()) {
+      phase_ = Phase::Round;
+      round0_ = hooks_.wall_now();
+      return advance(due, t);
+    }
+    // A quiet tick (nobody due: nothing published, nothing written). Unpaced, the next one follows in this
+    // handler, up to the next sync tick: the loop's other handlers (a `hold`, a `status`) run at least that
+    // often, and a world of 1 ms steps under 10 ms controllers pays one loop pass per control period.
+    if (!opts_.inline_quiet || !running_ || opts_.realtime || (t + period_) % sync_ == 0 || !trace_lines_.empty())
+      return after_tick();
   }
-  hooks_.step();
-  ++steps_;
-  const Nanos t = now();
-  const auto due = due_at(t);
-  if (!due.empty()) {
-    hooks_.publish();
-    if (hooks_.sent) add_sent(hooks_.sent());
-    if (opts_.trace && hooks_.digests) traced(t, hooks_.digests(), owner_out_);
-    hooks_.settle();  // the samples are on their way before anyone is told to tick
-  }
-  wall_s_ += to_seconds(hooks_.wall_now() - w0);
-  if ((duration_ >= 0 && t >= duration_ && !duration_hit_) || (hold_at_ && t >= *hold_at_)) {
-    if (hold_at_ && t >= *hold_at_) hold_at_.reset();
-    else duration_hit_ = true;
-    running_ = false;
-  }
-  if (due.empty()) return after_tick();
-  phase_ = Phase::Round;
-  round0_ = hooks_.wall_now();
-  advance(due, t);
 }
 
 // Those whose next deadline has come; at a sync tick those that have not answered yet (their deadlines are
@@ -241,9 +253,9 @@ void LockstepCore::traced(Nanos t, const Value& dig, std::map<std::string, std::
 }
 
 void LockstepCore::answered(std::uint64_t id, Nanos t, const std::string& error, bool replied, const Value& reply) {
-  const std::string at = std::to_string(to_seconds(t));
   auto it = subs_.find(id);
   if (!error.empty()) {
+    const std::string at = std::to_string(to_seconds(t));
     drop(id, replied ? "advance to " + at + " s refused: " + error
                      : "did not answer the advance to " + at + " s (" + error + ")");
   } else if (it != subs_.end()) {
@@ -256,7 +268,9 @@ void LockstepCore::answered(std::uint64_t id, Nanos t, const std::string& error,
 // Every advance of the phase answered (or none to send): the next step of the tick.
 void LockstepCore::advanced(Nanos t) {
   if (phase_ == Phase::Round) {
-    rounds_.record(hooks_.wall_now() - round0_);
+    const Nanos w = hooks_.wall_now() - round0_;
+    rounds_.record(w);
+    rounds_s_ += to_seconds(w);
     return round_done(t);
   }
   if (phase_ == Phase::SyncBefore) return wave(t);
@@ -302,9 +316,11 @@ void LockstepCore::round_done(Nanos t) {
   bool supervisors = false;
   for (const auto& [id, s] : subs_) supervisors = supervisors || s.supervisor;
   if (!supervisors || events_sent() == settled_) {
+    if (phase_ == Phase::SyncAfter) barrier_s_ += to_seconds(hooks_.wall_now() - barrier0_);
     phase_ = Phase::Idle;
     return after_tick();
   }
+  if (phase_ == Phase::Round) barrier0_ = hooks_.wall_now();
   ++barriers_;
   last_wave_.clear();
   sync_all(t, Phase::SyncBefore);
@@ -396,6 +412,10 @@ Value LockstepCore::status() const {
       .set("running", running_)
       .set("steps", static_cast<std::int64_t>(steps_))
       .set("wall_s", wall_s_)
+      .set("step_s", step_s_)
+      .set("take_s", take_s_)
+      .set("rounds_s", rounds_s_)
+      .set("barrier_s", barrier_s_)
       .set("run_wall_s", first_go_ ? to_seconds(hooks_.wall_now() - *first_go_) : 0.0)
       .set("subscribers", names)
       .set("dropped", drops)

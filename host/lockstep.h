@@ -26,7 +26,9 @@
 //   status {}       -> ok {now, t, running, steps, wall_s, run_wall_s, subscribers = [names], dropped = [reasons], rounds,
 //                       advances, round_p50_us, round_p99_us, round_max_us, settled, barriers, waves}: a round is one
 //                       tick with subscribers due (advances sent -> last reply), in wall time; settled:
-//                       no round or barrier open; wall_s: wall time the owner spent stepping and publishing;
+//                       no round or barrier open; wall_s: wall time the owner spent stepping and publishing
+//                       (step_s: of it, in its step hook; take_s: taking in the samples counted for it);
+//                       rounds_s, barrier_s: wall time in the rounds and in the barriers;
 //                       run_wall_s: wall time since time first started (the run without its start-up)
 //
 // Each tick t (the semantics are ARCHITECTURE.md "Time"):
@@ -83,6 +85,9 @@ struct LockstepOptions {
   double idle_period = 1.0;
   int tick_timeout_ms = 10000;    ///< how long a subscriber may take to answer an advance
   bool realtime = false;          ///< pace time to the wall clock (else as fast as the subscribers allow)
+  /// unpaced, a tick with nobody due is followed at once by the next, in the same loop handler, up to the next
+  /// sync tick (else each tick is a handler of its own)
+  bool inline_quiet = true;
   double duration = -1;           ///< s of simulated time after which time holds (-1: never)
   std::string log_name = "dca lockstep";  ///< prefix of its messages on stderr
   std::string owner = "world";    ///< the owner's component name (links into it are counted for `take`)
@@ -192,6 +197,10 @@ class LockstepCore {
   Phase phase_ = Phase::Idle;
   Nanos wall0_ = 0;  // the wall time at which simulated time would have been 0
   double wall_s_ = 0;  // wall time spent stepping and publishing while running
+  double step_s_ = 0;  // of it, in the owner's step (the world's physics)
+  double take_s_ = 0;  // of it, taking in (and waiting for) the samples counted for the owner
+  double rounds_s_ = 0, barrier_s_ = 0;  // wall time in rounds, and in barriers (first sync to last)
+  Nanos barrier0_ = 0;
   std::optional<Nanos> first_go_;  // the wall time at which time first started
   // Wall time of each round (advances sent -> last answer): what a simulated control period costs in real time.
   LatenessHistogram rounds_;

@@ -173,6 +173,7 @@ struct Node::Impl {
   Value advance_reply(bool trace);
   // Tells the clock master which leaves this node hosts (lock-step routes their samples' counts by them).
   void tell_leaves() {
+    leaves_told = false;  // and in the next advance's answer
     if (!master) return;
     Value names = Value::array();
     for (const auto& [name, l] : leaves) names.array_ref().push_back(Value(name));
@@ -180,6 +181,8 @@ struct Node::Impl {
   }
   std::map<std::string, std::uint64_t> events;     // per leaf: done and aborted events sent (lock-step counts)
   std::map<std::string, std::uint64_t> last_sent;  // per link key: the count last told to the master
+  std::map<std::string, std::uint64_t> evs_told;   // the events per leaf of the last advance's answer
+  bool leaves_told = false;                        // the leaves are in an advance's answer since they changed
   std::vector<std::string> switches;               // activations since the last advance (trace)
   std::uint64_t instances = 0;                      // leaves added so far (each one's Leaf::instance)
   Value ports(const Leaf& leaf) const;
@@ -774,14 +777,22 @@ void Node::Impl::advance(const Channel::Ptr& ch, const Message& m) {
 Value Node::Impl::advance_reply(bool trace) {
   const auto next = timers->next_deadline();
   std::uint64_t total = 0;
-  Value evs = Value::map(), names = Value::array();
-  for (const auto& [name, n] : events) {
-    total += n;
-    evs.set(name, n);
-  }
-  for (const auto& [name, leaf] : leaves) names.array_ref().push_back(Value(name));
+  for (const auto& [name, n] : events) total += n;
   Value r = Value::map().set("now", timers->now()).set("next", next ? Value(*next) : Value()).set("ev", total);
-  r.set("evs", std::move(evs)).set("leaves", std::move(names));
+  // the events per leaf and the leaves only when they changed (the master keeps them): less to encode and
+  // decode on the round's path
+  if (events != evs_told) {
+    Value evs = Value::map();
+    for (const auto& [name, n] : events) evs.set(name, n);
+    r.set("evs", std::move(evs));
+    evs_told = events;
+  }
+  if (!leaves_told) {
+    Value names = Value::array();
+    for (const auto& [name, leaf] : leaves) names.array_ref().push_back(Value(name));
+    r.set("leaves", std::move(names));
+    leaves_told = true;
+  }
   if (auto sent = sent_changes(); !sent.as_map().empty()) r.set("sent", std::move(sent));
   if (trace) r.set("dig", digests());
   return r;

@@ -63,6 +63,7 @@ class LockstepTest : public ::testing::Test {
     o.period = kMs;
     o.sync_period = 0.01;
     o.idle_period = 0.05;
+    o.inline_quiet = inline_quiet;
     o.duration = duration;
     o.realtime = realtime;
     dca::LockstepHooks h;
@@ -93,6 +94,7 @@ class LockstepTest : public ::testing::Test {
     return link;
   }
 
+  bool inline_quiet = false;  // each tick a handler of its own: the tests count them
   std::unique_ptr<LockstepCore> core;
   int steps = 0, publishes = 0, settles = 0, scheduled = 0, durations = 0;
   std::optional<Nanos> wall_due;
@@ -117,6 +119,26 @@ TEST_F(LockstepTest, WithoutSubscribersTheOwnerStepsAndPublishesNothing) {
   EXPECT_EQ(steps, 25);
   EXPECT_EQ(core->now(), 25 * kMs);
   EXPECT_EQ(publishes, 0);  // it publishes for the nodes due at a tick: none
+}
+
+// Unpaced, the quiet ticks (nobody due) run in one handler up to the next sync tick: the same steps and rounds.
+TEST_F(LockstepTest, QuietTicksRunInOneHandlerUpToTheNextSyncTick) {
+  inline_quiet = true;
+  make();
+  auto a = subscribe("/a", &origin_a);
+  core->go();
+  EXPECT_EQ(run_ticks(100), 2);  // ticks 1..9 ms in one handler, then 10 ms (a sync tick), which opens a round
+  EXPECT_EQ(steps, 10);
+  EXPECT_EQ(a->seen(), std::vector<Nanos>{10 * kMs});
+  a->answer(13 * kMs);
+  EXPECT_EQ(run_ticks(100), 1);  // 11..13 ms
+  EXPECT_EQ(a->seen(), std::vector<Nanos>{13 * kMs});
+  a->answer(std::nullopt);
+  EXPECT_EQ(run_ticks(1), 1);  // 14..19 ms: the next one is a sync tick, a handler of its own
+  EXPECT_EQ(core->now(), 19 * kMs);
+  EXPECT_EQ(run_ticks(100), 4);  // 20..29, 30..39, 40..49, then 50 (the idle tick: /a)
+  EXPECT_EQ(core->now(), 50 * kMs);
+  EXPECT_EQ(a->seen(), std::vector<Nanos>{50 * kMs});
 }
 
 TEST_F(LockstepTest, EverySubscriberIsAdvancedAtASyncTickAndTheNextWaitsForAllAnswers) {

@@ -84,11 +84,13 @@ end
 -- The summary's own lines from the world's status `r` (after the hook's head).
 function S:_figures(r, wall, lines)
   lines[#lines + 1] = sformat("simulated %.3f s in %.3f s of wall-clock time (%.3f s since time started, "
-    .. "%.3f s of it stepping the world)", tonumber(r.t) or 0, wall, tonumber(r.run_wall_s) or 0, tonumber(r.wall_s) or 0)
+    .. "%.3f s of it stepping the world)", tonumber(r.t) or 0, wall, tonumber(r.run_wall_s) or 0, tonumber(r.step_s) or 0)
   if tonumber(r.rounds) and r.rounds > 0 then
     lines[#lines + 1] = sformat("lock-step: %d rounds, %d advances; wall time per round p50 %.0f us, p99 %.0f us, "
       .. "max %.0f us; %d barriers", r.rounds, tonumber(r.advances) or 0, tonumber(r.round_p50_us) or 0,
       tonumber(r.round_p99_us) or 0, tonumber(r.round_max_us) or 0, tonumber(r.barriers) or 0)
+    lines[#lines + 1] = sformat("lock-step wall time: rounds %.3f s, barriers %.3f s, the world's inputs %.3f s",
+      tonumber(r.rounds_s) or 0, tonumber(r.barrier_s) or 0, tonumber(r.take_s) or 0)
   end
   for _, d in ipairs(r.dropped or {}) do lines[#lines + 1] = "dropped from the clock: " .. tostring(d) end
   if #self.order == 0 then return end
