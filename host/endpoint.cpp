@@ -274,6 +274,7 @@ class DataSocket : public std::enable_shared_from_this<DataSocket>, private Fram
   }
 
   std::uint64_t bytes_out() const { return framed_.bytes_out(); }
+  bool write_idle() const { return framed_.idle(); }
   bool closed() const { return closed_; }
 
  protected:
@@ -1135,6 +1136,12 @@ bool Endpoint::active(const std::string& set) const {
 void Endpoint::set_gated(bool on) {
   impl_->gated = on;
   for (auto& [key, g] : impl_->gates) g->gated = on;
+}
+
+bool Endpoint::sending() const {
+  for (const auto& t : impl_->trunks)
+    if (!t->write_idle()) return true;
+  return false;
 }
 
 std::vector<Endpoint::SentCount> Endpoint::sent_counts() const {

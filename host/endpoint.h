@@ -145,6 +145,8 @@ class Endpoint {
   };
   /// Every push connection from this endpoint's outputs with the samples it has sent.
   std::vector<SentCount> sent_counts() const;
+  /// True while a socket connection has bytes written but not yet taken by the kernel (its write queue).
+  bool sending() const;
   /// Lets the first `n` samples of connection `key` (link_key) into their input; true when all `n` arrived.
   bool release(const std::string& key, std::uint64_t n);
   /// Samples arrived on connection `key` (0 when none yet).
