@@ -2,7 +2,8 @@
 // tests/bench/monitor_bench.lua:
 //   node bench.mjs rtf DCA SOURCE_DIR ROUNDS   the door run in simulated time, alternated (A B C A B C ...):
 //       A no monitor, B --monitor without a page, C --monitor with a headless WebSocket client reading everything
-//       (the snapshot, every delta, the samples of /world/door and of a port), D --monitor with a page in headless
+//       (the snapshot, every delta, the samples of /world/door), C' the same also plotting a port (tapped: one more
+//       data link in lock-step, host/tap.h), D --monitor with a page in headless
 //       chromium (the tree, the expressions, the timeline and a live plot of /world/door; chromium's rendering
 //       shares the machine's cores with the run). rtf = 20.06 simulated s / the wall time from
 //       the root's first step running to its DONE, as both lines reach this script (the same measure for all).
@@ -48,7 +49,7 @@ function run(args, onLine) {
 async function doorOnce(browser, variant) {
   const args = ['run', door, '--sim', 'door'];
   if (variant !== 'no_monitor') args.push('--monitor');
-  if (variant === 'browser' || variant === 'ws_reader') args.push('--monitor-wait');
+  if (variant === 'browser' || variant.startsWith('ws_reader')) args.push('--monitor-wait');
   let t0 = null, t1 = null, url = null, page = null, summary = null;
   const r = run(args, (line, ms) => {
     if (t0 === null && /main\.dooropensyst: running/.test(line)) t0 = ms;
@@ -71,9 +72,9 @@ async function doorOnce(browser, variant) {
     await page.select('#topic', await id.jsonValue());
   }
   let reader = null;
-  if (variant === 'ws_reader') {
+  if (variant.startsWith('ws_reader')) {
     while (!url) await new Promise((res) => setTimeout(res, 10));
-    reader = read(url);
+    reader = read(url, variant === 'ws_reader_port');
   }
   const code = await r.done;
   const samples = page ? await page.evaluate(() => Number(document.getElementById('plot').dataset.samples))
@@ -83,12 +84,13 @@ async function doorOnce(browser, variant) {
   return { wall_ms: t1 - t0, rtf: 20.06 / ((t1 - t0) / 1000), summary, samples };
 }
 
-// A WebSocket client of dca.monitor.v1 that reads everything and subscribes to the world's door signal and a port.
-function read(url) {
+// A WebSocket client of dca.monitor.v1 that reads everything and subscribes to the world's door signal (and with
+// `port`, to a port's samples).
+function read(url, port) {
   const u = new URL(url);
   const ws = new WebSocket(`ws://${u.host}/ws?token=${u.searchParams.get('token')}`, 'dca.monitor.v1');
   const st = { samples: 0, bytes: 0 };
-  const want = ['/world/door', '/main/dooropensyst/motionctrl/redundancy/BaseVel'];
+  const want = port ? ['/world/door', '/main/dooropensyst/motionctrl/redundancy/BaseVel'] : ['/world/door'];
   const subscribe = (topics) => {
     for (const t of Array.isArray(topics) ? topics : []) if (want.includes(t.name)) ws.send(JSON.stringify({ type: 'subscribe', topic: t.id, rate: 200 }));
   };
@@ -103,7 +105,7 @@ function read(url) {
 }
 
 async function rtf(browser) {
-  const variants = ['no_monitor', 'monitor_no_page', 'ws_reader', 'browser'];
+  const variants = ['no_monitor', 'monitor_no_page', 'ws_reader', 'ws_reader_port', 'browser'];
   const res = Object.fromEntries(variants.map((v) => [v, []]));
   for (let i = 0; i < rounds; i++) {
     for (const v of variants) {
@@ -115,7 +117,7 @@ async function rtf(browser) {
   for (const v of variants) {
     const rs = res[v];
     const med = [...rs.map((r) => r.rtf)].sort((a, b) => a - b)[Math.floor((rs.length - 1) / 2)];
-    const extra = v === 'browser' || v === 'ws_reader' ? ` samples_received=${Math.min(...rs.map((r) => r.samples))}` : '';
+    const extra = v === 'browser' || v.startsWith('ws_reader') ? ` samples_received=${Math.min(...rs.map((r) => r.samples))}` : '';
     console.log(`RESULT bench=monitor_door_rtf variant=${v} ${stats(rs.map((r) => r.wall_ms * 1000))} ` +
       `rtf=${med.toFixed(2)}${extra}`);
   }

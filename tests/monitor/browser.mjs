@@ -222,7 +222,8 @@ async function replay(browser) {
   const rec = join(out, 'door.mcap');
   rmSync(rec, { force: true });
   const code = await new Promise((resolve) => {
-    const p = spawn(exe, ['run', door, '--sim', 'door', '--record', rec, '--quiet'], { stdio: 'ignore', env: childEnv });
+    const p = spawn(exe, ['run', door, '--sim', 'door', '--record', rec, '--record-ports', 'all', '--quiet'],
+      { stdio: 'ignore', env: childEnv });
     p.on('exit', resolve);
   });
   check(code === 0, `the door run recorded ${rec} (exit ${code})`);
@@ -256,6 +257,11 @@ async function replay(browser) {
     await pick(page, '/world/door');
     const n = await until(page, () => Number(document.getElementById('plot').dataset.samples), 10);
     check(n > 100, `the recorded /world/door signal is plotted up to the slider (${n} samples)`);
+    const port = '/main/dooropensyst/motionctrl/redundancy/BaseVel';
+    await pick(page, port);
+    const k = await until(page, () => Number(document.getElementById('plot').dataset.samples) > 100 &&
+      document.getElementById('legend').textContent, 10);
+    check(k && k.includes('value[0]'), `the recorded port ${port} is plotted with its fields (${k})`);
     await page.click('#play');
     const moved = await until(page, () => Number(document.getElementById('clock').textContent) > 15.2, 10);
     check(moved, 'play advances the time');

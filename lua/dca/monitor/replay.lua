@@ -29,10 +29,17 @@ function M.spec_tree(spec)
   return node
 end
 
--- The field names of a flat JSON object, in the order written.
-local function fields_of(text)
+-- The field names of a JSON object, in the order written; an array field is one name per element
+-- ("value[0]", ... : a port's {"value": [...]}, as the live topics name them).
+local function fields_of(text, v)
   local out = {}
-  for k in text:gmatch('"([^"]+)"%s*:') do out[#out + 1] = k end
+  for k in text:gmatch('"([^"]+)"%s*:') do
+    if type(v[k]) == "table" then
+      for i = 1, #v[k] do out[#out + 1] = { k, i, k .. "[" .. (i - 1) .. "]" } end
+    elseif v[k] ~= nil then
+      out[#out + 1] = { k, nil, k }
+    end
+  end
   return out
 end
 
@@ -46,14 +53,20 @@ local function series(id, topic, msgs)
       next_i = next_i + step
       local v = core.json_decode(m.data)
       if type(v) == "table" then
-        fields = fields or fields_of(m.data)
+        fields = fields or fields_of(m.data, v)
         local row = { m.t / 1e9 }
-        for k, f in ipairs(fields) do row[k + 1] = tonumber(v[f]) or 0 end
+        for k, f in ipairs(fields) do
+          local x = v[f[1]]
+          if f[2] then x = type(x) == "table" and x[f[2]] or nil end
+          row[k + 1] = tonumber(x) or 0
+        end
         rows[#rows + 1] = row
       end
     end
   end
-  return { id = "r" .. id, name = topic, fields = fields or {}, rows = rows }
+  local names = {}
+  for k, f in ipairs(fields or {}) do names[k] = f[3] end
+  return { id = "r" .. id, name = topic, fields = names, rows = rows }
 end
 
 --- Loads a recording. --> { model, series, root } | nil, err

@@ -18,7 +18,7 @@
 --   mon.model, mon.srv        -- the model (dca.monitor.model), the server (dca.WebServer: topics, publish)
 --   mon:close([loop])       -- with the run's loop: the last delta reaches the pages first
 --
--- Protocol (JSON text messages). Server -> page: {type = "hello", mode, name, token_ok}, {type = "snapshot",
+-- Protocol (JSON text messages). Server -> page: {type = "hello", mode, name, version}, {type = "snapshot",
 -- nodes, exprs, events, config, lines, topics, t}, {type = "delta", ...the same fields, only what changed},
 -- coalesced every 50 ms; {type = "samples", topic, name, rows} (host/web); {type = "reply", id, ok, text}.
 -- Page -> server: {type = "subscribe", topic, rate}, {type = "command", id, cmd = "abort" | "restart" |
