@@ -154,6 +154,10 @@ async function attach(browser) {
     const ran = await until(page, (s) => document.querySelector(s)?.dataset.state === 'running', 30, sel);
     const ended = ran && await until(page, (s) => document.querySelector(s)?.dataset.state === 'done', 30, sel);
     check(ran && ended, 'the attached monitor follows the states (hit running, then done)');
+    await pick(page, '/world/door');
+    const n = await until(page, () => Number(document.getElementById('plot').dataset.samples) >= 10 &&
+      Number(document.getElementById('plot').dataset.samples), 20);
+    check(n >= 10, `the attached monitor plots the world's /world/door (${n} samples)`);
     await configFromThePage(page);
     await page.screenshot({ path: join(out, 'monitor_attach.png') });
     const exit = new Promise((resolve) => run.on('exit', resolve));

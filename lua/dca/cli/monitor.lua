@@ -17,7 +17,8 @@ token; without the token the page shows nothing and changes nothing.
                 "console: dca repl main --daemon ADDR --key FILE"), or its path looked up at --daemon. The
                 monitor is a console like `dca repl`: it authenticates with the cluster key (--key FILE,
                 else $DCA_KEY_FILE, else the user's), follows the root's lines and asks for the tree; the
-                page's commands (abort, restart, config set) are console commands
+                page's commands (abort, restart, config set) are console commands; with --daemon, the
+                world's signals (a run in simulated time) are plotted too
   FILE.mcap     a run recorded by `dca run --sim WORLD --record FILE.mcap`: its lines (/dca/events) and
                 signals, with a time slider and play/pause; --system FILE.dca adds the hosts, types and
                 expressions of the system that ran]]
@@ -52,6 +53,23 @@ local function replay(o)
   return serve(mon, string.format("replaying %s: %d events, %d signals", o[1], #rec.model.events, #rec.series))
 end
 
+-- The world's status requests (the page's world signals), to the `world` registered at `daemon` (a run in
+-- simulated time): looked up once, on the first request; no world, no signals.
+local function world_at(daemon, key)
+  local clients = require "dca.clients"
+  local wc, asked
+  return function(msg, cb)
+    if wc then wc:request(msg, 2, cb) return end
+    if asked then cb(nil) return end
+    asked = true
+    require("dca.clients.daemon").connect(daemon, { key_file = key }, function(d)
+      if not d then return end
+      clients.open(d, "world", 0, { key_file = key }, clients.Plain, function(c) wc = c end)
+    end)
+    cb(nil)
+  end
+end
+
 -- A running system, through its root's console.
 local function attach(o)
   local console = require "dca.clients.console"
@@ -77,7 +95,7 @@ local function attach(o)
   end
   local ping = await(function(k) request({ type = "ping" }, k) end) or {}
   local mon, merr = require("dca.monitor.server").start{ addr = o.listen, name = tostring(ping.path or target),
-    root = ping.path, mode = "live", request = request }
+    root = ping.path, mode = "live", request = request, world = o.daemon and world_at(o.daemon, o.key) }
   if not mon then io.stderr:write("dca monitor: ", tostring(merr), "\n") return 1 end
   client:follow(function(line) mon:line(line) end)
   client:on_close(function(reason)
