@@ -10,7 +10,8 @@
 --                                      -- same authenticated path as the REPL; cb(reply) with reply.type
 --     world = function(msg, cb) end,   -- optional: a request to the world (status polled for the plots)
 --     model = m,                       -- optional: a model already filled (a replay: dca.monitor.replay)
---     series = { {id, name, fields, rows} },  -- optional: recorded signals, sent whole with the snapshot
+--     series = { {id, name, fields, rows} },  -- optional: recorded signals, offered as topics; a page that
+--                                      -- subscribes to one gets its rows whole ({type = "series", ...})
 --   }
 --   mon:url()                 --> "http://127.0.0.1:PORT/?token=..."
 --   mon:line(line, t)         -- a line of the run at time t (seconds)
@@ -68,6 +69,10 @@ function M.start(o)
   local self = setmetatable({ o = o, srv = srv, model = o.model or model_mod.new(o.root), pages = {}, page_waiters = {},
                               commands = 0, errors = 0 }, Mon)
   self.topics_seen = self:_topics_key(self:_topics())
+  if o.series then
+    self.series_by_id = {}
+    for _, t in ipairs(o.series) do self.series_by_id[t.id] = t end
+  end
   srv:protocol(M.PROTOCOL, {
     open = function(c) self:_open(c) end,
     message = function(c, text) self:_message(c, text) end,
@@ -92,7 +97,7 @@ end
 function Mon:_topics()
   local out = {}
   for _, t in ipairs(self.srv:topics()) do out[#out + 1] = { id = t.id, name = t.name, fields = t.fields } end
-  for _, t in ipairs(self.o.series or {}) do out[#out + 1] = t end
+  for _, t in ipairs(self.o.series or {}) do out[#out + 1] = { id = t.id, name = t.name, fields = t.fields } end
   return out
 end
 
@@ -250,7 +255,11 @@ function Mon:_message(c, text)
     send(c, { type = "error", reason = "not JSON: " .. tostring(err) })
     return
   end
-  if m.type == "subscribe" and tonumber(m.topic) then
+  if m.type == "subscribe" and self.series_by_id and self.series_by_id[m.topic] then
+    -- a recorded signal: its rows, once (the page plots them up to its slider)
+    local t = self.series_by_id[m.topic]
+    send(c, { type = "series", topic = t.id, name = t.name, fields = t.fields, rows = t.rows })
+  elseif m.type == "subscribe" and tonumber(m.topic) then
     c:subscribe(math.floor(tonumber(m.topic)), math.min(tonumber(m.rate) or 30, 200))
     if self.on_subscribe then self.on_subscribe(math.floor(tonumber(m.topic))) end  -- a port's tap (dca.launch.live)
   elseif m.type == "command" then

@@ -262,7 +262,7 @@
     const t = S.topics.get(id);
     S.plot = { topic: id, fields: t ? arr(t.fields) : [], rows: [], received: 0 };
     if (t && S.mode === 'live') send({ type: 'subscribe', topic: Number(id), rate: 60 });
-    if (t && S.mode === 'replay') S.plot.rows = arr(t.rows);
+    if (t && S.mode === 'replay') send({ type: 'subscribe', topic: id });  // answered by its rows, once
     $('legend').innerHTML = S.plot.fields.map((f, i) => `<span style="color:${COLORS[i % COLORS.length]}">${esc(f)}</span>`).join('');
     S.dirty.plot = true;
   }
@@ -343,7 +343,6 @@
   function replayRange() {
     let t1 = S.t;
     for (const e of S.events) t1 = Math.max(t1, e.t);
-    for (const t of S.topics.values()) for (const r of arr(t.rows)) t1 = Math.max(t1, r[0]);
     S.t = t1;
     $('slider').max = String(t1);
     seek(0);
@@ -396,6 +395,7 @@
     if (m.type === 'snapshot') snapshot(m);
     else if (m.type === 'delta') delta(m);
     else if (m.type === 'samples') samples(m);
+    else if (m.type === 'series' && String(m.topic) === S.plot.topic) { S.plot.rows = arr(m.rows); S.dirty.plot = true; }
     else if (m.type === 'reply') $('reply').textContent = `${m.ok ? 'ok' : 'refused'}: ${m.text || ''}`;
     else if (m.type === 'error') $('reply').textContent = 'error: ' + m.reason;
   }
