@@ -19,8 +19,9 @@ local M = {}
 local ipairs, pairs, tostring, type, tonumber = ipairs, pairs, tostring, type, tonumber
 local smatch = string.match
 
---- Lines kept for a new page; events are all kept (the timeline needs them).
-M.MAX_LINES = 300
+--- Lines kept for a new page; events kept (the timeline's): the oldest go first past MAX_EVENTS, so a snapshot
+--- stays well below the server's send bound however long a run lasts.
+M.MAX_LINES, M.MAX_EVENTS = 300, 50000
 
 -- The words of a transition line and what they mean for the process: its state, and whether the rest of the
 -- line is a fault's reason.
@@ -95,7 +96,11 @@ function Model:_event(path, state, t, fault)
   n.state = state
   if fault then n.fault = fault end
   local ev = { t = t, path = path, state = state, fault = fault }
-  self.events[#self.events + 1] = ev
+  local events = self.events
+  events[#events + 1] = ev
+  if #events > M.MAX_EVENTS then  -- the oldest tenth goes at once (one move per MAX_EVENTS / 10 events)
+    self.events = table.move(events, M.MAX_EVENTS // 10 + 1, #events, 1, {})
+  end
   local d = self:_delta()
   d.events[#d.events + 1] = ev
   self:_changed(n)

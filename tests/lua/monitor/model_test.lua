@@ -64,6 +64,17 @@ suite:case("config_and_last_lines_kept", function()
   T.eq(s.lines[#s.lines].line, "line " .. (model.MAX_LINES + 10))
 end)
 
+-- The events are bounded: the oldest go first.
+suite:case("events_bounded_oldest_first", function()
+  local m = model.new("main")
+  local saved = model.MAX_EVENTS
+  model.MAX_EVENTS = 100
+  for i = 1, 250 do m:line(i % 2 == 0 and "main.a: running" or "main.a: done 1", i) end
+  model.MAX_EVENTS = saved
+  T.ok(#m.events <= 100, #m.events)
+  T.eq(m.events[#m.events].t, 250)
+end)
+
 -- An expression that does not parse gives no operator tree.
 suite:case("bad_expression_gives_no_tree", function()
   T.eq(model.expr_tree("a ; ; b"), nil)
