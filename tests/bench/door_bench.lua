@@ -23,6 +23,8 @@
 -- MotionControl achieves on both clocks, at 10 ms and 1 ms, lock-step and paced to the wall clock, against a
 -- plain 1 ms timer: tests/bench/motion_period_bench.lua.
 -- Usage: dca lua tests/bench/door_bench.lua [SEEDS...]   (default: 0 3)
+--   DCA_BENCH_BEFORE=/path/to/other/build/bin/dca: also that build's run after each harness run
+--   (variant suffix _before), so a change is measured before and after in one run
 local exe = os.getenv("DCA_EXE") or "dca"
 local src = os.getenv("DCA_SOURCE_DIR") or "."
 local sformat = string.format
@@ -59,14 +61,15 @@ end
 
 -- One supervised run: `placement` (dca run --placement; the variant names it), `period` "10ms" or "1ms"
 -- (MotionControl's period: motion.period).
-local function demo(seed, placement, period, base, base_opened)
+local function demo(seed, placement, period, base, base_opened, before)
   local extra = sformat(" --placement %s", placement)
   if period == "1ms" then extra = extra .. " --set motion.period=0.001" end
-  local out, code = run(sformat("%s run %s/scripts/systems/door_open.dca --sim door --seed %d --quiet%s", exe, src,
-    seed, extra))
+  local out, code = run(sformat("%s run %s/scripts/systems/door_open.dca --sim door --seed %d --quiet%s",
+    before or exe, src, seed, extra))
   local deg = out:match("door opened to ([%d.%-]+) deg")
-  local sim, wall, run_wall, step = out:match(
-    "simulated ([%d.]+) s in ([%d.]+) s of wall%-clock time %(([%d.]+) s since time started, ([%d.]+) s of it")
+  local sim, wall = out:match("simulated ([%d.]+) s in ([%d.]+) s of wall%-clock time")
+  -- (a build before these figures were printed has none: 0)
+  local run_wall, step = out:match("of wall%-clock time %(([%d.]+) s since time started, ([%d.]+) s of it")
   local rounds, adv, p50, p99, max = out:match("lock%-step: (%d+) rounds, (%d+) advances; wall time per round p50 (%d+) us, p99 (%d+) us, max (%d+) us")
   if code ~= 0 or not sim or not rounds then
     io.stderr:write(sformat("door run (seed %d) failed (exit %s):\n%s\n", seed, tostring(code), out))
@@ -78,8 +81,8 @@ local function demo(seed, placement, period, base, base_opened)
   local run_rtf = run_wall > 0 and sim / run_wall or 0
   local function vs(rtf) return (base or 0) > 0 and rtf / base or 0 end
   local opened = out:match("[%d.]+ %-%s+([%d.]+)%s+main%.dooropensyst%.dooropen%s")
-  print(sformat("RESULT bench=door_demo variant=seed%d_%s_%s n=%d p50_us=%.1f p99_us=%.1f p999_us=%.1f max_us=%.1f rtf=%.2f wall_s=%.3f sim_s=%.3f door_deg=%s advances=%s processes_per_round=%.2f per_process_p50_us=%.1f vs_harness=%.2f run_rtf=%.2f run_wall_s=%.3f vs_harness_run=%.2f world_step_s=%.3f opened_s=%s harness_opened_s=%s",
-    seed, placement, period, num(rounds), num(p50), num(p99), num(max), num(max), sim / wall, wall, sim, deg or "?",
+  print(sformat("RESULT bench=door_demo variant=seed%d_%s_%s%s n=%d p50_us=%.1f p99_us=%.1f p999_us=%.1f max_us=%.1f rtf=%.2f wall_s=%.3f sim_s=%.3f door_deg=%s advances=%s processes_per_round=%.2f per_process_p50_us=%.1f vs_harness=%.2f run_rtf=%.2f run_wall_s=%.3f vs_harness_run=%.2f world_step_s=%.3f opened_s=%s harness_opened_s=%s",
+    seed, placement, period, before and "_before" or "", num(rounds), num(p50), num(p99), num(max), num(max), sim / wall, wall, sim, deg or "?",
     adv, per_round, num(p50) / math.max(1, per_round), vs(sim / wall), run_rtf, run_wall, vs(run_rtf), num(step),
     opened or "?", base_opened or "?"))
 end
@@ -100,7 +103,14 @@ for round = 1, 2 do
     io.stderr:write(sformat("door_bench: round %d, seed %d: raw world, then the supervised system\n", round, seed))
     raw(seed)
     for _, period in ipairs(periods) do
-      for _, placement in ipairs(placements) do demo(seed, placement, period, harness(seed, period)) end
+      for _, placement in ipairs(placements) do
+        -- DCA_BENCH_BEFORE=EXE: another build's dca (e.g. before a change) beside this one, after the same
+        -- harness run: harness, before, after, A B A B
+        local before = os.getenv("DCA_BENCH_BEFORE")
+        local base, opened = harness(seed, period)
+        if before then demo(seed, placement, period, base, opened, before) end
+        demo(seed, placement, period, base, opened)
+      end
     end
   end
 end
