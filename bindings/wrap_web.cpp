@@ -3,6 +3,8 @@
 //   local srv, err = core.web_listen("127.0.0.1:0", { max_connections = 64, max_message = 65536,
 //                                                      max_queue = 4 MiB, close_queue = 16 MiB })
 //   srv:address()  srv:token()  srv:add_token(t)
+//   srv:add_key_token([key_file]) --> token | nil, err   -- also admit the cluster key's token (web::key_token)
+//   core.monitor_token([key_file]) --> token | nil, err  -- that token, for a key holder (dca monitor --token)
 //   srv:page("/", html, "text/html; charset=utf-8", true)    -- public (true) or with a token only (false)
 //   srv:protocol("dca.monitor.v1", { open = function(conn) end, message = function(conn, text, binary) end,
 //                                    close = function(conn, reason) end })
@@ -25,6 +27,7 @@
 #include "bindings/lua_loop.h"
 #include "bindings/lua_support.h"
 #include "bindings/lua_value.h"
+#include "host/auth.h"
 #include "host/json.h"
 
 namespace dca::lua {
@@ -157,6 +160,42 @@ int srv_add_token(lua_State* L) {
   luaL_argcheck(L, n >= 16, 2, "a token has at least 16 characters");
   s.add_token(std::string(t, n));
   return 0;
+}
+
+// The key token (web::key_token) of the cluster key in `key_file` (auth::key_file_path's default when empty).
+// False with *error when the key does not read.
+bool key_token_of(const std::string& key_file, std::string* token, std::string* error) {
+  const auto key = auth::load_key(auth::key_file_path(key_file), error);
+  if (!key) return false;
+  *token = web::key_token(*key);
+  return true;
+}
+
+// Pushes `token`, or nil and `error` (the Lua side's value | nil, err). --> number of results
+int token_result(lua_State* L, bool ok, const std::string& token, const std::string& error) {
+  if (ok) {
+    lua_pushlstring(L, token.data(), token.size());
+    return 1;
+  }
+  lua_pushnil(L);
+  lua_pushlstring(L, error.data(), error.size());
+  return 2;
+}
+
+int srv_add_key_token(lua_State* L) {
+  web::Server& s = open_server(L);
+  const std::string file = luaL_optstring(L, 2, "");
+  std::string token, error;
+  const bool ok = key_token_of(file, &token, &error);
+  if (ok) s.add_token(token);
+  return token_result(L, ok, token, error);
+}
+
+int core_monitor_token(lua_State* L) {
+  const std::string file = luaL_optstring(L, 1, "");
+  std::string token, error;
+  const bool ok = key_token_of(file, &token, &error);
+  return token_result(L, ok, token, error);
 }
 
 int srv_page(lua_State* L) {
@@ -429,6 +468,7 @@ std::shared_ptr<web::Server> check_web_server(lua_State* L, int index) {
 void register_web(lua_State* L) {
   static const luaL_Reg srv_methods[] = {
       {"address", srv_address}, {"token", srv_token},   {"add_token", srv_add_token},
+      {"add_key_token", srv_add_key_token},
       {"page", srv_page},       {"protocol", srv_protocol}, {"topic", srv_topic},
       {"publish", srv_publish}, {"remove_topic", srv_remove_topic}, {"topics", srv_topics},
       {"stats", srv_stats},     {"close", srv_close},   {nullptr, nullptr}};
@@ -440,6 +480,8 @@ void register_web(lua_State* L) {
   register_type(L, kConnMeta, conn_methods, {conn_gc, nullptr, conn_tostring});
   lua_pushcfunction(L, core_web_listen);
   lua_setfield(L, -2, "web_listen");
+  lua_pushcfunction(L, core_monitor_token);
+  lua_setfield(L, -2, "monitor_token");
   lua_pushcfunction(L, core_json_encode);
   lua_setfield(L, -2, "json_encode");
   lua_pushcfunction(L, core_json_decode);

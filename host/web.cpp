@@ -21,9 +21,10 @@ using tcp = boost::asio::ip::tcp;
 
 // ------------------------------------------------------------------------------------------ text helpers
 
-std::string random_token(std::size_t n) {
+namespace {
+
+std::string to_hex(const std::string& bytes) {
   static const char* kHex = "0123456789abcdef";
-  const std::string bytes = auth::random_bytes(n);
   std::string out;
   for (unsigned char c : bytes) {
     out += kHex[c >> 4];
@@ -31,8 +32,6 @@ std::string random_token(std::size_t n) {
   }
   return out;
 }
-
-namespace {
 
 int hex_digit(char c) {
   if (c >= '0' && c <= '9') return c - '0';
@@ -59,6 +58,12 @@ std::string_view path_of(std::string_view target) { return target.substr(0, targ
 std::string_view sv(beast::string_view s) { return {s.data(), s.size()}; }
 
 }  // namespace
+
+std::string random_token(std::size_t n) { return to_hex(auth::random_bytes(n)); }
+
+std::string key_token(const std::string& key) {
+  return to_hex(auth::hmac_sha256(key, "dca-monitor-1").substr(0, 16));
+}
 
 std::string query_value(std::string_view target, std::string_view name) {
   const auto q = target.find('?');

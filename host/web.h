@@ -6,7 +6,7 @@
 //
 // Access. Every WebSocket and every data page needs a token: `?token=T` in the URL, or `Authorization: Bearer T`.
 // The server makes one at random (16 bytes of OpenSSL's RAND_bytes, as 32 hex digits: token()); add_token()
-// admits others (e.g. one derived from the cluster key, so a key holder can compute it). Without it a WebSocket
+// admits others (key_token(): the one derived from the cluster key, which a key holder can compute). Without it a WebSocket
 // upgrade and a data page are answered 401 and nothing else happens; public pages load (they show nothing
 // without data). Tokens are compared in constant time.
 //
@@ -136,6 +136,9 @@ class Server : public std::enable_shared_from_this<Server> {
 
 /// `n` random bytes as lower-case hex (OpenSSL's RAND_bytes).
 std::string random_token(std::size_t n = 16);
+/// The monitor's token of a cluster key: the first 16 bytes of HMAC-SHA256(key, "dca-monitor-1") as 32 hex
+/// digits. A server given it (add_token) admits whoever holds the key, without the key reaching a browser.
+std::string key_token(const std::string& key);
 /// The value of `name` in the query of `target` ("/ws?token=ab&x=1"), percent-decoded; "" when absent.
 std::string query_value(std::string_view target, std::string_view name);
 

@@ -278,6 +278,16 @@ TEST_F(WebServerTest, SubscribedSamplesArriveDecimatedAsJsonRows) {
   EXPECT_EQ(hub.topic(id)->samples, 10u);
 }
 
+TEST(WebTextTest, TheKeyTokenIsAKeyedHashNotTheKey) {
+  const std::string key(32, 'k');
+  const std::string t = dca::web::key_token(key);
+  EXPECT_EQ(t.size(), 32u);
+  EXPECT_EQ(t, dca::web::key_token(key));
+  EXPECT_NE(t, dca::web::key_token(std::string(32, 'j')));
+  EXPECT_EQ(t.find_first_not_of("0123456789abcdef"), std::string::npos);
+  EXPECT_NE(dca::web::random_token(), dca::web::random_token());
+}
+
 TEST(WebTextTest, QueryValuesAreFoundAndDecoded) {
   EXPECT_EQ(dca::web::query_value("/ws?token=ab%20c&x=1", "token"), "ab c");
   EXPECT_EQ(dca::web::query_value("/ws?x=1&token=z", "token"), "z");

@@ -59,6 +59,27 @@ async function pick(page, name) {
   if (value) await page.select('#topic', value);
 }
 
+// A key holder's token (`dca monitor --token --key FILE`, the run's key) opens the page too.
+async function keyToken(browser, run) {
+  let key = null;
+  for (let i = 0; i < 200 && !key; i++) {
+    key = run.output().match(/--key (\S+)/)?.[1];
+    if (!key) await new Promise((r) => setTimeout(r, 50));
+  }
+  const token = await new Promise((resolve) => {
+    const p = spawn(exe, ['monitor', '--token', '--key', key], { stdio: ['ignore', 'pipe', 'inherit'], env: childEnv });
+    let out = '';
+    p.stdout.on('data', (c) => { out += c; });
+    p.on('exit', () => resolve(out.trim()));
+  });
+  const page = await browser.newPage();
+  await page.goto(run.url.replace(/\?token=.*$/, `?token=${token}`));
+  const shown = await until(page, () => document.body.dataset.connected === 'yes' &&
+    document.querySelectorAll('.row').length > 0, 20);
+  check(/^[0-9a-f]{32}$/.test(token) && shown, `the cluster key's token (dca monitor --token) opens the page (${token})`);
+  await page.close();
+}
+
 async function noToken(browser, url) {
   const bare = url.replace(/\?token=.*$/, '');
   for (const [what, u] of [['no token', bare], ['a wrong token', bare + '?token=0123456789abcdef0123456789abcdef']]) {
@@ -113,6 +134,7 @@ async function live(browser) {
     await configFromThePage(page);
     await page.screenshot({ path: join(out, 'monitor_live.png') });
     console.log(`screenshot: ${join(out, 'monitor_live.png')}`);
+    await keyToken(browser, run);
   } finally {
     run.p.kill('SIGTERM');
   }

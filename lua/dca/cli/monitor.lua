@@ -10,6 +10,7 @@ local tostring = tostring
 M.summary = "the web monitor of a running system (ADDR, PATH) or of a recording (FILE.mcap)"
 M.usage = [[usage: dca monitor ADDR|PATH [--daemon ADDR] [--key FILE] [--listen ADDR]
        dca monitor FILE.mcap [--system FILE.dca] [--root NAME] [--listen ADDR]
+       dca monitor --token [--key FILE]
 
 Serves the monitor's page on --listen (default 127.0.0.1:0, a free port) and prints its address with its
 token; without the token the page shows nothing and changes nothing.
@@ -21,10 +22,13 @@ token; without the token the page shows nothing and changes nothing.
                 world's signals (a run in simulated time) are plotted too
   FILE.mcap     a run recorded by `dca run --sim WORLD --record FILE.mcap`: its lines (/dca/events) and
                 signals, with a time slider and play/pause; --system FILE.dca adds the hosts, types and
-                expressions of the system that ran]]
+                expressions of the system that ran
+  --token       print the token of the cluster key (--key FILE, else $DCA_KEY_FILE, else the user's): the
+                monitor of `dca run --monitor` on a system with that key admits it as it admits the token it
+                printed, so a key holder opens http://ADDR/?token=THAT without the run's output]]
 
 local OPTIONS = { ["--daemon"] = "value", ["--key"] = "value", ["--listen"] = "value", ["--system"] = "value",
-                  ["--root"] = "value" }
+                  ["--root"] = "value", ["--token"] = "flag" }
 
 -- Serves `mon` until Ctrl-C (or `stop_when()`). --> 0
 local function serve(mon, what)
@@ -108,6 +112,12 @@ end
 function M.main(args)
   local o, err = args_mod.parse(args, "dca monitor", OPTIONS)
   if not o then return args_mod.usage_error(err, M.usage) end
+  if o.token then
+    local token, terr = core.monitor_token(o.key)
+    if not token then io.stderr:write("dca monitor: ", tostring(terr), "\n") return 1 end
+    io.stdout:write(token, "\n")
+    return 0
+  end
   if not o[1] then return args_mod.usage_error("dca monitor: which system (ADDR, PATH) or recording (FILE.mcap)?", M.usage) end
   if o[1]:match("%.mcap$") then return replay(o) end
   if o.system then return args_mod.usage_error("dca monitor: --system goes with FILE.mcap", M.usage) end

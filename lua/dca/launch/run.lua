@@ -201,6 +201,7 @@ function Run:start_monitor()
     mode = "live",
     request = request, world = world }
   if not mon then return nil, err end
+  mon.srv:add_key_token(self.ctx.key)  -- a key holder's token too (`dca monitor --token --key FILE`)
   self.monitor = mon
   self:say("monitor: " .. mon:url())
   return true
