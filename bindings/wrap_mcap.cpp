@@ -21,13 +21,13 @@ namespace {
 bool slurp(const char* path, std::string* out, std::string* error) {
   std::ifstream f(path, std::ios::binary);
   if (!f) {
-    *error = std::string(path) + ": cannot read the recording";
+    *error = "cannot read the recording";
     return false;
   }
   f.seekg(0, std::ios::end);
   const auto size = f.tellg();
   if (size < 0 || size > (std::streamoff{1} << 30)) {
-    *error = std::string(path) + ": not a file of at most 1 GiB";
+    *error = "not a file of at most 1 GiB";
     return false;
   }
   f.seekg(0);
