@@ -215,6 +215,8 @@ async function faults(browser) {
     await page.goto(run.url);
     const gain = '.row[data-path="main.line.gain"]';
     check(await until(page, (s) => document.querySelector(s)?.dataset.state === 'running', 20, gain), 'gain is shown running');
+    check(await until(page, () => [...document.querySelectorAll('.row')].every((r) => /^h[12]$/.test(r.dataset.host)), 10),
+      'every process of test_strategy shows its host (h1, h2)');
     await clickIn(page, `${gain} button[data-cmd="restart"]`);
     check(await until(page, (s) => document.querySelector(`${s} .restarts`)?.textContent === '↻1', 20, gain),
       'a restart from the page is counted on the row (↻1)');

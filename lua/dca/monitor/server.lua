@@ -109,6 +109,7 @@ function Mon:_open(c)
   snap.type, snap.topics = "snapshot", self:_topics()
   send(c, snap)
   if self.o.on_open then self.o.on_open(self, c) end
+  if self.o.request then self:_refresh_tree() end  -- hosts and types now, not at the next period
   local waiters = self.page_waiters
   self.page_waiters = {}
   for _, fn in ipairs(waiters) do fn() end
@@ -194,7 +195,10 @@ function Mon:line(line, t)
   if st then line, t = rest, t or tonumber(st) end
   local key, text, origin = line:match("^config: (.-) = (.*) %(written on (.-)%)$")
   if key then self.model:set_config(key, text, origin) end
+  local known = #self.model.order
   self.model:line(line, t)
+  -- a process the tree did not have yet (the start, a reload): the tree again for its host and type
+  if #self.model.order > known and self.o.request and next(self.pages) then self:_refresh_tree() end
 end
 
 -- A value typed in the page for config_set, as a Lua literal (dca.literal reads it: never evaluated).
