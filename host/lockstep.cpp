@@ -344,10 +344,8 @@ void LockstepCore::wave(Nanos t) {
     if (s.supervisor) sups.push_back(id);
   waiting_ = static_cast<int>(sups.size()) + 1;
   std::weak_ptr<bool> alive = alive_;
-  Value events = Value::map(), lost = Value::map();
-  for (const auto& [name, n] : node_events_) events.set(name, n);
-  for (const auto& [name, n] : lost_names_) lost.set(name, n);
-  const Value q = Value::map().set("t", t).set("events", events).set("lost", lost);
+  const Value c = counts();
+  const Value q = Value::map().set("t", t).set("events", c["events"]).set("lost", c["lost"]);
   for (const auto id : sups) {
     subs_[id].link->request("quiesce", q,
                             [this, alive, id, t](const std::string& error, bool replied, const Value& reply) {
@@ -400,6 +398,13 @@ void LockstepCore::after_tick() {
     if (on_duration) on_duration();
   }
   schedule();
+}
+
+Value LockstepCore::counts() const {
+  Value events = Value::map(), lost = Value::map();
+  for (const auto& [name, n] : node_events_) events.set(name, n);
+  for (const auto& [name, n] : lost_names_) lost.set(name, n);
+  return Value::map().set("events", events).set("lost", lost);
 }
 
 Value LockstepCore::status() const {
@@ -511,6 +516,7 @@ bool Lockstep::handle(const std::shared_ptr<Channel>& ch, const Message& m) {
     if (name.empty()) return ch->reply_error(m, "clock needs the subscriber's name"), true;
     const bool sup = m.payload["role"].as_string() == "supervisor";
     core_.subscribe(ch.get(), std::move(name), std::make_shared<ChannelClockLink>(ch, opts_.tick_timeout_ms), sup);
+    if (sup) return ch->reply(m, core_.counts().set("now", core_.now())), true;
   } else if (m.type == "go") {
     if (master_.expired()) {
       master_ = ch;

@@ -15,7 +15,9 @@
 // Requests (Lockstep::handle):
 //   clock {name, role}  -> ok {now}  role "node" (default): the channel's node subscribes to `advance`
 //                                (host/node.h); "supervisor": the supervisor takes part in the barrier
-//                                (`quiesce`, below). Dropped when it does not answer in time (a node's
+//                                (`quiesce`, below), answered ok {now, events, lost}: the counts so far, which
+//                                a supervisor started anew (a restarted group) already has (they are of
+//                                processes before it). Dropped when it does not answer in time (a node's
 //                                channel is then closed: it stops). A node subscribing under a leaf's name,
 //                                or hosting a leaf it did not host before, is a new process or instance of
 //                                it: every count of a link into or out of that leaf is forgotten (a restart)
@@ -146,6 +148,8 @@ class LockstepCore {
   bool running() const { return running_; }
   /// The clock's part of `status` (see the file comment).
   wire::Value status() const;
+  /// The counts of `quiesce` so far: {events = {node = n}, lost = {leaf = n}}.
+  wire::Value counts() const;
   /// Called once when `duration` is reached (time then holds).
   std::function<void()> on_duration;
 

@@ -32,6 +32,16 @@ S.step("low restarts its leaf twice, then gives up; mid restarts low", function(
   S.eq(#sys:lines_matching("^main%.mid%.low%.leaf: restarted %d/2 in 60 s", from), 2)
   restarted("main.mid.low", "1/1 in 60 s", from)
   S.eq(sys.outcome, nil, "the root's algebra saw nothing")
+  -- low's running child (leaf had crashed) was stopped before low's outcome reached mid (a shared node ends it
+  -- with leaf's crash: nothing left to stop)
+  if (S.placement or "process") == "process" then
+    local stopped, heard
+    for i, l in ipairs(sys:transitions()) do
+      if i > from and l:find("^main%.mid%.low%.other: stopped") then stopped = stopped or i end
+      if i > from and l:find("^main%.mid: one_for_one after low escalated") then heard = heard or i end
+    end
+    S.ok(stopped and heard and stopped < heard, "other stopped, then mid heard of the escalation")
+  end
 end)
 
 S.step("low gives up again: mid is past its budget and gives up; main restarts mid", function()

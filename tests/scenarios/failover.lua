@@ -42,12 +42,14 @@ local function samples(path, port)
 end
 
 -- Waits until samples flow into `path`.`port` again: more than it had taken (real), or a value at all (a
--- process started anew reads nothing until its first sample comes; memory: the value the writer wrote).
+-- process started anew reads nothing until its first sample comes); in memory the input is first marked stale,
+-- which only a sample arriving from now on replaces (the writers write the same value every period).
 local function flows(path, port)
   local n0 = samples(path, port)
   if n0 then
     sys:wait(path .. "." .. port .. " taking samples", function() return samples(path, port) > n0 end, 10)
   end
+  if not real then sys.c:node(path).ports[port] = "stale" end
   return sys:wait_read(path, port, function(v) return tonumber(v) ~= nil end, 10)
 end
 

@@ -23,8 +23,9 @@
 --   sup:handle(msg, reply)    -- a request from the parent (configure/run/abort/shutdown/node/tree/...)
 --   sup:child_message(name, msg)  -- an event from a child (leaf node: done/aborted; child DCAS: done/aborted/log/
 --                                 --   restarted {path}: a leaf below was restarted, its connections made again)
---   sup:child_exit(name, reason)  -- a child's process exited (Executer) or its channel/host was lost
---   sup:children_exit(names, reason)  -- several at once (the leaves of one shared node)
+--   sup:child_exit(name, reason, lost)  -- a child's process exited (Executer) or, `lost` true, its channel,
+--                             --   host or supervisor was lost (the policy's `lost` fault; reason: for display)
+--   sup:children_exit(names, reason, lost)  -- several at once (the leaves of one shared node)
 --
 -- The runtime:
 --   rt.spawn(child, cb)       -- child = a spec child (leaf or group); cb(handle) | cb(nil, reason). A handle
@@ -269,7 +270,7 @@ function Sup:_watch(name, handle)
       handle.kill("KILL")
       if handle.lost then handle.lost() end
       if self.rt.reap then self.rt.reap(ch.spec) end
-      self:child_exit(name, reason)
+      self:child_exit(name, reason, true)
     end)
   end)
 end
@@ -290,44 +291,48 @@ function Sup:to_leaf(leaf_path, msg, timeout, cb)
     end
   end
   timeout = timeout or self.timeouts.request
+  M.note_tap(ch, leaf_path, msg)
   if ch.kind == "leaf" then
-    M.note_tap(ch, msg)
     ch.handle.request(msg, timeout, cb)
   else
     ch.handle.request({ type = "node", leaf = leaf_path, msg = msg }, timeout, cb)
   end
 end
 
--- A tap's link to one of this group's leaves (dca.supervisor.taps: a stamped connect, the activation of its set
--- "tap:..."), remembered on the child so that a restart makes it again on the new process, inside the restart
--- (Sup:_retap: so in simulated time at the restart's tick, before the barrier ends).
-function M.note_tap(ch, msg)
+-- A tap's link to a leaf of child `ch` (the leaf itself, or one in its subtree: dca.supervisor.taps: a stamped
+-- connect, the activation of its set "tap:..."), remembered on the child so that a restart makes it again on the
+-- new process (or on every new process of a restarted subtree), inside the restart (Sup:_retap: so in simulated
+-- time at the restart's tick, before the barrier ends).
+function M.note_tap(ch, leaf, msg)
   local set = type(msg.set) == "string" and msg.set or ""
   local tap = (msg.type == "connect" and msg.stamped == true) or
     ((msg.type == "activate" or msg.type == "deactivate") and set:sub(1, 4) == "tap:")
   if not tap then return end
   ch.taps = ch.taps or { order = {} }
-  local t = ch.taps[set]
-  if not t then t = {} ch.taps[set] = t ch.taps.order[#ch.taps.order + 1] = set end
+  local key = leaf .. " " .. set
+  local t = ch.taps[key]
+  if not t then t = { leaf = leaf, set = set } ch.taps[key] = t ch.taps.order[#ch.taps.order + 1] = key end
   if msg.type == "connect" then t.connect = msg else t.active = msg.type == "activate" end
 end
 
--- The taps remembered for leaf `ch` made again (each connected, then activated if it was), k() after; a tap that
+-- The taps remembered for child `ch` made again (each connected, then activated if it was), k() after; a tap that
 -- fails is logged, the restart goes on.
 function Sup:_retap(ch, k)
   local order = ch.taps and ch.taps.order or {}
   local left = #order
   if left == 0 then k() return end
   local function one() left = left - 1 if left == 0 then k() end end
-  for _, set in ipairs(order) do
-    local t = ch.taps[set]
-    self:to_leaf(ch.path, t.connect, self.timeouts.connect, function(r, err)
+  for _, key in ipairs(order) do
+    local t = ch.taps[key]
+    local function activated(r, err)
       if not r or r.type == "error" then
-        self:log("%s: tap %s of restarted %s: %s", self.path, set, ch.path, r and r.reason or tostring(err))
+        self:log("%s: tap %s of restarted %s: %s", self.path, t.set, t.leaf, r and r.reason or tostring(err))
         one()
-      elseif t.active then self:to_leaf(ch.path, { type = "activate", set = set }, self.timeouts.connect, one)
+      elseif t.active then self:to_leaf(t.leaf, { type = "activate", set = t.set }, self.timeouts.connect, one)
       else one() end
-    end)
+    end
+    if t.connect then self:to_leaf(t.leaf, t.connect, self.timeouts.connect, activated)
+    else activated({ type = "ok" }) end
   end
 end
 
@@ -676,6 +681,8 @@ function Sup:run_expr(init, started)
     self:say("%s: new event actions in effect", self.path)
   end
   self.cause, self.outcome, self.escalated = nil, nil, nil
+  -- (a run after an escalation: no child still waits for a restart that will not come)
+  for _, ch in pairs(self.children) do ch.policy_fault, ch.start_pending = nil, nil end
   self.state = "running"
   self.last_init = init
   self.run = algebra.new(self.expr, self:_commands())
@@ -769,7 +776,7 @@ function Sup:_child_aborted(name, ch, msg)
   local path, reason = msg.path or ch.path, msg.reason or "aborted"
   local taken = self.run and self.run:is_running(name)
   local how = ch.kind == "group" and msg.escalated and "escalated" or "aborted"
-  local kind = policy.kind(how, reason)
+  local kind = policy.kind(how)
   if taken and self:_policy_takes(kind) then
     ch.state = "aborted"
     self:say("%s: %s: %s", ch.path, how, reason)
@@ -793,16 +800,16 @@ function Sup:_is_device_input(leaf, port)
   return false
 end
 
---- Child `name`'s process exited (the Executer's signal) or its supervisor/host was lost.
-function Sup:child_exit(name, reason)
-  self:children_exit({ name }, reason)
+--- Child `name`'s process exited (the Executer's signal) or (`lost` true) its channel, supervisor or host was lost.
+function Sup:child_exit(name, reason, lost)
+  self:children_exit({ name }, reason, lost)
 end
 
 --- Several children's processes ended at once (the leaves of one shared node, dca.supervisor.net): each is
 --- marked ended first, then the algebra hears of those that ran, in the order given, so none of them is
 --- stopped as a sibling of another.
-function Sup:children_exit(names, reason)
-  local ran, faulted, kind = {}, {}, policy.kind("exit", reason)
+function Sup:children_exit(names, reason, lost)
+  local ran, faulted, kind = {}, {}, policy.kind("exit", lost)
   for _, name in ipairs(names) do
     local ch = self.children[name]
     if not ch or ch.state == "exited" or ch.state == "lost" or ch.state == "gone" then goto next end
@@ -909,20 +916,27 @@ end
 -- sets), its ancestors told (`restarted`), then run with its last `init` if it was running.
 function Sup:_restore(name, was_running, cb)
   local ch = self.children[name]
-  local function failed(err) self:_restart_failed(name, was_running, err, cb) end
   self:_wire_devices(function(ok, err)
-    if not ok then failed(err) return end
-    self:_rewire(ch.path, function(ok2, err2)
-      if not ok2 then failed(err2) return end
-      self:_retap(ch, function()
-        self.rt.report({ type = "restarted", path = ch.path })
-        -- (unless its group's expression aborted it meanwhile)
-        self:_run_again(name, was_running)
-        self:_restarted_line(ch)
-        cb(true)
-      end)
-    end)
+    if not ok then self:_restart_failed(name, was_running, err, cb) return end
+    self:_restart_tail(name, was_running, cb)
   end, ch.path)
+end
+
+-- The end of a restart of child `name` (a leaf's new process, or a sub-group's new supervisor with its subtree up):
+-- this group's connections of it made again, the taps it remembers (of the leaf, or of every leaf of the subtree)
+-- made again, the groups above told (`restarted`), then run again with its last `init` if it ran (unless its
+-- group's expression aborted it meanwhile). cb(true) | the restart failed (Sup:_restart_failed)
+function Sup:_restart_tail(name, was_running, cb)
+  local ch = self.children[name]
+  self:_rewire(ch.path, function(ok, err)
+    if not ok then self:_restart_failed(name, was_running, err, cb) return end
+    self:_retap(ch, function()
+      self.rt.report({ type = "restarted", path = ch.path })
+      self:_run_again(name, was_running)
+      self:_restarted_line(ch)
+      cb(true)
+    end)
+  end)
 end
 
 -- The group is being shut down (or `ch` was stopped for good): a restart in flight starts nothing more.
@@ -1175,8 +1189,8 @@ function Sup:_bring_up(name, was_running, cb)
   self:_respawn_group(name, was_running, cb)
 end
 
--- A fresh supervisor of the sub-group `name`, configured with its spec (its subtree started and wired), this
--- group's connections of its leaves made again, the groups above told (`restarted`), run again if it ran.
+-- A fresh supervisor of the sub-group `name`, configured with its spec (its subtree started and wired), then the
+-- tail every restart shares (Sup:_restart_tail).
 function Sup:_respawn_group(name, was_running, cb)
   local ch = self.children[name]
   local answered = false
@@ -1202,13 +1216,7 @@ function Sup:_respawn_group(name, was_running, cb)
       answered = true
       ch.restarting, ch.state = nil, "inactive"
       self:_watch(name, handle)
-      self:_rewire(ch.path, function(ok, werr)
-        if not ok then self:_restart_failed(name, was_running, werr, cb) return end
-        self.rt.report({ type = "restarted", path = ch.path })
-        self:_run_again(name, was_running)
-        self:_restarted_line(ch)
-        cb(true)
-      end)
+      self:_restart_tail(name, was_running, cb)
     end)
   end)
 end
@@ -1233,7 +1241,9 @@ function Sup:_escalate(f, reason)
   local rec = self.recovering
   self.recovering, self.recovery_at = nil, f.at
   if rec then self:_unmark(rec) end
+  -- the faults that waited for the restart are not restarted either: their children no longer wait for one
   self:_unfault(f)
+  for _, q in ipairs(rec and rec.queue or {}) do self:_unfault(q) end
   if self.state ~= "running" then self.recovery_at = nil return end  -- aborted or stopped meanwhile: no outcome
   self.escalated = true
   self:say("%s: %s", self.path, reason)

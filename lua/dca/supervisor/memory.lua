@@ -169,7 +169,8 @@ function Cluster:_handle(owner, p, serve)
   return h
 end
 
-function Cluster:_die(p, reason, quiet)
+-- `lost`: its host was lost, not a crash of its own (the owner's policy tells them apart by it, not by the text).
+function Cluster:_die(p, reason, quiet, lost)
   if not p.alive then return end
   p.alive = false
   if p.kind == "group" then
@@ -184,7 +185,7 @@ function Cluster:_die(p, reason, quiet)
   end
   if not quiet and p.on_exit then
     local f = p.on_exit
-    self:push(function() f(reason) end)
+    self:push(function() f(reason, lost) end)
   end
 end
 
@@ -229,7 +230,7 @@ function Cluster:_spawn(owner_sup, child, cb)
     return
   end
   local p = c:_proc(child.path, child.host, child.kind)
-  p.on_exit = function(reason) owner_sup:child_exit(child.name, reason) end
+  p.on_exit = function(reason, lost) owner_sup:child_exit(child.name, reason, lost) end
   if child.kind == "leaf" then
     local node = setmetatable({ c = c, p = p, path = child.path, type = child.type, host = child.host,
       args = child.args, owner = owner_sup, name = child.name, conns = {}, active = {}, running = false,
@@ -353,7 +354,7 @@ end
 function Cluster:lose_host(host)
   self.lost_hosts[host] = true
   for _, p in ipairs(self.procs) do
-    if p.host == host and p.alive then self:_die(p, sformat("host %s lost (daemon gone)", host)) end
+    if p.host == host and p.alive then self:_die(p, sformat("host %s lost (daemon gone)", host), false, true) end
   end
 end
 

@@ -4,7 +4,8 @@
 -- Leaves start as `dca node --type T --name PATH --daemon ADDR -- ARGS` and sub-groups as
 -- `dca supervise --name PATH --daemon ADDR`, each by the daemon (Executer) of its host; the supervisor then
 -- looks the new process up by its path (NameServer) and opens a channel to its `control` endpoint.
--- Exit events from a daemon and closed channels become child_exit(name, reason) on the owning supervisor.
+-- Exit events from a daemon and closed channels become child_exit(name, reason, lost) on the owning supervisor
+-- (lost: its host or channel was lost).
 -- Placement (opts.placement, `dca run --placement`): "process" (default) starts each leaf as its own process;
 -- "group" places the leaves of this group on one host in one shared node (`dca node --shared`), "host" every
 -- leaf of the run on one host, whichever group it belongs to, in one shared node (host/node.h). A shared node
@@ -103,6 +104,7 @@ M.child_argv = child_argv
 -- ---------------------------------------------------------------------------------------------------------
 local Proc = {}
 Proc.__index = Proc
+M.Proc = Proc   -- (tests/lua/supervisor/net_test.lua builds one over a fake daemon)
 
 -- Its exit (event or host lost) is heard by every waiter once.
 function Proc:gone()
@@ -112,20 +114,23 @@ function Proc:gone()
   for _, w in ipairs(waiters or {}) do w(true) end
 end
 
--- Marks it exited and tells its supervisor (unless the runtime is closing); closes its channel.
-function Proc:exited_with(rt, reason)
+-- Marks it exited and tells its supervisor (unless the runtime is closing); closes its channel. `lost`: its host
+-- or channel was lost (the policy's `lost` fault; the reason is only shown).
+function Proc:exited_with(rt, reason, _, lost)
   if self.exited then return end
+  -- (the end of a process killed because its channel was lost: Proc:channel_closed)
+  if self.lost_reason then reason, lost, self.lost_told = self.lost_reason, true, true end
   self.exited = true
   if self.lost_timer then self.lost_timer:cancel() end
   -- a leaf that ends without being asked is what the clock master counts as a lost node: in lock-step its
   -- exit waits for the barrier (Net:_quiesce)
   if self.kind == "leaf" and not self.stopping and rt.ls.joined and not rt.closing then
     rt.ls.exited[self.path] = (rt.ls.exited[self.path] or 0) + 1
-    rt.ls.queue[#rt.ls.queue + 1] = { now = math.huge, name = self.name, exit = reason }
+    rt.ls.queue[#rt.ls.queue + 1] = { now = math.huge, name = self.name, exit = reason, lost = lost }
     if self.ch and not self.ch_closed then self.ch:close() end
     return
   end
-  if rt.sup and not rt.closing then rt.sup:child_exit(self.name, reason) end
+  if rt.sup and not rt.closing then rt.sup:child_exit(self.name, reason, lost) end
   if self.ch and not self.ch_closed then self.ch:close() end
 end
 
@@ -166,16 +171,27 @@ function Proc:kill_wait(sig, cb)
 end
 
 -- Its control channel closed while it should run: its exit event (with its signal) follows from its daemon,
--- or the daemon's loss does; this bound covers a process that closed its channel and lives on.
+-- or the daemon's loss does; this bound covers a process that closed its channel and lives on. Such a one is
+-- lost: it is killed first (SIGKILL, the bounded wait of kill_wait), so that its restart leaves no old process
+-- behind, and its end is told as `lost` (with its exit, or once the wait gave up).
 function Proc:channel_closed(reason)
   self.ch_closed = true
   local rt = self.rt
   if rt.closing or self.exited or self.stopping or not rt.sup then return end
   self.lost_timer = core.after(rt.opts.exit_grace or 10, function()
+    self.lost_timer = nil
     if self.exited or rt.closing then return end
-    self.exited = true
-    rt.sup:child_exit(self.name, sformat("%s lost on host %s: %s", self.kind == "group" and "supervisor" or "node",
-      self.host, tostring(reason)))
+    local why = sformat("%s lost on host %s: %s", self.kind == "group" and "supervisor" or "node", self.host,
+      tostring(reason))
+    self.lost_reason = why
+    rt.log(sformat("%s (pid %s on host %s): %s; killed before its restart", self.path, tostring(self.pid),
+      self.host, why))
+    self:kill_wait("KILL", function(ok, err)
+      if ok and self.lost_told then return end
+      if not ok then rt.log(sformat("%s: %s", self.path, tostring(err))) end
+      self.exited, self.lost_told = true, true
+      if rt.sup and not rt.closing then rt.sup:child_exit(self.name, why, true) end
+    end)
   end)
 end
 
@@ -296,7 +312,7 @@ end
 
 -- The node ended (exit event `msg`, or its host lost): each of its leaves ends with the reason, named per leaf;
 -- the leaf whose code crashed (msg.culprit: the node's crash note, host/node.h) comes first, then path order.
-function Shared:exited_with(rt, reason, msg)
+function Shared:exited_with(rt, reason, msg, lost)
   if self.ended then return end
   self.ended = true
   if rt.shared[self.name] == self then rt.shared[self.name] = nil end
@@ -319,9 +335,9 @@ function Shared:exited_with(rt, reason, msg)
   if rt.sup and not rt.closing and #names > 0 then
     if rt.ls.joined then  -- in lock-step the exits wait for the barrier (Net:_quiesce), one event per leaf
       for _, p in ipairs(list) do rt.ls.exited[p.path] = (rt.ls.exited[p.path] or 0) + 1 end
-      rt.ls.queue[#rt.ls.queue + 1] = { now = math.huge, name = names[1], exits = names, exit = why }
+      rt.ls.queue[#rt.ls.queue + 1] = { now = math.huge, name = names[1], exits = names, exit = why, lost = lost }
     else
-      rt.sup:children_exit(names, why)
+      rt.sup:children_exit(names, why, lost)
     end
   end
   for _, p in ipairs(list) do if p.ch and not p.ch_closed then p.ch:close() end end
@@ -415,8 +431,8 @@ function Net:_quiesce(ch, id, q)
     -- an exit (a node lost at tick q.t) happened at the barrier's tick: the reactions carry that time
     local saved = self.sup.event_at
     if e.exit and tonumber(q.t) then self.sup.event_at = q.t / 1e9 end
-    if e.exits then self.sup:children_exit(e.exits, e.exit)
-    elseif e.exit then self.sup:child_exit(e.name, e.exit)
+    if e.exits then self.sup:children_exit(e.exits, e.exit, e.lost)
+    elseif e.exit then self.sup:child_exit(e.name, e.exit, e.lost)
     else self.sup:child_message(e.name, e.msg) end
     self.sup.event_at = saved
     ls.received = ls.received + (e.exits and #e.exits or 1)
@@ -429,7 +445,9 @@ end
 -- (opts.lost_grace, default 1 s: a crashed process's exit, with its own signal, comes first; the master closed
 -- the clock channel, which stops a node that still reads it) stalled rather than crashed, and is killed, once,
 -- so that its exit comes and the barrier waiting for it ends. A shared node is killed whole: the master drops
--- a process.
+-- a process. If that exit does not come either (its daemon gone) within opts.stop_grace (default 5 s) of the
+-- SIGKILL, it is taken as arrived, said in the log (leaf, host), and the node's end told as lost: the barrier
+-- is bounded.
 function Net:_end_lost(lost)
   local ls = self.ls
   for path, n in pairs(lost or {}) do
@@ -437,14 +455,36 @@ function Net:_end_lost(lost)
       ls.ended[path] = n
       core.after(self.opts.lost_grace or 1, function()
         if (ls.exited[path] or 0) >= n or self.closing then return end
+        local procs = {}
         for _, p in pairs(self.by_child) do
           local hit = p.path == path
           for leaf in pairs(p.leaves or {}) do hit = hit or leaf.path == path end
-          if hit and not p.exited and not p.ended then (p.daemon or p.dc):kill(p.child, "KILL") end
+          if hit and not p.exited and not p.ended then
+            procs[#procs + 1] = p
+            local d = p.daemon or p.dc
+            d:kill(p.child, "KILL")
+          end
         end
+        self._give_up_lost(path, n, procs)
       end)
     end
   end
+end
+
+-- The exit of the dropped leaf `path` (the n-th the master counted) did not come within stop_grace of its
+-- SIGKILL: each of `procs` still not ended ends as lost, and the count is made whole.
+function Net:_give_up_lost(path, n, procs)
+  local ls, grace = self.ls, self.opts.stop_grace or 5
+  core.after(grace, function()
+    if (ls.exited[path] or 0) >= n or self.closing then return end
+    local host = procs[1] and procs[1].host or "?"
+    local why = sformat("node lost on host %s: dropped by the clock master, no exit within %gs of SIGKILL", host, grace)
+    self.log(sformat("%s: %s; its exit is taken as arrived", path, why))
+    for _, p in ipairs(procs) do
+      if not p.exited and not p.ended then p:exited_with(self, why, nil, true) p:gone() end
+    end
+    if (ls.exited[path] or 0) < n then ls.exited[path] = n end
+  end)
 end
 
 --- Whether this supervisor takes part in the simulated clock (events then carry the simulated time, which a
@@ -465,6 +505,13 @@ function Net:join_clock(name, cb)
           return
         end
         self.ls.joined = true
+        -- the counts so far are of processes before this supervisor (it is a restarted group's): already had
+        for path, n in pairs(type(rr.lost) == "table" and rr.lost or {}) do
+          self.ls.exited[path] = math.max(self.ls.exited[path] or 0, tonumber(n) or 0)
+        end
+        for path, n in pairs(type(rr.events) == "table" and rr.events or {}) do
+          self.ls.per[path] = math.max(self.ls.per[path] or 0, tonumber(n) or 0)
+        end
         cb(true)
       end)
     end)
@@ -494,7 +541,7 @@ end
 function Net:_host_lost(host, reason)
   for _, p in pairs(self.by_child) do
     if p.host == host then
-      p:exited_with(self, reason)
+      p:exited_with(self, reason, nil, true)
       p:gone()
     end
   end

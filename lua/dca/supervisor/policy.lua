@@ -2,8 +2,9 @@
 -- by dca.lang.model.policy into spec.supervision): which fault a child's end is, which children a strategy
 -- restarts, the restart intensity's sliding window, and the texts. No I/O, no clock (times are given).
 --
---   policy.kind(how, reason)              --> "crash" | "lost" | "aborted"
---     how: "exit" (the process ended: the Executer's signal or exit code, or its host/supervisor lost),
+--   policy.kind(how, lost)                --> "crash" | "lost" | "aborted"
+--     how: "exit" (the process ended: the Executer's signal or exit code, or, with `lost` true, its host, channel
+--          or supervisor lost),
 --          "aborted" (a leaf's ABORTED, or a sub-group's ABORTED outcome), "escalated" (a sub-group gave up:
 --          its restart intensity was exceeded).
 --   policy.plan(strategy, order, faulted)  --> names to restart, in start order (order: the instantiation order)
@@ -12,20 +13,15 @@
 --   policy.exceeded(pol, last)             --> "restart intensity 3 in 10 s exceeded; last: <last>"
 local M = {}
 
-local ipairs, sformat, tostring = ipairs, string.format, tostring
+local ipairs, sformat = ipairs, string.format
 
 --- Which fault the end of a child is. A process that ended because its host or its supervisor's channel was
---- lost is `lost`; any other end of a process (a signal, an exit code) is a `crash`; a sub-group that gave up
+--- lost is `lost` (the runtime says so: `lost` is true, dca.supervisor.net and .memory; the reason's text is only
+--- shown); any other end of a process (a signal, an exit code) is a `crash`; a sub-group that gave up
 --- (escalated) is a `crash` of that child, as a supervisor that dies; an ABORTED end is `aborted`.
-function M.kind(how, reason)
+function M.kind(how, lost)
   if how == "aborted" then return "aborted" end
-  if how == "escalated" then return "crash" end
-  -- the runtimes' texts (they begin the reason): "host h3 lost (daemon gone)", "supervisor lost on host h2
-  -- (no answer ...)", "node lost on host h1: ..."; a shared node's note that follows names paths, not losses
-  local r = tostring(reason)
-  if r:find("^host %S+ lost %(") or r:find("^supervisor lost on host ") or r:find("^node lost on host ") then
-    return "lost"
-  end
+  if how == "exit" and lost == true then return "lost" end
   return "crash"
 end
 

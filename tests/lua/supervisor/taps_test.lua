@@ -44,26 +44,45 @@ suite:case("record_ports_needs_an_mcap_recording_and_known_ports", function()
   T.ok(not out:find("daemon at", 1, true), "nothing started:\n" .. out)
 end)
 
+-- The first samples of port `topic` in the recording `file` (value 1: each new Counter process's first), removed.
+local function first_samples(file, topic)
+  local rec = assert(require("dca.core").mcap_read(file))
+  os.remove(file)
+  local id
+  for k, c in pairs(rec.channels) do if c.topic == topic then id = k end end
+  T.ok(id, "the port's channel " .. topic)
+  local after = {}
+  for _, m in ipairs(rec.messages) do
+    if m.channel == id and m.data == '{"value":1}' then after[#after + 1] = m.t end
+  end
+  return after
+end
+
 suite:case("a_restarted_leafs_port_is_recorded_on_its_new_process", function()
   local file = os.tmpname() .. ".mcap"
   local out, rc = T.sh("timeout 120 " .. dca .. " run " .. src .. "/scripts/systems/test_taps_restart.dca --sim door"
     .. " --record " .. file .. " --record-ports main.loop.steady.Count")
   T.eq(rc, 1, "the run ends ABORTED (restart intensity)\n" .. out)
   T.contains(out, "main.loop.steady: restarted")
-  local rec = assert(require("dca.core").mcap_read(file))
-  os.remove(file)
-  local id
-  for k, c in pairs(rec.channels) do if c.topic == "/main/loop/steady/Count" then id = k end end
-  T.ok(id, "the port's channel")
   -- the Counter counts 1, 2, 3, 4 every 20 ms, and again from 1 on each of its three new processes
-  local after = {}
-  for _, m in ipairs(rec.messages) do
-    if m.channel == id and m.data == '{"value":1}' then after[#after + 1] = m.t end
-  end
+  local after = first_samples(file, "/main/loop/steady/Count")
   -- each at its process's first tick: 20 ms after the start, then after each restart at 100, 200, 300 ms (its
   -- group re-taps it inside the restart, so at the restart's tick, before time moves on)
   T.eq(#after, 4, "a first sample of each of its four processes")
   for i, t in ipairs({ 20e6, 120e6, 220e6, 320e6 }) do T.eq(after[i], math.tointeger(t), "first sample " .. i) end
+end)
+
+suite:case("a_restarted_sub_groups_ports_are_recorded_on_its_new_processes", function()
+  -- the parent remembers the taps of the whole subtree and makes them again inside the restart of the group
+  local file = os.tmpname() .. ".mcap"
+  local out, rc = T.sh("timeout 120 " .. dca .. " run " .. src .. "/scripts/systems/test_taps_group_restart.dca"
+    .. " --sim door --record " .. file .. " --record-ports main.loop.steady.Count")
+  T.eq(rc, 1, "the run ends ABORTED (restart intensity)\n" .. out)
+  T.contains(out, "main.loop: restarted")
+  local after = first_samples(file, "/main/loop/steady/Count")
+  T.eq(#after, 4, "a first sample of each of its four processes\n" .. out)
+  -- each new process's first sample one period after the restart's tick: the same spacing every time
+  for i = 3, #after do T.eq(after[i] - after[i - 1], after[2] - after[1], "spacing " .. i) end
 end)
 
 return suite:run(...)
