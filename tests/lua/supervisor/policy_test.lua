@@ -397,6 +397,30 @@ suite:case("an_escalation_drops_the_queued_faults_and_a_new_run_starts_their_chi
   T.contains(w.outcome.reason, "is not running")
 end)
 
+suite:case("a_restarted_sub_group_gets_its_leaves_taps_again_inside_the_restart", function()
+  -- main remembers the taps it made on a leaf below its sub-group low; low restarted whole (a fresh supervisor
+  -- that remembers nothing) has them made again by main before its leaf runs again (lua.supervisor.taps.*)
+  local low = group("low", "Low", "h2", "x", { leaf("x", "Run", "h2") })
+  local spec = root("main", "h1", "low", { low })
+  spec.supervision = pol("one_for_one", 3, 10, { "crash", "aborted" })
+  local c = running(spec)
+  local TAP = "tap:main.low.x.Out"
+  c.root_sup:to_leaf("main.low.x", { type = "connect", set = TAP, out = "Out", to = "rec", ["in"] = "x", stamped = true })
+  c.root_sup:to_leaf("main.low.x", { type = "activate", set = TAP })
+  c:settle(c.t + 1)
+  local from = #c.commands
+  c:kill("main.low.x", "SEGV")
+  c:settle(c.t + 1)
+  T.eq(#lines(c, "^(main%.low: restarted 1/3 in 10 s)"), 1)
+  local after = {}
+  for i = from + 1, #c.commands do
+    local cmd = c.commands[i]
+    if cmd:find("^main%.low%.x ") and (cmd:find(TAP, 1, true) or cmd:find(" run$")) then after[#after + 1] = cmd end
+  end
+  T.eq(after, { "main.low.x connect " .. TAP, "main.low.x activate " .. TAP, "main.low.x run" })
+  T.eq(c:node("main.low.x").active[TAP], true)
+end)
+
 suite:case("the_leaves_of_one_shared_node_ended_together_are_one_fault", function()
   -- a shared node's crash ends its leaves together (children_exit with several names): one restart counted
   local c = running(workers(pol("one_for_one", 3, 10)))

@@ -79,10 +79,15 @@ suite:case("a_restarted_sub_groups_ports_are_recorded_on_its_new_processes", fun
     .. " --sim door --record " .. file .. " --record-ports main.loop.steady.Count")
   T.eq(rc, 1, "the run ends ABORTED (restart intensity)\n" .. out)
   T.contains(out, "main.loop: restarted")
+  -- each new Loop supervisor takes the clock's counts so far as had: the losses of crashy before it are not
+  -- waited for (it killed its own new crashy with SIGKILL after 1 s, at the restart's tick)
+  T.eq(select(2, out:gsub("crashy: exited: killed by SIGSEGV", "")), 4, "every crash its own\n" .. out)
+  T.ok(not out:find("SIGKILL", 1, true), out)
   local after = first_samples(file, "/main/loop/steady/Count")
   T.eq(#after, 4, "a first sample of each of its four processes\n" .. out)
-  -- each new process's first sample one period after the restart's tick: the same spacing every time
-  for i = 3, #after do T.eq(after[i] - after[i - 1], after[2] - after[1], "spacing " .. i) end
+  -- (whether each comes one period after its restart's tick is not checked here: a sub-group's restart on
+  -- simulated time may let time move on meanwhile; policy_test's a_restarted_sub_group_gets_its_leaves_taps_*
+  -- checks that the taps are made again before the leaf runs again)
 end)
 
 return suite:run(...)
