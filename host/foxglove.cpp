@@ -169,14 +169,16 @@ void Protocol::unsubscribe(Client& c, const Value& msg) {
 
 // The subscriptions of `channel` over every client: the first and the last are told.
 void Protocol::count(std::uint32_t channel, int delta) {
-  int& n = subscribers_[channel];
-  n += delta;
+  Subscribed& s = subscribers_[channel];
+  s.n += delta;
   const auto server = server_.lock();
   const auto* t = server ? server->samples().topic(channel) : nullptr;
-  if (delta > 0 && n == 1 && t && on_first_subscribe) on_first_subscribe(t->name);
-  if (n <= 0) {
+  if (t) s.topic = t->name;
+  if (delta > 0 && s.n == 1 && t && on_first_subscribe) on_first_subscribe(t->name);
+  if (s.n <= 0) {
+    const std::string topic = std::move(s.topic);
     subscribers_.erase(channel);
-    if (delta < 0 && t && on_last_unsubscribe) on_last_unsubscribe(t->name);
+    if (delta < 0 && !topic.empty() && on_last_unsubscribe) on_last_unsubscribe(topic);
   }
 }
 
@@ -195,11 +197,14 @@ void Protocol::on_topic(const SampleHub::Topic& t) {
 void Protocol::on_topic_removed(std::uint32_t id) {
   const std::string m =
       json::encode(Value::map().set("op", "unadvertise").set("channelIds", Value::Array{Value(static_cast<std::int64_t>(id))}));
+  int gone = 0;
   for (auto& [cid, c] : clients_) {
-    std::erase_if(c.subs, [id](const auto& s) { return s.second == id; });
+    gone += static_cast<int>(std::erase_if(c.subs, [id](const auto& s) { return s.second == id; }));
     c.conn->send(m);
   }
-  subscribers_.erase(id);
+  // Its subscriptions end with it: the last one tells on_last_unsubscribe, as an unsubscribe would (the hub has
+  // already forgotten the topic; its name was kept at subscribe).
+  if (gone > 0) count(id, -gone);
 }
 
 void Protocol::on_sample(const SampleHub::Topic& t, std::int64_t t_ns, std::span<const double> values) {

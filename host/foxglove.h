@@ -78,7 +78,11 @@ class Protocol final : public web::Protocol, public SampleHub::Observer {
   std::weak_ptr<web::Server> server_;
   std::string name_;
   std::map<std::uint64_t, Client> clients_;          // by connection id
-  std::map<std::uint32_t, int> subscribers_;         // channel -> subscriptions over every client
+  struct Subscribed {
+    int n = 0;          // subscriptions over every client
+    std::string topic;  // its name, kept for a topic the hub removes
+  };
+  std::map<std::uint32_t, Subscribed> subscribers_;  // by channel
   std::uint64_t sent_ = 0, dropped_ = 0;
 };
 

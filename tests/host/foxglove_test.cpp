@@ -1,6 +1,7 @@
 // The Foxglove WebSocket protocol (host/foxglove.h) on a fake connection: serverInfo and advertise at open, JSON
 // Schemas and messages from a topic's fields, subscribe/unsubscribe (first and last told), binary Message Data
-// (subscription id, timestamp, payload; little-endian), malformed and unknown requests answered with a status.
+// (subscription id, timestamp, payload; little-endian), malformed and unknown requests answered with a status, a
+// removed topic's subscriptions ended (the last one told, once).
 #include "host/foxglove.h"
 
 #include <gtest/gtest.h>
@@ -20,11 +21,12 @@ class FakeConnection : public dca::web::Connection {
   void close(const std::string&) override {}
   bool is_open() const override { return true; }
   void subscribe(std::uint32_t, double) override {}
-  std::uint64_t id() const override { return 1; }
+  std::uint64_t id() const override { return conn_id; }
   const std::string& protocol() const override { return proto; }
   const std::string& peer() const override { return proto; }
   dca::web::ConnectionStats stats() const override { return {}; }
   std::string proto = "foxglove.websocket.v1";
+  std::uint64_t conn_id = 1;
   std::vector<std::string> texts, frames;
 };
 
@@ -92,6 +94,60 @@ TEST(Foxglove, SubscribersGetMessageDataAndBadRequestsAStatus) {
   hub.publish(id, 2, {&x, 1});
   EXPECT_EQ(c->frames.size(), 1u);
   p.on_close(c, "bye");
+  server->close();
+}
+
+std::string subscribe(std::uint32_t sub, std::uint32_t channel) {
+  return "{\"op\":\"subscribe\",\"subscriptions\":[{\"id\":" + std::to_string(sub) +
+         ",\"channelId\":" + std::to_string(channel) + "}]}";
+}
+
+// A topic removed while subscribed (by two clients, one of them twice): its subscriptions end with it, so the run
+// is told its last one went (its tap can go) exactly once; the other topic's subscription stays; the topic made
+// again is a new channel whose first subscriber is told again.
+TEST(Foxglove, ARemovedTopicEndsItsSubscriptionsAndTellsTheLastOnce) {
+  boost::asio::io_context io;
+  std::string error;
+  auto server = dca::web::Server::listen(io, *dca::Address::parse("127.0.0.1:0"), {}, &error);
+  ASSERT_TRUE(server) << error;
+  auto& hub = server->samples();
+  const auto gone = hub.add_topic("/main/a/Out", {"value"});
+  const auto stays = hub.add_topic("/main/b/Out", {"value"});
+  dca::foxglove::Protocol p(server, "dca main");
+  std::vector<std::string> first, last;
+  p.on_first_subscribe = [&](const std::string& t) { first.push_back(t); };
+  p.on_last_unsubscribe = [&](const std::string& t) { last.push_back(t); };
+  auto a = std::make_shared<FakeConnection>(), b = std::make_shared<FakeConnection>();
+  b->conn_id = 2;
+  p.on_open(a);
+  p.on_open(b);
+  p.on_message(a, subscribe(1, gone), false);
+  p.on_message(a, subscribe(2, gone), false);
+  p.on_message(b, subscribe(1, gone), false);
+  p.on_message(b, subscribe(2, stays), false);
+  EXPECT_EQ(first, (std::vector<std::string>{"/main/a/Out", "/main/b/Out"}));
+
+  hub.remove_topic(gone);
+  EXPECT_EQ(last, std::vector<std::string>{"/main/a/Out"});
+  for (const auto& c : {a, b}) {
+    const auto m = decoded(c->texts.back());
+    EXPECT_EQ(m["op"].as_string(), "unadvertise");
+    EXPECT_EQ(m["channelIds"].as_array().at(0).as_int(), gone);
+  }
+  p.on_message(a, "{\"op\":\"unsubscribe\",\"subscriptionIds\":[1,2]}", false);
+  EXPECT_EQ(last.size(), 1u) << "an ended subscription is not ended twice";
+  const double x = 1;
+  hub.publish(stays, 5, {&x, 1});
+  EXPECT_EQ(b->frames.size(), 1u);
+  EXPECT_TRUE(a->frames.empty());
+
+  const auto again = hub.add_topic("/main/a/Out", {"value"});
+  EXPECT_NE(again, gone);
+  p.on_message(a, subscribe(3, again), false);
+  EXPECT_EQ(first, (std::vector<std::string>{"/main/a/Out", "/main/b/Out", "/main/a/Out"}));
+  p.on_close(a, "bye");
+  p.on_close(b, "bye");
+  EXPECT_EQ(last, (std::vector<std::string>{"/main/a/Out", "/main/a/Out", "/main/b/Out"}));
   server->close();
 }
 
