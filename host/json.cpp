@@ -8,15 +8,24 @@ namespace dca::json {
 
 namespace {
 
-// The length of the valid UTF-8 sequence at s[i], or 0.
+// The length of the valid UTF-8 sequence at s[i], or 0: no overlong form, no surrogate, nothing past U+10FFFF
+// (RFC 3629; the second byte's range depends on the first).
 std::size_t utf8_length(std::string_view s, std::size_t i) {
   const auto c = static_cast<unsigned char>(s[i]);
-  std::size_t n = c < 0x80 ? 1 : (c >> 5) == 6 ? 2 : (c >> 4) == 14 ? 3 : (c >> 3) == 30 ? 4 : 0;
+  if (c < 0x80) return 1;
+  const std::size_t n = c >= 0xC2 && c <= 0xDF ? 2 : c >= 0xE0 && c <= 0xEF ? 3 : c >= 0xF0 && c <= 0xF4 ? 4 : 0;
   if (n == 0 || i + n > s.size()) return 0;
-  for (std::size_t k = 1; k < n; k++)
+  const auto c1 = static_cast<unsigned char>(s[i + 1]);
+  const unsigned char lo = c == 0xE0 ? 0xA0 : c == 0xF0 ? 0x90 : 0x80;
+  const unsigned char hi = c == 0xED ? 0x9F : c == 0xF4 ? 0x8F : 0xBF;
+  if (c1 < lo || c1 > hi) return 0;
+  for (std::size_t k = 2; k < n; k++)
     if ((static_cast<unsigned char>(s[i + k]) >> 6) != 2) return 0;
   return n;
 }
+
+// U+FFFD, the replacement character, for a byte that starts no valid UTF-8 sequence or a lone surrogate.
+constexpr std::string_view kReplacement = "\xEF\xBF\xBD";
 
 }  // namespace
 
@@ -32,6 +41,8 @@ void append_string(std::string& out, std::string_view s) {
       out.append(s.substr(i, n));
       i += n;
       continue;
+    } else if (c >= 0x80) {
+      out += kReplacement;
     } else {
       char buf[8];
       std::snprintf(buf, sizeof buf, "\\u%04x", c);
@@ -162,7 +173,10 @@ bool Reader::string(std::string* out) {
     if (c == '"') return true;
     if (static_cast<unsigned char>(c) < 0x20) return fail("control character in a string");
     if (c != '\\') {
-      *out += c;
+      const std::size_t n = utf8_length(s, i - 1);
+      if (n == 0) *out += kReplacement;
+      else out->append(s.substr(i - 1, n));
+      i += n == 0 ? 0 : n - 1;
       continue;
     }
     if (i >= s.size()) break;
@@ -177,13 +191,18 @@ bool Reader::string(std::string* out) {
       case 'u': {
         unsigned cp = 0;
         if (!hex4(&cp)) return false;
+        // A high surrogate and a low one are one code point; any other surrogate is U+FFFD, and the escape after
+        // a lone high one is read on its own.
         if (cp >= 0xD800 && cp < 0xDC00 && s.substr(i, 2) == "\\u") {
+          const std::size_t next = i;
           i += 2;
           unsigned lo = 0;
           if (!hex4(&lo)) return false;
           if (lo >= 0xDC00 && lo < 0xE000) cp = 0x10000 + ((cp - 0xD800) << 10) + (lo - 0xDC00);
+          else i = next;
         }
-        put_utf8(cp, out);
+        if (cp >= 0xD800 && cp < 0xE000) *out += kReplacement;
+        else put_utf8(cp, out);
         break;
       }
       default: return fail("bad escape");

@@ -2,10 +2,10 @@
 
 #include <boost/asio/post.hpp>
 
-#include <cmath>
-#include <cstdio>
 #include <cstring>
 #include <stdexcept>
+
+#include "host/json.h"
 
 namespace dca::tap {
 
@@ -27,33 +27,6 @@ bool unstamp(Bytes stamped, std::int64_t& t, Bytes& sample) {
 
 namespace {
 
-void put_string(std::string& out, std::string_view s) {
-  out += '"';
-  char esc[8];
-  for (unsigned char c : s) {
-    if (c == '"' || c == '\\') {
-      out += '\\';
-      out += static_cast<char>(c);
-    } else if (c < 0x20 || c == 0x7f) {
-      std::snprintf(esc, sizeof esc, "\\u%04x", c);
-      out += esc;
-    } else {
-      out += static_cast<char>(c);
-    }
-  }
-  out += '"';
-}
-
-void put_number(std::string& out, double v) {
-  if (!std::isfinite(v)) {
-    out += "null";
-    return;
-  }
-  char num[32];
-  std::snprintf(num, sizeof num, "%.17g", v);
-  out += num;
-}
-
 // A msgpack object as JSON: maps' keys as strings (others as their JSON text), binary and extensions as null,
 // nesting deeper than 32 as null.
 void put_object(std::string& out, const msgpack::object& o, int depth) {
@@ -66,8 +39,8 @@ void put_object(std::string& out, const msgpack::object& o, int depth) {
     case msgpack::type::POSITIVE_INTEGER: out += std::to_string(o.via.u64); return;
     case msgpack::type::NEGATIVE_INTEGER: out += std::to_string(o.via.i64); return;
     case msgpack::type::FLOAT32:
-    case msgpack::type::FLOAT64: put_number(out, o.via.f64); return;
-    case msgpack::type::STR: put_string(out, {o.via.str.ptr, o.via.str.size}); return;
+    case msgpack::type::FLOAT64: json::append_number(out, o.via.f64); return;
+    case msgpack::type::STR: json::append_string(out, {o.via.str.ptr, o.via.str.size}); return;
     case msgpack::type::ARRAY:
       out += '[';
       for (std::uint32_t i = 0; i < o.via.array.size; ++i) {
@@ -82,11 +55,11 @@ void put_object(std::string& out, const msgpack::object& o, int depth) {
         if (i) out += ',';
         const auto& kv = o.via.map.ptr[i];
         if (kv.key.type == msgpack::type::STR) {
-          put_string(out, {kv.key.via.str.ptr, kv.key.via.str.size});
+          json::append_string(out, {kv.key.via.str.ptr, kv.key.via.str.size});
         } else {
           std::string k;
           put_object(k, kv.key, depth + 1);
-          put_string(out, k);
+          json::append_string(out, k);
         }
         out += ':';
         put_object(out, kv.val, depth + 1);
@@ -127,12 +100,12 @@ std::string sample_json(const PortSpec& spec, Bytes sample) {
   } else if (!sample_values(spec, sample, v)) {
     out += "null";
   } else if (spec.type == PortType::Scalar) {
-    put_number(out, v[0]);
+    json::append_number(out, v[0]);
   } else {
     out += '[';
     for (std::size_t i = 0; i < v.size(); ++i) {
       if (i) out += ',';
-      put_number(out, v[i]);
+      json::append_number(out, v[i]);
     }
     out += ']';
   }
@@ -141,12 +114,12 @@ std::string sample_json(const PortSpec& spec, Bytes sample) {
 
 std::string json_schema(const std::string& title, const PortSpec& spec) {
   std::string s = "{\"type\":\"object\",\"title\":";
-  put_string(s, title);
+  json::append_string(s, title);
   s += ",\"properties\":{\"value\":";
   std::string num = R"({"type":"number")";
   if (!spec.units.empty()) {
     num += ",\"description\":";
-    put_string(num, spec.units);
+    json::append_string(num, spec.units);
   }
   num += "}";
   switch (spec.type) {

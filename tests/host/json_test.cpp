@@ -27,11 +27,40 @@ TEST(JsonTest, EncodesValuesAndDecodesThemBack) {
 
 TEST(JsonTest, NonFiniteNumbersAndBadUtf8AreStillJson) {
   EXPECT_EQ(dca::json::encode(Value(std::numeric_limits<double>::quiet_NaN())), "null");
-  EXPECT_EQ(dca::json::encode(Value(std::string("\xff""a"))), "\"\\u00ffa\"");
+  EXPECT_EQ(dca::json::encode(Value(std::string("\xff""a"))), "\"\xef\xbf\xbd""a\"");
   EXPECT_EQ(dca::json::encode(Value(std::string("\xc3\xa9"))), "\"\xc3\xa9\"");
   Value v;
   ASSERT_TRUE(dca::json::decode(R"("\u00e9\ud83d\ude00")", &v, nullptr));
   EXPECT_EQ(v.as_string(), "\xc3\xa9\xf0\x9f\x98\x80");
+}
+
+// Whatever goes in, valid UTF-8 comes out: a byte that starts no valid sequence (a stray continuation, a
+// truncated sequence, an overlong form, a surrogate, past U+10FFFF) is U+FFFD, each escaped surrogate not in a
+// pair is U+FFFD, and the escape after a lone high surrogate is still read.
+TEST(JsonTest, InvalidUtf8AndLoneSurrogatesBecomeTheReplacementCharacter) {
+  const std::string r = "\xef\xbf\xbd";  // U+FFFD
+  const auto enc = [](const std::string& s) { return dca::json::encode(Value(s)); };
+  EXPECT_EQ(enc("a\x80""b"), "\"a" + r + "b\"");
+  EXPECT_EQ(enc("\xc0\xaf"), "\"" + r + r + "\"") << "overlong '/'";
+  EXPECT_EQ(enc("\xe0\x80\xaf"), "\"" + r + r + r + "\"") << "overlong, 3 bytes";
+  EXPECT_EQ(enc("\xed\xa0\x80"), "\"" + r + r + r + "\"") << "the surrogate U+D800 in UTF-8";
+  EXPECT_EQ(enc("\xf4\x90\x80\x80"), "\"" + r + r + r + r + "\"") << "U+110000";
+  EXPECT_EQ(enc("\xe2\x82"), "\"" + r + r + "\"") << "truncated";
+  EXPECT_EQ(enc("\xed\x9f\xbf\xf4\x8f\xbf\xbf"), "\"\xed\x9f\xbf\xf4\x8f\xbf\xbf\"") << "U+D7FF, U+10FFFF";
+
+  const auto dec = [](const std::string& text) {
+    Value v;
+    std::string error;
+    EXPECT_TRUE(dca::json::decode(text, &v, &error)) << text << ": " << error;
+    return v.is_string() ? v.as_string() : std::string("(not a string)");
+  };
+  EXPECT_EQ(dec(R"("\ud800")"), r) << "a lone high surrogate";
+  EXPECT_EQ(dec(R"("\udc00x")"), r + "x") << "a lone low surrogate";
+  EXPECT_EQ(dec(R"("\ud800\u0041")"), r + "A") << "a high surrogate before another escape: both read";
+  EXPECT_EQ(dec(R"("\ud800\ud83d\ude00")"), r + "\xf0\x9f\x98\x80") << "a high one, then a pair";
+  EXPECT_EQ(dec("\"\xed\xa0\x80\xff\xc3\xa9\""), r + r + r + r + "\xc3\xa9") << "raw bad bytes";
+  Value v;
+  EXPECT_FALSE(dca::json::decode(R"("\ud800\u00")", &v, nullptr)) << "a short second escape is still refused";
 }
 
 TEST(JsonTest, RefusesWhatIsNotJsonWithTheOffset) {
@@ -57,6 +86,7 @@ TEST(JsonTest, RandomBytesNeverCrashTheDecoder) {
       accepted++;
       Value again;
       EXPECT_TRUE(dca::json::decode(dca::json::encode(v), &again, nullptr)) << s;
+      EXPECT_EQ(dca::json::encode(again), dca::json::encode(v)) << s;  // valid UTF-8 goes through unchanged
     }
   }
   EXPECT_GT(accepted, 0);

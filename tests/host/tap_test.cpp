@@ -222,6 +222,13 @@ TEST(TapJson, SamplesSchemasTopicsAndMalformedStamps) {
   const std::string junk = "\xc1";  // never valid msgpack
   EXPECT_EQ(tap::sample_json(dca::value_port("x"), {reinterpret_cast<const std::byte*>(junk.data()), 1}),
             "{\"value\":null}");
+  // a Value's strings and keys as valid UTF-8 whatever their bytes (host/json's escaper: a bad byte is U+FFFD)
+  const std::string str = "\xa3\xff\x01\"";        // msgpack: the 3-byte string FF 01 '"'
+  EXPECT_EQ(tap::sample_json(dca::value_port("x"), {reinterpret_cast<const std::byte*>(str.data()), str.size()}),
+            "{\"value\":\"\xef\xbf\xbd\\u0001\\\"\"}");
+  const std::string map = "\x81\xa1\xc0\xcb\x3f\xb9\x99\x99\x99\x99\x99\x9a";  // {"\xc0": 0.1}
+  EXPECT_EQ(tap::sample_json(dca::value_port("x"), {reinterpret_cast<const std::byte*>(map.data()), map.size()}),
+            "{\"value\":{\"\xef\xbf\xbd\":0.1}}");
   EXPECT_EQ(tap::json_schema("/a", dca::vector_port("v", 2, "m")),
             "{\"type\":\"object\",\"title\":\"/a\",\"properties\":{\"value\":{\"type\":\"array\",\"items\":"
             "{\"type\":\"number\",\"description\":\"m\"},\"minItems\":2,\"maxItems\":2}}}");
