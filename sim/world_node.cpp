@@ -189,6 +189,13 @@ struct WorldNode::Impl {
     ch->reply(m, Value::map().set("summary", summary));
   }
 
+  template <std::size_t N>
+  static Value array_of(const std::array<double, N>& a) {
+    Value::Array v;
+    for (const double x : a) v.emplace_back(x);
+    return Value(std::move(v));
+  }
+
   // The clock's status and the world's state.
   Value status() const {
     const Sensors& s = world.sensors();
@@ -197,6 +204,9 @@ struct WorldNode::Impl {
         .set("handle_angle", s.handle_angle)
         .set("gripper_state", static_cast<std::int64_t>(static_cast<int>(s.gripper)))
         .set("base_pose", Value::Array{Value(s.base_pose.x), Value(s.base_pose.y), Value(s.base_pose.yaw)})
+        .set("base_vel", array_of(s.base_vel))
+        .set("arm_q", array_of(s.arm_q))
+        .set("arm_qd", array_of(s.arm_qd))
         .set("latched", world.latched())
         .set("grasping", world.grasping());
     return v;

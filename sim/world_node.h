@@ -12,7 +12,8 @@
 //
 // The clock master is host/lockstep.h (requests clock, go, hold, status); the world is what it steps. The
 // world's `status {}` adds its state to the clock's: door_angle, handle_angle, gripper_state,
-// base_pose = [x, y, yaw], latched, grasping.
+// base_pose = [x, y, yaw], base_vel, arm_q, arm_qd, latched, grasping: the state at its time, whereas the sensor
+// outputs (`read`) hold what was last published, at the last tick with a subscriber due.
 //
 // Taps (host/tap.h): `tap {path, port_type, size, units, queue}` adds a tap input "tap:PATH" to the world component
 // (answered {input}); the supervisor then links the output at PATH to it. Being the clock's owner, the world
