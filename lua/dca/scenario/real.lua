@@ -191,13 +191,14 @@ function System:world_hold()
   return (tonumber(r.now) or 0) / 1e9
 end
 
---- Time flows (if held) and holds once it reaches `t` (seconds; the tick at or after it): waits until it has.
+--- Time flows (if held) and holds once it reaches `t` (seconds; the tick at or after it): waits until it has
+--- and that tick has settled (its round and any barrier done: what happens at it has happened).
 --- --> the time held at
 function System:world_hold_at(t, timeout)
   self:_world({ type = "hold", at = math.floor(t * 1e9 + 0.5) }, "the world's hold")
   self:_world({ type = "go" }, "the world's go")
-  local st = self:wait_world(sformat("time held at %g s", t), function(s) return not s.running and s.t >= t - 1e-9 end,
-    timeout)
+  local st = self:wait_world(sformat("time held at %g s, settled", t),
+    function(s) return not s.running and s.settled and s.t >= t - 1e-9 end, timeout)
   return st.t
 end
 
