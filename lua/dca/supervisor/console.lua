@@ -162,7 +162,7 @@ local function action_commands(env, c, reload)
   end
   function env.abort(p)
     if p == nil then
-      await(function(k) sup:abort(k) end)
+      await(function(k) sup:abort(k, "aborted from the REPL") end)
       return sup.path .. ": aborted"
     end
     return inject(p, { type = "aborted", reason = "aborted from the REPL" })

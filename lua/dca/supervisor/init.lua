@@ -12,7 +12,8 @@
 --     neither dca.core nor the console: its runtime and its hooks come from whoever creates it.
 --   sup:configure(cb)         -- start children inactive, connect, cb(true) | cb(nil, reason)  (start+connect)
 --   sup:run(init)             -- runs the expression; the outcome goes to rt.report{type="done"|"aborted"}
---   sup:abort(cb)             -- aborts the running expression (LIFO), cb() once every stop is acknowledged
+--   sup:abort(cb, reason)     -- aborts the running expression (LIFO), cb() once every stop is acknowledged;
+--                             --   with a reason (a person's abort) the group's ABORTED goes up
 --   sup:shutdown(cb)          -- aborts, then stops every child LIFO (processes gone), cb()
 --   sup:restart(path, cb)     -- a group below: its expression again; a leaf below: a fresh process of it, wired
 --                             --   and running as before while the rest runs (sup:restart_leaf(name, cb) in the
@@ -696,8 +697,11 @@ function Sup:run_expr(init, started)
   return true
 end
 
---- Aborts the running expression (one LIFO abort); cb() once every abort is acknowledged.
-function Sup:abort(cb)
+--- Aborts the running expression (one LIFO abort); cb() once every abort is acknowledged. With `reason`
+--- (the group aborted by a person: the REPL's abort(), the monitor), the group's ABORTED outcome goes up as
+--- any outcome, so the parent's algebra (or, at the root, `dca run`) sees the group end; without it (the
+--- parent's own abort, a restart, a shutdown) nothing is reported.
+function Sup:abort(cb, reason)
   if not self.run or self.state ~= "running" then if cb then cb() end return end
   local ack = { n = 1, cb = cb }
   self.abort_ack = ack
@@ -705,8 +709,9 @@ function Sup:abort(cb)
   self.run:abort()
   self.abort_ack = nil
   self.state = "aborted"
-  self.outcome = { status = "aborted", path = self.path, reason = "aborted by its parent" }
+  self.outcome = { status = "aborted", path = self.path, reason = reason or "aborted by its parent" }
   self:say("%s: aborted", self.path)
+  if reason then self:_report({ type = "aborted", path = self.path, reason = reason, now = now_ns(self.event_at) }) end
   ack.n = ack.n - 1
   if ack.n == 0 and ack.cb then local f = ack.cb ack.cb = nil f() end
 end
