@@ -28,7 +28,7 @@ local function transition(line)
 end
 
 function M.system(spec, opts)
-  local s = setmetatable({ spec = spec, opts = opts, file = opts.file, root = opts.root, lines = {},
+  local s = setmetatable({ spec = spec, opts = opts, file = opts.file, root = opts.root, lines = {}, line_at = {},
                            seen = {}, backend = "real", outcome = nil, t0 = now() }, System)
   s.loop = core.loop()
   return s
@@ -73,6 +73,7 @@ function System:_report(msg)
   self:_trace_line(msg)
   if msg.type == "log" then
     self.lines[#self.lines + 1] = msg.line
+    if msg.at then self.line_at[#self.lines] = msg.at end
     local path, state = transition(msg.line)
     if state then
       self.seen[path] = self.seen[path] or {}
@@ -391,6 +392,8 @@ function System:read(path, port)
 end
 
 function System:transitions() return self.lines end
+--- The simulated time (s) of transition line i, for a line that carries its event's time (in simulated time).
+function System:transition_at(i) return self.line_at[i] end
 
 function System:alive()
   local list = {}
