@@ -180,6 +180,12 @@ async function attach(browser) {
     const n = await until(page, () => Number(document.getElementById('plot').dataset.samples) >= 10 &&
       Number(document.getElementById('plot').dataset.samples), 20);
     check(n >= 10, `the attached monitor plots the world's /world/door (${n} samples)`);
+    // a port: tapped (the root's console request `tap`) into the attached process's own tap point
+    const port = '/main/dooropensyst/motionctrl/redundancy/BaseVel';
+    await pick(page, port);
+    const k = await until(page, () => Number(document.getElementById('plot').dataset.samples) >= 20 &&
+      Number(document.getElementById('plot').dataset.samples), 20);
+    check(k >= 20, `the attached monitor plots the port ${port} live (${k} samples)`);
     await configFromThePage(page);
     await page.screenshot({ path: join(out, 'monitor_attach.png') });
     const exit = new Promise((resolve) => run.on('exit', resolve));

@@ -18,8 +18,10 @@ token; without the token the page shows nothing and changes nothing.
                 "console: dca repl main --daemon ADDR --key FILE"), or its path looked up at --daemon. The
                 monitor is a console like `dca repl`: it authenticates with the cluster key (--key FILE,
                 else $DCA_KEY_FILE, else the user's), follows the root's lines and asks for the tree; the
-                page's commands (abort, restart, config set) are console commands; with --daemon, the
-                world's signals (a run in simulated time) are plotted too
+                page's commands (abort, restart, config set) are console commands; with --daemon (the
+                daemon of the root's host), the ports are plotted (each tapped, as the root's console
+                request `tap`, into a tap point of this process registered there) and the world's
+                signals of a run in simulated time
   FILE.mcap     a run recorded by `dca run --sim WORLD --record FILE.mcap`: its lines (/dca/events) and
                 signals, with a time slider and play/pause; --system FILE.dca adds the hosts, types and
                 expressions of the system that ran
@@ -30,13 +32,14 @@ token; without the token the page shows nothing and changes nothing.
 local OPTIONS = { ["--daemon"] = "value", ["--key"] = "value", ["--listen"] = "value", ["--system"] = "value",
                   ["--root"] = "value", ["--token"] = "flag" }
 
--- Serves `mon` until Ctrl-C (or `stop_when()`). --> 0
-local function serve(mon, what)
+-- Serves `mon` until Ctrl-C (or `stop_when()`), `live` (its port taps, if any) closed first. --> 0
+local function serve(mon, what, live)
   io.stdout:write(what, "\n", "monitor: ", mon:url(), "\n")
   io.stdout:flush()
   local loop = core.loop()
   core.on_signal(function() loop:stop() end)
   loop:run()
+  if live then live:close() end
   mon:close(loop)
   return 0
 end
@@ -102,11 +105,17 @@ local function attach(o)
     root = ping.path, mode = "live", request = request, world = o.daemon and world_at(o.daemon, o.key) }
   if not mon then io.stderr:write("dca monitor: ", tostring(merr), "\n") return 1 end
   client:follow(function(line) mon:line(line) end)
+  local live
+  live = o.daemon and require("dca.launch.live").attach({ daemon = o.daemon, key = o.key, root = ping.path },
+    mon.srv, request, function(ok, lerr)
+      if not ok then io.stderr:write("dca monitor: ", tostring(lerr), " (no port plots)\n") return end
+      mon.on_subscribe = function(id) live:tap_id(id) end
+    end)
   client:on_close(function(reason)
     io.stderr:write("dca monitor: the supervisor's console closed: ", tostring(reason), "\n")
     loop:stop()
   end)
-  return serve(mon, "attached to " .. tostring(ping.path) .. " at " .. addr)
+  return serve(mon, "attached to " .. tostring(ping.path) .. " at " .. addr, live)
 end
 
 function M.main(args)

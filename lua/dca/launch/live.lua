@@ -8,6 +8,10 @@
 --   local live, err = require("dca.launch.live").start(ctx, sup, srv, cb)
 --       ctx: the start context (spec, hosts, key, sim), sup: the root supervisor, srv: the dca.WebServer;
 --       cb(true) | cb(nil, err) once the topics are made (the world's signals asked of the world)
+--   local live = require("dca.launch.live").attach(o, srv, request, cb)
+--       the same for `dca monitor ADDR` (a console of a running root): o.daemon (where the tap point registers),
+--       o.key, o.root (the root's path); the ports from the root's `ports`, each tap asked of the root as a
+--       console request `tap {path, to}` (made through its tree: a restart makes it again), no world signals
 --   live:tap_topic(topic, cb)  -- the tap of that topic, made once: cb(true) | cb(nil, err)
 --   live:tap_id(id, cb)        -- the same by the topic's id (the monitor's page subscribes by id)
 --   live:retap(below)          -- the taps of the ports below(p) made again (their leaf was restarted)
@@ -59,15 +63,48 @@ function M.start(ctx, sup, srv, cb)
                                   stamp = ctx.o.sim and "writer" or "arrival" }
   if not tp then cb(nil, err) return end
   local self = setmetatable({ tp = tp, name = name, sup = sup, srv = srv, ctx = ctx, by_topic = {}, tapped = {} }, Live)
+  self.link = function(p, k)
+    taps.connect(sup, { p }, name, { queue = 256, send = function(leaf, msg, timeout, k2) self:_send(leaf, msg, timeout, k2) end }, k)
+  end
   self:_topics(taps.outputs(spec, sup.rt.types and sup.rt.types() or core.types()))
-  core.foxglove(srv, { name = "dca " .. spec.path, subscribe = function(topic) self:tap_topic(topic) end })
-  require("dca.clients.daemon").connect(daemon, clients.key_opts(ctx.key), function(d, derr)
-    if not d then cb(nil, sformat("live taps: the daemon of %s: %s", spec.host, tostring(derr))) return end
+  self:_serve(daemon, ctx.key, "dca " .. spec.path, function(ok, err)
+    if not ok then cb(nil, err) return end
+    self:_world_topics(cb)
+  end)
+  return self
+end
+
+-- Serves Foxglove on the server and registers the tap point at `daemon`. k(true) | k(nil, err)
+function Live:_serve(daemon, key, title, k)
+  core.foxglove(self.srv, { name = title, subscribe = function(topic) self:tap_topic(topic) end })
+  require("dca.clients.daemon").connect(daemon, clients.key_opts(key), function(d, derr)
+    if not d then k(nil, sformat("live taps: the daemon at %s: %s", tostring(daemon), tostring(derr))) return end
     self.daemon = d
-    d:register(name, tp:endpoints(), clients.result(function(r, rerr)
-      if not r then cb(nil, "live taps: " .. tostring(rerr)) return end
-      self:_world_topics(cb)
+    d:register(self.name, self.tp:endpoints(), clients.result(function(r, rerr)
+      if not r then k(nil, "live taps: " .. tostring(rerr)) return end
+      k(true)
     end))
+  end)
+end
+
+-- (the tap point is on the root's host, as `--daemon`, the daemon of the root's host, says)
+function M.attach(o, srv, request, cb)
+  local ip = tostring(o.daemon):match("^(%d+%.%d+%.%d+%.%d+):%d+$") or "127.0.0.1"
+  local name = sformat("taps:%s@%d", tostring(o.root), core.pid())
+  local self = setmetatable({ name = name, srv = srv, ctx = { say = function() end }, by_topic = {}, tapped = {} }, Live)
+  self.link = function(p, k)
+    request({ type = "tap", path = p.path, to = name }, function(r)
+      if r.type == "error" then k(nil, r.reason) else k(true) end
+    end)
+  end
+  request({ type = "ports" }, function(r)
+    if r.type == "error" then cb(nil, "live taps: the root's ports: " .. tostring(r.reason)) return end
+    local tp, err = core.tap_point{ name = name, host = tostring(r.host), key_file = o.key, tcp = ip .. ":0",
+                                    server = srv, stamp = "writer" }
+    if not tp then cb(nil, err) return end
+    self.tp = tp
+    self:_topics(r.ports or {})
+    self:_serve(o.daemon, o.key, "dca " .. tostring(o.root), cb)
   end)
   return self
 end
@@ -111,8 +148,7 @@ function Live:tap_topic(topic, cb)
     for _, w in ipairs(waiting) do w(ok, err) end
   end
   if not added then finish(nil, aerr) return end
-  taps.connect(self.sup, { p }, self.name, { queue = 256, send = function(leaf, msg, timeout, k) self:_send(leaf, msg, timeout, k) end },
-    finish)
+  self.link(p, finish)
 end
 
 --- The tap of the topic with id `id` in the server's live samples (the monitor's page subscribes by id).
@@ -137,11 +173,11 @@ function Live:retap(below)
   end
 end
 
-function Live:stats() return self.tp:stats() end
+function Live:stats() return self.tp and self.tp:stats() or {} end
 
 function Live:close()
   if self.daemon then self.daemon:close() self.daemon = nil end
-  self.tp:close()
+  if self.tp then self.tp:close() end
 end
 
 -- The names of the topics, for messages.

@@ -54,6 +54,7 @@ local algebra = require "dca.algebra"
 local spec_mod = require "dca.supervisor.spec"
 local policy = require "dca.supervisor.policy"
 local failover = require "dca.supervisor.failover"
+local taps = require "dca.supervisor.taps"
 
 local previous = package.loaded["dca.supervisor"]
 local M = type(previous) == "table" and previous or {}
@@ -1356,6 +1357,8 @@ function Sup:handle(msg, reply)
     if t == "inject" then self:inject(msg.path, msg.msg, done)
     elseif t == "restart" then self:restart(msg.path, done)
     else self:switch(msg.path, msg.label, msg.what, done) end
+  elseif t == "ports" or t == "tap" then
+    self:_tap(msg, reply)
   elseif t == "ping" then
     reply({ type = "ok", path = self.path, state = self.state })
   elseif t == "stats" then
@@ -1378,6 +1381,23 @@ function Sup:handle(msg, reply)
   else
     reply({ type = "error", reason = "unknown request '" .. tostring(t) .. "'" })
   end
+end
+
+-- A console's taps (`dca monitor ADDR` plotting a port): `ports {}` --> {ports = taps.outputs of the tree, host};
+-- `tap {path = "a.b.P", to = NAME}` links that output to the tap input "tap:a.b.P" of the component NAME (a tap
+-- point the console registered), through the tree as the root's own taps (so a restart makes it again).
+function Sup:_tap(msg, reply)
+  local types = self.rt.types and self.rt.types() or {}
+  if msg.type == "ports" then reply({ type = "ok", ports = taps.outputs(self.spec, types), host = self.spec.host }) return end
+  if type(msg.path) ~= "string" or type(msg.to) ~= "string" or msg.to == "" then
+    reply({ type = "error", reason = "tap {path = 'a.b.PORT', to = 'NAME'}" }) return
+  end
+  local list, err = taps.select(self.spec, types, msg.path)
+  if list and #list ~= 1 then list, err = nil, "tap one port at a time, not '" .. msg.path .. "'" end
+  if not list then reply({ type = "error", reason = err }) return end
+  taps.connect(self, list, msg.to, {}, function(ok, cerr)
+    reply(ok and { type = "ok", port = list[1] } or { type = "error", reason = cerr })
+  end)
 end
 
 -- The direct child of this group on the way to `path` (the child itself or the sub-group holding it).

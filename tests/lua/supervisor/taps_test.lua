@@ -90,4 +90,45 @@ suite:case("a_restarted_sub_groups_ports_are_recorded_on_its_new_processes", fun
   -- checks that the taps are made again before the leaf runs again)
 end)
 
+suite:case("a_consoles_tap_request_links_one_port_through_the_tree_and_a_restart_makes_it_again", function()
+  -- `dca monitor ADDR` plotting a port: the console asks the root `ports`, then `tap {path, to}` (its own tap
+  -- point's name); the root links the leaf's output through the tree, remembered so a restart makes it again
+  local fake = require "dca.supervisor.memory"
+  local types = { Run = { inputs = {}, outputs = { { name = "Out", type = "scalar" } } } }
+  local low = fake.group("low", "Low", "h2", "x", { fake.leaf("x", "Run", "h2") })
+  local spec = fake.root("main", "h1", "low", { low })
+  spec.supervision = { strategy = "one_for_one", intensity = 3, within = 10, on = { crash = true } }
+  local c = fake.cluster{ behave = {}, types = types }
+  c:root(spec)
+  assert(c:configure())
+  c:start()
+  local function ask(msg)
+    local r
+    c.root_sup:handle(msg, function(x) r = x end)
+    c:settle(c.t + 1)
+    return r
+  end
+  local ports = ask({ type = "ports" })
+  T.eq(ports.type, "ok")
+  T.eq(ports.host, "h1", "the root's host (where the console's tap point registers)")
+  T.eq(#ports.ports, 1)
+  T.eq(ports.ports[1].path, "main.low.x.Out")
+  T.eq(ports.ports[1].type, "scalar")
+  local r = ask({ type = "tap", path = "main.low.x.Out", to = "taps:main@7" })
+  T.eq(r.type, "ok", r.reason)
+  T.eq(r.port.leaf, "main.low.x")
+  local TAP = "tap:main.low.x.Out"
+  local x = c:node("main.low.x")
+  T.eq(x.conns[#x.conns].to, "taps:main@7")
+  T.eq(x.active[TAP], true)
+  T.contains(ask({ type = "tap", path = "main.low.x.Nope", to = "t" }).reason, "has no output 'Nope' (outputs: Out)")
+  T.contains(ask({ type = "tap", path = "main.low.x.Out" }).reason, "tap {path")
+  c:kill("main.low.x", "SEGV")
+  c:settle(c.t + 1)
+  T.eq(c:node("main.low.x").active[TAP], true, "made again on the restarted process")
+  -- the console's allow-list admits both requests
+  local net = require "dca.supervisor.net"
+  T.ok(net.CONSOLE.ports and net.CONSOLE.tap)
+end)
+
 return suite:run(...)
