@@ -313,12 +313,16 @@ function M.note_tap(ch, leaf, msg)
   ch.taps = ch.taps or { order = {} }
   local key = leaf .. " " .. set
   local t = ch.taps[key]
-  if not t then t = { leaf = leaf, set = set } ch.taps[key] = t ch.taps.order[#ch.taps.order + 1] = key end
-  if msg.type == "connect" then t.connect = msg else t.active = msg.type == "activate" end
+  if not t then t = { leaf = leaf, set = set, to = {}, connect = {} } ch.taps[key] = t ch.taps.order[#ch.taps.order + 1] = key end
+  if msg.type ~= "connect" then t.active = msg.type == "activate" return end
+  -- one link per destination (the run's own tap point, the world's recording, an attached monitor's)
+  local to = tostring(msg.to)
+  if not t.connect[to] then t.to[#t.to + 1] = to end
+  t.connect[to] = msg
 end
 
--- The taps remembered for child `ch` made again (each connected, then activated if it was), k() after; a tap that
--- fails is logged, the restart goes on.
+-- The taps remembered for child `ch` made again (each destination's link connected, then the set activated if it
+-- was), k() after; a link that fails (e.g. its tap point is gone) is logged, the others and the restart go on.
 function Sup:_retap(ch, k)
   local order = ch.taps and ch.taps.order or {}
   local left = #order
@@ -326,15 +330,18 @@ function Sup:_retap(ch, k)
   local function one() left = left - 1 if left == 0 then k() end end
   for _, key in ipairs(order) do
     local t = ch.taps[key]
-    local function activated(r, err)
+    local links = #t.to
+    local function connected(r, err)
       if not r or r.type == "error" then
         self:log("%s: tap %s of restarted %s: %s", self.path, t.set, t.leaf, r and r.reason or tostring(err))
-        one()
-      elseif t.active then self:to_leaf(t.leaf, { type = "activate", set = t.set }, self.timeouts.connect, one)
+      end
+      links = links - 1
+      if links > 0 then return end
+      if t.active then self:to_leaf(t.leaf, { type = "activate", set = t.set }, self.timeouts.connect, one)
       else one() end
     end
-    if t.connect then self:to_leaf(t.leaf, t.connect, self.timeouts.connect, activated)
-    else activated({ type = "ok" }) end
+    if links == 0 then links = 1 connected({ type = "ok" }) end
+    for _, to in ipairs(t.to) do self:to_leaf(t.leaf, t.connect[to], self.timeouts.connect, connected) end
   end
 end
 

@@ -97,7 +97,7 @@ suite:case("a_consoles_tap_request_links_one_port_through_the_tree_and_a_restart
   local types = { Run = { inputs = {}, outputs = { { name = "Out", type = "scalar" } } } }
   local low = fake.group("low", "Low", "h2", "x", { fake.leaf("x", "Run", "h2") })
   local spec = fake.root("main", "h1", "low", { low })
-  spec.supervision = { strategy = "one_for_one", intensity = 3, within = 10, on = { crash = true } }
+  spec.supervision = { strategy = "one_for_one", intensity = 3, within = 10, on = { crash = true, aborted = true } }
   local c = fake.cluster{ behave = {}, types = types }
   c:root(spec)
   assert(c:configure())
@@ -123,9 +123,18 @@ suite:case("a_consoles_tap_request_links_one_port_through_the_tree_and_a_restart
   T.eq(x.active[TAP], true)
   T.contains(ask({ type = "tap", path = "main.low.x.Nope", to = "t" }).reason, "has no output 'Nope' (outputs: Out)")
   T.contains(ask({ type = "tap", path = "main.low.x.Out" }).reason, "tap {path")
+  -- a second viewer of the same port (the run's own tap point): both links are made again after a restart
+  c.root_sup:to_leaf("main.low.x", { type = "connect", set = TAP, out = "Out", to = "taps:main@1", ["in"] = TAP,
+                                     stamped = true })
+  c:settle(c.t + 1)
   c:kill("main.low.x", "SEGV")
   c:settle(c.t + 1)
-  T.eq(c:node("main.low.x").active[TAP], true, "made again on the restarted process")
+  local again = c:node("main.low.x")
+  T.ok(again ~= x, "main.low (x in it) restarted by main's policy")
+  T.eq(again.active[TAP], true, "made again on the restarted process")
+  local tos = {}
+  for _, l in ipairs(again.conns) do if l.set == TAP then tos[#tos + 1] = l.to end end
+  T.eq(tos, { "taps:main@7", "taps:main@1" }, "each destination's link made again")
   -- the console's allow-list admits both requests
   local net = require "dca.supervisor.net"
   T.ok(net.CONSOLE.ports and net.CONSOLE.tap)
