@@ -100,7 +100,7 @@ function M.attach(o, srv, request, cb)
   request({ type = "ports" }, function(r)
     if r.type == "error" then cb(nil, "live taps: the root's ports: " .. tostring(r.reason)) return end
     local tp, err = core.tap_point{ name = name, host = tostring(r.host), key_file = o.key, tcp = ip .. ":0",
-                                    server = srv, stamp = "writer" }
+                                    server = srv, stamp = r.sim and "writer" or "arrival" }
     if not tp then cb(nil, err) return end
     self.tp = tp
     self:_topics(r.ports or {})

@@ -1390,12 +1390,14 @@ function Sup:handle(msg, reply)
   end
 end
 
--- A console's taps (`dca monitor ADDR` plotting a port): `ports {}` --> {ports = taps.outputs of the tree, host};
+-- A console's taps (`dca monitor ADDR` plotting a port): `ports {}` --> {ports = taps.outputs of the tree, host,
+-- sim (on simulated time: the samples' stamps mean something to a viewer)};
 -- `tap {path = "a.b.P", to = NAME}` links that output to the tap input "tap:a.b.P" of the component NAME (a tap
 -- point the console registered), through the tree as the root's own taps (so a restart makes it again).
 function Sup:_tap(msg, reply)
   local types = self.rt.types and self.rt.types() or {}
-  if msg.type == "ports" then reply({ type = "ok", ports = taps.outputs(self.spec, types), host = self.spec.host }) return end
+  if msg.type == "ports" then reply({ type = "ok", ports = taps.outputs(self.spec, types), host = self.spec.host,
+                                         sim = (self.rt.on_sim_time and self.rt.on_sim_time()) == true }) return end
   if type(msg.path) ~= "string" or type(msg.to) ~= "string" or msg.to == "" then
     reply({ type = "error", reason = "tap {path = 'a.b.PORT', to = 'NAME'}" }) return
   end

@@ -111,6 +111,7 @@ suite:case("a_consoles_tap_request_links_one_port_through_the_tree_and_a_restart
   local ports = ask({ type = "ports" })
   T.eq(ports.type, "ok")
   T.eq(ports.host, "h1", "the root's host (where the console's tap point registers)")
+  T.eq(ports.sim, false, "not on simulated time (wall-clock stamps at the viewer)")
   T.eq(#ports.ports, 1)
   T.eq(ports.ports[1].path, "main.low.x.Out")
   T.eq(ports.ports[1].type, "scalar")
