@@ -321,8 +321,17 @@ function M.note_tap(ch, leaf, msg)
   t.connect[to] = msg
 end
 
+-- A tap's destination `to` forgotten (its link failed on a restart: a closed monitor's tap point is not waited for
+-- again at the next one).
+function M.forget_tap(t, to)
+  if not (to and t.connect[to]) then return end
+  t.connect[to] = nil
+  for i, x in ipairs(t.to) do if x == to then table.remove(t.to, i) break end end
+end
+
 -- The taps remembered for child `ch` made again (each destination's link connected, then the set activated if it
--- was), k() after; a link that fails (e.g. its tap point is gone) is logged, the others and the restart go on.
+-- was), k() after; a link that fails (e.g. its tap point is gone) is logged and forgotten, the others and the
+-- restart go on.
 function Sup:_retap(ch, k)
   local order = ch.taps and ch.taps.order or {}
   local left = #order
@@ -331,9 +340,10 @@ function Sup:_retap(ch, k)
   for _, key in ipairs(order) do
     local t = ch.taps[key]
     local links = #t.to
-    local function connected(r, err)
+    local function connected(r, err, to)
       if not r or r.type == "error" then
         self:log("%s: tap %s of restarted %s: %s", self.path, t.set, t.leaf, r and r.reason or tostring(err))
+        M.forget_tap(t, to)
       end
       links = links - 1
       if links > 0 then return end
@@ -341,7 +351,9 @@ function Sup:_retap(ch, k)
       else one() end
     end
     if links == 0 then links = 1 connected({ type = "ok" }) end
-    for _, to in ipairs(t.to) do self:to_leaf(t.leaf, t.connect[to], self.timeouts.connect, connected) end
+    for _, to in ipairs({ table.unpack(t.to) }) do
+      self:to_leaf(t.leaf, t.connect[to], self.timeouts.connect, function(r, err) connected(r, err, to) end)
+    end
   end
 end
 

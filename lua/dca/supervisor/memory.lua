@@ -14,6 +14,7 @@
 --   c:node(path):done(v) / :aborted(reason) -- a leaf's events
 --   c:kill(path, "SEGV") ; c:lose_host("h3") ; c:fail_spawn[path] = "reason" | "silent" ; c:freeze(path)
 --   c.spawn_delay[path] = seconds            -- that process starts only after this much virtual time
+--   c.refuse_to[name] = "reason"             -- a `connect` to that destination is refused (a tap point gone)
 --   fake.cluster{ heartbeat = { period, silence } }  -- supervisors ping their child supervisors
 --   fake.cluster{ types = { T = manifest }, world = true }  -- device ports, wired to the fake `world` node
 --   fake.cluster{ config = { ["door.stop_distance"] = 0.45 } } -- the repository config("key") arguments read
@@ -394,6 +395,7 @@ function Node:serve(msg, reply)
     self.running = false
     reply({ type = "ok" })
   elseif t == "connect" then
+    if c.refuse_to and c.refuse_to[msg.to] then reply({ type = "error", reason = c.refuse_to[msg.to] }) return end
     -- the same connection again is the one already made (its destination is found by path at each write, so
     -- it reaches a restarted destination's new node, as host/endpoint replaces a link to a moved process)
     for _, k in ipairs(self.conns) do

@@ -136,6 +136,16 @@ suite:case("a_consoles_tap_request_links_one_port_through_the_tree_and_a_restart
   local tos = {}
   for _, l in ipairs(again.conns) do if l.set == TAP then tos[#tos + 1] = l.to end end
   T.eq(tos, { "taps:main@7", "taps:main@1" }, "each destination's link made again")
+  -- the console's tap point gone: its link fails on the next restart, is logged and forgotten; the other stays
+  c.refuse_to = { ["taps:main@7"] = "no component taps:main@7" }
+  c:kill("main.low.x", "SEGV")
+  c:settle(c.t + 1)
+  T.eq(c:node("main.low.x").active[TAP], true, "the other link's set activated")
+  local remembered = c.root_sup.children.low.taps["main.low.x " .. TAP]
+  T.eq(remembered.to, { "taps:main@1" }, "the failed destination forgotten")
+  local logged = false
+  for _, l in pairs(c.root_sup.logbuf) do logged = logged or l:find("no component taps:main@7", 1, true) ~= nil end
+  T.ok(logged, "the failed tap is logged (the log ring)")
   -- the console's allow-list admits both requests
   local net = require "dca.supervisor.net"
   T.ok(net.CONSOLE.ports and net.CONSOLE.tap)
