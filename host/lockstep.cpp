@@ -59,12 +59,25 @@ void LockstepCore::forget(const std::string& leaf) {
     const auto bar = key.find('|', gt);
     return key.compare(0, key.find('|'), leaf) == 0 || key.compare(gt + 1, bar - gt - 1, leaf) == 0;
   };
+  writer_gone(leaf);
   auto prune = [&touches](std::map<std::string, std::uint64_t>& m) { std::erase_if(m, [&](const auto& kv) {
     return touches(kv.first); }); };
   sent_.erase(leaf);
   for (auto& [to, links] : sent_) prune(links);
   for (auto& [id, s] : subs_) prune(s.told);
   prune(owner_told_);
+}
+
+// The owner's inputs that `leaf` wrote to (its links into the owner), each told its writer is gone.
+void LockstepCore::writer_gone(const std::string& leaf) {
+  auto it = sent_.find(opts_.owner);
+  if (!hooks_.writer_gone || it == sent_.end()) return;
+  for (const auto& [key, n] : it->second) {
+    const auto bar = key.find('|'), gt = key.find('>');
+    if (bar == std::string::npos || gt == std::string::npos || key.compare(0, bar, leaf) != 0) continue;
+    const auto in = key.find('|', gt), at = key.find('@', gt);
+    if (in != std::string::npos && at != std::string::npos && at > in) hooks_.writer_gone(key.substr(in + 1, at - in - 1));
+  }
 }
 
 void LockstepCore::unsubscribe(const void* origin) {
@@ -295,6 +308,7 @@ void LockstepCore::drop(std::uint64_t id, const std::string& why) {
     lost_ += leaves.empty() ? 1 : leaves.size();
     if (leaves.empty()) ++lost_names_[it->second.name];
     for (const auto& l : leaves) ++lost_names_[l];
+    for (const auto& l : leaves.empty() ? std::vector<std::string>{it->second.name} : leaves) writer_gone(l);
   }
   gone_events_ += it->second.events;
   // told: a node whose process lives on (it stalled) stops rather than staying frozen at its last tick, so

@@ -114,6 +114,9 @@ struct LockstepHooks {
   std::function<wire::Value()> digests;
   /// One line of the trace (with trace on): "t kind who what"; "" at the end of each tick's lines.
   std::function<void(const std::string& line)> trace;
+  /// The owner's input `in` lost its writer, at the tick the writer's node is lost or a new instance of the
+  /// writer subscribes: a device input applies its safe value (zero velocity) until a new sample comes.
+  std::function<void(const std::string& in)> writer_gone;
 };
 
 /// The clock master's logic, without sockets or clocks of its own.
@@ -179,6 +182,7 @@ class LockstepCore {
   void add_sent(const wire::Value& sent);
   void hosts(Subscriber& s, std::vector<std::string> leaves);
   void forget(const std::string& leaf);
+  void writer_gone(const std::string& leaf);
   void drop(std::uint64_t id, const std::string& why);
   void round_done(Nanos t);
   void sync_all(Nanos t, Phase next);

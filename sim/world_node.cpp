@@ -71,6 +71,7 @@ struct WorldNode::Impl {
   long record_every = 1;
   long steps = 0;
   Commands cmd;
+  Commands applied;  // what the last step applied (the watchdog's zeros in)
   Nanos base_at = -1, arm_at = -1;  // when the last base / arm command arrived
   Lockstep clock;
 
@@ -94,6 +95,7 @@ struct WorldNode::Impl {
     h.sent = [this] { return node->sent_changes(); };
     h.take = [this](const Value& expect) { return node->take_expected(expect); };
     h.digests = [this] { return node->digests(); };
+    h.writer_gone = [this](const std::string& in) { writer_gone(in); };
     h.trace = [this](const std::string& line) {
       if (!trace) return;
       if (line.empty()) std::fflush(trace);
@@ -142,6 +144,14 @@ struct WorldNode::Impl {
     if (base_at < 0 || t - base_at > stale) c.base_vel = {};
     if (arm_at < 0 || t - arm_at > stale) c.arm_qd = {};
     world.set_commands(c);
+    applied = c;
+  }
+
+  // A drive command's writer is lost or restarted (at this tick): the drive stops at once, as a robot's driver
+  // does on losing its writer, until the new writer's first command. The gripper keeps its position command.
+  void writer_gone(const std::string& in) {
+    if (in == kCommandSignals[0].name) cmd.base_vel = {}, base_at = -1;
+    if (in == kCommandSignals[1].name) cmd.arm_qd = {}, arm_at = -1;
   }
 
   void publish() {
@@ -205,6 +215,8 @@ struct WorldNode::Impl {
         .set("gripper_state", static_cast<std::int64_t>(static_cast<int>(s.gripper)))
         .set("base_pose", Value::Array{Value(s.base_pose.x), Value(s.base_pose.y), Value(s.base_pose.yaw)})
         .set("base_vel", array_of(s.base_vel))
+        .set("base_cmd", array_of(applied.base_vel))  // the commands the last step applied
+        .set("arm_cmd", array_of(applied.arm_qd))
         .set("arm_q", array_of(s.arm_q))
         .set("arm_qd", array_of(s.arm_qd))
         .set("latched", world.latched())
