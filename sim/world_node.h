@@ -24,7 +24,8 @@
 // simulated time too (a tap of its signals elsewhere).
 //
 // Each tick (host/lockstep.h): the commands that arrived are applied (base and arm commands older than
-// command_timeout count as zero, as a drive's watchdog would; the gripper keeps its last command) and the world
+// command_timeout count as zero, as a drive's watchdog would, and so do those of a writer the clock master lost
+// or forgot for a new instance, from that tick until it writes again; the gripper keeps its last command) and the world
 // steps one period to t; when subscribers are due, the sensors are written to the outputs and flushed before
 // they are advanced, and the commands they wrote are drained after their replies.
 #include <cstdint>

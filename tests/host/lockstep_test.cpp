@@ -75,6 +75,7 @@ class LockstepTest : public ::testing::Test {
       wall_due = due;
     };
     h.wall_now = [this] { return wall; };
+    h.writer_gone = [this](const std::string& in) { gone.push_back(in + " before step " + std::to_string(steps)); };
     core = std::make_unique<LockstepCore>(o, h);
     core->on_duration = [this] { ++durations; };
   }
@@ -97,6 +98,7 @@ class LockstepTest : public ::testing::Test {
   bool inline_quiet = false;  // each tick a handler of its own: the tests count them
   std::unique_ptr<LockstepCore> core;
   int steps = 0, publishes = 0, settles = 0, scheduled = 0, durations = 0;
+  std::vector<std::string> gone;  // writer_gone: the owner's inputs that lost their writer, and when
   std::optional<Nanos> wall_due;
   Nanos wall = 5'000 * kMs;
   int origin_a = 0, origin_b = 0, origin_s = 0;
@@ -389,6 +391,39 @@ TEST_F(LockstepTest, ARestartedLeafsLinksStartTheirCountsAfresh) {
   a2->answer(next(a2), Value::map().set("sent", Value::map().set("/b", Value::map().set(key, 1))));
   run_ticks(100);
   EXPECT_EQ(b2->payloads[3]["expect"][key].as_int(0), 1);
+}
+
+// The owner's inputs a leaf wrote to are told their writer is gone at the tick its node is lost (before the
+// owner's next step) and when a new instance of it subscribes (a restart by hand); its other links are not.
+TEST_F(LockstepTest, TheOwnersInputsAreToldTheirWriterIsGone) {
+  make();
+  using dca::wire::Value;
+  const Value sent = Value::map()
+                         .set("world", Value::map().set("/d|Cmd>world|base.cmd_vel@/d:device", 3))
+                         .set("/b", Value::map().set("/d|Out>/b|In@s", 3));
+  auto d = subscribe("/d", &origin_a);
+  core->go();
+  run_ticks(100);
+  d->answer(d->pending.front().t + 10 * kMs, Value::map().set("sent", sent));
+  EXPECT_TRUE(gone.empty());
+  run_ticks(100);
+  const int at = steps;
+  d->fail("timed out after 300 ms", false);  // lost at the tick of 20 ms
+  ASSERT_EQ(gone.size(), 1u);
+  EXPECT_EQ(gone[0], "base.cmd_vel before step " + std::to_string(at));
+  // its new instance subscribing (it has written nothing yet): told again, harmless, and its links forgotten
+  int origin_d2 = 0;
+  auto d2 = subscribe("/d", &origin_d2);
+  ASSERT_EQ(gone.size(), 2u);
+  EXPECT_EQ(gone[1], "base.cmd_vel before step " + std::to_string(at));
+  // a restart by hand: the new instance's link writes, then another instance subscribes
+  run_ticks(100);
+  d2->answer(d2->pending.front().t + 10 * kMs, Value::map().set("sent", sent));
+  run_ticks(100);
+  int origin_d3 = 0;
+  subscribe("/d", &origin_d3);
+  ASSERT_EQ(gone.size(), 3u);
+  EXPECT_EQ(gone[2], "base.cmd_vel before step " + std::to_string(steps));
 }
 
 // A leaf added again to a shared node (remove, then add: a restart in the same process) is a new instance: its
