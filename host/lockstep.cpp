@@ -80,6 +80,14 @@ void LockstepCore::writer_gone(const std::string& leaf) {
   }
 }
 
+void LockstepCore::counted(const void* origin, std::uint64_t received, std::uint64_t sent) {
+  for (auto& [id, s] : subs_)
+    if (s.origin == origin && s.supervisor) {
+      s.received = received;
+      s.events = sent;
+    }
+}
+
 void LockstepCore::unsubscribe(const void* origin) {
   for (auto it = subs_.begin(); it != subs_.end();) {
     if (it->second.origin != origin) {
@@ -539,7 +547,12 @@ bool Lockstep::handle(const std::shared_ptr<Channel>& ch, const Message& m) {
     }
     go();
   } else if (m.type == "unclock") {
+    // a supervisor leaving in order (its group stopped, to restart or for good) says its last counts: not lost
+    if (m.payload.find("received"))
+      core_.counted(ch.get(), static_cast<std::uint64_t>(m.payload["received"].as_int(0)),
+                    static_cast<std::uint64_t>(m.payload["sent"].as_int(0)));
     core_.unsubscribe(ch.get());
+    if (m.id != 0) ch->reply(m, Value::map());
     return true;
   } else if (m.type == "leaves") {
     std::vector<std::string> names;

@@ -131,6 +131,8 @@ class LockstepCore {
   void subscribe(const void* origin, std::string name, std::shared_ptr<ClockLink> link, bool supervisor = false);
   /// `leaves {leaves}`: the components the node of `origin` hosts (its samples' counts go by them).
   void set_leaves(const void* origin, std::vector<std::string> leaves);
+  /// `unclock {received, sent}`: a supervisor's last counts, said as it leaves.
+  void counted(const void* origin, std::uint64_t received, std::uint64_t sent);
   /// `unclock`: the subscriber of `origin` leaves in order.
   void unsubscribe(const void* origin);
   /// `hold {at}`: time holds once it reaches `at` (ns).

@@ -21,8 +21,11 @@ Proc.__index = Proc
 function Proc:finish(code)
   if self.exit_code then return end
   self.exit_code = code
-  if self.rt then self.rt.close() end
-  self.loop:stop()
+  local function stop()
+    if self.rt then self.rt.close() end
+    self.loop:stop()
+  end
+  if self.rt then self.rt.leave_clock(stop) else stop() end
 end
 
 -- Everything this supervisor started is stopped, then it exits with `code` (with 1 when that takes 30 s).

@@ -85,9 +85,17 @@ suite:case("a_restarted_sub_groups_ports_are_recorded_on_its_new_processes", fun
   T.ok(not out:find("SIGKILL", 1, true), out)
   local after = first_samples(file, "/main/loop/steady/Count")
   T.eq(#after, 4, "a first sample of each of its four processes\n" .. out)
-  -- (whether each comes one period after its restart's tick is not checked here: a sub-group's restart on
-  -- simulated time may let time move on meanwhile; policy_test's a_restarted_sub_group_gets_its_leaves_taps_*
-  -- checks that the taps are made again before the leaf runs again)
+  -- each restart of the group takes effect at its crash's tick (crashy crashes 100 ms after each start): time
+  -- is held by the barrier until the new group runs, whose steady counts first one period later
+  local crashes, restarts = {}, {}
+  for t in out:gmatch("%[sim%s+([%d.]+)%] main%.loop%.crashy: exited: killed") do crashes[#crashes + 1] = t end
+  for t in out:gmatch("%[sim%s+([%d.]+)%] main%.loop: restarted") do restarts[#restarts + 1] = t end
+  T.eq(#restarts, 3, "three restarts\n" .. out)
+  for i, t in ipairs({ "0.100", "0.200", "0.300" }) do
+    T.eq(crashes[i], t, "crash " .. i .. "\n" .. out)
+    T.eq(restarts[i], t, "restart " .. i .. " at its crash's tick\n" .. out)
+  end
+  for i, t in ipairs({ 20e6, 120e6, 220e6, 320e6 }) do T.eq(after[i], math.tointeger(t), "first sample " .. i) end
 end)
 
 suite:case("a_consoles_tap_request_links_one_port_through_the_tree_and_a_restart_makes_it_again", function()
