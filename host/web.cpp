@@ -148,7 +148,10 @@ class WsSession : public Connection, public std::enable_shared_from_this<WsSessi
 class ServerImpl : public Server, public SampleHub::Observer {
  public:
   ServerImpl(boost::asio::io_context& io, Limits limits) : io_(io), acceptor_(io), flush_(io), limits_(limits) {}
-  ~ServerImpl() override { hub_.remove_observer(this); }
+  ~ServerImpl() override {
+    close();  // its sessions end: each protocol is told, and lets go of its connections
+    hub_.remove_observer(this);
+  }
 
   bool start(const Address& at, std::string* error);
   Address address() const override { return bound_; }
@@ -319,6 +322,7 @@ void WsSession::start(http::request<http::string_body> req) {
     // frame) is closed
     self->ws_.set_option(websocket::stream_base::timeout{self->limits_.request_timeout,
                                                          self->limits_.idle_timeout, true});
+    if (self->ended_) return;  // closed during the handshake (the server closed)
     self->open_ = true;
     self->handler_->on_open(self->shared_from_this());
     if (self->open_) self->read();
@@ -410,7 +414,10 @@ void WsSession::closed(const std::string& reason) {
     s->ws_closed(id_);
     s->socket_closed();
   }
-  if (was_open) handler_->on_close(self, reason);
+  // the handler is let go of: a protocol that keeps its connections (as most do) would otherwise hold this
+  // session, which holds it, for ever
+  const auto handler = std::move(handler_);
+  if (was_open && handler) handler->on_close(self, reason);
 }
 
 void WsSession::subscribe(std::uint32_t topic, double rate) {
