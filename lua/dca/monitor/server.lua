@@ -23,8 +23,9 @@
 -- nodes, exprs, events, config, lines, topics, t}, {type = "delta", ...the same fields, only what changed},
 -- coalesced every 50 ms; {type = "samples", topic, name, rows} (host/web); {type = "reply", id, ok, text}.
 -- Page -> server: {type = "subscribe", topic, rate}, {type = "command", id, cmd = "abort" | "restart" |
--- "event" | "config_set" | "eval", path, kind, value, key, line}. A message that is not JSON, or not one of
--- these, is answered {type = "error", reason} and counted; the page's connection stays.
+-- "event" | "config_set", path, kind, value, key}. A message that is not JSON, or not one of these, is answered
+-- {type = "error", reason} and counted; the page's connection stays. The token allows these commands and no
+-- more: nothing a page sends is evaluated as code (Lua evaluation needs the cluster key: dca repl).
 local core = require "dca.core"
 local model_mod = require "dca.monitor.model"
 
@@ -235,7 +236,6 @@ local function command_request(m)
     if not line then return nil, err end
     return { type = "repl", line = line }
   end
-  if m.cmd == "eval" and type(m.line) == "string" then return { type = "repl", line = m.line } end
   return nil, "unknown command " .. tostring(m.cmd)
 end
 

@@ -67,6 +67,20 @@ suite:case("commands_are_console_requests_values_literals", function()
   mon:close()
 end)
 
+-- The token is a viewer's credential: no command evaluates code, and one that tries reaches no console.
+suite:case("no_code_evaluation", function()
+  local mon, asked = monitor()
+  local p = page()
+  local before = #asked
+  for i, cmd in ipairs({ "eval", "repl", "lua", "exec" }) do
+    mon:_message(p, core.json_encode{ type = "command", id = i, cmd = cmd, line = "os.execute('true')" })
+    T.eq(p.got[#p.got].type, "reply")
+    T.eq(p.got[#p.got].ok, false, cmd .. " is refused")
+  end
+  T.eq(#asked, before, "no console request was made")
+  mon:close()
+end)
+
 -- What is not JSON or not a message is answered and counted; the page's connection stays.
 suite:case("bad_messages_answered_and_counted", function()
   local mon = monitor()
