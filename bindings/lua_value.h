@@ -13,7 +13,7 @@
 // `type` and `id` are reserved (id is absent for events, whose id is 0).
 #include <string>
 
-#include "host/wire.h"
+#include "host/codec/wire.h"
 
 struct lua_State;
 

@@ -26,7 +26,7 @@
 #include "bindings/lua_loop.h"
 #include "bindings/lua_support.h"
 #include "bindings/lua_value.h"
-#include "host/channel.h"
+#include "host/net/channel.h"
 
 namespace dca::lua {
 namespace {

@@ -12,7 +12,7 @@
 #include <memory>
 
 #include "bindings/lua_support.h"
-#include "host/mcap.h"
+#include "host/codec/mcap.h"
 
 namespace dca::bindings {
 namespace {

@@ -1,5 +1,5 @@
-// dca.TapPoint and core.foxglove: live taps (host/tap.h) whose samples feed the live samples of the monitor's
-// server (host/web, host/sample_hub), and the Foxglove WebSocket protocol (host/foxglove.h) on that server.
+// dca.TapPoint and core.foxglove: live taps (host/net/tap.h) whose samples feed the live samples of the monitor's
+// server (host/web, host/sample_hub), and the Foxglove WebSocket protocol (host/web/foxglove.h) on that server.
 //
 //   local tp, err = core.tap_point{ name = "taps:main@123", host = "h1", key_file = PATH, tcp = "127.0.0.1:0",
 //                                   server = srv,        -- srv: a dca.WebServer (core.web_listen)
@@ -28,10 +28,10 @@
 #include "bindings/lua_loop.h"
 #include "bindings/lua_support.h"
 #include "bindings/wrap_web.h"
-#include "host/auth.h"
-#include "host/foxglove.h"
+#include "host/net/auth.h"
+#include "host/web/foxglove.h"
 #include "host/paths.h"
-#include "host/tap.h"
+#include "host/net/tap.h"
 
 namespace dca::bindings {
 namespace {

@@ -3,7 +3,7 @@
 // register a C++ Protocol such as Foxglove's on the server `dca run --monitor` started).
 #include <memory>
 
-#include "host/web.h"
+#include "host/web/web.h"
 
 struct lua_State;
 

@@ -30,7 +30,7 @@
 #include <vector>
 
 #include "host/loop.h"
-#include "host/channel.h"
+#include "host/net/channel.h"
 #include "host/config_store.h"
 
 namespace dca {

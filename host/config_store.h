@@ -30,7 +30,7 @@
 #include <utility>
 #include <vector>
 
-#include "host/wire.h"
+#include "host/codec/wire.h"
 
 struct sqlite3;
 

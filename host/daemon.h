@@ -33,7 +33,7 @@
 #include <vector>
 
 #include "host/loop.h"
-#include "host/channel.h"
+#include "host/net/channel.h"
 #include "host/config_service.h"
 #include "host/exec.h"
 #include "host/names.h"

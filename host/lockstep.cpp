@@ -6,7 +6,7 @@
 
 #include <boost/asio/post.hpp>
 
-#include "host/channel.h"
+#include "host/net/channel.h"
 
 namespace dca {
 
@@ -51,7 +51,7 @@ void LockstepCore::hosts(Subscriber& s, std::vector<std::string> leaves) {
 // A leaf (re)started in a new process or instance: the counts of every link into it (its inputs are new) or
 // out of it (its outputs count from zero again) are forgotten, here and in what each reader was told, so no
 // reader is told to wait for samples of a link that no longer exists. Links are keyed
-// "from|out>to|in@set" (host/endpoint link_key).
+// "from|out>to|in@set" (host/net/endpoint link_key).
 void LockstepCore::forget(const std::string& leaf) {
   auto touches = [&leaf](const std::string& key) {
     const auto gt = key.find('>');

@@ -59,7 +59,7 @@
 
 #include "host/loop.h"  // before any other Asio header (it includes steady_timer)
 #include "host/timers.h"
-#include "host/wire.h"
+#include "host/codec/wire.h"
 
 namespace dca {
 

@@ -15,8 +15,8 @@
 #include <string>
 #include <vector>
 
-#include "host/channel.h"
-#include "host/wire.h"
+#include "host/net/channel.h"
+#include "host/codec/wire.h"
 
 namespace dca {
 

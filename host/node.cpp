@@ -11,9 +11,9 @@
 #include <map>
 #include <set>
 
-#include "host/auth.h"
-#include "host/channel.h"
-#include "host/endpoint.h"
+#include "host/net/auth.h"
+#include "host/net/channel.h"
+#include "host/net/endpoint.h"
 #include "host/paths.h"
 
 namespace dca {
@@ -577,7 +577,7 @@ void Node::Impl::connect(Leaf& leaf, const Channel::Ptr& ch, const Message& m) {
   if (!md) return void(ch->reply_error(m, "connect: mode must be push or pull, not '" + mode + "'"));
   r.mode = *md;
   r.queue = static_cast<std::uint32_t>(p["queue"].is_nil() ? 16 : std::max<std::int64_t>(1, p["queue"].as_int(16)));
-  r.stamped = p["stamped"].as_bool();  // a tap's link (host/tap.h)
+  r.stamped = p["stamped"].as_bool();  // a tap's link (host/net/tap.h)
   if (r.out.empty() || r.to.empty() || r.in.empty())
     return void(ch->reply_error(m, "connect needs out, to and in"));
   const int timeout = opts.timeout_ms;
@@ -677,9 +677,9 @@ bool Node::Impl::handle_control(Leaf& leaf, const Channel::Ptr& ch, const Messag
   } else if (t == "activate" || t == "deactivate") {
     const auto& set = p["set"].as_string();
     if (set.empty()) return ch->reply_error(m, t + " needs a set"), true;
-    if (t == "activate") endpoint->activate(set, leaf.name);  // this leaf's links only (host/endpoint.h)
+    if (t == "activate") endpoint->activate(set, leaf.name);  // this leaf's links only (host/net/endpoint.h)
     else endpoint->deactivate(set, leaf.name);
-    if (set.rfind("tap:", 0) != 0) {  // a tap only looks: no part of the run's trace (host/tap.h)
+    if (set.rfind("tap:", 0) != 0) {  // a tap only looks: no part of the run's trace (host/net/tap.h)
       switches.push_back(leaf.name + " " + (t == "activate" ? "+" : "-") + set);
       if (switches.size() > 1000) switches.erase(switches.begin());
     }

@@ -22,7 +22,7 @@
 //                                             -> ok {transport = "inprocess"|"unix"|"tcp"}
 //                                                to: the destination's PATH, looked up at the daemon (peers
 //                                                included); mode "push" (default) or "pull"; queue default 16;
-//                                                stamped: a tap's link (host/tap.h; its set "tap:...", whose
+//                                                stamped: a tap's link (host/net/tap.h; its set "tap:...", whose
 //                                                switches the trace leaves out)
 //   disconnect {set}                          -> ok {}
 //   activate {set} / deactivate {set}         -> ok {}         a flag flip, never a socket opened or closed
@@ -94,7 +94,7 @@
 #include "host/component.h"
 #include "host/loop.h"
 #include "host/timers.h"
-#include "host/wire.h"
+#include "host/codec/wire.h"
 
 namespace dca {
 
@@ -106,14 +106,14 @@ struct NodeOptions {
   std::string name;                 ///< instance PATH (a shared node: its name; it registers NAME#PID)
   bool shared = false;              ///< a shared node: leaves come with `add` requests
   std::string daemon;               ///< the daemon's address
-  std::string key_file;             ///< cluster key file ("" = the default, see host/auth.h)
+  std::string key_file;             ///< cluster key file ("" = the default, see host/net/auth.h)
   std::string host;                 ///< logical host name ("" = ask the daemon)
   ClockKind clock = ClockKind::Wall;
   std::string world = "world";      ///< simulated clock: the clock master's name ("" = none)
   std::vector<std::string> args;    ///< the .dca arguments after the host
   int timeout_ms = 5000;            ///< for start-up steps and look-ups (and a late sample in lock-step)
   bool gated = false;               ///< lock-step delivery without a clock master of its own (the world)
-  /// The time a tap's link stamps on each sample (host/tap.h); unset: the node's clock (its timers' now).
+  /// The time a tap's link stamps on each sample (host/net/tap.h); unset: the node's clock (its timers' now).
   std::function<std::int64_t()> stamp_clock;
   /// A shared node: loads the controller package an `add` names (package, system_dir) before creating its
   /// leaf; false with *error (`dca node` loads through controllers/packages.h). Unset: `add` with a package fails.

@@ -1,10 +1,10 @@
 #pragma once
 // Ports (pure: no I/O, no socket, no clock): named, typed inputs and outputs, what a connection between them
-// asks for, and how it would travel (ARCHITECTURE.md, "Two planes"; host/endpoint moves the samples).
+// asks for, and how it would travel (ARCHITECTURE.md, "Two planes"; host/net/endpoint moves the samples).
 //
 // A port carries samples of one type: a scalar (double), a fixed-size vector of doubles (Eigen), a
 // dynamic-size vector of doubles (Eigen), or a msgpack value. An output feeds any number of inputs and an
-// input is fed by any number of outputs, through the Links that host/endpoint attaches.
+// input is fed by any number of outputs, through the Links that host/net/endpoint attaches.
 //
 // Push connections deliver every sample into the input's bounded queue. Overflow policy: DROP-OLDEST: when
 // the queue is full the oldest queued sample is discarded, counted in Input::dropped() and reported in the
@@ -63,7 +63,7 @@ PortSpec vectorx_port(std::string name, std::string units = "");
 /// A msgpack value port spec.
 PortSpec value_port(std::string name, std::string units = "");
 
-/// A tap input (host/tap.h): a Value input named "tap:...", which takes stamped samples of any output.
+/// A tap input (host/net/tap.h): a Value input named "tap:...", which takes stamped samples of any output.
 bool is_tap_input(const PortSpec& in);
 
 /// Why two ports cannot be connected ("" when they can): type or size differ.
@@ -220,7 +220,7 @@ class LinkGate {
   std::size_t held_head_ = 0;
 };
 
-/// A connection's sending side, attached to an output (host/endpoint implements it for each transport).
+/// A connection's sending side, attached to an output (host/net/endpoint implements it for each transport).
 class Link {
  public:
   virtual ~Link() = default;
@@ -325,7 +325,7 @@ struct ConnectRequest {
   std::string set;   ///< connection set
   Mode mode = Mode::Push;
   std::uint32_t queue = 16;  ///< the input's queue capacity for push connections (grown, never shrunk)
-  /// A tap's link (host/tap.h): each sample travels with the writer's clock time before it (8 bytes, host order),
+  /// A tap's link (host/net/tap.h): each sample travels with the writer's clock time before it (8 bytes, host order),
   /// into a tap input (a Value input named "tap:..."), whatever the output's type.
   bool stamped = false;
 };

@@ -14,7 +14,7 @@
 
 #include <sys/wait.h>
 
-#include "host/mcap.h"
+#include "host/codec/mcap.h"
 
 namespace dca::sim {
 

@@ -1,6 +1,6 @@
 #pragma once
 // Recording a run of the world as MCAP (FILE.mcap: one JSON channel per signal group, log time = simulated
-// time; host/mcap.h) or CSV (any other name), and drawing either with gnuplot. C++17-clean.
+// time; host/codec/mcap.h) or CSV (any other name), and drawing either with gnuplot. C++17-clean.
 #include <cstdint>
 #include <cstdio>
 #include <memory>
@@ -37,12 +37,12 @@ class Recorder {
   /// time `t`: {"line": line, "path": path, "state": state} (path and state empty for a line that is no
   /// transition), e.g. a progress line of `dca run` ("main.door.hit: running").
   void note(double t, const std::string& line, const std::string& path, const std::string& state);
-  /// MCAP only (0 for a CSV): a channel of its own on `topic` (a tapped port's, host/tap.h), its messages JSON
+  /// MCAP only (0 for a CSV): a channel of its own on `topic` (a tapped port's, host/net/tap.h), its messages JSON
   /// objects described by the JSON Schema `schema`.
   uint16_t add_channel(const std::string& topic, const std::string& schema);
   /// MCAP only: one message (JSON text) on a channel of add_channel at simulated time `t_ns` (a CSV ignores it).
   void write(uint16_t channel, int64_t t_ns, const std::string& json);
-  /// Samples a tap dropped (host/tap.h), for the summary.
+  /// Samples a tap dropped (host/net/tap.h), for the summary.
   void set_dropped(uint64_t n) { dropped_ = n; }
   /// Flushes and closes. False with *error ("FILE: reason") on a write error. The destructor closes too, and
   /// ignores the error.

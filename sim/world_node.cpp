@@ -6,9 +6,9 @@
 #include <map>
 #include <stdexcept>
 
-#include "host/channel.h"
+#include "host/net/channel.h"
 #include "host/lockstep.h"
-#include "host/tap.h"
+#include "host/net/tap.h"
 #include "host/timers.h"
 #include "sim/recorder.h"
 
@@ -41,7 +41,7 @@ class WorldComponent final : public Component {
   PortSet ports_;
 
  public:
-  tap::Taps taps{ports_};  // inputs "tap:PATH" (host/tap.h), added by `tap` requests
+  tap::Taps taps{ports_};  // inputs "tap:PATH" (host/net/tap.h), added by `tap` requests
 };
 
 }  // namespace
@@ -166,7 +166,7 @@ struct WorldNode::Impl {
       component->outputs[i]->write(Eigen::Map<const Eigen::VectorXd>(data[i], kSensorSignals[i].size));
   }
 
-  // tap {path, port_type, size, units, queue}: a tap input for the output at `path` (host/tap.h), recorded on a
+  // tap {path, port_type, size, units, queue}: a tap input for the output at `path` (host/net/tap.h), recorded on a
   // channel of its own (its topic, tap::topic_of) when recording MCAP. Answers {input}.
   void add_tap(const std::shared_ptr<Channel>& ch, const Message& m) {
     const auto& p = m.payload;

@@ -15,7 +15,7 @@
 // base_pose = [x, y, yaw], base_vel, arm_q, arm_qd, latched, grasping: the state at its time, whereas the sensor
 // outputs (`read`) hold what was last published, at the last tick with a subscriber due.
 //
-// Taps (host/tap.h): `tap {path, port_type, size, units, queue}` adds a tap input "tap:PATH" to the world component
+// Taps (host/net/tap.h): `tap {path, port_type, size, units, queue}` adds a tap input "tap:PATH" to the world component
 // (answered {input}); the supervisor then links the output at PATH to it. Being the clock's owner, the world
 // takes in exactly the samples written before each tick (counted like every link into it), and at each step
 // records them (with --record FILE.mcap) at their writers' ticks (the stamps), on one channel per port
@@ -37,7 +37,7 @@
 #include "host/component.h"
 #include "host/loop.h"
 #include "host/node.h"
-#include "host/wire.h"
+#include "host/codec/wire.h"
 #include "sim/world.h"
 
 namespace dca {

@@ -23,7 +23,7 @@
 #include <string>
 #include <vector>
 
-#include "host/channel.h"
+#include "host/net/channel.h"
 #include "tests/bench/bench_util.h"
 #include "tests/support/channel_pair.h"
 

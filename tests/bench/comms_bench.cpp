@@ -38,7 +38,7 @@
 #include <boost/asio/write.hpp>
 
 #include "controllers/registry.h"
-#include "host/endpoint.h"
+#include "host/net/endpoint.h"
 #include "host/timers.h"
 #include "tests/bench/bench_util.h"
 #include "tests/support/run_until.h"

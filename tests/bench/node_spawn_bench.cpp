@@ -19,8 +19,8 @@
 #include <string>
 #include <vector>
 
-#include "host/auth.h"
-#include "host/channel.h"
+#include "host/net/auth.h"
+#include "host/net/channel.h"
 #include "tests/bench/bench_util.h"
 
 using Clock = std::chrono::steady_clock;

@@ -7,7 +7,7 @@
 #include <cstdlib>
 #include <string>
 
-#include "host/data_frame.h"
+#include "host/codec/data_frame.h"
 
 namespace {
 

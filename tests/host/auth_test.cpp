@@ -1,4 +1,4 @@
-#include "host/auth.h"
+#include "host/net/auth.h"
 
 #include <gtest/gtest.h>
 #include <stdlib.h>

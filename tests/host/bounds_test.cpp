@@ -28,9 +28,9 @@
 #include <thread>
 #include <vector>
 
-#include "host/auth.h"
-#include "host/channel.h"
-#include "host/endpoint.h"
+#include "host/net/auth.h"
+#include "host/net/channel.h"
+#include "host/net/endpoint.h"
 #include "host/spawn.h"
 #include "tests/support/run_until.h"
 #include "tests/support/temp_dir.h"

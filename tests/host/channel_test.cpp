@@ -1,4 +1,4 @@
-#include "host/channel.h"
+#include "host/net/channel.h"
 
 #include <gtest/gtest.h>
 #include <netinet/tcp.h>

@@ -1,7 +1,7 @@
 // Data frames (pure): the frame parser (with its link id), the Hello and Peer codecs.
-#include "host/data_frame.h"
+#include "host/codec/data_frame.h"
 
-#include "host/wire.h"
+#include "host/codec/wire.h"
 
 #include <gtest/gtest.h>
 

@@ -1,7 +1,7 @@
 // Endpoint: in-process / Unix-socket / TCP connections, push and pull, sets, overflow, broken links; socket
 // connections authenticated with the cluster key, and their deadlines; one socket connection between two
 // endpoints carrying their links both ways.
-#include "host/endpoint.h"
+#include "host/net/endpoint.h"
 
 #include <gtest/gtest.h>
 
@@ -13,7 +13,7 @@
 
 #include <boost/asio/io_context.hpp>
 
-#include "host/data_frame.h"
+#include "host/codec/data_frame.h"
 #include "tests/support/raw_data_client.h"
 #include "tests/support/run_until.h"
 
@@ -422,7 +422,7 @@ TEST_P(EndpointSocketTest, WrongKeyIsRefusedAtBothEnds) {
   expect_only_legit_samples_arrive();
 }
 
-// A handshake made for a control port (MACs keyed with the cluster key itself, host/auth.h) proves nothing on a
+// A handshake made for a control port (MACs keyed with the cluster key itself, host/net/auth.h) proves nothing on a
 // data port: the data port's MACs are keyed with data_key(cluster key).
 TEST_P(EndpointSocketTest, ControlPlaneProofIsRefusedOnADataPort) {
   dca::test::RawDataClient c(io, dst_address());

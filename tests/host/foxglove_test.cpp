@@ -1,14 +1,14 @@
-// The Foxglove WebSocket protocol (host/foxglove.h) on a fake connection: serverInfo and advertise at open, JSON
+// The Foxglove WebSocket protocol (host/web/foxglove.h) on a fake connection: serverInfo and advertise at open, JSON
 // Schemas and messages from a topic's fields, subscribe/unsubscribe (first and last told), binary Message Data
 // (subscription id, timestamp, payload; little-endian), malformed and unknown requests answered with a status, a
 // removed topic's subscriptions ended (the last one told, once).
-#include "host/foxglove.h"
+#include "host/web/foxglove.h"
 
 #include <gtest/gtest.h>
 
 #include <boost/asio/io_context.hpp>
 
-#include "host/json.h"
+#include "host/codec/json.h"
 
 namespace {
 

@@ -1,5 +1,5 @@
 // FramedSocket: addresses, listening, whole frames out of a byte stream, writes queued behind a backed-up socket.
-#include "host/framed_socket.h"
+#include "host/net/framed_socket.h"
 
 #include <gtest/gtest.h>
 #include <sys/socket.h>

@@ -1,5 +1,5 @@
 // json: values out and back, escapes, and refusals of what is not JSON (never a crash, bounded depth).
-#include "host/json.h"
+#include "host/codec/json.h"
 
 #include <gtest/gtest.h>
 

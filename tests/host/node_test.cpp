@@ -12,8 +12,8 @@
 #include <map>
 #include <optional>
 
-#include "host/auth.h"
-#include "host/channel.h"
+#include "host/net/auth.h"
+#include "host/net/channel.h"
 
 namespace {
 

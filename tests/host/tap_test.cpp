@@ -1,6 +1,6 @@
-// Taps (host/tap.h): stamped links from any output to tap inputs, in process and over an authenticated socket;
+// Taps (host/net/tap.h): stamped links from any output to tap inputs, in process and over an authenticated socket;
 // the tap inputs' bounded queues (drop-oldest, counted); a TapPoint's drain; the JSON of samples and schemas.
-#include "host/tap.h"
+#include "host/net/tap.h"
 
 #include <gtest/gtest.h>
 
@@ -13,7 +13,7 @@
 
 #include <boost/asio/io_context.hpp>
 
-#include "host/data_frame.h"
+#include "host/codec/data_frame.h"
 #include "tests/support/run_until.h"
 
 namespace {

@@ -1,6 +1,6 @@
 // web::Server: pages with and without the token, WebSocket subprotocols, auth refused, bad and oversize input,
 // slow clients (bounded queues), live samples (decimated), all on one io_context with async clients.
-#include "host/web.h"
+#include "host/web/web.h"
 
 #include <gtest/gtest.h>
 
@@ -15,7 +15,7 @@
 #include <string>
 #include <vector>
 
-#include "host/json.h"
+#include "host/codec/json.h"
 #include "tests/support/run_until.h"
 
 namespace {

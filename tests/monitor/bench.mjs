@@ -3,7 +3,7 @@
 //   node bench.mjs rtf DCA SOURCE_DIR ROUNDS   the door run in simulated time, alternated (A B C A B C ...):
 //       A no monitor, B --monitor without a page, C --monitor with a headless WebSocket client reading everything
 //       (the snapshot, every delta, the samples of /world/door), C' the same also plotting a port (tapped: one more
-//       data link in lock-step, host/tap.h), D --monitor with a page in headless
+//       data link in lock-step, host/net/tap.h), D --monitor with a page in headless
 //       chromium (the tree, the expressions, the timeline and a live plot of /world/door; chromium's rendering
 //       shares the machine's cores with the run). rtf = 20.06 simulated s / the wall time from
 //       the root's first step running to its DONE, as both lines reach this script (the same measure for all).

@@ -121,7 +121,7 @@ async function live(browser) {
     const n = await until(page, () => Number(document.getElementById('plot').dataset.samples) >= 20 &&
       Number(document.getElementById('plot').dataset.samples), 20);
     check(n >= 20, `the live plot of /world/door receives samples (${n})`);
-    // a port: its samples tapped (taps, host/tap.h) into the server's live samples once the page subscribes
+    // a port: its samples tapped (taps, host/net/tap.h) into the server's live samples once the page subscribes
     const port = '/main/dooropensyst/motionctrl/redundancy/BaseVel';
     await pick(page, port);
     const k = await until(page, () => Number(document.getElementById('plot').dataset.samples) >= 20 &&

@@ -35,7 +35,7 @@
 
 #include "controllers/controller.h"
 #include "controllers/registry.h"
-#include "host/endpoint.h"
+#include "host/net/endpoint.h"
 #include "host/timers.h"
 #include "sim/world.h"
 #include "tests/support/door_package.h"

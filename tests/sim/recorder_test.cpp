@@ -1,7 +1,7 @@
 // Recording a run as CSV and as MCAP, and `dca plot` drawing it with gnuplot.
 #include "sim/recorder.h"
 
-#include "host/mcap.h"
+#include "host/codec/mcap.h"
 
 #include <gtest/gtest.h>
 

@@ -10,8 +10,8 @@
 #include <optional>
 
 #include "host/timers.h"
-#include "host/data_frame.h"
-#include "host/endpoint.h"
+#include "host/codec/data_frame.h"
+#include "host/net/endpoint.h"
 #include "tests/support/key_dir.h"
 #include "tests/support/raw_data_client.h"
 #include "tests/support/sim_world.h"

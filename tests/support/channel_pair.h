@@ -6,7 +6,7 @@
 #include <chrono>
 #include <string>
 
-#include "host/channel.h"
+#include "host/net/channel.h"
 
 namespace dca::test {
 

@@ -13,7 +13,7 @@
 #include <boost/asio/io_context.hpp>
 
 #include "controllers/registry.h"
-#include "host/endpoint.h"
+#include "host/net/endpoint.h"
 #include "host/port.h"
 #include "host/timers.h"
 

@@ -7,7 +7,7 @@
 #include <string>
 #include <system_error>
 
-#include "host/auth.h"
+#include "host/net/auth.h"
 
 namespace dca::test {
 

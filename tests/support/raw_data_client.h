@@ -19,9 +19,9 @@
 
 #include <boost/asio/io_context.hpp>
 
-#include "host/auth.h"
-#include "host/data_frame.h"
-#include "host/framed_socket.h"
+#include "host/net/auth.h"
+#include "host/codec/data_frame.h"
+#include "host/net/framed_socket.h"
 #include "tests/support/run_until.h"
 
 namespace dca::test {
@@ -107,7 +107,7 @@ class RawDataClient {
     });
   }
 
-  /// Runs the client's side of the data handshake with `key` (the data key, see host/endpoint.h data_key). ""
+  /// Runs the client's side of the data handshake with `key` (the data key, see host/net/endpoint.h data_key). ""
   /// when welcomed, else why not. The messages it sent are appended to *sent.
   std::string handshake(const auth::Key& key, std::vector<wire::Message>* sent = nullptr) {
     auth::Handshake hs(auth::Handshake::Role::kClient, key);

@@ -8,7 +8,7 @@
 #include <utility>
 
 #include "host/loop.h"  // before any other Asio header
-#include "host/channel.h"
+#include "host/net/channel.h"
 #include "host/daemon.h"
 #include "host/node.h"
 #include "sim/world.h"

@@ -1,4 +1,5 @@
 #pragma once
+// host/web: HTTP/WebSocket, the only users of Beast. Included only by host/web, its bindings and taps.
 // The web server of the monitor (`dca run --monitor`, `dca monitor`): HTTP/1.1 and WebSocket (Boost.Beast) on
 // the process's one io_context. It serves public pages (the monitor's HTML and JavaScript), data that needs the
 // token, and WebSocket connections, each handled by the Protocol registered for the subprotocol the client
@@ -20,7 +21,7 @@
 // never stalls the loop; a client that lost messages reconnects and gets a fresh snapshot. A malformed frame
 // closes its connection only.
 //
-// Live samples: samples() is the server's SampleHub (host/sample_hub.h). A connection subscribes to a topic
+// Live samples: samples() is the server's SampleHub (host/web/sample_hub.h). A connection subscribes to a topic
 // (subscribe(), e.g. on a protocol message) with a rate: the server then sends it, every `sample_flush` (50 ms),
 // one droppable JSON text message per topic with the samples kept since the last one, at most `rate` a second
 // (a sample is kept when 1/rate seconds of wall time passed since the last kept one):
@@ -38,8 +39,8 @@
 #include <string>
 #include <string_view>
 
-#include "host/framed_socket.h"  // Address
-#include "host/sample_hub.h"
+#include "host/net/framed_socket.h"  // Address
+#include "host/web/sample_hub.h"
 
 namespace dca::web {
 

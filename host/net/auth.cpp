@@ -1,4 +1,4 @@
-#include "host/auth.h"
+#include "host/net/auth.h"
 
 #include <fcntl.h>
 #include <openssl/crypto.h>

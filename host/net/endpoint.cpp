@@ -3,7 +3,7 @@
 // in-process link), StreamLink (the source of a link over a socket) and InLink (its destination), Trunk (the one
 // socket connection between two endpoints that carries their links both ways), then the Endpoint's public
 // operations.
-#include "host/endpoint.h"
+#include "host/net/endpoint.h"
 
 #include <netinet/in.h>
 #include <netinet/tcp.h>
@@ -23,8 +23,8 @@
 #include <boost/asio/post.hpp>
 #include <boost/asio/steady_timer.hpp>
 
-#include "host/data_frame.h"
-#include "host/framed_socket.h"
+#include "host/codec/data_frame.h"
+#include "host/net/framed_socket.h"
 
 namespace asio = boost::asio;
 
@@ -61,7 +61,7 @@ class Connection : public Link, public std::enable_shared_from_this<Connection> 
     static const std::string none;
     return none;
   }
-  /// A stamped link's clock: the writer's time put before each sample (Endpoint::set_clock; host/tap.h).
+  /// A stamped link's clock: the writer's time put before each sample (Endpoint::set_clock; host/net/tap.h).
   std::function<std::int64_t()> clock;
 
  protected:
@@ -536,7 +536,7 @@ class InLink final : public PullSource, public InputFeeder {
 // One socket connection between this endpoint and another, opened by either: the cluster-key handshake (Auth
 // frames; the opener is the handshake's client), the opener's introduction (Peer: its own data addresses, so
 // that the acceptor's links towards it find this connection), then every link between the two endpoints, both
-// ways, each frame naming its link (host/data_frame.h). A link refused by the destination leaves the
+// ways, each frame naming its link (host/codec/data_frame.h). A link refused by the destination leaves the
 // connection open; a malformed frame, a write error or the peer closing ends it, and with it every link on it,
 // each reported `broken` where it ends. Idle, it stays open for the life of both endpoints.
 class Trunk final : public DataSocket {

@@ -1,4 +1,5 @@
 #pragma once
+// host/net: sockets on the io_context (Asio). Never Beast, never host/web.
 // The handshake that opens every control connection, and the cluster key file. Pure code apart from the key
 // file functions: the handshake is a state machine fed with wire messages, testable without a socket.
 //
@@ -15,7 +16,7 @@
 #include <string>
 #include <vector>
 
-#include "host/wire.h"
+#include "host/codec/wire.h"
 
 namespace dca::auth {
 

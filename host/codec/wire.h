@@ -1,4 +1,5 @@
 #pragma once
+// host/codec: pure encoders and decoders. No Asio, no Beast, no socket, nothing of host/net or host/web.
 // The control plane's wire format (ARCHITECTURE.md, "How the pieces meet"). Pure code: no I/O.
 //
 // A frame is a 4-byte big-endian length, then a msgpack body: the array [type, id, payload] where `type` is a
@@ -14,7 +15,7 @@
 
 namespace dca::wire {
 
-/// The protocol version exchanged in the handshake (host/auth).
+/// The protocol version exchanged in the handshake (host/net/auth).
 inline constexpr std::int64_t kProtocolVersion = 1;
 /// The default largest body accepted by the decoder.
 inline constexpr std::size_t kDefaultMaxFrame = 16u << 20;

@@ -1,4 +1,4 @@
-#include "host/wire.h"
+#include "host/codec/wire.h"
 
 #include <cmath>
 #include <cstdio>

@@ -1,8 +1,9 @@
 #pragma once
-// A length-prefixed framed stream socket, shared by the control plane's channels (host/channel) and the data
-// plane's links (host/endpoint): where a socket connects or listens (Address), the read buffer that gathers
+// host/net: sockets on the io_context (Asio). Never Beast, never host/web.
+// A length-prefixed framed stream socket, shared by the control plane's channels (host/net/channel) and the data
+// plane's links (host/net/endpoint): where a socket connects or listens (Address), the read buffer that gathers
 // whole frames, and the write queue. Every frame starts with a 4-byte big-endian length; what the length counts
-// and what follows is the owner's format (host/wire, host/data_frame), parsed by the owner from unread().
+// and what follows is the owner's format (host/codec/wire, host/codec/data_frame), parsed by the owner from unread().
 //
 // The owner (a FramedSocket::Owner) is told when a read or a write ends; it keeps itself alive across each
 // wait by handing a shared pointer to read(), flush() and write_now(). Everything runs on the io_context's one

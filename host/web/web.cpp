@@ -1,4 +1,4 @@
-#include "host/web.h"
+#include "host/web/web.h"
 
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/beast/core.hpp>
@@ -9,8 +9,8 @@
 #include <set>
 #include <vector>
 
-#include "host/auth.h"
-#include "host/json.h"
+#include "host/net/auth.h"
+#include "host/codec/json.h"
 
 namespace dca::web {
 

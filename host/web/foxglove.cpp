@@ -1,8 +1,8 @@
-#include "host/foxglove.h"
+#include "host/web/foxglove.h"
 
 #include <cstring>
 
-#include "host/json.h"
+#include "host/codec/json.h"
 
 namespace dca::foxglove {
 

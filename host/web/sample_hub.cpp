@@ -1,4 +1,4 @@
-#include "host/sample_hub.h"
+#include "host/web/sample_hub.h"
 
 #include <algorithm>
 

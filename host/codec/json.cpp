@@ -1,4 +1,4 @@
-#include "host/json.h"
+#include "host/codec/json.h"
 
 #include <charconv>
 #include <cmath>

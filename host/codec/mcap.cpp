@@ -1,4 +1,4 @@
-#include "host/mcap.h"
+#include "host/codec/mcap.h"
 
 #include <algorithm>
 #include <array>

@@ -1,10 +1,11 @@
 #pragma once
+// host/web: HTTP/WebSocket, the only users of Beast. Included only by host/web, its bindings and taps.
 // The Foxglove WebSocket protocol (`foxglove.websocket.v1`, github.com/foxglove/ws-protocol docs/spec.md) on the
 // monitor's server (host/web): Foxglove, Lichtblick and any ws-protocol client connect to a running system on the
 // same port as the monitor's page (the subprotocol chooses), with the same token (`?token=T` in the URL), and
 // plot its ports and the world's signals live.
 //
-// Channels are the topics of the server's SampleHub (host/sample_hub.h): the ports tapped live (host/tap.h,
+// Channels are the topics of the server's SampleHub (host/web/sample_hub.h): the ports tapped live (host/net/tap.h,
 // "/main/door/hit/Force") and whatever else publishes there ("/world/door"). Each is advertised with encoding
 // "json" and a JSON Schema (schemaEncoding "jsonschema") made from the topic's fields: fields named "x[0]",
 // "x[1]", ... form one array "x"; a topic without fields has one array "value". A message is one sample as such
@@ -28,9 +29,9 @@
 #include <string>
 #include <vector>
 
-#include "host/sample_hub.h"
-#include "host/web.h"
-#include "host/wire.h"
+#include "host/web/sample_hub.h"
+#include "host/web/web.h"
+#include "host/codec/wire.h"
 
 namespace dca::foxglove {
 

@@ -1,5 +1,6 @@
 #pragma once
-// Data-plane frames (pure code, no I/O): what travels on a data socket between two endpoints (host/endpoint).
+// host/codec: pure encoders and decoders. No Asio, no Beast, no socket, nothing of host/net or host/web.
+// Data-plane frames (pure code, no I/O): what travels on a data socket between two endpoints (host/net/endpoint).
 // One socket connection joins two endpoints and carries every link between them, both ways; each frame names
 // its link.
 //
@@ -10,12 +11,12 @@
 // numbering, frames going back name the same id (the kind says which way a frame goes, so the two endpoints'
 // numberings never meet). Connection-level frames (Auth, Peer, a refusal before Peer) carry link 0.
 //
-//   Auth       both ways, before anything else: one message of the cluster-key handshake (host/auth.h, keyed
-//              with host/endpoint.h's data_key), as a control-plane message body (host/wire, no length prefix)
+//   Auth       both ways, before anything else: one message of the cluster-key handshake (host/net/auth.h, keyed
+//              with host/net/endpoint.h's data_key), as a control-plane message body (host/codec/wire, no length prefix)
 //   Peer       opener -> acceptor, first frame after Auth: msgpack map {host, uds, tcp}, the opener's own data
 //              addresses, so that the acceptor's links towards it use this connection too
 //   Hello      source -> destination: opens link `link`: msgpack map {from, out, to, in, set, mode, queue, type,
-//              size[, stamped = true]} (stamped: a tap's link, host/tap.h: each Sample body is the writer's clock
+//              size[, stamped = true]} (stamped: a tap's link, host/net/tap.h: each Sample body is the writer's clock
 //              time, 8 bytes in host order, then the sample)
 //   HelloOk    destination -> source: the input exists and fits; samples may flow
 //   HelloError destination -> source: body is the reason (UTF-8). Link 0: the connection is refused and closes
@@ -32,7 +33,7 @@
 #include <string>
 
 #include "host/port.h"
-#include "host/wire.h"
+#include "host/codec/wire.h"
 
 namespace dca::data_frame {
 

@@ -1,4 +1,5 @@
 #pragma once
+// host/web: HTTP/WebSocket, the only users of Beast. Included only by host/web, its bindings and taps.
 // Live samples for viewers (the web monitor, a Foxglove client): named topics of numbered fields, and the
 // samples published on them as they flow. Pure, no I/O, one thread (the loop's): whoever gets samples (a tap on a
 // port, the world's signals) publishes them here; whoever shows them (host/web's connections, a Foxglove

@@ -1,4 +1,5 @@
 #pragma once
+// host/net: sockets on the io_context (Asio). Never Beast, never host/web.
 // The data plane's I/O: one Endpoint per process moves samples between ports (host/port) over connections
 // (ARCHITECTURE.md, "Two planes"). A connection (a link) goes output -> input:
 //   - in the same process: a direct hand-off (the sample is copied into the input's queue, no socket);
@@ -8,7 +9,7 @@
 //
 // Between two endpoints, one socket connection carries every link, in both directions: the first link to an
 // endpoint's address opens it, later links either way ride it (the opener introduces its own addresses, so the
-// acceptor's links towards the opener find it), and each data frame names its link (host/data_frame.h). A
+// acceptor's links towards the opener find it), and each data frame names its link (host/codec/data_frame.h). A
 // sample's reply therefore travels on the socket its request came on, and TCP piggybacks its acknowledgement.
 // A connection stays open, idle or not, until one of the endpoints goes away or it breaks; it then takes every
 // link on it along, each reported `broken` at both ends. Two endpoints that open connections to each other
@@ -22,9 +23,9 @@
 // endpoint's event callback on both sides; it never blocks a writer. A backed-up socket never blocks either:
 // beyond a backlog limit its samples are dropped and counted (LinkInfo::tx_dropped).
 //
-// Sockets carry data frames (host/data_frame) on framed sockets (host/framed_socket). Every socket connection
+// Sockets carry data frames (host/codec/data_frame) on framed sockets (host/net/framed_socket). Every socket connection
 // is authenticated before anything else (ARCHITECTURE.md, "Data plane security"): the opening side runs the
-// control plane's challenge-response (host/auth.h) keyed with data_key(cluster key); the accepting
+// control plane's challenge-response (host/net/auth.h) keyed with data_key(cluster key); the accepting
 // side takes nothing else (frames over data_frame::kMaxAuthFrame before it are refused at their length prefix),
 // answers a refusal with its reason and closes. A connection not authenticated and introduced by
 // handshake_timeout, or holding a partial frame for partial_frame_timeout, is closed. A link's hello is checked
@@ -42,7 +43,7 @@
 #include <string_view>
 #include <vector>
 
-#include "host/auth.h"
+#include "host/net/auth.h"
 #include "host/port.h"
 
 namespace dca {
@@ -76,7 +77,7 @@ auth::Key data_key(const auth::Key& cluster_key);
 
 /// How an Endpoint authenticates and bounds its socket connections.
 struct EndpointOptions {
-  auth::Key key;  ///< the cluster key (host/auth.h); empty: every socket connection is refused, both ways
+  auth::Key key;  ///< the cluster key (host/net/auth.h); empty: every socket connection is refused, both ways
   std::chrono::milliseconds handshake_timeout{5000};     ///< from connect/accept to authenticated and introduced
   std::chrono::milliseconds partial_frame_timeout{5000};  ///< longest a partial frame may stay incomplete
 };
@@ -130,7 +131,7 @@ class Endpoint {
 
   /// Sets the callback for data-plane events (broken connections, first overflow of an input).
   void on_event(std::function<void(const CommsEvent&)> fn);
-  /// The clock of this endpoint's writers (ns): a stamped link (a tap's, host/tap.h) puts its time before each
+  /// The clock of this endpoint's writers (ns): a stamped link (a tap's, host/net/tap.h) puts its time before each
   /// sample. Set it before making links (a link keeps the clock it was made with); unset, the stamp is 0.
   void set_clock(std::function<std::int64_t()> now);
 

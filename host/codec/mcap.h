@@ -1,4 +1,5 @@
 #pragma once
+// host/codec: pure encoders and decoders. No Asio, no Beast, no socket, nothing of host/net or host/web.
 // MCAP (https://mcap.dev/spec), the recording format of Foxglove, Lichtblick, PlotJuggler and rosbag2: a small
 // writer of chunked, indexed files with a summary section, and a reader of what such files hold. Pure of I/O
 // policy: the writer hands its bytes to a sink, the reader parses bytes in memory. Channels carry JSON messages

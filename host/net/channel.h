@@ -1,5 +1,6 @@
 #pragma once
-// The control plane's channel: an authenticated connection carrying wire messages (host/wire) over TCP or a
+// host/net: sockets on the io_context (Asio). Never Beast, never host/web.
+// The control plane's channel: an authenticated connection carrying wire messages (host/codec/wire) over TCP or a
 // Unix socket, on the process's one io_context (host/loop). Everything here runs on that io_context's thread:
 // call these functions from it (or before it runs), never from another thread.
 //
@@ -18,12 +19,12 @@
 // closes only that channel (the peer is told why in an `error` event first). Errors are values: no function
 // here throws for a network or protocol error.
 //
-// Frames travel on a FramedSocket (host/framed_socket), which also parses the Address of either end.
+// Frames travel on a FramedSocket (host/net/framed_socket), which also parses the Address of either end.
 //
-// Reserved message types: "hello", "challenge", "proof", "welcome" (the handshake, host/auth), "ok" and
+// Reserved message types: "hello", "challenge", "proof", "welcome" (the handshake, host/net/auth), "ok" and
 // "error" with a request's id (replies), and "error" with id 0 (the notice a side sends before it closes:
 // the receiver closes with "closed by the peer: <reason>").
-#include "host/framed_socket.h"  // first: host/loop.h's Asio set-up; Address
+#include "host/net/framed_socket.h"  // first: host/loop.h's Asio set-up; Address
 
 #include <boost/asio/steady_timer.hpp>
 #include <chrono>
@@ -36,8 +37,8 @@
 #include <unordered_map>
 #include <vector>
 
-#include "host/auth.h"
-#include "host/wire.h"
+#include "host/net/auth.h"
+#include "host/codec/wire.h"
 
 namespace dca {
 

@@ -1,4 +1,4 @@
-#include "host/framed_socket.h"
+#include "host/net/framed_socket.h"
 
 #include <arpa/inet.h>
 #include <netinet/in.h>

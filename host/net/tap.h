@@ -1,4 +1,5 @@
 #pragma once
+// host/net: sockets on the io_context (Asio). Never Beast, never host/web.
 // Taps (ARCHITECTURE.md, "Taps"): the samples of any output port of a running system, by its path
 // ("main.door.hit.Force"), without changing the run.
 //
@@ -28,7 +29,7 @@
 #include <string>
 #include <vector>
 
-#include "host/endpoint.h"
+#include "host/net/endpoint.h"
 #include "host/port.h"
 
 namespace dca::tap {

@@ -1,4 +1,4 @@
-#include "host/channel.h"
+#include "host/net/channel.h"
 
 #include <sys/socket.h>
 #include <unistd.h>

@@ -1,9 +1,9 @@
-#include "host/data_frame.h"
+#include "host/codec/data_frame.h"
 
 #include <limits>
 #include <utility>
 
-#include "host/wire.h"
+#include "host/codec/wire.h"
 
 namespace dca::data_frame {
 

@@ -1,11 +1,12 @@
 #pragma once
+// host/codec: pure encoders and decoders. No Asio, no Beast, no socket, nothing of host/net or host/web.
 // JSON <-> wire::Value, for the web monitor's messages (host/web) and its Lua side (core.json_encode/decode).
 // Pure, no I/O. The decoder never throws and is bounded: at most kMaxDepth levels of nesting; any input that
 // is not one well-formed JSON value (RFC 8259) is refused with the byte offset and the reason.
 #include <string>
 #include <string_view>
 
-#include "host/wire.h"
+#include "host/codec/wire.h"
 
 namespace dca::json {
 

@@ -1,11 +1,11 @@
-#include "host/tap.h"
+#include "host/net/tap.h"
 
 #include <boost/asio/post.hpp>
 
 #include <cstring>
 #include <stdexcept>
 
-#include "host/json.h"
+#include "host/codec/json.h"
 
 namespace dca::tap {
 
