@@ -136,6 +136,53 @@ suite:case("the_supervisor_engine_needs_no_core_and_no_console", function()
   none(bad, "requires in the supervisor engine")
 end)
 
+--- The includes of the C++ files under `folders` (but not of the files matching a pattern of `except`) that
+--- `wrong(included path)` rejects, as "file:line: included".
+local function bad_includes(folders, except, wrong)
+  local bad = {}
+  for _, path in ipairs(files(folders, "%.[ch]p?p?$")) do
+    local skip = false
+    for _, e in ipairs(except) do skip = skip or path:match(e) ~= nil end
+    local n = 0
+    for l in skip and function() end or io.lines(root .. "/" .. path) do
+      n = n + 1
+      local inc = l:match('^%s*#%s*include%s*"([^"]+)"') or l:match("^%s*#%s*include%s*<([^>]+)>")
+      if inc and wrong(inc) then bad[#bad + 1] = fmt("%s:%d: %s", path, n, inc) end
+    end
+  end
+  return bad
+end
+
+suite:case("host_codec_is_pure", function()
+  none(bad_includes({ "host/codec" }, {}, function(p)
+    return p:match("^boost/asio") or p:match("^boost/beast") or p:match("^host/net/") or p:match("^host/web/")
+           or p == "host/loop.h"
+  end), "includes in host/codec/ reach Asio, Beast, host/net or host/web")
+end)
+
+suite:case("only_web_its_bindings_and_taps_include_host_web", function()
+  none(bad_includes({ "host", "bindings", "app", "controllers", "sim", "examples" },
+                    { "^host/web/", "^bindings/wrap_web", "^bindings/wrap_taps" },
+                    function(p) return p:match("^host/web/") or p:match("^boost/beast") end),
+       "files outside host/web/, bindings/wrap_web* and bindings/wrap_taps* include host/web or Beast")
+end)
+
+suite:case("host_layer_headers_state_their_rule", function()
+  local bad = {}
+  for _, layer in ipairs({ "codec", "net", "web" }) do
+    for _, path in ipairs(files({ "host/" .. layer }, "%.h$")) do
+      local fh = assert(io.open(root .. "/" .. path))
+      local first, second = fh:read("l"), fh:read("l")
+      fh:close()
+      local rule = first == "#pragma once" and second or first
+      if not (rule or ""):match("^// host/" .. layer .. ": ") then
+        bad[#bad + 1] = fmt("%s: does not open with the rule line \"// host/%s: ...\"", path, layer)
+      end
+    end
+  end
+  none(bad, "headers of host/codec, host/net and host/web without their folder's rule line")
+end)
+
 --- The figures for a note: the longest functions and the files per folder.
 local function report()
   local fs = measured_functions()
