@@ -5,8 +5,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
-#include <random>
 #include <sys/stat.h>
+
+#include "host/net/auth.h"  // the replica id's random part
 
 namespace dca::config {
 namespace {
@@ -49,17 +50,6 @@ wire::Value decode(const void* data, int size) {
   if (!wire::decode_value(std::string_view(static_cast<const char*>(data), static_cast<std::size_t>(size)), v))
     return wire::Value();
   return v;
-}
-
-std::string random_hex(std::size_t bytes) {
-  std::random_device rd;
-  std::string out;
-  char buf[3];
-  for (std::size_t i = 0; i < bytes; ++i) {
-    std::snprintf(buf, sizeof buf, "%02x", static_cast<unsigned>(rd() & 0xff));
-    out += buf;
-  }
-  return out;
 }
 
 // A prepared statement, reset after each use.
@@ -384,7 +374,7 @@ bool ConfigStore::create_schema(std::string* error) {
       "  l_origin TEXT, at_ms INTEGER, UNIQUE(key, l_ms, l_n, l_origin));";
   if (!exec(schema, error)) return false;
   const std::string meta = "INSERT OR IGNORE INTO meta VALUES('format', '" + std::string(kFormat) +
-                           "'), ('replica', '" + options_.host + "/" + random_hex(4) + "'); COMMIT;";
+                           "'), ('replica', '" + options_.host + "/" + auth::random_token(4) + "'); COMMIT;";
   if (!exec(meta.c_str(), error)) {
     exec("ROLLBACK", nullptr);
     return false;

@@ -28,16 +28,6 @@ std::string mode_string(mode_t m) {
   return buf;
 }
 
-std::string hex(const std::string& bytes) {
-  static const char* digits = "0123456789abcdef";
-  std::string out;
-  for (unsigned char c : bytes) {
-    out += digits[c >> 4];
-    out += digits[c & 15];
-  }
-  return out;
-}
-
 }  // namespace
 
 std::string random_bytes(std::size_t n) {
@@ -58,6 +48,33 @@ std::string hmac_sha256(const std::string& key, const std::string& data) {
 bool equal_mac(const std::string& a, const std::string& b) {
   return a.size() == b.size() && CRYPTO_memcmp(a.data(), b.data(), a.size()) == 0;
 }
+
+std::string hex(std::string_view bytes) {
+  static const char* digits = "0123456789abcdef";
+  std::string out;
+  out.reserve(2 * bytes.size());
+  for (unsigned char c : bytes) {
+    out += digits[c >> 4];
+    out += digits[c & 15];
+  }
+  return out;
+}
+
+int hex_digit(char c) {
+  if (c >= '0' && c <= '9') return c - '0';
+  if (c >= 'a' && c <= 'f') return c - 'a' + 10;
+  if (c >= 'A' && c <= 'F') return c - 'A' + 10;
+  return -1;
+}
+
+std::string random_token(std::size_t n) { return hex(random_bytes(n)); }
+
+Key data_key(const Key& cluster_key) {
+  if (cluster_key.empty()) return {};  // no key stays no key: the handshake then refuses
+  return hmac_sha256(cluster_key, "dca-data-1");
+}
+
+std::string key_token(const Key& cluster_key) { return hex(hmac_sha256(cluster_key, "dca-monitor-1").substr(0, 16)); }
 
 Handshake::Handshake(Role role, Key key, std::function<std::string()> nonce_source)
     : role_(role), key_(std::move(key)), nonce_source_(std::move(nonce_source)) {

@@ -1,7 +1,9 @@
 #pragma once
 // host/net: sockets on the io_context (Asio). Never Beast, never host/web.
-// The handshake that opens every control connection, and the cluster key file. Pure code apart from the key
-// file functions: the handshake is a state machine fed with wire messages, testable without a socket.
+// The handshake that opens every control connection, the cluster key file, and everything derived from the
+// cluster key (the data plane's key, the monitor's key token), with the one hex codec they are written in.
+// Pure code apart from the key file functions: the handshake is a state machine fed with wire messages,
+// testable without a socket.
 //
 // The exchange (K the cluster key, Nc and Ns 32 fresh random bytes from each side, H = HMAC-SHA256):
 //   client -> server  hello     {version, nonce = Nc}
@@ -14,6 +16,7 @@
 #include <functional>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "host/codec/wire.h"
@@ -32,6 +35,20 @@ std::string random_bytes(std::size_t n);
 std::string hmac_sha256(const std::string& key, const std::string& data);
 /// Constant-time comparison.
 bool equal_mac(const std::string& a, const std::string& b);
+
+/// `bytes` as lower-case hex, two digits a byte.
+std::string hex(std::string_view bytes);
+/// The value of the hex digit `c` (either case), or -1.
+int hex_digit(char c);
+/// `n` random bytes (random_bytes) as 2n hex digits.
+std::string random_token(std::size_t n = 16);
+
+/// The key the data plane's handshake uses (host/net/endpoint.h): HMAC-SHA256(cluster key, "dca-data-1"), "" for
+/// no key. A MAC made on a control port (keyed with the cluster key itself) is therefore worthless on a data port.
+Key data_key(const Key& cluster_key);
+/// The web monitor's token derived from the cluster key (host/web/web.h), which any key holder can compute:
+/// hex of the first 16 bytes of HMAC-SHA256(cluster key, "dca-monitor-1").
+std::string key_token(const Key& cluster_key);
 
 /// One side of the handshake.
 class Handshake {

@@ -948,11 +948,6 @@ using endpoint_detail::Trunk;
 
 // ------------------------------------------------------------------------------------------------ Endpoint ---
 
-auth::Key data_key(const auth::Key& cluster_key) {
-  if (cluster_key.empty()) return {};  // no key stays no key: the handshake then refuses
-  return auth::hmac_sha256(cluster_key, "dca-data-1");
-}
-
 std::shared_ptr<Trunk> Endpoint::Impl::trunk_to(Transport t, const std::string& addr, std::string* error) {
   std::shared_ptr<Trunk> found;  // the oldest of the preferred kind, else the oldest
   const bool here = prefer_opened_here(t, addr);

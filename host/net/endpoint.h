@@ -71,9 +71,8 @@ struct LinkInfo {
   std::uint64_t bytes = 0;    ///< bytes of this link's frames handed to the socket (0 in-process)
 };
 
-/// The key the data plane's handshake uses: HMAC-SHA256(cluster key, "dca-data-1") ("" for no key). A MAC
-/// made on a control port (keyed with the cluster key itself) is therefore worthless on a data port.
-auth::Key data_key(const auth::Key& cluster_key);
+/// The key the data plane's handshake uses, derived from the cluster key (auth::data_key).
+using auth::data_key;
 
 /// How an Endpoint authenticates and bounds its socket connections.
 struct EndpointOptions {

@@ -23,28 +23,11 @@ using tcp = boost::asio::ip::tcp;
 
 namespace {
 
-std::string to_hex(const std::string& bytes) {
-  static const char* kHex = "0123456789abcdef";
-  std::string out;
-  for (unsigned char c : bytes) {
-    out += kHex[c >> 4];
-    out += kHex[c & 15];
-  }
-  return out;
-}
-
-int hex_digit(char c) {
-  if (c >= '0' && c <= '9') return c - '0';
-  if (c >= 'a' && c <= 'f') return c - 'a' + 10;
-  if (c >= 'A' && c <= 'F') return c - 'A' + 10;
-  return -1;
-}
-
 std::string percent_decode(std::string_view s) {
   std::string out;
   for (std::size_t i = 0; i < s.size(); i++) {
-    if (s[i] == '%' && i + 2 < s.size() && hex_digit(s[i + 1]) >= 0 && hex_digit(s[i + 2]) >= 0) {
-      out += static_cast<char>(hex_digit(s[i + 1]) * 16 + hex_digit(s[i + 2]));
+    if (s[i] == '%' && i + 2 < s.size() && auth::hex_digit(s[i + 1]) >= 0 && auth::hex_digit(s[i + 2]) >= 0) {
+      out += static_cast<char>(auth::hex_digit(s[i + 1]) * 16 + auth::hex_digit(s[i + 2]));
       i += 2;
     } else {
       out += s[i] == '+' ? ' ' : s[i];
@@ -58,12 +41,6 @@ std::string_view path_of(std::string_view target) { return target.substr(0, targ
 std::string_view sv(beast::string_view s) { return {s.data(), s.size()}; }
 
 }  // namespace
-
-std::string random_token(std::size_t n) { return to_hex(auth::random_bytes(n)); }
-
-std::string key_token(const std::string& key) {
-  return to_hex(auth::hmac_sha256(key, "dca-monitor-1").substr(0, 16));
-}
 
 std::string query_value(std::string_view target, std::string_view name) {
   const auto q = target.find('?');

@@ -40,6 +40,7 @@
 #include <string_view>
 
 #include "host/net/framed_socket.h"  // Address
+#include "host/net/auth.h"
 #include "host/web/sample_hub.h"
 
 namespace dca::web {
@@ -135,11 +136,11 @@ class Server : public std::enable_shared_from_this<Server> {
   virtual void close() = 0;
 };
 
-/// `n` random bytes as lower-case hex (OpenSSL's RAND_bytes).
-std::string random_token(std::size_t n = 16);
-/// The monitor's token of a cluster key: the first 16 bytes of HMAC-SHA256(key, "dca-monitor-1") as 32 hex
-/// digits. A server given it (add_token) admits whoever holds the key, without the key reaching a browser.
-std::string key_token(const std::string& key);
+/// `n` random bytes as lower-case hex (OpenSSL's RAND_bytes): auth::random_token.
+using auth::random_token;
+/// The monitor's token of a cluster key (auth::key_token). A server given it (add_token) admits whoever holds
+/// the key, without the key reaching a browser.
+using auth::key_token;
 /// The value of `name` in the query of `target` ("/ws?token=ab&x=1"), percent-decoded; "" when absent.
 std::string query_value(std::string_view target, std::string_view name);
 
