@@ -214,7 +214,7 @@ void Node::start(std::function<void(const std::string& error)> done) {
   I.chopts.handshake_timeout = std::chrono::milliseconds(I.opts.timeout_ms);
   const auto daddr = Address::parse(I.opts.daemon, &error);
   if (!daddr) return I.fail_start(done, error);
-  I.ip = daddr->kind == Address::Kind::kTcp ? daddr->host : "127.0.0.1";
+  I.ip = daddr->kind == Transport::Tcp ? daddr->host : "127.0.0.1";
   I.connect_daemon(*daddr, std::move(done));
 }
 

@@ -27,6 +27,8 @@
 #include <Eigen/Core>
 #include <msgpack.hpp>
 
+#include "host/transport.h"
+
 namespace dca {
 
 /// What a port carries.
@@ -298,10 +300,7 @@ std::string_view to_string(Mode m);
 /// The Mode named `s`, or nothing.
 std::optional<Mode> mode_from(std::string_view s);
 
-/// How a connection travels.
-enum class Transport : std::uint8_t { InProcess, Unix, Tcp };
-/// "inprocess", "unix" or "tcp".
-std::string_view to_string(Transport t);
+// How a connection travels: Transport (host/transport.h).
 
 /// Where a destination component lives (from the NameServer's endpoints record).
 struct Location {

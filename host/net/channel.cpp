@@ -328,7 +328,7 @@ Listener::Listener(asio::io_context& io, ChannelOptions options)
 Listener::~Listener() {
   error_code ec;
   acceptor_.close(ec);
-  if (address_.kind == Address::Kind::kUnix && !closed_) ::unlink(address_.path.c_str());
+  if (address_.kind == Transport::Unix && !closed_) ::unlink(address_.path.c_str());
 }
 
 Listener::Ptr Listener::listen(asio::io_context& io, const Address& at, ChannelOptions options, ChannelFn on_channel,
@@ -358,7 +358,7 @@ void Listener::accept() {
     error_code rec;
     const auto remote = sock->remote_endpoint(rec);
     std::string peer = rec ? std::string("(unknown peer)") : endpoint_str(remote);
-    if (self->address_.kind == Address::Kind::kUnix) peer = "unix:" + self->address_.path + " (peer)";
+    if (self->address_.kind == Transport::Unix) peer = "unix:" + self->address_.path + " (peer)";
     auto ch = std::make_shared<Channel>(self->io_, self->options_, peer);
     ch->socket() = std::move(*sock);
     std::weak_ptr<Listener> w = self;
@@ -385,7 +385,7 @@ void Listener::close() {
   backoff_.cancel();
   error_code ec;
   acceptor_.close(ec);
-  if (address_.kind == Address::Kind::kUnix) ::unlink(address_.path.c_str());
+  if (address_.kind == Transport::Unix) ::unlink(address_.path.c_str());
   on_channel_ = nullptr;
   on_refused_ = nullptr;
 }

@@ -37,7 +37,7 @@ std::optional<Address> Address::parse(std::string_view text, std::string* error)
   Address a;
   std::string_view t = text;
   if (t.substr(0, 5) == "unix:" || (!t.empty() && t[0] == '/')) {
-    a.kind = Kind::kUnix;
+    a.kind = Transport::Unix;
     a.path = std::string(t[0] == '/' ? t : t.substr(5));
     if (a.path.empty()) return bad("empty socket path");
     if (a.path.size() >= sizeof(sockaddr_un::sun_path)) return bad("socket path too long");
@@ -70,14 +70,14 @@ std::optional<Address> Address::parse(std::string_view text, std::string* error)
 }
 
 std::string Address::str() const {
-  if (kind == Kind::kUnix) return "unix:" + path;
+  if (kind == Transport::Unix) return "unix:" + path;
   if (host.find(':') != std::string::npos) return "[" + host + "]:" + std::to_string(port);
   return host + ":" + std::to_string(port);
 }
 
 Address Address::unix_socket(std::string path) {
   Address a;
-  a.kind = Kind::kUnix;
+  a.kind = Transport::Unix;
   a.path = std::move(path);
   return a;
 }
@@ -102,7 +102,7 @@ std::string endpoint_str(const StreamEndpoint& ep) {
 }
 
 std::optional<StreamEndpoint> to_endpoint(const Address& a, std::string* error) {
-  if (a.kind == Address::Kind::kUnix) {
+  if (a.kind == Transport::Unix) {
     if (a.path.size() >= sizeof(sockaddr_un::sun_path)) {
       if (error != nullptr) *error = "socket path too long: " + a.path;
       return std::nullopt;
@@ -125,20 +125,20 @@ bool listen_at(StreamAcceptor& acceptor, const Address& at, Address* bound, std:
     if (error != nullptr) *error = std::string("cannot listen on ") + at.str() + ": " + what + ": " + ec.message();
     return false;
   };
-  if (at.kind == Address::Kind::kUnix) {
+  if (at.kind == Transport::Unix) {
     struct stat st {};
     if (::lstat(at.path.c_str(), &st) == 0 && S_ISSOCK(st.st_mode)) ::unlink(at.path.c_str());
   }
   error_code ec;
   acceptor.open(ep->protocol(), ec);
   if (ec) return fail("open", ec);
-  if (at.kind == Address::Kind::kTcp) acceptor.set_option(asio::socket_base::reuse_address(true), ec);
+  if (at.kind == Transport::Tcp) acceptor.set_option(asio::socket_base::reuse_address(true), ec);
   acceptor.bind(*ep, ec);
   if (ec) return fail("bind", ec);
   acceptor.listen(asio::socket_base::max_listen_connections, ec);
   if (ec) return fail("listen", ec);
   *bound = at;
-  if (at.kind == Address::Kind::kTcp) {
+  if (at.kind == Transport::Tcp) {
     const auto local = acceptor.local_endpoint(ec);
     if (!ec) {
       if (auto parsed = Address::parse(endpoint_str(local))) *bound = *parsed;

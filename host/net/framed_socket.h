@@ -24,13 +24,14 @@
 #include <string_view>
 #include <vector>
 
+#include "host/transport.h"
+
 namespace dca {
 
 /// Where a socket listens or connects: TCP ("127.0.0.1:4000", "[::1]:4000", "localhost:4000", or with the
 /// prefix "tcp:") or a Unix socket ("unix:/run/dca.sock", or any text starting with '/').
 struct Address {
-  enum class Kind { kTcp, kUnix };
-  Kind kind = Kind::kTcp;
+  Transport kind = Transport::Tcp;  ///< Tcp or Unix (never InProcess)
   std::string host;        ///< numeric IP (TCP)
   std::uint16_t port = 0;  ///< TCP port (0 when listening: pick a free one)
   std::string path;        ///< socket path (Unix)

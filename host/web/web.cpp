@@ -440,7 +440,7 @@ void WsSession::flush_samples(const SampleHub& hub) {
 // ------------------------------------------------------------------------------------------ the server's parts
 
 bool ServerImpl::start(const Address& at, std::string* error) {
-  if (at.kind != Address::Kind::kTcp) {
+  if (at.kind != Transport::Tcp) {
     if (error) *error = "the monitor listens on TCP only, not " + at.str();
     return false;
   }

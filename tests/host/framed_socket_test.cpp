@@ -23,14 +23,14 @@ TEST(AddressTest, ParsesTcpAndUnixAddresses) {
   std::string error;
   auto a = Address::parse("127.0.0.1:4000");
   ASSERT_TRUE(a);
-  EXPECT_EQ(a->kind, Address::Kind::kTcp);
+  EXPECT_EQ(a->kind, dca::Transport::Tcp);
   EXPECT_EQ(a->port, 4000);
   EXPECT_EQ(a->str(), "127.0.0.1:4000");
   EXPECT_EQ(Address::parse("tcp:localhost:1")->host, "127.0.0.1");
   EXPECT_EQ(Address::parse("[::1]:5")->str(), "[::1]:5");
   auto u = Address::parse("unix:/tmp/x.sock");
   ASSERT_TRUE(u);
-  EXPECT_EQ(u->kind, Address::Kind::kUnix);
+  EXPECT_EQ(u->kind, dca::Transport::Unix);
   EXPECT_EQ(u->path, "/tmp/x.sock");
   EXPECT_EQ(*Address::parse("/tmp/x.sock"), *u);
   EXPECT_EQ(*Address::parse(u->str()), *u);

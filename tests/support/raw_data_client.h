@@ -39,7 +39,7 @@ class RawDataClient {
   RawDataClient(boost::asio::io_context& io, const std::string& address) : io_(io) {
     const auto a = Address::parse(address);
     if (!a) return;
-    if (a->kind == Address::Kind::kUnix) {
+    if (a->kind == Transport::Unix) {
       sockaddr_un sa{};
       sa.sun_family = AF_UNIX;
       std::strncpy(sa.sun_path, a->path.c_str(), sizeof sa.sun_path - 1);
