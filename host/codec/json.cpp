@@ -4,6 +4,8 @@
 #include <cmath>
 #include <cstdio>
 
+#include "host/codec/hex.h"
+
 namespace dca::json {
 
 namespace {
@@ -137,12 +139,9 @@ bool Reader::hex4(unsigned* out) {
   if (i + 4 > s.size()) return fail("short \\u escape");
   unsigned v = 0;
   for (int k = 0; k < 4; k++) {
-    const char c = s[i++];
-    v <<= 4;
-    if (c >= '0' && c <= '9') v |= static_cast<unsigned>(c - '0');
-    else if (c >= 'a' && c <= 'f') v |= static_cast<unsigned>(c - 'a' + 10);
-    else if (c >= 'A' && c <= 'F') v |= static_cast<unsigned>(c - 'A' + 10);
-    else return fail("bad \\u escape");
+    const int d = hex::digit(s[i++]);
+    if (d < 0) return fail("bad \\u escape");
+    v = (v << 4) | static_cast<unsigned>(d);
   }
   *out = v;
   return true;

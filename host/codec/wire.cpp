@@ -5,6 +5,8 @@
 #include <limits>
 #include <msgpack.hpp>
 
+#include "host/codec/hex.h"
+
 namespace dca::wire {
 namespace {
 
@@ -160,9 +162,7 @@ void render(const Value& v, std::string& out, int depth) {
         out += '\\';
         out += static_cast<char>(c);
       } else if (c < 0x20 || c >= 0x7f) {
-        char buf[8];
-        std::snprintf(buf, sizeof buf, "\\x%02x", c);
-        out += buf;
+        out += "\\x" + hex::encode(std::string_view(reinterpret_cast<const char*>(&c), 1));
       } else {
         out += static_cast<char>(c);
       }

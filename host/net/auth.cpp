@@ -15,6 +15,7 @@
 #include <filesystem>
 #include <stdexcept>
 
+#include "host/codec/hex.h"
 #include "host/paths.h"
 
 namespace dca::auth {
@@ -49,32 +50,14 @@ bool equal_mac(const std::string& a, const std::string& b) {
   return a.size() == b.size() && CRYPTO_memcmp(a.data(), b.data(), a.size()) == 0;
 }
 
-std::string hex(std::string_view bytes) {
-  static const char* digits = "0123456789abcdef";
-  std::string out;
-  out.reserve(2 * bytes.size());
-  for (unsigned char c : bytes) {
-    out += digits[c >> 4];
-    out += digits[c & 15];
-  }
-  return out;
-}
-
-int hex_digit(char c) {
-  if (c >= '0' && c <= '9') return c - '0';
-  if (c >= 'a' && c <= 'f') return c - 'a' + 10;
-  if (c >= 'A' && c <= 'F') return c - 'A' + 10;
-  return -1;
-}
-
-std::string random_token(std::size_t n) { return hex(random_bytes(n)); }
+std::string random_token(std::size_t n) { return hex::encode(random_bytes(n)); }
 
 Key data_key(const Key& cluster_key) {
   if (cluster_key.empty()) return {};  // no key stays no key: the handshake then refuses
   return hmac_sha256(cluster_key, "dca-data-1");
 }
 
-std::string key_token(const Key& cluster_key) { return hex(hmac_sha256(cluster_key, "dca-monitor-1").substr(0, 16)); }
+std::string key_token(const Key& cluster_key) { return hex::encode(hmac_sha256(cluster_key, "dca-monitor-1").substr(0, 16)); }
 
 Handshake::Handshake(Role role, Key key, std::function<std::string()> nonce_source)
     : role_(role), key_(std::move(key)), nonce_source_(std::move(nonce_source)) {
@@ -236,7 +219,7 @@ std::optional<Key> load_or_create_key(const std::string& path, std::string* erro
     }
     const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
     if (fd >= 0) {
-      const std::string text = hex(random_bytes(32)) + "\n";
+      const std::string text = hex::encode(random_bytes(32)) + "\n";
       const bool ok = ::write(fd, text.data(), text.size()) == static_cast<ssize_t>(text.size());
       ::fchmod(fd, 0600);
       ::close(fd);

@@ -1,7 +1,7 @@
 #pragma once
 // host/net: sockets on the io_context (Asio). Never Beast, never host/web.
 // The handshake that opens every control connection, the cluster key file, and everything derived from the
-// cluster key (the data plane's key, the monitor's key token), with the one hex codec they are written in.
+// cluster key (the data plane's key, the monitor's key token), written in hex by host/codec/hex.h.
 // Pure code apart from the key file functions: the handshake is a state machine fed with wire messages,
 // testable without a socket.
 //
@@ -36,10 +36,6 @@ std::string hmac_sha256(const std::string& key, const std::string& data);
 /// Constant-time comparison.
 bool equal_mac(const std::string& a, const std::string& b);
 
-/// `bytes` as lower-case hex, two digits a byte.
-std::string hex(std::string_view bytes);
-/// The value of the hex digit `c` (either case), or -1.
-int hex_digit(char c);
 /// `n` random bytes (random_bytes) as 2n hex digits.
 std::string random_token(std::size_t n = 16);
 

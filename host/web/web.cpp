@@ -9,8 +9,9 @@
 #include <set>
 #include <vector>
 
-#include "host/net/auth.h"
+#include "host/codec/hex.h"
 #include "host/codec/json.h"
+#include "host/net/auth.h"
 
 namespace dca::web {
 
@@ -26,8 +27,8 @@ namespace {
 std::string percent_decode(std::string_view s) {
   std::string out;
   for (std::size_t i = 0; i < s.size(); i++) {
-    if (s[i] == '%' && i + 2 < s.size() && auth::hex_digit(s[i + 1]) >= 0 && auth::hex_digit(s[i + 2]) >= 0) {
-      out += static_cast<char>(auth::hex_digit(s[i + 1]) * 16 + auth::hex_digit(s[i + 2]));
+    if (s[i] == '%' && i + 2 < s.size() && hex::digit(s[i + 1]) >= 0 && hex::digit(s[i + 2]) >= 0) {
+      out += static_cast<char>(hex::digit(s[i + 1]) * 16 + hex::digit(s[i + 2]));
       i += 2;
     } else {
       out += s[i] == '+' ? ' ' : s[i];
