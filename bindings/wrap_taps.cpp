@@ -29,9 +29,9 @@
 #include "bindings/lua_support.h"
 #include "bindings/wrap_web.h"
 #include "host/net/auth.h"
-#include "host/web/foxglove.h"
-#include "host/paths.h"
 #include "host/net/tap.h"
+#include "host/paths.h"
+#include "host/web/foxglove.h"
 
 namespace dca::bindings {
 namespace {

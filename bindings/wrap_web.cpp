@@ -27,8 +27,8 @@
 #include "bindings/lua_loop.h"
 #include "bindings/lua_support.h"
 #include "bindings/lua_value.h"
-#include "host/net/auth.h"
 #include "host/codec/json.h"
+#include "host/net/auth.h"
 
 namespace dca::lua {
 namespace {

@@ -58,8 +58,8 @@
 #include <vector>
 
 #include "host/loop.h"  // before any other Asio header (it includes steady_timer)
-#include "host/timers.h"
 #include "host/codec/wire.h"
+#include "host/timers.h"
 
 namespace dca {
 

@@ -15,8 +15,8 @@
 #include <string>
 #include <vector>
 
-#include "host/net/channel.h"
 #include "host/codec/wire.h"
+#include "host/net/channel.h"
 
 namespace dca {
 

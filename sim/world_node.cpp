@@ -6,8 +6,8 @@
 #include <map>
 #include <stdexcept>
 
-#include "host/net/channel.h"
 #include "host/lockstep.h"
+#include "host/net/channel.h"
 #include "host/net/tap.h"
 #include "host/timers.h"
 #include "sim/recorder.h"

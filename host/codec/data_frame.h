@@ -32,8 +32,8 @@
 #include <cstdint>
 #include <string>
 
-#include "host/port.h"
 #include "host/codec/wire.h"
+#include "host/port.h"
 
 namespace dca::data_frame {
 

@@ -37,8 +37,8 @@
 #include <unordered_map>
 #include <vector>
 
-#include "host/net/auth.h"
 #include "host/codec/wire.h"
+#include "host/net/auth.h"
 
 namespace dca {
 

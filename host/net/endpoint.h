@@ -165,7 +165,7 @@ class Endpoint {
   /// missing authentication, oversize or malformed frames, the handshake deadline), plus refused hellos.
   std::uint64_t refused() const;
 
-  /// Internal state shared with connections (endpoint.cpp).
+  /// Internal state shared with connections (host/net/endpoint_internal.h).
   struct Impl;
 
  private:

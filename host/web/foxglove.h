@@ -29,9 +29,9 @@
 #include <string>
 #include <vector>
 
+#include "host/codec/wire.h"
 #include "host/web/sample_hub.h"
 #include "host/web/web.h"
-#include "host/codec/wire.h"
 
 namespace dca::foxglove {
 

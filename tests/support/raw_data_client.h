@@ -19,8 +19,8 @@
 
 #include <boost/asio/io_context.hpp>
 
-#include "host/net/auth.h"
 #include "host/codec/data_frame.h"
+#include "host/net/auth.h"
 #include "host/net/framed_socket.h"
 #include "tests/support/run_until.h"
 

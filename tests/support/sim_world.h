@@ -8,8 +8,8 @@
 #include <utility>
 
 #include "host/loop.h"  // before any other Asio header
-#include "host/net/channel.h"
 #include "host/daemon.h"
+#include "host/net/channel.h"
 #include "host/node.h"
 #include "sim/world.h"
 #include "sim/world_node.h"
