@@ -1,6 +1,6 @@
 # dca_add_controller_package(NAME SOURCES src... [LIBS lib...] [OUTPUT_DIRECTORY dir] [INSTALL_DIR dir])
 #
-# A controller package (ARCHITECTURE.md, "Controller packages"): a shared library NAME.dca.so of the controller
+# A controller package (docs/packages.md): a shared library NAME.dca.so of the controller
 # types defined in SOURCES (each registered with DCA_REGISTER_CONTROLLER, controllers/registry.h), built against
 # the dca SDK (the target dca::sdk) with dca's entry point, so that a .dca file's `use NAME;` loads it. dca finds
 # it in $DCA_CONTROLLER_PATH, in <dca prefix>/lib/dca/controllers, or in a `packages/` folder beside the .dca

@@ -1,5 +1,5 @@
 #pragma once
-// dca::Controller: the base of every controller module (ARCHITECTURE.md, "Controllers").
+// dca::Controller: the base of every controller module (docs/packages.md).
 //
 // A controller type is a class derived from Controller (or PeriodicController, below) that opens with
 // DCA_CONTROLLER(T), which declares

@@ -1,6 +1,6 @@
 #pragma once
 // A controller package: a shared library of controller types, built outside (or inside) the dca tree against the
-// installed SDK, that dca loads by name (ARCHITECTURE.md, "Controller packages"). An author writes controllers
+// installed SDK, that dca loads by name (docs/packages.md). An author writes controllers
 // exactly as the built-ins (controllers/controller.h, DCA_REGISTER_CONTROLLER in each .cpp) and builds them with
 //   find_package(dca REQUIRED)
 //   dca_add_controller_package(mylab SOURCES pid.cpp filter.cpp)

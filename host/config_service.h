@@ -2,7 +2,7 @@
 // The daemon's configuration service: the replica (host/config_store) served on the daemon's channels and
 // replicated with the peer daemons (the same peers as the NameServer's).
 //
-// Requests (any authenticated channel to the daemon; ARCHITECTURE.md, "How the pieces meet"):
+// Requests (any authenticated channel to the daemon; docs/control-plane.md):
 //   config_get {key}              -> ok {key, value, stamp = {ms, n, origin}, origin}
 //                                    error "unknown key 'door.widht' (did you mean door.width?)"
 //   config_set {values = {k = v}} -> ok {seq, stamp, origin, keys}   one transaction, acked after its commit

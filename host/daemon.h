@@ -1,7 +1,7 @@
 #pragma once
 // The per-host daemon (`dca daemon`): a channel listener serving the Executer and the NameServer.
 //
-// Requests it answers on any authenticated channel (ARCHITECTURE.md, "How the pieces meet"):
+// Requests it answers on any authenticated channel (docs/control-plane.md):
 //   spawn {argv, name?}        -> ok {child, pid}; later the event exit {child, pid, name, code | signal}
 //                                 goes to the channel that asked (signal is a name such as "SIGSEGV")
 //   spawn {argv, name, shared = true} -> ok {child, pid, joined}: a process several requesters share (a shared

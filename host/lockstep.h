@@ -1,5 +1,5 @@
 #pragma once
-// The lock-step clock master (ARCHITECTURE.md, "Time"): the process that owns simulated time (the simulated
+// The lock-step clock master (docs/time.md): the process that owns simulated time (the simulated
 // world, a log replay, a real robot's driver) and advances every node on it, one period at a time, and waits
 // for every supervisor to have handled what happened before it moves on.
 //
@@ -33,7 +33,7 @@
 //                       rounds_s, barrier_s: wall time in the rounds and in the barriers;
 //                       run_wall_s: wall time since time first started (the run without its start-up)
 //
-// Each tick t (the semantics are ARCHITECTURE.md "Time"):
+// Each tick t (the semantics are docs/time.md):
 //   1. the owner takes in the samples written to it before t (hook `take`, with the counts its writers
 //      reported) and steps one period to t (hook `step`);
 //   2. if a node is due (its next deadline <= t; one that has not answered yet at each multiple of the sync

@@ -3,7 +3,7 @@
 //
 // NameTable is the pure part (no I/O, no clock): names, their owners, and who waits for a name.
 // NameServer is the thin Asio shell the daemon uses: it answers `register {name, endpoints}`,
-// `unregister {name}` and `lookup {name, wait_ms}` on its channels (ARCHITECTURE.md, "How the pieces meet").
+// `unregister {name}` and `lookup {name, wait_ms}` on its channels (docs/control-plane.md).
 // A lookup of a name not registered here is asked of every peer daemon (as `lookup {name, wait_ms,
 // local_only = true}`, so peers never forward it again); the first positive answer wins. With wait_ms > 0 a
 // lookup waits that long for the name to be registered (here or at a peer) before it fails.

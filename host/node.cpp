@@ -754,7 +754,7 @@ void Node::Impl::add(const Channel::Ptr& ch, const Message& m) {
                   });
 }
 
-// advance {t, expect, trace}: lock-step (ARCHITECTURE.md "Time"), for every leaf at once. The samples the
+// advance {t, expect, trace}: lock-step (docs/time.md), for every leaf at once. The samples the
 // master counts in `expect` (link key -> samples its writer had sent by its last answer) are let into the
 // inputs, waiting for those still on their way; later ones stay held. Then every timer due by t runs, what they
 // wrote is flushed, and the answer says the next deadline, the events so far and the links whose counts moved.

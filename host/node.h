@@ -1,8 +1,8 @@
 #pragma once
 // The node runtime (`dca node`): hosts components (controllers, "leaves") in one process. By default one leaf per
 // process, so a crash is contained; a shared node (`--shared NAME`) hosts the leaves its supervisors add, which
-// then exchange samples in process and take one lock-step advance per tick between them (ARCHITECTURE.md,
-// "Placement").
+// then exchange samples in process and take one lock-step advance per tick between them
+// (docs/placement.md).
 //
 //   dca node --type T --name PATH --daemon ADDR [--key FILE] [--host NAME] [--clock wall|sim] [-- ARG...]
 //   dca node --shared NAME --daemon ADDR [--key FILE] [--host NAME] [--clock wall|sim]
@@ -40,7 +40,7 @@
 //                                                consecutive MainCalc calls of each periodic timer, on the
 //                                                node's clock and on the wall clock; host/timers.h), clock
 //   advance {t, expect, trace}  (--clock sim) -> ok {now, next, ev, evs, leaves, sent, dig}  t in ns;
-//                                                lock-step (ARCHITECTURE.md "Time"): expect = {link key = n}
+//                                                lock-step (docs/time.md): expect = {link key = n}
 //                                                the samples of each link into this node its writer had sent
 //                                                by its last answer: they are let into the inputs (waiting
 //                                                up to the timeout for late ones, then an error naming the
@@ -78,8 +78,8 @@
 // Simulated time (--clock sim): before it registers, the node looks up the clock master (`world`, see --world)
 // at its daemon, opens a channel to its control address and subscribes with `clock {name}` (answered ok {now}),
 // so the master knows a new process of a leaf (a restart: its links' counts start afresh) before anybody can
-// connect to it; it takes the master's time and from then on obeys its `advance {t}` requests (lock-step, ARCHITECTURE.md
-// "Time"). Periodic timers are aligned (host/timers.h set_aligned). If the master's channel closes, the node
+// connect to it; it takes the master's time and from then on obeys its `advance {t}` requests (lock-step,
+// docs/time.md). Periodic timers are aligned (host/timers.h set_aligned). If the master's channel closes, the node
 // stops as it would on daemon loss. With --world none it subscribes to nothing and any control channel may
 // advance it.
 // Events it sends on every open control channel:
@@ -159,7 +159,7 @@ class Node {
 
   /// Lock-step, for the clock master's owner (the world, in this process): its links whose counts moved
   /// ({to = {key = sent}}), the expected samples let into its inputs ("" or why not), its outputs' digests
-  /// (ARCHITECTURE.md "Time"; NodeOptions::gated).
+  /// (docs/time.md; NodeOptions::gated).
   wire::Value sent_changes();
   std::string take_expected(const wire::Value& expect);
   wire::Value digests();

@@ -1,6 +1,6 @@
 #pragma once
 // Ports (pure: no I/O, no socket, no clock): named, typed inputs and outputs, what a connection between them
-// asks for, and how it would travel (ARCHITECTURE.md, "Two planes"; host/net/endpoint moves the samples).
+// asks for, and how it would travel (docs/data-plane.md; host/net/endpoint moves the samples).
 //
 // A port carries samples of one type: a scalar (double), a fixed-size vector of doubles (Eigen), a
 // dynamic-size vector of doubles (Eigen), or a msgpack value. An output feeds any number of inputs and an
@@ -196,7 +196,7 @@ class Input final : public Port {
   bool warned_drop_ = false;
 };
 
-/// Lock-step delivery of one push connection (ARCHITECTURE.md "Time"): the samples that arrived on it are
+/// Lock-step delivery of one push connection (docs/time.md): the samples that arrived on it are
 /// counted, and while the gate is closed to them a sample beyond the count the clock master released waits
 /// here, in order, instead of reaching the input. So a reader at tick t takes exactly the samples its writers
 /// wrote before t, whatever the transport and whichever process ran first. Open (gated false): every sample

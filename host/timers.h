@@ -1,6 +1,6 @@
 #pragma once
 // The TimerServer: periodic and one-shot timers for every controller of a process, on one clock
-// (ARCHITECTURE.md, "Time"; SEMANTICS.md §12 for the Timer and Deadline controllers built on it).
+// (docs/time.md; SEMANTICS.md §12 for the Timer and Deadline controllers built on it).
 //
 // Two clocks:
 //   - Wall: CLOCK_MONOTONIC. Timers are absolute deadlines on one timerfd (TFD_TIMER_ABSTIME) registered with
@@ -11,7 +11,7 @@
 //     that runs the io_context (the control-loop thread), or call minimise_timer_slack() there.
 //   - Simulated: time stands still until a master advances it. Nothing fires on its own.
 //
-// Simulated time and its master (the simulator, issue 5). The master owns time; each process with controllers
+// Simulated time and its master (the simulator). The master owns time; each process with controllers
 // has a TimerServer on a Simulated clock and obeys the master in lock-step:
 //   1. the master asks every TimerServer for next_deadline() (a node answers this in its `advance` reply);
 //   2. it picks the next tick t (the smallest of those and its own integration step) and calls advance_to(t)

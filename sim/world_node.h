@@ -1,6 +1,6 @@
 #pragma once
 // The world as a process (`dca sim --serve`): the simulated robot and door behind ports, and the clock master
-// of every node on simulated time (ARCHITECTURE.md, "Time" and "The robot: device ports").
+// of every node on simulated time (docs/time.md; docs/data-plane.md, "Device ports: the robot").
 //
 // The world is hosted by the ordinary node runtime (host/node.h) as a component named `world` (by default)
 // whose ports are the world's signals (sim/world.h): outputs arm.q, arm.qd, base.pose, base.vel, wrist.wrench,
@@ -55,7 +55,7 @@ struct WorldNodeOptions {
   double duration = -1;           ///< s of simulated time after which time holds (-1: never)
   std::string record;             ///< file to record to, MCAP or CSV ("" = none), see sim/recorder.h
   double record_period = 0.01;    ///< s between recorded rows
-  std::string trace;              ///< file the lock-step trace goes to ("" = none; ARCHITECTURE.md "Time")
+  std::string trace;              ///< file the lock-step trace goes to ("" = none; docs/time.md)
 };
 
 /// The world component and its clock master, on one Loop.

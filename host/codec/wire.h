@@ -1,6 +1,6 @@
 #pragma once
 // host/codec: pure encoders and decoders. No Asio, no Beast, no socket, nothing of host/net or host/web.
-// The control plane's wire format (ARCHITECTURE.md, "How the pieces meet"). Pure code: no I/O.
+// The control plane's wire format (docs/control-plane.md). Pure code: no I/O.
 //
 // A frame is a 4-byte big-endian length, then a msgpack body: the array [type, id, payload] where `type` is a
 // non-empty string ("spawn", "ok", ...), `id` an unsigned request id (0 for events) and `payload` a msgpack map.

@@ -1,7 +1,7 @@
 #pragma once
 // host/net: sockets on the io_context (Asio). Never Beast, never host/web.
 // The data plane's I/O: one Endpoint per process moves samples between ports (host/port) over connections
-// (ARCHITECTURE.md, "Two planes"). A connection (a link) goes output -> input:
+// (docs/data-plane.md). A connection (a link) goes output -> input:
 //   - in the same process: a direct hand-off (the sample is copied into the input's queue, no socket);
 //   - on the same host: over a Unix stream socket;
 //   - across hosts: over TCP with TCP_NODELAY.
@@ -24,7 +24,7 @@
 // beyond a backlog limit its samples are dropped and counted (LinkInfo::tx_dropped).
 //
 // Sockets carry data frames (host/codec/data_frame) on framed sockets (host/net/framed_socket). Every socket connection
-// is authenticated before anything else (ARCHITECTURE.md, "Data plane security"): the opening side runs the
+// is authenticated before anything else (docs/data-plane.md, "Security"): the opening side runs the
 // control plane's challenge-response (host/net/auth.h) keyed with data_key(cluster key); the accepting
 // side takes nothing else (frames over data_frame::kMaxAuthFrame before it are refused at their length prefix),
 // answers a refusal with its reason and closes. A connection not authenticated and introduced by
@@ -134,7 +134,7 @@ class Endpoint {
   /// sample. Set it before making links (a link keeps the clock it was made with); unset, the stamp is 0.
   void set_clock(std::function<std::int64_t()> now);
 
-  /// Lock-step delivery (ARCHITECTURE.md "Time", host/port.h LinkGate): with `on`, a sample pushed into this
+  /// Lock-step delivery (docs/time.md, host/port.h LinkGate): with `on`, a sample pushed into this
   /// endpoint's inputs waits until release() counts it in. In-process and socket connections alike.
   void set_gated(bool on);
   /// One push connection from this endpoint's outputs as the clock master counts it.

@@ -1,6 +1,6 @@
 #pragma once
 // host/net: sockets on the io_context (Asio). Never Beast, never host/web.
-// Taps (ARCHITECTURE.md, "Taps"): the samples of any output port of a running system, by its path
+// Taps (docs/recording.md): the samples of any output port of a running system, by its path
 // ("main.door.hit.Force"), without changing the run.
 //
 // A tap is one more link of the output, made by the supervisor that reaches the port's leaf (the root reaches
