@@ -1,0 +1,188 @@
+-- dca.supervisor.requests: the requests a supervisor answers (from its parent, `dca run`, a console), one entry
+-- per type in M.HANDLERS, as lang/check.lua dispatches supervision clauses. Each handler is
+-- fn(sup, msg, reply) and calls reply(msg) once: {type = "ok", ...} | {type = "error", reason = "..."}.
+--
+--   requests.handle(sup, msg, reply)       -- dispatches msg by msg.type; an unknown type is refused, naming those
+--                                          --   there are
+--   requests.inject(sup, path, msg, cb)    -- an event as if the process at `path` had sent it to its owner
+--   requests.switch(sup, path, label, what, cb)  -- a connection set of the process at `path` (de)activated
+--   requests.update(sup, spec, cb)         -- a new version of the group's spec (a reload). cb(lines)
+local previous = package.loaded["dca.supervisor.requests"]
+local M = type(previous) == "table" and previous or {}
+
+local algebra = require "dca.algebra"
+local async = require "dca.async"
+local spec_mod = require "dca.supervisor.spec"
+local taps = require "dca.supervisor.taps"
+
+local ipairs, pairs, type, tostring, tonumber = ipairs, pairs, type, tostring, tonumber
+local sformat = string.format
+local concat, sort = table.concat, table.sort
+
+-- reply(ok) for a cb(ok, err) operation.
+local function done_by(reply)
+  return function(ok, err) reply(ok and { type = "ok" } or { type = "error", reason = err }) end
+end
+
+-- reply(r) for a cb(reply | nil, err) request passed on.
+local function passed_on(reply)
+  return function(r, err) reply(r or { type = "error", reason = err }) end
+end
+
+-- The console of `repl` and `complete` requests, made on first use (opts.console of dca.supervisor.new).
+local function console_of(sup, reply)
+  if sup.repl then return sup.repl end
+  if not sup.console then reply({ type = "error", reason = sup.path .. " has no console" }) return nil end
+  sup.repl = sup.console(sup)
+  return sup.repl
+end
+
+M.HANDLERS = {
+  -- the spec came with the DCAS's creation; a configure message may also carry it
+  configure = function(sup, _, reply)
+    sup:configure(function(ok, err)
+      if ok then reply({ type = "ok" }) else
+        sup:shutdown(function() reply({ type = "error", reason = err }) end)
+      end
+    end)
+  end,
+  -- answered once everything the start ran has answered its own run (a whole subtree is running)
+  run = function(sup, msg, reply)
+    sup.event_at = tonumber(msg.at)
+    local answered = false
+    local ok, err = sup:run_expr(msg.init, function(started)
+      if started and not answered then answered = true reply({ type = "ok" }) end
+    end)
+    sup.event_at = nil
+    if not ok and not answered then answered = true reply({ type = "error", reason = err }) end
+  end,
+  abort = function(sup, _, reply) sup:abort(function() reply({ type = "ok" }) end) end,
+  shutdown = function(sup, _, reply) sup:shutdown(function() reply({ type = "ok" }) end) end,
+  node = function(sup, msg, reply) sup:to_leaf(msg.leaf, msg.msg, sup.timeouts.request, passed_on(reply)) end,
+  tree = function(sup, _, reply) sup:tree(function(tr) reply({ type = "ok", tree = tr }) end) end,
+  inject = function(sup, msg, reply) sup:inject(msg.path, msg.msg, done_by(reply)) end,
+  restart = function(sup, msg, reply) sup:restart(msg.path, done_by(reply)) end,
+  switch = function(sup, msg, reply) sup:switch(msg.path, msg.label, msg.what, done_by(reply)) end,
+  ports = function(sup, msg, reply) taps.request(sup, msg, reply) end,
+  tap = function(sup, msg, reply) taps.request(sup, msg, reply) end,
+  ping = function(sup, _, reply) reply({ type = "ok", path = sup.path, state = sup.state }) end,
+  stats = function(sup, msg, reply)
+    if msg.path and msg.path ~= sup.path then sup:_forward(msg.path, msg, passed_on(reply)) return end
+    reply({ type = "ok", stats = sup.stats, path = sup.path })
+  end,
+  update = function(sup, msg, reply) sup:update(msg.spec, function(lines) reply({ type = "ok", lines = lines }) end) end,
+  repl = function(sup, msg, reply)
+    local repl = console_of(sup, reply)
+    if repl then repl:eval(msg.line or "", function(out, more) reply({ type = "ok", output = out, more = more }) end) end
+  end,
+  complete = function(sup, msg, reply)
+    local repl = console_of(sup, reply)
+    if repl then reply({ type = "ok", candidates = repl:complete(msg.prefix or "") }) end
+  end,
+}
+
+--- A request from the parent (or the REPL/`dca run` on the root). reply(msg) answers it.
+function M.handle(sup, msg, reply)
+  local fn = M.HANDLERS[msg.type]
+  if fn then fn(sup, msg, reply) return end
+  local names = {}
+  for name in pairs(M.HANDLERS) do names[#names + 1] = name end
+  sort(names)
+  reply({ type = "error", reason = sformat("unknown request '%s' for supervisor %s (requests: %s)", tostring(msg.type),
+    tostring(sup.path), concat(names, ", ")) })
+end
+
+--- Injects an event (from the REPL or a scenario) as if the process at `path` had sent it to its owner.
+function M.inject(sup, path, msg, cb)
+  local ch = sup:_via(path)
+  if ch and ch.path == path then
+    -- the process is told to stop first (its run is over as far as the algebra is concerned), then the
+    -- event is taken as if it had sent it
+    if ch.kind == "leaf" and ch.handle and ch.state == "running" then
+      ch.handle.request({ type = "stop" }, sup.timeouts.stop, function() end)
+    end
+    sup.rt.defer(function() sup:child_message(ch.name, msg) end)
+    cb(true)
+  else
+    sup:_forward(path, { type = "inject", path = path, msg = msg }, cb)
+  end
+end
+
+--- Activates/deactivates the connection set `label` of the process at `path` (in the group that owns it).
+function M.switch(sup, path, label, what, cb)
+  local ch = sup:_via(path)
+  if ch and ch.path == path then
+    local id = spec_mod.set_id(sup.path, ch.name, label)
+    if not (sup.set_sources and sup.set_sources[id]) then cb(nil, "no connection set " .. id) return end
+    sup:_set(ch.name, label, what)
+    cb(true)
+  else
+    sup:_forward(path, { type = "switch", path = path, label = label, what = what }, cb)
+  end
+end
+
+local function same(a, b)
+  if a == b then return true end
+  if type(a) ~= "table" or type(b) ~= "table" then return false end
+  for k, v in pairs(a) do if not same(v, b[k]) then return false end end
+  for k in pairs(b) do if a[k] == nil then return false end end
+  return true
+end
+
+--- Takes a new version of this group's spec (a reload): event actions changed take effect at the group's
+--- next start; structural changes are reported (they need the system started again). cb(lines).
+function M.update(sup, new, cb)
+  local lines = {}
+  local old = sup.spec
+  local name = sup.path .. " (" .. tostring(new.type) .. ")"
+  local function shape(sp)
+    local t = { children = {}, external_io = sp.external_io, sets = sp.sets, host = sp.host, type = sp.type,
+                hosts = sp.hosts }
+    for i, c in ipairs(sp.children) do t.children[i] = { c.name, c.kind, c.type, c.host, c.args, c.standby } end
+    return t
+  end
+  if not same(shape(old), shape(new)) then
+    lines[#lines + 1] = name .. ": processes or connections changed; takes effect when the system is started again"
+  end
+  if not same(old.supervision, new.supervision) then
+    -- a policy is data: the new one applies from the next fault on (the restarts so far still count)
+    sup.spec.supervision = new.supervision
+    lines[#lines + 1] = name .. ": supervision policy changed; in effect now"
+  end
+  if old.expr ~= new.expr then
+    local e, err = algebra.parse(new.expr or "")
+    if not e then
+      lines[#lines + 1] = sformat("%s: new event actions rejected: %s", name, err)
+    else
+      sup.spec.expr, sup.spec.expr_line, sup.spec.expr_col = new.expr, new.expr_line, new.expr_col
+      if sup.state == "running" then
+        sup.pending_expr = e
+        lines[#lines + 1] = name .. ": event actions changed; takes effect at next start (or restart(\"" ..
+          sup.path .. "\") now)"
+      else
+        sup.expr = e
+        lines[#lines + 1] = name .. ": event actions changed; takes effect at next start"
+      end
+    end
+  end
+  M.update_children(sup, new, lines, cb)
+end
+
+-- The new specs of the sub-groups handed to their supervisors, their lines added to `lines`. cb(lines)
+function M.update_children(sup, new, lines, cb)
+  local j = async.join(function() cb(lines) end)
+  for _, c in ipairs(new.children) do
+    local ch = sup.children[c.name]
+    if c.kind == "group" and ch and ch.kind == "group" and ch.handle then
+      local k = j.add()
+      ch.handle.request({ type = "update", spec = c.spec }, sup.timeouts.request, function(r, err)
+        if r and r.lines then for _, l in ipairs(r.lines) do lines[#lines + 1] = l end
+        else lines[#lines + 1] = sformat("%s: not updated: %s", c.path, r and r.reason or tostring(err)) end
+        k(true)
+      end)
+    end
+  end
+  j.close()
+end
+
+return M
