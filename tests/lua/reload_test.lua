@@ -59,8 +59,60 @@ suite:case("modules_are_replaced_only_when_they_compile_and_run", function()
   os.execute("rm -rf '" .. dir .. "'")
 end)
 
-suite:case("the_default_modules_are_the_supervisor_and_its_console", function()
-  T.eq(reload.MODULES, { "dca.supervisor", "dca.supervisor.console" })
+suite:case("the_default_modules_are_every_supervisor_module_the_supervisor_last", function()
+  require "dca.supervisor"
+  local names = reload.default_modules()
+  T.eq(names[#names], "dca.supervisor")
+  local set = {}
+  for _, n in ipairs(names) do set[n] = true end
+  for _, m in ipairs({ "child", "console", "policy", "requests", "restart", "spec", "taps", "wiring" }) do
+    T.ok(set["dca.supervisor." .. m], "dca.supervisor." .. m .. " is reloaded")
+  end
+end)
+
+--- The supervisor's Lua files copied into a fresh directory put first on package.path. --> the copy of
+--- dca/supervisor, and a function that puts package.path back and removes the directory
+local function supervisor_copy()
+  local from = package.searchpath("dca.supervisor.policy", package.path):match("^(.*)/policy%.lua$")
+  local dir = os.tmpname()
+  os.remove(dir)
+  assert(os.execute("mkdir -p '" .. dir .. "/dca' && cp -r '" .. from .. "' '" .. dir .. "/dca/supervisor'"))
+  local saved = package.path
+  package.path = dir .. "/?.lua;" .. dir .. "/?/init.lua;" .. package.path
+  return dir .. "/dca/supervisor", function()
+    package.path = saved
+    os.execute("rm -rf '" .. dir .. "'")
+  end
+end
+
+suite:case("an_edit_to_policy_lua_reaches_a_running_supervisor", function()
+  local fake = require "dca.supervisor.memory"
+  local spec = fake.root("main", "h1", "a , b", { fake.leaf("a", "Run", "h1"), fake.leaf("b", "Run", "h1") })
+  spec.supervision = { strategy = "one_for_one", intensity = 3, within = 10, on = { aborted = true } }
+  local c = fake.cluster({ behave = {} })
+  c:root(spec)
+  assert(c:configure())
+  c:start()
+  c:settle(c.t + 1)
+  local dir, restore = supervisor_copy()
+  local ok, err = pcall(function()
+    local f = assert(io.open(dir .. "/policy.lua"))
+    local text = f:read("a")
+    f:close()
+    local edited, n = text:gsub('return sformat%("%%d in %%g s", pol.intensity, pol.within%)',
+      'return sformat("%%d per %%g s (edited)", pol.intensity, pol.within)')
+    T.eq(n, 1, "policy.budget found")
+    f = assert(io.open(dir .. "/policy.lua", "w"))
+    f:write(edited)
+    f:close()
+    for _, line in ipairs(reload.modules()) do T.contains(line, ": reloaded (state kept)") end
+    c.root_sup:child_message("b", { type = "aborted", reason = "sensor fault" })
+    c:settle(c.t + 1)
+    T.contains(table.concat(c.lines, "\n"), "restarting b (1/3 per 10 s (edited))")
+  end)
+  restore()
+  reload.modules()   -- the tree's own version again
+  if not ok then error(err, 0) end
 end)
 
 return suite:run(...)
