@@ -183,6 +183,29 @@ suite:case("host_layer_headers_state_their_rule", function()
   none(bad, "headers of host/codec, host/net and host/web without their folder's rule line")
 end)
 
+suite:case("child_states_change_only_through_child_set", function()
+  -- a child record (dca.supervisor.child) is `ch` or `....children[name]`; its state is set by child.set only
+  local bad = {}
+  for _, path in ipairs(files({ "lua/dca" }, "%.lua$")) do
+    if path ~= "lua/dca/supervisor/child.lua" then
+      local n = 0
+      for l in io.lines(root .. "/" .. path) do
+        n = n + 1
+        local code = l:gsub("%-%-.*$", "")
+        -- `ch.state = `, `children[name].state = `, and `ch.state, x.y = ` (one of several targets, a statement)
+        local several = false
+        for stmt in (" " .. code):gsub("%f[%w_]then%f[^%w_]", "\n"):gsub("%f[%w_]do%f[^%w_]", "\n"):gmatch("[^\n]+") do
+          several = several or stmt:match("^%s*[%w_%.%[%],%s]-%f[%w_]ch%.state%s*,[%w_%.%[%],%s]*=[^=]") ~= nil
+        end
+        if code:match("%f[%w_]ch%.state%s*=[^=]") or code:match("children%b[]%.state%s*=[^=]") or several then
+          bad[#bad + 1] = fmt("%s:%d: %s", path, n, l:match("^%s*(.-)%s*$"))
+        end
+      end
+    end
+  end
+  none(bad, "assignments to a child's state outside dca.supervisor.child (use child.set)")
+end)
+
 --- The figures for a note: the longest functions and the files per folder.
 local function report()
   local fs = measured_functions()
