@@ -19,6 +19,7 @@
 local core = require "dca.core"
 local client = require "dca.clients.config"
 local literal = require "dca.literal"
+local async = require "dca.async"
 
 local type, ipairs, tostring = type, ipairs, tostring
 local sformat = string.format
@@ -107,7 +108,7 @@ end
 --- params = leaf.manifest and leaf.manifest.params }) -- leaf.params are the arguments after the host.
 function M.resolve_params(args, client, cb, what, expect)
   what = what or {}
-  local out, pending, failed = {}, 1, nil
+  local out = {}
   for i = 1, (args.n or #args) do out[i] = args[i] end
   out.n = args.n
   local function describe(i, key)
@@ -124,31 +125,27 @@ function M.resolve_params(args, client, cb, what, expect)
     if t == "number" or t == "integer" or t == "string" or t == "boolean" then return t end
     return nil
   end
-  local function finish()
-    pending = pending - 1
-    if pending == 0 then
-      if failed then cb(nil, failed) else cb(out) end
-    end
-  end
+  -- every key read, then cb with the first failure
+  local j = async.join(function(ok, err) if ok then cb(out) else cb(nil, err) end end)
   for i = 1, (args.n or #args) do
     local key = M.param_key(args[i])
     if key then
-      pending = pending + 1
+      local k = j.add()
       client:get(key, function(value, err)
         if err then
-          failed = failed or (describe(i, key) .. ": " .. tostring(err))
+          k(nil, describe(i, key) .. ": " .. tostring(err))
         elseif want(i) and not fits(value, want(i)) then
-          failed = failed or sformat("%s: the value %s is %s, not %s", describe(i, key), render(value),
+          k(nil, sformat("%s: the value %s is %s, not %s", describe(i, key), render(value),
             math.type(value) == "float" and "a float" or ("a " .. type(value)), want(i) == "integer" and "an integer"
-            or ("a " .. want(i)))
+            or ("a " .. want(i))))
         else
           out[i] = value
+          k(true)
         end
-        finish()
       end)
     end
   end
-  finish()
+  j.close()
 end
 
 --- Whether any of a controller's arguments names a configuration key (M.param_key).
@@ -370,14 +367,17 @@ function M.check_spec(hosts, origin, spec, opts)
   if #leaves == 0 then return true end
   local c, err = M.sync(hosts[origin], { key_file = opts and opts.key_file })
   if not c then return nil, sformat("configuration repository of host %s: %s", tostring(origin), tostring(err)) end
-  local errors, left = {}, #leaves
+  local errors, all_read = {}, false
+  local j = async.join(function() all_read = true end)
   for _, leaf in ipairs(leaves) do
+    local k = j.add()
     M.resolve_controller_params(leaf.args, c.client, function(_, rerr)
       if rerr then errors[#errors + 1] = rerr end
-      left = left - 1
+      k(true)
     end, { process = leaf.path, host = leaf.host, params = leaf.params })
   end
-  local finished = c:wait(function() return left == 0 end, c.client.timeout + 1)
+  j.close()
+  local finished = c:wait(function() return all_read end, c.client.timeout + 1)
   c:close()
   if not finished then
     return nil, sformat("configuration repository of host %s: no answer within %gs", tostring(origin), c.client.timeout)

@@ -12,6 +12,7 @@
 -- Callbacks run exactly once, from the loop: cb(reply) or cb(nil, err), an error reply turned into its reason
 -- when the caller asks for it (clients.result).
 local core = require "dca.core"
+local async = require "dca.async"
 
 local setmetatable, tostring, sformat, floor = setmetatable, tostring, string.format, math.floor
 
@@ -76,7 +77,7 @@ end
 --- Splits a reply: cb(reply) for a success, cb(nil, reason) for an error reply or no reply.
 function M.result(cb)
   return function(r, err)
-    if not r or r.type == "error" then cb(nil, r and r.reason or err) else cb(r) end
+    cb(async.outcome(r, err))
   end
 end
 

@@ -7,6 +7,7 @@
 --   o = { name = PATH, daemon = ADDR, key = FILE, listen = ADDR }
 --   out = { error = fn(text), line = fn(text), verbose = bool }  -- with verbose, its transition lines to line
 local core, clients = require "dca.core", require "dca.clients"
+local async = require "dca.async"
 local supervisor, srt = require "dca.supervisor", require "dca.supervisor.net"
 local start = require "dca.launch.start"
 
@@ -85,8 +86,9 @@ function Proc:register(listener)
   require("dca.clients.daemon").connect(o.daemon, clients.key_opts(self.key), function(d, cerr)
     if not d then self.out.error("daemon " .. o.daemon .. ": " .. tostring(cerr)) self:finish(1) return end
     d:register(o.name, { control = listener:address(), pid = core.pid() }, function(r, rerr)
-      if not r or r.type == "error" then
-        self.out.error("register " .. o.name .. ": " .. tostring(r and r.reason or rerr))
+      local ok, why = async.outcome(r, rerr)
+      if not ok then
+        self.out.error("register " .. o.name .. ": " .. why)
         self:finish(1)
       end
     end)

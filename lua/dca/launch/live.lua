@@ -18,6 +18,7 @@
 --   live:stats()               -- { [path] = { taken, dropped, unpublished } }
 --   live:close()
 local core = require "dca.core"
+local async = require "dca.async"
 local clients = require "dca.clients"
 local taps = require "dca.supervisor.taps"
 
@@ -94,11 +95,13 @@ function M.attach(o, srv, request, cb)
   local self = setmetatable({ name = name, srv = srv, ctx = { say = function() end }, by_topic = {}, tapped = {} }, Live)
   self.link = function(p, k)
     request({ type = "tap", path = p.path, to = name }, function(r)
-      if r.type == "error" then k(nil, r.reason) else k(true) end
+      local ok, why = async.outcome(r)
+      if ok then k(true) else k(nil, why) end
     end)
   end
   request({ type = "ports" }, function(r)
-    if r.type == "error" then cb(nil, "live taps: the root's ports: " .. tostring(r.reason)) return end
+    local ok, why = async.outcome(r)
+    if not ok then cb(nil, "live taps: the root's ports: " .. why) return end
     local tp, err = core.tap_point{ name = name, host = tostring(r.host), key_file = o.key, tcp = ip .. ":0",
                                     server = srv, stamp = r.sim and "writer" or "arrival" }
     if not tp then cb(nil, err) return end

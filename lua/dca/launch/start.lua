@@ -20,6 +20,7 @@
 local config, console = require "dca.config", require "dca.supervisor.console"
 local supervisor, net = require "dca.supervisor", require "dca.supervisor.net"
 local hosts_mod, sim = require "dca.launch.hosts", require "dca.launch.sim"
+local async = require "dca.async"
 
 local M = {}
 
@@ -118,15 +119,17 @@ end
 function M.sim_clock(ctx, cb)
   if not (ctx.o.sim and ctx.o.hosts) then cb(true) return end
   local daemon_client = require "dca.clients.daemon"
-  local left, bad = #ctx.names, {}
-  local function one(reason)
-    if reason then bad[#bad + 1] = reason end
-    left = left - 1
-    if left > 0 then return end
+  local bad = {}
+  local j = async.join(function()
     if #bad > 0 then cb(nil, "--sim needs every daemon on the simulated clock: " .. table.concat(bad, "; "))
     else cb(true) end
-  end
+  end)
   for _, h in ipairs(ctx.names) do
+    local k = j.add()
+    local function one(reason)
+      if reason then bad[#bad + 1] = reason end
+      k(true)
+    end
     daemon_client.connect(ctx.hosts[h], require("dca.clients").key_opts(ctx.key), function(d, err)
       if not d then one(sformat("host %s at %s: %s", h, ctx.hosts[h], tostring(err))) return end
       d:request({ type = "ping" }, 10, function(r, perr)
@@ -139,6 +142,7 @@ function M.sim_clock(ctx, cb)
       end)
     end)
   end
+  j.close()
 end
 
 -- The steps that wait on the network: step(ctx, cb) calls back cb(true) | cb(nil, err).

@@ -2,6 +2,7 @@
 -- root DCAS in this process, nodes and sub-supervisors as real processes. Same methods as the memory backend
 -- (see dca.scenario); waits run this process's event loop with a wall-clock timeout.
 local core, clients = require "dca.core", require "dca.clients"
+local async = require "dca.async"
 local spec_mod = require "dca.supervisor.spec"
 local hosts_mod, start = require "dca.launch.hosts", require "dca.launch.start"
 
@@ -380,12 +381,14 @@ end
 
 function System:drop(path, set)
   local r = self:_ask(function(k) self.sup:to_leaf(path, { type = "deactivate", set = set }, 20, k) end, 25, "the drop")
-  if not r or r.type == "error" then error("drop " .. path .. " " .. set .. ": " .. tostring(r and r.reason), 2) end
+  local ok, why = async.outcome(r)
+  if not ok then error("drop " .. path .. " " .. set .. ": " .. why, 2) end
 end
 
 function System:read(path, port)
   local r = self:_ask(function(k) self.sup:to_leaf(path, { type = "read", port = port }, 20, k) end, 25, "the read")
-  if not r or r.type == "error" then error("read " .. path .. "." .. port .. ": " .. tostring(r and r.reason), 2) end
+  local ok, why = async.outcome(r)
+  if not ok then error("read " .. path .. "." .. port .. ": " .. why, 2) end
   local v = r.value
   if type(v) == "table" and #v == 1 then v = v[1] end
   return v
