@@ -138,6 +138,8 @@ function M.new(spec, rt, opts)
   return self
 end
 
+---------------------------------------------------------------------------------------------- logging
+
 function Sup:log(fmt, ...)
   local line = select("#", ...) > 0 and sformat(fmt, ...) or fmt
   -- a ring of the last LOG_KEEP lines: logbuf[1 + (k - 1) % LOG_KEEP] holds line number k
@@ -167,6 +169,8 @@ function Sup:say(fmt, ...)
 end
 
 local function now_ns(at) return at and math.floor(at * 1e9 + 0.5) or nil end
+
+---------------------------------------------------------------------------------------------- start
 
 -- Phase 1: every child process started (inactive); groups configured (their subtree up and wired).
 -- A failure is reported (cb(nil, reason), the first one) only once every spawn in flight has answered or
@@ -264,37 +268,56 @@ function Sup:_watch(name, handle)
   end)
 end
 
+-- The start protocol below this group, its steps in order; each step(sup, k) calls k(true) | k(nil, reason).
+local START = {
+  -- phase 1: every child process started, inactive; child groups configured (their subtree up and wired)
+  function(self, k)
+    self:say("%s: starting %d processes", self.path, #self.spec.children)
+    self:_start_children(function(ok, err)
+      if ok then self:say("%s: started", self.path) end
+      k(ok, err)
+    end)
+  end,
+  -- phase 2: this group's own connections, resolved to leaf ports, created inactive at each source node
+  function(self, k)
+    wiring.connect(self, function(ok, err)
+      if ok then self:say("%s: connected (%d connections)", self.path, #self.wires) end
+      k(ok, err)
+    end)
+  end,
+  -- phase 2b: the device ports of this group's leaves wired to the robot process `world`, active for good
+  function(self, k)
+    wiring.devices(self, function(ok, err)
+      if ok and #self.device_ports > 0 then
+        self:say("%s: %d device ports wired to the world", self.path, #self.device_ports)
+      end
+      k(ok, err)
+    end)
+  end,
+  -- on simulated time, this supervisor takes part in the clock's barrier (dca.supervisor.lockstep)
+  function(self, k)
+    if not self.rt.join_clock then k(true) return end
+    self.rt.join_clock(self.path, k)
+  end,
+}
+
 --- Start protocol below this group: children started inactive, then connected. cb(true) | cb(nil, reason).
 function Sup:configure(cb)
   if self.expr_error then self.state = "failed" cb(nil, self.expr_error) return end
   self.state = "starting"
-  self:say("%s: starting %d processes", self.path, #self.spec.children)
-  self:_start_children(function(ok, err)
-    if not ok then self.state = "failed" cb(nil, err) return end
-    self:say("%s: started", self.path)
-    wiring.connect(self, function(ok2, err2)
-      if not ok2 then self.state = "failed" cb(nil, err2) return end
-      self:say("%s: connected (%d connections)", self.path, #self.wires)
-      wiring.devices(self, function(ok3, err3)
-        if not ok3 then self.state = "failed" cb(nil, err3) return end
-        if #self.device_ports > 0 then
-          self:say("%s: %d device ports wired to the world", self.path, #self.device_ports)
-        end
-        local function configured()
-          self.state = "configured"
-          self:say("%s: configured", self.path)
-          cb(true)
-        end
-        -- on simulated time, this supervisor takes part in the clock's barrier (dca.supervisor.net)
-        if not self.rt.join_clock then configured() return end
-        self.rt.join_clock(self.path, function(ok4, err4)
-          if not ok4 then self.state = "failed" cb(nil, err4) return end
-          configured()
-        end)
-      end)
+  async.each_in_order(START, function(step, _, next)
+    step(self, function(ok, err)
+      if not ok then self.state = "failed" cb(nil, err) return end
+      next()
     end)
+  end, function()
+    self.state = "configured"
+    self:say("%s: configured", self.path)
+    cb(true)
   end)
 end
+
+---------------------------------------------------------------------------------------------- run
 
 function Sup:_commands()
   local sup = self
@@ -315,7 +338,7 @@ function Sup:_set(name, label, what)
   local id = spec_mod.set_id(self.path, name, label)
   local srcs = self.set_sources and self.set_sources[id]
   if not srcs then return end
-  -- kept so that a restarted source's sets are activated again (Sup:_rewire)
+  -- kept so that a restarted source's sets are activated again (wiring.rewire)
   self.active_sets = self.active_sets or {}
   self.active_sets[id] = what == "activate" or nil
   for _, src in ipairs(srcs) do self:to_leaf(src, { type = what, set = id }) end
@@ -499,6 +522,8 @@ function Sup:abort(cb, reason)
   ack.close()
 end
 
+---------------------------------------------------------------------------------------------- events
+
 --- A message from child `name`: a leaf node's done/aborted event, or a child DCAS's done/aborted/log.
 function Sup:child_message(name, msg)
   local ch = self.children[name]
@@ -666,6 +691,8 @@ function Sup:shutdown(cb)
   end)
 end
 
+---------------------------------------------------------------------------------------------- routing
+
 -- The direct child of this group on the way to `path` (the child itself or the sub-group holding it).
 function Sup:_via(path)
   for _, c in ipairs(self.spec.children) do
@@ -681,6 +708,8 @@ function Sup:_forward(path, msg, cb)
   if ch.kind ~= "group" or not ch.handle then cb(nil, sformat("%s is not reachable (%s)", ch.path, ch.state)) return end
   ch.handle.request(msg, self.timeouts.request, function(r, err) cb(async.outcome(r, err)) end)
 end
+
+---------------------------------------------------------------------------------------------- tree
 
 --- The node of `path` in a tree (as Sup:tree gives it), or nil.
 function M.find(node, path)
