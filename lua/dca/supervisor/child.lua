@@ -9,8 +9,7 @@
 --   child.restart(ch, field)  --> that field of its restart record, or nil
 --
 -- The state of a child changes only through child.set (tests/layout/check.lua holds the tree to it).
-local previous = package.loaded["dca.supervisor.child"]
-local M = type(previous) == "table" and previous or {}
+local M = {}
 
 local error, ipairs, next, pairs, select, type = error, ipairs, next, pairs, select, type
 local sformat, tostring = string.format, tostring

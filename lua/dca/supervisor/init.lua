@@ -50,7 +50,7 @@
 --                             --   policy's restart window then counts in it
 -- State lives in the object (a plain table); the methods live in M.Sup, which a reload of this module
 -- updates in place, so running supervisors pick up new code and keep their state. The modules beside this one
--- hold the rest of the engine as functions over the supervisor, each updated in place by a reload too:
+-- hold the rest of the engine as functions over the supervisor (dca.reload updates each in place):
 --   dca.supervisor.child     a child's record, its states and their transitions (child.set)
 --   dca.supervisor.wiring    connections and device ports (start, restart), commands to leaves (to_leaf)
 --   dca.supervisor.restart   manual restarts and the supervision policy's (take-down, bring-up, escalation)

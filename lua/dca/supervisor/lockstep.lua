@@ -6,8 +6,7 @@
 --
 -- The functions here are methods of the runtime of dca.supervisor.net, which binds them with its own as
 -- rt.name(...): busy_while, on_sim_time, join_clock, leave_clock and the barrier's steps. Their state is rt.ls.
-local previous = package.loaded["dca.supervisor.lockstep"]
-local Net = type(previous) == "table" and previous or {}
+local Net = {}
 
 local core = require "dca.core"
 local async = require "dca.async"

@@ -7,8 +7,7 @@
 --   requests.inject(sup, path, msg, cb)    -- an event as if the process at `path` had sent it to its owner
 --   requests.switch(sup, path, label, what, cb)  -- a connection set of the process at `path` (de)activated
 --   requests.update(sup, spec, cb)         -- a new version of the group's spec (a reload). cb(lines)
-local previous = package.loaded["dca.supervisor.requests"]
-local M = type(previous) == "table" and previous or {}
+local M = {}
 
 local algebra = require "dca.algebra"
 local async = require "dca.async"

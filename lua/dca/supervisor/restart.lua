@@ -18,8 +18,7 @@
 -- `restarted {path}` event goes up), its active sets are activated again, and it is run again with its `init` if
 -- it was running. The algebra sees nothing: no event of the old process counts, and its exit is not a crash.
 -- Other processes never stop.
-local previous = package.loaded["dca.supervisor.restart"]
-local M = type(previous) == "table" and previous or {}
+local M = {}
 
 local async = require "dca.async"
 local child = require "dca.supervisor.child"

@@ -17,8 +17,7 @@
 --   taps.request(sup, msg, reply)          -- a console's `ports {}` or `tap {path, to}` request (below)
 -- A supervisor remembers the taps made through it on the child they pass (taps.note, from sup:to_leaf) and makes
 -- them again after that child's restart (taps.retap).
-local previous = package.loaded["dca.supervisor.taps"]
-local M = type(previous) == "table" and previous or {}
+local M = {}
 
 local async = require "dca.async"
 local spec_mod = require "dca.supervisor.spec"

@@ -9,8 +9,7 @@
 --   wiring.device_ports(spec, types)   --> the device ports of the group's own leaves
 --   wiring.is_device_input(sup, leaf, port)  --> whether that port of that leaf is a device input
 -- cb(true) | cb(nil, the first reason, naming the connection or port).
-local previous = package.loaded["dca.supervisor.wiring"]
-local M = type(previous) == "table" and previous or {}
+local M = {}
 
 local async = require "dca.async"
 local child = require "dca.supervisor.child"
