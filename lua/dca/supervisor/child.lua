@@ -73,10 +73,12 @@ end
 --- after the child ended, or after the shutdown) still sets the state it reports.
 M.FROM = {
   starting = set_of("new"),
-  configuring = set_of("starting"),
+  configuring = set_of("starting", "exited", "lost"),
   failed = set_of("starting", "configuring", "exited", "lost", "gone"),
-  -- up (a start, a restart's new process, an acknowledged stop)
-  inactive = set_of("starting", "configuring", "stopping", "restarting", "inactive", "exited", "lost", "gone"),
+  -- up (a start, a restart's new process, an acknowledged stop; running: the algebra ran the old process while
+  -- it was being replaced)
+  inactive = set_of("starting", "configuring", "stopping", "restarting", "inactive", "running", "exited", "lost",
+                    "gone"),
   -- Run sent: after its start, its end, its stop, or an answer that failed (the algebra ended its run)
   running = set_of("inactive", "running", "done", "aborted", "stopping", "restarting"),
   stopping = set_of("inactive", "running", "done", "aborted", "stopping", "restarting", "lost", "failed"),
