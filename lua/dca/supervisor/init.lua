@@ -546,39 +546,43 @@ function Sup:child_message(name, msg)
   if tonumber(msg.now) then self.event_at = tonumber(msg.now) / 1e9 end
   local t0 = self.rt.now()
   local pending0 = self.stops_pending or 0
-  if t == "done" then
-    local taken = self.run and self.run:is_running(name)
-    if taken then
-      child.set(ch, "done")
-      if ch.kind == "leaf" then self:say("%s: done %s", ch.path, show(msg.value)) end
-    end
-    if not self:_feed(name, "done", msg.value) and not taken then
-      self:log("%s: stale done from %s ignored", self.path, ch.path)
-    end
-  elseif t == "aborted" then
-    self:_child_aborted(name, ch, msg)
+  if t == "done" then self:_child_done(name, ch, msg)
+  elseif t == "aborted" then self:_child_aborted(name, ch, msg)
+  elseif t == "broken" or t == "overflow" then self:_data_event(ch, msg) end
+  if pending0 == 0 and (self.stops_pending or 0) > 0 then self.event_t0 = t0 end
+  self.event_at = saved_at
+end
+
+-- A child's DONE: an event of the algebra when it runs the child.
+function Sup:_child_done(name, ch, msg)
+  local taken = self.run and self.run:is_running(name)
+  if taken then
+    child.set(ch, "done")
+    if ch.kind == "leaf" then self:say("%s: done %s", ch.path, show(msg.value)) end
   end
-  if t == "overflow" and wiring.is_device_input(self, ch.path, msg.port) then
-    -- a device input holds the robot's latest sample (a queue of one): the older one dropped is expected
-    self.event_at = saved_at
-    return
+  if not self:_feed(name, "done", msg.value) and not taken then
+    self:log("%s: stale done from %s ignored", self.path, ch.path)
   end
+end
+
+-- A data connection of leaf `ch` broke or overflowed: worth a line, not an event of the algebra (the process at
+-- the other end, if it died, is reported by its own owner).
+function Sup:_data_event(ch, msg)
+  local t = msg.type
+  -- a device input holds the robot's latest sample (a queue of one): the older one dropped is expected
+  if t == "overflow" and wiring.is_device_input(self, ch.path, msg.port) then return end
+  local peer = msg.peer and (" <-> " .. tostring(msg.peer)) or ""
   local restarting = t == "broken" and restart.restarting_peer(self, msg.peer)
   if t == "broken" and (self.shutdown_waiters or self.state == "stopping" or self.state == "stopped"
                         or ch.state ~= "running" or restarting) then
     -- the tree is being stopped (the process at the other end was stopped first, LIFO), this leaf does not
     -- run, or the other end is being restarted (its connections are made again): kept in the log only
-    self:log("%s: broken %s%s: %s (%s)", ch.path, tostring(msg.port), msg.peer and (" <-> " .. tostring(msg.peer)) or "",
-      tostring(msg.reason), self.shutdown_waiters and "while stopping" or restarting and ("while " .. restarting ..
-      " restarts") or ("while " .. tostring(ch.state)))
-  elseif t == "broken" or t == "overflow" then
-    -- a data connection of this leaf broke or overflowed: worth a line, not an event of the algebra (the
-    -- process at the other end, if it died, is reported by its own owner)
-    self:say("%s: %s %s%s: %s", ch.path, t, tostring(msg.port), msg.peer and (" <-> " .. tostring(msg.peer)) or "",
-      tostring(msg.reason))
+    self:log("%s: broken %s%s: %s (%s)", ch.path, tostring(msg.port), peer, tostring(msg.reason),
+      self.shutdown_waiters and "while stopping" or restarting and ("while " .. restarting .. " restarts")
+      or ("while " .. tostring(ch.state)))
+    return
   end
-  if pending0 == 0 and (self.stops_pending or 0) > 0 then self.event_t0 = t0 end
-  self.event_at = saved_at
+  self:say("%s: %s %s%s: %s", ch.path, t, tostring(msg.port), peer, tostring(msg.reason))
 end
 
 -- A child's ABORTED (a leaf's Abort, a sub-group's outcome): restarted by the group's policy when it covers the
