@@ -535,4 +535,15 @@ suite:case("breaks_towards_a_leaf_being_restarted_are_logged_not_said", function
   T.contains(table.concat(c.root_sup:recent(50), "\n"), "while main.compliant restarts")
 end)
 
+suite:case("an_unknown_request_is_refused_naming_the_requests_there_are", function()
+  local c = fake.cluster{ behave = behave }
+  local sup = c:root(compliant())
+  local r
+  sup:handle({ type = "frobnicate" }, function(m) r = m end)
+  T.eq(r.type, "error")
+  T.contains(r.reason, "unknown request 'frobnicate' for supervisor main (requests: abort, complete, configure,")
+  sup:handle({ type = "ping" }, function(m) r = m end)
+  T.eq(r, { type = "ok", path = "main", state = "new" })
+end)
+
 return suite:run(...)
