@@ -115,8 +115,72 @@ function M.write(path, text)
   return path
 end
 
+--- Whether a file or folder exists at path.
+function M.exists(path)
+  local f = io.open(path, "rb")
+  if f then f:close() end
+  return f ~= nil
+end
+
+--- The folder of the file that calls it (a test's own folder, for the files beside it).
+function M.here()
+  return debug.getinfo(2, "S").source:match("^@(.*)/[^/]*$") or "."
+end
+
+--- The names in the folder dir that match the Lua pattern (default: all), sorted.
+function M.list(dir, pattern)
+  local p = assert(io.popen("ls -A '" .. dir .. "' 2>/dev/null"))
+  local names = {}
+  for name in p:lines() do
+    if not pattern or name:match(pattern) then names[#names + 1] = name end
+  end
+  p:close()
+  sort(names)
+  return names
+end
+
+--- Fails unless `got` equals the text of the golden file at path. With DCA_GOLDEN_UPDATE=1 it writes `got` to
+--- the file instead (review the diff!).
+function M.golden(path, got, what)
+  if os.getenv("DCA_GOLDEN_UPDATE") == "1" then
+    M.write(path, got)
+    return
+  end
+  if not M.exists(path) then fail("no golden file " .. path .. " (DCA_GOLDEN_UPDATE=1 writes it; review it)") end
+  M.eq(got, M.read(path), what)
+end
+
+-- Temporary files: every path handed out lies in one folder made on first use in $TMPDIR (else /tmp), and
+-- that folder goes when the case ends (Suite:run calls M.cleanup after each case; a script that runs no suite
+-- calls it itself), so a test leaves nothing in the temporary directory.
+local scratch, made = nil, 0
+
+--- A fresh path in the scratch folder, its name ending in ext (default none); nothing is created there. --> path
+function M.tmpname(ext)
+  if not scratch then
+    local out, rc = M.sh('mktemp -d "${TMPDIR:-/tmp}/dca_test.XXXXXX"')
+    if rc ~= 0 then error("cannot make a temporary folder: " .. out, 2) end
+    scratch = out:gsub("%s+$", "")
+  end
+  made = made + 1
+  return fmt("%s/tmp%d%s", scratch, made, ext or "")
+end
+
+--- A new empty folder in the scratch folder. --> its path
+function M.tmpdir()
+  local dir = M.tmpname()
+  assert(os.execute("mkdir '" .. dir .. "'"), "cannot make " .. dir)
+  return dir
+end
+
 --- A new temporary file holding text, its name ending in ext (default ".dca"). --> its path
-function M.tmpfile(text, ext) return M.write(os.tmpname() .. (ext or ".dca"), text) end
+function M.tmpfile(text, ext) return M.write(M.tmpname(ext or ".dca"), text) end
+
+--- Removes the scratch folder and everything in it (every path M.tmpname has handed out).
+function M.cleanup()
+  if scratch then os.execute("rm -rf '" .. scratch .. "'") end
+  scratch = nil
+end
 
 --- Runs `dca ARGS` (M.exe); fails unless it exits with rc (unless nil) and its output (stdout and stderr)
 --- contains each fragment. --> output, exit code
@@ -157,6 +221,7 @@ function Suite:run(...)
   local args = { ... }
   if args[1] == "--list" then
     for _, n in ipairs(self.cases) do io.write(n, "\n") end
+    M.cleanup()
     return 0
   end
   local selected = self.cases
@@ -170,6 +235,7 @@ function Suite:run(...)
   local passed, failed = 0, 0
   for _, n in ipairs(selected) do
     local ok, err = run_case(self.by_name[n])
+    M.cleanup()
     if ok then
       passed = passed + 1
       io.write("ok   ", self.name, ".", n, "\n")
