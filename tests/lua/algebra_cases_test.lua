@@ -1,18 +1,23 @@
--- The team's acceptance cases for the algebra ($DCA_SHARED_DIR/cases/algebra.lua, format in its header),
--- each registered as one case under its own name: CTest shows lua.algebra_cases.<name>.
+-- The team's acceptance cases for the algebra, carried in the repository (tests/lua/cases/algebra.lua, a copy of
+-- shared/cases/algebra.lua; format in its header), each registered as one case under its own name: CTest shows
+-- lua.algebra_cases.<name>. Where the team's shared/ folder is beside the clone ($DCA_SHARED_DIR), one more case
+-- checks that the carried copy still equals it; elsewhere that case is not registered.
 local T = require "dca.testing"
 local algebra = require "dca.algebra"
 local suite = T.suite("algebra_cases")
 
+local carried = T.here() .. "/cases/algebra.lua"
+local cases = assert(dofile(carried), carried .. " returns no table")
+assert(type(cases) == "table" and #cases > 0, carried .. " holds no cases")
+
 local shared = os.getenv("DCA_SHARED_DIR")
-if not shared or shared == "" then
-  error("DCA_SHARED_DIR is not set: cannot find the shared algebra cases (cases/algebra.lua)", 0)
+local shared_cases = shared and shared ~= "" and shared .. "/cases/algebra.lua"
+if shared_cases and T.exists(shared_cases) then
+  suite:case("carried_copy_equals_shared", function()
+    T.ok(T.read(carried) == T.read(shared_cases),
+         carried .. " differs from " .. shared_cases .. ": copy the shared file over the carried one")
+  end)
 end
-local path = shared .. "/cases/algebra.lua"
-local chunk, load_err = loadfile(path)
-if not chunk then error("cannot load the shared algebra cases: " .. tostring(load_err), 0) end
-local cases = chunk()
-assert(type(cases) == "table" and #cases > 0, path .. " holds no cases")
 
 -- Drives one case through the interpreter and returns what was observed, in the cases' vocabulary.
 local function drive(c)
