@@ -17,6 +17,7 @@
 -- of that for the failover)
 local core = require "dca.core"
 local S = require "dca.scenario"
+local T = require "dca.testing"
 S.backend = "real"
 local sformat = string.format
 
@@ -56,14 +57,7 @@ local function result(bench, variant, samples)
   io.stdout:flush()
 end
 
-local base = os.tmpname()
-os.remove(base)
-local file = base .. ".dca"
-do
-  local f = assert(io.open(file, "w"))
-  f:write(SYSTEM)
-  f:close()
-end
+local file = T.tmpfile(SYSTEM)
 
 local function up()
   local sys = S.system(file)
@@ -132,4 +126,4 @@ for _ = 1, math.max(3, N // 3) do
   s:stop()
 end
 result("leaf_restart", "failover_host_lost", fs)
-os.remove(file)
+T.cleanup()

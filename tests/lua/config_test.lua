@@ -11,13 +11,6 @@ local function wait(pred, what, seconds) T.wait(loop, pred, what, seconds or 20)
 
 local function sh_quote(s) return "'" .. tostring(s):gsub("'", "'\\''") .. "'" end
 
-local function tmpdir()
-  local d = os.tmpname()
-  os.remove(d)
-  assert(os.execute("mkdir -p " .. sh_quote(d)))
-  return d
-end
-
 -- A `dca daemon` started with io.popen; returns { addr, pid, pipe, host, dir }.
 local function start_daemon(host, listen, key_file, state_dir, peers)
   local extra = ""
@@ -92,7 +85,7 @@ local function listing(c)
 end
 
 local function fresh_key()
-  local dir = tmpdir()
+  local dir = T.tmpdir()
   return dir .. "/key", dir
 end
 
@@ -222,7 +215,7 @@ suite:case("kill9_during_a_write_burst_every_acknowledged_write_is_there_after_r
 end)
 
 suite:case("a_corrupt_database_stops_the_daemon_naming_the_file", function()
-  local dir = tmpdir()
+  local dir = T.tmpdir()
   local f = assert(io.open(dir .. "/config.db", "wb"))
   f:write(string.rep("not a database ", 500))
   f:close()

@@ -29,9 +29,7 @@ end)
 
 --- A module file named dca_reload_probe_<n> in a fresh directory on package.path; returns its name and writer.
 local function probe_module()
-  local dir = os.tmpname()
-  os.remove(dir)
-  assert(os.execute("mkdir -p '" .. dir .. "'"))
+  local dir = T.tmpdir()
   local name = "dca_reload_probe"
   package.path = dir .. "/?.lua;" .. package.path
   local function write(text)

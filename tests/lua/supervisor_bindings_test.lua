@@ -5,7 +5,7 @@ local suite = T.suite("supervisor_bindings")
 local dca = os.getenv("DCA_EXE") or "dca"
 
 suite:case("watch_file_sees_a_write_and_a_save_by_rename_and_nothing_else", function()
-  local path = os.tmpname()
+  local path = T.write(T.tmpname(".dca"), "")
   local w = assert(core.watch_file(path))
   T.eq(w:changed(), false)
   local f = assert(io.open(path, "w")) f:write("x") f:close()
@@ -28,7 +28,7 @@ suite:case("watch_file_names_a_missing_directory", function()
 end)
 
 suite:case("readline_reads_lines_and_returns_nil_at_end_of_input", function()
-  local script = os.tmpname() .. ".lua"
+  local script = T.tmpname(".lua")
   local f = assert(io.open(script, "w"))
   f:write([[local core = require "dca.core"
 local a, b, c = core.readline("> "), core.readline("> "), core.readline("> ")

@@ -2,6 +2,7 @@
 -- start, the controllers' config("key") parameters are read from it, a watch on one host sees a write made on
 -- another, and a wrong key in a system file fails the start by name with nothing left running.
 local S = require "dca.scenario"
+local T = require "dca.testing"
 local src = os.getenv("DCA_SOURCE_DIR") or "."
 local sys = S.system(src .. "/scripts/systems/test_config.dca", { set = { ["test.wait"] = 0.2 } })
 
@@ -38,12 +39,8 @@ S.step("a misspelt key fails the start naming process, parameter and key; nothin
   local f = assert(io.open(src .. "/scripts/systems/test_config.dca"))
   local text = f:read("a"):gsub('config%("test.wait"%)', 'config("test.wiat")')
   f:close()
-  local path = os.tmpname() .. ".dca"
-  f = assert(io.open(path, "w"))
-  f:write(text)
-  f:close()
-  local bad = S.system(path, { config = src .. "/scripts/systems/test_config.config" })
-  os.remove(path)
+  local bad = S.system(T.tmpfile(text), { config = src .. "/scripts/systems/test_config.config" })
+  T.cleanup()
   local ok, err = bad:try_up(30)
   S.eq(ok, nil)
   S.ok(tostring(err):find("main.wait", 1, true), err)

@@ -8,6 +8,7 @@
 --   aborts as door_crash.lua shows (ABORTED naming VisualServoing and the signal);
 --   `dca scenario --trace FILE` the run's trace (door.crash_restart_repeat compares two runs).
 local S = require "dca.scenario"
+local T = require "dca.testing"
 S.backends = { "real" }
 local door = dofile((os.getenv("DCA_SOURCE_DIR") or ".") .. "/tests/support/door_scenario.lua")
 local policy = os.getenv("DCA_DOOR_POLICY") ~= "off"
@@ -18,7 +19,7 @@ local sys = door.system(S, opts)
 local VS = door.VS
 
 door.up(S, sys, "the tree comes up on three hosts on the simulated clock, with the world")
-os.remove(file)
+T.cleanup()  -- the variant's file
 local at = door.held(S, sys, 2.0)
 
 if not policy then

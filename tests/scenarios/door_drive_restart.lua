@@ -13,6 +13,7 @@
 --      the old one's command, so the step from 3 s applies zero, and so does the new process's first.
 -- So from the tick a drive is lost or restarted, it is at zero until its new process drives it.
 local S = require "dca.scenario"
+local T = require "dca.testing"
 S.backends = { "real" }
 local door = dofile((os.getenv("DCA_SOURCE_DIR") or ".") .. "/tests/support/door_scenario.lua")
 local file, opts = door.variant("MotionControl", "supervision { strategy one_for_one; restart on crash; }")
@@ -22,7 +23,7 @@ local XR = "main.dooropensyst.motionctrl.xr4000"
 local norm = door.norm
 
 door.up(S, sys, "the tree comes up on three hosts on the simulated clock, with the world")
-os.remove(file)
+T.cleanup()  -- the variant's file
 local at = door.held(S, sys, 2.0)
 
 local function near(a, b, tol)

@@ -6,6 +6,7 @@
 -- the policy restarts it within that tick. The door still opens. (Before: the supervisor waited for an exit
 -- that never came, and the run stalled.)
 local S = require "dca.scenario"
+local T = require "dca.testing"
 S.backends = { "real" }
 local door = dofile((os.getenv("DCA_SOURCE_DIR") or ".") .. "/tests/support/door_scenario.lua")
 local file, opts = door.variant("DoorOpenSystem", "supervision { strategy one_for_one; restart on crash; }")
@@ -14,7 +15,7 @@ local sys = door.system(S, opts)
 local VS = door.VS
 
 door.up(S, sys, "the tree comes up on three hosts on the simulated clock, with the world")
-os.remove(file)
+T.cleanup()  -- the variant's file
 local at = door.held(S, sys, 2.0)
 
 S.step("VisualServoing stalls (SIGSTOP): dropped from the clock, killed by its supervisor, restarted", function()

@@ -8,7 +8,7 @@ local T = require "dca.testing"
 S.backends = { "real" }
 
 local build = os.getenv("DCA_BUILD_DIR") or error("DCA_BUILD_DIR is not set")
-local root = T.sh("mktemp -d /tmp/dca_rebuild_XXXXXX"):gsub("%s+$", "")
+local root = T.tmpdir()
 
 local function source(factor)
   T.write(root .. "/src/scaled.cpp", [[
@@ -104,5 +104,5 @@ S.step("rebuilt with factor 3, restart('sc'): the new factor, the others never s
 end)
 
 local code = S.finish()
-T.sh("rm -rf " .. root)
+T.cleanup()
 return code

@@ -1,7 +1,8 @@
 -- A reload fixes a group's expression between two runs; a broken edit is refused and the old one kept.
 local S = require "dca.scenario"
+local T = require "dca.testing"
 local src = os.getenv("DCA_SOURCE_DIR") or "."
-local tmp = os.tmpname() .. ".dca"
+local tmp = T.tmpname(".dca")
 local function write(text) local f = assert(io.open(tmp, "w")) f:write(text) f:close() end
 local f = assert(io.open(src .. "/scripts/systems/test_reload.dca")) local original = f:read("a") f:close()
 write(original)
@@ -36,5 +37,5 @@ S.step("second run: DONE", function()
   S.eq(out, { type = "done", value = "timeout" })
 end)
 
-os.remove(tmp)
+T.cleanup()
 return S.finish()

@@ -2,11 +2,13 @@
 --   local door = dofile((os.getenv("DCA_SOURCE_DIR") or ".") .. "/tests/support/door_scenario.lua")
 --   local sys = door.system(S, { jammed = true })   -- door_open.dca with the door world, seed 1, and these options
 --   door.up(S, sys, "the tree comes up ...")         -- the step that starts it: up, the world's time at 0
---   door.variant("DoorOpenSystem", "supervision { ... }")  -- door_open.dca with that section: file, options
+--   door.variant("DoorOpenSystem", "supervision { ... }")  -- door_open.dca with that section: file, options;
+--                                                    --   T.cleanup() (dca.testing) once it is up removes the file
 --   local at = door.held(S, sys, 2.0)                -- the step that runs it until time is held at 2 s with
 --                                                    --   VisualServoing running: at.t (time held), at.pid (its pid)
 --   door.opens(S, sys)                               -- the last step: time flows, DONE, the door at >= 70 degrees
 --   door.norm(v)                                     -- the Euclidean norm of a vector read from the world
+local T = require "dca.testing"
 local M = {}
 
 local src = os.getenv("DCA_SOURCE_DIR") or "."
@@ -21,16 +23,13 @@ end
 
 -- door_open.dca with `section` (a `supervision { }` section) in process `proc`, after its host { } line, written
 -- to a temporary file (the package is found on the search path, the defaults come from door_open.config).
--- --> the file, the options for M.system; remove the file once the system is up
+-- --> the file, the options for M.system; T.cleanup() removes the file once the system is up
 function M.variant(proc, section)
   local f = assert(io.open(src .. "/scripts/systems/door_open.dca")) local text = f:read("a") f:close()
   local n
   text, n = text:gsub("(\nprocess " .. proc .. "%b()%s*{%s*host%s*%b{})", "%1\n  " .. section)
   assert(n == 1, "door_open.dca: no process " .. proc .. " with a host { } line")
-  local base = os.tmpname()  -- (made empty by os.tmpname: the .dca beside it is the file)
-  os.remove(base)
-  local file = base .. ".dca"
-  f = assert(io.open(file, "w")) f:write(text) f:close()
+  local file = T.tmpfile(text)
   return file, { file = file, config = src .. "/scripts/systems/door_open.config" }
 end
 

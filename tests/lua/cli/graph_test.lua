@@ -18,7 +18,7 @@ end)
 
 suite:case("graph_svg_when_dot_is_installed", function()
   local _, has_dot = T.sh("command -v dot")
-  local out_path = os.tmpname() .. ".svg"
+  local out_path = T.tmpname(".svg")
   local args = "graph --no-registry --svg -o " .. out_path .. " " .. systems .. "tidy_up.dca"
   if has_dot ~= 0 then
     T.dca(args, 1, "not installed")

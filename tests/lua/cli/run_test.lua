@@ -24,9 +24,7 @@ local function run_bounded(args)
 end
 
 suite:case("executable_config_values_fail_the_run_at_their_position_and_start_nothing", function()
-  local dir = os.tmpname()
-  os.remove(dir)
-  assert(os.execute("mkdir -p " .. dir))
+  local dir = T.tmpdir()
   local system = dir .. "/test_config.dca"
   T.write(system, T.read(src .. "/scripts/systems/test_config.dca"))
   local defaults = T.write(dir .. "/test_config.config",

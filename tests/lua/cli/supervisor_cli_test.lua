@@ -208,8 +208,7 @@ suite:case("run_reads_config_parameters_from_the_defaults_file_and_set_and_keeps
   T.ok(t and t >= 0.3 - 1e-9 and t < 0.45, "the Timer waited test.wait = 0.3 s: " .. tostring(t) .. "\n" .. out)
   -- --set wins over the defaults; a state dir keeps the repository for the next run, whose defaults then
   -- do not overwrite it
-  local state = os.tmpname()
-  os.remove(state)
+  local state = T.tmpname()
   out, rc = T.sh(dca .. " run " .. path .. " --sim door --state-dir " .. state .. " --set test.wait=0.6")
   T.eq(rc, 0, out)
   T.contains(out, "0 keys seeded, 0 already set; 1 key set")

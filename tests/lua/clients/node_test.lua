@@ -53,8 +53,7 @@ local function call(what, fn)
 end
 
 suite:case("three_hosts_nodes_on_b_and_c_data_direct_set_switch_pull_and_segv", function()
-  local key_file = os.tmpname()
-  os.remove(key_file)  -- the first daemon creates it (0600)
+  local key_file = T.tmpname(".key")  -- the first daemon creates it (0600)
   local C = start_daemon("C", "127.0.0.3", key_file)
   local B = start_daemon("B", "127.0.0.2", key_file, { C.addr })
   local A = start_daemon("A", "127.0.0.1", key_file, { B.addr, C.addr })
@@ -170,8 +169,7 @@ suite:case("three_hosts_nodes_on_b_and_c_data_direct_set_switch_pull_and_segv", 
 end)
 
 suite:case("init_failure_and_done_value_through_the_client", function()
-  local key_file = os.tmpname()
-  os.remove(key_file)
+  local key_file = T.tmpname(".key")
   local D = start_daemon("H", "127.0.0.1", key_file)
   local ok, err = pcall(function()
     local opts = { key_file = key_file }

@@ -8,9 +8,7 @@ local suite = T.suite("errors")
 local dca, src = T.exe, T.src
 
 suite:case("a_world_with_a_broken_urdf_says_the_xml_error_with_file_and_line", function()
-  local dir = os.tmpname()
-  os.remove(dir)
-  assert(core.make_dir(dir))
+  local dir = T.tmpdir()
   for _, name in ipairs(assert(core.list_dir(src .. "/sim/models"))) do
     if name:find("%.urdf$") then T.write(dir .. "/" .. name, T.read(src .. "/sim/models/" .. name)) end
   end

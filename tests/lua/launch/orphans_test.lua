@@ -60,7 +60,7 @@ local function lines(path) return select(2, T.read(path):gsub("\n", "")) end
 
 -- Starts `dca run ARGS...` with its output in a fresh file. --> pid, output path
 local function start_run(...)
-  local out = os.tmpname()
+  local out = T.tmpname(".out")
   local pid = assert(core.spawn({ dca, "run", ... }, { stdout = out }))
   return pid, out
 end
@@ -124,7 +124,7 @@ suite:case("kill_9_of_dca_run_on_hand_started_daemons_leaves_only_the_daemons", 
   local lines = {}
   for _, h in ipairs(names) do lines[#lines + 1] = h .. " " .. set.hosts[h] end
   local hosts_file = T.write(dir .. "/hosts", table.concat(lines, "\n") .. "\n")
-  local out = os.tmpname()
+  local out = T.tmpname(".out")
   local pid = assert(core.spawn({ "/usr/bin/env", "DCA_KEY_FILE=" .. key, dca, "run",
     src .. "/scripts/systems/door_open.dca", "--sim", "door", "--hosts", hosts_file }, { stdout = out }))
   local up = wait_until(function() return T.read(out):find("approach: running", 1, true) ~= nil end, 60)
@@ -169,7 +169,7 @@ suite:case("sigint_at_20_moments_of_start_up_ends_with_130_and_leaves_nothing", 
 end)
 
 suite:case("spawn_passes_every_argument_intact_and_refuses_a_nul", function()
-  local out = os.tmpname()
+  local out = T.tmpname(".out")
   local hostile = "h'; touch /tmp/dca_pwned_$$ #\n\"x\" $(id)"
   local pid = assert(core.spawn({ "/bin/echo", hostile }, { stdout = out }))
   T.ok(wait_until(function() return core.reap(pid) ~= nil end, 10), "echo ended")

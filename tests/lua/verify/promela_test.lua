@@ -10,7 +10,7 @@ local props = require "dca.verify.props"
 local promela = require "dca.verify.promela"
 local suite = T.suite("promela")
 
-local here = debug.getinfo(1, "S").source:match("^@(.*)/[^/]*$") or "."
+local here = T.here()
 local gen = dofile(T.src .. "/tests/support/verify_gen.lua")
 
 local function have_spin()
@@ -22,9 +22,7 @@ end
 -- without) and compares the verdicts.
 local function agree_batch(items)
   local model = promela.model(items)
-  local dir = os.tmpname()
-  os.remove(dir)
-  T.sh("mkdir -p '" .. dir .. "'")
+  local dir = T.tmpdir()
   local reached, out = promela.spin(model, dir)
   T.sh("rm -rf '" .. dir .. "'")
   T.ok(reached, out)

@@ -6,7 +6,7 @@ local verify = require "dca.verify"
 local scenario = require "dca.verify.scenario"
 local suite = T.suite("scenario")
 
-local here = debug.getinfo(1, "S").source:match("^@(.*)/[^/]*$") or "."
+local here = T.here()
 local function abs(p) return (p:sub(1, 1) == "/") and p or (os.getenv("PWD") .. "/" .. p) end
 
 -- Writes every counter-example of the file as a scenario and runs each: all pass, each shows its violation.
@@ -28,7 +28,7 @@ end
 
 suite:case("the_paper_door_replays_stuck_after_the_door_is_open", function()
   local file = abs(here .. "/systems/door_paper.dca")
-  local out_file = os.tmpname() .. ".lua"
+  local out_file = T.tmpname(".lua")
   T.dca("check " .. file .. " --verify --emit-scenario " .. out_file, 1, "VIOLATED  main can end done",
         "the counter-example: main can end done is violated: main.dooropensyst gets stuck")
   T.dca("scenario " .. out_file, 0, "main.dooropensyst.dooropen.model done",
