@@ -2,13 +2,8 @@
 -- heartbeat makes the silence an ABORTED event at the parent naming the host, and what the silent
 -- supervisor had started is ended. (The detector's level is out of reach, as in host_lost.lua.)
 local S = require "dca.scenario"
-local src = os.getenv("DCA_SOURCE_DIR") or "."
-local f = assert(io.open(src .. "/scripts/systems/test_three_hosts.dca")) local text = f:read("a") f:close()
-local n
-text, n = text:gsub("Threshold%(h, 30%)", "Threshold(h, 1e9)")
-assert(n == 1, "test_three_hosts.dca: no Threshold(h, 30) to raise")
-local tmp = os.tmpname() .. ".dca"
-f = assert(io.open(tmp, "w")) f:write(text) f:close()
+local T = require "dca.testing"
+local tmp = dofile(T.src .. "/tests/scenarios/lib/unreachable_level.lua")()
 local sys = S.system(tmp)
 
 local function flowing(s)
@@ -38,7 +33,7 @@ end)
 S.step("stop leaves no process behind", function() S.ok(sys:stop(), "all stopped") end)
 
 local sys2 = S.system(tmp)
-os.remove(tmp)
+T.cleanup()
 
 S.step("a second system up and running", function() flowing(sys2) end)
 

@@ -9,16 +9,12 @@ local algebra = require "dca.algebra"
 local suite = T.suite("fuzz")
 
 local src, read = T.src, T.read
-local here = debug.getinfo(1, "S").source:match("^@(.*)/[^/]*$") or "."
+local here = T.here()
 
 local function corpus()
   local files = {}
   for _, dir in ipairs({ src .. "/scripts/systems", here .. "/golden" }) do
-    local p = io.popen('ls "' .. dir .. '"')
-    for name in p:lines() do
-      if name:match("%.dca$") then files[#files + 1] = read(dir .. "/" .. name) end
-    end
-    p:close()
+    for _, name in ipairs(T.list(dir, "%.dca$")) do files[#files + 1] = read(dir .. "/" .. name) end
   end
   assert(#files >= 3, "fuzz corpus not found under " .. src)
   return files

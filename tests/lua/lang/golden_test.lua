@@ -8,8 +8,7 @@ local check = require "dca.lang.check"
 local model = require "dca.lang.model"
 local suite = T.suite("golden")
 
-local here = debug.getinfo(1, "S").source:match("^@(.*)/[^/]*$") or "."
-local dir = here .. "/golden"
+local dir = T.here() .. "/golden"
 
 -- A small fixed registry in the shape of dca.core.types().
 local registry = {
@@ -26,12 +25,6 @@ local registry = {
               params = { { name = "period", type = "number", required = true },
                          { name = "limit", type = "integer", required = false, default = "0" } } },
 }
-
---- The text of the file, or nil when there is none.
-local function read(path)
-  local ok, text = pcall(T.read, path)
-  return ok and text or nil
-end
 
 --- What the language tools print for `text` (exactly what `dca check --no-registry` prints, registry aside).
 local function output(text, filename)
@@ -54,29 +47,14 @@ local function output(text, filename)
   return check.format_all(ast, errors) .. "\n"
 end
 
-local p = io.popen('ls "' .. dir .. '"')
-local names = {}
-for line in p:lines() do
-  local n = line:match("^(.*)%.dca$")
-  if n then names[#names + 1] = n end
-end
-p:close()
+local names = T.list(dir, "%.dca$")
 assert(#names > 0, "no golden files in " .. dir)
-table.sort(names)
 
-for _, n in ipairs(names) do
+for _, file in ipairs(names) do
+  local n = file:match("^(.*)%.dca$")
   suite:case(n, function()
-    local text = assert(read(dir .. "/" .. n .. ".dca"))
-    local got = output(text, n .. ".dca")
-    if os.getenv("DCA_GOLDEN_UPDATE") == "1" then
-      local f = assert(io.open(dir .. "/" .. n .. ".err", "wb"))
-      f:write(got)
-      f:close()
-      return
-    end
-    local want = read(dir .. "/" .. n .. ".err")
-    T.ok(want, "missing golden file " .. n .. ".err (run with DCA_GOLDEN_UPDATE=1 and review it)")
-    T.eq(got, want)
+    local got = output(T.read(dir .. "/" .. file), file)
+    T.golden(dir .. "/" .. n .. ".err", got)
     T.ok(not got:find(": 0 errors\n", 1, true), "a golden input must produce errors")
   end)
 end

@@ -7,9 +7,8 @@ local model = require "dca.lang.model"
 local graph = require "dca.lang.graph"
 local suite = T.suite("lang_graph")
 
-local here = debug.getinfo(1, "S").source:match("^@(.*)/[^/]*$") or "."
-local golden = here .. "/golden/graph_door_open.dot"
-local door = here .. "/../../../scripts/systems/door_open.dca"
+local golden = T.here() .. "/golden/graph_door_open.dot"
+local door = T.src .. "/scripts/systems/door_open.dca"
 
 local function door_tree()
   local ast = assert(parser.parse(T.read(door), "door_open.dca"))
@@ -19,14 +18,7 @@ local function door_tree()
 end
 
 suite:case("door_system_golden_dot", function()
-  local got = graph.dot(door_tree())
-  if os.getenv("DCA_GOLDEN_UPDATE") == "1" then
-    local f = assert(io.open(golden, "wb"))
-    f:write(got)
-    f:close()
-    return
-  end
-  T.eq(got, T.read(golden))
+  T.golden(golden, graph.dot(door_tree()))
 end)
 
 suite:case("config_parameters_print_as_written", function()

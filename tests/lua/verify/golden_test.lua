@@ -8,7 +8,7 @@ local verify = require "dca.verify"
 local report = require "dca.verify.report"
 local suite = T.suite("golden")
 
-local here = debug.getinfo(1, "S").source:match("^@(.*)/[^/]*$") or "."
+local here = T.here()
 local src = T.src
 
 -- The report for the file at path, named `name` in it.
@@ -26,11 +26,7 @@ end
 
 local function golden(case, path, name, out_path, traces)
   suite:case(case, function()
-    local got = output(path, name, traces)
-    if os.getenv("DCA_GOLDEN_UPDATE") == "1" then T.write(out_path, got) end
-    local ok, want = pcall(T.read, out_path)
-    T.ok(ok, "no golden file " .. out_path .. " (DCA_GOLDEN_UPDATE=1 writes it)")
-    T.eq(got, want, name)
+    T.golden(out_path, output(path, name, traces), name)
   end)
 end
 
