@@ -10,9 +10,6 @@ set -uo pipefail
 . "$(dirname "${BASH_SOURCE[0]}")/lib.sh" "${1:-}" "dcf$$" 10.215.0 base manip spare
 
 netns_up
-hosts="$work/hosts"
-: > "$hosts"
-for i in 0 1 2; do echo "${names[$i]} ${addrs[$i]}:7413" >> "$hosts"; done
 daemons_up 7413
 
 sys="$work/failover.dca"

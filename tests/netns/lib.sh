@@ -2,7 +2,7 @@
 #   . lib.sh DCA_EXE TAG SUBNET NAME NAME NAME
 # DCA_EXE may be empty ($DCA_EXE, else dca on the PATH); TAG is unique and short; SUBNET is e.g. 10.213.0 (the
 # bridge is .1, the hosts .2 .3 .4). It sets dca, src (the source tree), names, ns, addrs, br, work, key, pids,
-# installs the cleanup trap and defines skip/fail. Needs root: without it, skip (exit 77, CTest's skipped).
+# hosts (the hosts file daemons_up writes), installs the cleanup trap and defines skip/fail. Needs root: without it, skip (exit 77, CTest's skipped).
 dca="${1:-${DCA_EXE:-dca}}"
 tag=$2
 subnet=$3
@@ -13,6 +13,7 @@ addrs=("$subnet.2" "$subnet.3" "$subnet.4")
 br="${tag}br"
 work="$(mktemp -d)"
 key="$work/key"
+hosts="$work/hosts"
 pids=()
 
 skip() { echo "SKIP: $*"; exit 77; }
@@ -57,9 +58,12 @@ netns_up() {
 }
 
 # `daemons_up PORT [ARG...]`: a daemon in each namespace listening on its address:PORT, the others as peers,
-# with ARGs (where "{host}" stands for the daemon's host name); returns when all three listen.
+# with ARGs (where "{host}" stands for the daemon's host name); returns when all three listen. The hosts file
+# $hosts (for `dca run --hosts`) names each daemon's address.
 daemons_up() {
   local port=$1 i j n; shift
+  : > "$hosts"
+  for i in 0 1 2; do echo "${names[$i]} ${addrs[$i]}:$port" >> "$hosts"; done
   for i in 0 1 2; do
     local peers=() args=()
     for j in 0 1 2; do [ "$j" -ne "$i" ] && peers+=(--peer "${addrs[$j]}:$port"); done

@@ -10,9 +10,6 @@ set -uo pipefail
 . "$(dirname "${BASH_SOURCE[0]}")/lib.sh" "${1:-}" "dca$$" 10.213.0 vision platform manip
 
 netns_up
-hosts="$work/hosts"
-: > "$hosts"
-for i in 0 1 2; do echo "${names[$i]} ${addrs[$i]}:7411" >> "$hosts"; done
 daemons_up 7411
 echo "three daemons up: $(tr '\n' ' ' < "$hosts")"
 
