@@ -45,26 +45,8 @@ local function door_spec()
   return spec_mod.from_model(tree, "door_open.dca")
 end
 
--- A generated tree: `groups` groups of `per` leaves each on hosts h1..h3, under one root; each group runs
--- all its leaves concurrently, the root runs all groups concurrently; each group chains its leaves with
--- one connection set.
-local function generated(groups, per)
-  local children = {}
-  for g = 1, groups do
-    local leaves, conns = {}, {}
-    for l = 1, per do
-      leaves[l] = fake.leaf("l" .. l, "Worker", "h" .. ((g + l) % 3 + 1))
-      if l > 1 then conns[#conns + 1] = { "l" .. (l - 1), "Out", "l" .. l, "In" } end
-    end
-    local names = {}
-    for l = 1, per do names[l] = "l" .. l end
-    children[g] = fake.group("g" .. g, "G" .. g, "h" .. (g % 3 + 1), table.concat(names, " , "), leaves,
-      { fake.set("l1", "run", conns) })
-  end
-  local names = {}
-  for g = 1, groups do names[g] = "g" .. g end
-  return fake.root("main", "h1", table.concat(names, " , "), children)
-end
+-- A generated tree: 100 groups of 10 leaves on hosts h1..h3, each group chaining its leaves with one set.
+local generated = dofile(src .. "/tests/support/generated_tree.lua")
 
 local function all_exprs(spec, f)
   spec_mod.walk(spec, function(n) if n.kind == "group" and n.spec.expr then f(n.spec.expr) end end)
@@ -129,7 +111,7 @@ end
 
 for _ = 1, 2 do -- A B A B
   bringup("door_shape_3hosts", door_spec, 50)
-  bringup("1000leaves_100groups_3hosts", function() return generated(100, 10) end, 3)
+  bringup("1000leaves_100groups_3hosts", function() return generated(100, 10, true) end, 3)
   preemption(500)
 end
 
@@ -245,7 +227,7 @@ if os.getenv("DCA_BENCH_BIG") ~= "1" then
   return 0
 end
 local function big()
-  local s = generated(100, 10)
+  local s = generated(100, 10, true)
   spec_mod.walk(s, function(n) if n.kind == "leaf" then n.type, n.args = "Gain", { 1.0, 0.01 } end end)
   for _, c in ipairs(s.children) do
     for _, st in ipairs(c.spec.sets) do for _, k in ipairs(st.connections) do k.out, k["in"] = "Out", "In" end end

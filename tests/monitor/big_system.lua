@@ -13,20 +13,8 @@ local server = require "dca.monitor.server"
 local rounds = tonumber((...)) or 2
 local loop = core.loop()
 
-local function generated(groups, per)
-  local children = {}
-  for g = 1, groups do
-    local leaves, names = {}, {}
-    for l = 1, per do
-      leaves[l] = fake.leaf("l" .. l, "Worker", "h" .. ((g + l) % 3 + 1))
-      names[l] = "l" .. l
-    end
-    children[g] = fake.group("g" .. g, "G" .. g, "h" .. (g % 3 + 1), table.concat(names, " , "), leaves)
-  end
-  local names = {}
-  for g = 1, groups do names[g] = "g" .. g end
-  return fake.root("main", "h1", table.concat(names, " , "), children)
-end
+-- The generated tree (tests/support/generated_tree.lua), without connection sets.
+local generated = dofile(require("dca.testing").here() .. "/../support/generated_tree.lua")
 
 -- One run of the system; its lines go to the monitor at the cluster's virtual time, paced to the wall clock.
 local function one_run(mon, state, done)
