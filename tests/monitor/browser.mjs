@@ -93,13 +93,19 @@ async function noToken(browser, url) {
   }
 }
 
+// Checks that the monitor at url shows nothing without its token, then opens it in a new 1400x1000 page.
+async function openMonitor(browser, url) {
+  await noToken(browser, url);
+  const page = await browser.newPage();
+  await page.setViewport({ width: 1400, height: 1000 });
+  await page.goto(url);
+  return page;
+}
+
 async function live(browser) {
   const run = await start(['run', door, '--sim', 'door', '--realtime', '--monitor', '--monitor-wait']);
   try {
-    await noToken(browser, run.url);
-    const page = await browser.newPage();
-    await page.setViewport({ width: 1400, height: 1000 });
-    await page.goto(run.url);
+    const page = await openMonitor(browser, run.url);
     const rows = await until(page, () => document.querySelectorAll('.row').length >= 28 &&
       [...document.querySelectorAll('.row')].map((r) => [r.dataset.path, r.dataset.host]), 20);
     const instances = (rows || []).filter(([p]) => p !== 'main');
@@ -165,10 +171,7 @@ async function attach(browser) {
   });
   const mon = await start(['monitor', consoleLine[1], '--daemon', consoleLine[2], '--key', consoleLine[3]]);
   try {
-    await noToken(browser, mon.url);
-    const page = await browser.newPage();
-    await page.setViewport({ width: 1400, height: 1000 });
-    await page.goto(mon.url);
+    const page = await openMonitor(browser, mon.url);
     const rows = await until(page, () => document.querySelectorAll('.row').length >= 28 &&
       [...document.querySelectorAll('.row')].filter((r) => r.dataset.host).length, 20);
     check(rows >= 28, `the attached monitor shows the tree with hosts (${rows} rows)`);
@@ -263,10 +266,7 @@ async function replay(browser) {
   check(code === 0, `the door run recorded ${rec} (exit ${code})`);
   const mon = await start(['monitor', rec, '--system', door]);
   try {
-    await noToken(browser, mon.url);
-    const page = await browser.newPage();
-    await page.setViewport({ width: 1400, height: 1000 });
-    await page.goto(mon.url);
+    const page = await openMonitor(browser, mon.url);
     const ready = await until(page, () => document.body.dataset.mode === 'replay' &&
       document.querySelectorAll('.row').length >= 28, 20);
     check(ready, 'the recording is shown in replay mode with its tree');
