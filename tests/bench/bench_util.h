@@ -2,9 +2,12 @@
 // What every C++ benchmark prints (../shared/BENCHMARKS.md): one RESULT line per measured variant, with the
 // same quantile rule everywhere.
 //   RESULT bench=<name> variant=<variant> n=<samples> p50_us=.. p99_us=.. p999_us=.. max_us=..[ k=v...]
+#include <unistd.h>
+
 #include <algorithm>
 #include <cstddef>
 #include <cstdio>
+#include <cstdlib>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -29,6 +32,13 @@ inline void result(std::string_view bench, std::string_view variant, std::vector
               us.size(), digits, quantile(us, 0.5), digits, quantile(us, 0.99), digits, quantile(us, 0.999), digits,
               us.back(), static_cast<int>(extra.size()), extra.data());
   std::fflush(stdout);
+}
+
+/// A path in $TMPDIR (else /tmp) that is this process's own: <temp>/<stem>-<pid>. The benchmark removes it.
+inline std::string temp_path(std::string_view stem) {
+  const char* tmp = std::getenv("TMPDIR");
+  return std::string(tmp != nullptr && tmp[0] != '\0' ? tmp : "/tmp") + "/" + std::string(stem) + "-" +
+         std::to_string(::getpid());
 }
 
 }  // namespace dca::bench

@@ -157,8 +157,8 @@ void print(const char* bench, const std::string& variant, Stats& s, const std::s
 }
 
 void run_variant(bool tcp, const char* placement, int server_cpu, int client_cpu, int n, int blocks) {
-  char tmpl[] = "/tmp/dca_bench_XXXXXX";
-  const std::string dir = ::mkdtemp(tmpl);
+  std::string tmpl = dca::bench::temp_path("dca_bench") + "_XXXXXX";
+  const std::string dir = ::mkdtemp(tmpl.data());
   int fds[2];
   if (::pipe(fds) != 0) std::exit(1);
   const pid_t pid = ::fork();

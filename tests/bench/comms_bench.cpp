@@ -163,7 +163,7 @@ void echo_forever(asio::io_context& io, Socket& s, std::array<char, 64>& buf) {
 // --- the measuring side -----------------------------------------------------------------------------------
 
 void dca_socket_round(bool tcp, int cpu_parent, int cpu_child, int n, Samples& out) {
-  const std::string uds = "/tmp/dca-bench-" + std::to_string(::getpid());
+  const std::string uds = dca::bench::temp_path("dca-bench");
   int up[2], down[2];
   if (::pipe(up) != 0 || ::pipe(down) != 0) return;
   const pid_t child = ::fork();
@@ -213,11 +213,12 @@ void dca_socket_round(bool tcp, int cpu_parent, int cpu_child, int n, Samples& o
   ep.remove_component("/ping");
   ::kill(child, SIGTERM);
   ::waitpid(child, nullptr, 0);
+  ::unlink((uds + ".echo").c_str());  // the child's socket: it ends by _exit, its Endpoint never closes
   for (int f : {up[0], up[1], down[0], down[1]}) ::close(f);
 }
 
 void raw_socket_round(bool tcp, int cpu_parent, int cpu_child, int n, Samples& out) {
-  const std::string uds = "/tmp/dca-bench-" + std::to_string(::getpid());
+  const std::string uds = dca::bench::temp_path("dca-bench");
   int up[2];
   if (::pipe(up) != 0) return;
   const pid_t child = ::fork();
@@ -304,7 +305,7 @@ void raw_inprocess_round(int n, Samples& out) {
 
 // Samples/s through one push connection over a Unix socket (receiver in a child process).
 double dca_throughput(int n) {
-  const std::string uds = "/tmp/dca-bench-tp-" + std::to_string(::getpid());
+  const std::string uds = dca::bench::temp_path("dca-bench-tp");
   int up[2];
   if (::pipe(up) != 0) return 0;
   const pid_t child = ::fork();
@@ -354,13 +355,14 @@ double dca_throughput(int n) {
   ep.remove_component("/src");
   ::kill(child, SIGTERM);
   ::waitpid(child, nullptr, 0);
+  ::unlink(uds.c_str());  // the child's socket: SIGTERM ends it before its Endpoint closes
   ::close(up[0]);
   ::close(up[1]);
   return done ? n / secs : 0;
 }
 
 double raw_throughput(int n) {
-  const std::string uds = "/tmp/dca-bench-tpr-" + std::to_string(::getpid());
+  const std::string uds = dca::bench::temp_path("dca-bench-tpr");
   ::unlink(uds.c_str());
   int up[2];
   if (::pipe(up) != 0) return 0;
@@ -401,7 +403,7 @@ double raw_throughput(int n) {
 void dca_connect_round(bool tcp, int n, Samples& out) {
   asio::io_context io;
   dca::Endpoint b(io, tcp ? "b" : "a", bench_keyed());
-  b.listen("/tmp/dca-bench-setup-" + std::to_string(::getpid()), "127.0.0.1:0");
+  b.listen(dca::bench::temp_path("dca-bench-setup"), "127.0.0.1:0");
   dca::PortSet dst;
   dst.add_input(dca::vectorx_port("In"));
   b.add_component("/dst", dst);
@@ -429,7 +431,7 @@ void dca_connect_round(bool tcp, int n, Samples& out) {
 void dca_link_round(bool tcp, int n, Samples& out) {
   asio::io_context io;
   dca::Endpoint a(io, "a", bench_keyed()), b(io, tcp ? "b" : "a", bench_keyed());
-  b.listen("/tmp/dca-bench-link-" + std::to_string(::getpid()), "127.0.0.1:0");
+  b.listen(dca::bench::temp_path("dca-bench-link"), "127.0.0.1:0");
   dca::PortSet src, dst;
   src.add_output(dca::vectorx_port("Out"));
   dst.add_input(dca::vectorx_port("In"));
@@ -454,7 +456,7 @@ void dca_link_round(bool tcp, int n, Samples& out) {
 void raw_connect_round(bool tcp, int n, Samples& out) {
   using generic = asio::generic::stream_protocol;
   asio::io_context io;
-  const std::string uds = "/tmp/dca-bench-rawsetup-" + std::to_string(::getpid());
+  const std::string uds = dca::bench::temp_path("dca-bench-rawsetup");
   ::unlink(uds.c_str());
   generic::endpoint at = tcp ? generic::endpoint(asio::ip::tcp::endpoint(asio::ip::make_address("127.0.0.1"), 0))
                              : generic::endpoint(asio::local::stream_protocol::endpoint(uds));

@@ -67,8 +67,7 @@ void run(const std::string& variant, const std::string& path) {
 }  // namespace
 
 int main() {
-  const std::string dir = P_tmpdir;
-  const std::string base = dir + "/dca_recording_bench_" + std::to_string(getpid());
+  const std::string base = dca::bench::temp_path("dca_recording_bench");
   for (int round = 0; round < 2; ++round) {
     std::fprintf(stderr, "round %d\n", round + 1);
     run("door_1kHz_no_recording", "");
