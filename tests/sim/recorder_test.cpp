@@ -2,6 +2,7 @@
 #include "sim/recorder.h"
 
 #include "host/codec/mcap.h"
+#include "tests/support/temp_dir.h"
 
 #include <gtest/gtest.h>
 
@@ -16,9 +17,11 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// Per process: ctest runs the cases of this file in parallel, each in its own process.
+// In a folder of this process's own (ctest runs the cases of this file in parallel, each in its own process),
+// removed with everything in it when the process ends.
 fs::path temp(const std::string& name) {
-  return fs::temp_directory_path() / ("dca_recorder_test_" + std::to_string(::getpid()) + "_" + name);
+  static const dca::test::TempDir dir("recorder_test");
+  return fs::path(dir.path()) / name;
 }
 
 std::vector<std::string> lines(const fs::path& p) {

@@ -14,6 +14,7 @@
 #include "sim/door_model.h"
 #include "sim/urdf_bodies.h"
 #include "sim/urdf_parse.h"
+#include "tests/support/temp_dir.h"
 
 namespace {
 
@@ -60,8 +61,10 @@ Eigen::Isometry3d fk(const urdf::ModelInterface& model, const std::string& link,
          motion(*j, it == q.end() ? zero : it->second);
 }
 
+// A file in a folder of this process's own, removed with everything in it when the process ends.
 std::string temp_file(const std::string& name, const std::string& text) {
-  const auto path = std::filesystem::temp_directory_path() / ("dca_urdf_loader_test_" + name);
+  static const dca::test::TempDir dir("urdf_loader_test");
+  const auto path = std::filesystem::path(dir.path()) / ("dca_urdf_loader_test_" + name);
   std::ofstream(path) << text;
   return path.string();
 }
