@@ -213,7 +213,8 @@ pid_t endpoint_child(int out_fd, const std::string& uds) {
 TEST(Bounds, AnnouncedFramesCostADataPortOnlyWhatArrives) {
   int p[2];
   ASSERT_EQ(::pipe(p), 0);
-  const pid_t child = endpoint_child(p[1], dca::test::temp_socket("bounds", "ep"));
+  const std::string uds = dca::test::temp_socket("bounds", "ep");
+  const pid_t child = endpoint_child(p[1], uds);
   ::close(p[1]);
   std::string got;
   const auto read_line = [&] {
@@ -250,6 +251,7 @@ TEST(Bounds, AnnouncedFramesCostADataPortOnlyWhatArrives) {
   ::kill(child, SIGKILL);
   int st = 0;
   ::waitpid(child, &st, 0);
+  ::unlink(uds.c_str());  // the killed child's socket
   ::close(p[0]);
   EXPECT_LT(grew, 16 * 1024) << "peak RSS grew by " << grew << " kB for 100 announced 16 MiB frames";
 }
