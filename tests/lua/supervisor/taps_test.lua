@@ -58,11 +58,18 @@ local function first_samples(file, topic)
   return after
 end
 
-suite:case("a_restarted_leafs_port_is_recorded_on_its_new_process", function()
-  local file = os.tmpname() .. ".mcap"
-  local out, rc = T.sh("timeout 120 " .. dca .. " run " .. src .. "/scripts/systems/test_taps_restart.dca --sim door"
+-- A system of scripts/systems/ run in simulated time, recording main.loop.steady.Count to a scratch file; it
+-- ends ABORTED by its restart intensity. --> the run's output, the recording's path
+local function run_recording_steady(system)
+  local file = T.tmpname(".mcap")
+  local out, rc = T.sh("timeout 120 " .. dca .. " run " .. src .. "/scripts/systems/" .. system .. " --sim door"
     .. " --record " .. file .. " --record-ports main.loop.steady.Count")
   T.eq(rc, 1, "the run ends ABORTED (restart intensity)\n" .. out)
+  return out, file
+end
+
+suite:case("a_restarted_leafs_port_is_recorded_on_its_new_process", function()
+  local out, file = run_recording_steady("test_taps_restart.dca")
   T.contains(out, "main.loop.steady: restarted")
   -- the Counter counts 1, 2, 3, 4 every 20 ms, and again from 1 on each of its three new processes
   local after = first_samples(file, "/main/loop/steady/Count")
@@ -74,10 +81,7 @@ end)
 
 suite:case("a_restarted_sub_groups_ports_are_recorded_on_its_new_processes", function()
   -- the parent remembers the taps of the whole subtree and makes them again inside the restart of the group
-  local file = os.tmpname() .. ".mcap"
-  local out, rc = T.sh("timeout 120 " .. dca .. " run " .. src .. "/scripts/systems/test_taps_group_restart.dca"
-    .. " --sim door --record " .. file .. " --record-ports main.loop.steady.Count")
-  T.eq(rc, 1, "the run ends ABORTED (restart intensity)\n" .. out)
+  local out, file = run_recording_steady("test_taps_group_restart.dca")
   T.contains(out, "main.loop: restarted")
   -- each new Loop supervisor takes the clock's counts so far as had: the losses of crashy before it are not
   -- waited for (it killed its own new crashy with SIGKILL after 1 s, at the restart's tick)
