@@ -1,4 +1,4 @@
--- The cost of watching the door run live with Foxglove (issue 19; BENCHMARKS.md format): `dca run door_open.dca
+-- The cost of watching the door run live with Foxglove (BENCHMARKS.md format): `dca run door_open.dca
 -- --sim door` without a monitor (the baseline), with `--monitor` and a Foxglove client subscribed to nothing,
 -- to every port of the tree (22 live taps, "/main/..."), and to every channel (the world's signals too),
 -- alternated A B C D, twice. The client is tests/foxglove/bench_client.mjs (@foxglove/ws-protocol, installed by

@@ -1,4 +1,4 @@
--- The control periods achieved by MotionControl during the door demo (issue 7), BENCHMARKS.md format, against
+-- The control periods achieved by MotionControl during the door demo, BENCHMARKS.md format, against
 -- a plain 1 ms timer measured in the same run, alternated A B A B.
 --
 -- The figures come from the source: every node records the intervals between consecutive MainCalc calls of

@@ -1,4 +1,4 @@
-// The cost of recording a run (issue 19): the scripted door opening at 1 kHz for 10 simulated seconds,
+// The cost of recording a run: the scripted door opening at 1 kHz for 10 simulated seconds,
 // recorded every 10 ms (dca sim's default --record-period) to MCAP and to CSV, beside the same run without
 // recording, measured in the same run and alternated (A B C A B C). RESULT lines on stdout (BENCHMARKS.md):
 // per-step latencies in microseconds (the recording included), rtf = simulated / wall time of the steps,

@@ -1,4 +1,4 @@
--- The cost of recording the supervised door run (issue 19; BENCHMARKS.md format): `dca run door_open.dca --sim
+-- The cost of recording the supervised door run (BENCHMARKS.md format): `dca run door_open.dca --sim
 -- door` without recording (the baseline), recording the world's signals to MCAP (`--record FILE.mcap`), and
 -- recording every port of the tree too (`--record-ports all`: 22 taps into the world, ARCHITECTURE.md "Taps"),
 -- alternated A B C A B C, twice per seed. tests/bench/recording_bench.cpp measures the recorder alone (the

@@ -1,4 +1,4 @@
--- Restart latency (issue 18; BENCHMARKS.md format): a leaf killed, to its new process running again (respawned
+-- Restart latency (BENCHMARKS.md format): a leaf killed, to its new process running again (respawned
 -- by its daemon, Init, its connections made again both ways, Run acknowledged), under a group's supervision
 -- policy (one_for_one, restart on crash and lost), with real daemons and nodes on loopback, wall clock.
 --

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Repeatable simulated time (issue 16, ARCHITECTURE.md "Time"): the door system, one seed, run several times
+# Repeatable simulated time (docs/time.md): the door system, one seed, run several times
 # with --trace gives the same trace, byte for byte: RUNS times as it is, once more while two busy loops burn
 # both cores, once with its three hosts mapped to one daemon (Unix sockets instead of TCP between them), and
 # once per placement of the leaves in shared nodes (`--placement group`, `--placement host`: in-process links).

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The trace records restarts (issue 18): the door system with a restart policy, VisualServoing killed by SIGSEGV
+# The trace records restarts: the door system with a restart policy, VisualServoing killed by SIGSEGV
 # mid-approach in simulated time (tests/scenarios/door_crash_restart.lua), run with `--trace FILE`; the policy's
 # transition lines are in the trace at the tick its loss was found (T lines carry their event's time): the
 # group's "one_for_one after visualserv killed by SIGSEGV ...: restarting visualserv" and the leaf's

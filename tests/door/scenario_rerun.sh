@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # A failing scenario in simulated time says how to see its failure again, and that re-run reproduces it
-# (issue 16): tests/door/failing_scenario.lua fails on purpose; its output must name the seed, the trace file
+# tests/door/failing_scenario.lua fails on purpose; its output must name the seed, the trace file
 # and the command (`seed N, trace FILE, rerun: dca scenario ...`); that command, run, fails in the same step
 # with the same message, and its trace is the first run's byte for byte (`dca trace diff`).
 #   tests/door/scenario_rerun.sh DCA_EXE

@@ -1,4 +1,4 @@
-// Issue 14, "bounded resources before and after authentication", tried from outside as an attacker would:
+// Bounded resources before and after authentication, tried from outside as an attacker would:
 //   - 100 connections that each announce a ~16 MiB frame and send a few bytes raise a daemon's control port (in
 //     its handshake) and a data port by less than 16 MiB in all (peak RSS, VmHWM). Before, each connection's read
 //     buffer grew at once to the declared length: +1.6 GB;

@@ -343,7 +343,7 @@ process main() {
   end)
 end)
 
--- Values are data (issue 14): KEY=VALUE and defaults files are read by dca.literal, never executed.
+-- Values are data: KEY=VALUE and defaults files are read by dca.literal, never executed.
 -- bounded(fn, ...) runs fn with an instruction budget: a value that loops fails the case instead of hanging it.
 local function bounded(fn, ...)
   local co = coroutine.create(fn)

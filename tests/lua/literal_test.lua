@@ -1,5 +1,5 @@
 -- dca.literal: the literal-only reader of configuration values. Values read as Lua reads them; code (the
--- hostile values of issue 14) is an error at its column and never runs; random and mutated inputs never raise,
+-- hostile values) is an error at its column and never runs; random and mutated inputs never raise,
 -- hang or execute.
 local T = require "dca.testing"
 local literal = require "dca.literal"

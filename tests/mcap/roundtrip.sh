@@ -1,5 +1,5 @@
 #!/bin/sh
-# MCAP round trips (issue 19), read back by an independent reader, @mcap/core (read_mcap.mjs), and drawn by
+# MCAP round trips, read back by an independent reader, @mcap/core (read_mcap.mjs), and drawn by
 # `dca plot` to a PNG:
 #   roundtrip.sh sim DCA SOURCE_DIR WORK_DIR   a short door run of the world (`dca sim`, the scripted door
 #       opening, 3 simulated seconds): every channel has a JSON Schema, the summary, summary offsets and chunk

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Failover across network namespaces (issue 18, ARCHITECTURE.md "Failover"): three daemons, each in its own
+# Failover across network namespaces (docs/supervision.md, "Failover"): three daemons, each in its own
 # namespace on a bridge; a Counter on "manip" (standby host "base") feeds a Threshold on "base" over TCP between
 # the namespaces. Once it runs, manip is lost (its daemon SIGKILLed, its processes with it, as
 # tests/scenarios/host_lost.lua does): the root's policy (`restart on lost`) restarts the Counter on base, its

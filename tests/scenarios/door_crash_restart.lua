@@ -1,4 +1,4 @@
--- The door survives a transient crash (issue 18): the door system with a restart policy on its DoorOpenSystem
+-- The door survives a transient crash: the door system with a restart policy on its DoorOpenSystem
 -- group (`supervision { strategy one_for_one; restart on crash; }`) in simulated time; VisualServoing crashes
 -- (SIGSEGV) mid-approach, at a fixed tick (time held at 2 s, as tests/scenarios/door_crash.lua does). The clock
 -- master finds its node lost at the next tick and the group's supervisor restarts it within that tick's barrier

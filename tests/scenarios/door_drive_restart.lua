@@ -1,4 +1,4 @@
--- A hardware-facing leaf restarted (issue 18; ARCHITECTURE.md "Time", "Hardware-facing outputs during a
+-- A hardware-facing leaf restarted (docs/time.md, "Hardware-facing outputs during a
 -- restart"): the door system with a restart policy on its MotionControl group, whose XR4000Ctrl drives the base
 -- (its output Cmd is the device port base.cmd_vel). Time is held mid-approach at 2 s, the base moving. What the
 -- world applies, step by step (a command written at tick t acts in the step from t; the world reads it at t+1;

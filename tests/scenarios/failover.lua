@@ -1,4 +1,4 @@
--- Failover (issue 18, ARCHITECTURE.md "Failover"): hosts are lost mid-run and their children restart on their
+-- Failover (docs/supervision.md, "Failover"): hosts are lost mid-run and their children restart on their
 -- standby hosts, with every connection made again, and the task carries on (scripts/systems/test_failover.dca).
 --  1. host manip lost: ctrl.gain (standby base) restarts on base; the link from vision.track (another group's
 --     controller, pointing directly at it) is made again by the root, and its link to ctrl.sink, which runs on

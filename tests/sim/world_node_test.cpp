@@ -198,8 +198,8 @@ TEST_F(WorldNodeTest, AStalledSubscriberIsDroppedByName) {
       << dropped[0].as_string();
 }
 
-// Issue 14: the world's device ports take samples only from the cluster. Before, 241 samples sent by anyone to
-// base.cmd_vel turned the robot's base. A hello without the handshake, and one after a handshake with another
+// The world's device ports take samples only from the cluster: samples sent by anyone to base.cmd_vel
+// must not turn the robot's base. A hello without the handshake, and one after a handshake with another
 // key, are refused; base.cmd_vel has received nothing.
 TEST_F(WorldNodeTest, DevicePortsRefuseHellosWithoutTheClusterKey) {
   dca::Loop loop;

@@ -12,7 +12,7 @@ local function descriptor_limits(pid)
   end
 end
 
--- Issue 14: at the common default of 1024 descriptors (or less) a daemon under many connections ran out.
+-- At the common default of 1024 descriptors (or less) a daemon under many connections ran out.
 suite:case("raises_its_soft_descriptor_limit_to_the_hard_one_and_says_so", function()
   local key = T.tmpfile(string.rep("5a", 32), ".key")
   os.execute("chmod 600 " .. key)

@@ -13,7 +13,7 @@ for _, c in ipairs({ { "jammed", "--jammed go with --sim WORLD" }, { "realtime",
   end)
 end
 
--- Issue 14: configuration values are data. A defaults file or a --set whose value is code fails the run at
+-- Configuration values are data. A defaults file or a --set whose value is code fails the run at
 -- once with the value's file:line:col (or column) and starts nothing; on main they were executed (a loop hung
 -- the run after its daemons had started). Each run is bounded by `timeout`: a hang is exit code 124.
 -- Daemons a failing run left behind (named in its output) are stopped.
@@ -46,7 +46,7 @@ suite:case("executable_config_values_fail_the_run_at_their_position_and_start_no
   os.remove(dir)
 end)
 
--- Issue 18: a crash loop under a supervision policy ends by escalation: `dca run` shows each restart with its
+-- A crash loop under a supervision policy ends by escalation: `dca run` shows each restart with its
 -- count, the group giving up, and exits 1 with the root's ABORTED naming the crash.
 suite:case("a_crash_loop_ends_by_escalation_with_counts_and_the_first_cause", function()
   local out, rc = run_bounded(src .. "/scripts/systems/test_crash_loop.dca")

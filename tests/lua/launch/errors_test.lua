@@ -1,5 +1,5 @@
--- Issue 14, "errors surface": a world that fails to start shows its own message in the output of the command that
--- started it. On the previous main, `dca run --sim door` with a broken robot URDF said only "the world (dca sim
+-- Errors surface: a world that fails to start shows its own message in the output of the command that
+-- started it. Without this, `dca run --sim door` with a broken robot URDF said only "the world (dca sim
 -- --serve) exited with code 1 on host manip"; the XML error with file:line was in a daemon log the run deleted.
 local T = require "dca.testing"
 local core = require "dca.core"

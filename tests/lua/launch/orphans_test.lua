@@ -1,4 +1,4 @@
--- Issue 14, "no orphans whatever kills the parent" and "signals from the first instant": `dca run` is started
+-- No orphans whatever kills the parent, and signals count from the first instant: `dca run` is started
 -- from an argv (core.spawn), its whole process tree is collected from /proc, and then
 --   - kill -9 of `dca run` mid-run: within 2 s no process of the run is left (checked by PID) and its temporary
 --     directory (the key and the daemons' logs) is gone. On the previous main the three daemons, the world and
