@@ -437,10 +437,8 @@ void register_channel(lua_State* L) {
   register_type(L, kChannelMeta, ch_methods, {ch_gc, ch_close, ch_tostring});
   static const luaL_Reg l_methods[] = {{"address", l_address}, {"close", l_close}, {nullptr, nullptr}};
   register_type(L, kListenerMeta, l_methods, {l_gc, l_close, l_tostring});
-  lua_pushcfunction(L, core_connect);
-  lua_setfield(L, -2, "connect");
-  lua_pushcfunction(L, core_listen);
-  lua_setfield(L, -2, "listen");
+  static const luaL_Reg functions[] = {{"connect", core_connect}, {"listen", core_listen}, {nullptr, nullptr}};
+  luaL_setfuncs(L, functions, 0);
 }
 
 }  // namespace dca::lua

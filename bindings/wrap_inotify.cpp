@@ -96,8 +96,8 @@ int l_tostring(lua_State* L) {
 void open_inotify(lua_State* L) {
   static const luaL_Reg methods[] = {{"changed", l_changed}, {"close", l_close}, {nullptr, nullptr}};
   dca::lua::register_type(L, kWatch, methods, {l_gc, l_close, l_tostring});
-  lua_pushcfunction(L, l_watch_file);
-  lua_setfield(L, -2, "watch_file");
+  static const luaL_Reg functions[] = {{"watch_file", l_watch_file}, {nullptr, nullptr}};
+  luaL_setfuncs(L, functions, 0);
 }
 
 }  // namespace dca::bindings

@@ -347,12 +347,9 @@ void register_loop(lua_State* L) {
   register_type(L, kLoopMeta, loop_methods, {loop_gc, nullptr, loop_tostring});
   static const luaL_Reg timer_methods[] = {{"cancel", timer_cancel}, {"active", timer_active}, {nullptr, nullptr}};
   register_type(L, kTimerMeta, timer_methods, {timer_gc, timer_cancel, timer_tostring});
-  lua_pushcfunction(L, core_loop);
-  lua_setfield(L, -2, "loop");
-  lua_pushcfunction(L, core_after);
-  lua_setfield(L, -2, "after");
-  lua_pushcfunction(L, core_every);
-  lua_setfield(L, -2, "every");
+  static const luaL_Reg functions[] = {{"loop", core_loop}, {"after", core_after}, {"every", core_every},
+                                       {nullptr, nullptr}};
+  luaL_setfuncs(L, functions, 0);
 }
 
 }  // namespace dca::lua

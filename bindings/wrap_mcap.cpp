@@ -101,8 +101,8 @@ int l_mcap_read(lua_State* L) {
 void open_mcap(lua_State* L) {
   static const luaL_Reg none[] = {{nullptr, nullptr}};
   lua::register_type(L, kContentsMeta, none, {contents_gc, nullptr, nullptr});
-  lua_pushcfunction(L, l_mcap_read);
-  lua_setfield(L, -2, "mcap_read");
+  static const luaL_Reg functions[] = {{"mcap_read", l_mcap_read}, {nullptr, nullptr}};
+  luaL_setfuncs(L, functions, 0);
 }
 
 }  // namespace dca::bindings

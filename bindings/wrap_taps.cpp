@@ -232,10 +232,8 @@ void open_taps(lua_State* L) {
   static const luaL_Reg methods[] = {{"endpoints", tp_endpoints}, {"add", tp_add},   {"stats", tp_stats},
                                      {"close", tp_close},         {nullptr, nullptr}};
   lua::register_type(L, kMeta, methods, {tp_gc, tp_close, nullptr});
-  lua_pushcfunction(L, core_tap_point);
-  lua_setfield(L, -2, "tap_point");
-  lua_pushcfunction(L, core_foxglove);
-  lua_setfield(L, -2, "foxglove");
+  static const luaL_Reg functions[] = {{"tap_point", core_tap_point}, {"foxglove", core_foxglove}, {nullptr, nullptr}};
+  luaL_setfuncs(L, functions, 0);
 }
 
 }  // namespace dca::bindings

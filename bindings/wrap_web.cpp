@@ -20,8 +20,11 @@
 
 #include <lua.hpp>
 
+#include <cstdint>
 #include <cstdio>
+#include <initializer_list>
 #include <map>
+#include <utility>
 #include <vector>
 
 #include "bindings/lua_loop.h"
@@ -294,20 +297,19 @@ int srv_topics(lua_State* L) {
   return 1;
 }
 
-void set_int(lua_State* L, const char* name, std::uint64_t v) {
-  lua_pushinteger(L, static_cast<lua_Integer>(v));
-  lua_setfield(L, -2, name);
+/// Pushes a new table of counters {name = value, ...}.
+void push_counters(lua_State* L, std::initializer_list<std::pair<const char*, std::uint64_t>> counters) {
+  lua_createtable(L, 0, static_cast<int>(counters.size()));
+  for (const auto& [name, v] : counters) {
+    lua_pushinteger(L, static_cast<lua_Integer>(v));
+    lua_setfield(L, -2, name);
+  }
 }
 
 int srv_stats(lua_State* L) {
   const web::ServerStats st = open_server(L).stats();
-  lua_newtable(L);
-  set_int(L, "http_requests", st.http_requests);
-  set_int(L, "websockets", st.websockets);
-  set_int(L, "refused", st.refused);
-  set_int(L, "bad_requests", st.bad_requests);
-  set_int(L, "over_limit", st.over_limit);
-  set_int(L, "open", st.open);
+  push_counters(L, {{"http_requests", st.http_requests}, {"websockets", st.websockets}, {"refused", st.refused},
+                    {"bad_requests", st.bad_requests}, {"over_limit", st.over_limit}, {"open", st.open}});
   return 1;
 }
 
@@ -393,12 +395,8 @@ int conn_protocol(lua_State* L) {
 int conn_stats(lua_State* L) {
   ConnUD* ud = check_conn(L);
   const web::ConnectionStats st = ud->c ? ud->c->stats() : web::ConnectionStats{};
-  lua_newtable(L);
-  set_int(L, "sent", st.sent);
-  set_int(L, "sent_bytes", st.sent_bytes);
-  set_int(L, "dropped", st.dropped);
-  set_int(L, "received", st.received);
-  set_int(L, "queued_bytes", st.queued_bytes);
+  push_counters(L, {{"sent", st.sent}, {"sent_bytes", st.sent_bytes}, {"dropped", st.dropped},
+                    {"received", st.received}, {"queued_bytes", st.queued_bytes}});
   return 1;
 }
 
@@ -478,14 +476,10 @@ void register_web(lua_State* L) {
       {"is_open", conn_is_open}, {"peer", conn_peer}, {"protocol", conn_protocol}, {"stats", conn_stats},
       {nullptr, nullptr}};
   register_type(L, kConnMeta, conn_methods, {conn_gc, nullptr, conn_tostring});
-  lua_pushcfunction(L, core_web_listen);
-  lua_setfield(L, -2, "web_listen");
-  lua_pushcfunction(L, core_monitor_token);
-  lua_setfield(L, -2, "monitor_token");
-  lua_pushcfunction(L, core_json_encode);
-  lua_setfield(L, -2, "json_encode");
-  lua_pushcfunction(L, core_json_decode);
-  lua_setfield(L, -2, "json_decode");
+  static const luaL_Reg functions[] = {{"web_listen", core_web_listen}, {"monitor_token", core_monitor_token},
+                                       {"json_encode", core_json_encode}, {"json_decode", core_json_decode},
+                                       {nullptr, nullptr}};
+  luaL_setfuncs(L, functions, 0);
 }
 
 }  // namespace dca::lua
