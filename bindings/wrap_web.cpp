@@ -413,20 +413,16 @@ int conn_tostring(lua_State* L) {
 
 // --- JSON -----------------------------------------------------------------------------------------------------
 
-int core_json_encode(lua_State* L) {
-  luaL_checkany(L, 1);
+/// Runs `attempt(error)`, which pushes one result and returns true, or returns false with `error` set; the C++
+/// objects it made are gone before Lua sees the error. --> 1 (the result) | 2 (nil, error)
+template <class Attempt>
+int one_or_error(lua_State* L, Attempt&& attempt) {
   char err[256] = {};
   bool ok = false;
   {
-    wire::Value v;
     std::string error;
-    if (to_value(L, 1, v, &error)) {
-      const std::string text = json::encode(v);
-      lua_pushlstring(L, text.data(), text.size());
-      ok = true;
-    } else {
-      std::snprintf(err, sizeof err, "%s", error.c_str());
-    }
+    ok = attempt(error);
+    if (!ok) std::snprintf(err, sizeof err, "%s", error.c_str());
   }
   if (ok) return 1;
   lua_pushnil(L);
@@ -434,25 +430,26 @@ int core_json_encode(lua_State* L) {
   return 2;
 }
 
+int core_json_encode(lua_State* L) {
+  luaL_checkany(L, 1);
+  return one_or_error(L, [L](std::string& error) {
+    wire::Value v;
+    if (!to_value(L, 1, v, &error)) return false;
+    const std::string text = json::encode(v);
+    lua_pushlstring(L, text.data(), text.size());
+    return true;
+  });
+}
+
 int core_json_decode(lua_State* L) {
   std::size_t n = 0;
   const char* text = luaL_checklstring(L, 1, &n);
-  char err[256] = {};
-  bool ok = false;
-  {
+  return one_or_error(L, [L, text, n](std::string& error) {
     wire::Value v;
-    std::string error;
-    if (json::decode(std::string_view(text, n), &v, &error)) {
-      push_value(L, v);
-      ok = true;
-    } else {
-      std::snprintf(err, sizeof err, "%s", error.c_str());
-    }
-  }
-  if (ok) return 1;
-  lua_pushnil(L);
-  lua_pushstring(L, err);
-  return 2;
+    if (!json::decode(std::string_view(text, n), &v, &error)) return false;
+    push_value(L, v);
+    return true;
+  });
 }
 
 }  // namespace
