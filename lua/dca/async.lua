@@ -7,7 +7,8 @@
 --                                        --   are called. cb runs once; j.over() says whether it ran.
 --   async.each_in_order(list, fn, done)  -- fn(item, i, next) for each item in turn, next() going on to the next;
 --                                        --   done() after the last. An fn that does not call next stops there.
---   async.outcome(reply, err)            --> reply | nil, reason (an error reply's reason, or err: no reply)
+--   async.outcome(reply, err)            --> reply | nil, reason (an error reply's reason, or err: no reply;
+--                                        --   never nil: "no answer" when there is neither)
 local M = {}
 
 local tostring = tostring
@@ -49,7 +50,8 @@ end
 
 function M.outcome(reply, err)
   if reply and reply.type ~= "error" then return reply end
-  return nil, reply and reply.reason or tostring(err)
+  if reply then return nil, tostring(reply.reason or "an error reply without a reason") end
+  return nil, err ~= nil and tostring(err) or "no answer"
 end
 
 return M
