@@ -1,5 +1,7 @@
 #include "controllers/builtins.h"
 
+#include <unistd.h>
+
 #include <csignal>
 #include <cstdlib>
 
@@ -144,20 +146,25 @@ void Counter::MainCalc() {
 
 // --- Crash ---
 Manifest Crash::Describe() {
-  return {"Crash", "dies by SIGSEGV or abort() at its ticks-th tick (fault tests)", {scalar_port("In")}, {},
-          {P::Required("ticks", "integer", "the tick it dies at"),
-           P::Optional("how", "string", "segv", "segv or abort"),
+  return {"Crash", "dies by SIGSEGV or abort() at its ticks-th tick, or hangs there until killed (fault tests)",
+          {scalar_port("In")}, {},
+          {P::Required("ticks", "integer", "the tick it dies (or hangs) at"),
+           P::Optional("how", "string", "segv", "segv, abort or hang (blocks in MainCalc until a signal ends it)"),
            PeriodParam("0.001")},
           Ending::Aborted()};
 }
 Crash::Crash(const ControllerContext& ctx) : PeriodicController(ctx), ticks_(integer("ticks")) {
   const auto how = text("how");
-  if (how != "segv" && how != "abort") throw bad_param("how must be segv or abort, got '" + how + "'");
-  abort_ = how == "abort";
+  if (how == "abort") how_ = How::Abort;
+  else if (how == "hang") how_ = How::Hang;
+  else if (how != "segv") throw bad_param("how must be segv, abort or hang, got '" + how + "'");
 }
 void Crash::MainCalc() {
   if (++seen_ < ticks_) return;
-  if (abort_) std::abort();
+  if (how_ == How::Abort) std::abort();
+  if (how_ == How::Hang) {
+    for (;;) ::pause();  // its code runs (the crash note names it) until a signal from outside ends the process
+  }
   std::signal(SIGSEGV, SIG_DFL);  // die by the signal even under a sanitizer's handler
   std::raise(SIGSEGV);
 }

@@ -107,8 +107,9 @@ class Crash final : public PeriodicController {
   void Init() override { seen_ = 0; }
   void MainCalc() override;
 
+  enum class How { Segv, Abort, Hang };
   std::int64_t ticks_, seen_ = 0;
-  bool abort_;
+  How how_ = How::Segv;
 };
 
 }  // namespace dca::builtins

@@ -1,6 +1,7 @@
 #include "host/node.h"
 
 #include <fcntl.h>
+#include <signal.h>
 #include <sys/mman.h>
 #include <unistd.h>
 
@@ -63,6 +64,28 @@ void open_crash_note() {
     if (m != MAP_FAILED) g_crash_note = static_cast<char*>(m);
   }
   ::close(fd);
+}
+
+// A fatal signal sent by another process (kill -SEGV, not a fault of the code that ran) is nobody's crash: the
+// note is cleared, then the signal ends the node as it would have. Installed only where the disposition is the
+// default (a sanitizer's own handler stays); a fault of the code itself (si_code > 0) or the node's own raise()
+// or abort() keeps the note.
+void external_fatal(int sig, siginfo_t* info, void*) {
+  if (info && info->si_code <= 0 && info->si_pid != ::getpid() && g_crash_note) g_crash_note[0] = '\0';
+  ::signal(sig, SIG_DFL);
+  ::raise(sig);  // blocked in the handler: delivered, with the default action, when it returns
+}
+
+void clear_note_on_external_signals() {
+  for (const int sig : {SIGSEGV, SIGBUS, SIGFPE, SIGILL, SIGABRT}) {
+    struct sigaction old {};
+    if (::sigaction(sig, nullptr, &old) != 0 || (old.sa_flags & SA_SIGINFO) || old.sa_handler != SIG_DFL) continue;
+    struct sigaction sa {};
+    sa.sa_sigaction = external_fatal;
+    sa.sa_flags = SA_SIGINFO | SA_RESETHAND;
+    ::sigemptyset(&sa.sa_mask);
+    ::sigaction(sig, &sa, nullptr);
+  }
 }
 
 // Notes the leaf whose component code runs in this scope (a control request), and clears the note after.
@@ -273,6 +296,7 @@ void Node::Impl::open_ports(const Done& done_fn) {
     return enlist(done_fn);
   }
   open_crash_note();
+  clear_note_on_external_signals();
   timers->on_enter = note_leaf;
   control = listen(channels, [this](const Channel::Ptr& ch, const Message& m) { handle_process(ch, m); }, &error);
   if (!control) return fail_start(done_fn, "cannot listen for control channels: " + error);

@@ -73,8 +73,8 @@
 // A crash of the process ends every leaf it hosts (the supervisors learn it from the daemon's exit event). A
 // shared node keeps in crash_note_path(pid) (a file mapped in memory) the PATH of the leaf whose code runs now
 // (a timer callback, its MainCalc, or a control request its component handles; empty in between); when a
-// signal ends the node, the daemon reads it and names that leaf in the exit event (`culprit`). A signal sent
-// from outside while no leaf's code runs names none.
+// signal ends the node, the daemon reads it and names that leaf in the exit event (`culprit`). A fatal signal
+// sent from outside (kill -SEGV: si_code <= 0, another pid) names none, whichever leaf's code ran.
 // Simulated time (--clock sim): before it registers, the node looks up the clock master (`world`, see --world)
 // at its daemon, opens a channel to its control address and subscribes with `clock {name}` (answered ok {now}),
 // so the master knows a new process of a leaf (a restart: its links' counts start afresh) before anybody can

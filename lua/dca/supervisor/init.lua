@@ -386,8 +386,9 @@ function Sup:_start_child(name, init)
   local function check(reply, err)
     local ok, why = async.outcome(reply, err)
     if not ok and ch.state == "running" and ch.run_no == run_no then
-      -- a channel closed under a policy: the process's exit (or loss) follows and the policy takes it
-      if not reply and self.spec.supervision and tostring(err):find("closed") then return end
+      -- a channel closed: the process's exit (or its loss, at most exit_grace later: dca.supervisor.net) follows
+      -- with the real reason (its signal, its code), and the algebra or the policy takes that
+      if not reply and tostring(err):find("closed") then return end
       self:_fail_later(name, sformat("%s: %s", ch.path, why))
     end
   end
