@@ -19,20 +19,25 @@ local pairs, tostring = pairs, tostring
 local Proc = {}
 Proc.__index = Proc
 
-function Proc:finish(code)
+-- Exits with `code`. On simulated time it leaves the clock in order (its last counts said) unless `orphaned`:
+-- its parent or its daemon went away (its host lost, as the parent sees it). Then its channel to the clock
+-- master just closes and the master counts it as a lost supervisor, whose events nobody will receive
+-- (docs/time.md): said in order, its counts would lack the exits of its lost leaves, and the barrier would
+-- wait for them forever.
+function Proc:finish(code, orphaned)
   if self.exit_code then return end
   self.exit_code = code
   local function stop()
     if self.rt then self.rt.close() end
     self.loop:stop()
   end
-  if self.rt then self.rt.leave_clock(stop) else stop() end
+  if self.rt and not orphaned then self.rt.leave_clock(stop) else stop() end
 end
 
 -- Everything this supervisor started is stopped, then it exits with `code` (with 1 when that takes 30 s).
-function Proc:wind_down(code)
-  if self.sup then self.sup:shutdown(function() self:finish(code) end) else self:finish(code) end
-  core.after(30, function() self:finish(1) end)
+function Proc:wind_down(code, orphaned)
+  if self.sup then self.sup:shutdown(function() self:finish(code, orphaned) end) else self:finish(code, orphaned) end
+  core.after(30, function() self:finish(1, orphaned) end)
 end
 
 -- The tree of this group, on the "configure" request of the parent channel `ch` (dca.launch.start.tree).
@@ -59,7 +64,7 @@ function Proc:on_request(ch, msg, id)
   if ch ~= self.parent then
     if self.parent or msg.type ~= "configure" then srt.console(ch, id, msg, self.sup, self.followers) return end
     self.parent = ch
-    ch:on_close(function() self:wind_down(1) end)  -- the parent is gone
+    ch:on_close(function() self:wind_down(1, true) end)  -- the parent is gone
   end
   if msg.type == "configure" and not self.sup then self:configure(ch, msg) end
   if not self.sup then srt.reply(ch, id, { type = "error", reason = "not configured yet" }) return end
@@ -92,7 +97,7 @@ function Proc:register(listener)
         self:finish(1)
       end
     end)
-    d:on_close(function() if self.sup then self.sup:shutdown(function() self:finish(1) end) else self:finish(1) end end)
+    d:on_close(function() self:wind_down(1, true) end)  -- its daemon is gone
   end)
 end
 

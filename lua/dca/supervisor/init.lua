@@ -257,6 +257,9 @@ function Sup:_watch(name, handle)
       busy = false
       if r or ch.handle ~= handle then return end
       beat:cancel()
+      -- its channel closed: not silence. Its exit, or its host's loss, follows and names the real reason (the
+      -- process's channel_closed waits at most exit_grace for it: dca.supervisor.net)
+      if tostring(err):find("closed") then return end
       local reason = sformat("supervisor lost on host %s (no answer for %gs: %s)", tostring(ch.host), silence,
         tostring(err))
       -- it is ended for good (SIGKILL: a stopped process cannot stop itself) and so is what it started
