@@ -66,8 +66,16 @@ std::string describe(const PortSpec& s) {
 }
 }  // namespace
 
+// Numeric ports carry doubles: a scalar is one, a vector[N] N, a vectorx any number. A vectorx end takes the
+// other end's size; two fixed sizes must be equal (so a scalar and a vector[1] connect). A sample that does not
+// fit the input is refused there and counted (Port::accepts). Values connect to values only. dca check holds
+// the sizes it can work out to the same rules before anything starts (docs/data-plane.md, "Port types").
 std::string compatibility_error(const PortSpec& out, const PortSpec& in) {
-  const bool ok = out.type == in.type && (out.type != PortType::Vector || out.size == in.size);
+  const auto fixed = [](const PortSpec& p) { return p.type == PortType::Scalar || p.type == PortType::Vector; };
+  const auto size = [](const PortSpec& p) { return p.type == PortType::Scalar ? 1u : p.size; };
+  bool ok = false;
+  if (out.type == PortType::Value || in.type == PortType::Value) ok = out.type == in.type;
+  else ok = !fixed(out) || !fixed(in) || size(out) == size(in);
   if (ok) return "";
   return "output '" + out.name + "' is " + describe(out) + " but input '" + in.name + "' is " + describe(in);
 }

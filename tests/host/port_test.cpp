@@ -19,8 +19,36 @@ TEST(PortTest, CompatibilityChecksTypeAndSize) {
   EXPECT_EQ(dca::compatibility_error(dca::vector_port("A", 3), dca::vector_port("B", 3)), "");
   EXPECT_EQ(dca::compatibility_error(dca::vector_port("A", 3), dca::vector_port("B", 4)),
             "output 'A' is vector[3] but input 'B' is vector[4]");
-  EXPECT_EQ(dca::compatibility_error(dca::scalar_port("A"), dca::vectorx_port("B")),
-            "output 'A' is scalar but input 'B' is vectorx");
+  // a vectorx end takes the other's size; a scalar is one double, so it meets a vector[1]
+  EXPECT_EQ(dca::compatibility_error(dca::scalar_port("A"), dca::vectorx_port("B")), "");
+  EXPECT_EQ(dca::compatibility_error(dca::vectorx_port("A"), dca::scalar_port("B")), "");
+  EXPECT_EQ(dca::compatibility_error(dca::vectorx_port("A"), dca::vector_port("B", 6)), "");
+  EXPECT_EQ(dca::compatibility_error(dca::vector_port("A", 1), dca::scalar_port("B")), "");
+  EXPECT_EQ(dca::compatibility_error(dca::vector_port("A", 3), dca::scalar_port("B")),
+            "output 'A' is vector[3] but input 'B' is scalar");
+  // values go to values only
+  EXPECT_EQ(dca::compatibility_error(dca::value_port("A"), dca::vectorx_port("B")),
+            "output 'A' is value but input 'B' is vectorx");
+  EXPECT_EQ(dca::compatibility_error(dca::scalar_port("A"), dca::value_port("B")),
+            "output 'A' is scalar but input 'B' is value");
+  EXPECT_EQ(dca::compatibility_error(dca::value_port("A"), dca::value_port("B")), "");
+}
+
+TEST(PortTest, AVectorxInputTakesAScalarSampleAndAScalarInputRefusesThreeValues) {
+  dca::Input any(dca::vectorx_port("In"), 4), one(dca::scalar_port("In"), 4);
+  const Eigen::Vector3d three(1, 2, 3);
+  const double half = 0.5;
+  const dca::Bytes single{reinterpret_cast<const std::byte*>(&half), sizeof half};
+  any.deliver(single);
+  ASSERT_TRUE(any.pop());
+  EXPECT_EQ(any.vector().size(), 1);
+  EXPECT_EQ(any.vector()[0], 0.5);
+  one.deliver({reinterpret_cast<const std::byte*>(three.data()), 3 * sizeof(double)});
+  EXPECT_FALSE(one.pop());
+  EXPECT_EQ(one.stats().rejected, 1u);
+  one.deliver(single);
+  ASSERT_TRUE(one.pop());
+  EXPECT_EQ(one.scalar(), 0.5);
 }
 
 TEST(PortTest, UnknownPortErrorListsTheValidNames) {
