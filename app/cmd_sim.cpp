@@ -14,6 +14,7 @@
 
 #include "app/node_run.h"
 #include "app/subcommand.h"
+#include "bindings/core.h"
 #include "host/loop.h"
 #include "host/node.h"
 #include "sim/door_script.h"
@@ -337,6 +338,15 @@ int cmd_sim(std::span<char* const> args) {
     return 1;
   }
 }
+
+// The world's signals, for dca check's device ports (bindings/core.h): those `dca sim --serve` hosts as ports.
+[[maybe_unused]] const bool kWorldSignalsRegistered = [] {
+  dca::bindings::WorldSignals s;
+  for (const auto& x : dca::sim::kSensorSignals) s.outputs.push_back(dca::vector_port(x.name, x.size, x.units));
+  for (const auto& x : dca::sim::kCommandSignals) s.inputs.push_back(dca::vector_port(x.name, x.size, x.units));
+  dca::bindings::set_world_signals(std::move(s));
+  return true;
+}();
 
 }  // namespace
 

@@ -9,13 +9,17 @@
 //   core.package_dirs(system_dir)       --> { dir, ... }  the search path, in order
 //   core.packages(system_dir)           --> { name, ... } the packages found on it, sorted
 //   core.absolute(path)                 --> the path made absolute (from the working directory), normalised
+// The robot process's signals (bindings/core.h), for dca check's device ports:
+//   core.world_signals() --> { outputs = { [signal] = {name=, type=, size=, units=} }, inputs = {...} } | nil
 #include <lua.hpp>
 
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <system_error>
 #include <vector>
 
+#include "bindings/core.h"
 #include "controllers/packages.h"
 #include "controllers/registry.h"
 #include "host/paths.h"
@@ -143,6 +147,35 @@ int l_packages(lua_State* L) {
   return 1;
 }
 
+std::optional<dca::bindings::WorldSignals>& world_signals() {
+  static std::optional<dca::bindings::WorldSignals> s;
+  return s;
+}
+
+void push_signals(lua_State* L, const std::vector<dca::PortSpec>& ports) {
+  push_ports(L, ports);
+  lua_createtable(L, 0, static_cast<int>(ports.size()));
+  for (std::size_t i = 0; i < ports.size(); ++i) {
+    lua_rawgeti(L, -2, static_cast<lua_Integer>(i + 1));
+    lua_setfield(L, -2, ports[i].name.c_str());
+  }
+  lua_remove(L, -2);
+}
+
+int l_world_signals(lua_State* L) {
+  const auto& s = world_signals();
+  if (!s) {
+    lua_pushnil(L);
+    return 1;
+  }
+  lua_createtable(L, 0, 2);
+  push_signals(L, s->outputs);
+  lua_setfield(L, -2, "outputs");
+  push_signals(L, s->inputs);
+  lua_setfield(L, -2, "inputs");
+  return 1;
+}
+
 int l_absolute(lua_State* L) {
   std::size_t n = 0;
   const char* path = luaL_checklstring(L, 1, &n);
@@ -156,11 +189,14 @@ int l_absolute(lua_State* L) {
 
 namespace dca::bindings {
 
+void set_world_signals(WorldSignals s) { world_signals() = std::move(s); }
+
 /// Adds `types` and the package functions to the dca.core table on the top of the stack.
 void open_types(lua_State* L) {
   static const luaL_Reg functions[] = {{"types", l_types},   {"load_package", l_load_package},
                                        {"package_dirs", l_package_dirs}, {"packages", l_packages},
-                                       {"absolute", l_absolute}, {nullptr, nullptr}};
+                                       {"absolute", l_absolute}, {"world_signals", l_world_signals},
+                                       {nullptr, nullptr}};
   luaL_setfuncs(L, functions, 0);
 }
 

@@ -71,7 +71,9 @@ function M.check_options(ast, path, registry)
   for _, name in ipairs(core and core.packages(folder(path)) or {}) do
     if not packages[name] then unused[#unused + 1] = name end
   end
-  return { types = types, packages = packages, elsewhere = elsewhere, unused_packages = unused }
+  -- the robot process's signals, which the device ports are held to (nil in an executable without the world)
+  local world = core and type(core.world_signals) == "function" and core.world_signals() or nil
+  return { types = types, packages = packages, elsewhere = elsewhere, unused_packages = unused, world = world }
 end
 
 --- The whole text of the file at path. --> text | nil, "dca: cannot read ..."
