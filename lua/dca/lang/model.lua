@@ -2,8 +2,10 @@
 -- supervisor (and for `dca check` / `dca graph`).
 --
 --   local model = require "dca.lang.model"
---   local tree, errors = model.build(ast, { root = "main", args = {}, host = nil, types = core.types() })
---   -- errors: the list from dca.lang.check (plus binding errors), each { line, col, path, msg }; nil tree then.
+--   local tree, errors = model.build(ast, { root = "main", args = {}, host = nil, types = core.types(),
+--                                           world = core.world_signals() })
+--   -- errors: the list from dca.lang.check (plus binding errors, then the port types of the tree's connections
+--   -- and device ports: dca.lang.ports), each { line, col, path, msg }; nil tree then.
 --
 -- Every node of the tree:
 --   { path = "main.dooropensyst.hit", name = "hit", type = "HitDetector",
@@ -32,6 +34,7 @@
 --                                   { strategy = "one_for_one", intensity = 1, within = 5 (seconds),
 --                                     on = { crash = true, lost = true, aborted = false } }
 local check = require "dca.lang.check"
+local ports = require "dca.lang.ports"
 
 local M = {}
 
@@ -170,6 +173,8 @@ function M.build(ast, opts)
   end
   local tree = group(rootdef, root_name, root_name, args, opts.host, nil, nil)
   if #berrors > 0 then return nil, berrors end
+  local terrors = ports.check(tree, opts.world)
+  if #terrors > 0 then return nil, terrors end
   return tree
 end
 
@@ -212,7 +217,8 @@ end
 
 --- Every connection of the tree resolved to leaf ports, in tree order:
 --- { group = <group node>, owner = <instance name>, label = "lbl1", set = "<group path>:<owner>[<label>]",
----   from = <leaf node>, out = "Out", to = <leaf node>, ["in"] = "In", line =, col = }.
+---   from = <leaf node>, out = "Out", to = <leaf node>, ["in"] = "In", line =, col =,
+---   written = the connection as the file has it: { from =, out =, to =, ["in"] = } (instances of the group) }.
 --- Returns the list, or nil and a list of { line, col, path, msg } (an alias that leads nowhere).
 function M.connections(tree)
   local out, errors = {}, {}
@@ -225,7 +231,7 @@ function M.connections(tree)
         if from and to then
           out[#out + 1] = { group = n, owner = set.instance, label = set.label,
                             set = sformat("%s:%s[%s]", n.path, set.instance, set.label),
-                            from = from, out = op, to = to, ["in"] = ip, line = c.line, col = c.col }
+                            from = from, out = op, to = to, ["in"] = ip, line = c.line, col = c.col, written = c }
         else
           errors[#errors + 1] = { line = c.line, col = c.col, path = n.path, msg = from and ip or op }
         end

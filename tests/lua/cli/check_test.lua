@@ -100,6 +100,59 @@ suite:case("registry_is_used_when_dca_core_has_types", function()
   os.remove(path)
 end)
 
+-- Port types (docs/lua.md, "Port types"): each connection an output of the wrong type or size feeds is an error at
+-- the connection, naming both ends and both types; the built-ins' vectorx ports meet scalars at the sizes they
+-- are given or fed.
+suite:case("port_types_and_sizes_are_checked_at_each_connection", function()
+  local path = tmpfile([[use door;
+process main() {
+  instantiated_processes {
+    three instof Constant("h", 0.01, 1, 2, 3);
+    unfed instof Gain("h", 2);
+    odom  instof XR4000Odometry("h");
+    puma  instof Puma560Ctrl("h");
+    level instof Threshold("h", 1);
+  }
+  internal_connections(level, run) {
+    three, Out -> level, In;
+    unfed, Out -> level, In;
+    odom, Pose -> level, In;
+  }
+  internal_connections(puma, run) { odom, Pose -> puma, Vel; }
+  internal_event_actions { level[run] # (three, unfed, odom, puma[run]) }
+}
+]])
+  T.dca("check " .. path, 1,
+    path .. ":11:5: main.three.Out (vectorx of size 3) cannot feed main.level.In (scalar)",
+    path .. ":12:5: main.unfed.Out (vectorx) cannot feed main.level.In (scalar): dca check cannot tell how many " ..
+      "values it writes",
+    path .. ":13:5: main.odom.Pose (vector[3]) cannot feed main.level.In (scalar)",
+    path .. ":15:37: main.odom.Pose (vector[3]) cannot feed main.puma.Vel (vector[6])", path .. ": 4 errors")
+  os.remove(path)
+  -- a Constant of one value feeds a scalar input, a Counter a Gain, and the Gain a scalar input
+  path = tmpfile([[process main() {
+  instantiated_processes {
+    one instof Constant("h", 0.01, 1); ramp instof Counter("h", 0.01); g instof Gain("h", 2);
+    a instof Threshold("h", 1); b instof Threshold("h", 1);
+  }
+  internal_connections(a, run) { one, Out -> a, In; }
+  internal_connections(g, run) { ramp, Count -> g, In; g, Out -> b, In; }
+  internal_event_actions { a[run] # (one, ramp, g[run], b) }
+}
+]])
+  T.dca("check " .. path, 0, path .. ": ok: 1 group, 5 instances (5 leaves), 3 connections, 1 host (h)")
+  os.remove(path)
+end)
+
+suite:case("every_system_in_scripts_systems_checks_clean", function()
+  local names = T.list(src .. "/scripts/systems", "%.dca$")
+  T.ok(#names > 10, "the systems")
+  for _, name in ipairs(names) do
+    local path = src .. "/scripts/systems/" .. name
+    T.dca("check " .. path, 0, path .. ": ok: ")
+  end
+end)
+
 suite:case("syntax_error_exit_1_with_caret", function()
   local path = tmpfile("process main() {\n  host (h)\n}\n")
   T.eq(T.dca("check " .. path, 1), path .. ":2:8: 'host' takes braces, not parentheses: write 'host { h }'\n  host (h)\n       ^\n")

@@ -46,6 +46,22 @@ suite:case("executable_config_values_fail_the_run_at_their_position_and_start_no
   os.remove(dir)
 end)
 
+-- A connection whose types cannot meet fails `dca run` before anything starts, at its file:line:col (it used to
+-- fail only when the node refused the link, after the start).
+suite:case("a_port_type_mismatch_fails_the_run_before_anything_starts", function()
+  local system = T.tmpfile([[process main() {
+  instantiated_processes { three instof Constant("h", 0.01, 1, 2, 3); level instof Threshold("h", 1); }
+  internal_connections(level, run) { three, Out -> level, In; }
+  internal_event_actions { level[run] # three }
+}
+]])
+  local out, rc = run_bounded(system)
+  T.eq(rc, 2, "exit code\n" .. out)
+  T.contains(out, system .. ":3:38: main.three.Out (vectorx of size 3) cannot feed main.level.In (scalar)")
+  T.ok(not out:find("daemon at", 1, true) and not out:find("starting", 1, true), "nothing started:\n" .. out)
+  os.remove(system)
+end)
+
 -- A crash loop under a supervision policy ends by escalation: `dca run` shows each restart with its
 -- count, the group giving up, and exits 1 with the root's ABORTED naming the crash.
 suite:case("a_crash_loop_ends_by_escalation_with_counts_and_the_first_cause", function()

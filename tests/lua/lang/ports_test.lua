@@ -1,0 +1,158 @@
+-- dca.lang.ports: which output can feed which input, the sizes worked out for the built-ins, device ports.
+-- Through dca.lang.model.build, as `dca check` runs it, against a fixed registry in the shape of core.types().
+local T = require "dca.testing"
+local parser = require "dca.lang.parser"
+local model = require "dca.lang.model"
+local ports = require "dca.lang.ports"
+local suite = T.suite("ports")
+
+local function port(name, ty, size, device) return { name = name, type = ty, size = size or 0, device = device } end
+local function number(name, variadic) return { name = name, type = "number", required = not variadic, variadic = variadic } end
+
+local registry = {
+  Constant = { inputs = {}, outputs = { port("Out", "vectorx") }, params = { number("period"), number("values", true) } },
+  Gain = { inputs = { port("In", "vectorx") }, outputs = { port("Out", "vectorx") }, params = { number("k") } },
+  Sum = { inputs = { port("In1", "vectorx"), port("In2", "vectorx") }, outputs = { port("Out", "vectorx") }, params = {} },
+  Counter = { inputs = {}, outputs = { port("Count", "scalar", 1) }, params = { number("period") } },
+  Level = { inputs = { port("In", "scalar", 1) }, outputs = {}, params = {} },
+  Pose = { inputs = {}, outputs = { port("Pose", "vector", 3) }, params = {} },
+  Single = { inputs = { port("In", "vector", 1) }, outputs = { port("Out", "vector", 1) }, params = {} },
+  Any = { inputs = { port("In", "vectorx") }, outputs = { port("Out", "vectorx") }, params = {}, package = "lab" },
+  Note = { inputs = { port("In", "value") }, outputs = { port("Msg", "value") }, params = {} },
+  Drive = { inputs = { port("Odom", "vector", 2, "base.pose") }, outputs = { port("Cmd", "vector", 3, "base.cmd_vel"),
+            port("Grip", "vector", 1, "gripper.cmd") }, params = {} },
+  Probe = { inputs = { port("Q", "vector", 6, "arm.qq") }, outputs = {}, params = {} },
+}
+
+local world = {
+  outputs = { ["base.pose"] = port("base.pose", "vector", 3), ["arm.q"] = port("arm.q", "vector", 6) },
+  inputs = { ["base.cmd_vel"] = port("base.cmd_vel", "vector", 3), ["gripper.cmd"] = port("gripper.cmd", "vector", 1) },
+}
+
+--- The errors of `body` (the instances, connections and expression of process main) as "line:col: msg".
+local function errors_of(body, w)
+  local ast = assert(parser.parse("process main() {\n" .. body .. "\n}\n", "t.dca"))
+  local tree, errs = model.build(ast, { types = registry, world = w })
+  local out = {}
+  for i, e in ipairs(tree and {} or errs) do out[i] = string.format("%d:%d: %s", e.line, e.col, e.msg) end
+  return out
+end
+
+suite:case("the_rules_of_fits", function()
+  local S, V, X, VAL = { kind = "scalar", size = 1 }, function(n) return { kind = "vector", size = n } end,
+                       function(n) return { kind = "vectorx", size = n } end, { kind = "value" }
+  local cases = {
+    { S, S, true }, { S, V(1), true }, { V(1), S, true }, { S, V(2), false }, { V(3), V(3), true },
+    { V(3), V(2), false }, { V(3), X(), true }, { S, X(), true }, { X(), X(), true }, { X(3), V(3), true },
+    { X(3), S, false }, { X(1), S, true }, { X(), S, false }, { X(), V(3), false }, { VAL, VAL, true },
+    { VAL, S, false }, { S, VAL, false }, { VAL, X(), false },
+  }
+  for _, c in ipairs(cases) do
+    T.eq(ports.fits(c[1], c[2]) == true, c[3], ports.text(c[1]) .. " -> " .. ports.text(c[2]))
+  end
+  T.eq(select(2, ports.fits(X(), S)), ": dca check cannot tell how many values it writes")
+  T.eq({ ports.text(S), ports.text(V(3)), ports.text(X()), ports.text(X(2)), ports.text(VAL) },
+       { "scalar", "vector[3]", "vectorx", "vectorx of size 2", "value" })
+  T.eq(ports.shape({ name = "In1" }), nil, "a manifest without types: nothing to check")
+end)
+
+suite:case("scalars_meet_the_built_ins_that_take_their_size_from_what_feeds_them", function()
+  T.eq(errors_of([[
+  instantiated_processes {
+    c instof Constant("h", 0, 2.5); n instof Counter("h", 1); s instof Sum("h"); g instof Gain("h", 2);
+    l instof Level("h"); m instof Level("h"); o instof Single("h"); a instof Any("h");
+  }
+  internal_connections(s, x) { c, Out -> s, In1; n, Count -> s, In2; }
+  internal_connections(g, x) { s, Out -> g, In; g, Out -> l, In; g, Out -> o, In; }
+  internal_connections(m, x) { c, Out -> m, In; }
+  internal_connections(o, x) { o, Out -> a, In; }
+  internal_event_actions { s[x], g[x], c, n, l, m[x], o[x], a }]]), {})
+end)
+
+suite:case("every_mismatch_names_both_ends_and_both_types_at_the_connection", function()
+  T.eq(errors_of([[
+  instantiated_processes {
+    c instof Constant("h", 0, 1, 2, 3); a instof Any("h"); l instof Level("h"); p instof Pose("h");
+    o instof Single("h"); note instof Note("h"); g instof Gain("h", 2); loop instof Gain("h", 1);
+  }
+  internal_connections(l, x) {
+    c, Out -> l, In;
+    a, Out -> l, In;
+    note, Msg -> l, In;
+  }
+  internal_connections(o, x) { p, Pose -> o, In; }
+  internal_connections(note, x) { c, Out -> note, In; }
+  internal_connections(g, x) { c, Out -> g, In; g, Out -> o, In; }
+  internal_connections(loop, x) { loop, Out -> loop, In; loop, Out -> l, In; }
+  internal_event_actions { l[x], c, a, p, o[x], note[x], g[x], loop[x] }]]), {
+    "7:5: main.c.Out (vectorx of size 3) cannot feed main.l.In (scalar)",
+    "8:5: main.a.Out (vectorx) cannot feed main.l.In (scalar): dca check cannot tell how many values it writes",
+    "9:5: main.note.Msg (value) cannot feed main.l.In (scalar)",
+    "11:32: main.p.Pose (vector[3]) cannot feed main.o.In (vector[1])",
+    "12:35: main.c.Out (vectorx of size 3) cannot feed main.note.In (value)",
+    "13:49: main.g.Out (vectorx of size 3) cannot feed main.o.In (vector[1])",
+    "14:58: main.loop.Out (vectorx) cannot feed main.l.In (scalar): dca check cannot tell how many values it writes",
+  })
+end)
+
+suite:case("ends_behind_external_io_are_named_as_written_and_as_resolved_once_per_position", function()
+  local ast = assert(parser.parse([[
+process Sensing(h) {
+  instantiated_processes { p instof Pose(h); }
+  external_io { Out = p, Pose; }
+  internal_event_actions { p }
+}
+process Arm(h) {
+  instantiated_processes { l instof Level(h); s instof Sensing(h); }
+  external_io { In = l, In; }
+  internal_connections(l, x) { s, Out -> l, In; }
+  internal_event_actions { l[x], s }
+}
+process main() {
+  instantiated_processes { s instof Sensing("h"); a instof Arm("h"); b instof Arm("h"); }
+  internal_connections(a, x) { s, Out -> a, In; }
+  internal_event_actions { a[x], s, b }
+}
+]], "t.dca"))
+  local _, errs = model.build(ast, { types = registry })
+  T.eq(#errs, 2, "the connection inside Arm once, though Arm is instantiated twice")
+  T.eq({ errs[1].line, errs[1].col, errs[1].msg },
+       { 9, 32, "main.a.s.Out (vector[3], main.a.s.p.Pose) cannot feed main.a.l.In (scalar)" })
+  T.eq({ errs[2].line, errs[2].col, errs[2].msg },
+       { 14, 32, "main.s.Out (vector[3], main.s.p.Pose) cannot feed main.a.In (scalar, main.a.l.In)" })
+end)
+
+suite:case("device_ports_are_held_to_the_world_s_signals", function()
+  local body = [[
+  instantiated_processes { d instof Drive("h"); q instof Probe("h"); }
+  internal_event_actions { d, q }]]
+  T.eq(errors_of(body, world), {
+    "2:28: world.base.pose (vector[3]) cannot feed main.d.Odom (vector[2], device port of Drive)",
+    "2:49: main.q.Q (vector[6], device port of Probe): the world has no sensor 'arm.qq'",
+  })
+  T.eq(errors_of(body, nil), {}, "without the world's signals, nothing to hold them to")
+end)
+
+suite:case("the_size_rules_name_the_registry_s_ports_and_the_world_s_signals_are_known", function()
+  local core = require "dca.core"
+  local types = core.types()
+  local function find(list, name)
+    for _, p in ipairs(list) do if p.name == name then return p end end
+  end
+  for ty, outs in pairs(ports.sizes) do
+    local m = assert(types[ty], ty)
+    T.eq(m.package, nil, ty .. " is built in")
+    for name, rule in pairs(outs) do
+      T.eq(assert(find(m.outputs, name), ty .. "." .. name).type, "vectorx", ty .. "." .. name)
+      if rule.values then T.ok(assert(find(m.params, rule.values)).variadic, ty .. " " .. rule.values) end
+      for _, i in ipairs(rule.inputs or {}) do T.eq(assert(find(m.inputs, i), ty .. "." .. i).type, "vectorx") end
+    end
+  end
+  -- the robot process's signals (sim/world.h) as dca check holds the device ports to them
+  local w = assert(core.world_signals(), "the dca executable has the world")
+  T.eq({ w.outputs["arm.q"].type, w.outputs["arm.q"].size }, { "vector", 6 })
+  T.eq({ w.inputs["base.cmd_vel"].type, w.inputs["base.cmd_vel"].size }, { "vector", 3 })
+  T.eq(w.inputs["arm.q"], nil, "a sensor is no command")
+end)
+
+return suite:run(...)
