@@ -11,6 +11,8 @@
 //                                    Event-driven on In by default.
 // Sum(host, period=0)                in In1, In2: vectorx (same size); out Out: vectorx = In1 + In2.
 //                                    Event-driven on either input by default; ABORTED on a size mismatch.
+//                                    Constant, Gain and Sum feed and are fed by scalar and vector[n] ports too:
+//                                    a vectorx end takes the other end's size (docs/lua.md, "Port types").
 // Threshold(host, level, direction=rising)
 //                                    in In: scalar. DONE(the value) when In crosses `level` (rising: from below to
 //                                    >= level; falling: from above to <= level; either). Event-driven on In.
