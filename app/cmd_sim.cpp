@@ -13,6 +13,7 @@
 #include <csignal>
 
 #include "app/node_run.h"
+#include "app/sim_robot.h"
 #include "app/subcommand.h"
 #include "bindings/core.h"
 #include "host/loop.h"
@@ -26,7 +27,7 @@
 namespace {
 
 constexpr const char* kUsage =
-    "usage: dca sim [--world door] [--seed N] [--door-width W] [--duration S] [--period S] [--script FILE]\n"
+    "usage: dca sim [--world door|ROBOT.urdf|mock:ROBOT.urdf] [--seed N] [--door-width W] [--duration S] [--period S] [--script FILE]\n"
     "               [--record FILE.mcap|FILE.csv] [--record-period S] [--realtime] [--visualize]\n"
     "               [--jammed]\n"
     "               [--print-door-urdf]\n"
@@ -59,10 +60,15 @@ constexpr const char* kUsage =
     "  --tick-timeout MS    a node that does not answer an advance in MS is dropped from the clock (10000)\n"
     "  --trace FILE         writes the lock-step trace: every output's samples per tick (count, digest, value),\n"
     "                       set switches, events, lost nodes (`dca trace diff` compares two)\n\n"
+    "--world ROBOT.urdf or mock:ROBOT.urdf: the generic URDF world instead of the door (docs/robots.md):\n"
+    "the robot's joint interfaces as ports (`dca types --world ROBOT.urdf` lists them); without --serve it\n"
+    "steps --duration seconds (default 1) with no commands and prints the joints. It takes --period,\n"
+    "--duration, --realtime and the --serve options; --seed is ignored; the door's options are refused.\n\n"
     "Prints each step of the door opening as it starts and a summary (`door opened to NN.N deg`). Exit code 0\n"
     "on success, 1 if the scripted opening fails or the world cannot be built, 2 on a usage error.";
 
 struct Options {
+  std::string world;  // a robot world's spec ("" = the door)
   bool serve = false, go = false;
   std::string daemon, name = "world", key, host;
   dca::sim::WorldNodeOptions node;
@@ -158,7 +164,12 @@ bool positive(const char* v, double& out) {
 
 // Applies option `a` with value `v` (nullptr: missing): "" or what is wrong with it.
 std::string set_value(const std::string& a, const char* v, Options& o) {
-  if (a == "--world") return v && std::string(v) == "door" ? "" : "--world: the only world is 'door'";
+  if (a == "--world") {
+    if (v && std::string(v) == "door") return "";
+    if (!v || !dca::app::is_robot_world(v)) return "--world: 'door', ROBOT.urdf or mock:ROBOT.urdf[?lag=S&dead=J,...]";
+    o.world = v;
+    return "";
+  }
   if (a == "--seed") {
     char* end = nullptr;
     if (!v || *v == '-' || (o.seed = std::strtoull(v, &end, 10), *end != '\0'))
@@ -314,9 +325,23 @@ class LocalRun {
   long steps_ = 0;
 };
 
+// --world ROBOT.urdf: the generic URDF world (app/sim_robot.h).
+int robot_world(const Options& o) {
+  if (!o.script.empty() || !o.record.empty() || o.jammed || o.door_width > 0 || o.print_urdf || o.visualize)
+    return usage_error("--script, --record, --jammed, --door-width, --print-door-urdf and --visualize are the door's");
+  dca::app::RobotSimOptions r;
+  r.world = o.world;
+  r.serve = o.serve, r.go = o.go, r.realtime = o.realtime;
+  r.daemon = o.daemon, r.name = o.name, r.key = o.key, r.host = o.host, r.trace = o.node.trace;
+  r.period = o.period, r.duration = o.duration, r.sync_period = o.node.sync_period;
+  r.tick_timeout_ms = o.node.tick_timeout_ms;
+  return dca::app::sim_robot(r);
+}
+
 int cmd_sim(std::span<char* const> args) {
   Options o;
   if (const int code = parse(args, o); code != 0) return code;
+  if (!o.world.empty()) return robot_world(o);
   dca::sim::WorldConfig config = dca::sim::door_world(o.seed, o.door_width);
   config.period = o.period;
   if (o.jammed) config.door.handle_jammed = config.door.latch_jammed = true;

@@ -6,6 +6,7 @@
 
 #include "controllers/packages.h"
 #include "controllers/registry.h"
+#include "app/sim_robot.h"
 #include "app/subcommand.h"
 #include "host/paths.h"
 
@@ -65,10 +66,11 @@ int cmd_types(std::span<char* const> args) {
   std::string dir;
   for (std::size_t i = 0; i < args.size(); ++i) {
     const std::string a = args[i];
-    if ((a == "--package" || a == "--dir") && i + 1 >= args.size()) {
+    if ((a == "--package" || a == "--dir" || a == "--world") && i + 1 >= args.size()) {
       std::fprintf(stderr, "dca types: %s needs a value\n", a.c_str());
       return 2;
     }
+    if (a == "--world") return dca::app::print_world_ports(args[i + 1]);  // a robot world's ports
     if (a == "--package") packages.emplace_back(args[++i]);
     else if (a == "--dir") dir = args[++i];
     else types.push_back(a);
@@ -97,12 +99,15 @@ int cmd_types(std::span<char* const> args) {
 }  // namespace
 
 DCA_SUBCOMMAND("types", "every controller type with its ports and parameters",
-               "usage: dca types [--package NAME]... [--dir DIR] [TYPE...]\n\n"
+               "usage: dca types [--package NAME]... [--dir DIR] [TYPE...]\n"
+               "       dca types --world ROBOT.urdf|mock:ROBOT.urdf\n\n"
                "Lists every controller type (or the named ones): its signature as written in a .dca file (the\n"
                "first argument is the host), its package unless built in, its parameters, its input and output\n"
                "ports with type (scalar, vector[N], vectorx, value) and units, and how a run ends by itself (never,\n"
                "done, aborted, done or aborted; `dca check --verify` uses it). The types are the built-in ones and\n"
                "those of every controller package on the search path ($DCA_CONTROLLER_PATH,\n"
                "<prefix>/lib/dca/controllers, DIR/packages with --dir DIR); with --package, that package's only.\n"
-               "Exit code 1 if a named type is unknown or a package does not load (each said on stderr).",
+               "Exit code 1 if a named type is unknown or a package does not load (each said on stderr).\n"
+               "--world: the device ports of the URDF world (docs/robots.md): the command inputs and state outputs\n"
+               "its joints' interfaces give, and the warnings of loading it; exit code 1 if it does not load.",
                cmd_types);

@@ -27,9 +27,18 @@ W.__index = W
 --- The options a world takes besides where it runs (see the header): what a system's start passes through.
 M.OPTIONS = { "world", "seed", "door_width", "record", "jammed", "realtime", "wait", "trace", "tick_timeout" }
 
+-- A robot world's spec with its URDF file made absolute ("mock:FILE?OPTIONS" keeps its prefix and options): the
+-- world process starts in its daemon's folder (docs/robots.md). Any other world name as it is.
+local function world_spec(w)
+  if type(w) ~= "string" or not w:find("%.urdf") then return w end
+  local prefix, rest = w:match("^(mock:)(.*)$")
+  local file, options = (rest or w):match("^([^?]*)(.*)$")
+  return (prefix or "") .. core.absolute(file) .. options
+end
+
 --- The argv of the world process for options `o` (see the header).
 function M.argv(o)
-  local argv = { "dca", "sim", "--serve", "--daemon", o.daemon, "--host", o.host, "--world", o.world }
+  local argv = { "dca", "sim", "--serve", "--daemon", o.daemon, "--host", o.host, "--world", world_spec(o.world) }
   if o.key then argv[#argv + 1] = "--key" argv[#argv + 1] = o.key end
   if o.seed then argv[#argv + 1] = "--seed" argv[#argv + 1] = tostring(o.seed) end
   if o.door_width then argv[#argv + 1] = "--door-width" argv[#argv + 1] = tostring(o.door_width) end

@@ -1,0 +1,25 @@
+#pragma once
+// `dca sim --world ROBOT.urdf` and `--world mock:ROBOT.urdf` (docs/robots.md): the generic URDF world, run here or
+// served as the world process (sim/device_node.h); and `dca types --world SPEC`: the ports it would have.
+#include <string>
+
+namespace dca::app {
+
+/// What `dca sim` hands a robot world.
+struct RobotSimOptions {
+  std::string world;                 ///< the spec (sim/urdf/joint_world.h)
+  bool serve = false, go = false, realtime = false;
+  std::string daemon, name = "world", key, host, trace;
+  double period = 1e-3, duration = -1, sync_period = 0.01;
+  int tick_timeout_ms = 10000;
+};
+
+/// Whether `spec` names a robot world rather than the door.
+bool is_robot_world(const std::string& spec);
+/// Runs the robot world: served (--serve) or stepped here for --duration (default 1 s) with no commands, then
+/// its joints and the safety layer's summary printed. The exit code.
+int sim_robot(const RobotSimOptions& o);
+/// Prints the ports of world `spec` (as `dca types` prints a controller's) and its warnings: the exit code.
+int print_world_ports(const std::string& spec);
+
+}  // namespace dca::app

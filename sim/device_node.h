@@ -1,0 +1,60 @@
+#pragma once
+// A DeviceWorld (sim/device_world.h) as a process: the world's signals as the ports of a component named `world`
+// (by default), hosted by the ordinary node runtime (host/node.h), and the clock master of every node on
+// simulated time (host/lockstep.h), as sim/world_node.h does for the door world (docs/time.md; docs/data-plane.md,
+// "Device ports: the robot"; docs/robots.md).
+//
+// Each tick: the command samples counted for the world are taken in (the latest of each input goes to
+// DeviceWorld::command), the world steps one period, and when subscribers are due its sensors are written to
+// the outputs. A command input whose writer the clock master lost or forgot for a new instance is told to the
+// world (DeviceWorld::writer_gone). `status {}` is the clock's status and the world's fields. Taps and
+// recordings are the door world's for now: `tap` and `record_end` are answered with an error saying so.
+#include <functional>
+#include <memory>
+#include <string>
+
+#include "host/component.h"
+#include "host/loop.h"
+#include "host/node.h"
+#include "host/codec/wire.h"
+#include "sim/device_world.h"
+
+namespace dca {
+class Channel;
+}
+
+namespace dca::sim {
+
+/// How the world process runs.
+struct DeviceNodeOptions {
+  double sync_period = 0.01;      ///< s: every subscriber is advanced at least this often
+  int tick_timeout_ms = 10000;    ///< how long a subscriber may take to answer an advance
+  bool realtime = false;          ///< pace time to the wall clock
+  double duration = -1;           ///< s of simulated time after which time holds (-1: never)
+  std::string trace;              ///< file the lock-step trace goes to ("" = none; docs/time.md)
+};
+
+class DeviceNode {
+ public:
+  DeviceNode(Loop& loop, DeviceWorld& world, DeviceNodeOptions options);
+  ~DeviceNode();
+  DeviceNode(const DeviceNode&) = delete;
+  DeviceNode& operator=(const DeviceNode&) = delete;
+
+  /// The node that hosts this world (as WorldNode::make_node): start it with Node::start; it must not outlive
+  /// this DeviceNode.
+  std::unique_ptr<Node> make_node(NodeOptions options);
+  /// Starts time flowing (as `go`).
+  void go();
+  /// Simulated time in nanoseconds.
+  std::int64_t now() const;
+  /// The reply to `status {}`.
+  wire::Value status() const;
+
+  struct Impl;
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace dca::sim

@@ -1,0 +1,61 @@
+#pragma once
+// dca::sim::DeviceWorld: a simulated robot seen only through its device ports (docs/data-plane.md, "Device ports:
+// the robot"), the layer that sim/device_node.h serves to controllers: named vector signals out (sensors), named
+// vector signals in (commands), stepped one fixed period at a time. The generic URDF world (sim/urdf/) is one;
+// C++17-clean, so both the Simbody side and the C++20 node see it.
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace dca::sim {
+
+/// A signal of a device world: its port name, vector size and units.
+struct DeviceSignal {
+  std::string name;
+  std::uint32_t size = 1;
+  std::string units;
+};
+
+/// Where a world writes its `status {}` fields (the node turns them into the reply's map).
+class StatusSink {
+ public:
+  virtual ~StatusSink() = default;
+  virtual void number(const std::string& key, double v) = 0;
+  virtual void numbers(const std::string& key, const std::vector<double>& v) = 0;
+  /// A map {name = value}.
+  virtual void table(const std::string& key, const std::vector<std::pair<std::string, double>>& entries) = 0;
+  virtual void texts(const std::string& key, const std::vector<std::string>& lines) = 0;
+};
+
+/// A world behind device ports. Not thread-safe; deterministic: the same commands give the same sensors.
+class DeviceWorld {
+ public:
+  virtual ~DeviceWorld() = default;
+  /// The step (s).
+  virtual double period() const = 0;
+  /// Simulated time (s).
+  virtual double time() const = 0;
+  /// The outputs (sensors) and the inputs (commands), in port order.
+  virtual const std::vector<DeviceSignal>& sensors() const = 0;
+  virtual const std::vector<DeviceSignal>& commands() const = 0;
+  /// A sample of command `i` (n values) arrived before the next step.
+  virtual void command(std::size_t i, const double* v, std::size_t n) = 0;
+  /// The writer of command `i` is gone (lost, or replaced by a new instance): its safe value applies until a new
+  /// sample comes.
+  virtual void writer_gone(std::size_t i) = 0;
+  /// Advances one period.
+  virtual void step() = 0;
+  /// Sensor `i`'s current value: sensors()[i].size values into `out`.
+  virtual void sensor(std::size_t i, double* out) const = 0;
+  /// The world's part of `status {}`.
+  virtual void status(StatusSink& sink) const = 0;
+  /// One line saying what runs, for the process's "world ready" line.
+  virtual std::string describe() const = 0;
+  /// Lines for the end of a run (what the safety layer did), and warnings of loading.
+  virtual std::vector<std::string> summary() const = 0;
+  virtual std::vector<std::string> warnings() const = 0;
+};
+
+}  // namespace dca::sim
