@@ -78,8 +78,29 @@ function M.connect_wire(sup, w, cb)
     end)
 end
 
+-- A device signal named after the leaf's arguments: "joint.{joint}.position" takes the leaf's argument `joint`
+-- (or its default), as the URDF world's joint ports need (docs/robots.md). --> signal, or nil and why
+local function expand(device, c, t)
+  local err
+  local signal = device:gsub("{([%w_]+)}", function(name)
+    for i, pm in ipairs(t.params or {}) do
+      if pm.name == name then
+        local v = c.args and c.args[i]
+        if v == nil then v = pm.default end
+        if type(v) == "string" or type(v) == "number" then return tostring(v) end
+        err = sformat("its device signal %s needs a literal argument '%s'", device, name)
+        return ""
+      end
+    end
+    err = sformat("its device signal %s names no parameter '%s'", device, name)
+    return ""
+  end)
+  if err then return nil, err end
+  return signal
+end
+
 --- The device ports of the group's own leaves, in declaration order:
---- { { leaf = path, type = T, port = name, signal = "arm.q", dir = "in" | "out" }, ... }
+--- { { leaf = path, type = T, port = name, signal = "arm.q", dir = "in" | "out", err = why | nil }, ... }
 function M.device_ports(spec, types)
   local list = {}
   for _, c in ipairs(spec.children) do
@@ -88,8 +109,9 @@ function M.device_ports(spec, types)
       for _, dir in ipairs({ "inputs", "outputs" }) do
         for _, p in ipairs(t[dir] or {}) do
           if p.device and p.device ~= "" then
-            list[#list + 1] = { leaf = c.path, type = c.type, port = p.name, signal = p.device,
-                                dir = dir == "inputs" and "in" or "out" }
+            local signal, err = expand(p.device, c, t)
+            list[#list + 1] = { leaf = c.path, type = c.type, port = p.name, signal = signal or p.device,
+                                dir = dir == "inputs" and "in" or "out", err = err }
           end
         end
       end
@@ -133,6 +155,9 @@ function M.devices(sup, cb, only)
       .. "driver registered as `world`): %s", sup.path, describe_devices(ports), tostring(err))
   end
   if not sup.rt.world then cb(nil, no_world("this runtime reaches no world")) return end
+  for _, p in ipairs(ports) do
+    if p.err then cb(nil, sformat("%s: device port %s.%s: %s", sup.path, p.leaf, p.port, p.err)) return end
+  end
   local j, activated = async.join(cb, true), {}
   for _, p in ipairs(ports) do
     local k = j.add()
