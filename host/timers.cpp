@@ -16,7 +16,18 @@ namespace asio = boost::asio;
 
 namespace dca {
 
-Nanos from_seconds(double s) { return static_cast<Nanos>(std::llround(s * 1e9)); }
+Nanos from_seconds(double s) {
+  if (std::isnan(s)) return 0;
+  const double ns = s * 1e9;
+  if (ns >= 9.2e18) return kNever;  // llround would overflow past 2^63 ns
+  if (ns <= -9.2e18) return -kNever;
+  return static_cast<Nanos>(std::llround(ns));
+}
+
+namespace {
+// t + d for t, d >= 0, saturating at kNever.
+Nanos later(Nanos t, Nanos d) { return d >= kNever - t ? kNever : t + d; }
+}  // namespace
 double to_seconds(Nanos n) { return static_cast<double>(n) * 1e-9; }
 
 Nanos monotonic_now() {
@@ -205,8 +216,8 @@ struct TimerServer::Impl {
     }
     const Nanos deadline = e.deadline;
     if (e.period > 0) {
-      e.deadline += e.period;
-      if (e.deadline <= now) {  // overran whole periods: skip them, count them
+      e.deadline = later(e.deadline, e.period);
+      if (e.deadline != kNever && e.deadline <= now) {  // overran whole periods: skip them, count them
         const Nanos k = (now - e.deadline) / e.period + 1;
         e.deadline += k * e.period;
         e.missed += static_cast<std::uint64_t>(k);
@@ -233,7 +244,7 @@ struct TimerServer::Impl {
 
 void TimerServer::Impl::arm(TimerServer& ts) {
   const auto n = next();
-  const Nanos want = n ? *n : -1;
+  const Nanos want = n && *n != kNever ? *n : -1;  // due never: nothing to arm
   if (want != armed) {
     itimerspec its{};
     if (want >= 0) {
@@ -286,7 +297,7 @@ TimerServer::Id TimerServer::every(Nanos period, std::function<void()> fn, std::
   e->name = std::move(name);
   e->period = period;
   const Nanos t = now();
-  e->deadline = first >= 0 ? first : aligned_ ? (t / period + 1) * period : t + period;
+  e->deadline = first >= 0 ? first : aligned_ ? later(t / period * period, period) : later(t, period);
   e->fn = std::move(fn);
   e->intervals = impl_->intervals_for(e->name, period);
   const Id id = e->id;
@@ -299,7 +310,7 @@ TimerServer::Id TimerServer::after(Nanos delay, std::function<void()> fn, std::s
   auto e = std::make_unique<Entry>();
   e->id = impl_->next_id++;
   e->name = std::move(name);
-  e->deadline = now() + std::max<Nanos>(delay, 0);
+  e->deadline = later(now(), std::max<Nanos>(delay, 0));
   e->fn = std::move(fn);
   const Id id = e->id;
   impl_->entries.push_back(std::move(e));

@@ -37,6 +37,7 @@
 #include <functional>
 #include <memory>
 #include <optional>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -47,7 +48,11 @@ namespace dca {
 /// Nanoseconds on a Clock (since its epoch: boot for the wall clock, 0 for a simulated clock).
 using Nanos = std::int64_t;
 
-/// Seconds -> Nanos (rounded to the nearest nanosecond).
+/// A time past any run (about 292 years): long times saturate to it, and a timer due at it never fires.
+inline constexpr Nanos kNever = std::numeric_limits<Nanos>::max();
+
+/// Seconds -> Nanos (rounded to the nearest nanosecond). Saturates: +inf and anything past kNever give kNever
+/// (-inf and below: -kNever); NaN gives 0 (parameters are checked before they get here).
 Nanos from_seconds(double s);
 /// Nanos -> seconds.
 double to_seconds(Nanos n);

@@ -10,7 +10,8 @@
 --   value  = number | string | true | false | table                  (nil is not a value)
 --   number = ["-"] numeral, a decimal (75, -0.45, .5, 3., 1e-3, 2E+10) or hexadecimal (0xff, 0x1p4, 0xA.8)
 --            numeral converted as Lua converts it (an integer when it is one and fits, else a float); no "+",
---            no inf or nan
+--            no inf or nan: a numeral past the largest double (1e999) or a hexadecimal integer past 64 bits is
+--            an error, not inf or a wrapped-around integer
 --   string = "..." or '...' with Lua's escapes (\a \b \f \n \r \t \v \\ \" \' \<line break> \z \xXX \ddd
 --            \u{XXX}; a line break needs its backslash), or a long bracket [[...]], [==[...]==]
 --   table  = "{" [field {("," | ";") field} ["," | ";"]] "}"
@@ -69,6 +70,13 @@ local function number(s, start)
   local v = tok ~= "" and not smatch(s, "^[%w_%.]", stop) and tonumber(tok)
   if not v then
     fail(start, "malformed number near '%s'", ssub(s, start, (sfind(s, "[^%w_%.%-%+]", start) or #s + 1) - 1))
+  end
+  -- out of range: a float past the largest double (Lua reads it as inf), or a hexadecimal integer past 64 bits
+  -- (Lua wraps it around: 0x7fffffffffffffffff would be -1)
+  if v == math.huge or v ~= v then fail(start, "number out of range: %s", ssub(s, start, stop - 1)) end
+  local hex = smatch(tok, "^0[xX]0*(%x*)$")
+  if hex and (#hex > 16 or (#hex == 16 and tonumber(ssub(hex, 1, 1), 16) > 7)) then
+    fail(start, "integer out of range (past 0x7fffffffffffffff): %s", ssub(s, start, stop - 1))
   end
   if pos ~= start then v = -v end
   return v, stop

@@ -5,6 +5,7 @@
 
 #include <chrono>
 #include <functional>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -34,6 +35,36 @@ class TimersTest : public ::testing::Test {
 TEST_F(TimersTest, SecondsConvert) {
   EXPECT_EQ(dca::from_seconds(0.001), kMs);
   EXPECT_DOUBLE_EQ(dca::to_seconds(1'500'000'000), 1.5);
+}
+
+// Times past 2^63 ns (about 292 years) saturate to "never" instead of overflowing into the past: a Deadline of
+// 1e10 s aborted at once, a Timer of 1e10 s ended after 0.12 s.
+TEST_F(TimersTest, LongTimesSaturateToNeverAndNeverFire) {
+  EXPECT_EQ(dca::from_seconds(1e10), dca::kNever);
+  EXPECT_EQ(dca::from_seconds(1e300), dca::kNever);
+  EXPECT_EQ(dca::from_seconds(std::numeric_limits<double>::infinity()), dca::kNever);
+  EXPECT_EQ(dca::from_seconds(-std::numeric_limits<double>::infinity()), -dca::kNever);
+  EXPECT_EQ(dca::from_seconds(std::numeric_limits<double>::quiet_NaN()), 0);
+  EXPECT_EQ(dca::from_seconds(9e9), 9'000'000'000'000'000'000);
+  dca::TimerServer ts(io, dca::ClockKind::Simulated);
+  int fired = 0;
+  ts.advance_to(5'000'000'000);
+  ts.after(dca::from_seconds(1e10), [&] { ++fired; });
+  ts.every(dca::from_seconds(1e300), [&] { ++fired; });
+  EXPECT_EQ(ts.next_deadline(), dca::kNever);
+  EXPECT_EQ(ts.advance_to(9'000'000'000'000'000'000), 0u);
+  EXPECT_EQ(fired, 0);
+  // near the end of time a period still lands at kNever, not in the past
+  dca::TimerServer late(io, dca::ClockKind::Simulated);
+  late.advance_to(dca::kNever - 10);
+  late.every(100, [&] { ++fired; });
+  EXPECT_EQ(late.next_deadline(), dca::kNever);
+  // the wall clock arms nothing for a timer due never
+  dca::TimerServer wall(io, dca::ClockKind::Wall);
+  wall.after(dca::kNever, [&] { ++fired; });
+  io.restart();
+  io.poll();
+  EXPECT_EQ(fired, 0);
 }
 
 TEST_F(TimersTest, HistogramQuantilesAndMax) {

@@ -8,7 +8,7 @@ local suite = T.suite("literal")
 suite:case("numbers_strings_booleans_and_tables_read_as_lua_reads_them", function()
   local cases = {
     "0", "75", "-3", "- 3", "0.45", "-0.45", ".5", "3.", "1e3", "2E+10", "1e-3", "0xff", "0XA.8", "0x1p4", "-0x10",
-    "9223372036854775807", "9223372036854775808", "true", "false", '"right"', "'right'", '"a\\tb\\n\\"q\\"\\\\"',
+    "9223372036854775807", "9223372036854775808", "0x7fffffffffffffff", "0x00000000000000000001", "1e308", "true", "false", '"right"', "'right'", '"a\\tb\\n\\"q\\"\\\\"',
     "'\\65\\066\\x43\\u{48}\\z   x'", '"a\\\nb"', "[[long]]", "[==[a]]b]==]", "{}", "{1, 2, 3}", "{1; 2;}",
     '{a = 1, ["b"] = 2, [3] = "c", [true] = false}', "{ {1, {2, {3}}}, x = { y = { z = -1.5 } } }",
     "{[1] = 'a', 'b'}", "  42  -- the answer", "{1, -- one\n 2}",
@@ -51,6 +51,11 @@ suite:case("code_and_non_literals_are_errors_at_the_offending_column", function(
     { "function() end", 1, "'function' is not a value" },
     { "{...}", 2, "malformed number near '...'" },
     { "\0", 1, "byte \\0" },
+    -- numbers out of range: Lua would read inf, or wrap a hexadecimal integer around to -1
+    { "1e999", 1, "number out of range: 1e999" },
+    { "{t = -1e400}", 6, "number out of range: -1e400" },
+    { "0x7fffffffffffffffff", 1, "integer out of range" },
+    { "0xffffffffffffffff", 1, "integer out of range" },
   }
   for _, c in ipairs(cases) do
     local v, err, col = literal.read(c[1])

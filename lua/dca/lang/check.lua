@@ -267,6 +267,10 @@ local function check_param_arg(ctx, p, sc, a, path)
     err(ctx, path, a.line, a.col, "parameter '%s' is not declared: process %s%s", a.value, sc.signature,
         guess_text(a.value, sc.param_list) or "")
   end
+  -- a numeral past the largest double reads as inf: refused here rather than run as "at once" or "never"
+  if a.kind == "number" and (a.value == math.huge or a.value == -math.huge or a.value ~= a.value) then
+    err(ctx, path, a.line, a.col, "number out of range (a number is at most about 1.8e308)")
+  end
 end
 
 local function parameters(ctx, p, sc)

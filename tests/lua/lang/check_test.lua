@@ -5,6 +5,7 @@ local check = require "dca.lang.check"
 local suite = T.suite("check")
 
 local src, read = T.src, T.read
+local sformat = string.format
 
 local function errors(text, opts)
   local ast = assert(parser.parse(text, "t.dca"))
@@ -60,6 +61,18 @@ suite:case("builtin_timer_and_deadline", function()
   T.eq(errors([[process main() { instantiated_processes { t instof Timer("h", "soon"); }
                                    internal_event_actions { t } }]], { types = {} }),
        { "main.t: parameter 'duration' of Timer is a number, got the string \"soon\"" })
+end)
+
+-- A numeral past the largest double reads as inf in Lua: a Deadline of 1e999 s aborted at once (the C++ side
+-- now saturates finite long times to "never", host/timers.h); the check refuses it at its position.
+suite:case("numbers_out_of_range_are_errors_at_their_position", function()
+  local ast = assert(parser.parse([[process main() {
+  instantiated_processes { t instof Timer("h", 1e999); d instof Deadline("h", -1e400); k instof Timer("h", 1e300); }
+  internal_event_actions { t , d , k } }]], "t.dca"))
+  local got = {}
+  for _, e in ipairs(check.check(ast, { types = {} })) do got[#got + 1] = sformat("%d:%d %s", e.line, e.col, e.msg) end
+  T.eq(got, { "2:48 number out of range (a number is at most about 1.8e308)",
+              "2:79 number out of range (a number is at most about 1.8e308)" })
 end)
 
 suite:case("group_ports_follow_their_exports", function()
