@@ -108,7 +108,9 @@ int cmd_node(std::span<char* const> args) {
     std::fflush(stdout);
   }, &started, &failure);
   if (!started) {
-    std::fprintf(stderr, "dca node %s: %s\n", o.name.c_str(), failure.empty() ? "stopped before it was ready" : failure.c_str());
+    // (a reason the daemon took is in its log and goes to the supervisor: not said twice)
+    if (!node.failure_told())
+      std::fprintf(stderr, "dca node %s: %s\n", o.name.c_str(), failure.empty() ? "stopped before it was ready" : failure.c_str());
     node.shutdown("start-up failed");
     return 1;
   }

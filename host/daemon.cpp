@@ -124,6 +124,8 @@ void Daemon::handle(const Channel::Ptr& ch, const wire::Message& m) {
       std::fprintf(stderr, "dca daemon %s: kill event from %s: %s\n", options_.host.c_str(), ch->peer().c_str(),
                    error.c_str());
     }
+  } else if (m.type == "failed") {
+    failed(ch, m);
   } else if (names_.handle(ch, m)) {
     // register / unregister / lookup
   } else if (m.type == "ping") {
@@ -196,6 +198,22 @@ void Daemon::spawn(const Channel::Ptr& ch, const wire::Message& m) {
                    .set("joined", false));
 }
 
+// A child that failed before it was ready says why (host/node.h): the reason, at most 4 KiB, goes to its log
+// line here and with its exit event.
+void Daemon::failed(const Channel::Ptr& ch, const wire::Message& m) {
+  const std::int64_t pid = m.payload["pid"].as_int();
+  for (const auto& [id, p] : exec_.children()) {
+    if (p != pid) continue;
+    std::string reason = m.payload["reason"].is_string() ? m.payload["reason"].as_string() : "(no reason given)";
+    if (reason.size() > 4096) reason = reason.substr(0, 4096) + "...";
+    std::fprintf(stderr, "dca daemon %s: %s (pid %d) failed to start: %s\n", options_.host.c_str(),
+                 child_names_[id].c_str(), static_cast<int>(pid), reason.c_str());
+    reasons_[id] = std::move(reason);
+    return void(ch->reply(m));
+  }
+  ch->reply_error(m, "failed: no child with pid " + std::to_string(pid) + " on host " + options_.host);
+}
+
 // A shared spawn of a name whose child runs and is held: the requester holds it too. False when there is none.
 bool Daemon::join(const Channel::Ptr& ch, const wire::Message& m, const std::string& name) {
   auto it = shared_by_name_.find(name);
@@ -231,6 +249,10 @@ void Daemon::exited(Executer::ChildId id, const std::string& name, const std::we
                        .set("pid", static_cast<std::int64_t>(s.pid))
                        .set("name", name)
                        .set("host", options_.host);
+  if (auto r = reasons_.find(id); r != reasons_.end()) {
+    ev.set("reason", r->second);
+    reasons_.erase(r);
+  }
   if (s.exited) {
     ev.set("code", s.code);
   } else {

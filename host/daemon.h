@@ -2,8 +2,9 @@
 // The per-host daemon (`dca daemon`): a channel listener serving the Executer and the NameServer.
 //
 // Requests it answers on any authenticated channel (docs/control-plane.md):
-//   spawn {argv, name?}        -> ok {child, pid}; later the event exit {child, pid, name, code | signal}
-//                                 goes to the channel that asked (signal is a name such as "SIGSEGV")
+//   spawn {argv, name?}        -> ok {child, pid}; later the event exit {child, pid, name, code | signal,
+//                                 reason?} goes to the channel that asked (signal is a name such as "SIGSEGV";
+//                                 reason: what the child said with `failed`, below)
 //   spawn {argv, name, shared = true} -> ok {child, pid, joined}: a process several requesters share (a shared
 //                                 node, host/node.h): while a child spawned so under `name` runs and is held,
 //                                 the request joins it (joined = true, argv unused) instead of starting another;
@@ -17,6 +18,8 @@
 //   register {name, endpoints} -> ok {name, host}  removed when the registering channel closes
 //   unregister {name}          -> ok {}
 //   lookup {name, wait_ms?}    -> ok {name, endpoints, host}, or error at the deadline (see host/names.h)
+//   failed {pid, reason}       -> ok {}            a child (`dca node`) that failed before it was ready says why;
+//                                                   its exit event then carries `reason` (host/node.h)
 //   ping {}                    -> ok {host, pid}
 //   status {}                  -> ok {host, children = [{child, pid, name}], names = [...]}
 //   config_* {...}             the configuration repository (host/config_service.h has the full list): get, set,
@@ -97,6 +100,7 @@ class Daemon {
   void spawn(const Channel::Ptr& ch, const wire::Message& m);
   bool join(const Channel::Ptr& ch, const wire::Message& m, const std::string& name);
   void release(Channel* holder, Executer::ChildId id);
+  void failed(const Channel::Ptr& ch, const wire::Message& m);
   void exited(Executer::ChildId id, const std::string& name, const std::weak_ptr<Channel>& requester,
               const ExitStatus& s);
 
@@ -114,6 +118,7 @@ class Daemon {
   Listener::Ptr listener_;
   std::set<Channel::Ptr> channels_;
   std::map<Executer::ChildId, std::string> child_names_;
+  std::map<Executer::ChildId, std::string> reasons_;    // why a child failed before it was ready (`failed`)
   std::map<Executer::ChildId, Shared> shared_;          // shared children (held or not yet exited)
   std::map<std::string, Executer::ChildId> shared_by_name_;  // the held ones a shared spawn joins
   std::unique_ptr<ConfigService> config_;

@@ -152,10 +152,8 @@ struct Node::Impl {
   bool done = false;
   int code = 0;
 
-  void fail_start(const std::function<void(const std::string&)>& done_fn, const std::string& error) {
-    code = 1;
-    done_fn(error);
-  }
+  bool failure_told = false;  // the daemon took the reason of a failed start (it goes with the exit event)
+  void fail_start(const std::function<void(const std::string&)>& done_fn, const std::string& error);
   Leaf* find(std::string_view name) const {
     auto it = leaves.find(name);
     return it == leaves.end() ? nullptr : it->second.get();
@@ -223,6 +221,7 @@ void Node::on_request(std::function<bool(const std::shared_ptr<Channel>&, const 
   impl_->hook = std::move(hook);
 }
 int Node::exit_code() const { return impl_->code; }
+bool Node::failure_told() const { return impl_->failure_told; }
 
 // Start-up as a list of named steps, each ending by calling the next one or fail_start:
 //   start (key, daemon address) -> connect_daemon -> learn_host (ping, unless --host) -> open_ports (the
@@ -239,6 +238,23 @@ void Node::start(std::function<void(const std::string& error)> done) {
   if (!daddr) return I.fail_start(done, error);
   I.ip = daddr->kind == Transport::Tcp ? daddr->host : "127.0.0.1";
   I.connect_daemon(*daddr, std::move(done));
+}
+
+// A failed start: once the daemon's channel is open, the reason goes to the daemon first (`failed {pid,
+// reason}`, bounded by the start-up timeout), which sends it to the supervisor with the exit event; then
+// done_fn. The reason drops the controller's "TYPE PATH: " prefix: the supervisor names the path.
+void Node::Impl::fail_start(const std::function<void(const std::string&)>& done_fn, const std::string& error) {
+  if (done) return;  // shut down meanwhile (a signal): whoever waited for the start is gone
+  code = 1;
+  if (!daemon || !daemon->is_open()) return done_fn(error);
+  const std::string own = opts.type + " " + opts.name + ": ";
+  const std::string reason = error.rfind(own, 0) == 0 ? error.substr(own.size()) : error;
+  daemon->request({"failed", 0, Value::map().set("pid", static_cast<std::int64_t>(::getpid())).set("reason", reason)},
+                  std::chrono::milliseconds(opts.timeout_ms), [this, done_fn, error](Response r) {
+                    if (done) return;
+                    failure_told = r.ok();
+                    done_fn(error);
+                  });
 }
 
 // Opens the channel to the daemon (losing it stops the node), then learns the host's name.

@@ -13,6 +13,9 @@
 // daemon's IP), then registers PATH with the daemon:
 //   register {name = PATH, endpoints = {host, control, data_uds, data_tcp, pid, type}}
 // and waits, inactive. When the daemon's channel closes, the node stops its component and exits.
+// A start that fails once the daemon's channel is open tells the daemon why before the node exits:
+//   failed {pid, reason}  (answered ok) -> the daemon's exit event of this process carries `reason`
+// so the supervisor learns the reason with the exit, at once (docs/processes.md, "Errors surface").
 //
 // Control requests (from its supervisor, on a channel to `control`), each answered ok or error {reason}:
 //   init {}                                   -> ok {}
@@ -152,6 +155,9 @@ class Node {
   bool finished() const;
   /// The exit code to leave with (0, or 1 after a start-up failure or daemon loss).
   int exit_code() const;
+  /// True when a failed start's reason reached the daemon (`failed`, see the header comment): it is in the
+  /// daemon's log and goes to the supervisor with the exit event.
+  bool failure_told() const;
   /// Extra control requests: `hook` sees every request the node does not know, before it would answer
   /// "unknown request"; it returns true when it handled (answered or will answer) it. The world process uses
   /// this for its clock master requests. Set before start().

@@ -139,7 +139,8 @@ TEST(PackagesTest, TheSearchPathIsTheVariableThePrefixThenTheSystemsFolder) {
   EXPECT_EQ(dirs[4], "/sys/dir/packages");
   EXPECT_EQ(dca::available_packages({packages_dir()}),
             (std::vector<std::string>{"pkg_builtin", "pkg_init_throws", "pkg_missing", "pkg_none", "pkg_ok",
-                                      "pkg_old", "pkg_old_missing", "pkg_throws", "pkg_twin"}));
+                                      "pkg_old", "pkg_old_missing", "pkg_port_typo", "pkg_positive", "pkg_stderr",
+                                      "pkg_throws", "pkg_twin"}));
 }
 
 }  // namespace

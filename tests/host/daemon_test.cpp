@@ -129,6 +129,25 @@ TEST_F(DaemonTest, SpawnReportsExitCodeToTheRequester) {
   EXPECT_TRUE(ev->payload["signal"].is_nil());
 }
 
+// A child that fails before it is ready says why (`failed`, host/node.h): its exit event carries the reason.
+TEST_F(DaemonTest, AFailedChildsReasonGoesWithItsExit) {
+  auto d = make("h1");
+  auto c = connect(loop_, d->address());
+  ASSERT_TRUE(c);
+  const auto r = c->call(req("spawn", Value::map().set("argv", Value::Array{"/bin/sleep", "100"}).set("name", "n")));
+  ASSERT_TRUE(r.ok()) << r.error;
+  const auto pid = r.message.payload["pid"].as_int();
+  const auto told = c->call(req("failed", Value::map().set("pid", pid).set("reason", "parameter 'k' must be positive")));
+  EXPECT_TRUE(told.ok()) << told.error;
+  const auto stranger = c->call(req("failed", Value::map().set("pid", 1).set("reason", "x")));
+  EXPECT_EQ(stranger.error, "failed: no child with pid 1 on host h1");
+  ASSERT_TRUE(c->call(req("kill", Value::map().set("child", r.message.payload["child"]))).ok());
+  const Message* ev = c->wait_event("exit");
+  ASSERT_NE(ev, nullptr);
+  EXPECT_EQ(ev->payload["reason"].as_string(), "parameter 'k' must be positive");
+  EXPECT_EQ(ev->payload["signal"].as_string(), "SIGTERM");
+}
+
 TEST_F(DaemonTest, SpawnReportsSignalAndKillsOnRequest) {
   auto d = make("h1");
   auto c = connect(loop_, d->address());

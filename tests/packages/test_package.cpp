@@ -1,7 +1,10 @@
 // The controller packages of the package tests (tests/packages/CMakeLists.txt builds one per variant): one type,
 // named PKG_TYPE, `PKG_TYPE(host, k=2, period=0)`: in In, out Out = k * In (event-driven by default). Variants
 // break it on purpose: PKG_MISSING_SYMBOL calls a function no one defines, PKG_THROW_IN_CONSTRUCTOR and
-// PKG_THROW_IN_INIT throw from the constructor or Init.
+// PKG_THROW_IN_INIT throw from the constructor or Init, PKG_POSITIVE_K takes k with positive("k") (a bad
+// parameter: its node fails to start), PKG_BAD_PORT asks for input("SetPoint"), a name its manifest lacks,
+// PKG_STDERR writes k lines "line N of PKG_TYPE" to stderr at its first tick, then ends DONE(k).
+#include <cstdio>
 #include <stdexcept>
 
 #include "controllers/controller.h"
@@ -16,6 +19,12 @@ double missing_for_tests(double x);  // defined nowhere: the loader must name it
 }  // namespace dca
 #endif
 
+#ifdef PKG_POSITIVE_K
+#define PKG_K positive
+#else
+#define PKG_K number
+#endif
+
 namespace {
 
 class PKG_TYPE final : public dca::PeriodicController {
@@ -26,6 +35,12 @@ class PKG_TYPE final : public dca::PeriodicController {
 #endif
   }
   void MainCalc() override {
+#ifdef PKG_STDERR
+    if (said_) return;
+    said_ = true;
+    for (int i = 1; i <= static_cast<int>(k_); ++i) std::fprintf(stderr, "line %d of %s\n", i, PKG_STR(PKG_TYPE));
+    return Done(k_);
+#endif
     if (!in_.take_latest()) return;
     double y = k_ * in_.scalar();
 #ifdef PKG_MISSING_SYMBOL
@@ -37,6 +52,9 @@ class PKG_TYPE final : public dca::PeriodicController {
   dca::Input& in_;
   dca::Output& out_;
   double k_;
+#ifdef PKG_STDERR
+  bool said_ = false;
+#endif
 };
 
 dca::Manifest PKG_TYPE::Describe() {
@@ -46,7 +64,10 @@ dca::Manifest PKG_TYPE::Describe() {
 }
 
 PKG_TYPE::PKG_TYPE(const dca::ControllerContext& ctx)
-    : PeriodicController(ctx, Period::ZeroIsEventDriven), in_(trigger("In")), out_(output("Out")), k_(number("k")) {
+    : PeriodicController(ctx, Period::ZeroIsEventDriven), in_(trigger("In")), out_(output("Out")), k_(PKG_K("k")) {
+#ifdef PKG_BAD_PORT
+  input("SetPoint");
+#endif
 #ifdef PKG_THROW_IN_CONSTRUCTOR
   throw std::runtime_error("cannot open the device /dev/nonexistent");
 #endif

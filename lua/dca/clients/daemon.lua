@@ -15,14 +15,19 @@
 -- set with client:on_exit(fn). dca.clients.lookup(d, name, wait, cb) is the lookup production code uses.
 local clients = require "dca.clients"
 
-local tonumber, tostring, sformat = tonumber, tostring, string.format
+local tonumber, tostring, type, sformat = tonumber, tostring, type, string.format
 
 local M = {}
 
 local SIGNAMES = { [1] = "HUP", [2] = "INT", [3] = "QUIT", [4] = "ILL", [6] = "ABRT", [7] = "BUS", [8] = "FPE",
                    [9] = "KILL", [11] = "SEGV", [13] = "PIPE", [14] = "ALRM", [15] = "TERM" }
---- An exit event as words: "killed by SIGSEGV on host h1" | "exited with code 1 on host h1".
+--- An exit event as words: "killed by SIGSEGV on host h1" | "exited with code 1 on host h1"; the reason a
+--- process gave before it ended (`failed`, host/node.h) first: "parameter 'tau' must be positive, got -0.005
+--- (exited with code 1 on host h1)".
 function M.describe_exit(msg, host)
+  if type(msg.reason) == "string" and msg.reason ~= "" then
+    return sformat("%s (%s)", msg.reason, M.describe_exit({ signal = msg.signal, code = msg.code }, host))
+  end
   if msg.signal then
     local s = tonumber(msg.signal) and SIGNAMES[tonumber(msg.signal)] or tostring(msg.signal)
     return sformat("killed by SIG%s on host %s", tostring(s):gsub("^SIG", ""), host)

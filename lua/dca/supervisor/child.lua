@@ -7,6 +7,7 @@
 --   child.mark(ch, fields)    -- fields of its restart record set (ch.restart created when needed)
 --   child.unmark(ch, ...)     -- those fields of its restart record cleared (the record dropped once empty)
 --   child.restart(ch, field)  --> that field of its restart record, or nil
+--   child.start_error(ch, err, how) --> why its process did not come up, as a line naming its path
 --
 -- The state of a child changes only through child.set (tests/layout/check.lua holds the tree to it).
 local M = {}
@@ -37,6 +38,14 @@ local sformat, tostring = string.format, tostring
 function M.new(c)
   return { spec = c, name = c.name, path = c.path, kind = c.kind, host = c.host, state = "new", handle = nil,
            manual = false }
+end
+
+--- Why the process of child `ch` did not come up, from the runtime's spawn error `err`: a process that ended
+--- while it started gave its own reason (`how` = "exited", dca.supervisor.net), which names its host; any
+--- other error did not start it there.
+function M.start_error(ch, err, how)
+  if how == "exited" then return sformat("%s: %s", tostring(ch.path), tostring(err)) end
+  return sformat("%s: could not start on host %s: %s", tostring(ch.path), tostring(ch.host), tostring(err))
 end
 
 --- The states, each with its meaning.

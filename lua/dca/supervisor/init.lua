@@ -201,7 +201,7 @@ function Sup:_start_one(ch, k, failed)
         or "node", tostring(ch.host), self.timeouts.spawn))
     end
   end)
-  self.rt.spawn(ch.spec, function(handle, err)
+  self.rt.spawn(ch.spec, function(handle, err, how)
     if timer then timer:cancel() end
     if answered then
       -- too late: the start already failed; whatever started is stopped at once
@@ -211,7 +211,10 @@ function Sup:_start_one(ch, k, failed)
     answered = handle == nil or ch.kind == "leaf" or failed()
     if not handle then
       child.set(ch, "failed")
-      k(nil, sformat("%s: could not start on host %s: %s", ch.path, tostring(ch.host), tostring(err)))
+      -- said at the leaf at once: the start's error waits for the other spawns in flight
+      local why = child.start_error(ch, err, how)
+      self:say("%s", why)
+      k(nil, why)
       return
     end
     ch.handle = handle

@@ -68,9 +68,15 @@ function M.to_followers(followers, line)
   return n
 end
 
+-- An argument as the node reads it: a number in the fewest digits that give it back exactly (-0.005, not
+-- -0.0050000000000000001: the node's messages quote it).
 local function argstr(v)
   if type(v) == "number" then
     if math.type(v) == "integer" then return tostring(v) end
+    for _, f in ipairs({ "%.15g", "%.16g" }) do
+      local s = sformat(f, v)
+      if tonumber(s) == v then return s end
+    end
     return sformat("%.17g", v)
   end
   return tostring(v)
@@ -118,6 +124,12 @@ end
 -- or channel was lost (the policy's `lost` fault; the reason is only shown).
 function Proc:exited_with(rt, reason, _, lost)
   if self.exited then return end
+  if self.unreached then
+    -- it ended before it was reached (a failed start: its reason came with the exit): its start fails now
+    self.exited = true
+    self.unreached(reason)
+    return
+  end
   -- (the end of a process killed because its channel was lost: Proc:channel_closed)
   if self.lost_reason then reason, lost, self.lost_told = self.lost_reason, true, true end
   self.exited = true
@@ -503,9 +515,17 @@ function Net:_start(child, dc, cb)
 end
 
 -- Looks the started process up by its path and connects to its control endpoint; a process that cannot be
--- reached is killed. cb(handle) | cb(nil, reason)
+-- reached is killed. One that ends first (its exit event, with the reason it gave) fails the start at once:
+-- cb(nil, reason, "exited"). cb(handle) | cb(nil, reason[, "exited"])
 function Net:_reach(p, dc, cb)
+  local answered = false
+  p.unreached = function(reason)
+    answered, p.unreached = true, nil
+    cb(nil, reason, "exited")
+  end
   clients.open(dc, p.path, self.timeouts.lookup, clients.key_opts(self.opts.key), clients.Plain, function(c, err)
+    if answered then if c then c:close() end return end
+    answered, p.unreached = true, nil
     if not c then p:kill_wait("KILL") cb(nil, err) return end
     self._attach(p, c, cb)
   end)

@@ -79,15 +79,11 @@ function M.respawn(sup, name, was_running, cb)
     M.failed(sup, name, was_running, sformat("%s (node on host %s) did not start within %gs", ch.path,
       tostring(ch.host), sup.timeouts.spawn), cb)
   end)
-  sup.rt.spawn(ch.spec, function(handle, err)
+  sup.rt.spawn(ch.spec, function(handle, err, how)
     if timer then timer:cancel() end
     if answered then if handle then handle.kill("KILL") end return end
     answered = true
-    if not handle then
-      M.failed(sup, name, was_running, sformat("%s: could not start on host %s: %s", ch.path,
-        tostring(ch.host), tostring(err)), cb)
-      return
-    end
+    if not handle then M.failed(sup, name, was_running, child.start_error(ch, err, how), cb) return end
     if M.stopping_all(sup, ch) then
       child.unmark(ch, "replacing")
       handle.kill("TERM")
@@ -348,10 +344,9 @@ function M.respawn_group(sup, name, was_running, cb)
     failed(sformat("%s (supervisor on host %s) did not start within %gs", ch.path, tostring(ch.host),
       sup.timeouts.spawn + sup.timeouts.configure))
   end)
-  sup.rt.spawn(ch.spec, function(handle, err)
+  sup.rt.spawn(ch.spec, function(handle, err, how)
     if answered then if handle then handle.kill("KILL") end return end
-    if not handle then timer:cancel() failed(sformat("%s: could not start on host %s: %s", ch.path,
-      tostring(ch.host), tostring(err))) return end
+    if not handle then timer:cancel() failed(child.start_error(ch, err, how)) return end
     ch.handle = handle
     handle.request(sup:_configure_msg(ch), sup.timeouts.configure, function(reply, rerr)
       timer:cancel()

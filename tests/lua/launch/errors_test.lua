@@ -26,4 +26,45 @@ suite:case("a_world_with_a_broken_urdf_says_the_xml_error_with_file_and_line", f
   T.contains(out, "not well-formed XML")
 end)
 
+-- `dca run` of a system whose group `ctl` holds a good leaf and leaf `filt` of type `ty` from test package
+-- `pkg` (tests/packages, on the controller path). --> output, exit code
+local function run_ctl(pkg, leaf)
+  local dir = os.getenv("DCA_TEST_PACKAGES_DIR") or error("DCA_TEST_PACKAGES_DIR is not set")
+  local path = T.tmpfile("use " .. pkg .. ";\n" .. [[
+process Ctl(h1) {
+  host { h1 }
+  instantiated_processes { ok instof Counter(h1, 0.01); filt instof ]] .. leaf .. [[; }
+  internal_event_actions { ok , filt }
+}
+process main() {
+  instantiated_processes { ctl instof Ctl("h1"); }
+  internal_event_actions { ctl }
+}
+]])
+  local out, rc = T.sh("DCA_CONTROLLER_PATH=" .. dir .. " timeout 60 " .. dca .. " run " .. path)
+  os.remove(path)
+  return out, rc
+end
+
+-- A node that fails before it is ready tells its daemon why; the reason comes with its exit: said at its leaf,
+-- then the start fails with it, at once (no wait for a lookup's deadline).
+local function fails_at_once(out, rc, reason)
+  T.eq(rc, 3, "exit code (the start failed)\n" .. out)
+  local said = out:find("] main.ctl.filt: " .. reason, 1, true)
+  T.ok(said, "the reason at the leaf\n" .. out)
+  local failed = out:find("start failed: main.ctl.filt: " .. reason, 1, true)
+  T.ok(failed and failed > said, "the start failed with the reason, after the leaf's line\n" .. out)
+  T.ok(not out:find("within 10000 ms", 1, true), "no lookup ran to its deadline\n" .. out)
+end
+
+suite:case("a_parameter_out_of_range_fails_the_start_with_its_reason_at_once", function()
+  local out, rc = run_ctl("pkg_positive", 'PkgPositive(h1, -0.005)')
+  fails_at_once(out, rc, "parameter 'k' must be positive, got -0.005 (exited with code 1 on host h1)")
+end)
+
+suite:case("a_mistyped_port_name_fails_the_start_with_its_reason_at_once", function()
+  local out, rc = run_ctl("pkg_port_typo", "PkgPortTypo(h1)")
+  fails_at_once(out, rc, "no input 'SetPoint' on main.ctl.filt; inputs are: In (exited with code 1 on host h1)")
+end)
+
 return suite:run(...)
