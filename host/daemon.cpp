@@ -178,12 +178,13 @@ void Daemon::spawn(const Channel::Ptr& ch, const wire::Message& m) {
   const auto child = exec_.spawn(
       argv,
       [this, requester, name](Executer::ChildId id, const ExitStatus& s) { exited(id, name, requester, s); },
-      &error);
+      &error, [this](Executer::ChildId id, const std::string& line) { output(id, line); });
   if (!child) {
     ch->reply_error(m, error + " (daemon on host " + options_.host + ")");
     return;
   }
   child_names_[child->id] = name;
+  outputs_[child->id] = Output{requester, name, static_cast<int>(child->pid), kOutputBurst, std::chrono::steady_clock::now(), 0};
   if (shared) {
     auto& sh = shared_[child->id];
     sh.name = name;
@@ -212,6 +213,59 @@ void Daemon::failed(const Channel::Ptr& ch, const wire::Message& m) {
     return void(ch->reply(m));
   }
   ch->reply_error(m, "failed: no child with pid " + std::to_string(pid) + " on host " + options_.host);
+}
+
+// Where child `id`'s lines go: its requester, or a shared child's first open holder (nullptr: nobody).
+Channel::Ptr Daemon::output_channel(Executer::ChildId id) {
+  if (auto sh = shared_.find(id); sh != shared_.end()) {
+    for (const auto& [raw, w] : sh->second.holders)
+      if (auto c = w.lock(); c && c->is_open()) return c;
+    return nullptr;
+  }
+  auto it = outputs_.find(id);
+  auto c = it == outputs_.end() ? nullptr : it->second.to.lock();
+  return c && c->is_open() ? c : nullptr;
+}
+
+// The count of child `id`'s lines left out since the last one sent, if any, told to `to`.
+void Daemon::tell_dropped(Executer::ChildId id, const Channel::Ptr& to) {
+  auto it = outputs_.find(id);
+  if (it == outputs_.end() || it->second.dropped == 0 || !to) return;
+  Output& o = it->second;
+  to->send({"output", 0, wire::Value::map()
+                             .set("child", static_cast<std::int64_t>(id))
+                             .set("pid", static_cast<std::int64_t>(o.pid))
+                             .set("name", o.name)
+                             .set("host", options_.host)
+                             .set("dropped", static_cast<std::int64_t>(o.dropped))});
+  o.dropped = 0;
+}
+
+// A line child `id` wrote to its stderr: into this daemon's log as it is, and to its requester within the
+// budget (header comment); beyond it, counted.
+void Daemon::output(Executer::ChildId id, const std::string& line) {
+  std::fwrite(line.data(), 1, line.size(), stderr);
+  std::fputc('\n', stderr);
+  auto it = outputs_.find(id);
+  if (it == outputs_.end()) return;
+  Output& o = it->second;
+  const auto now = std::chrono::steady_clock::now();
+  o.tokens = std::min(kOutputBurst, o.tokens + kOutputRate * std::chrono::duration<double>(now - o.at).count());
+  o.at = now;
+  const auto to = output_channel(id);
+  // (once lines were left out, half the burst comes back first: a count, then a run of lines, not one each)
+  if (!to || o.tokens < (o.dropped > 0 ? kOutputBurst / 2 : 1) || to->queued_bytes() > kOutputBacklog) {
+    ++o.dropped;
+    return;
+  }
+  o.tokens -= 1;
+  tell_dropped(id, to);
+  to->send({"output", 0, wire::Value::map()
+                             .set("child", static_cast<std::int64_t>(id))
+                             .set("pid", static_cast<std::int64_t>(o.pid))
+                             .set("name", o.name)
+                             .set("host", options_.host)
+                             .set("line", line)});
 }
 
 // A shared spawn of a name whose child runs and is held: the requester holds it too. False when there is none.
@@ -283,6 +337,10 @@ void Daemon::exited(Executer::ChildId id, const std::string& name, const std::we
     shared_.erase(sh);
   } else if (auto c = requester.lock()) {
     to.push_back(c);
+  }
+  if (auto o = outputs_.find(id); o != outputs_.end()) {
+    if (!to.empty()) tell_dropped(id, to.front());
+    outputs_.erase(o);
   }
   bool told = false;
   for (const auto& c : to)

@@ -25,6 +25,11 @@
 //   config_* {...}             the configuration repository (host/config_service.h has the full list): get, set,
 //                                 list, log, watch (config_changed events), status, and config_sync between
 //                                 daemons; with no state_dir: error "no configuration repository ..."
+// Events besides exit: output {child, pid, name, host, line} for each line a child writes to its stderr (also
+// written to the daemon's own stderr, its log), sent to its requester (a shared child's: its first holder);
+// past the budget (kOutputBurst lines, kOutputRate a second, kOutputBacklog bytes queued on the channel) lines
+// are left out and counted: output {child, pid, name, host, dropped = N} says how many, before the next line
+// sent and before the exit event.
 // Anything else goes to the handler set with on_message (other services, e.g. a TimerServer), else gets
 // error "unknown request".
 #include <chrono>
@@ -42,6 +47,10 @@
 #include "host/names.h"
 
 namespace dca {
+
+/// The budget of the stderr lines a daemon forwards per child (see the header comment).
+inline constexpr double kOutputBurst = 1000, kOutputRate = 1000;
+inline constexpr std::size_t kOutputBacklog = 1 << 20;
 
 /// How a daemon is set up.
 struct DaemonOptions {
@@ -101,6 +110,9 @@ class Daemon {
   bool join(const Channel::Ptr& ch, const wire::Message& m, const std::string& name);
   void release(Channel* holder, Executer::ChildId id);
   void failed(const Channel::Ptr& ch, const wire::Message& m);
+  void output(Executer::ChildId id, const std::string& line);
+  void tell_dropped(Executer::ChildId id, const Channel::Ptr& to);
+  Channel::Ptr output_channel(Executer::ChildId id);
   void exited(Executer::ChildId id, const std::string& name, const std::weak_ptr<Channel>& requester,
               const ExitStatus& s);
 
@@ -119,6 +131,17 @@ class Daemon {
   std::set<Channel::Ptr> channels_;
   std::map<Executer::ChildId, std::string> child_names_;
   std::map<Executer::ChildId, std::string> reasons_;    // why a child failed before it was ready (`failed`)
+  // Where a child's stderr lines go (its requester), and their budget: a token bucket of lines, the lines left
+  // out since the last one sent (docs/processes.md, "Output").
+  struct Output {
+    std::weak_ptr<Channel> to;
+    std::string name;
+    int pid = 0;
+    double tokens = 0;
+    std::chrono::steady_clock::time_point at;
+    std::uint64_t dropped = 0;
+  };
+  std::map<Executer::ChildId, Output> outputs_;
   std::map<Executer::ChildId, Shared> shared_;          // shared children (held or not yet exited)
   std::map<std::string, Executer::ChildId> shared_by_name_;  // the held ones a shared spawn joins
   std::unique_ptr<ConfigService> config_;

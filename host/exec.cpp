@@ -9,11 +9,14 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
+#include <boost/asio/steady_timer.hpp>
 #include <cctype>
 #include <boost/asio/posix/stream_descriptor.hpp>
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
+#include <utility>
 
 #include "host/paths.h"
 #include "host/spawn.h"
@@ -140,6 +143,31 @@ struct Executer::Watch {
   ExitFn on_exit;
   std::unique_ptr<asio::posix::stream_descriptor> fd;
   bool reaped = false;
+  // its stderr pipe (spawn's on_stderr): the read end, the start of a line not ended yet, the exit held until
+  // the pipe's end (its last lines first), bounded by `drain`
+  LineFn on_stderr;
+  std::unique_ptr<asio::posix::stream_descriptor> err;
+  std::string partial;
+  std::array<char, 4096> buf{};
+  std::optional<ExitStatus> held;
+  std::unique_ptr<asio::steady_timer> drain;
+
+  // Hands each line ended in `partial` (a longer one in pieces of kMaxLine) to on_stderr; with `all`, the
+  // unended rest too.
+  void lines_out(bool all) {
+    std::size_t start = 0;
+    const auto out = [&](std::size_t end) {
+      do {
+        const std::size_t n = std::min(end - start, kMaxLine);
+        if (on_stderr) on_stderr(id, partial.substr(start, n));
+        start += n;
+      } while (start < end);
+    };
+    for (std::size_t nl; (nl = partial.find('\n', start)) != std::string::npos; ++start) out(nl);
+    while (partial.size() - start >= kMaxLine) out(start + kMaxLine);
+    if (all && start < partial.size()) out(partial.size());
+    partial.erase(0, start);
+  }
 };
 
 Executer::Executer(asio::io_context& io, AllowList allow) : io_(io), allow_(std::move(allow)) {}
@@ -147,7 +175,7 @@ Executer::Executer(asio::io_context& io, AllowList allow) : io_(io), allow_(std:
 Executer::~Executer() { stop_all(std::chrono::milliseconds(500)); }
 
 std::optional<Executer::Child> Executer::spawn(const std::vector<std::string>& argv, ExitFn on_exit,
-                                               std::string* error) {
+                                               std::string* error, LineFn on_stderr) {
   const auto fail = [&](std::string why) -> std::optional<Child> {
     if (error != nullptr) *error = std::move(why);
     return std::nullopt;
@@ -164,15 +192,30 @@ std::optional<Executer::Child> Executer::spawn(const std::vector<std::string>& a
 
   SpawnOptions so;
   so.new_group = true;  // its own process group, led by the child
+  int pipe_fds[2] = {-1, -1};
+  if (on_stderr) {
+    if (::pipe2(pipe_fds, O_CLOEXEC) != 0) return fail(std::string("cannot make a pipe: ") + std::strerror(errno));
+    ::fcntl(pipe_fds[0], F_SETPIPE_SZ, 1 << 20);  // room for a burst while the loop is busy (best effort)
+    so.stderr_fd = pipe_fds[1];
+  }
   std::string why;
   const auto spawned = spawn_process(*path, argv, so, &why);
-  if (!spawned) return fail(why);
+  if (pipe_fds[1] >= 0) ::close(pipe_fds[1]);
+  if (!spawned) {
+    if (pipe_fds[0] >= 0) ::close(pipe_fds[0]);
+    return fail(why);
+  }
   const pid_t pid = *spawned;
 
   auto w = std::make_shared<Watch>();
   w->id = next_id_++;
   w->pid = pid;
   w->on_exit = std::move(on_exit);
+  if (pipe_fds[0] >= 0) {
+    w->on_stderr = std::move(on_stderr);
+    w->err = std::make_unique<asio::posix::stream_descriptor>(io_, pipe_fds[0]);
+    read_stderr(w);
+  }
   const int pfd = pidfd_open(pid);
   if (pfd < 0) {
     // Without a pidfd we cannot watch it: do not leave it running unwatched.
@@ -215,10 +258,46 @@ void Executer::reaped(ChildId id) {
   boost::system::error_code ec;
   w->fd->close(ec);
   ExitStatus s = r > 0 ? decode_status(w->pid, st) : ExitStatus{w->pid, false, 0, 0, false};
-  if (w->on_exit) {
-    auto fn = std::move(w->on_exit);
-    fn(id, s);
-  }
+  if (!w->err) return exit_now(w, s);
+  // its last lines first: the exit waits for the pipe's end (at once when nothing else holds it), 1 s at most
+  w->held = s;
+  draining_[id] = w;
+  w->drain = std::make_unique<asio::steady_timer>(io_, std::chrono::seconds(1));
+  w->drain->async_wait([this, w](const boost::system::error_code& tec) {
+    if (!tec && w->err) stderr_ended(w);
+  });
+}
+
+// Tells the child's end (once).
+void Executer::exit_now(const std::shared_ptr<Watch>& w, const ExitStatus& s) {
+  if (!w->on_exit) return;
+  auto fn = std::move(w->on_exit);
+  w->on_exit = nullptr;
+  fn(w->id, s);
+}
+
+// Its stderr pipe ended (or the wait for its end did): the unended rest of a line goes out, the pipe is closed,
+// and a held exit is told.
+void Executer::stderr_ended(const std::shared_ptr<Watch>& w) {
+  w->lines_out(true);
+  boost::system::error_code ec;
+  if (w->err) w->err->close(ec);
+  w->err.reset();
+  if (w->drain) w->drain->cancel();
+  if (!w->held) return;
+  draining_.erase(w->id);
+  exit_now(w, *w->held);
+}
+
+// Reads the child's stderr for as long as the pipe is open; its end ends the reading.
+void Executer::read_stderr(const std::shared_ptr<Watch>& w) {
+  w->err->async_read_some(asio::buffer(w->buf), [this, w](const boost::system::error_code& ec, std::size_t n) {
+    if (!w->err) return;  // closed (stop_all, or the wait for its end is over)
+    w->partial.append(w->buf.data(), n);
+    w->lines_out(false);
+    if (ec) return stderr_ended(w);
+    read_stderr(w);
+  });
 }
 
 bool Executer::kill(ChildId child, int signal, std::string* error) {
@@ -240,6 +319,12 @@ bool Executer::kill(ChildId child, int signal, std::string* error) {
 
 void Executer::stop_all(std::chrono::milliseconds grace) {
   refusing_ = true;
+  for (auto& [id, w] : children_) w->on_stderr = nullptr;  // (their pipes are closed below)
+  for (auto& [id, w] : std::exchange(draining_, {})) {     // reaped, their exits not told: no callback now
+    w->on_exit = nullptr;
+    w->on_stderr = nullptr;
+    stderr_ended(w);
+  }
   if (children_.empty()) return;
   auto children = std::move(children_);
   children_.clear();
@@ -278,6 +363,8 @@ void Executer::stop_all(std::chrono::milliseconds grace) {
   for (auto& [id, w] : children) {
     boost::system::error_code ec;
     w->fd->close(ec);
+    if (w->err) w->err->close(ec);
+    w->err.reset();
   }
 }
 

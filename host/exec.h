@@ -65,6 +65,10 @@ class Executer {
   using ChildId = std::uint64_t;
   /// Called once per child, from the loop, when it ends.
   using ExitFn = std::function<void(ChildId, const ExitStatus&)>;
+  /// Called from the loop with each line a child writes to its stderr (without the newline; a line over
+  /// kMaxLine bytes comes in pieces of that size). Every line it wrote comes before its ExitFn.
+  using LineFn = std::function<void(ChildId, const std::string& line)>;
+  static constexpr std::size_t kMaxLine = 4096;
 
   Executer(boost::asio::io_context& io, AllowList allow);
   /// Stops (see stop_all) with a short grace period.
@@ -79,7 +83,10 @@ class Executer {
   };
   /// Starts argv (checked against the allow-list) in its own process group, stdin from /dev/null, stdout and
   /// stderr inherited, no other descriptor inherited. nullopt with *error when refused or when it cannot start.
-  std::optional<Child> spawn(const std::vector<std::string>& argv, ExitFn on_exit, std::string* error);
+  /// With `on_stderr`, its stderr is a pipe read on the loop instead, line by line: reading never stops, so the
+  /// child never waits on it longer than the loop's turn takes (the pipe holds up to 1 MiB meanwhile).
+  std::optional<Child> spawn(const std::vector<std::string>& argv, ExitFn on_exit, std::string* error,
+                             LineFn on_stderr = nullptr);
   /// Sends `signal` to the child's process group. False with *error for an unknown (or already ended) child.
   bool kill(ChildId child, int signal, std::string* error);
   /// Stops every child: SIGTERM to each process group, up to `grace` for them to end, then SIGKILL; reaps all.
@@ -95,9 +102,13 @@ class Executer {
  private:
   struct Watch;
   void reaped(ChildId id);
+  void read_stderr(const std::shared_ptr<Watch>& w);
+  void stderr_ended(const std::shared_ptr<Watch>& w);
+  void exit_now(const std::shared_ptr<Watch>& w, const ExitStatus& s);
   boost::asio::io_context& io_;
   AllowList allow_;
   std::map<ChildId, std::shared_ptr<Watch>> children_;
+  std::map<ChildId, std::shared_ptr<Watch>> draining_;  // reaped, exit held until their stderr pipe ends
   ChildId next_id_ = 1;
   bool refusing_ = false;
 };

@@ -68,6 +68,7 @@ std::optional<pid_t> spawn_process(const std::string& path, const std::vector<st
     ::posix_spawn_file_actions_addopen(&fa, 1, opts.stdout_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
     if (opts.stderr_to_stdout) ::posix_spawn_file_actions_adddup2(&fa, 1, 2);
   }
+  if (opts.stderr_fd >= 0) ::posix_spawn_file_actions_adddup2(&fa, opts.stderr_fd, 2);
   ::posix_spawn_file_actions_addclosefrom_np(&fa, 3);
   pid_t pid = 0;
   const int rc = ::posix_spawn(&pid, path.c_str(), &fa, &attr, args.data(), env.data());

@@ -24,6 +24,7 @@ struct SpawnOptions {
   std::string stdin_path = "/dev/null";  ///< opened read-only as fd 0
   std::string stdout_path;               ///< "" keeps the parent's fd 1; else opened (created 0600, truncated)
   bool stderr_to_stdout = true;          ///< fd 2 = fd 1 (only with stdout_path)
+  int stderr_fd = -1;                    ///< >= 0: fd 2 is a copy of this descriptor (a pipe's write end)
   bool new_session = false;              ///< setsid: a Ctrl-C at the terminal does not reach the child
   bool new_group = false;                ///< its own process group, led by the child
   bool parent_death = true;              ///< pass DCA_PARENT_PID (see die_with_parent)

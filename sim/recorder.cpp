@@ -70,6 +70,7 @@ struct Recorder::Mcap {
   }
   dca::mcap::Writer writer;
   uint16_t events = 0;  // the channel /dca/events, once there is a note
+  uint16_t log = 0;     // the channel /dca/log, once there is a line
 };
 
 namespace {
@@ -105,6 +106,16 @@ void Recorder::note(double t, const std::string& line, const std::string& path, 
   mcap_->writer.write(mcap_->events, ns,
                       "{\"line\":" + json_string(line) + ",\"path\":" + json_string(path) +
                           ",\"state\":" + json_string(state) + "}");
+}
+
+void Recorder::log(double t, const std::string& path, const std::string& line) {
+  if (!f_ || !mcap_) return;
+  if (mcap_->log == 0)
+    mcap_->log = mcap_->writer.add_channel(
+        "/dca/log", "dca/log",
+        R"({"type":"object","title":"/dca/log","properties":{"path":{"type":"string"},"line":{"type":"string"}}})");
+  const auto ns = static_cast<uint64_t>(std::llround(std::max(0.0, t) * 1e9));
+  mcap_->writer.write(mcap_->log, ns, "{\"path\":" + json_string(path) + ",\"line\":" + json_string(line) + "}");
 }
 
 uint16_t Recorder::add_channel(const std::string& topic, const std::string& schema) {

@@ -37,6 +37,9 @@ class Recorder {
   /// time `t`: {"line": line, "path": path, "state": state} (path and state empty for a line that is no
   /// transition), e.g. a progress line of `dca run` ("main.door.hit: running").
   void note(double t, const std::string& line, const std::string& path, const std::string& state);
+  /// MCAP only: one message on the channel /dca/log (added at the first) at simulated time `t`: {"path": path,
+  /// "line": line}, a line the process of `path` wrote to its stderr (docs/processes.md, "Output").
+  void log(double t, const std::string& path, const std::string& line);
   /// MCAP only (0 for a CSV): a channel of its own on `topic` (a tapped port's, host/net/tap.h), its messages JSON
   /// objects described by the JSON Schema `schema`.
   uint16_t add_channel(const std::string& topic, const std::string& schema);

@@ -275,9 +275,12 @@ bool WorldNode::handle(const std::shared_ptr<Channel>& ch, const Message& m) {
   if (m.type == "tap") return impl_->add_tap(ch, m), true;
   if (m.type == "record_end") return impl_->end_recording(ch, m), true;
   if (m.type == "note") {  // a line of the run for the recording (dca.launch.sim), at simulated time t
-    if (impl_->recorder)
-      impl_->recorder->note(m.payload["t"].as_float(impl_->world.time()), m.payload["line"].as_string(),
-                            m.payload["path"].as_string(), m.payload["state"].as_string());
+    const double t = m.payload["t"].as_float(impl_->world.time());
+    if (impl_->recorder && m.payload["channel"].as_string() == "log")
+      impl_->recorder->log(t, m.payload["path"].as_string(), m.payload["line"].as_string());
+    else if (impl_->recorder)
+      impl_->recorder->note(t, m.payload["line"].as_string(), m.payload["path"].as_string(),
+                            m.payload["state"].as_string());
     return ch->reply(m, Value::map()), true;
   }
   return impl_->clock.handle(ch, m);

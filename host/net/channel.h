@@ -109,6 +109,8 @@ class Channel : public std::enable_shared_from_this<Channel>, private FramedSock
   /// Why the channel closed ("" while open).
   const std::string& close_reason() const { return close_reason_; }
   std::size_t pending_requests() const { return pending_.size(); }
+  /// Bytes queued to send and not yet handed to the socket: a slow peer's backlog.
+  std::size_t queued_bytes() const { return framed_.queued(); }
   const ChannelStats& stats() const { return stats_; }
   boost::asio::io_context& io() { return io_; }
 

@@ -148,6 +148,39 @@ TEST_F(DaemonTest, AFailedChildsReasonGoesWithItsExit) {
   EXPECT_EQ(ev->payload["signal"].as_string(), "SIGTERM");
 }
 
+// A child's stderr lines go to its requester as output events, before its exit; past the budget they are
+// left out and counted, the count also before the exit.
+TEST_F(DaemonTest, AChildsStderrLinesGoToItsRequesterCountedPastTheBudget) {
+  auto d = make("h1");
+  auto c = connect(loop_, d->address());
+  ASSERT_TRUE(c);
+  const std::string flood = "i=0; while [ $i -lt 3000 ]; do echo \"line $i\" >&2; i=$((i+1)); done";
+  for (const std::string& script : {std::string("echo one >&2; echo two >&2"), flood}) {
+    c->events.clear();
+    const auto r = c->call(req("spawn", Value::map().set("argv", Value::Array{"/bin/sh", "-c", script}).set("name", "s")));
+    ASSERT_TRUE(r.ok()) << r.error;
+    ASSERT_NE(c->wait_event("exit"), nullptr);
+    std::vector<std::string> lines;
+    std::int64_t dropped = 0;
+    for (const auto& e : c->events) {
+      if (e.type == "exit") break;
+      ASSERT_EQ(e.type, "output");
+      EXPECT_EQ(e.payload["name"].as_string(), "s");
+      EXPECT_EQ(e.payload["host"].as_string(), "h1");
+      if (e.payload["line"].is_string()) lines.push_back(e.payload["line"].as_string());
+      dropped += e.payload["dropped"].as_int();
+    }
+    if (script != flood) {
+      EXPECT_EQ(lines, (std::vector<std::string>{"one", "two"}));
+      EXPECT_EQ(dropped, 0);
+      continue;
+    }
+    EXPECT_GE(lines.size(), static_cast<std::size_t>(dca::kOutputBurst));
+    EXPECT_EQ(lines.front(), "line 0");
+    EXPECT_EQ(static_cast<std::int64_t>(lines.size()) + dropped, 3000);
+  }
+}
+
 TEST_F(DaemonTest, SpawnReportsSignalAndKillsOnRequest) {
   auto d = make("h1");
   auto c = connect(loop_, d->address());

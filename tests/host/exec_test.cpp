@@ -77,6 +77,44 @@ TEST_F(ExecTest, ReportsTheExitCode) {
   EXPECT_EQ(ex.running(), 0u);
 }
 
+// With on_stderr, the child's stderr comes line by line, every line before its exit: an empty line, a line
+// longer than kMaxLine in pieces, the unended last one; its stdout stays the parent's.
+TEST_F(ExecTest, StderrComesLineByLineBeforeTheExit) {
+  Executer ex(loop_.io(), allow_);
+  std::vector<std::string> lines;
+  bool done = false;
+  std::string error;
+  const std::string script = "echo out; printf 'one\\n\\ntwo\\n' >&2; head -c 5000 /dev/zero | tr '\\0' x >&2; "
+                             "printf '\\nlast' >&2; exit 4";
+  auto child = ex.spawn(
+      {"/bin/sh", "-c", script},
+      [&](Executer::ChildId, const ExitStatus& s) {
+        lines.push_back("exit " + std::to_string(s.code));
+        done = true;
+      },
+      &error, [&](Executer::ChildId, const std::string& line) { lines.push_back(line); });
+  ASSERT_TRUE(child) << error;
+  ASSERT_TRUE(loop_.run_until([&] { return done; }, 20s));
+  const std::vector<std::string> want = {"one", "", "two", std::string(Executer::kMaxLine, 'x'),
+                                         std::string(5000 - Executer::kMaxLine, 'x'), "last", "exit 4"};
+  EXPECT_EQ(lines, want);
+}
+
+// A child that writes lines as fast as it can: every one is read, none is lost in the pipe.
+TEST_F(ExecTest, EveryLineOfAFloodIsRead) {
+  Executer ex(loop_.io(), allow_);
+  std::size_t n = 0;
+  bool done = false;
+  std::string error;
+  auto child = ex.spawn(
+      {"/bin/sh", "-c", "i=0; while [ $i -lt 20000 ]; do echo \"line $i\" >&2; i=$((i+1)); done"},
+      [&](Executer::ChildId, const ExitStatus&) { done = true; }, &error,
+      [&](Executer::ChildId, const std::string&) { ++n; });
+  ASSERT_TRUE(child) << error;
+  ASSERT_TRUE(loop_.run_until([&] { return done; }, 60s));
+  EXPECT_EQ(n, 20000u);
+}
+
 TEST_F(ExecTest, ReportsTheSignalByName) {
   Executer ex(loop_.io(), allow_);
   const auto s = run(ex, {"/bin/sh", "-c", "ulimit -c 0; kill -SEGV $$"});

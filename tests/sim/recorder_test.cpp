@@ -126,6 +126,23 @@ std::vector<double> numbers(const std::string& row) {
   return v;
 }
 
+// The messages (JSON text; with `at`, " at <log time>" after each) on the channel after the world's seven in
+// the MCAP file `path`, which must be its last and be named `topic`.
+std::vector<std::string> eighth_channel(const fs::path& path, const std::string& topic, bool at = false) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream bytes;
+  bytes << in.rdbuf();
+  dca::mcap::Contents contents;
+  std::string error;
+  EXPECT_TRUE(dca::mcap::read(bytes.str(), &contents, &error)) << error;
+  EXPECT_EQ(contents.channels.size(), 8u);
+  EXPECT_EQ(contents.channels.count(8) ? contents.channels.at(8).topic : "", topic);
+  std::vector<std::string> out;
+  for (const auto& m : contents.messages)
+    if (m.channel == 8) out.push_back(m.data + (at ? " at " + std::to_string(m.log_time) : ""));
+  return out;
+}
+
 // The same run recorded as CSV and as MCAP (with two notes): the MCAP file holds one JSON channel per signal
 // group plus /dca/events, and converted back to CSV it gives the CSV's rows.
 TEST(RecorderTest, McapHoldsTheCsvsRowsAndTheNotes) {
@@ -149,17 +166,8 @@ TEST(RecorderTest, McapHoldsTheCsvsRowsAndTheNotes) {
     ASSERT_TRUE(b.close(&error)) << error;
     EXPECT_EQ(b.summary().find(mcap.string() + ": 219 messages on 8 channels (/world/arm 31,"), 0u) << b.summary();
   }
-  std::ifstream in(mcap, std::ios::binary);
-  std::stringstream bytes;
-  bytes << in.rdbuf();
-  dca::mcap::Contents contents;
+  const auto events = eighth_channel(mcap, "/dca/events");
   std::string error;
-  ASSERT_TRUE(dca::mcap::read(bytes.str(), &contents, &error)) << error;
-  ASSERT_EQ(contents.channels.size(), 8u);
-  EXPECT_EQ(contents.channels.at(8).topic, "/dca/events");
-  std::vector<std::string> events;
-  for (const auto& m : contents.messages)
-    if (m.channel == 8) events.push_back(m.data);
   ASSERT_EQ(events.size(), 2u);
   EXPECT_EQ(events[0], R"({"line":"main.a: running","path":"main.a","state":"running"})");
   EXPECT_EQ(events[1], R"({"line":"say \"hi\"\u000a\\","path":"","state":""})");
@@ -175,6 +183,21 @@ TEST(RecorderTest, McapHoldsTheCsvsRowsAndTheNotes) {
   fs::remove(csv);
   fs::remove(mcap);
   fs::remove(back);
+}
+
+// A line a process wrote to its stderr goes on a channel of its own, /dca/log: {"path", "line"}.
+TEST(RecorderTest, McapKeepsTheProcessesLinesOnDcaLog) {
+  const fs::path mcap = temp("log.mcap");
+  {
+    dca::sim::World w(dca::sim::door_world());
+    dca::sim::Recorder r(mcap.string());
+    r.record(w.sensors(), 0);
+    r.log(0.25, "main.ctl.filt", "tau \"clamped\"");
+    std::string error;
+    ASSERT_TRUE(r.close(&error)) << error;
+  }
+  EXPECT_EQ(eighth_channel(mcap, "/dca/log", true), std::vector<std::string>{R"({"path":"main.ctl.filt","line":"tau \"clamped\""} at 250000000)"});
+  fs::remove(mcap);
 }
 
 }  // namespace

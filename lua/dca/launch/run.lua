@@ -35,8 +35,9 @@ function Run:emit(text)
   self.out.line(text)
 end
 
--- A progress line, stamped with the world's time (with --sim, in order) or the wall time since the start.
-function Run:say(line, at)
+-- A progress line, stamped with the world's time (with --sim, in order) or the wall time since the start;
+-- `output`: the path of the process that wrote it to its stderr (dca.supervisor: Sup:output).
+function Run:say(line, at, output)
   -- the trace keeps the lines that carry their event's simulated time (dca.trace)
   if self.o.trace_file and at then self.trace_lines[#self.trace_lines + 1] = { math.floor(at * 1e9 + 0.5), line } end
   local s, mon = self.ctx.sim, self.monitor
@@ -44,7 +45,7 @@ function Run:say(line, at)
     s:stamp(line, function(t, l)
       if mon then mon:line(l, t) end
       if not self.o.quiet then self:emit(sformat("[sim %8.3f] %s", t, l)) end
-    end, at)
+    end, at, output)
   else
     if mon then mon:line(line, core.now() - self.t0) end
     if not self.o.quiet then self:emit(sformat("[%7.3f] %s", core.now() - self.t0, line)) end
@@ -67,7 +68,7 @@ function Run:report(msg)
   -- the trace ends at the root's outcome: what follows (the shutdown) is no part of the run
   if (msg.type == "done" or msg.type == "aborted") and tonumber(msg.now) then self.trace_end = tonumber(msg.now) end
   if msg.type == "restarted" then self:retap(msg.path) return end
-  if msg.type == "log" then self:say(msg.line, msg.at)
+  if msg.type == "log" then self:say(msg.line, msg.at, msg.output)
   elseif msg.type == "done" then
     self:say(sformat("%s: DONE %s", self.spec.path, supervisor.show(msg.value)), tonumber(msg.now) and msg.now / 1e9)
     if not self.o.repl then self.code = self.code or 0 self:wind_up() end

@@ -43,10 +43,15 @@ function S:_step(line, t)
 end
 
 -- With --record FILE.mcap: the line, at its time, to the recording's channel /dca/events (the world writes it;
--- the reply is not waited for).
-function S:_note(line, t)
+-- the reply is not waited for); a line process `output` wrote to its stderr ("PATH: text") to /dca/log instead.
+function S:_note(line, t, output)
   local file = self.world.o.record
   if not (file and file:match("%.mcap$") and self.world:connected()) then return end
+  if output then
+    self.world:request({ type = "note", channel = "log", t = t, path = output,
+                         line = tostring(line):sub(#output + 3) }, 10, function() end)
+    return
+  end
   local path, word = transition(line)
   self.world:request({ type = "note", t = t, line = tostring(line), path = path or "", state = word or "" }, 10,
                      function() end)
@@ -60,16 +65,17 @@ function S:_flush()
     -- stamped before the one said before it
     e.t = max(e.t, self.t_flushed or 0)
     self.t_flushed = e.t
-    self:_step(e.line, e.t)
-    self:_note(e.line, e.t)
+    if not e.output then self:_step(e.line, e.t) end
+    self:_note(e.line, e.t, e.output)
     e.fn(e.t, e.line)
   end
 end
 
 --- Asks the world's time for `line`; fn(t, line) is called in the order of the stamp calls (replies on one
---- channel come in order). Transitions are remembered as the steps of the run.
-function S:stamp(line, fn, at)
-  local entry = { line = line, fn = fn, at = at }
+--- channel come in order). Transitions are remembered as the steps of the run; `output`: the line is one the
+--- process of that path wrote to its stderr, no transition (recorded on /dca/log).
+function S:stamp(line, fn, at, output)
+  local entry = { line = line, fn = fn, at = at, output = output }
   self.pending[#self.pending + 1] = entry
   if not self.world:connected() then entry.t = self.t_last self:_flush() return end
   -- the world's time when the status is answered: at or after the line's event (the world runs on); a leaf's

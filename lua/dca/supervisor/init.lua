@@ -24,6 +24,7 @@
 --   sup:handle(msg, reply)    -- a request from the parent (configure/run/abort/shutdown/node/tree/...)
 --   sup:child_message(name, msg)  -- an event from a child (leaf node: done/aborted; child DCAS: done/aborted/log/
 --                                 --   restarted {path}: a leaf below was restarted, its connections made again)
+--   sup:output(path, line)    -- a line a child process wrote to its stderr, said as `path: line`
 --   sup:child_exit(name, reason, lost)  -- a child's process exited (Executer) or, `lost` true, its channel,
 --                             --   host or supervisor was lost (the policy's `lost` fault; reason: for display)
 --   sup:children_exit(names, reason, lost)  -- several at once (the leaves of one shared node)
@@ -166,6 +167,15 @@ function Sup:say(fmt, ...)
   local line = self:log(fmt, ...)
   if self.progress then self.rt.report({ type = "log", line = line, at = self.event_at or self.recovery_at })
   elseif self.rt.log then self.rt.log(line) end
+end
+
+--- A line the process of `path` (a leaf, a child supervisor, a shared node) wrote to its stderr, for the person
+--- watching as `path: line`, as a transition line goes (docs/processes.md, "Output"); `output` marks it so (a
+--- recording keeps it on /dca/log). It is not kept in this supervisor's log: that is for its transitions.
+function Sup:output(path, line)
+  local text = sformat("%s: %s", path, line)
+  if self.progress then self.rt.report({ type = "log", line = text, output = path, at = self.event_at })
+  elseif self.rt.log then self.rt.log(text) end
 end
 
 local function now_ns(at) return at and math.floor(at * 1e9 + 0.5) or nil end
@@ -538,7 +548,7 @@ function Sup:child_message(name, msg)
   local t = msg.type
   if t == "log" then
     if self.progress then self.rt.report(msg) end
-    self:log("%s", msg.line)
+    if not msg.output then self:log("%s", msg.line) end
     return
   end
   if t == "restarted" then restart.leaf_restarted(self, msg.path) return end

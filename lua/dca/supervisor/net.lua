@@ -400,6 +400,19 @@ function Net:heartbeat()
   return hb.period or hb[1] or 1, hb.timeout or hb[2] or 5
 end
 
+-- A line a process started here wrote to its stderr, or how many of them its daemon left out (docs/processes.md,
+-- "Output"): said by the supervisor at the process's path (a shared node's name).
+function Net:_output(host, msg)
+  local p = self.by_child[host .. ":" .. tostring(msg.child)]
+  if not (p and self.sup) then return end
+  local line = msg.line
+  if msg.dropped then
+    line = sformat("(%s lines of its output left out here: too many too fast; the log of host %s's daemon has them)",
+      tostring(msg.dropped), host)
+  end
+  self.sup:output(p.path or p.name, tostring(line))
+end
+
 -- Every child on `host` is lost (its daemon closed or stopped answering).
 function Net:_host_lost(host, reason)
   for _, p in pairs(self.by_child) do
@@ -446,7 +459,10 @@ end
 -- A daemon's events (exits, configuration changes), its close and its heartbeat: one that does not answer a
 -- ping within the silence bound is lost (a stopped or wedged daemon keeps its socket open: only silence tells).
 function Net:_watch_daemon(host, d, dc)
-  dc:on_event(function(msg) if d.config then d.config:event(msg) end end)
+  dc:on_event(function(msg)
+    if msg.type == "output" then self._output(host, msg) return end
+    if d.config then d.config:event(msg) end
+  end)
   dc:on_exit(function(msg)
     local p = self.by_child[host .. ":" .. tostring(msg.child)]
     if not p then return end

@@ -67,4 +67,31 @@ suite:case("a_mistyped_port_name_fails_the_start_with_its_reason_at_once", funct
   fails_at_once(out, rc, "no input 'SetPoint' on main.ctl.filt; inputs are: In (exited with code 1 on host h1)")
 end)
 
+-- A controller's stderr reaches the run's output line by line, prefixed by its path, from a leaf on any host
+-- (its daemon sends the lines to the leaf's supervisor); a flood is cut to the budget and the rest counted.
+suite:case("a_controllers_stderr_lines_reach_the_run_output_prefixed_by_its_path", function()
+  local dir = os.getenv("DCA_TEST_PACKAGES_DIR") or error("DCA_TEST_PACKAGES_DIR is not set")
+  local path = T.tmpfile([[
+use pkg_stderr;
+process Talk(h1) {
+  host { h1 }
+  instantiated_processes { say instof PkgStderr(h1, 3, 0.01); }
+  internal_event_actions { say }
+}
+process main() {
+  instantiated_processes { talk instof Talk("h1"); flood instof PkgStderr("h2", 50000, 0.01); }
+  internal_event_actions { talk , flood }
+}
+]])
+  local out, rc = T.sh("DCA_CONTROLLER_PATH=" .. dir .. " timeout 60 " .. dca .. " run " .. path)
+  os.remove(path)
+  T.eq(rc, 0, "exit code\n" .. out)
+  for i = 1, 3 do T.contains(out, "] main.talk.say: line " .. i .. " of PkgStderr\n") end
+  T.contains(out, "] main.flood: line 1 of PkgStderr\n")
+  local shown = select(2, out:gsub("main%.flood: line %d+ of PkgStderr\n", ""))
+  local left = 0
+  for n in out:gmatch("main%.flood: %((%d+) lines of its output left out here") do left = left + tonumber(n) end
+  T.eq(shown + left, 50000, "every line of the flood shown or counted\n" .. out:sub(1, 2000))
+end)
+
 return suite:run(...)
