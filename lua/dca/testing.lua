@@ -182,6 +182,14 @@ function M.cleanup()
   scratch = nil
 end
 
+--- The folder where a failed `dca run` kept its daemons' logs, named in its output `out` (nil when none), and
+--- removed unless `keep`: a test leaves nothing in the temporary directory. --> path | nil
+function M.kept_logs(out, keep)
+  local dir = out:match("the logs of this run's daemons are kept in (%S+)/ %(")
+  if dir and not keep then os.execute("rm -rf '" .. dir .. "'") end
+  return dir
+end
+
 --- Runs `dca ARGS` (M.exe); fails unless it exits with rc (unless nil) and its output (stdout and stderr)
 --- contains each fragment. --> output, exit code
 function M.dca(args, rc, ...)

@@ -8,7 +8,7 @@
 --           error = fn(text),     -- what went wrong (the cli names itself before it)
 --           console = fn(exe, address, key) --> pid | nil }   -- with o.repl: a console process on the terminal
 -- The exit code: 0 when the root ends DONE, 1 ABORTED, 2 usage or configuration errors, 3 a failed start,
--- 130 after Ctrl-C.
+-- 130 after Ctrl-C. After 1 or 3 the local daemons' logs are kept, and their folder named.
 local core, clients = require "dca.core", require "dca.clients"
 local supervisor, srt = require "dca.supervisor", require "dca.supervisor.net"
 local hosts_mod, start = require "dca.launch.hosts", require "dca.launch.start"
@@ -389,8 +389,13 @@ function M.main(spec, o, out)
   r.loop:run()
   if r.live then r.live:close() end
   if r.monitor then r.monitor:close(r.loop) end  -- the run's end reaches the pages
-  start.cleanup(r.ctx)
-  return r.code or 1
+  local code = r.code or 1
+  -- a run that aborted or failed to start keeps its daemons' logs, and says where (docs/processes.md)
+  local kept, kerr = start.cleanup(r.ctx, code == 1 or code == 3)
+  if kept then err_line(r, "the logs of this run's daemons are kept in ", kept, "/ (", table.concat(r.ctx.names, ".log, "),
+    ".log)")
+  elseif kerr then err_line(r, "could not keep the logs of this run's daemons: ", kerr) end
+  return code
 end
 
 return M

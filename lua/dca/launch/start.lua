@@ -16,7 +16,8 @@
 --   start.sequence(ctx, { "hosts", "config" }, cb)   -- (cb at once: neither waits)
 --   local sup = start.tree(ctx, daemon_host, opts)
 --   start.sequence(ctx, { "sim_clock", "world" }, function(ok, err, step, kind) ... end)
---   start.cleanup(ctx)                        -- the world's channels, the runtime, the daemons, the key dir
+--   start.cleanup(ctx, keep)                  -- the world's channels, the runtime, the daemons, the key dir
+--                                             --   (keep: the daemons' logs kept first; --> their folder)
 local config, console = require "dca.config", require "dca.supervisor.console"
 local supervisor, net = require "dca.supervisor", require "dca.supervisor.net"
 local hosts_mod, sim = require "dca.launch.hosts", require "dca.launch.sim"
@@ -180,14 +181,36 @@ function M.sequence(ctx, names, cb)
   if not ok then error(debug.traceback(co, err), 0) end
 end
 
+-- The local daemons' logs (each one's output and its children's) copied out of the key dir, which goes, into
+-- a fresh folder under $TMPDIR (default /tmp). --> its path | nil, err
+local function keep_logs(ctx)
+  local core = require "dca.core"
+  local dir = sformat("%s/dca-run-logs-%s-%d", os.getenv("TMPDIR") or "/tmp", os.date("%Y%m%d-%H%M%S"),
+    hosts_mod.self_pid() or 0)
+  local ok, err = core.make_dir(dir)
+  if not ok then return nil, err end
+  for _, name in ipairs(ctx.names) do
+    local f = io.open(ctx.daemons.logs[name] or "", "rb")
+    if f then
+      core.write_new_file(sformat("%s/%s.log", dir, name), f:read("a"))
+      f:close()
+    end
+  end
+  return dir
+end
+
 --- Everything the start opened, closed: the root daemon's registration channel, the runtime, the world's
---- channels, the local daemons, the key dir.
-function M.cleanup(ctx)
+--- channels, the local daemons, the key dir. With `keep` (a failed run) the local daemons' logs are kept first,
+--- in a folder of their own (the key goes). --> that folder's path | nil, err (none kept)
+function M.cleanup(ctx, keep)
   if ctx.rt and ctx.rt.root_daemon then ctx.rt.root_daemon:close() end
   if ctx.rt then ctx.rt.close() end
   if ctx.sim then ctx.sim.world:close() end
   if ctx.daemons then ctx.daemons:stop() end
+  local kept, err
+  if keep and ctx.daemons and ctx.keydir then kept, err = keep_logs(ctx) end
   if ctx.keydir then require("dca.core").remove_tree(ctx.keydir) ctx.keydir = nil end
+  return kept, err
 end
 
 return M

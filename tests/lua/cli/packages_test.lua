@@ -101,7 +101,7 @@ end
 local function aborts(pkg, ty, text)
   local path = system("use " .. pkg .. ";", "  instantiated_processes { bad instof " .. ty .. [[("h1"); wait instof Timer("h1", 60); }
   internal_event_actions { wait # bad }]])
-  dca("run " .. path, 1, ty .. " main.bad: " .. text, "main: ABORTED at main.bad")
+  T.kept_logs((dca("run " .. path, 1, ty .. " main.bad: " .. text, "main: ABORTED at main.bad")))
   none_left(ty)
   os.remove(path)
 end

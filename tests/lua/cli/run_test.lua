@@ -16,10 +16,11 @@ end
 -- Configuration values are data. A defaults file or a --set whose value is code fails the run at
 -- once with the value's file:line:col (or column) and starts nothing; on main they were executed (a loop hung
 -- the run after its daemons had started). Each run is bounded by `timeout`: a hang is exit code 124.
--- Daemons a failing run left behind (named in its output) are stopped.
+-- Daemons a failing run left behind (named in its output) are stopped, the logs it kept removed.
 local function run_bounded(args)
   local out, rc = T.sh("timeout 20 " .. dca .. " run " .. args)
   for pid in out:gmatch("daemon at %S+ %(pid (%d+)%)") do os.execute("kill " .. pid .. " 2>/dev/null") end
+  T.kept_logs(out)  -- (a failed run keeps its daemons' logs)
   return out, rc
 end
 

@@ -20,6 +20,7 @@ suite:case("a_world_with_a_broken_urdf_says_the_xml_error_with_file_and_line", f
   local out, rc = T.sh("DCA_MODELS_DIR=" .. dir .. " timeout 60 " .. dca .. " run " .. src
     .. "/scripts/systems/test_three_hosts.dca --sim door")
   core.remove_tree(dir)
+  T.kept_logs(out)
   T.eq(rc, 3, "exit code (the start failed)\n" .. out)
   T.contains(out, "the world (dca sim --serve) exited with code 1")
   T.contains(out, "dca sim: " .. urdf .. ":")
@@ -43,7 +44,7 @@ process main() {
 ]])
   local out, rc = T.sh("DCA_CONTROLLER_PATH=" .. dir .. " timeout 60 " .. dca .. " run " .. path)
   os.remove(path)
-  return out, rc
+  return out, rc, T.kept_logs(out, true)
 end
 
 -- A node that fails before it is ready tells its daemon why; the reason comes with its exit: said at its leaf,
@@ -58,13 +59,31 @@ local function fails_at_once(out, rc, reason)
 end
 
 suite:case("a_parameter_out_of_range_fails_the_start_with_its_reason_at_once", function()
-  local out, rc = run_ctl("pkg_positive", 'PkgPositive(h1, -0.005)')
+  local out, rc, kept = run_ctl("pkg_positive", 'PkgPositive(h1, -0.005)')
+  T.kept_logs(out)
   fails_at_once(out, rc, "parameter 'k' must be positive, got -0.005 (exited with code 1 on host h1)")
+  T.ok(kept, "the logs' folder is named\n" .. out)
 end)
 
 suite:case("a_mistyped_port_name_fails_the_start_with_its_reason_at_once", function()
   local out, rc = run_ctl("pkg_port_typo", "PkgPortTypo(h1)")
+  T.kept_logs(out)
   fails_at_once(out, rc, "no input 'SetPoint' on main.ctl.filt; inputs are: In (exited with code 1 on host h1)")
+end)
+
+-- A failed run keeps its daemons' logs (the key goes) in a folder it names last, under $TMPDIR.
+suite:case("a_failed_run_keeps_its_daemons_logs_and_says_where", function()
+  local out, rc, kept = run_ctl("pkg_positive", 'PkgPositive(h1, -0.005)')
+  T.eq(rc, 3, "exit code (the start failed)\n" .. out)
+  T.ok(kept, "the logs' folder is named\n" .. out)
+  local log = T.exists(kept .. "/h1.log") and T.read(kept .. "/h1.log") or ""
+  T.kept_logs(out)
+  T.contains(log, "dca daemon h1: main.ctl.filt (pid ")
+  T.contains(log, ") failed to start: parameter 'k' must be positive, got -0.005")
+  T.contains(log, "dca node: main.ctl.ok ready")
+  T.eq(kept:sub(1, #(os.getenv("TMPDIR") or "/tmp") + 1), (os.getenv("TMPDIR") or "/tmp") .. "/", "under $TMPDIR")
+  T.ok(out:find("kept in " .. kept .. "/ (h1.log)\n", 1, true) == #out - #("kept in " .. kept .. "/ (h1.log)\n") + 1,
+    "the last line names it\n" .. out)
 end)
 
 -- A controller's stderr reaches the run's output line by line, prefixed by its path, from a leaf on any host

@@ -64,6 +64,7 @@ local function run_recording_steady(system)
   local file = T.tmpname(".mcap")
   local out, rc = T.sh("timeout 120 " .. dca .. " run " .. src .. "/scripts/systems/" .. system .. " --sim door"
     .. " --record " .. file .. " --record-ports main.loop.steady.Count")
+  T.kept_logs(out)
   T.eq(rc, 1, "the run ends ABORTED (restart intensity)\n" .. out)
   return out, file
 end
