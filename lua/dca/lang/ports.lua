@@ -8,6 +8,8 @@
 --   ports.check(tree, world) --> { { line, col, msg }, ... }: every connection of the instance tree
 --                                (dca.lang.model) and every device port against `world`, the robot process's
 --                                signals { outputs = { [name] = spec }, inputs = { [name] = spec } } or nil
+--   ports.device_signal(device, params, args) --> signal | nil, why: a device signal with the leaf's
+--                                arguments put in for its {param}s (the check's and the wiring's one expansion)
 --
 -- A scalar is one double, a vector[n] n of them, a vectorx any number, a value a msgpack value. An output feeds
 -- an input when both are values, or both numeric and the input is a vectorx (it takes any size) or the two
@@ -15,7 +17,7 @@
 -- the built-ins below; any other vectorx output feeds vectorx inputs only.
 local M = {}
 
-local ipairs, sformat = ipairs, string.format
+local ipairs, type, tostring, sformat = ipairs, type, tostring, string.format
 
 --- How the built-ins' vectorx outputs take their size (controllers/builtins.h): Constant writes one element
 --- per value of its parameter `values`; Gain and Sum write as many as they are fed (on In, on In1 and In2).
@@ -44,6 +46,29 @@ function M.fits(out, inp)
   if inp.kind == "vectorx" or out.size == inp.size then return true end
   if not out.size then return false, ": dca check cannot tell how many values it writes" end
   return false, ""
+end
+
+--- A device signal named after the leaf's arguments (docs/robots.md): "joint.{joint}.position" takes the
+--- argument of parameter `joint`, or its default. `params` are the manifest's, `args` the leaf's arguments after
+--- its host, in the same order. --> the signal | nil, why (a parameter the leaf lacks, or an argument that is no
+--- literal string or number: config("key") is read only at the start)
+function M.device_signal(device, params, args)
+  local err
+  local signal = device:gsub("{([%w_]+)}", function(name)
+    for i, pm in ipairs(params or {}) do
+      if pm.name == name then
+        local v = args and args[i]
+        if v == nil then v = pm.default end
+        if type(v) == "string" or type(v) == "number" then return tostring(v) end
+        err = err or sformat("its device signal %s needs a literal argument '%s'", device, name)
+        return ""
+      end
+    end
+    err = err or sformat("its device signal %s names no parameter '%s'", device, name)
+    return ""
+  end)
+  if err then return nil, err end
+  return signal
 end
 
 local function find_port(list, name)
@@ -139,7 +164,7 @@ local function connection_errors(links, out_shape, errors)
 end
 
 -- The device ports of `leaf` against the world's signals: an input is fed by the world's output of its
--- signal, an output feeds the world's input.
+-- signal, an output feeds the world's input. A signal named after the leaf's arguments is expanded first.
 local function device_errors(leaf, world, errors)
   for _, dir in ipairs({ "inputs", "outputs" }) do
     local signals = dir == "inputs" and world.outputs or world.inputs
@@ -149,17 +174,20 @@ local function device_errors(leaf, world, errors)
       end
       local port = M.shape(p)
       if p.device and p.device ~= "" and port then
-        local sig = signals[p.device]
         local mine = sformat("%s.%s (%s, device port of %s)", leaf.path, p.name, M.text(port), leaf.type)
-        if not sig then
-          report("%s: the world has no %s '%s'", mine, dir == "inputs" and "sensor" or "command", p.device)
+        local name, why = M.device_signal(p.device, leaf.manifest.params, leaf.params)
+        local sig = name and signals[name]
+        if not name then
+          report("%s: %s", mine, why)
+        elseif not sig then
+          report("%s: the world has no %s '%s'", mine, dir == "inputs" and "sensor" or "command", name)
         else
-          local theirs = sformat("world.%s (%s)", p.device, M.text(M.shape(sig)))
+          local theirs = sformat("world.%s (%s)", name, M.text(M.shape(sig)))
           local o, i = M.shape(sig), port
           if dir == "outputs" then o, i = port, M.shape(sig) end
-          local ok, why = M.fits(o, i)
-          if not ok and dir == "inputs" then report("%s cannot feed %s%s", theirs, mine, why) end
-          if not ok and dir == "outputs" then report("%s cannot feed %s%s", mine, theirs, why) end
+          local ok, fit = M.fits(o, i)
+          if not ok and dir == "inputs" then report("%s cannot feed %s%s", theirs, mine, fit) end
+          if not ok and dir == "outputs" then report("%s cannot feed %s%s", mine, theirs, fit) end
         end
       end
     end

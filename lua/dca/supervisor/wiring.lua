@@ -13,6 +13,7 @@ local M = {}
 
 local async = require "dca.async"
 local child = require "dca.supervisor.child"
+local port_types = require "dca.lang.ports"
 local spec_mod = require "dca.supervisor.spec"
 local taps = require "dca.supervisor.taps"
 
@@ -78,27 +79,6 @@ function M.connect_wire(sup, w, cb)
     end)
 end
 
--- A device signal named after the leaf's arguments: "joint.{joint}.position" takes the leaf's argument `joint`
--- (or its default), as the URDF world's joint ports need (docs/robots.md). --> signal, or nil and why
-local function expand(device, c, t)
-  local err
-  local signal = device:gsub("{([%w_]+)}", function(name)
-    for i, pm in ipairs(t.params or {}) do
-      if pm.name == name then
-        local v = c.args and c.args[i]
-        if v == nil then v = pm.default end
-        if type(v) == "string" or type(v) == "number" then return tostring(v) end
-        err = sformat("its device signal %s needs a literal argument '%s'", device, name)
-        return ""
-      end
-    end
-    err = sformat("its device signal %s names no parameter '%s'", device, name)
-    return ""
-  end)
-  if err then return nil, err end
-  return signal
-end
-
 --- The device ports of the group's own leaves, in declaration order:
 --- { { leaf = path, type = T, port = name, signal = "arm.q", dir = "in" | "out", err = why | nil }, ... }
 function M.device_ports(spec, types)
@@ -109,7 +89,7 @@ function M.device_ports(spec, types)
       for _, dir in ipairs({ "inputs", "outputs" }) do
         for _, p in ipairs(t[dir] or {}) do
           if p.device and p.device ~= "" then
-            local signal, err = expand(p.device, c, t)
+            local signal, err = port_types.device_signal(p.device, t.params, c.args)
             list[#list + 1] = { leaf = c.path, type = c.type, port = p.name, signal = signal or p.device,
                                 dir = dir == "inputs" and "in" or "out", err = err }
           end

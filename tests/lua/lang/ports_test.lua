@@ -22,11 +22,19 @@ local registry = {
   Drive = { inputs = { port("Odom", "vector", 2, "base.pose") }, outputs = { port("Cmd", "vector", 3, "base.cmd_vel"),
             port("Grip", "vector", 1, "gripper.cmd") }, params = {} },
   Probe = { inputs = { port("Q", "vector", 6, "arm.qq") }, outputs = {}, params = {} },
+  Joint = { inputs = { port("Q", "vector", 1, "joint.{joint}.position") },
+            outputs = { port("Cmd", "vector", 1, "joint.{joint}.{interface}_command") },
+            params = { { name = "joint", type = "string", required = true },
+                       { name = "interface", type = "string", required = false, default = "position" } } },
+  Typo = { inputs = { port("Q", "vector", 1, "joint.{jont}.position") }, outputs = {},
+           params = { { name = "joint", type = "string", required = true } } },
 }
 
 local world = {
-  outputs = { ["base.pose"] = port("base.pose", "vector", 3), ["arm.q"] = port("arm.q", "vector", 6) },
-  inputs = { ["base.cmd_vel"] = port("base.cmd_vel", "vector", 3), ["gripper.cmd"] = port("gripper.cmd", "vector", 1) },
+  outputs = { ["base.pose"] = port("base.pose", "vector", 3), ["arm.q"] = port("arm.q", "vector", 6),
+              ["joint.elbow.position"] = port("joint.elbow.position", "vector", 1) },
+  inputs = { ["base.cmd_vel"] = port("base.cmd_vel", "vector", 3), ["gripper.cmd"] = port("gripper.cmd", "vector", 1),
+             ["joint.elbow.position_command"] = port("joint.elbow.position_command", "vector", 1) },
 }
 
 --- The errors of `body` (the instances, connections and expression of process main) as "line:col: msg".
@@ -131,6 +139,38 @@ suite:case("device_ports_are_held_to_the_world_s_signals", function()
     "2:49: main.q.Q (vector[6], device port of Probe): the world has no sensor 'arm.qq'",
   })
   T.eq(errors_of(body, nil), {}, "without the world's signals, nothing to hold them to")
+end)
+
+suite:case("device_signals_named_after_parameters_take_the_leaf_s_arguments_or_defaults", function()
+  local params = registry.Joint.params
+  T.eq(ports.device_signal("joint.{joint}.{interface}_command", params, { "elbow", "velocity" }),
+       "joint.elbow.velocity_command")
+  T.eq(ports.device_signal("joint.{joint}.{interface}_command", params, { "elbow" }), "joint.elbow.position_command",
+       "the default")
+  T.eq(ports.device_signal("arm.q", params, {}), "arm.q", "no braces: the signal as it is")
+  T.eq({ ports.device_signal("joint.{jont}.position", params, { "elbow" }) },
+       { nil, "its device signal joint.{jont}.position names no parameter 'jont'" })
+  T.eq({ ports.device_signal("joint.{joint}.position", params, { { config = "arm.joint" } }) },
+       { nil, "its device signal joint.{joint}.position needs a literal argument 'joint'" })
+end)
+
+suite:case("a_template_naming_a_missing_parameter_or_signal_is_an_error_at_the_leaf", function()
+  T.eq(errors_of([[
+  instantiated_processes {
+    e instof Joint("h", "elbow");
+    w instof Joint("h", "wrist", "velocity");
+    t instof Typo("h", "elbow");
+    c instof Joint("h", config("arm.joint"));
+  }
+  internal_event_actions { e, w, t, c }]], world), {
+    "4:5: main.w.Cmd (vector[1], device port of Joint): the world has no command 'joint.wrist.velocity_command'",
+    "4:5: main.w.Q (vector[1], device port of Joint): the world has no sensor 'joint.wrist.position'",
+    "5:5: main.t.Q (vector[1], device port of Typo): its device signal joint.{jont}.position names no parameter 'jont'",
+    "6:5: main.c.Cmd (vector[1], device port of Joint): its device signal joint.{joint}.{interface}_command needs a "
+      .. "literal argument 'joint'",
+    "6:5: main.c.Q (vector[1], device port of Joint): its device signal joint.{joint}.position needs a literal "
+      .. "argument 'joint'",
+  })
 end)
 
 suite:case("the_size_rules_name_the_registry_s_ports_and_the_world_s_signals_are_known", function()
