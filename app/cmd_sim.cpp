@@ -364,12 +364,23 @@ int cmd_sim(std::span<char* const> args) {
   }
 }
 
-// The world's signals, for dca check's device ports (bindings/core.h): those `dca sim --serve` hosts as ports.
+// The signals of world `spec`, for dca check's device ports (bindings/core.h): those `dca sim --serve --world
+// SPEC` hosts as ports. The door's are sim/world.h's; a URDF world's come from its file (app/sim_robot.h).
+bool world_signals(const std::string& spec, dca::bindings::WorldSignals* out, std::string* error) {
+  if (spec == "door") {
+    for (const auto& x : dca::sim::kSensorSignals) out->outputs.push_back(dca::vector_port(x.name, x.size, x.units));
+    for (const auto& x : dca::sim::kCommandSignals) out->inputs.push_back(dca::vector_port(x.name, x.size, x.units));
+    return true;
+  }
+  if (!dca::app::is_robot_world(spec)) {
+    *error = "world '" + spec + "': a world is door, ROBOT.urdf or mock:ROBOT.urdf[?lag=S&dead=J,...]";
+    return false;
+  }
+  return dca::app::robot_world_signals(spec, &out->outputs, &out->inputs, error);
+}
+
 [[maybe_unused]] const bool kWorldSignalsRegistered = [] {
-  dca::bindings::WorldSignals s;
-  for (const auto& x : dca::sim::kSensorSignals) s.outputs.push_back(dca::vector_port(x.name, x.size, x.units));
-  for (const auto& x : dca::sim::kCommandSignals) s.inputs.push_back(dca::vector_port(x.name, x.size, x.units));
-  dca::bindings::set_world_signals(std::move(s));
+  dca::bindings::set_world_signals(&world_signals);
   return true;
 }();
 

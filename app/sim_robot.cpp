@@ -51,6 +51,13 @@ int serve(const RobotSimOptions& o, sim::JointWorld& world) {
   return node->exit_code();
 }
 
+std::vector<PortSpec> as_ports(const std::vector<sim::DeviceSignal>& signals) {
+  std::vector<PortSpec> out;
+  out.reserve(signals.size());
+  for (const auto& x : signals) out.push_back(vector_port(x.name, x.size, x.units));
+  return out;
+}
+
 int run_here(const RobotSimOptions& o, sim::JointWorld& world) {
   const double end = o.duration > 0 ? o.duration : 1.0;
   std::printf("dca sim: %s, period %g s, no commands\n", world.describe().c_str(), world.period());
@@ -81,6 +88,25 @@ int sim_robot(const RobotSimOptions& o) {
   } catch (const std::exception& e) {
     std::fprintf(stderr, "dca sim: %s\n", e.what());
     return 1;
+  }
+}
+
+bool robot_world_signals(const std::string& spec, std::vector<PortSpec>* outputs, std::vector<PortSpec>* inputs,
+                         std::string* error) {
+  std::string where;  // "" for the URDF's errors, which name FILE:LINE:COL
+  try {
+    sim::RobotWorldSpec s;
+    if (!sim::parse_world_spec(spec, &s, error)) return false;
+    sim::RobotDescription d = sim::load_description(s.file);
+    *outputs = as_ports(sim::joint_sensor_signals(d));
+    *inputs = as_ports(sim::joint_command_signals(d));
+    // the mock's options (dead=J,...) are checked by building it: cheap, no physics
+    where = "world '" + spec + "': ";
+    if (s.mock) sim::make_mock_world(std::move(d), 1e-3, s.lag, s.dead);
+    return true;
+  } catch (const std::exception& e) {
+    *error = where + e.what();
+    return false;
   }
 }
 

@@ -9,12 +9,12 @@
 //   core.package_dirs(system_dir)       --> { dir, ... }  the search path, in order
 //   core.packages(system_dir)           --> { name, ... } the packages found on it, sorted
 //   core.absolute(path)                 --> the path made absolute (from the working directory), normalised
-// The robot process's signals (bindings/core.h), for dca check's device ports:
-//   core.world_signals() --> { outputs = { [signal] = {name=, type=, size=, units=} }, inputs = {...} } | nil
+// The robot process's signals (bindings/core.h), for dca check's device ports, of world SPEC (default "door"):
+//   core.world_signals([SPEC]) --> { outputs = { [signal] = {name=, type=, size=, units=} }, inputs = {...} }
+//                                | nil, error (a world that cannot be loaded) | nil (no worlds in this executable)
 #include <lua.hpp>
 
 #include <filesystem>
-#include <optional>
 #include <string>
 #include <system_error>
 #include <vector>
@@ -147,9 +147,9 @@ int l_packages(lua_State* L) {
   return 1;
 }
 
-std::optional<dca::bindings::WorldSignals>& world_signals() {
-  static std::optional<dca::bindings::WorldSignals> s;
-  return s;
+dca::bindings::WorldSignalsSource& world_signals_source() {
+  static dca::bindings::WorldSignalsSource source = nullptr;
+  return source;
 }
 
 void push_signals(lua_State* L, const std::vector<dca::PortSpec>& ports) {
@@ -163,15 +163,24 @@ void push_signals(lua_State* L, const std::vector<dca::PortSpec>& ports) {
 }
 
 int l_world_signals(lua_State* L) {
-  const auto& s = world_signals();
-  if (!s) {
+  const auto source = world_signals_source();
+  if (source == nullptr) {
     lua_pushnil(L);
     return 1;
   }
+  std::size_t n = 0;
+  const char* spec = luaL_optlstring(L, 1, "door", &n);
+  dca::bindings::WorldSignals s;
+  std::string error;
+  if (!source(std::string(spec, n), &s, &error)) {
+    lua_pushnil(L);
+    lua_pushlstring(L, error.data(), error.size());
+    return 2;
+  }
   lua_createtable(L, 0, 2);
-  push_signals(L, s->outputs);
+  push_signals(L, s.outputs);
   lua_setfield(L, -2, "outputs");
-  push_signals(L, s->inputs);
+  push_signals(L, s.inputs);
   lua_setfield(L, -2, "inputs");
   return 1;
 }
@@ -189,7 +198,7 @@ int l_absolute(lua_State* L) {
 
 namespace dca::bindings {
 
-void set_world_signals(WorldSignals s) { world_signals() = std::move(s); }
+void set_world_signals(WorldSignalsSource source) { world_signals_source() = source; }
 
 /// Adds `types` and the package functions to the dca.core table on the top of the stack.
 void open_types(lua_State* L) {
