@@ -2,11 +2,15 @@
 --
 --   local load = require "dca.load"
 --   local ast, tree = load.file("door_open.dca", { root = "main", registry = true })  -- | nil, error text
---   local spec, tree, ast = load.spec("door_open.dca", { root = "main" })            -- | nil, error text
+--   local spec, tree, ast = load.spec("door_open.dca", { root = "main", world = "door" }) -- | nil, error text
 --
 -- The error text is what `dca check` prints: every error as "file:line:col: path: message", the source line
 -- and a caret. With registry (the default) the controller registry's manifests (dca.core.types()) check the
 -- leaves' ports and parameters; registry = false takes undefined process types as leaves.
+--
+-- The world: the leaves' device ports are held to the signals of `world`, the spec `dca run --sim` takes
+-- ("door", the default; ROBOT.urdf; mock:ROBOT.urdf?...; core.world_signals). A world that cannot be loaded (a
+-- URDF's FILE:LINE:COL) is one more error, after the file's; world = false holds the device ports to nothing.
 --
 -- Packages: the file's `use NAME;` statements load those controller packages into this process (dca.core
 -- .load_package, searched on DCA_CONTROLLER_PATH, <prefix>/lib/dca/controllers and the file's packages/ folder:
@@ -54,9 +58,17 @@ function M.packages(ast, path)
   return out
 end
 
+--- The signals of world `spec` (nil: the door) which the device ports are held to: nil when there are none to
+--- hold them to (world = false, or an executable without the worlds). --> signals | nil | nil, error
+local function world_signals(core, spec)
+  if spec == false or not (core and type(core.world_signals) == "function") then return nil end
+  return core.world_signals(spec)
+end
+
 --- The check options for `ast`: the registry's manifests of the built-ins and the used packages' types; the
---- types of other loaded packages as hints. --> opts for dca.lang.check (without root)
-function M.check_options(ast, path, registry)
+--- types of other loaded packages as hints; the signals of `world` (see the header), or the reason it has none
+--- (world_error). --> opts for dca.lang.check (without root)
+function M.check_options(ast, path, registry, world)
   if registry == false then return {} end
   local packages = M.packages(ast, path) or {}
   local all = M.registry()
@@ -72,8 +84,9 @@ function M.check_options(ast, path, registry)
     if not packages[name] then unused[#unused + 1] = name end
   end
   -- the robot process's signals, which the device ports are held to (nil in an executable without the world)
-  local world = core and type(core.world_signals) == "function" and core.world_signals() or nil
-  return { types = types, packages = packages, elsewhere = elsewhere, unused_packages = unused, world = world }
+  local signals, werr = world_signals(core, world)
+  return { types = types, packages = packages, elsewhere = elsewhere, unused_packages = unused, world = signals,
+           world_error = werr }
 end
 
 --- The whole text of the file at path. --> text | nil, "dca: cannot read ..."
@@ -85,7 +98,8 @@ function M.read(path)
   return text
 end
 
---- Reads, parses, checks and builds the file. opts: { root = NAME, registry = true|false (default true) }.
+--- Reads, parses, checks and builds the file. opts: { root = NAME, registry = true|false (default true),
+--- world = SPEC | false (default "door": see the header) }.
 --- --> ast, tree (tree nil when no root was asked for and the file has no 'main') | nil, error text
 function M.file(path, opts)
   local text, rerr = M.read(path)
@@ -93,20 +107,29 @@ function M.file(path, opts)
   return M.text(text, path, opts)
 end
 
+-- The file's errors, then the world's (once: it is no error of any one leaf). --> nil, the text
+local function failure(ast, errors, world_error)
+  local parts = {}
+  if errors and #errors > 0 then parts[1] = check.format_all(ast, errors) end
+  if world_error then parts[#parts + 1] = world_error end
+  return nil, table.concat(parts, "\n")
+end
+
 --- As M.file, for source text already read; `path` names it in errors.
 function M.text(text, path, opts)
   opts = opts or {}
   local ast, perr = parser.parse(text, path)
   if not ast then return nil, perr end
-  local copts = M.check_options(ast, path, opts.registry)
-  copts.root = opts.root
+  local copts = M.check_options(ast, path, opts.registry, opts.world)
+  local werr = copts.world_error
+  copts.root, copts.world_error = opts.root, nil
   if not opts.root and not ast.by_name.main then
     local errors = check.check(ast, copts)
-    if #errors > 0 then return nil, check.format_all(ast, errors) end
+    if #errors > 0 or werr then return failure(ast, errors, werr) end
     return ast, nil
   end
   local tree, errors = model.build(ast, copts)
-  if not tree then return nil, check.format_all(ast, errors) end
+  if not tree or werr then return failure(ast, errors, werr) end
   return ast, tree
 end
 

@@ -8,7 +8,7 @@ local M = {}
 
 M.summary = "check a .dca system file (syntax, instances, ports, expressions) without starting anything"
 M.usage = [==[usage: dca check FILE.dca [--root NAME] [--no-registry] [--tree] [--config FILE | --no-config]
-                 [--verify [--no-faults] [--traces] [--emit-scenario FILE.lua] [--promela] [--max-states N]]
+                 [--sim WORLD] [--verify [--no-faults] [--traces] [--emit-scenario FILE.lua] [--promela] [--max-states N]]
 
 Parses FILE.dca and runs every static check, printing all errors (file:line:col, the instance path, the
 source line and a caret); exits 1 when there are errors, else prints a one-line summary and exits 0.
@@ -16,6 +16,10 @@ source line and a caret); exits 1 when there are errors, else prints a one-line 
   --no-registry   do not ask the controller registry (dca.core.types) for port manifests; undefined
                   process types are then taken as leaves
   --tree          also print the instance tree (type, host, parameters) after the summary
+  --sim WORLD     the world whose signals the leaves' device ports are held to, as `dca run --sim WORLD`
+                  takes it: door (the default), ROBOT.urdf or mock:ROBOT.urdf (its joints' ports, from the
+                  file: docs/robots.md); a device port whose signal the world lacks, or of another size,
+                  is an error at the leaf, and so is a URDF that does not load, at its own file:line
   --config FILE   the system's configuration defaults (default FILE.config beside FILE.dca, when there is
                   one): a config("key") parameter whose key it lacks is a warning (the repository may hold
                   it; with a close name: a likely typo), a default of the wrong type for the parameter is an
@@ -66,13 +70,13 @@ local function plural(n, one) return n == 1 and ("1 " .. one) or (n .. " " .. on
 
 function M.main(argv)
   local o, err = args.parse(argv, "dca check", { ["--root"] = "value", ["--no-registry"] = "flag",
-    ["--tree"] = "flag", ["--config"] = "value", ["--no-config"] = "flag", ["--verify"] = "flag",
+    ["--tree"] = "flag", ["--sim"] = "value", ["--config"] = "value", ["--no-config"] = "flag", ["--verify"] = "flag",
     ["--no-faults"] = "flag", ["--traces"] = "flag", ["--emit-scenario"] = "value", ["--promela"] = "flag",
     ["--max-states"] = "number" })
   if not o then return args.usage_error(err, M.usage) end
   local file, root, use_registry = o[1], o.root, not o.no_registry
   if not file then io.stderr:write(M.usage, "\n"); return 2 end
-  local ast, tree = load.file(file, { root = root, registry = use_registry })
+  local ast, tree = load.file(file, { root = root, registry = use_registry, world = o.sim })
   if not ast then
     io.stderr:write(tree, "\n")
     return 1

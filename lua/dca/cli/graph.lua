@@ -6,23 +6,23 @@ local load = require "dca.load"
 local M = {}
 
 M.summary = "draw a .dca system: the process tree and expressions as Graphviz DOT, or SVG"
-M.usage = [[usage: dca graph FILE.dca [--root NAME] [--svg] [-o OUT] [--no-registry]
+M.usage = [[usage: dca graph FILE.dca [--root NAME] [--svg] [-o OUT] [--no-registry] [--sim WORLD]
 
 Writes the checked system's tree top-down (each group a cluster labelled with its host and expression, its leaves
 inside with host and parameters as written, its child groups below them, connections dotted)
 as Graphviz DOT to stdout, or to OUT with -o. --svg renders it with `dot -Tsvg`
 (graphviz; scripts/setup installs it). The file is checked as by `dca check` first (--no-registry: without
-the controller registry's manifests).]]
+the controller registry's manifests; --sim WORLD: its device ports against that world, default door).]]
 
 local function shell_quote(s) return "'" .. s:gsub("'", "'\\''") .. "'" end
 
 function M.main(argv)
   local o, err = args.parse(argv, "dca graph", { ["--root"] = "value", ["-o"] = "value:out", ["--svg"] = "flag",
-    ["--no-registry"] = "flag" })
+    ["--no-registry"] = "flag", ["--sim"] = "value" })
   if not o then return args.usage_error(err, M.usage) end
   local file, out, svg = o[1], o.out, o.svg
   if not file then io.stderr:write(M.usage, "\n"); return 2 end
-  local ast, tree = load.file(file, { root = o.root, registry = not o.no_registry })
+  local ast, tree = load.file(file, { root = o.root, registry = not o.no_registry, world = o.sim })
   if not ast then io.stderr:write(tree, "\n"); return 1 end
   if not tree then io.stderr:write("dca graph: ", file, " has no root process 'main' (use --root NAME)\n"); return 1 end
   local dot = graph.dot(tree)

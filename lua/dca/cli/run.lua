@@ -32,7 +32,9 @@ per group as it comes up and one per process transition, and runs the root expre
                   `host` every leaf on one host in one shared node. Leaves that share a node exchange
                   samples in process and take one lock-step advance per tick; a crash of a shared node
                   ends each of its leaves (ARCHITECTURE.md, "Placement"). The outcome is the same.
-  --sim WORLD     run in simulated time: the daemons on the simulated clock, the world (`dca sim --serve
+  --sim WORLD     run in simulated time: FILE.dca's device ports checked against WORLD's signals (door,
+                  ROBOT.urdf, mock:ROBOT.urdf: see `dca check --sim`; without --sim, the door's), the
+                  daemons on the simulated clock, the world (`dca sim --serve
                   --world WORLD`, e.g. door) started through the first host's daemon before the tree, its
                   device ports wired to the leaves that have them, time started when the root runs; the
                   lines carry the simulated time and the end prints the world's summary (door angle,
@@ -151,7 +153,8 @@ end
 function M.main(args)
   local o, perr = parse_args(args)
   if not o then return args_mod.usage_error(perr, M.usage) end
-  local spec, err = require("dca.load").spec(o.file, { root = o.root })
+  -- the device ports are held to the world of the run (without --sim: the door's, as `dca check`)
+  local spec, err = require("dca.load").spec(o.file, { root = o.root, world = o.sim })
   if not spec then io.stderr:write(err, "\n") return 2 end
   o.config = o.config or (not o.no_config and require("dca.config").defaults_file(o.file)) or nil
   -- a defaults file that does not read stops the run here, before any daemon starts

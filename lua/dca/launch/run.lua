@@ -242,7 +242,7 @@ end
 function Run:reload(what, cb)
   local reload = require "dca.reload"
   if what == "modules" then cb(reload.modules()) return end
-  reload.system(self.sup, what or self.o.file, { root = self.o.root }, function(lines, err)
+  reload.system(self.sup, what or self.o.file, { root = self.o.root, world = self.o.sim }, function(lines, err)
     if not lines then lines = { "reload refused, the running version is kept:", err }
     elseif #lines == 0 then lines = { "no change" } end
     cb(lines)

@@ -62,9 +62,10 @@ local steps = { n = 0, failed = 0, lines = {} }
 local systems = {}
 local traced  -- the system in simulated time whose trace is written: { file, keep, seed }
 
---- Loads, checks and builds the system in FILE (root opts.root or "main"). Errors stop the scenario.
-function M.spec(file, root)
-  local spec, err = require("dca.load").spec(file, { root = root })
+--- Loads, checks and builds the system in FILE (root `root` or "main"), its device ports held to `world` (nil:
+--- the door). Errors stop the scenario.
+function M.spec(file, root, world)
+  local spec, err = require("dca.load").spec(file, { root = root, world = world })
   if not spec then error(err, 0) end
   return spec
 end
@@ -86,7 +87,7 @@ function M.system(file, opts)
   if opts.sim and M.backend ~= "real" then
     error("a system in simulated time with a world (sim = " .. tostring(opts.sim) .. ") needs --backend real", 0)
   end
-  local spec = opts.spec or M.spec(file, opts.root)
+  local spec = opts.spec or M.spec(file, opts.root, opts.sim)
   -- the configuration repository: opts.config (a defaults file; default FILE.config beside FILE.dca), then
   -- opts.set = { key = value } over it, as `dca run --config/--set`
   local cfile = opts.config or (file and require("dca.config").defaults_file(file)) or nil

@@ -412,7 +412,8 @@ end
 function System:now() return now() - self.t0 end
 
 function System:reload(file)
-  return self:_ask(function(k) require("dca.reload").system(self.sup, file or self.file, { root = self.root }, k) end,
+  local opts = { root = self.root, world = self.opts.sim }
+  return self:_ask(function(k) require("dca.reload").system(self.sup, file or self.file, opts, k) end,
     10, "the reload")
 end
 
