@@ -153,6 +153,64 @@ suite:case("every_system_in_scripts_systems_checks_clean", function()
   end
 end)
 
+-- The world's signals (docs/lua.md, "Port types"): --sim WORLD, as `dca run` takes it, chooses the signals the
+-- leaves' device ports are held to: the door's by default, a URDF's joint ports.
+local ur10_system, ur10 = src .. "/worlds/ur10/ur10_setpoint.dca", src .. "/worlds/ur10/ur10.urdf"
+
+suite:case("a_urdf_system_checks_against_its_urdf_and_fails_against_the_door_naming_the_signals", function()
+  local ok = ur10_system .. ": ok: 1 group, 2 instances (2 leaves), 0 connections, 1 host (arm)\n"
+  T.eq(T.dca("check " .. ur10_system .. " --sim " .. ur10, 0), ok)
+  T.eq(T.dca("check " .. ur10_system .. " --sim 'mock:" .. ur10 .. "?lag=0.02&dead=elbow_joint'", 0), ok)
+  T.dca("check " .. ur10_system .. " --sim " .. ur10 .. " --verify", 0, "can end DONE with wrist", "verified: 1 group")
+  for _, door in ipairs({ " --sim door", "" }) do
+    T.dca("check " .. ur10_system .. door, 1,
+      ur10_system .. ":10:5: main.elbow.Cmd (vector[1], device port of JointSetpoint): the world has no command "
+        .. "'joint.elbow_joint.position_command'",
+      ur10_system .. ":10:5: main.elbow.Q (vector[1], device port of JointSetpoint): the world has no sensor "
+        .. "'joint.elbow_joint.position'",
+      ur10_system .. ":11:5: main.wrist.Cmd (vector[1], device port of JointSetpoint): the world has no command "
+        .. "'joint.wrist_1_joint.velocity_command'",
+      ur10_system .. ": 6 errors")
+  end
+  -- and the door's system against the UR10: the door's signals are missing there
+  local door_open = src .. "/scripts/systems/door_open.dca"
+  T.dca("check " .. door_open .. " --sim " .. ur10, 1, "the world has no sensor 'arm.q'")
+end)
+
+suite:case("a_joint_or_interface_the_urdf_lacks_is_an_error_at_the_leaf", function()
+  local path = tmpfile([[process main() {
+  instantiated_processes {
+    a instof JointSetpoint("arm", "elbow", 1.0);
+    b instof JointSetpoint("arm", "elbow_joint", 1.0, 0.01, "effort");
+  }
+  internal_event_actions { a ; b }
+}
+]])
+  local out = T.dca("check " .. path .. " --sim " .. ur10, 1,
+    path .. ":3:5: main.a.Q (vector[1], device port of JointSetpoint): the world has no sensor 'joint.elbow.position'",
+    path .. ":4:5: main.b.Cmd (vector[1], device port of JointSetpoint): the world has no command "
+      .. "'joint.elbow_joint.effort_command'", path .. ": 4 errors")
+  T.ok(not out:find("main.b.Q"), "b's sensors are the UR10's: " .. out)
+  os.remove(path)
+end)
+
+suite:case("a_world_that_does_not_load_is_one_error_at_its_own_file_and_line", function()
+  local urdf = T.tmpfile('<robot name="x">\n<link name="a"/>\n'
+    .. '<joint name="j" type="revolute"><parent link="zz"/><child link="a"/></joint>\n</robot>\n', ".urdf")
+  T.eq(T.dca("check " .. ur10_system .. " --sim " .. urdf, 1),
+       urdf .. ":3:1: joint 'j': its parent link 'zz' is not defined\n")
+  -- after the file's own errors, once
+  local path = tmpfile('process main() {\n  instantiated_processes { a instof Nope("h"); }\n  internal_event_actions { a }\n}\n')
+  local out = T.dca("check " .. path .. " --sim " .. urdf, 1, path .. ":2:")
+  T.ok(out:find(urdf .. ":3:1: joint 'j'", 1, true) > out:find(path .. ":2:", 1, true), out)
+  T.eq(select(2, out:gsub("its parent link 'zz'", "")), 1, "once: " .. out)
+  T.dca("check " .. ur10_system .. " --sim nowhere", 1, "world 'nowhere': a world is door, ROBOT.urdf or mock:ROBOT.urdf")
+  T.dca("check " .. ur10_system .. " --sim 'mock:" .. ur10 .. "?dead=nope'", 1,
+        "mock:", "dead=nope: the robot has no moving joint of that name")
+  os.remove(urdf)
+  os.remove(path)
+end)
+
 suite:case("syntax_error_exit_1_with_caret", function()
   local path = tmpfile("process main() {\n  host (h)\n}\n")
   T.eq(T.dca("check " .. path, 1), path .. ":2:8: 'host' takes braces, not parentheses: write 'host { h }'\n  host (h)\n       ^\n")

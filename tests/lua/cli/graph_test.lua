@@ -16,6 +16,12 @@ suite:case("graph_writes_dot", function()
   T.ok(out:match("^digraph dca {\n"), out)
 end)
 
+suite:case("graph_checks_device_ports_against_the_world_of_sim", function()
+  local file, urdf = T.src .. "/worlds/ur10/ur10_setpoint.dca", T.src .. "/worlds/ur10/ur10.urdf"
+  T.dca("graph " .. file .. " --sim " .. urdf, 0, '"main.elbow" [label="elbow : JointSetpoint')
+  T.dca("graph " .. file, 1, "the world has no command 'joint.elbow_joint.position_command'")
+end)
+
 suite:case("graph_svg_when_dot_is_installed", function()
   local _, has_dot = T.sh("command -v dot")
   local out_path = T.tmpname(".svg")

@@ -26,6 +26,9 @@ local registry = {
             outputs = { port("Cmd", "vector", 1, "joint.{joint}.{interface}_command") },
             params = { { name = "joint", type = "string", required = true },
                        { name = "interface", type = "string", required = false, default = "position" } } },
+  Wide = { inputs = { port("Q", "vector", 2, "joint.{joint}.position"), port("Counts", "vector", 6, "safety.clamps") },
+          outputs = { port("Cmd", "vector", 3, "joint.{joint}.position_command") },
+          params = { { name = "joint", type = "string", required = true } } },
   Typo = { inputs = { port("Q", "vector", 1, "joint.{jont}.position") }, outputs = {},
            params = { { name = "joint", type = "string", required = true } } },
 }
@@ -193,6 +196,25 @@ suite:case("the_size_rules_name_the_registry_s_ports_and_the_world_s_signals_are
   T.eq({ w.outputs["arm.q"].type, w.outputs["arm.q"].size }, { "vector", 6 })
   T.eq({ w.inputs["base.cmd_vel"].type, w.inputs["base.cmd_vel"].size }, { "vector", 3 })
   T.eq(w.inputs["arm.q"], nil, "a sensor is no command")
+  T.eq(core.world_signals("door"), w, "door is the default")
+end)
+
+-- A URDF world's signals (core.world_signals(SPEC), docs/robots.md "Ports"): the check holds device ports to the
+-- joints' interfaces, their sizes included.
+suite:case("a_device_port_of_another_size_than_a_urdf_joint_interface_is_an_error", function()
+  local core = require "dca.core"
+  local w = assert(core.world_signals(T.src .. "/worlds/ur10/ur10.urdf"))
+  T.eq({ w.outputs["joint.elbow_joint.position"].type, w.outputs["joint.elbow_joint.position"].size }, { "vector", 1 })
+  T.eq(w.inputs["joint.elbow_joint.velocity_command"].size, 1)
+  T.eq(w.outputs["safety.clamps"].size, 12, "one count per command input")
+  T.eq(w.inputs["joint.elbow_joint.effort_command"], nil, "the UR10 declares no effort command")
+  T.eq(errors_of([[
+  instantiated_processes { ok instof Joint("h", "elbow_joint", "velocity"); wide instof Wide("h", "elbow_joint"); }
+  internal_event_actions { ok, wide }]], w), {
+    "2:77: main.wide.Cmd (vector[3], device port of Wide) cannot feed world.joint.elbow_joint.position_command (vector[1])",
+    "2:77: world.joint.elbow_joint.position (vector[1]) cannot feed main.wide.Q (vector[2], device port of Wide)",
+    "2:77: world.safety.clamps (vector[12]) cannot feed main.wide.Counts (vector[6], device port of Wide)",
+  })
 end)
 
 return suite:run(...)

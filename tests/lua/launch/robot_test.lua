@@ -1,7 +1,7 @@
 -- The URDF world end to end (docs/robots.md): worlds/ur10/ur10_setpoint.dca drives the UR10's elbow, then a
 -- wrist joint, to their setpoints through JointSetpoint's device ports and ends DONE, in the Simbody world and on
 -- the mock hardware; a target beyond the joint's limit is clamped, counted in the summary and in the trace; a
--- broken URDF stops the run with its file:line error; `dca types --world` lists the ports.
+-- broken URDF stops the run's check with its file:line error; `dca types --world` lists the ports.
 local T = require "dca.testing"
 local suite = T.suite("robot")
 
@@ -49,8 +49,16 @@ suite:case("a_broken_urdf_stops_the_run_with_its_file_and_line", function()
   local urdf = T.tmpfile('<robot name="x">\n<link name="a"/>\n'
     .. '<joint name="j" type="revolute"><parent link="zz"/><child link="a"/></joint>\n</robot>\n', ".urdf")
   local out, rc = run(system, urdf)
-  T.eq(rc, 3, "exit code (the start failed)\n" .. out)
-  T.contains(out, "dca sim: " .. urdf .. ":3:1: joint 'j': its parent link 'zz' is not defined")
+  T.eq(rc, 2, "exit code (the check failed: nothing started)\n" .. out)
+  T.eq(out, urdf .. ":3:1: joint 'j': its parent link 'zz' is not defined\n", "the one error, once")
+end)
+
+suite:case("the_run_checks_the_system_against_the_world_it_was_given", function()
+  local out, rc = run(system, "door")
+  T.eq(rc, 2, "exit code (the check failed: nothing started)\n" .. out)
+  T.contains(out, "main.elbow.Cmd (vector[1], device port of JointSetpoint): the world has no command "
+    .. "'joint.elbow_joint.position_command'")
+  T.ok(not out:find("world: starting", 1, true), "no world started: " .. out)
 end)
 
 suite:case("dca_types_lists_the_ports_of_a_world", function()
