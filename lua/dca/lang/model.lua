@@ -3,7 +3,7 @@
 --
 --   local model = require "dca.lang.model"
 --   local tree, errors = model.build(ast, { root = "main", args = {}, host = nil, types = core.types(),
---                                           world = core.world_signals() })
+--                                           world = core.world_signals(SPEC) })
 --   -- errors: the list from dca.lang.check (plus binding errors, then the port types of the tree's connections
 --   -- and device ports: dca.lang.ports), each { line, col, path, msg }; nil tree then.
 --
