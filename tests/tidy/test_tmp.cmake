@@ -1,10 +1,14 @@
-# cmake -DTMP=dir -DRUNTIME=dir -DMODE=empty|check -P test_tmp.cmake
-#   empty: TMP and RUNTIME exist and are empty (the fixture's setup)
-#   check: fails naming every file and folder left in TMP (the fixture's cleanup)
+# cmake -DTMP=dir -DRUNTIME=dir [-DLOGS=dir] -DMODE=empty|check -P test_tmp.cmake
+#   empty: TMP and RUNTIME exist and are empty, LOGS (the logs failed runs keep: DCA_RUN_LOGS) is gone (the
+#          fixture's setup)
+#   check: fails naming every file and folder left in TMP, and removes LOGS (the fixture's cleanup)
 if(MODE STREQUAL "empty")
-  file(REMOVE_RECURSE "${TMP}" "${RUNTIME}")
+  file(REMOVE_RECURSE "${TMP}" "${RUNTIME}" "${LOGS}")
   file(MAKE_DIRECTORY "${TMP}" "${RUNTIME}")
 elseif(MODE STREQUAL "check")
+  if(LOGS)
+    file(REMOVE_RECURSE "${LOGS}")
+  endif()
   file(GLOB_RECURSE left LIST_DIRECTORIES true RELATIVE "${TMP}" "${TMP}/*")
   if(left)
     list(SORT left)

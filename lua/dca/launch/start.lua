@@ -182,11 +182,12 @@ function M.sequence(ctx, names, cb)
 end
 
 -- The local daemons' logs (each one's output and its children's) copied out of the key dir, which goes, into
--- a fresh folder under $TMPDIR (default /tmp). --> its path | nil, err
+-- a fresh folder under $DCA_RUN_LOGS (default $TMPDIR, else /tmp). --> its path | nil, err
 local function keep_logs(ctx)
   local core = require "dca.core"
-  local dir = sformat("%s/dca-run-logs-%s-%d", os.getenv("TMPDIR") or "/tmp", os.date("%Y%m%d-%H%M%S"),
-    hosts_mod.self_pid() or 0)
+  local under = os.getenv("DCA_RUN_LOGS") or os.getenv("TMPDIR") or "/tmp"
+  core.make_dir(under)  -- (it may exist)
+  local dir = sformat("%s/dca-run-logs-%s-%d", under, os.date("%Y%m%d-%H%M%S"), hosts_mod.self_pid() or 0)
   local ok, err = core.make_dir(dir)
   if not ok then return nil, err end
   for _, name in ipairs(ctx.names) do

@@ -71,7 +71,8 @@ suite:case("a_mistyped_port_name_fails_the_start_with_its_reason_at_once", funct
   fails_at_once(out, rc, "no input 'SetPoint' on main.ctl.filt; inputs are: In (exited with code 1 on host h1)")
 end)
 
--- A failed run keeps its daemons' logs (the key goes) in a folder it names last, under $TMPDIR.
+-- A failed run keeps its daemons' logs (the key goes) in a folder it names last, under $DCA_RUN_LOGS (the tests'
+-- env sets it), else $TMPDIR.
 suite:case("a_failed_run_keeps_its_daemons_logs_and_says_where", function()
   local out, rc, kept = run_ctl("pkg_positive", 'PkgPositive(h1, -0.005)')
   T.eq(rc, 3, "exit code (the start failed)\n" .. out)
@@ -81,7 +82,8 @@ suite:case("a_failed_run_keeps_its_daemons_logs_and_says_where", function()
   T.contains(log, "dca daemon h1: main.ctl.filt (pid ")
   T.contains(log, ") failed to start: parameter 'k' must be positive, got -0.005")
   T.contains(log, "dca node: main.ctl.ok ready")
-  T.eq(kept:sub(1, #(os.getenv("TMPDIR") or "/tmp") + 1), (os.getenv("TMPDIR") or "/tmp") .. "/", "under $TMPDIR")
+  local under = os.getenv("DCA_RUN_LOGS") or os.getenv("TMPDIR") or "/tmp"
+  T.eq(kept:sub(1, #under + 1), under .. "/", "under $DCA_RUN_LOGS, else $TMPDIR")
   T.ok(out:find("kept in " .. kept .. "/ (h1.log)\n", 1, true) == #out - #("kept in " .. kept .. "/ (h1.log)\n") + 1,
     "the last line names it\n" .. out)
 end)
