@@ -23,7 +23,7 @@
 -- column (byte offset + 1 in text) of the offending character.
 local M = { MAX_LENGTH = 1 << 20, MAX_DEPTH = 32 }
 
-local type, tonumber, tostring, pcall, error = type, tonumber, tostring, pcall, error
+local type, tonumber, tostring, pcall, error, pairs = type, tonumber, tostring, pcall, error, pairs
 local sfind, ssub, sbyte, schar, smatch, sformat = string.find, string.sub, string.byte, string.char,
   string.match, string.format
 local concat, utf8char = table.concat, utf8.char
@@ -219,6 +219,29 @@ function M.read(text)
   if v == nil then return nil, stop, col end
   if stop <= #text then return nil, sformat("unexpected %s after the value", shown(text, stop)), stop end
   return v
+end
+
+--- Whether `v`, a value built in Lua rather than read, is one the grammar above can write: a finite number, a
+--- string, a boolean, or a table of them (keys: numbers, strings, booleans) at most MAX_DEPTH deep; never
+--- raises. --> true | nil, reason
+function M.check(v, depth)
+  depth = depth or 0
+  local t = type(v)
+  if t == "number" then
+    if v ~= v or v == math.huge or v == -math.huge then return nil, "a number must be finite, got " .. tostring(v) end
+    return true
+  end
+  if t == "string" or t == "boolean" then return true end
+  if t ~= "table" then return nil, "a value is a number, a string, a boolean or a table, not a " .. t end
+  if depth >= M.MAX_DEPTH then return nil, sformat("tables nest at most %d deep", M.MAX_DEPTH) end
+  for k, x in pairs(v) do
+    local kt = type(k)
+    if kt ~= "number" and kt ~= "string" and kt ~= "boolean" then return nil, "a table key must be a number, a string or a boolean" end
+    local ok, why = M.check(k, depth + 1)
+    if ok then ok, why = M.check(x, depth + 1) end
+    if not ok then return nil, why end
+  end
+  return true
 end
 
 return M

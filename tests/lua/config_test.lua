@@ -353,6 +353,31 @@ local function bounded(fn, ...)
   return table.unpack(r, 2, r.n)
 end
 
+-- Values built in Lua are held to the literal grammar before anything is sent: inf and NaN, functions, and a
+-- table nested past the bound are refused with the reason (the client raised on a table nested 100 deep).
+suite:case("the_client_refuses_values_that_are_no_literal_with_the_reason_and_sends_nothing", function()
+  local sent = 0
+  local c = require("dca.clients.config").over_channel({ request = function() sent = sent + 1 end }, 1)
+  local deep = {}
+  for _ = 1, 100 do deep = { deep } end
+  for _, case in ipairs({
+    { { x = math.huge }, "config set x: a number must be finite, got inf" },
+    { { x = -math.huge }, "config set x: a number must be finite, got -inf" },
+    { { x = 0 / 0 }, "config set x: a number must be finite, got " },
+    { { x = { 1, { 2, 0 / 0 } } }, "config set x: a number must be finite" },
+    { { x = print }, "config set x: a value is a number, a string, a boolean or a table, not a function" },
+    { { x = deep }, "config set x: tables nest at most 32 deep" },
+    { { x = { [{}] = 1 } }, "config set x: a table key must be a number, a string or a boolean" },
+  }) do
+    local r, err
+    c:set(case[1], function(a, b) r, err = a, b end)
+    T.eq(r, nil)
+    T.contains(err, case[2])
+  end
+  T.eq(sent, 0, "nothing was sent")
+  T.ok(require("dca.literal").check({ 1, 2.5, "x", true, { a = { b = -3 } } }))
+end)
+
 suite:case("parse_assignment_reads_literals_keeps_plain_words_and_refuses_code", function()
   local function pa(text) return table.pack(config.parse_assignment(text)) end
   T.eq(pa("door.width=0.9"), { "door.width", 0.9, n = 2 })

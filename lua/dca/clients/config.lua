@@ -8,8 +8,9 @@
 --   config.sync(addr, opts)          -- the blocking form: methods return results (running the loop)
 -- Requests wait dca.clients.TIMEOUT seconds unless opts.request_timeout says otherwise.
 local core, clients = require "dca.core", require "dca.clients"
+local literal = require "dca.literal"
 
-local setmetatable, type, ipairs, tostring = setmetatable, type, ipairs, tostring
+local setmetatable, type, ipairs, pairs, tostring = setmetatable, type, ipairs, pairs, tostring
 local sformat = string.format
 
 local M = {}
@@ -97,7 +98,14 @@ end
 
 --- Writes every key of `values` as one transaction; cb(reply, err) after the daemon committed it
 --- (reply = { seq, stamp, origin, keys }).
+--- Values are literals (dca.literal.check: finite numbers, strings, booleans, tables of them not too deep);
+--- anything else is refused here, cb(nil, reason), and nothing is sent.
 function Client:set(values, cb)
+  if type(values) ~= "table" then (cb or ignore)(nil, "config set: values must be a table of key = value") return end
+  for k, v in pairs(values) do
+    local ok, why = literal.check(v)
+    if not ok then (cb or ignore)(nil, sformat("config set %s: %s", tostring(k), why)) return end
+  end
   self:_request({ type = "config_set", values = values }, cb)
 end
 
