@@ -5,9 +5,9 @@
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <map>
-#include <sstream>
 #include <stdexcept>
 #include <utility>
 #include <vector>
@@ -216,11 +216,25 @@ bool fail(std::string* error, std::string why) {
 }
 
 // The recording has dca sim's header and at least one row.
+// The bound on what `dca plot` reads, as `dca monitor` has it (bindings/wrap_mcap.cpp): a larger file is refused
+// by its size before a byte of it is read.
+constexpr std::uintmax_t kMaxRecording = std::uintmax_t{1} << 30;
+
+bool within_bound(const std::string& path, std::string* error) {
+  std::error_code ec;
+  const auto size = std::filesystem::file_size(path, ec);
+  if (ec) return fail(error, path + ": cannot open the recording");
+  if (size > kMaxRecording)
+    return fail(error, path + ": " + std::to_string(size) + " bytes: dca plot reads recordings of at most 1 GiB");
+  return true;
+}
+
 bool check_recording(const std::string& csv, std::string* error) {
   std::ifstream in(csv);
   if (!in) return fail(error, csv + ": cannot open the recording");
-  std::string header;
-  std::getline(in, header);
+  std::string header;  // at most one byte past the header: a long first line is no header
+  const std::size_t want = std::strlen(csv_header());
+  for (char c = 0; header.size() <= want && in.get(c) && c != '\n';) header += c;
   if (header != csv_header()) return fail(error, csv + ":1: not a dca sim recording (unexpected header)");
   std::string row;
   if (!std::getline(in, row)) return fail(error, csv + ":2: the recording has no data");
@@ -311,13 +325,15 @@ std::map<uint64_t, std::vector<double>> rows_of(const dca::mcap::Contents& c, si
 }  // namespace
 
 bool mcap_to_csv(const std::string& mcap, const std::string& csv, std::string* error) {
+  if (!within_bound(mcap, error)) return false;
   std::ifstream in(mcap, std::ios::binary);
   if (!in) return fail(error, mcap + ": cannot open the recording");
-  std::stringstream bytes;
-  bytes << in.rdbuf();
+  std::string bytes(static_cast<std::size_t>(std::filesystem::file_size(mcap)), '\0');
+  if (!in.read(bytes.data(), static_cast<std::streamsize>(bytes.size())))
+    return fail(error, mcap + ": cannot read the recording");
   dca::mcap::Contents c;
   std::string why;
-  if (!dca::mcap::read(bytes.str(), &c, &why)) return fail(error, mcap + ": " + why);
+  if (!dca::mcap::read(bytes, &c, &why)) return fail(error, mcap + ": " + why);
   size_t columns = 0;
   for (const Group& g : groups()) columns += g.fields.size();
   const auto rows = rows_of(c, columns);
@@ -335,6 +351,7 @@ bool mcap_to_csv(const std::string& mcap, const std::string& csv, std::string* e
 }
 
 bool plot_csv(const std::string& file, const std::string& png, std::string* error) {
+  if (!within_bound(file, error)) return false;
   const std::string script = png + ".gnuplot";
   if (is_mcap(file)) {
     const std::string csv = png + ".csv";
