@@ -19,9 +19,13 @@ local sformat, tonumber, ipairs = string.format, tonumber, ipairs
 local function read_lines(file)
   local f, err = io.open(file, "r")
   if not f then return nil, err end
-  local lines = {}
-  for l in f:lines() do lines[#lines + 1] = l end
+  local text, rerr = f:read("a")  -- (a directory opens, then reads nil and the reason: never raises)
   f:close()
+  if not text then return nil, sformat("%s: %s", file, tostring(rerr)) end
+  local lines = {}
+  for l in text:gmatch("([^\n]*)\n") do lines[#lines + 1] = l end
+  local last = text:match("([^\n]+)$")
+  if last then lines[#lines + 1] = last end
   return lines
 end
 
@@ -58,8 +62,10 @@ local function parts(rest)
   return kind or "?", who or rest, what or ""
 end
 
-local function show(t, rest)
-  if t < 0 then return "(end of trace)" end
+-- A side of a divergence: its line, "(end of trace)" past its last, or an unparsable line said as such.
+local function show(line, t, rest)
+  if line == nil then return "(end of trace)" end
+  if t < 0 then return "(not a trace line) " .. line end
   return rest
 end
 
@@ -78,9 +84,9 @@ function M.diff(file_a, file_b)
       local t = (ta >= 0 and tb >= 0) and math.min(ta, tb) or math.max(ta, tb)
       local ka, wa = parts(ra)
       local _, wb = parts(rb)
-      local who = (wa == wb) and wa or (wa .. " / " .. wb)
+      local who = (wa == wb or not a[i]) and wb or (not b[i] and wa) or (wa .. " / " .. wb)
       return sformat("first divergence at line %d, tick %.9f s (%d ns), %s %s:\n  %s: %s\n  %s: %s", i,
-        t / 1e9, t, ka == "D" and "port" or "process", who, file_a, show(ta, ra), file_b, show(tb, rb))
+        t / 1e9, t, ka == "D" and "port" or "process", who, file_a, show(a[i], ta, ra), file_b, show(b[i], tb, rb))
     end
   end
   return nil
