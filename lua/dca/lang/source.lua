@@ -65,10 +65,27 @@ function M.caret(line_text, col)
   return prefix .. "^"
 end
 
---- "file:line:col: message\n<line>\n<caret>" (no trailing newline).
+-- Bounds on what an error shows: the source line a window around the column, the message its first bytes (a
+-- 50 MB one-line identifier gave a 157 MB error).
+M.SHOWN_LINE, M.SHOWN_MESSAGE = 160, 2000
+
+--- `text` cut to `max` bytes, saying how many more there were.
+function M.clip(text, max)
+  if #text <= max then return text end
+  return sformat("%s... (%d bytes more)", ssub(text, 1, max), #text - max)
+end
+
+--- "file:line:col: message\n<line>\n<caret>" (no trailing newline); a long line is shown around the column,
+--- a long message clipped.
 function M.format(file, idx, line, col, message)
   local lt = idx:line_text(line)
-  return sformat("%s:%d:%d: %s\n%s\n%s", file, line, col, message, lt, M.caret(lt, col))
+  if #lt > M.SHOWN_LINE then
+    local from = math.max(1, col - M.SHOWN_LINE // 2)
+    local cut = ssub(lt, from, from + M.SHOWN_LINE - 1)
+    lt, col = (from > 1 and "..." or "") .. cut .. (from + M.SHOWN_LINE - 1 < #lt and "..." or ""),
+      col - from + 1 + (from > 1 and 3 or 0)
+  end
+  return sformat("%s:%d:%d: %s\n%s\n%s", file, line, col, M.clip(message, M.SHOWN_MESSAGE), lt, M.caret(lt, col))
 end
 
 --- The edit distance of two short strings (insertions, deletions, substitutions and transpositions of
@@ -100,6 +117,7 @@ end
 --- The candidate closest to `word` (case-insensitive distance at most (#word + 1) // 3), or nil.
 --- `candidates` is a list of strings.
 function M.closest(word, candidates)
+  if #word > 64 then return nil end  -- no name is that long: no guess (and no quadratic distance)
   local best, best_d
   local lw = word:lower()
   local limit = (#word + 1) // 3

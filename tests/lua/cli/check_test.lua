@@ -47,6 +47,20 @@ process main() {
   os.remove(path)
 end)
 
+-- An error shows a window of its source line and a clipped message: a 50 MB one-line identifier gave a 157 MB
+-- error (here 2 MB: the same path, quicker).
+suite:case("a_huge_identifier_gives_an_error_of_bounded_size", function()
+  local name = string.rep("X", 2000000)
+  local path = tmpfile("process main() {\n  instantiated_processes { a instof " .. name .. "(\"h\"); }\n"
+    .. "  internal_event_actions { a }\n}\n")
+  local out, rc = T.sh(string.format("'%s' check '%s'", T.exe, path))
+  T.eq(rc, 1, out:sub(1, 300))
+  T.contains(out, path .. ":2:37: main.a: unknown process type 'XXXX")
+  T.contains(out, "bytes more)")
+  T.ok(#out < 6000, "the error is " .. #out .. " bytes")
+  T.cleanup()
+end)
+
 suite:case("tree_option_prints_the_instances", function()
   local path = src .. "/scripts/systems/compliant_motion.dca"
   T.eq(T.dca("check --no-registry --tree " .. path, 0),
