@@ -336,9 +336,16 @@ function Run:start_world()
       return
     end
     if ctx.sim then
+      -- the world gone, nothing can run on: the root ends ABORTED with the cause and everything is stopped
+      -- (bounded: stop_all's grace), instead of the run waiting for ever with its daemons and supervisors up
       ctx.sim.world.on_lost = function(reason)
         err_line(self, reason, " (the nodes on its clock stop with it)")
         if self.code == nil then self.code = 1 end
+        if self.sup.state == "running" then
+          self.sup:abort(function() self:stop_all(1) end, "the robot process was lost: " .. reason)
+        else
+          self:stop_all(1)
+        end
       end
     end
     if self.stopping then return end

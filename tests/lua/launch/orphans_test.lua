@@ -114,6 +114,36 @@ suite:case("kill_9_of_dca_run_mid_run_leaves_no_process_and_no_temp_dir_after_2_
   os.remove(out)
 end)
 
+-- kill -9 of the world (the robot process, the clock master) mid-run: the run ends ABORTED with the cause and
+-- exit code 1, and nothing of it is left. On the previous main it printed the world's end, then waited for ever
+-- with its daemons and supervisors up and no outcome.
+suite:case("kill_9_of_the_world_ends_the_run_aborted_and_leaves_nothing", function()
+  local pid, out = start_run(src .. "/scripts/systems/door_open.dca", "--sim", "door")
+  local up = wait_until(function() return T.read(out):find("approach: running", 1, true) ~= nil end, 60)
+  local pids = descendants(pid)
+  T.ok(up, "the door run reached its approach step:\n" .. T.read(out))
+  local world
+  for _, p in ipairs(pids) do
+    local f = io.open("/proc/" .. p .. "/cmdline", "rb")
+    local argv = f and f:read("a") or ""
+    if f then f:close() end
+    if argv:find("%zsim%z") and argv:find("%-%-serve") then world = p end
+  end
+  T.ok(world, "the world found among " .. named(pids))
+  core.kill(world, "KILL")
+  local ended = wait_until(function() return core.reap(pid) ~= nil or not running(pid) end, 60)
+  local alive = left_over(pids)
+  kill_all(alive)
+  if not ended then core.kill(pid, "KILL") end
+  local text = T.read(out)
+  T.ok(ended, "dca run ended after its world was killed:\n" .. text)
+  T.contains(text, "killed by SIGKILL")
+  T.contains(text, "main: ABORTED")
+  T.contains(text, "the robot process was lost: the world killed by SIGKILL")
+  T.ok(wait_until(function() return #left_over(pids) == 0 end, 5), "left: " .. named(left_over(pids)))
+  os.remove(out)
+end)
+
 -- With daemons started by hand (a hosts file), `dca run` dying leaves them running, but nothing of its run: the
 -- world (whose clock master was the root), the supervisors and the nodes of the run are gone within 2 s.
 suite:case("kill_9_of_dca_run_on_hand_started_daemons_leaves_only_the_daemons", function()
