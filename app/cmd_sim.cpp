@@ -63,7 +63,8 @@ constexpr const char* kUsage =
     "--world ROBOT.urdf or mock:ROBOT.urdf: the generic URDF world instead of the door (docs/robots.md):\n"
     "the robot's joint interfaces as ports (`dca types --world ROBOT.urdf` lists them); without --serve it\n"
     "steps --duration seconds (default 1) with no commands and prints the joints. It takes --period,\n"
-    "--duration, --realtime and the --serve options; --seed is ignored; the door's options are refused.\n\n"
+    "--duration, --realtime and the --serve options, and with --serve --record FILE.mcap (its signals and link\n"
+    "frames, docs/recording.md); --seed is ignored; the door's options are refused.\n\n"
     "Prints each step of the door opening as it starts and a summary (`door opened to NN.N deg`). Exit code 0\n"
     "on success, 1 if the scripted opening fails or the world cannot be built, 2 on a usage error.";
 
@@ -327,12 +328,13 @@ class LocalRun {
 
 // --world ROBOT.urdf: the generic URDF world (app/sim_robot.h).
 int robot_world(const Options& o) {
-  if (!o.script.empty() || !o.record.empty() || o.jammed || o.door_width > 0 || o.print_urdf || o.visualize)
-    return usage_error("--script, --record, --jammed, --door-width, --print-door-urdf and --visualize are the door's");
+  if (!o.script.empty() || o.jammed || o.door_width > 0 || o.print_urdf || o.visualize)
+    return usage_error("--script, --jammed, --door-width, --print-door-urdf and --visualize are the door's");
   dca::app::RobotSimOptions r;
   r.world = o.world;
   r.serve = o.serve, r.go = o.go, r.realtime = o.realtime;
   r.daemon = o.daemon, r.name = o.name, r.key = o.key, r.host = o.host, r.trace = o.node.trace;
+  r.record = o.record, r.record_period = o.record_period;
   r.period = o.period, r.duration = o.duration, r.sync_period = o.node.sync_period;
   r.tick_timeout_ms = o.node.tick_timeout_ms;
   return dca::app::sim_robot(r);

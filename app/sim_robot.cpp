@@ -24,6 +24,7 @@ int serve(const RobotSimOptions& o, sim::JointWorld& world) {
   dno.realtime = o.realtime;
   dno.duration = o.duration;
   dno.trace = o.trace;
+  dno.record = o.record, dno.record_period = o.record_period;
   sim::DeviceNode dn(loop, world, dno);
   NodeOptions no;
   no.name = o.name;
@@ -80,6 +81,10 @@ bool is_robot_world(const std::string& spec) { return sim::is_robot_world(spec);
 int sim_robot(const RobotSimOptions& o) {
   if (o.serve && o.daemon.empty()) {
     std::fprintf(stderr, "dca sim: --serve needs --daemon ADDR\n");
+    return 2;
+  }
+  if (!o.serve && !o.record.empty()) {
+    std::fprintf(stderr, "dca sim: --record with a URDF world goes with --serve (dca run --sim ROBOT.urdf --record)\n");
     return 2;
   }
   try {

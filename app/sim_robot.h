@@ -13,7 +13,8 @@ struct RobotSimOptions {
   std::string world;                 ///< the spec (sim/urdf/joint_world.h)
   bool serve = false, go = false, realtime = false;
   std::string daemon, name = "world", key, host, trace;
-  double period = 1e-3, duration = -1, sync_period = 0.01;
+  std::string record;                ///< served: the MCAP file (sim/device_node.h)
+  double period = 1e-3, duration = -1, sync_period = 0.01, record_period = 0.01;
   int tick_timeout_ms = 10000;
 };
 

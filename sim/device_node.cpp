@@ -1,12 +1,19 @@
 #include "sim/device_node.h"
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <stdexcept>
 #include <vector>
 
+#include "host/codec/frames.h"
+#include "host/codec/json.h"
 #include "host/lockstep.h"
 #include "host/net/channel.h"
+#include "host/net/tap.h"
 #include "host/timers.h"
+#include "sim/recorder.h"
+#include "sim/world_taps.h"
 
 namespace dca::sim {
 
@@ -33,7 +40,13 @@ class DeviceComponent final : public Component {
  private:
   std::string name_;
   PortSet ports_;
+
+ public:
+  tap::Taps taps{ports_};  // inputs "tap:PATH" (host/net/tap.h), added by `tap` requests
 };
+
+// The recording's topic of the world's signal `name`: the topic a live viewer sees it under ("/world/joint/J/position").
+std::string signal_topic(const std::string& name) { return tap::topic_of("world." + name); }
 
 // StatusSink into a wire map.
 class ValueSink final : public StatusSink {
@@ -64,10 +77,12 @@ class ValueSink final : public StatusSink {
 
 struct DeviceNode::Impl {
   Impl(Loop& l, DeviceWorld& w, DeviceNodeOptions o)
-      : loop(l), world(w), opts(std::move(o)), clock(l, clock_options(opts, w), hooks()) {
+      : loop(l), world(w), opts(std::move(o)), clock(l, clock_options(opts, w), hooks()),
+        taps(clock, opts.record.empty() ? nullptr : std::make_unique<Recorder>(opts.record, Recorder::Groups::none)) {
     if (!opts.trace.empty() && !(trace = std::fopen(opts.trace.c_str(), "w")))
       throw std::runtime_error("cannot write the trace " + opts.trace);
     buffer.resize(64);
+    if (taps.recorder()) start_recording();
   }
   ~Impl() {
     if (trace) std::fclose(trace);
@@ -80,6 +95,9 @@ struct DeviceNode::Impl {
   std::FILE* trace = nullptr;
   std::vector<double> buffer;  // a sensor's values
   Lockstep clock;
+  WorldTaps taps;  // tap, record_end, note; the recording
+  std::vector<std::uint16_t> channels;  // each sensor's recording channel
+  long record_every = 1, steps = 0;
 
   static LockstepOptions clock_options(const DeviceNodeOptions& o, const DeviceWorld& w) {
     LockstepOptions c;
@@ -113,7 +131,58 @@ struct DeviceNode::Impl {
     return h;
   }
 
+  // The recording's channels: one per sensor signal, as its live topic (the link frames as
+  // foxglove.FrameTransforms), the URDF on /robot_description (once, at time 0); then the signals at 0.
+  void start_recording() {
+    Recorder& r = *taps.recorder();
+    for (const auto& sig : world.sensors()) {
+      if (is_frames(sig)) {
+        channels.push_back(r.add_channel(signal_topic(sig.name), frames::json_schema(), frames::kSchemaName));
+        continue;
+      }
+      const std::string topic = signal_topic(sig.name);
+      channels.push_back(r.add_channel(topic, tap::json_schema(topic, vector_port(sig.name, sig.size, sig.units))));
+    }
+    if (const std::string urdf = world.robot_description(); !urdf.empty())
+      r.write(r.add_channel(frames::kDescriptionTopic, frames::description_schema(), frames::kDescriptionSchemaName),
+              0, frames::description_message(urdf));
+    record_every = std::max<long>(1, std::lround(opts.record_period / world.period()));
+    record_sensors();
+  }
+
+  // The output that holds the world's link frames.
+  bool is_frames(const DeviceSignal& sig) const { return sig.name == "links.frames" && !world.frames().empty(); }
+
+  // Every sensor signal at the world's time: {"value": [...]}, as a tap of it would record it; the link frames
+  // as foxglove.FrameTransforms.
+  void record_sensors() {
+    const auto& sensors = world.sensors();
+    const auto t = static_cast<std::int64_t>(std::llround(world.time() * 1e9));
+    for (std::size_t i = 0; i < sensors.size(); ++i) {
+      if (buffer.size() < sensors[i].size) buffer.resize(sensors[i].size);
+      world.sensor(i, buffer.data());
+      if (is_frames(sensors[i])) {
+        taps.recorder()->write(channels[i], t, frames::message(world.frames(), t, buffer.data(), sensors[i].size));
+        continue;
+      }
+      std::string json = "{\"value\":[";
+      for (std::uint32_t k = 0; k < sensors[i].size; ++k) {
+        if (k) json += ',';
+        json::append_number(json, buffer[k]);
+      }
+      taps.recorder()->write(channels[i], t, json + "]}");
+    }
+  }
+
+  // robot_description {}: what viewers draw the robot from: {urdf, frames = [[parent, child], ...], port}.
+  Value description() const {
+    Value fs = Value::array();
+    for (const auto& f : world.frames()) fs.array_ref().push_back(Value(Value::Array{Value(f.parent), Value(f.child)}));
+    return Value::map().set("urdf", world.robot_description()).set("frames", std::move(fs)).set("port", "links.frames");
+  }
+
   void step() {
+    taps.record_taps();
     for (std::size_t i = 0; i < component->inputs.size(); ++i) {
       Input& in = *component->inputs[i];
       if (!in.take_latest()) continue;
@@ -121,6 +190,8 @@ struct DeviceNode::Impl {
       world.command(i, v.data(), static_cast<std::size_t>(v.size()));
     }
     world.step();
+    ++steps;
+    if (taps.recorder() && steps % record_every == 0) record_sensors();
   }
 
   void publish() {
@@ -141,9 +212,8 @@ struct DeviceNode::Impl {
 
   bool handle(const std::shared_ptr<Channel>& ch, const Message& m) {
     if (m.type == "status") return ch->reply(m, status()), true;
-    if (m.type == "tap" || m.type == "record_end")
-      return ch->reply_error(m, m.type + ": taps and recordings are the door world's for now (docs/robots.md)"), true;
-    if (m.type == "note") return ch->reply(m, Value::map()), true;
+    if (m.type == "robot_description") return ch->reply(m, description()), true;
+    if (taps.handle(ch, m, world.time())) return true;  // tap, record_end, note
     return clock.handle(ch, m);
   }
 };
@@ -176,6 +246,7 @@ std::unique_ptr<Node> DeviceNode::make_node(NodeOptions options) {
              TimerServer&) {
         auto c = std::make_unique<DeviceComponent>(name, impl_->world);
         impl_->component = c.get();
+        impl_->taps.attach(&c->taps);
         return std::unique_ptr<Component>(std::move(c));
       });
   node->on_request([this](const std::shared_ptr<Channel>& ch, const Message& m) { return impl_->handle(ch, m); });

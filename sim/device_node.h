@@ -7,8 +7,12 @@
 // Each tick: the command samples counted for the world are taken in (the latest of each input goes to
 // DeviceWorld::command), the world steps one period, and when subscribers are due its sensors are written to
 // the outputs. A command input whose writer the clock master lost or forgot for a new instance is told to the
-// world (DeviceWorld::writer_gone). `status {}` is the clock's status and the world's fields. Taps and
-// recordings are the door world's for now: `tap` and `record_end` are answered with an error saying so.
+// world (DeviceWorld::writer_gone). `status {}` is the clock's status and the world's fields. Taps, `record_end`
+// and `note` are the door world's (sim/world_taps.h). With `record` (FILE.mcap) every sensor signal is recorded
+// every record_period on a channel named as its live topic ("/world/joint/J/position", {"value": [x]}; the
+// link frames, DeviceWorld::frames, as foxglove.FrameTransforms), the URDF once on /robot_description,
+// beside the tapped ports and the run's lines (docs/recording.md). `robot_description {}` answers {urdf, frames =
+// [[parent, child], ...], port = "links.frames"}: what a viewer draws the robot from.
 #include <functional>
 #include <memory>
 #include <string>
@@ -32,6 +36,8 @@ struct DeviceNodeOptions {
   bool realtime = false;          ///< pace time to the wall clock
   double duration = -1;           ///< s of simulated time after which time holds (-1: never)
   std::string trace;              ///< file the lock-step trace goes to ("" = none; docs/time.md)
+  std::string record;             ///< the MCAP file to record to ("" = none): the constructor throws for another
+  double record_period = 0.01;    ///< s between recorded signals
 };
 
 class DeviceNode {

@@ -9,6 +9,8 @@
 #include <utility>
 #include <vector>
 
+#include "host/codec/frames.h"
+
 namespace dca::sim {
 
 /// A signal of a device world: its port name, vector size and units.
@@ -56,6 +58,14 @@ class DeviceWorld {
   /// Lines for the end of a run (what the safety layer did), and warnings of loading.
   virtual std::vector<std::string> summary() const = 0;
   virtual std::vector<std::string> warnings() const = 0;
+  /// The link frames the sensor "links.frames" holds, 7 numbers each (host/codec/frames.h): for viewers and
+  /// recordings, as foxglove.FrameTransforms. None by default.
+  virtual const std::vector<frames::Frame>& frames() const {
+    static const std::vector<frames::Frame> none;
+    return none;
+  }
+  /// The robot's URDF text for viewers (/robot_description), "" when there is none.
+  virtual std::string robot_description() const { return {}; }
 };
 
 }  // namespace dca::sim

@@ -63,10 +63,11 @@ bool is_mcap(const std::string& path) {
 }
 
 struct Recorder::Mcap {
-  explicit Mcap(std::FILE* f)
+  Mcap(std::FILE* f, Groups with)
       : writer([f](std::string_view b) { return std::fwrite(b.data(), 1, b.size(), f) == b.size(); }, "dca sim",
                64 * 1024) {
-    for (const Group& g : groups()) writer.add_channel(g.topic, g.topic + 1, schema_of(g));
+    if (with == Groups::door)
+      for (const Group& g : groups()) writer.add_channel(g.topic, g.topic + 1, schema_of(g));
   }
   dca::mcap::Writer writer;
   uint16_t events = 0;  // the channel /dca/events, once there is a note
@@ -118,9 +119,10 @@ void Recorder::log(double t, const std::string& path, const std::string& line) {
   mcap_->writer.write(mcap_->log, ns, "{\"path\":" + json_string(path) + ",\"line\":" + json_string(line) + "}");
 }
 
-uint16_t Recorder::add_channel(const std::string& topic, const std::string& schema) {
+uint16_t Recorder::add_channel(const std::string& topic, const std::string& schema, const std::string& schema_name) {
   if (!f_ || !mcap_) return 0;
-  return mcap_->writer.add_channel(topic, topic.size() > 1 ? topic.substr(1) : topic, schema);
+  const std::string name = !schema_name.empty() ? schema_name : topic.size() > 1 ? topic.substr(1) : topic;
+  return mcap_->writer.add_channel(topic, name, schema);
 }
 
 void Recorder::write(uint16_t channel, int64_t t_ns, const std::string& json) {
@@ -133,11 +135,13 @@ const char* csv_header() {
          "gripper_width,gripper_state,laser,phase";
 }
 
-Recorder::Recorder(const std::string& path) : path_(path) {
+Recorder::Recorder(const std::string& path, Groups groups) : path_(path), groups_(groups) {
+  if (groups == Groups::none && !is_mcap(path))
+    throw std::runtime_error(path + ": this world records MCAP only (FILE.mcap); CSV is the door world's export");
   f_ = std::fopen(path.c_str(), "w");
   if (!f_) throw std::runtime_error(path + ": cannot write the recording: " + std::strerror(errno));
   if (is_mcap(path)) {
-    mcap_ = std::make_unique<Mcap>(f_);
+    mcap_ = std::make_unique<Mcap>(f_, groups);
   } else {
     std::fprintf(f_, "%s\n", csv_header());
   }
@@ -149,7 +153,7 @@ Recorder::~Recorder() {
 }
 
 void Recorder::record(const Sensors& s, int phase) {
-  if (!f_) return;
+  if (!f_ || groups_ != Groups::door) return;
   ++rows_;
   if (mcap_) {
     const std::vector<double> v = values_of(s, phase);

@@ -27,11 +27,15 @@ constexpr int kMcapChannels = 7;
 /// written.
 class Recorder {
  public:
-  explicit Recorder(const std::string& path);
+  /// The channels a recording starts with: the door world's signal groups (kMcapChannels, written by record()),
+  /// or none (another world's recording: MCAP only, its channels added with add_channel).
+  enum class Groups { door, none };
+  /// Throws std::runtime_error("FILE: reason") also for Groups::none and a name not ending in ".mcap".
+  explicit Recorder(const std::string& path, Groups groups = Groups::door);
   ~Recorder();
   Recorder(const Recorder&) = delete;
   Recorder& operator=(const Recorder&) = delete;
-  /// Appends the world's current sensors (and `phase`).
+  /// Appends the door world's current sensors (and `phase`); nothing with Groups::none.
   void record(const Sensors& s, int phase = -1);
   /// MCAP only (a CSV ignores it): one message on the channel /dca/events (added at the first note) at simulated
   /// time `t`: {"line": line, "path": path, "state": state} (path and state empty for a line that is no
@@ -42,7 +46,8 @@ class Recorder {
   void log(double t, const std::string& path, const std::string& line);
   /// MCAP only (0 for a CSV): a channel of its own on `topic` (a tapped port's, host/net/tap.h), its messages JSON
   /// objects described by the JSON Schema `schema`.
-  uint16_t add_channel(const std::string& topic, const std::string& schema);
+  /// `schema_name`: the schema's name ("" : the topic without its leading slash), e.g. foxglove.FrameTransforms.
+  uint16_t add_channel(const std::string& topic, const std::string& schema, const std::string& schema_name = "");
   /// MCAP only: one message (JSON text) on a channel of add_channel at simulated time `t_ns` (a CSV ignores it).
   void write(uint16_t channel, int64_t t_ns, const std::string& json);
   /// Samples a tap dropped (host/net/tap.h), for the summary.
@@ -63,6 +68,7 @@ class Recorder {
   std::unique_ptr<Mcap> mcap_;  // set when recording MCAP
   long rows_ = 0;
   uint64_t dropped_ = 0;
+  Groups groups_ = Groups::door;
 };
 
 /// Draws a recording (CSV, or MCAP when `file` ends in ".mcap"): door and handle angles, wrist force, base

@@ -11,6 +11,7 @@
 #include "host/net/tap.h"
 #include "host/timers.h"
 #include "sim/recorder.h"
+#include "sim/world_taps.h"
 
 namespace dca::sim {
 
@@ -48,11 +49,11 @@ class WorldComponent final : public Component {
 
 struct WorldNode::Impl {
   Impl(Loop& l, World& w, WorldNodeOptions o)
-      : loop(l), world(w), opts(std::move(o)), clock(l, clock_options(opts, world), hooks()) {
-    if (!opts.record.empty()) {
-      recorder = std::make_unique<Recorder>(opts.record);
+      : loop(l), world(w), opts(std::move(o)), clock(l, clock_options(opts, world), hooks()),
+        taps(clock, opts.record.empty() ? nullptr : std::make_unique<Recorder>(opts.record)) {
+    if (taps.recorder()) {
       record_every = std::max<long>(1, std::lround(opts.record_period / world.config().period));
-      recorder->record(world.sensors(), -1);
+      taps.recorder()->record(world.sensors(), -1);
     }
     if (!opts.trace.empty() && !(trace = std::fopen(opts.trace.c_str(), "w")))
       throw std::runtime_error("cannot write the trace " + opts.trace);
@@ -66,14 +67,13 @@ struct WorldNode::Impl {
   WorldComponent* component = nullptr;
   Node* node = nullptr;  // the node that hosts the component (its data endpoint: lock-step counts)
   std::FILE* trace = nullptr;
-  std::unique_ptr<Recorder> recorder;
-  std::map<const tap::Taps::Tap*, std::uint16_t> channels;  // each tap's recording channel
   long record_every = 1;
   long steps = 0;
   Commands cmd;
   Commands applied;  // what the last step applied (the watchdog's zeros in)
   Nanos base_at = -1, arm_at = -1;  // when the last base / arm command arrived
   Lockstep clock;
+  WorldTaps taps;  // tap, record_end, note; the recording
 
   static LockstepOptions clock_options(const WorldNodeOptions& o, const World& w) {
     LockstepOptions c;
@@ -107,22 +107,11 @@ struct WorldNode::Impl {
   // One period: the tapped samples written before it recorded (at their writers' ticks), the commands that
   // arrived applied, the world steps, every record_every steps a row.
   void step() {
-    record_taps();
+    taps.record_taps();
     take_commands();
     world.step();
     ++steps;
-    if (recorder && steps % record_every == 0) recorder->record(world.sensors(), -1);
-  }
-
-  // The tapped samples taken in, recorded at their writers' ticks (the stamps), with the count of those dropped.
-  void record_taps() {
-    if (component->taps.all().empty()) return;
-    component->taps.drain([this](tap::Taps::Tap& t, std::int64_t at, Bytes sample) {
-      if (recorder) recorder->write(channels[&t], at, tap::sample_json(t.spec, sample));
-    });
-    std::uint64_t dropped = 0;
-    for (const auto& t : component->taps.all()) dropped += t->dropped() + t->malformed;
-    if (recorder) recorder->set_dropped(dropped);
+    if (taps.recorder() && steps % record_every == 0) taps.recorder()->record(world.sensors(), -1);
   }
 
   void take_commands() {
@@ -166,39 +155,6 @@ struct WorldNode::Impl {
       component->outputs[i]->write(Eigen::Map<const Eigen::VectorXd>(data[i], kSensorSignals[i].size));
   }
 
-  // tap {path, port_type, size, units, queue}: a tap input for the output at `path` (host/net/tap.h), recorded on a
-  // channel of its own (its topic, tap::topic_of) when recording MCAP. Answers {input}.
-  void add_tap(const std::shared_ptr<Channel>& ch, const Message& m) {
-    const auto& p = m.payload;
-    const auto type = port_type_from(p["port_type"].as_string());
-    if (!type) return void(ch->reply_error(m, "tap: unknown port type '" + p["port_type"].as_string() + "'"));
-    PortSpec spec{p["path"].as_string(), *type, static_cast<std::uint32_t>(p["size"].as_int(1)), p["units"].as_string(), {}};
-    if (spec.type == PortType::Scalar) spec.size = 1;
-    const auto queue = static_cast<std::size_t>(std::clamp<std::int64_t>(p["queue"].as_int(256), 1, 4096));
-    std::string error;
-    const auto* t = component->taps.add(spec.name, spec, queue, &error);
-    if (!t) return void(ch->reply_error(m, error));
-    if (recorder && !channels.count(t)) {
-      const std::string topic = tap::topic_of(t->path);
-      channels[t] = recorder->add_channel(topic, tap::json_schema(topic, t->spec));
-    }
-    ch->reply(m, Value::map().set("input", t->input->name()));
-  }
-
-  // record_end {}: the recording closed now (what comes later is not recorded); answers {summary}.
-  void end_recording(const std::shared_ptr<Channel>& ch, const Message& m) {
-    if (!recorder) return void(ch->reply(m, Value::map()));
-    // what was written at the last tick (time held after the run's end) counted in, at its ticks
-    if (const auto late = clock.take_owner(); !late.empty()) std::fprintf(stderr, "dca sim: %s\n", late.c_str());
-    record_taps();
-    std::string error;
-    if (!recorder->close(&error)) return void(ch->reply_error(m, error));
-    const std::string summary = recorder->summary();
-    std::printf("dca sim: recorded %s\n", summary.c_str());
-    recorder.reset();
-    ch->reply(m, Value::map().set("summary", summary));
-  }
-
   template <std::size_t N>
   static Value array_of(const std::array<double, N>& a) {
     Value::Array v;
@@ -237,18 +193,12 @@ WorldNode::WorldNode(Loop& loop, World& world, WorldNodeOptions options)
   };
 }
 
-WorldNode::~WorldNode() {
-  std::string error;
-  if (!impl_->recorder) return;
-  if (!impl_->recorder->close(&error))
-    std::fprintf(stderr, "dca sim: %s\n", error.c_str());
-  else
-    std::printf("dca sim: recorded %s\n", impl_->recorder->summary().c_str());
-}
+WorldNode::~WorldNode() = default;
 
 std::unique_ptr<Component> WorldNode::make_component(const std::string& name) {
   auto c = std::make_unique<WorldComponent>(name);
   impl_->component = c.get();
+  impl_->taps.attach(&c->taps);
   return c;
 }
 
@@ -272,17 +222,8 @@ std::unique_ptr<Node> WorldNode::make_node(NodeOptions options) {
 
 bool WorldNode::handle(const std::shared_ptr<Channel>& ch, const Message& m) {
   if (m.type == "status") return ch->reply(m, impl_->status()), true;
-  if (m.type == "tap") return impl_->add_tap(ch, m), true;
-  if (m.type == "record_end") return impl_->end_recording(ch, m), true;
-  if (m.type == "note") {  // a line of the run for the recording (dca.launch.sim), at simulated time t
-    const double t = m.payload["t"].as_float(impl_->world.time());
-    if (impl_->recorder && m.payload["channel"].as_string() == "log")
-      impl_->recorder->log(t, m.payload["path"].as_string(), m.payload["line"].as_string());
-    else if (impl_->recorder)
-      impl_->recorder->note(t, m.payload["line"].as_string(), m.payload["path"].as_string(),
-                            m.payload["state"].as_string());
-    return ch->reply(m, Value::map()), true;
-  }
+  // tap, record_end, and note: a line of the run for the recording (dca.launch.sim), at simulated time t
+  if (impl_->taps.handle(ch, m, impl_->world.time())) return true;
   return impl_->clock.handle(ch, m);
 }
 

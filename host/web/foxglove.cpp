@@ -2,6 +2,7 @@
 
 #include <cstring>
 
+#include "host/codec/frames.h"
 #include "host/codec/json.h"
 
 namespace dca::foxglove {
@@ -35,7 +36,14 @@ std::vector<Field> layout(const SampleHub::Topic& t) {
 
 }  // namespace
 
+std::string schema_name_of(const SampleHub::Topic& topic) {
+  if (!topic.schema_name.empty()) return topic.schema_name;
+  return topic.frames.empty() ? topic.name : frames::kSchemaName;
+}
+
 std::string schema_of(const SampleHub::Topic& topic) {
+  if (!topic.schema.empty()) return topic.schema;
+  if (!topic.frames.empty()) return frames::json_schema();
   std::string s = "{\"type\":\"object\",\"title\":";
   json::append_string(s, topic.name);
   s += ",\"properties\":{";
@@ -55,7 +63,8 @@ std::string schema_of(const SampleHub::Topic& topic) {
   return s + "}}";
 }
 
-std::string message_of(const SampleHub::Topic& topic, std::span<const double> values) {
+std::string message_of(const SampleHub::Topic& topic, std::int64_t t_ns, std::span<const double> values) {
+  if (!topic.frames.empty()) return frames::message(topic.frames, t_ns, values.data(), values.size());
   std::string s = "{";
   std::size_t k = 0;
   bool first = true;
@@ -110,7 +119,7 @@ void Protocol::advertise(Client& c, const std::vector<const SampleHub::Topic*>& 
                                        .set("id", static_cast<std::int64_t>(t->id))
                                        .set("topic", t->name)
                                        .set("encoding", "json")
-                                       .set("schemaName", t->name)
+                                       .set("schemaName", schema_name_of(*t))
                                        .set("schema", schema_of(*t))
                                        .set("schemaEncoding", "jsonschema"));
   c.conn->send(json::encode(Value::map().set("op", "advertise").set("channels", std::move(channels))));
@@ -154,6 +163,7 @@ void Protocol::subscribe(Client& c, const Value& msg) {
     }
     c.subs[id] = channel;
     count(channel, 1);
+    if (!t->message.empty()) send_message(c, id, 0, t->message);  // a topic of one message: it, at once
   }
 }
 
@@ -207,21 +217,26 @@ void Protocol::on_topic_removed(std::uint32_t id) {
   if (gone > 0) count(id, -gone);
 }
 
+// Message Data: opcode 1, the subscription id, the timestamp (ns), the message; little-endian. Counted.
+void Protocol::send_message(Client& c, std::uint32_t sub, std::int64_t t_ns, const std::string& payload) {
+  std::string frame(1 + 4 + 8, '\0');
+  frame[0] = 1;
+  const std::uint64_t ts = t_ns < 0 ? 0 : static_cast<std::uint64_t>(t_ns);
+  for (int i = 0; i < 4; ++i) frame[1 + i] = static_cast<char>((sub >> (8 * i)) & 0xff);
+  for (int i = 0; i < 8; ++i) frame[5 + i] = static_cast<char>((ts >> (8 * i)) & 0xff);
+  frame += payload;
+  if (c.conn->send(std::move(frame), true, true)) ++sent_;
+  else ++dropped_;
+}
+
 void Protocol::on_sample(const SampleHub::Topic& t, std::int64_t t_ns, std::span<const double> values) {
   if (!subscribers_.count(t.id)) return;
   std::string payload;
   for (auto& [cid, c] : clients_) {
     for (const auto& [sub, channel] : c.subs) {
       if (channel != t.id) continue;
-      if (payload.empty()) payload = message_of(t, values);
-      std::string frame(1 + 4 + 8, '\0');
-      frame[0] = 1;  // Message Data
-      const std::uint64_t ts = t_ns < 0 ? 0 : static_cast<std::uint64_t>(t_ns);
-      for (int i = 0; i < 4; ++i) frame[1 + i] = static_cast<char>((sub >> (8 * i)) & 0xff);
-      for (int i = 0; i < 8; ++i) frame[5 + i] = static_cast<char>((ts >> (8 * i)) & 0xff);
-      frame += payload;
-      if (c.conn->send(std::move(frame), true, true)) ++sent_;
-      else ++dropped_;
+      if (payload.empty()) payload = message_of(t, t_ns, values);
+      send_message(c, sub, t_ns, payload);
     }
   }
 }

@@ -10,7 +10,10 @@
 // "json" and a JSON Schema (schemaEncoding "jsonschema") made from the topic's fields: fields named "x[0]",
 // "x[1]", ... form one array "x"; a topic without fields has one array "value". A message is one sample as such
 // a JSON object, its timestamp the sample's time (simulated time in simulated runs), the same objects and topics
-// as the MCAP recordings (`--record-ports`), so one layout serves both.
+// as the MCAP recordings (`--record-ports`), so one layout serves both. A topic of link frames (a URDF world's
+// /world/links/frames) is advertised as foxglove.FrameTransforms, each sample one such message; a topic of one
+// message (/robot_description, std_msgs/String) sends it to each subscriber when it subscribes: so Foxglove's
+// 3D panel draws the robot (host/codec/frames.h).
 //
 // Server -> client: serverInfo (at open; no optional capability), advertise (at open: every topic; later: each
 // new one), unadvertise (a topic removed), status (a refused request), binary Message Data (opcode 1,
@@ -38,10 +41,13 @@ namespace dca::foxglove {
 /// The subprotocol's name.
 inline constexpr const char* kSubprotocol = "foxglove.websocket.v1";
 
+/// The schema name of a topic: its own (a message topic's), foxglove.FrameTransforms (link frames), else its name.
+std::string schema_name_of(const SampleHub::Topic& topic);
 /// The JSON Schema of a topic's messages (see the header).
 std::string schema_of(const SampleHub::Topic& topic);
-/// One sample of `topic` as its JSON message (non-finite numbers as null).
-std::string message_of(const SampleHub::Topic& topic, std::span<const double> values);
+/// One sample of `topic` at `t_ns` as its JSON message (non-finite numbers as null); link frames as one
+/// foxglove.FrameTransforms.
+std::string message_of(const SampleHub::Topic& topic, std::int64_t t_ns, std::span<const double> values);
 
 class Protocol final : public web::Protocol, public SampleHub::Observer {
  public:
@@ -75,6 +81,7 @@ class Protocol final : public web::Protocol, public SampleHub::Observer {
   void subscribe(Client& c, const wire::Value& msg);
   void unsubscribe(Client& c, const wire::Value& msg);
   void count(std::uint32_t channel, int delta);
+  void send_message(Client& c, std::uint32_t sub, std::int64_t t_ns, const std::string& payload);
 
   std::weak_ptr<web::Server> server_;
   std::string name_;

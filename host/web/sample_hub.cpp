@@ -17,6 +17,32 @@ std::uint32_t SampleHub::add_topic(const std::string& name, std::vector<std::str
   return id;
 }
 
+bool SampleHub::set_frames(std::uint32_t id, std::vector<frames::Frame> frames) {
+  auto it = topics_.find(id);
+  if (it == topics_.end()) return false;
+  it->second.frames = std::move(frames);
+  const auto observers = observers_;
+  for (Observer* o : observers) o->on_topic(it->second);
+  return true;
+}
+
+std::uint32_t SampleHub::add_message_topic(const std::string& name, std::string schema_name, std::string schema,
+                                           std::string message) {
+  auto it = by_name_.find(name);
+  const std::uint32_t id = it != by_name_.end() ? it->second : next_id_++;
+  Topic& t = topics_[id];
+  t = Topic{};
+  t.id = id;
+  t.name = name;
+  t.schema_name = std::move(schema_name);
+  t.schema = std::move(schema);
+  t.message = std::move(message);
+  by_name_[name] = id;
+  const auto observers = observers_;
+  for (Observer* o : observers) o->on_topic(t);
+  return id;
+}
+
 void SampleHub::remove_topic(std::uint32_t id) {
   auto it = topics_.find(id);
   if (it == topics_.end()) return;

@@ -15,6 +15,8 @@
 #include <string>
 #include <vector>
 
+#include "host/codec/frames.h"
+
 namespace dca {
 
 class SampleHub {
@@ -25,6 +27,11 @@ class SampleHub {
     std::string name;
     std::vector<std::string> fields;
     std::uint64_t samples = 0;  ///< published so far
+    /// Link frames (set_frames): each sample is a frames vector, 7 numbers per frame (host/codec/frames.h).
+    std::vector<frames::Frame> frames;
+    /// A topic of one message rather than samples (add_message_topic): the JSON message, its schema's name and
+    /// JSON Schema. Observers send it to each new subscriber.
+    std::string message, schema_name, schema;
   };
   /// Told of topics and samples. Called on the hub's thread, from inside add_topic/publish/remove_topic.
   class Observer {
@@ -39,6 +46,11 @@ class SampleHub {
 
   /// A new topic (or the one of that name, its fields replaced). Returns its id (1, 2, ...), stable per name.
   std::uint32_t add_topic(const std::string& name, std::vector<std::string> fields);
+  /// Makes topic `id` one of link frames (observers are told again, as of a new topic). False for an unknown id.
+  bool set_frames(std::uint32_t id, std::vector<frames::Frame> frames);
+  /// A topic of one fixed JSON message (e.g. the URDF on /robot_description, schema std_msgs/String).
+  std::uint32_t add_message_topic(const std::string& name, std::string schema_name, std::string schema,
+                                  std::string message);
   /// Removes a topic (no effect on an unknown id).
   void remove_topic(std::uint32_t id);
   /// Publishes a sample; false for an unknown topic.

@@ -356,6 +356,7 @@ RobotDescription load_description_string(const std::string& text, const std::str
     throw UrdfError(x.locate(e.what(), name));
   }
   d.name = robot->Attribute("name") ? robot->Attribute("name") : "";
+  d.text = text;
   for (const auto& xj : x.joints()) {
     if (!moving(xj.type)) continue;
     const urdf::JointConstSharedPtr j = d.urdf.model->getJoint(xj.name);

@@ -82,6 +82,7 @@ struct DescriptionOptions {
 struct RobotDescription {
   ParsedUrdf urdf;
   std::string name;                  ///< the <robot name>
+  std::string text;                  ///< the URDF's text, as read (for viewers: /robot_description)
   std::vector<JointSpec> joints;     ///< revolute, continuous and prismatic joints, in document order
   bool declared = false;             ///< the file has <ros2_control> joints (else every joint has the default)
   std::vector<std::string> warnings; ///< "FILE:LINE:COL: mesh 'URI' not found (...)": the visual is left out

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "sim/urdf/frames.h"
+
 namespace dca::sim {
 namespace {
 
@@ -34,6 +36,9 @@ std::vector<DeviceSignal> joint_sensor_signals(const RobotDescription& d) {
     out.push_back({"safety.clamps", inputs, "samples clamped, per command input"});
     out.push_back({"safety.stale", inputs, "watchdog trips, per command input"});
   }
+  if (const auto n = link_frames(d).size(); n > 0)
+    out.push_back({"links.frames", static_cast<std::uint32_t>(n * frames::kValuesPerFrame),
+                   "per link frame: x y z (m), qx qy qz qw, in its parent link"});
   return out;
 }
 

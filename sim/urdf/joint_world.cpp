@@ -8,6 +8,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "sim/urdf/frames.h"
+
 namespace dca::sim {
 namespace {
 
@@ -74,6 +76,7 @@ JointWorld::JointWorld(RobotDescription description, double period)
   for (const auto& j : description_.joints) state_.push_back({j.initial, 0, 0});
   sensors_ = joint_sensor_signals(description_);
   commands_ = joint_command_signals(description_);
+  frames_ = sim::link_frames(description_);
 }
 
 void JointWorld::command(std::size_t i, const double* v, std::size_t n) {
@@ -94,6 +97,7 @@ void JointWorld::sensor(std::size_t i, double* out) const {
     out[0] = i % 3 == 0 ? s.position : i % 3 == 1 ? s.velocity : s.effort;
     return;
   }
+  if (sensors_[i].name == "links.frames") return link_frames(out);
   const bool clamps = i == joint_ports;
   for (std::size_t k = 0; k < interfaces_.inputs(); ++k) {
     const InputCounts& c = interfaces_.counts(k);
@@ -194,6 +198,12 @@ class MockWorld final : public JointWorld {
   // One step of the first-order lag from `x` towards `target` (exactly the target without a lag).
   double follow(double x, double target) const { return alpha_ == 1.0 ? target : x + alpha_ * (target - x); }
   std::string kind() const override { return "mock hardware"; }
+  // The frames by forward kinematics of the URDF's joint origins and the joints' positions.
+  void link_frames(double* out) const override {
+    q_.resize(state_.size());
+    for (std::size_t j = 0; j < state_.size(); ++j) q_[j] = state_[j].position;
+    joint_frames(description_, q_, out);
+  }
   void more_summary(std::vector<std::string>& lines) const override {
     if (!dead_names_.empty()) lines.push_back("mock: dead drives (commands ignored): " + dead_names_);
   }
@@ -201,6 +211,7 @@ class MockWorld final : public JointWorld {
   double alpha_;
   std::vector<char> dead_;  // per joint: its drive is dead
   std::string dead_names_;
+  mutable std::vector<double> q_;  // link_frames' joint positions
 };
 
 }  // namespace

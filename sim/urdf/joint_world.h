@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "host/codec/frames.h"
 #include "sim/device_world.h"
 #include "sim/urdf/joint_interfaces.h"
 
@@ -53,6 +54,11 @@ class JointWorld : public DeviceWorld {
   const JointInterfaces& interfaces() const { return interfaces_; }
   const std::vector<JointState>& state() const { return state_; }
   long ticks() const { return tick_; }
+  /// The link frames (sim/urdf/frames.h): the output links.frames, in its order.
+  const std::vector<frames::Frame>& frames() const override { return frames_; }
+  std::string robot_description() const override { return description_.text; }
+  /// Their values now: 7 per frame into `out` (each link in its parent link's frame).
+  virtual void link_frames(double* out) const = 0;
 
  protected:
   virtual void advance() = 0;
@@ -69,6 +75,7 @@ class JointWorld : public DeviceWorld {
   double period_;
   long tick_ = 0;
   std::vector<DeviceSignal> sensors_, commands_;
+  std::vector<frames::Frame> frames_;
 };
 
 /// The Simbody world of `description` (sim/urdf/urdf_world.cpp). Throws UrdfError when Simbody rejects it.

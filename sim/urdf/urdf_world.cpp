@@ -147,6 +147,18 @@ class SimbodyWorld final : public JointWorld {
   }
 
   std::string kind() const override { return "Simbody world"; }
+  // The frames from the bodies' transforms in Ground: each link's relative to its parent link's.
+  void link_frames(double* out) const override {
+    system_.realize(state_sim_, SimTK::Stage::Position);
+    for (const auto& f : frames()) {
+      const SimTK::Transform X_GC = loaded_.link_pose(matter_, state_sim_, f.child);
+      const SimTK::Transform X_PC = f.parent == "world" ? X_GC : ~loaded_.link_pose(matter_, state_sim_, f.parent) * X_GC;
+      const SimTK::Vec3& p = X_PC.p();
+      const SimTK::Quaternion q = X_PC.R().convertRotationToQuaternion();  // (w, x, y, z)
+      const double v[7] = {p[0], p[1], p[2], q[1], q[2], q[3], q[0]};
+      for (const double x : v) *out++ = x;
+    }
+  }
   void more_status(StatusSink& sink) const override {
     std::vector<std::pair<std::string, double>> sat;
     for (std::size_t j = 0; j < servos_.size(); ++j)

@@ -1,7 +1,8 @@
 // The Foxglove WebSocket protocol (host/web/foxglove.h) on a fake connection: serverInfo and advertise at open, JSON
 // Schemas and messages from a topic's fields, subscribe/unsubscribe (first and last told), binary Message Data
 // (subscription id, timestamp, payload; little-endian), malformed and unknown requests answered with a status, a
-// removed topic's subscriptions ended (the last one told, once).
+// removed topic's subscriptions ended (the last one told, once); link frames as foxglove.FrameTransforms and the URDF
+// sent at subscribe.
 #include "host/web/foxglove.h"
 
 #include <gtest/gtest.h>
@@ -38,16 +39,17 @@ dca::wire::Value decoded(const std::string& text) {
 }
 
 TEST(Foxglove, SchemasAndMessagesFollowTheTopicsFields) {
-  dca::SampleHub::Topic vec{1, "/main/a/Vel", {"value[0]", "value[1]"}, 0};
-  dca::SampleHub::Topic door{2, "/world/door", {"door_angle", "handle_angle"}, 0};
-  dca::SampleHub::Topic any{3, "/main/a/X", {}, 0};
+  dca::SampleHub::Topic vec, door, any;
+  vec.id = 1, vec.name = "/main/a/Vel", vec.fields = {"value[0]", "value[1]"};
+  door.id = 2, door.name = "/world/door", door.fields = {"door_angle", "handle_angle"};
+  any.id = 3, any.name = "/main/a/X";
   EXPECT_EQ(dca::foxglove::schema_of(vec),
             "{\"type\":\"object\",\"title\":\"/main/a/Vel\",\"properties\":{\"value\":{\"type\":\"array\",\"items\":"
             "{\"type\":\"number\"},\"minItems\":2,\"maxItems\":2}}}");
   const double v[] = {1.5, -2};
-  EXPECT_EQ(dca::foxglove::message_of(vec, v), "{\"value\":[1.5,-2]}");
-  EXPECT_EQ(dca::foxglove::message_of(door, v), "{\"door_angle\":1.5,\"handle_angle\":-2}");
-  EXPECT_EQ(dca::foxglove::message_of(any, v), "{\"value\":[1.5,-2]}");
+  EXPECT_EQ(dca::foxglove::message_of(vec, 0, v), "{\"value\":[1.5,-2]}");
+  EXPECT_EQ(dca::foxglove::message_of(door, 0, v), "{\"door_angle\":1.5,\"handle_angle\":-2}");
+  EXPECT_EQ(dca::foxglove::message_of(any, 0, v), "{\"value\":[1.5,-2]}");
 }
 
 TEST(Foxglove, SubscribersGetMessageDataAndBadRequestsAStatus) {
@@ -152,3 +154,44 @@ TEST(Foxglove, ARemovedTopicEndsItsSubscriptionsAndTellsTheLastOnce) {
 }
 
 }  // namespace
+
+// A URDF world's link frames are advertised as foxglove.FrameTransforms, each sample one message of every frame;
+// the URDF's topic of one message (std_msgs/String) sends it to each subscriber as it subscribes.
+TEST(Foxglove, LinkFramesAreFrameTransformsAndTheUrdfComesAtSubscribe) {
+  boost::asio::io_context io;
+  std::string error;
+  auto server = dca::web::Server::listen(io, *dca::Address::parse("127.0.0.1:0"), {}, &error);
+  ASSERT_TRUE(server) << error;
+  auto& hub = server->samples();
+  const auto tf = hub.add_topic("/world/links/frames", {});
+  ASSERT_TRUE(hub.set_frames(tf, {{"world", "base"}, {"base", "arm"}}));
+  const auto urdf = hub.add_message_topic("/robot_description", "std_msgs/String", "{\"type\":\"object\"}",
+                                          "{\"data\":\"<robot name=\\\"r\\\"/>\"}");
+  dca::foxglove::Protocol p(server, "dca main");
+  auto c = std::make_shared<FakeConnection>();
+  p.on_open(c);
+  const auto adv = decoded(c->texts.at(1))["channels"].as_array();
+  ASSERT_EQ(adv.size(), 2u);
+  EXPECT_EQ(adv.at(0)["schemaName"].as_string(), "foxglove.FrameTransforms");
+  EXPECT_EQ(adv.at(1)["schemaName"].as_string(), "std_msgs/String");
+  EXPECT_EQ(decoded(adv.at(0)["schema"].as_string())["title"].as_string(), "foxglove.FrameTransforms");
+
+  p.on_message(c, subscribe(1, urdf), false);
+  ASSERT_EQ(c->frames.size(), 1u);
+  EXPECT_EQ(decoded(c->frames[0].substr(13))["data"].as_string(), "<robot name=\"r\"/>");
+  p.on_message(c, subscribe(2, tf), false);
+  const double v[] = {1, 2, 3, 0, 0, 0, 1, 0.5, 0, 0, 0, 0, 0.6, 0.8};
+  hub.publish(tf, 1500000000, {v, 14});
+  ASSERT_EQ(c->frames.size(), 2u);
+  const auto m = decoded(c->frames[1].substr(13));
+  const auto& ts = m["transforms"].as_array();
+  ASSERT_EQ(ts.size(), 2u);
+  EXPECT_EQ(ts[0]["parent_frame_id"].as_string(), "world");
+  EXPECT_EQ(ts[1]["child_frame_id"].as_string(), "arm");
+  EXPECT_EQ(ts[1]["timestamp"]["sec"].as_int(), 1);
+  EXPECT_EQ(ts[1]["timestamp"]["nsec"].as_int(), 500000000);
+  EXPECT_DOUBLE_EQ(ts[0]["translation"]["z"].as_float(), 3);
+  EXPECT_DOUBLE_EQ(ts[1]["rotation"]["w"].as_float(), 0.8);
+  p.on_close(c, "bye");
+  server->close();
+}

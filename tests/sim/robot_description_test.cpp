@@ -10,6 +10,7 @@
 #include <fstream>
 
 #include "sim/urdf/description.h"
+#include "sim/urdf/frames.h"
 #include "sim/urdf/joint_interfaces.h"
 #include "sim/urdf_bodies.h"
 #include "tests/support/temp_dir.h"
@@ -89,10 +90,12 @@ TEST(RobotDescriptionTest, Ur10LoadsWithItsInterfacesAndLimits) {
   EXPECT_NEAR(d.joint("shoulder_pan_joint")->limits.velocity, 2.0944, 1e-9);
   EXPECT_EQ(dca::sim::joint_command_signals(d).size(), 12u);
   const auto out = dca::sim::joint_sensor_signals(d);
-  ASSERT_EQ(out.size(), 20u);
+  ASSERT_EQ(out.size(), 21u);
   EXPECT_EQ(out[6].name, "joint.elbow_joint.position");
   EXPECT_EQ(out[18].name, "safety.clamps");
   EXPECT_EQ(out[18].size, 12u);
+  EXPECT_EQ(out[20].name, "links.frames");
+  EXPECT_EQ(out[20].size, 7u * dca::sim::link_frames(d).size());
   EXPECT_EQ(dca::sim::joint_command_signals(d)[4].name, "joint.elbow_joint.position_command");
 }
 

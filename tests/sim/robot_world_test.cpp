@@ -7,6 +7,9 @@
 #include <filesystem>
 #include <fstream>
 
+#include <urdf_model/model.h>
+
+#include "sim/urdf/frames.h"
 #include "sim/urdf/joint_world.h"
 #include "tests/support/temp_dir.h"
 
@@ -203,3 +206,32 @@ TEST(RobotWorldTest, SimbodyEffortDefaultLetsAPendulumSwing) {
 }
 
 }  // namespace
+
+// The link frames (sim/urdf/frames.h): one per link, the root in "world", every other link in its parent link;
+// the Simbody world's (from its bodies' transforms) equal the forward kinematics of the URDF at the same joint
+// positions (the mock's), after the elbow moved.
+TEST(RobotWorldTest, LinkFramesOfTheSimbodyWorldAreTheUrdfsForwardKinematics) {
+  auto w = dca::sim::make_robot_world(kUr10, 1e-3);
+  const auto& frames = w->frames();
+  ASSERT_EQ(frames.size(), w->description().urdf.model->links_.size());
+  EXPECT_EQ(frames[0].parent, "world");
+  EXPECT_EQ(frames[0].child, w->description().urdf.model->getRoot()->name);
+  const std::size_t port = dca::sim::signal_index(w->sensors(), "links.frames");
+  ASSERT_LT(port, w->sensors().size());
+  ASSERT_EQ(w->sensors()[port].size, 7 * frames.size());
+  for (int k = 0; k < 300; ++k) {
+    if (k % 10 == 0) send(*w, "joint.elbow_joint.position_command", 0.5);
+    w->step();
+  }
+  std::vector<double> bodies(7 * frames.size()), fk(7 * frames.size()), q;
+  w->sensor(port, bodies.data());
+  for (const auto& s : w->state()) q.push_back(s.position);
+  dca::sim::joint_frames(w->description(), q, fk.data());
+  for (std::size_t i = 0; i < fk.size(); ++i) {
+    const std::size_t f = i / 7, k = i % 7;
+    const double sign = bodies[7 * f + 6] * fk[7 * f + 6] < 0 ? -1 : 1;  // q and -q are one rotation
+    EXPECT_NEAR(bodies[i], (k >= 3 ? sign : 1) * fk[i], 1e-6) << frames[f].parent << " -> " << frames[f].child << " [" << k << "]";
+  }
+  auto mock = dca::sim::make_robot_world("mock:" + kUr10, 1e-3);
+  EXPECT_EQ(mock->frames().size(), frames.size());
+}
