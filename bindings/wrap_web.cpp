@@ -10,6 +10,8 @@
 //                                    close = function(conn, reason) end })
 //   local id = srv:topic("/world/door", { "door_angle", "handle_angle" })   -- live samples (host/sample_hub)
 //   srv:publish(id, t_seconds, { 0.1, 0.2 })   srv:remove_topic(id)   srv:topics()
+//   srv:robot(topic_id, { {parent, child}, ... }, urdf)  -- topic_id carries link frames (foxglove.FrameTransforms),
+//                                  -- and /robot_description the URDF (host/codec/frames.h) --> its id
 //   srv:stats()  srv:close()
 //   conn:send(text [, droppable])   conn:subscribe(topic_id, rate_per_s)   conn:close(reason)
 //   conn:id()  conn:is_open()  conn:peer()  conn:protocol()  conn:stats()
@@ -30,6 +32,7 @@
 #include "bindings/lua_loop.h"
 #include "bindings/lua_support.h"
 #include "bindings/lua_value.h"
+#include "host/codec/frames.h"
 #include "host/codec/json.h"
 #include "host/net/auth.h"
 
@@ -268,6 +271,33 @@ int srv_publish(lua_State* L) {
   return 1;
 }
 
+int srv_robot(lua_State* L) {
+  web::Server& s = open_server(L);
+  const lua_Integer id = luaL_checkinteger(L, 2);
+  luaL_checktype(L, 3, LUA_TTABLE);
+  std::size_t len = 0;
+  const char* urdf = luaL_checklstring(L, 4, &len);
+  std::vector<frames::Frame> fs;
+  const lua_Integer n = luaL_len(L, 3);
+  for (lua_Integer i = 1; i <= n && i <= 4096; i++) {
+    lua_geti(L, 3, i);
+    if (lua_istable(L, -1)) {
+      lua_geti(L, -1, 1);
+      lua_geti(L, -2, 2);
+      const char* parent = lua_tostring(L, -2);
+      const char* child = lua_tostring(L, -1);
+      if (parent && child) fs.push_back({parent, child});
+      lua_pop(L, 2);
+    }
+    lua_pop(L, 1);
+  }
+  if (id > 0) s.samples().set_frames(static_cast<std::uint32_t>(id), std::move(fs));
+  lua_pushinteger(L, s.samples().add_message_topic(frames::kDescriptionTopic, frames::kDescriptionSchemaName,
+                                                   frames::description_schema(),
+                                                   frames::description_message(std::string(urdf, len))));
+  return 1;
+}
+
 int srv_remove_topic(lua_State* L) {
   web::Server& s = open_server(L);
   s.samples().remove_topic(static_cast<std::uint32_t>(luaL_checkinteger(L, 2)));
@@ -465,7 +495,7 @@ void register_web(lua_State* L) {
       {"address", srv_address}, {"token", srv_token},   {"add_token", srv_add_token},
       {"add_key_token", srv_add_key_token},
       {"page", srv_page},       {"protocol", srv_protocol}, {"topic", srv_topic},
-      {"publish", srv_publish}, {"remove_topic", srv_remove_topic}, {"topics", srv_topics},
+      {"publish", srv_publish}, {"remove_topic", srv_remove_topic}, {"topics", srv_topics}, {"robot", srv_robot},
       {"stats", srv_stats},     {"close", srv_close},   {nullptr, nullptr}};
   register_type(L, kServerMeta, srv_methods, {srv_gc, srv_close, srv_tostring});
   static const luaL_Reg conn_methods[] = {

@@ -9,10 +9,10 @@
 //    at least MIN of them, timestamps never going back (simulated time, ns), each message its channel's JSON
 //    and, where the trace has one sample at that tick, the trace's value.
 // 3. The run ends DONE. Prints what it received; exit 1 on a failure.
-import { spawn } from "node:child_process";
 import { readFile } from "node:fs/promises";
 import foxglove from "@foxglove/ws-protocol";
 import WebSocket from "ws";
+import { deadline, startRun } from "./dca_run.mjs";
 
 const { FoxgloveClient } = foxglove;
 
@@ -22,22 +22,10 @@ const SIGNAL = "/world/door/angle";  // a world signal, tapped at the world
 const MIN = 500;
 const failures = [];
 const check = (ok, what) => { if (!ok) failures.push(what); };
-const deadline = (ms, what) => new Promise((_, reject) => setTimeout(() => reject(new Error(`timed out: ${what}`)), ms).unref());
 
 const trace = `${work}/live.trace`;
-const run = spawn(dca, ["run", system, "--sim", "door", "--monitor", "--monitor-wait", "--trace", trace],
-                  { stdio: ["ignore", "pipe", "pipe"] });
-let out = "";
-const waiters = [];
-const onText = (chunk) => {
-  out += chunk;
-  for (const w of [...waiters]) if (w.re.test(out)) { waiters.splice(waiters.indexOf(w), 1); w.resolve(out.match(w.re)); }
-};
-run.stdout.on("data", onText);
-run.stderr.on("data", onText);
-const ended = new Promise((resolve) => run.on("exit", (code) => resolve(code)));
-const said = (re, ms, what) => Promise.race([new Promise((resolve) => { waiters.push({ re, resolve }); onText(""); }),
-                                             deadline(ms, what)]);
+const run = startRun(dca, ["run", system, "--sim", "door", "--monitor", "--monitor-wait", "--trace", trace]);
+const { said, ended } = run;
 
 try {
   const [, url] = await said(/foxglove: (ws:\/\/\S+)/, 60000, "the foxglove line of dca run");
@@ -138,10 +126,6 @@ try {
               `trace's; refused without the token and with a wrong one (401)`);
 } catch (e) {
   failures.push(e.message);
-  run.kill("SIGTERM");
+  run.kill();
 }
-if (failures.length) {
-  console.error(out.split("\n").slice(-30).join("\n"));
-  for (const f of failures) console.error(`FAIL ${f}`);
-  process.exit(1);
-}
+run.report(failures);

@@ -11,6 +11,9 @@
 #       --trace (and --placement PLACEMENT: leaves in shared nodes are tapped alike): every port's channel holds
 #       its samples at the ticks the trace gives (read_mcap.mjs --trace), and the trace is identical to the one
 #       of the same run without taps or recording, one leaf per process (`dca trace diff`)
+#   roundtrip.sh urdf DCA SOURCE_DIR WORK_DIR   the UR10 system on the URDF world (`dca run ur10_setpoint.dca
+#       --sim worlds/ur10/ur10.urdf --record --record-ports all`): the checks of `sim`, then read_robot.mjs: the
+#       URDF on /robot_description, a foxglove.FrameTransforms of every link per tick, agreeing with the joints
 set -eu
 mode=$1
 dca=$2
@@ -23,6 +26,18 @@ if [ ! -d "$here/node_modules/@mcap/core" ]; then
 fi
 mkdir -p "$work"
 rm -f "$work/door.mcap" "$work/door.png" "$work/door.log"
+if [ "$mode" = urdf ]; then
+  rm -f "$work/ur10.mcap"
+  if ! "$dca" run "$src/worlds/ur10/ur10_setpoint.dca" --sim "$src/worlds/ur10/ur10.urdf" --record "$work/ur10.mcap" \
+      --record-ports all >"$work/ur10.log" 2>&1; then
+    tail -40 "$work/ur10.log"
+    echo "FAIL: dca run --sim ur10.urdf --record did not end DONE" >&2
+    exit 1
+  fi
+  grep '^recorded ' "$work/ur10.log" | cut -c1-200
+  node "$here/read_mcap.mjs" "$work/ur10.mcap" "$(grep '^recorded ' "$work/ur10.log" | sed 's/^recorded //')"
+  exec node "$here/read_robot.mjs" "$work/ur10.mcap" "$src/worlds/ur10/ur10.urdf"
+fi
 if [ "$mode" = ports ]; then
   system="$src/scripts/systems/door_open.dca"
   if ! "$dca" run "$system" --sim door --placement "${5:-process}" --record "$work/door.mcap" --record-ports all \

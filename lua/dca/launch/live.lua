@@ -16,6 +16,7 @@
 --   live:tap_id(id, cb)        -- the same by the topic's id (the monitor's page subscribes by id)
 --   live:retap(below)          -- the taps of the ports below(p) made again (their leaf was restarted)
 --   live:stats()               -- { [path] = { taken, dropped, unpublished } }
+--   live.robot                 -- a URDF world's { urdf, frames = { {parent, child}, ... }, topic, id } (else nil)
 --   live:close()
 local core = require "dca.core"
 local async = require "dca.async"
@@ -24,7 +25,7 @@ local taps = require "dca.supervisor.taps"
 
 local M = {}
 
-local ipairs, tostring, sformat, concat = ipairs, tostring, string.format, table.concat
+local ipairs, tostring, type, sformat, concat = ipairs, tostring, type, string.format, table.concat
 
 local Live = {}
 Live.__index = Live
@@ -112,7 +113,8 @@ function M.attach(o, srv, request, cb)
   return self
 end
 
--- With --sim: the world's signals ("world.arm.q": its outputs, as its `ports` lists them) are topics too.
+-- With --sim: the world's signals ("world.arm.q": its outputs, as its `ports` lists them) are topics too; a
+-- URDF world's link frames are foxglove.FrameTransforms, beside its URDF on /robot_description (_robot).
 function Live:_world_topics(cb)
   local s = self.ctx.sim
   if not (s and s.world:connected()) then cb(true) return end
@@ -123,6 +125,22 @@ function Live:_world_topics(cb)
                           units = o.units or "" }
     end
     self:_topics(list)
+    self:_robot(s.world, cb)
+  end)
+end
+
+-- The robot a URDF world describes (`robot_description`: the door world has none): self.robot = { urdf, frames,
+-- topic, id }, its frames topic marked as link frames and /robot_description made. cb(true) after.
+function Live:_robot(world, cb)
+  world:request({ type = "robot_description" }, 10, function(r)
+    if not (r and type(r.frames) == "table" and #r.frames > 0 and type(r.urdf) == "string") then cb(true) return end
+    local topic = M.topic_of("world." .. tostring(r.port))
+    for _, t in ipairs(self.srv:topics()) do
+      if t.name == topic then
+        self.srv:robot(t.id, r.frames, r.urdf)
+        self.robot = { urdf = r.urdf, frames = r.frames, topic = topic, id = t.id }
+      end
+    end
     cb(true)
   end)
 end
