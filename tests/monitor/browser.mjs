@@ -8,11 +8,7 @@ import { spawn } from 'node:child_process';
 import { mkdirSync, rmSync } from 'node:fs';
 import { join } from 'node:path';
 import puppeteer from 'puppeteer-core';
-
-// dca's children stop when the process that started them is gone (DCA_PARENT_PID, host/spawn.h): this script's
-// own children must not inherit the variable meant for this script.
-const childEnv = { ...process.env };
-delete childEnv.DCA_PARENT_PID;
+import { childEnv, startMonitor, until } from './driver.mjs';
 
 const [mode, exe, src, out] = process.argv.slice(2);
 const CHROMIUM = process.env.DCA_CHROMIUM || '/usr/bin/chromium';
@@ -25,31 +21,7 @@ function check(ok, what) {
 }
 
 // Starts `dca ARGS` and resolves with the process and the monitor's URL once it is printed (within 60 s).
-function start(args) {
-  const p = spawn(exe, args, { stdio: ['ignore', 'pipe', 'pipe'], env: childEnv });
-  let text = '';
-  return new Promise((resolve, reject) => {
-    const deadline = setTimeout(() => reject(new Error(`no monitor address within 60 s:\n${text}`)), 60000);
-    const look = (chunk) => {
-      text += chunk;
-      const m = text.match(/monitor: (http:\/\/\S+)/);
-      if (m) { clearTimeout(deadline); resolve({ p, url: m[1], output: () => text }); }
-    };
-    p.stdout.on('data', look);
-    p.stderr.on('data', look);
-    p.on('exit', (code) => { clearTimeout(deadline); reject(new Error(`dca exited (${code}) before its monitor:\n${text}`)); });
-  });
-}
-
-// The value of `fn` in the page once it is truthy (polled), or null after `seconds`.
-async function until(page, fn, seconds, ...args) {
-  try {
-    const h = await page.waitForFunction(fn, { timeout: seconds * 1000, polling: 50 }, ...args);
-    return await h.jsonValue();
-  } catch (e) {
-    return null;
-  }
-}
+const start = (args) => startMonitor(exe, args);
 
 // Chooses the signal `name` for the plot once the page offers it.
 async function pick(page, name) {

@@ -55,7 +55,7 @@ local function replay(o)
   local rec, err = require("dca.monitor.replay").load(o[1], spec)
   if not rec then io.stderr:write("dca monitor: ", tostring(err), "\n") return 1 end
   local mon, merr = require("dca.monitor.server").start{ addr = o.listen, name = tostring(rec.root or o[1]),
-    root = rec.root, mode = "replay", model = rec.model, series = rec.series }
+    root = rec.root, mode = "replay", model = rec.model, series = rec.series, robot = rec.robot }
   if not mon then io.stderr:write("dca monitor: ", tostring(merr), "\n") return 1 end
   return serve(mon, string.format("replaying %s: %d events, %d signals", o[1], #rec.model.events, #rec.series))
 end

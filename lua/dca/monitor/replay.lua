@@ -7,13 +7,15 @@
 --                                              -- expressions; nil: the tree from the recorded paths alone
 --   rec.model    -- dca.monitor.model with the tree and every line
 --   rec.series   -- { { id = "r1", name = "/world/door", fields = { ... }, rows = { { t, v1, ... }, ... } }, ... }
+--   rec.robot    -- a URDF world's: { urdf (/robot_description), frames = { {parent, child}, ... }, topic = the
+--                -- series id of its link frames (foxglove.FrameTransforms: rows { t, x y z qx qy qz qw per frame }) }
 local core = require "dca.core"
 local model_mod = require "dca.monitor.model"
 local spec_mod = require "dca.supervisor.spec"
 
 local M = {}
 
-local ipairs, pairs, type, tonumber, max = ipairs, pairs, type, tonumber, math.max
+local ipairs, pairs, type, tonumber, tostring, max = ipairs, pairs, type, tonumber, tostring, math.max
 
 --- Rows kept per signal: longer ones are thinned evenly (the page plots them whole).
 M.MAX_ROWS = 5000
@@ -69,7 +71,49 @@ local function series(id, topic, msgs)
   return { id = "r" .. id, name = topic, fields = names, rows = rows }
 end
 
---- Loads a recording. --> { model, series, root } | nil, err
+-- A channel of foxglove.FrameTransforms as a series of rows { t, x, y, z, qx, qy, qz, qw, ... } in the order of
+-- the first message's transforms (the world's frames); --> the series, the frames { {parent, child}, ... }.
+local function frames_series(id, topic, msgs)
+  local frames, rows, index = nil, {}, {}
+  local step = max(1, #msgs / M.MAX_ROWS)
+  local next_i = 1
+  for i, m in ipairs(msgs) do
+    local v = i >= next_i and core.json_decode(m.data)
+    if type(v) == "table" and type(v.transforms) == "table" then
+      next_i = next_i + step
+      if not frames then
+        frames = {}
+        for k, x in ipairs(v.transforms) do
+          frames[k] = { tostring(x.parent_frame_id), tostring(x.child_frame_id) }
+          index[tostring(x.child_frame_id)] = k
+        end
+      end
+      local row = { m.t / 1e9 }
+      for _, x in ipairs(v.transforms) do
+        local k = index[tostring(x.child_frame_id)]
+        local p, q = type(x.translation) == "table" and x.translation or {}, type(x.rotation) == "table" and x.rotation or {}
+        if k then
+          local at = 1 + 7 * (k - 1)
+          row[at + 1], row[at + 2], row[at + 3] = tonumber(p.x) or 0, tonumber(p.y) or 0, tonumber(p.z) or 0
+          row[at + 4], row[at + 5], row[at + 6], row[at + 7] = tonumber(q.x) or 0, tonumber(q.y) or 0, tonumber(q.z) or 0,
+            tonumber(q.w) or 1
+        end
+      end
+      rows[#rows + 1] = row
+    end
+  end
+  local names = {}
+  for k = 0, 7 * #(frames or {}) - 1 do names[#names + 1] = "value[" .. k .. "]" end
+  return { id = "r" .. id, name = topic, fields = names, rows = rows }, frames or {}
+end
+
+-- The URDF of a /robot_description message ({"data": URDF}), or nil.
+local function urdf_of(msgs)
+  local v = msgs[1] and core.json_decode(msgs[1].data)
+  return type(v) == "table" and type(v.data) == "string" and v.data or nil
+end
+
+--- Loads a recording. --> { model, series, root, robot } | nil, err
 function M.load(file, spec)
   local rec, err = core.mcap_read(file)
   if not rec then return nil, err end
@@ -96,11 +140,22 @@ function M.load(file, spec)
   local ids = {}
   for id in pairs(by_channel) do ids[#ids + 1] = id end
   table.sort(ids)
+  local robot, urdf = {}, nil
   for _, id in ipairs(ids) do
-    if #by_channel[id] > 0 then out[#out + 1] = series(id, rec.channels[id].topic, by_channel[id]) end
+    local ch, msgs = rec.channels[id], by_channel[id]
+    if ch.schema == "foxglove.FrameTransforms" and #msgs > 0 then
+      local s, frames = frames_series(id, ch.topic, msgs)
+      out[#out + 1] = s
+      robot.frames, robot.topic = frames, s.id
+    elseif ch.topic == "/robot_description" then
+      urdf = urdf_of(msgs)
+    elseif #msgs > 0 then
+      out[#out + 1] = series(id, ch.topic, msgs)
+    end
   end
+  robot.urdf = urdf
   m:take_delta()
-  return { model = m, series = out, root = m.root }
+  return { model = m, series = out, root = m.root, robot = (urdf and robot.topic) and robot or nil }
 end
 
 return M

@@ -12,16 +12,20 @@
 --     model = m,                       -- optional: a model already filled (a replay: dca.monitor.replay)
 --     series = { {id, name, fields, rows} },  -- optional: recorded signals, offered as topics; a page that
 --                                      -- subscribes to one gets its rows whole ({type = "series", ...})
+--     robot = { urdf, frames, topic },  -- optional: a URDF world's robot (mon:robot)
 --   }
 --   mon:url()                 --> "http://127.0.0.1:PORT/?token=..."
 --   mon:line(line, t)         -- a line of the run at time t (seconds)
 --   mon:on_page(fn)           -- fn() once, when the first page has connected (dca run --monitor-wait)
+--   mon:robot{urdf, frames = {{parent, child}, ...}, topic}  -- the robot the pages draw in 3D from its URDF,
+--                             -- its link frames the samples (live) or rows (replay) of `topic`
 --   mon.model, mon.srv        -- the model (dca.monitor.model), the server (dca.WebServer: topics, publish)
 --   mon:close([loop])       -- with the run's loop: the last delta reaches the pages first
 --
 -- Protocol (JSON text messages). Server -> page: {type = "hello", mode, name, version}, {type = "snapshot",
 -- nodes, exprs, events, config, lines, topics, t}, {type = "delta", ...the same fields, only what changed},
--- coalesced every 50 ms; {type = "samples", topic, name, rows} (host/web); {type = "reply", id, ok, text}.
+-- coalesced every 50 ms; {type = "samples", topic, name, rows} (host/web); {type = "reply", id, ok, text};
+-- {type = "robot", urdf, frames, topic} (a URDF world's, at open or when known).
 -- Page -> server: {type = "subscribe", topic, rate}, {type = "command", id, cmd = "abort" | "restart" |
 -- "event" | "config_set", path, kind, value, key}. A message that is not JSON, or not one of these, is answered
 -- {type = "error", reason} and counted; the page's connection stays. The token allows these commands and no
@@ -43,6 +47,17 @@ local PAGES = {
   ["/"] = { "index.html", "text/html; charset=utf-8" },
   ["/monitor.js"] = { "monitor.js", "text/javascript; charset=utf-8" },
   ["/monitor.css"] = { "monitor.css", "text/css; charset=utf-8" },
+  ["/robot3d.js"] = { "robot3d.js", "text/javascript; charset=utf-8" },
+}
+
+-- The 3D view's modules (robot3d.js): three.js and urdf-loader from page/3d/node_modules (scripts/setup, npm ci),
+-- served as they are under /3d/node_modules/ (index.html's import map names them). Absent: the page says so.
+local VENDOR = {
+  "three/build/three.module.js", "three/build/three.core.js",
+  "three/examples/jsm/loaders/STLLoader.js", "three/examples/jsm/loaders/ColladaLoader.js",
+  "three/examples/jsm/loaders/TGALoader.js", "three/examples/jsm/loaders/collada/ColladaParser.js",
+  "three/examples/jsm/loaders/collada/ColladaComposer.js",
+  "urdf-loader/src/URDFLoader.js", "urdf-loader/src/URDFClasses.js",
 }
 
 local Mon = {}
@@ -67,8 +82,12 @@ function M.start(o)
     if not text then srv:close() return nil, "the monitor's page: " .. tostring(perr) end
     srv:page(path, text, p[2], true)
   end
+  for _, f in ipairs(VENDOR) do
+    local text = read_page("3d/node_modules/" .. f)
+    if text then srv:page("/3d/node_modules/" .. f, text, "text/javascript; charset=utf-8", true) end
+  end
   local self = setmetatable({ o = o, srv = srv, model = o.model or model_mod.new(o.root), pages = {}, page_waiters = {},
-                              commands = 0, errors = 0 }, Mon)
+                              commands = 0, errors = 0, robot_info = o.robot }, Mon)
   self.topics_seen = self:_topics_key(self:_topics())
   if o.series then
     self.series_by_id = {}
@@ -109,11 +128,24 @@ function Mon:_open(c)
   local snap = self.model:snapshot()
   snap.type, snap.topics = "snapshot", self:_topics()
   send(c, snap)
+  if self.robot_info then send(c, self:_robot_message()) end
   if self.o.on_open then self.o.on_open(self, c) end
   if self.o.request then self:_refresh_tree() end  -- hosts and types now, not at the next period
   local waiters = self.page_waiters
   self.page_waiters = {}
   for _, fn in ipairs(waiters) do fn() end
+end
+
+function Mon:_robot_message()
+  local r = self.robot_info
+  return { type = "robot", urdf = r.urdf, frames = r.frames, topic = r.topic }
+end
+
+--- The robot the pages draw (see the header), told to the pages open now and to those that open later.
+function Mon:robot(r)
+  if not (type(r) == "table" and r.urdf and r.frames and r.topic) then return end
+  self.robot_info = r
+  for c in pairs(self.pages) do send(c, self:_robot_message()) end
 end
 
 --- fn() once, as soon as a page is connected (now, if one is).

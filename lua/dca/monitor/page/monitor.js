@@ -268,6 +268,7 @@
   }
 
   function samples(m) {
+    if (S.robot && String(m.topic) === String(S.robot.topic)) robotRows(arr(m.rows));
     if (String(m.topic) !== S.plot.topic) return;
     const rows = arr(m.rows);
     for (const r of rows) S.plot.rows.push(r);
@@ -336,6 +337,35 @@
     }
   });
 
+  // ------------------------------------------------------------------------------------------ robot (3D)
+
+  // A URDF world's robot: its URDF and frames; its link frames subscribed to (live: samples; replay: the rows).
+  function robot(m) {
+    S.robot = { urdf: String(m.urdf || ''), frames: arr(m.frames), topic: m.topic, rows: [], shown: false };
+    send(S.mode === 'live' ? { type: 'subscribe', topic: Number(m.topic), rate: 30 } : { type: 'subscribe', topic: m.topic });
+    S.dirty.robot = true;
+  }
+
+  function robotRows(rows) {
+    for (const r of rows) S.robot.rows.push(r);
+    if (S.robot.rows.length > PLOT_KEEP) S.robot.rows.splice(0, S.robot.rows.length - PLOT_KEEP);
+    S.dirty.robot = true;
+  }
+
+  // The frames at the view's time: live the last sample, replay the last row at or before the slider.
+  function renderRobot() {
+    const r3 = window.dcaRobot3d, R = S.robot;
+    if (!r3 || !R) return;
+    if (!R.shown) { R.shown = true; r3.show(R.urdf, R.frames); }
+    const rows = R.rows;
+    let row = rows[rows.length - 1];
+    if (S.mode === 'replay') {
+      row = undefined;
+      for (const r of rows) { if (r[0] > S.viewT + 1e-9) break; row = r; }
+    }
+    if (row) r3.draw(row);
+  }
+
   // ------------------------------------------------------------------------------------------ replay
 
   function viewTime() { return S.mode === 'replay' ? S.viewT : S.t; }
@@ -358,7 +388,7 @@
       states.set(e.path, { state: e.state, fault: e.fault || (e.state === 'running' ? '' : prev.fault) });
     }
     S.replayStates = states;
-    S.dirty.states = true; S.dirty.timeline = true; S.dirty.plot = true; S.dirty.lines = true;
+    S.dirty.states = true; S.dirty.timeline = true; S.dirty.plot = true; S.dirty.lines = true; S.dirty.robot = true;
   }
 
   $('slider').addEventListener('input', () => { S.playing = false; $('play').textContent = 'play'; seek(Number($('slider').value)); });
@@ -395,7 +425,9 @@
     if (m.type === 'snapshot') snapshot(m);
     else if (m.type === 'delta') delta(m);
     else if (m.type === 'samples') samples(m);
+    else if (m.type === 'series' && S.robot && String(m.topic) === String(S.robot.topic)) robotRows(arr(m.rows));
     else if (m.type === 'series' && String(m.topic) === S.plot.topic) { S.plot.rows = arr(m.rows); S.dirty.plot = true; }
+    else if (m.type === 'robot') robot(m);
     else if (m.type === 'reply') $('reply').textContent = `${m.ok ? 'ok' : 'refused'}: ${m.text || ''}`;
     else if (m.type === 'error') $('reply').textContent = 'error: ' + m.reason;
   }
@@ -438,6 +470,7 @@
     if (d.plot) { d.plot = false; renderPlot(); }
     if (d.config) { d.config = false; renderConfig(); }
     if (d.lines) { d.lines = false; renderLines(); }
+    if (d.robot) { d.robot = false; renderRobot(); }
     requestAnimationFrame(frame);
   }
 
