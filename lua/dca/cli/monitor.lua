@@ -49,7 +49,8 @@ local function replay(o)
   local spec
   if o.system then
     local serr
-    spec, serr = require("dca.load").spec(o.system, { root = o.root })
+    -- (no world check: a replay wires no device port, and the recording's world may be any robot's)
+    spec, serr = require("dca.load").spec(o.system, { root = o.root, world = false })
     if not spec then io.stderr:write(serr, "\n") return 2 end
   end
   local rec, err = require("dca.monitor.replay").load(o[1], spec)
