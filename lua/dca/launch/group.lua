@@ -64,8 +64,10 @@ function Proc:on_request(ch, msg, id)
   if ch ~= self.parent then
     if self.parent or msg.type ~= "configure" then srt.console(ch, id, msg, self.sup, self.followers) return end
     self.parent = ch
-    ch:on_close(function() self:wind_down(1, true) end)  -- the parent is gone
+    -- the parent is gone: orphaned, unless it asked for the shutdown first (then it closes after the answer)
+    ch:on_close(function() self:wind_down(1, not self.asked_down) end)
   end
+  if msg.type == "shutdown" then self.asked_down = true end  -- in order: it leaves the clock saying its counts
   if msg.type == "configure" and not self.sup then self:configure(ch, msg) end
   if not self.sup then srt.reply(ch, id, { type = "error", reason = "not configured yet" }) return end
   self.sup:handle(msg, function(r)
