@@ -72,8 +72,7 @@ void open_crash_note() {
 // or abort() keeps the note.
 void external_fatal(int sig, siginfo_t* info, void*) {
   if (info && info->si_code <= 0 && info->si_pid != ::getpid() && g_crash_note) g_crash_note[0] = '\0';
-  ::signal(sig, SIG_DFL);
-  ::raise(sig);  // blocked in the handler: delivered, with the default action, when it returns
+  ::raise(sig);  // SA_RESETHAND made the action the default; blocked in the handler, delivered when it returns
 }
 
 void clear_note_on_external_signals() {
