@@ -28,6 +28,15 @@ suite:case("a_shorter_trace_ends_and_an_unparsable_line_is_said_as_such", functi
   T.cleanup()
 end)
 
+suite:case("a_last_line_without_its_newline_is_still_a_line", function()
+  local a = file("1 D main.x.Out n=1\n2 E main.x events=1")
+  local b = file("1 D main.x.Out n=1\n2 E main.x events=1\n")
+  T.eq(trace.diff(a, b), nil)
+  local c = file("1 D main.x.Out n=1\n2 E main.x events=2")
+  T.contains(trace.diff(a, c), "first divergence at line 2")
+  T.cleanup()
+end)
+
 suite:case("a_folder_is_an_error_with_its_reason_not_a_traceback", function()
   local dir = T.tmpdir()
   local v, err = trace.diff(dir, dir)
