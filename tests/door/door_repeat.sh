@@ -3,7 +3,7 @@
 # with --trace gives the same trace, byte for byte: RUNS times as it is, once more while two busy loops burn
 # both cores, once with its three hosts mapped to one daemon (Unix sockets instead of TCP between them), and
 # once per placement of the leaves in shared nodes (`--placement group`, `--placement host`: in-process links).
-# DOOR_REPEAT_VARIANTS=0 runs only the RUNS plain runs. Any difference fails and prints `dca trace diff` (the first divergence: tick, process, port, both values),
+# Any difference fails and prints `dca trace diff` (the first divergence: tick, process, port, both values),
 # the seed and the trace files, which are kept for a re-run.
 #   tests/door/door_repeat.sh DCA_EXE SEED [RUNS] [dca run options...]
 set -uo pipefail
@@ -32,10 +32,6 @@ one() {  # one run: NAME [extra dca run options...]
 
 one first
 for i in $(seq 2 "$runs"); do one "run$i"; done
-if [ "${DOOR_REPEAT_VARIANTS:-1}" = 0 ]; then  # (the sanitizer build: the same code paths as the runs above)
-  echo "PASS: seed $seed: $runs runs, identical traces ($(wc -l <"$dir/first.trace") lines)"
-  rm -rf "$dir"; exit 0
-fi
 for placement in group host; do one "placement_$placement" --placement "$placement"; done
 # under load: two busy loops on the two cores
 for _ in 1 2; do (while :; do :; done) & burners+=($!); done

@@ -37,15 +37,18 @@ end
 
 -- A progress line, stamped with the world's time (with --sim, in order) or the wall time since the start;
 -- `output`: the path of the process that wrote it to its stderr (dca.supervisor: Sup:output).
-function Run:say(line, at, output)
+--- `private`: a line that carries the monitor's token, said on the terminal only: never to the monitor's
+--- viewers, the recording (a replay would show it to whoever has the file) or the trace.
+function Run:say(line, at, output, private)
   -- the trace keeps the lines that carry their event's simulated time (dca.trace)
   if self.o.trace_file and at then self.trace_lines[#self.trace_lines + 1] = { math.floor(at * 1e9 + 0.5), line } end
   local s, mon = self.ctx.sim, self.monitor
+  if private then mon = nil end
   if s and s.world:connected() then
     s:stamp(line, function(t, l)
       if mon then mon:line(l, t) end
       if not self.o.quiet then self:emit(sformat("[sim %8.3f] %s", t, l)) end
-    end, at, output)
+    end, at, output, private)
   else
     if mon then mon:line(line, core.now() - self.t0) end
     if not self.o.quiet then self:emit(sformat("[%7.3f] %s", core.now() - self.t0, line)) end
@@ -204,7 +207,7 @@ function Run:start_monitor()
   if not mon then return nil, err end
   mon.srv:add_key_token(self.ctx.key)  -- a key holder's token too (`dca monitor --token --key FILE`)
   self.monitor = mon
-  self:say("monitor: " .. mon:url())
+  self:say("monitor: " .. mon:url(), nil, nil, true)
   return true
 end
 
@@ -234,7 +237,7 @@ function Run:start_live(cb)
     mon.on_subscribe = function(id) self.live:tap_id(id) end
     if self.live.robot then mon:robot{ urdf = self.live.robot.urdf, frames = self.live.robot.frames, topic = self.live.robot.id } end
     self:say(sformat("foxglove: ws://%s/?token=%s (Foxglove, Lichtblick: foxglove.websocket.v1)", mon.srv:address(),
-      mon.srv:token()))
+      mon.srv:token()), nil, nil, true)
     cb()
   end)
 end

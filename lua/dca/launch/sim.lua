@@ -66,16 +66,17 @@ function S:_flush()
     e.t = max(e.t, self.t_flushed or 0)
     self.t_flushed = e.t
     if not e.output then self:_step(e.line, e.t) end
-    self:_note(e.line, e.t, e.output)
+    if not e.private then self:_note(e.line, e.t, e.output) end
     e.fn(e.t, e.line)
   end
 end
 
 --- Asks the world's time for `line`; fn(t, line) is called in the order of the stamp calls (replies on one
 --- channel come in order). Transitions are remembered as the steps of the run; `output`: the line is one the
---- process of that path wrote to its stderr, no transition (recorded on /dca/log).
-function S:stamp(line, fn, at, output)
-  local entry = { line = line, fn = fn, at = at, output = output }
+--- process of that path wrote to its stderr, no transition (recorded on /dca/log); `private`: never recorded
+--- (a line that carries the monitor's token).
+function S:stamp(line, fn, at, output, private)
+  local entry = { line = line, fn = fn, at = at, output = output, private = private }
   self.pending[#self.pending + 1] = entry
   if not self.world:connected() then entry.t = self.t_last self:_flush() return end
   -- the world's time when the status is answered: at or after the line's event (the world runs on); a leaf's

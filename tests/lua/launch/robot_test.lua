@@ -29,6 +29,22 @@ suite:case("the_same_system_runs_to_done_on_the_mock_hardware", function()
   T.contains(out, "joints at the end: elbow_joint 1.00")
 end)
 
+-- The monitor's token goes to the terminal only: never into the recording (its /dca/events lines are what a
+-- replay shows, to whoever has the file).
+suite:case("the_monitor_token_is_said_on_the_terminal_and_never_recorded", function()
+  local mcap = T.tmpname(".mcap")
+  local out, rc = run(system, ur10, " --monitor 127.0.0.1:0 --record " .. mcap)
+  T.eq(rc, 0, "exit code\n" .. out)
+  local token = out:match("monitor: http://%S+%?token=(%x+)")
+  T.ok(token, "the monitor's line with its token:\n" .. out)
+  T.contains(out, "foxglove: ws://")
+  local bytes = T.read(mcap)
+  T.contains(bytes, "main: DONE", "the run's lines are recorded")
+  T.ok(not bytes:find(token, 1, true), "the token is not in the recording")
+  T.ok(not bytes:find("?token=", 1, true), "no URL with a token in the recording")
+  T.cleanup()
+end)
+
 suite:case("a_target_beyond_the_limit_is_clamped_and_counted_in_the_summary_and_the_trace", function()
   local file = T.tmpfile([[
 process main() {
