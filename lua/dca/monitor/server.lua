@@ -234,20 +234,12 @@ function Mon:line(line, t)
   if #self.model.order > known and self.o.request and next(self.pages) then self:_refresh_tree() end
 end
 
--- A value typed in the page for config_set, as a Lua literal (dca.literal reads it: never evaluated).
--- --> literal text | nil, err
-local function literal(key, text)
+-- A value typed in the page for config_set, read by dca.literal (never evaluated; a plain word is a string), as
+-- the supervisor's config_set request. --> msg | nil, err
+local function config_set(key, text)
   local k, v = require("dca.config").parse_assignment(tostring(key) .. "=" .. tostring(text))
   if not k then return nil, v end
-  local function lit(x)
-    if type(x) == "string" then return sformat("%q", x) end
-    if math.type(x) == "float" then return sformat("%.17g", x) end
-    if type(x) ~= "table" then return tostring(x) end
-    local parts = {}
-    for kk, vv in pairs(x) do parts[#parts + 1] = "[" .. lit(kk) .. "]=" .. lit(vv) end
-    return "{" .. table.concat(parts, ",") .. "}"
-  end
-  return sformat("return config.set(%q, %s)", k, lit(v))
+  return { type = "config_set", key = k, value = v }
 end
 
 -- A page's command as a console request. --> msg | nil, err
@@ -263,11 +255,7 @@ local function command_request(m)
     if m.kind == "done" then msg.value = m.value else msg.reason = tostring(m.value or "from the monitor") end
     return { type = "inject", path = path, msg = msg }
   end
-  if m.cmd == "config_set" and m.key then
-    local line, err = literal(m.key, m.value)
-    if not line then return nil, err end
-    return { type = "repl", line = line }
-  end
+  if m.cmd == "config_set" and m.key then return config_set(m.key, m.value) end
   return nil, "unknown command " .. tostring(m.cmd)
 end
 
@@ -279,7 +267,7 @@ function Mon:_command(c, m)
   self.commands = self.commands + 1
   self.o.request(req, function(r)
     local ok = r and r.type ~= "error"
-    local text = r and (r.reason or r.output) or "no answer"
+    local text = r and (r.reason or r.text or r.output) or "no answer"
     if c:is_open() then send(c, { type = "reply", id = id, ok = ok and true or false, text = tostring(text or "") }) end
   end)
 end

@@ -70,6 +70,25 @@ M.HANDLERS = {
     reply({ type = "ok", stats = sup.stats, path = sup.path })
   end,
   update = function(sup, msg, reply) sup:update(msg.spec, function(lines) reply({ type = "ok", lines = lines }) end) end,
+  -- one key (or a table of them, one transaction) written to the configuration repository: the monitor's
+  -- config_set, a value already read as a literal; a refusal is an error with the repository's reason
+  config_set = function(sup, msg, reply)
+    if type(msg.key) ~= "string" and type(msg.key) ~= "table" then
+      reply({ type = "error", reason = "config_set: a key (or a table of keys and values)" }) return
+    end
+    if not sup.rt.config_client then
+      reply({ type = "error", reason = sup.path .. " has no configuration repository" }) return
+    end
+    sup.rt.config_client(function(c, err)
+      if not c then reply({ type = "error", reason = tostring(err) }) return end
+      local values = type(msg.key) == "table" and msg.key or { [msg.key] = msg.value }
+      c:set(values, function(r, serr)
+        if not r then reply({ type = "error", reason = tostring(serr) }) return end
+        reply({ type = "ok", text = sformat("set %d key%s: transaction %s of %s", tonumber(r.keys) or 0,
+          r.keys == 1 and "" or "s", tostring(r.seq), tostring(r.origin)) })
+      end)
+    end)
+  end,
   repl = function(sup, msg, reply)
     local repl = console_of(sup, reply)
     if repl then repl:eval(msg.line or "", function(out, more) reply({ type = "ok", output = out, more = more }) end) end

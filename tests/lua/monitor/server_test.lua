@@ -61,9 +61,29 @@ suite:case("commands_are_console_requests_values_literals", function()
   T.eq(asked[n - 2], { type = "restart", path = "main.a" })
   T.eq(asked[n - 1].type, "inject")
   T.eq(asked[n - 1].msg.type, "aborted")
-  T.eq(asked[n].line, 'return config.set("door.w", 0.5)')
+  T.eq(asked[n], { type = "config_set", key = "door.w", value = 0.5 })
   T.eq(p.got[#p.got].type, "reply")
   T.eq(p.got[#p.got].ok, false, "os.exit() is no literal: refused before any request")
+  mon:close()
+end)
+
+-- A refused command is answered not ok, with the supervisor's reason; an accepted config_set with what was written.
+suite:case("a_refused_command_is_not_ok_and_says_why", function()
+  local mon = monitor(function(msg)
+    if msg.type == "config_set" and msg.key == "door.bad" then
+      return { type = "error", reason = "unknown key 'door.bad' (did you mean door.width?) on host h1" }
+    end
+    if msg.type == "restart" then return { type = "error", reason = "main.zz: no such process" } end
+    return { type = "ok", text = "set 1 key: transaction 7 of h1" }
+  end)
+  local p = page()
+  mon:_message(p, core.json_encode{ type = "command", id = 1, cmd = "config_set", key = "door.bad", value = "1" })
+  T.eq(p.got[#p.got], { type = "reply", id = 1, ok = false,
+                        text = "unknown key 'door.bad' (did you mean door.width?) on host h1" })
+  mon:_message(p, core.json_encode{ type = "command", id = 2, cmd = "config_set", key = "door.width", value = "0.9" })
+  T.eq(p.got[#p.got], { type = "reply", id = 2, ok = true, text = "set 1 key: transaction 7 of h1" })
+  mon:_message(p, core.json_encode{ type = "command", id = 3, cmd = "restart", path = "main.zz" })
+  T.eq(p.got[#p.got], { type = "reply", id = 3, ok = false, text = "main.zz: no such process" })
   mon:close()
 end)
 

@@ -152,4 +152,33 @@ suite:case("a_structural_change_is_reported_not_applied", function()
   T.eq(sup.spec.children[1].type, "Worker")
 end)
 
+-- The monitor's config_set request (dca.supervisor.requests): a value written to the repository; without one (the
+-- in-memory runtime) an error that says so, never an ok; a malformed request is refused with its reason.
+suite:case("config_set_requests_are_answered_with_the_repositorys_verdict", function()
+  local c = fake.cluster{ behave = behave }
+  local sup = c:root(system())
+  assert(c:configure())
+  local requests = require "dca.supervisor.requests"
+  local got
+  requests.handle(sup, { type = "config_set", key = "door.width", value = 0.9 }, function(r) got = r end)
+  T.eq(got, { type = "error", reason = "main has no configuration repository" })
+  requests.handle(sup, { type = "config_set" }, function(r) got = r end)
+  T.eq(got.type, "error")
+  T.contains(got.reason, "a key")
+  -- a repository that refuses the key: its reason, not ok
+  local written
+  sup.rt.config_client = function(k)
+    k({ set = function(_, values, cb)
+      if values["door.bad"] then cb(nil, "unknown key 'door.bad' (did you mean door.width?) on host h1") return end
+      written = values
+      cb({ keys = 1, seq = 7, origin = "h1" })
+    end })
+  end
+  requests.handle(sup, { type = "config_set", key = "door.bad", value = 1 }, function(r) got = r end)
+  T.eq(got, { type = "error", reason = "unknown key 'door.bad' (did you mean door.width?) on host h1" })
+  requests.handle(sup, { type = "config_set", key = "door.width", value = 0.9 }, function(r) got = r end)
+  T.eq(got, { type = "ok", text = "set 1 key: transaction 7 of h1" })
+  T.eq(written, { ["door.width"] = 0.9 })
+end)
+
 return suite:run(...)
