@@ -98,6 +98,9 @@ end
 --- The repository's root ($DCA_SOURCE_DIR, else ".") and the dca executable ($DCA_EXE, else "dca").
 M.src = os.getenv("DCA_SOURCE_DIR") or "."
 M.exe = os.getenv("DCA_EXE") or "dca"
+-- The sanitizer build's suite (DCA_SANITIZED=1 from tests/CMakeLists.txt): a test that repeats one code path many
+-- times (generated inputs, moments of a start-up) may take fewer there, where each process is several times slower.
+M.sanitized = os.getenv("DCA_SANITIZED") == "1"
 
 --- The whole text of the file at path (it must read).
 function M.read(path)

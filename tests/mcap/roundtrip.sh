@@ -46,12 +46,16 @@ if [ "$mode" = ports ]; then
     echo "FAIL: dca run --record-ports all did not end DONE" >&2
     exit 1
   fi
-  if ! "$dca" run "$system" --sim door --trace "$work/plain.trace" >"$work/plain.log" 2>&1; then
-    tail -40 "$work/plain.log"
-    echo "FAIL: dca run without taps did not end DONE" >&2
-    exit 1
+  # the same run without taps has the same trace (DCA_SANITIZED=1: left out, simulated time is the optimised
+  # build's to show)
+  if [ "${DCA_SANITIZED:-0}" != 1 ]; then
+    if ! "$dca" run "$system" --sim door --trace "$work/plain.trace" >"$work/plain.log" 2>&1; then
+      tail -40 "$work/plain.log"
+      echo "FAIL: dca run without taps did not end DONE" >&2
+      exit 1
+    fi
+    "$dca" trace diff "$work/taps.trace" "$work/plain.trace"
   fi
-  "$dca" trace diff "$work/taps.trace" "$work/plain.trace"
   grep '^recorded ' "$work/door.log"
   node "$here/read_mcap.mjs" "$work/door.mcap" "$(grep '^recorded ' "$work/door.log" | sed 's/^recorded //')" \
     --trace "$work/taps.trace"
