@@ -179,6 +179,13 @@ suite:case("config_set_requests_are_answered_with_the_repositorys_verdict", func
   requests.handle(sup, { type = "config_set", key = "door.width", value = 0.9 }, function(r) got = r end)
   T.eq(got, { type = "ok", text = "set 1 key: transaction 7 of h1" })
   T.eq(written, { ["door.width"] = 0.9 })
+  -- a console request like the others (the monitor's commands go through this gate in `dca run`)
+  got = nil
+  local ch = { reply = function(_, _, r) r.type = r.type or "ok" got = r return true end,
+               reply_error = function(_, _, reason) got = { type = "error", reason = reason } return true end }
+  require("dca.supervisor.net").console(ch, 1, { type = "config_set", key = "door.width", value = 0.8 }, sup, {})
+  T.eq(got, { type = "ok", text = "set 1 key: transaction 7 of h1" })
+  T.eq(written, { ["door.width"] = 0.8 })
 end)
 
 return suite:run(...)
