@@ -272,6 +272,12 @@ function Mon:_command(c, m)
   end)
 end
 
+-- A page's topic number: an integer a topic can have (1e308, -1 or 2.5 are none). --> id | nil
+local function topic_id(v)
+  local id = math.tointeger(tonumber(v))
+  if id and id >= 0 and id < 2147483648 then return id end
+end
+
 function Mon:_message(c, text)
   local m, err = core.json_decode(text)
   if type(m) ~= "table" then
@@ -283,9 +289,14 @@ function Mon:_message(c, text)
     -- a recorded signal: its rows, once (the page plots them up to its slider)
     local t = self.series_by_id[m.topic]
     send(c, { type = "series", topic = t.id, name = t.name, fields = t.fields, rows = t.rows })
-  elseif m.type == "subscribe" and tonumber(m.topic) then
-    c:subscribe(math.floor(tonumber(m.topic)), math.min(tonumber(m.rate) or 30, 200))
-    if self.on_subscribe then self.on_subscribe(math.floor(tonumber(m.topic))) end  -- a port's tap (dca.launch.live)
+  elseif m.type == "subscribe" and topic_id(m.topic) then
+    local id, rate = topic_id(m.topic), tonumber(m.rate) or 30
+    if rate ~= rate or rate <= 0 then rate = 30 end  -- (NaN or none: the default)
+    c:subscribe(id, math.min(rate, 200))
+    if self.on_subscribe then self.on_subscribe(id) end  -- a port's tap (dca.launch.live)
+  elseif m.type == "subscribe" then
+    self.errors = self.errors + 1
+    send(c, { type = "error", reason = "subscribe: topic " .. tostring(m.topic) .. " is not a topic's number" })
   elseif m.type == "command" then
     self:_command(c, m)
   elseif self.o.on_message and self.o.on_message(self, c, m) then

@@ -112,6 +112,16 @@ suite:case("bad_messages_answered_and_counted", function()
   T.eq(mon.errors, 6)
   mon:_message(p, core.json_encode{ type = "subscribe", topic = 3, rate = 1e9 })
   T.eq(p.subs[3], 200, "the rate is bounded")
+  -- a topic that is no topic's number is answered, counted and subscribes nothing (1e308 raised in the binding)
+  for _, topic in ipairs({ 1e308, -1, 2.5, "x" }) do
+    mon:_message(p, core.json_encode{ type = "subscribe", topic = topic })
+    T.eq(p.got[#p.got].type, "error", tostring(topic))
+    T.contains(p.got[#p.got].reason, "is not a topic's number")
+  end
+  T.eq(mon.errors, 10)
+  local n = 0
+  for _ in pairs(p.subs) do n = n + 1 end
+  T.eq(n, 1, "only topic 3")
   mon:close()
 end)
 
