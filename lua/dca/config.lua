@@ -62,6 +62,13 @@ local function stamp_text(s)
     sformat(".%03dZ", s.ms % 1000), s.n or 0, tostring(s.origin))
 end
 
+--- What a `set` reply says: "set 2 keys: transaction 7 of h1".
+function M.format_set(r)
+  local n = math.tointeger(tonumber(r.keys)) or 0
+  local seq = math.tointeger(tonumber(r.seq)) or r.seq
+  return sformat("set %d key%s: transaction %s of %s", n, n == 1 and "" or "s", tostring(seq), tostring(r.origin))
+end
+
 --- The text of a `config_log` reply: the replica, its transactions and its conflicts, newest first.
 function M.format_log(log)
   local out = { sformat("replica %s (host %s, %s): %d transactions", log.replica, log.host, log.path,

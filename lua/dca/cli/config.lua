@@ -33,7 +33,7 @@ local COMMANDS = {
   set = { min = 2, max = math.huge, usage = "set takes KEY=VALUE...", run = function(c, _, values)
     local r, e = c:set(values)
     if not r then return nil, e end
-    io.write(string.format("set %d key%s: transaction %d of %s\n", r.keys, r.keys == 1 and "" or "s", r.seq, r.origin))
+    io.write(config.format_set(r), "\n")
     return true
   end },
   list = { min = 1, max = 2, usage = "list takes at most one argument", run = function(c, words)

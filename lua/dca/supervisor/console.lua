@@ -207,7 +207,7 @@ local function config_commands(sup)
   function cmd.set(key, value)
     local values = type(key) == "table" and key or { [key] = value }
     local r = ask(function(c, k) c:set(values, k) end)
-    return sformat("set %d key%s: transaction %d of %s", r.keys, r.keys == 1 and "" or "s", r.seq, r.origin)
+    return config_text.format_set(r)
   end
   function cmd.list(prefix)
     local lines = {}

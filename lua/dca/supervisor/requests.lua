@@ -84,8 +84,7 @@ M.HANDLERS = {
       local values = type(msg.key) == "table" and msg.key or { [msg.key] = msg.value }
       c:set(values, function(r, serr)
         if not r then reply({ type = "error", reason = tostring(serr) }) return end
-        reply({ type = "ok", text = sformat("set %d key%s: transaction %s of %s", tonumber(r.keys) or 0,
-          r.keys == 1 and "" or "s", tostring(r.seq), tostring(r.origin)) })
+        reply({ type = "ok", text = require("dca.config").format_set(r) })
       end)
     end)
   end,
