@@ -8,7 +8,7 @@
 #include <string>
 
 #include "controllers/packages.h"
-#include "controllers/registry.h"
+#include <dca/registry.h>
 #include "app/node_run.h"
 #include "app/subcommand.h"
 #include "host/loop.h"

@@ -5,7 +5,7 @@
 #include <vector>
 
 #include "controllers/packages.h"
-#include "controllers/registry.h"
+#include <dca/registry.h>
 #include "app/sim_robot.h"
 #include "app/subcommand.h"
 #include "host/paths.h"

@@ -21,7 +21,7 @@
 
 #include "bindings/core.h"
 #include "controllers/packages.h"
-#include "controllers/registry.h"
+#include <dca/registry.h>
 #include "host/paths.h"
 
 namespace {

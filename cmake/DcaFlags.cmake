@@ -42,7 +42,8 @@ function(dca_add_library name alias)
   add_library(${name} ${ARGN})
   add_library(${alias} ALIAS ${name})
   target_link_libraries(${name} PRIVATE dca::warnings PUBLIC dca::sanitizers)
-  target_include_directories(${name} PUBLIC $<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}>)
+  target_include_directories(${name} PUBLIC $<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}>
+                                             $<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}/sdk/include>)
 endfunction()
 
 # dca_exports_sdk(target): the executable exports dca's own symbols (namespace dca, cmake/dca_exports.list) to

@@ -1,6 +1,6 @@
-// The entry point of a controller package (controllers/package.h), added to its sources by
+// The entry point of a controller package (dca/package.h), added to its sources by
 // dca_add_controller_package(): compiled with DCA_PACKAGE_NAME="<name>".
-#include "controllers/package.h"
+#include <dca/package.h>
 
 // What the package says it was built against (tests override them to build a package "from another dca").
 #ifndef DCA_PACKAGE_BUILT_VERSION

@@ -26,7 +26,7 @@
 
 #include <Eigen/Core>
 
-#include "controllers/controller.h"
+#include <dca/controller.h>
 
 namespace dca::builtins {
 
@@ -35,7 +35,7 @@ namespace dca::builtins {
 template <bool kAborts>
 class Timeout final : public Controller {
   DCA_CONTROLLER(Timeout)
-  void Run(const msgpack::object&) override { StartOneShot(seconds_); }
+  void on_start(const msgpack::object&) override { StartOneShot(seconds_); }
   void MainCalc() override;
 
   double seconds_;
@@ -56,7 +56,7 @@ class Constant final : public PeriodicController {
   DCA_CONTROLLER(Constant)
   void MainCalc() override { out_.write(values_); }
 
-  Output& out_;
+  Out<Eigen::VectorXd> out_;
   Eigen::VectorXd values_;
 };
 
@@ -65,10 +65,10 @@ class Gain final : public PeriodicController {
   DCA_CONTROLLER(Gain)
   void MainCalc() override;
 
-  Input& in_;
-  Output& out_;
+  In<Eigen::VectorXd> in_;
+  Out<Eigen::VectorXd> out_;
   double k_;
-  Eigen::VectorXd y_;
+  Eigen::VectorXd x_, y_;
 };
 
 /// Out = In1 + In2.
@@ -76,18 +76,18 @@ class Sum final : public PeriodicController {
   DCA_CONTROLLER(Sum)
   void MainCalc() override;
 
-  Input &in1_, &in2_;
-  Output& out_;
-  Eigen::VectorXd y_;
+  In<Eigen::VectorXd> in1_, in2_;
+  Out<Eigen::VectorXd> out_;
+  Eigen::VectorXd a_, b_, y_;
 };
 
 /// DONE(value) when In crosses a level.
 class Threshold final : public Controller {
   DCA_CONTROLLER(Threshold)
-  void Run(const msgpack::object& init) override;
+  void on_start(const msgpack::object& init) override;
   void MainCalc() override;
 
-  Input& in_;
+  In<double> in_;
   double level_, previous_ = 0;
   int direction_;  // +1 rising, -1 falling, 0 either
   bool have_previous_ = false;
@@ -96,17 +96,17 @@ class Threshold final : public Controller {
 /// Counts ticks.
 class Counter final : public PeriodicController {
   DCA_CONTROLLER(Counter)
-  void Init() override { count_ = 0; }
+  void on_configure() override { count_ = 0; }
   void MainCalc() override;
 
-  Output& out_;
+  Out<double> out_;
   std::int64_t limit_, count_ = 0;
 };
 
 /// Dies by a signal after some ticks (fault tests).
 class Crash final : public PeriodicController {
   DCA_CONTROLLER(Crash)
-  void Init() override { seen_ = 0; }
+  void on_configure() override { seen_ = 0; }
   void MainCalc() override;
 
   enum class How { Segv, Abort, Hang };

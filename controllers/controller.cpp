@@ -1,25 +1,14 @@
-#include "controllers/controller.h"
+#include <dca/controller.h>
 
 #include <cerrno>
+#include <cstdio>
 #include <cstdlib>
 #include <stdexcept>
 
+#include "host/port.h"
 #include "host/timers.h"
 
 namespace dca {
-
-ParamSpec ParamSpec::Required(std::string name, std::string type, std::string doc) {
-  return {std::move(name), std::move(type), "", true, false, std::move(doc)};
-}
-ParamSpec ParamSpec::Optional(std::string name, std::string type, std::string def, std::string doc) {
-  return {std::move(name), std::move(type), std::move(def), false, false, std::move(doc)};
-}
-ParamSpec ParamSpec::Number(std::string name, std::string def, std::string doc) {
-  return Optional(std::move(name), "number", std::move(def), std::move(doc));
-}
-ParamSpec ParamSpec::Variadic(std::string name, std::string type, std::string doc) {
-  return {std::move(name), std::move(type), "", false, true, std::move(doc)};
-}
 
 std::string_view to_string(Ending::Kind k) {
   switch (k) {
@@ -32,21 +21,54 @@ std::string_view to_string(Ending::Kind k) {
   return "";
 }
 
-Controller::Controller(const ControllerContext& ctx) : ctx_(ctx) {
+// ------------------------------------------------------------------------------------------ the states ---
+
+bool Controller::legal(State from, State to) {
+  switch (to) {
+    case State::Ready: return from != State::Running;
+    case State::Running: return from == State::Ready;
+    case State::Finished: return from == State::Running;
+    case State::Stopped: return from == State::Ready || from == State::Running;
+    case State::Idle: break;
+  }
+  return false;
+}
+
+std::string_view Controller::to_string(State s) {
+  switch (s) {
+    case State::Idle: return "idle";
+    case State::Ready: return "ready";
+    case State::Running: return "running";
+    case State::Finished: return "finished";
+    case State::Stopped: return "stopped";
+  }
+  return "?";
+}
+
+// --------------------------------------------------------------------------------- making, parameters ---
+
+Controller::Controller(const ControllerContext& ctx) : ctx_(ctx), ports_(std::make_unique<PortSet>()) {
   if (!ctx.manifest) throw std::invalid_argument("controller '" + ctx.name + "' built without a manifest (use the registry)");
   manifest_ = *ctx.manifest;
   ctx_.manifest = &manifest_;
-  for (const auto& p : manifest_.inputs) ports_.add_input(p);
-  for (const auto& p : manifest_.outputs) ports_.add_output(p);
-  // Too many arguments is an error (too few is checked when a parameter is read).
+  for (const auto& p : manifest_.inputs) {
+    auto& in = ports_->add_input(p);
+    if (p.trigger) triggers_.push_back(&in);
+  }
+  for (const auto& p : manifest_.outputs) {
+    auto& out = ports_->add_output(p);
+    if (p.actuator) actuators_.push_back(&out);
+  }
+  // Too many arguments is an error (too few: a required one missing, found by check_params).
   const bool variadic = !manifest_.params.empty() && manifest_.params.back().variadic;
   if (!variadic && ctx_.params.size() > manifest_.params.size())
     throw std::invalid_argument(manifest_.type + " " + ctx_.name + ": " + std::to_string(ctx_.params.size()) +
                                 " parameters given, at most " + std::to_string(manifest_.params.size()) + " expected");
+  check_params();
 }
 
 Controller::~Controller() {
-  for (auto* in : triggers_) in->on_sample = nullptr;
+  for (auto* in : armed_) in->on_sample = nullptr;
   if (timer_ && ctx_.timers) ctx_.timers->cancel(timer_);
 }
 
@@ -57,33 +79,33 @@ TimerServer& Controller::timers() const {
   return *ctx_.timers;
 }
 
-Input& Controller::input(std::string_view name) {
-  if (auto* p = ports_.find_input(name)) return *p;
-  throw std::invalid_argument(ports_.no_such_input(ctx_.name.empty() ? manifest_.type : ctx_.name, name));
+namespace {
+std::string describe(const PortSpec& p) {
+  std::string d(to_string(p.type));
+  if (p.type == PortType::Vector) d += "[" + std::to_string(p.size) + "]";
+  return d;
 }
 
-Output& Controller::output(std::string_view name) {
-  if (auto* p = ports_.find_output(name)) return *p;
-  throw std::invalid_argument(ports_.no_such_output(ctx_.name.empty() ? manifest_.type : ctx_.name, name));
+// A port bound in a constructor must be the manifest's, of the bound type.
+template <class P>
+P& bound(P* p, const std::string& who, std::string_view name, PortType type, std::uint32_t size,
+         const std::string& missing) {
+  if (!p) throw std::logic_error(missing + " (list it in Describe())");
+  if (p->spec().type != type || (type == PortType::Vector && p->spec().size != size))
+    throw std::logic_error(who + ": port '" + std::string(name) + "' is " + describe(p->spec()) +
+                           " in the manifest but bound as " + describe(PortSpec{"", type, size}));
+  return *p;
+}
+}  // namespace
+
+Input& Controller::input(std::string_view name, PortType type, std::uint32_t size) {
+  const std::string who = ctx_.name.empty() ? manifest_.type : ctx_.name;
+  return bound(ports_->find_input(name), who, name, type, size, ports_->no_such_input(who, name));
 }
 
-const ParamSpec* Controller::param(std::string_view name, std::size_t& index) const {
-  for (std::size_t i = 0; i < manifest_.params.size(); ++i)
-    if (manifest_.params[i].name == name) {
-      index = i;
-      return &manifest_.params[i];
-    }
-  throw std::logic_error(manifest_.type + ": no parameter '" + std::string(name) + "' in its manifest");
-}
-
-std::string Controller::raw_param(std::string_view name, const ParamSpec*& spec) const {
-  std::size_t i = 0;
-  spec = param(name, i);
-  if (i < ctx_.params.size()) return ctx_.params[i];
-  if (spec->required)
-    throw std::invalid_argument(manifest_.type + " " + ctx_.name + ": parameter " + std::to_string(i + 1) + " '" +
-                                spec->name + "' is required");
-  return spec->default_value;
+Output& Controller::output(std::string_view name, PortType type, std::uint32_t size) {
+  const std::string who = ctx_.name.empty() ? manifest_.type : ctx_.name;
+  return bound(ports_->find_output(name), who, name, type, size, ports_->no_such_output(who, name));
 }
 
 namespace {
@@ -94,62 +116,115 @@ double parse_number(const std::string& s, bool& ok) {
   ok = !s.empty() && end && *end == '\0' && errno == 0;
   return v;
 }
+
+bool parse_integer(const std::string& s, std::int64_t& v) {
+  errno = 0;
+  char* end = nullptr;
+  v = std::strtoll(s.c_str(), &end, 10);
+  return !s.empty() && end && *end == '\0' && errno == 0;
+}
+
+// "positive", "at least 0", "in [0, 1]", "in (0, 1]", "at most 5", "above 2"; "" when `p` has no range.
+std::string range_text(const ParamSpec& p) {
+  const auto n = [](double v) { return format_number(v); };
+  if (p.max && (p.min || p.above))
+    return "in " + (p.above ? "(" + n(*p.above) : "[" + n(*p.min)) + ", " + n(*p.max) + "]";
+  if (p.max) return "at most " + n(*p.max);
+  if (p.above) return *p.above == 0 ? "positive" : "above " + n(*p.above);
+  if (p.min) return "at least " + n(*p.min);
+  return "";
+}
+
+bool in_range(const ParamSpec& p, double v) {
+  return !(p.min && v < *p.min) && !(p.max && v > *p.max) && !(p.above && v <= *p.above);
+}
+
+// "a, b or c".
+std::string one_of(const std::vector<std::string>& allowed) {
+  std::string s;
+  for (std::size_t i = 0; i < allowed.size(); ++i)
+    s += (i == 0 ? "" : i + 1 == allowed.size() ? " or " : ", ") + allowed[i];
+  return s;
+}
+
+// Why the text `s` is no value of parameter `p` ("" when it is one).
+std::string bad_value(const ParamSpec& p, const std::string& s) {
+  const std::string what = "parameter '" + p.name + "' must be ";
+  if (p.type == "string") {
+    for (const auto& a : p.allowed)
+      if (a == s) return "";
+    return p.allowed.empty() ? "" : what + one_of(p.allowed) + ", got '" + s + "'";
+  }
+  bool ok = false;
+  double v = 0;
+  if (p.type == "integer") {
+    std::int64_t i = 0;
+    ok = parse_integer(s, i);
+    v = static_cast<double>(i);
+    if (!ok) return what + "an integer, got '" + s + "'";
+  } else {
+    v = parse_number(s, ok);
+    if (!ok) return what + "a number, got '" + s + "'";
+  }
+  return in_range(p, v) ? "" : what + range_text(p) + ", got " + s;
+}
 }  // namespace
 
+void Controller::check_params() const {
+  const auto& ps = manifest_.params;
+  for (std::size_t i = 0; i < ps.size(); ++i) {
+    const auto& p = ps[i];
+    if (p.variadic) {
+      for (std::size_t j = i; j < ctx_.params.size(); ++j)
+        if (auto why = bad_value(p, ctx_.params[j]); !why.empty())
+          throw bad_param(why.insert(why.find(" must"), " (argument " + std::to_string(j + 1) + ")"));
+      continue;
+    }
+    if (i >= ctx_.params.size() && p.required)
+      throw bad_param("parameter " + std::to_string(i + 1) + " '" + p.name + "' is required");
+    if (auto why = bad_value(p, i < ctx_.params.size() ? ctx_.params[i] : p.default_value); !why.empty())
+      throw bad_param(why);
+  }
+}
+
+namespace {
+std::size_t param_index(const Manifest& m, std::string_view name) {
+  for (std::size_t i = 0; i < m.params.size(); ++i)
+    if (m.params[i].name == name) return i;
+  throw std::logic_error(m.type + ": no parameter '" + std::string(name) + "' in its manifest (list it in Describe())");
+}
+}  // namespace
+
+std::string Controller::text(std::string_view name) const {
+  const std::size_t i = param_index(manifest_, name);
+  return i < ctx_.params.size() ? ctx_.params[i] : manifest_.params[i].default_value;
+}
+
 double Controller::number(std::string_view name) const {
-  const ParamSpec* spec = nullptr;
-  const std::string s = raw_param(name, spec);
   bool ok = false;
-  const double v = parse_number(s, ok);
-  if (!ok)
-    throw std::invalid_argument(manifest_.type + " " + ctx_.name + ": parameter '" + spec->name +
-                                "' must be a number, got '" + s + "'");
-  return v;
+  return parse_number(text(name), ok);  // checked by check_params
 }
 
 std::int64_t Controller::integer(std::string_view name) const {
-  const ParamSpec* spec = nullptr;
-  const std::string s = raw_param(name, spec);
-  errno = 0;
-  char* end = nullptr;
-  const long long v = std::strtoll(s.c_str(), &end, 10);
-  if (s.empty() || !end || *end != '\0' || errno != 0)
-    throw std::invalid_argument(manifest_.type + " " + ctx_.name + ": parameter '" + spec->name +
-                                "' must be an integer, got '" + s + "'");
+  std::int64_t v = 0;
+  parse_integer(text(name), v);  // checked by check_params
   return v;
 }
 
-std::string Controller::text(std::string_view name) const {
-  const ParamSpec* spec = nullptr;
-  return raw_param(name, spec);
-}
-
 std::vector<double> Controller::numbers(std::string_view name) const {
-  std::size_t i = 0;
-  const ParamSpec* spec = param(name, i);
   std::vector<double> v;
-  for (std::size_t j = i; j < ctx_.params.size(); ++j) {
+  for (std::size_t j = param_index(manifest_, name); j < ctx_.params.size(); ++j) {
     bool ok = false;
     v.push_back(parse_number(ctx_.params[j], ok));
-    if (!ok)
-      throw std::invalid_argument(manifest_.type + " " + ctx_.name + ": parameter '" + spec->name + "' (argument " +
-                                  std::to_string(j + 1) + ") must be a number, got '" + ctx_.params[j] + "'");
   }
   return v;
 }
 
-double Controller::checked(std::string_view name, bool ok_when_zero) const {
-  const double v = number(name);
-  if (v > 0 || (ok_when_zero && v == 0)) return v;
-  throw bad_param("parameter '" + std::string(name) + "' must be " + (ok_when_zero ? "at least 0" : "positive") +
-                  ", got " + text(name));
-}
-double Controller::positive(std::string_view name) const { return checked(name, false); }
-double Controller::non_negative(std::string_view name) const { return checked(name, true); }
-
 std::invalid_argument Controller::bad_param(const std::string& what) const {
   return std::invalid_argument(manifest_.type + " " + ctx_.name + ": " + what);
 }
+
+// ---------------------------------------------------------------------------------- the life cycle ---
 
 bool Controller::fail(std::string* error, const std::string& what) const {
   if (error) *error = manifest_.type + " " + ctx_.name + what;
@@ -157,11 +232,13 @@ bool Controller::fail(std::string* error, const std::string& what) const {
 }
 
 bool Controller::configure(std::string* error) {
+  if (!broken_.empty()) return fail(error, ": " + broken_);
   if (state_ == State::Running) halt();
+  if (!legal(state_, State::Ready)) return fail(error, " cannot be configured when " + std::string(to_string(state_)));
   try {
-    Init();
+    on_configure();
   } catch (const std::exception& e) {
-    return fail(error, std::string(": Init failed: ") + e.what());
+    return fail(error, std::string(": on_configure failed: ") + e.what());
   }
   state_ = State::Ready;
   return true;
@@ -170,32 +247,61 @@ bool Controller::configure(std::string* error) {
 bool Controller::start(Bytes init_value, std::string* error) {
   if (state_ == State::Running) return fail(error, " is already running");
   if (state_ != State::Ready && !configure(error)) return false;
+  if (!legal(state_, State::Running)) return fail(error, " cannot start when " + std::string(to_string(state_)));
   ticks_ = 0;
   state_ = State::Running;
   try {
+    started_ = ctx_.timers ? now() : 0;
     msgpack::object_handle oh;
     if (!init_value.empty()) oh = msgpack::unpack(reinterpret_cast<const char*>(init_value.data()), init_value.size());
-    Run(oh.get());
+    on_start(oh.get());
+    if (state_ == State::Running) arm();  // unless on_start ended the run
   } catch (const std::exception& e) {
     StopTimer();
+    for (auto* in : armed_) in->on_sample = nullptr;
+    armed_.clear();
     state_ = State::Ready;
-    return fail(error, std::string(": Run failed: ") + e.what());
+    return fail(error, std::string(": on_start failed: ") + e.what());
   }
   return true;
 }
 
-void Controller::halt() {
-  if (state_ == State::Running || state_ == State::Ready) {
-    StopTimer();
-    for (auto* in : triggers_) in->on_sample = nullptr;
-    triggers_.clear();
-    try {
-      Stop();
-    } catch (const std::exception& e) {
-      std::fprintf(stderr, "dca: %s %s: Stop failed: %s\n", manifest_.type.c_str(), ctx_.name.c_str(), e.what());
-    }
-    state_ = State::Stopped;
+// The timer (PeriodicController with a period), else the triggers; event-driven without one: MainCalc once.
+void Controller::arm() {
+  if (period_ > 0) return StartPeriodic(period_);
+  for (auto* in : triggers_) {
+    in->on_sample = [this] { tick(); };
+    armed_.push_back(in);
   }
+  if (period_ == 0 && triggers_.empty()) MainCalc();
+}
+
+void Controller::release() {
+  StopTimer();
+  for (auto* in : armed_) in->on_sample = nullptr;
+  armed_.clear();
+  try {
+    on_halt();
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "dca: %s %s: on_halt failed: %s\n", manifest_.type.c_str(), ctx_.name.c_str(), e.what());
+  }
+  for (auto* out : actuators_) {
+    if (out->spec().type == PortType::Scalar) out->write(0.0);
+    else out->write(Eigen::VectorXd::Zero(out->spec().size));
+  }
+}
+
+void Controller::halt() {
+  if (!legal(state_, State::Stopped)) return;  // idempotent: nothing to stop
+  release();
+  state_ = State::Stopped;
+}
+
+void Controller::finish(ComponentEvent e) {
+  if (!legal(state_, State::Finished)) return;  // after halt, or a second Done/Abort: ignored
+  release();
+  state_ = State::Finished;
+  if (on_event) on_event(e);
 }
 
 void Controller::tick() {
@@ -228,11 +334,6 @@ void Controller::StopTimer() {
   timer_ = 0;
 }
 
-void Controller::TriggerOn(Input& in) {
-  in.on_sample = [this] { tick(); };
-  triggers_.push_back(&in);
-}
-
 void Controller::Done() {
   static const std::string nil(1, '\xc0');
   finish({ComponentEvent::Kind::Done, nil, ""});
@@ -243,41 +344,20 @@ void Controller::Done(std::string_view v) { DoneWith(std::string(v)); }
 
 void Controller::Abort(std::string reason) { finish({ComponentEvent::Kind::Aborted, "", std::move(reason)}); }
 
-void Controller::finish(ComponentEvent e) {
-  if (state_ != State::Running) return;  // after Stop, or a second Done/Abort: ignored
-  halt();
-  state_ = State::Finished;
-  if (on_event) on_event(e);
+// ------------------------------------------------------------------------------- PeriodicController ---
+
+Param<double> PeriodicController::PeriodParam(std::optional<double> def, std::string doc, Period mode) {
+  Param<double> p{.name = "period", .doc = std::move(doc), .def = def};
+  if (mode == Period::Positive) p.above = 0;
+  else p.min = 0;
+  return p;
 }
 
-ParamSpec PeriodicController::PeriodParam(std::string def, std::string doc) {
-  return ParamSpec::Optional("period", "number", std::move(def), std::move(doc));
-}
-
-PeriodicController::PeriodicController(const ControllerContext& ctx, Period mode)
-    : Controller(ctx), period_(mode == Period::Positive ? positive("period") : non_negative("period")) {}
-
-void PeriodicController::Run(const msgpack::object&) {
-  started_ = now();
-  if (period_ > 0) return StartPeriodic(period_);
-  for (auto* in : triggers_) TriggerOn(*in);
-  if (triggers_.empty()) MainCalc();
-}
-
-void PeriodicController::Stop() {
-  for (auto* out : actuators_) out->write(Eigen::VectorXd::Zero(out->spec().size));
-}
-
-Output& PeriodicController::actuator(std::string_view name) {
-  auto& out = output(name);
-  actuators_.push_back(&out);
-  return out;
-}
-
-Input& PeriodicController::trigger(std::string_view name) {
-  auto& in = input(name);
-  triggers_.push_back(&in);
-  return in;
+PeriodicController::PeriodicController(const ControllerContext& ctx, Period mode) : Controller(ctx) {
+  period_ = number("period");
+  if (period_ > 0 || (mode == Period::ZeroIsEventDriven && period_ == 0)) return;
+  throw bad_param("parameter 'period' must be " + std::string(mode == Period::Positive ? "positive" : "at least 0") +
+                  ", got " + text("period"));
 }
 
 }  // namespace dca

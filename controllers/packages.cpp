@@ -15,8 +15,8 @@
 #include <stdexcept>
 #include <system_error>
 
-#include "controllers/package.h"
-#include "controllers/registry.h"
+#include <dca/package.h>
+#include <dca/registry.h>
 
 namespace dca {
 
@@ -57,7 +57,7 @@ std::string untrusted(const fs::path& path) {
   return "";
 }
 
-// The version and ABI a package file says it was built with (its stamp, controllers/package.h), without running it.
+// The version and ABI a package file says it was built with (its stamp, dca/package.h), without running it.
 std::optional<std::pair<std::string, std::string>> read_stamp(const std::string& file) {
   std::ifstream in(file, std::ios::binary);
   if (!in) return std::nullopt;

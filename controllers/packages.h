@@ -1,5 +1,5 @@
 #pragma once
-// Loading controller packages (controllers/package.h) into the process's registry, by name, from the search path
+// Loading controller packages (dca/package.h) into the process's registry, by name, from the search path
 // (host/paths.h: controller_dirs). What dca does with a package, not part of the SDK.
 //
 // A package `NAME` is the file `<dir>/NAME.dca.so` in the first directory of the search path that holds one. A

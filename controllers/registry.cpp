@@ -1,4 +1,6 @@
-#include "controllers/registry.h"
+#include <dca/registry.h>
+
+#include "controllers/controller_access.h"
 
 #include <algorithm>
 #include <set>
@@ -11,14 +13,9 @@ namespace {
 // What a node hosts in place of a controller whose constructor threw (Registry::create_or_stand_in).
 class StandIn final : public Controller {
  public:
-  StandIn(const ControllerContext& ctx, std::string why) : Controller(ctx), why_(std::move(why)) {}
-  bool configure(std::string* error) override {
-    if (error) *error = type() + " " + name() + ": its constructor failed: " + why_;
-    return false;
+  StandIn(const ControllerContext& ctx, const std::string& why) : Controller(ctx) {
+    ControllerAccess::set_broken(*this, "its constructor failed: " + why);
   }
-
- private:
-  std::string why_;
 };
 
 }  // namespace
@@ -100,7 +97,7 @@ std::unique_ptr<Controller> Registry::create_or_stand_in(std::string_view type, 
   } catch (const std::exception& e) {
     ControllerContext c = ctx;
     c.manifest = m;
-    c.params.clear();  // what the constructor refused is not read again
+    // its parameters passed the base's checks (else std::invalid_argument, above)
     return std::make_unique<StandIn>(c, e.what());
   }
 }

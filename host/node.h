@@ -94,7 +94,9 @@
 #include <string>
 #include <vector>
 
-#include "host/component.h"
+#include <dca/component.h>
+
+#include "host/port.h"
 #include "host/loop.h"
 #include "host/timers.h"
 #include "host/codec/wire.h"

@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include <dca/paths.h>
+
 namespace dca {
 
 /// The running executable's path (/proc/self/exe resolved), "" when it cannot be resolved.
@@ -18,9 +20,7 @@ std::string exe_dir();
 /// holds dca/ (an installed dca); else the source tree's lua/ (a build tree).
 std::string lua_dir();
 
-/// The directory of the URDF models: $DCA_MODELS_DIR if set; else <exe>/../share/dca/models when it exists
-/// (an installed dca); else the source tree's sim/models (a build tree).
-std::string models_dir();
+// models_dir(): dca/paths.h (the SDK's).
 
 /// The directories searched for controller packages (`use NAME;` in a .dca file), in order: each entry of
 /// $DCA_CONTROLLER_PATH (':'-separated; a relative one taken from the working directory), then

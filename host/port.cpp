@@ -207,6 +207,7 @@ void Input::deliver_pulled(Bytes b) {
   if (!b.empty()) std::memcpy(current_.data(), b.data(), b.size());
   current_size_ = b.size();
   has_current_ = true;
+  unread_ = true;
   if (on_sample) on_sample();
 }
 
@@ -215,6 +216,7 @@ void Input::make_current(const std::vector<std::byte>& b, std::size_t n) {
   if (n) std::memcpy(current_.data(), b.data(), n);
   current_size_ = n;
   has_current_ = true;
+  unread_ = true;
 }
 
 bool Input::pop() {
@@ -232,6 +234,14 @@ bool Input::take_latest() {
   head_ = 0;
   count_ = 0;
   return true;
+}
+
+Read Input::take_for_read() {
+  take_latest();
+  if (!has_current()) return Read::None;
+  if (!unread_) return Read::Old;
+  unread_ = false;
+  return Read::New;
 }
 
 void Input::request() {
@@ -288,6 +298,59 @@ bool Output::write_bytes(Bytes b) {
   for (std::size_t i = 0; i < links_.size(); ++i) links_[i]->on_write(b);
   return true;
 }
+
+// ------------------------------------------------------------------- a controller's reads and writes ---
+// (dca/port.h: In<T>, Out<T>): one call each, resolved in the dca process by a package's code.
+
+namespace port_detail {
+
+Read read(Input& in, double& x) {
+  const Read r = in.take_for_read();
+  if (r != Read::None) x = in.scalar();
+  return r;
+}
+
+Read read(Input& in, double* x, std::size_t n) {
+  const Read r = in.take_for_read();
+  const Bytes b = in.current_bytes();
+  if (r == Read::None || b.size() != n * sizeof(double)) return Read::None;
+  std::memcpy(x, b.data(), b.size());
+  return r;
+}
+
+Read read(Input& in, Eigen::VectorXd& x) {
+  const Read r = in.take_for_read();
+  if (r == Read::None) return r;
+  const auto v = in.vector();
+  if (x.size() != v.size()) x.resize(v.size());
+  x = v;
+  return r;
+}
+
+Read read(Input& in, PortValue& x) {
+  const Read r = in.take_for_read();
+  if (r != Read::None) x = in.value();
+  return r;
+}
+
+bool pop(Input& in, double& x) {
+  if (!in.pop()) return false;
+  in.mark_read();
+  x = in.scalar();
+  return true;
+}
+
+bool write(Output& out, double v) { return out.write(v); }
+
+bool write(Output& out, const double* v, std::size_t n) {
+  return out.write(Eigen::Map<const Eigen::VectorXd>(v, static_cast<Eigen::Index>(n)));
+}
+
+bool write_bytes(Output& out, const char* data, std::size_t n) {
+  return out.write_bytes({reinterpret_cast<const std::byte*>(data), n});
+}
+
+}  // namespace port_detail
 
 std::string link_key(const ConnectRequest& r) {
   return r.from + "|" + r.out + ">" + r.to + "|" + r.in + "@" + r.set;

@@ -1,6 +1,8 @@
 #pragma once
 // Ports (pure: no I/O, no socket, no clock): named, typed inputs and outputs, what a connection between them
-// asks for, and how it would travel (docs/data-plane.md; host/net/endpoint moves the samples).
+// asks for, and how it would travel (docs/data-plane.md; host/net/endpoint moves the samples). This is the node's
+// side of a port; a controller sees PortSpec and its In<T>/Out<T> handles only (dca/port.h, the SDK), so nothing
+// here is part of a package's ABI.
 //
 // A port carries samples of one type: a scalar (double), a fixed-size vector of doubles (Eigen), a
 // dynamic-size vector of doubles (Eigen), or a msgpack value. An output feeds any number of inputs and an
@@ -27,43 +29,11 @@
 #include <Eigen/Core>
 #include <msgpack.hpp>
 
+#include <dca/port.h>
+
 #include "host/transport.h"
 
 namespace dca {
-
-/// What a port carries.
-enum class PortType : std::uint8_t {
-  Scalar,   ///< one double
-  Vector,   ///< a fixed number of doubles (Eigen::Matrix<double, N, 1>), N = PortSpec::size
-  VectorX,  ///< any number of doubles (Eigen::VectorXd); PortSpec::size is 0
-  Value,    ///< a msgpack value (any shape); PortSpec::size is 0
-};
-
-/// "scalar", "vector", "vectorx" or "value".
-std::string_view to_string(PortType t);
-/// The PortType named `s`, or nothing.
-std::optional<PortType> port_type_from(std::string_view s);
-
-/// A port's declaration: name, type, size and units (what `dca types` lists).
-struct PortSpec {
-  std::string name;   ///< unique among the inputs (or outputs) of one component
-  PortType type = PortType::Scalar;
-  std::uint32_t size = 1;  ///< number of doubles: 1 for Scalar, N for Vector, 0 for VectorX and Value
-  std::string units;  ///< free text, e.g. "m/s", "N", "" when dimensionless
-  /// A device port: the robot signal it is wired to ("arm.q", "base.cmd_vel"; see sim/world.h), or "".
-  /// The supervisor that owns the controller connects it to that signal of the robot process ("world"),
-  /// always active; .dca files never name device ports.
-  std::string device;
-};
-
-/// A scalar port spec.
-PortSpec scalar_port(std::string name, std::string units = "");
-/// A fixed-size vector port spec.
-PortSpec vector_port(std::string name, std::uint32_t size, std::string units = "");
-/// A dynamic-size vector port spec.
-PortSpec vectorx_port(std::string name, std::string units = "");
-/// A msgpack value port spec.
-PortSpec value_port(std::string name, std::string units = "");
 
 /// A tap input (host/net/tap.h): a Value input named "tap:...", which takes stamped samples of any output.
 bool is_tap_input(const PortSpec& in);
@@ -78,9 +48,6 @@ struct PortStats {
   std::uint64_t rejected = 0;  ///< samples of the wrong size or malformed, refused and counted
   std::uint64_t skipped = 0;   ///< output: samples not sent because the connection's set was inactive
 };
-
-/// A sample's bytes: doubles in host byte order for numeric ports, msgpack bytes for Value ports.
-using Bytes = std::span<const std::byte>;
 
 class Input;
 class Output;
@@ -157,6 +124,11 @@ class Input final : public Port {
   void request();
   /// True once a current sample exists (after pop/take_latest, or a pull answer).
   bool has_current() const { return current_size_ > 0 || has_current_; }
+  /// What a controller's In<T>::read sees (dca/port.h): drains the queue, then New when the current sample was
+  /// not read before (queued or a pull answer), Old when it was, None before any. Real-time safe.
+  Read take_for_read();
+  /// The current sample counts as read (a controller popped it).
+  void mark_read() { unread_ = false; }
 
   /// The current sample as a scalar (0 before any).
   double scalar() const;
@@ -191,6 +163,7 @@ class Input final : public Port {
   std::vector<std::byte> current_;
   std::size_t current_size_ = 0;
   bool has_current_ = false;
+  bool unread_ = false;  // the current sample has not been through take_for_read() yet
   std::vector<PullSource*> pull_sources_;
   std::vector<InputFeeder*> feeders_;
   bool warned_drop_ = false;

@@ -34,7 +34,9 @@
 #include <string>
 #include <vector>
 
-#include "host/component.h"
+#include <dca/component.h>
+
+#include "host/port.h"
 #include "host/loop.h"
 #include "host/node.h"
 #include "host/codec/wire.h"

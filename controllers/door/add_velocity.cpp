@@ -1,22 +1,24 @@
-#include "controllers/door/add_velocity.h"
+#include "door/add_velocity.h"
 
-#include "controllers/registry.h"
+#include <dca/registry.h>
 
 namespace dca::door {
 
+namespace {
+const InSpec<robot::Vec9> kIn1 = robot::VelIn("In1"), kIn2 = robot::VelIn("In2"), kIn3 = robot::VelIn("In3");
+const OutSpec<robot::Vec9> kOut = robot::VelOut("Out");
+}  // namespace
+
 Manifest AddVelocity::Describe() {
-  return {"AddVelocity", "fuses three velocity commands: Out = In1 + In2 + In3",
-          {robot::VelPort("In1"), robot::VelPort("In2"), robot::VelPort("In3")},
-          {robot::VelPort("Out")},
-          {PeriodParam()},
-          Ending::Never()};
+  return {.type = "AddVelocity", .doc = "fuses three velocity commands: Out = In1 + In2 + In3",
+          .inputs = {kIn1, kIn2, kIn3}, .outputs = {kOut}, .params = {PeriodParam()}, .ends = Ending::Never()};
 }
 AddVelocity::AddVelocity(const ControllerContext& ctx)
-    : PeriodicController(ctx), in_{&input("In1"), &input("In2"), &input("In3")}, out_(output("Out")) {}
+    : PeriodicController(ctx), in_{port(kIn1), port(kIn2), port(kIn3)}, out_(port(kOut)) {}
 void AddVelocity::MainCalc() {
   robot::Vec9 sum = robot::Vec9::Zero();
   for (int i = 0; i < 3; ++i) {
-    if (!fresh(*in_[i], v_[i])) v_[i].setZero();
+    if (in_[i].read(v_[i]) != Read::New) v_[i].setZero();
     sum += v_[i];
   }
   out_.write(sum);

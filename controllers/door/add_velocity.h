@@ -1,6 +1,6 @@
 #pragma once
 // The fusion of the door's velocity commands.
-#include "controllers/robot/signals.h"
+#include <dca/robot/signals.h>
 
 namespace dca::door {
 
@@ -11,8 +11,8 @@ class AddVelocity final : public PeriodicController {
   DCA_CONTROLLER(AddVelocity)
   void MainCalc() override;
 
-  Input* in_[3];
-  Output& out_;
+  In<robot::Vec9> in_[3];
+  Out<robot::Vec9> out_;
   robot::Vec9 v_[3];
 };
 

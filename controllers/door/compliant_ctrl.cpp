@@ -1,29 +1,33 @@
-#include "controllers/door/compliant_ctrl.h"
+#include "door/compliant_ctrl.h"
 
-#include "controllers/registry.h"
-#include "controllers/robot/model.h"
+#include <dca/registry.h>
+#include "robot/model.h"
 
 namespace dca::door {
 
+namespace {
+const InSpec<robot::Vec6> kWrench = robot::WrenchIn(), kJoints = robot::JointsIn();
+const OutSpec<robot::Vec9> kVel = actuator(robot::VelOut());
+const Param<double> kCompliance{.name = "compliance", .doc = "(m/s)/N", .def = 0.001};
+const Param<double> kDeadband{.name = "deadband", .doc = "N", .def = 1};
+const Param<double> kMaxSpeed{.name = "max_speed", .doc = "m/s", .def = 0.1, .above = 0};
+}  // namespace
+
 Manifest CompliantCtrl::Describe() {
-  using P = ParamSpec;
-  return {"CompliantCtrl", "admittance: the tool gives way to the horizontal force it feels",
-          {robot::WrenchPort(), robot::JointsPort()}, {robot::VelPort()},
-          {P::Number("compliance", "0.001", "(m/s)/N"), P::Number("deadband", "1", "N"),
-           P::Number("max_speed", "0.1", "m/s"), PeriodParam()},
-          Ending::Never()};
+  return {.type = "CompliantCtrl", .doc = "admittance: the tool gives way to the horizontal force it feels",
+          .inputs = {kWrench, kJoints}, .outputs = {kVel},
+          .params = {kCompliance, kDeadband, kMaxSpeed, PeriodParam()}, .ends = Ending::Never()};
 }
 CompliantCtrl::CompliantCtrl(const ControllerContext& ctx)
-    : PeriodicController(ctx), wrench_(input("Wrench")), joints_(input("Joints")), vel_(actuator("Vel")),
-      arm_(robot::arm()), compliance_(number("compliance")), deadband_(number("deadband")),
-      max_speed_(positive("max_speed")) {}
-void CompliantCtrl::Init() {
+    : PeriodicController(ctx), wrench_(port(kWrench)), joints_(port(kJoints)), vel_(port(kVel)), arm_(robot::arm()),
+      compliance_(param(kCompliance)), deadband_(param(kDeadband)), max_speed_(param(kMaxSpeed)) {}
+void CompliantCtrl::on_configure() {
   have_q_ = have_w_ = false;
   v_.setZero();
 }
 void CompliantCtrl::MainCalc() {
-  if (fresh(joints_, q_)) have_q_ = true;
-  if (fresh(wrench_, w_)) have_w_ = true;
+  if (joints_.read(q_) == Read::New) have_q_ = true;
+  if (wrench_.read(w_) == Read::New) have_w_ = true;
   v_.setZero();
   if (have_q_ && have_w_) {
     // The force in the base frame (tool0 and the sensor share their orientation); its horizontal part is free of

@@ -1,26 +1,33 @@
-#include "controllers/door/config_ctrl.h"
+#include "door/config_ctrl.h"
 
-#include "controllers/registry.h"
-#include "controllers/robot/model.h"
+#include <dca/registry.h>
+#include "robot/model.h"
 
 namespace dca::door {
 
+namespace {
+const InSpec<robot::Vec6> kJoints = robot::JointsIn();
+const OutSpec<robot::Vec9> kVel = actuator(robot::VelOut());
+const Param<double> kReach{.name = "reach", .doc = "the tool's preferred distance ahead of the shoulder axis, m",
+                           .def = 0.55, .above = 0};
+const Param<double> kGain{.name = "gain", .doc = "1/s", .def = 1.5};
+const Param<double> kMaxSpeed{.name = "max_speed", .doc = "m/s", .def = 0.2, .above = 0};
+}  // namespace
+
 Manifest ConfigCtrl::Describe() {
-  return {"ConfigCtrl", "moves the base under the tool to keep the arm in a comfortable configuration",
-          {robot::JointsPort()}, {robot::VelPort()},
-          {ParamSpec::Number("reach", "0.55", "the tool's preferred distance ahead of the shoulder axis, m"),
-           ParamSpec::Number("gain", "1.5", "1/s"), ParamSpec::Number("max_speed", "0.2", "m/s"), PeriodParam()},
-          Ending::Never()};
+  return {.type = "ConfigCtrl", .doc = "moves the base under the tool to keep the arm in a comfortable configuration",
+          .inputs = {kJoints}, .outputs = {kVel}, .params = {kReach, kGain, kMaxSpeed, PeriodParam()},
+          .ends = Ending::Never()};
 }
 ConfigCtrl::ConfigCtrl(const ControllerContext& ctx)
-    : PeriodicController(ctx), joints_(input("Joints")), vel_(actuator("Vel")), arm_(robot::arm()),
-      reach_(positive("reach")), gain_(number("gain")), max_speed_(positive("max_speed")) {}
-void ConfigCtrl::Init() {
+    : PeriodicController(ctx), joints_(port(kJoints)), vel_(port(kVel)), arm_(robot::arm()), reach_(param(kReach)),
+      gain_(param(kGain)), max_speed_(param(kMaxSpeed)) {}
+void ConfigCtrl::on_configure() {
   have_q_ = false;
   v_.setZero();
 }
 void ConfigCtrl::MainCalc() {
-  if (fresh(joints_, q_)) have_q_ = true;
+  if (joints_.read(q_) == Read::New) have_q_ = true;
   v_.setZero();
   if (have_q_) {
     // The shoulder axis is joint 1's: its origin in the base frame is the chain's first joint origin.

@@ -1,7 +1,7 @@
 #pragma once
 // The arm kept in a comfortable configuration while the door opens.
-#include "controllers/math/kinematics.h"
-#include "controllers/robot/signals.h"
+#include "math/kinematics.h"
+#include <dca/robot/signals.h>
 
 namespace dca::door {
 
@@ -12,11 +12,11 @@ namespace dca::door {
 ///   out Vel     vector[9] Vel
 class ConfigCtrl final : public PeriodicController {
   DCA_CONTROLLER(ConfigCtrl)
-  void Init() override;
+  void on_configure() override;
   void MainCalc() override;
 
-  Input& joints_;
-  Output& vel_;
+  In<robot::Vec6> joints_;
+  Out<robot::Vec9> vel_;
   math::Chain arm_;
   double reach_, gain_, max_speed_;
   robot::Vec6 q_ = robot::Vec6::Zero();

@@ -1,6 +1,6 @@
 #pragma once
 // The door's search for the handle: a straight move of the tool.
-#include "controllers/robot/signals.h"
+#include <dca/robot/signals.h>
 
 namespace dca::door {
 
@@ -11,7 +11,7 @@ class LinearTrajectory final : public PeriodicController {
   DCA_CONTROLLER(LinearTrajectory)
   void MainCalc() override;
 
-  Output& vel_;
+  Out<robot::Vec9> vel_;
   double speed_, distance_;
   robot::Vec9 v_ = robot::Vec9::Zero();
 };

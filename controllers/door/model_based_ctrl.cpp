@@ -1,36 +1,38 @@
-#include "controllers/door/model_based_ctrl.h"
+#include "door/model_based_ctrl.h"
 
 #include <cmath>
 
-#include "controllers/registry.h"
-#include "controllers/robot/model.h"
+#include <dca/registry.h>
+#include "robot/model.h"
 
 namespace dca::door {
 namespace {
 constexpr double kPi = 3.14159265358979323846;
+
+const InSpec<robot::Vec3> kBasePose = robot::PoseIn("BasePose");
+const InSpec<robot::Vec6> kJoints = robot::JointsIn();
+const OutSpec<robot::Vec9> kVel = actuator(robot::VelOut());
+const Param<double> kSpeed{.name = "speed", .doc = "the hand's speed along the circle, m/s", .def = 0.15, .above = 0};
+const Param<double> kAngle{.name = "angle", .doc = "DONE when the door is open this far, degrees", .def = 75,
+                           .above = 0};
+const Param<double> kRadius{.name = "radius", .doc = "guessed distance from the hand to the hinge, m", .def = 0.75,
+                            .above = 0};
+const Param<std::string> kSide{.name = "side", .doc = "the hinge's side seen from the robot: right or left",
+                               .def = "right", .allowed = {"right", "left"}};
+const Param<double> kMinArc{.name = "min_arc", .doc = "the arc (rad) the hand must sweep before the estimate is used",
+                            .def = 0.1, .above = 0};
 }  // namespace
 
 Manifest ModelBasedCtrl::Describe() {
-  using P = ParamSpec;
-  return {"ModelBasedCtrl", "pushes the door open along the circle estimated from the hand's path",
-          {robot::PosePort("BasePose"), robot::JointsPort()}, {robot::VelPort()},
-          {P::Number("speed", "0.15", "the hand's speed along the circle, m/s"),
-           P::Number("angle", "75", "DONE when the door is open this far, degrees"),
-           P::Number("radius", "0.75", "guessed distance from the hand to the hinge, m"),
-           P::Optional("side", "string", "right", "the hinge's side seen from the robot: right or left"),
-           P::Number("min_arc", "0.1", "the arc (rad) the hand must sweep before the estimate is used"),
-           PeriodParam()},
-          Ending::Done()};
+  return {.type = "ModelBasedCtrl", .doc = "pushes the door open along the circle estimated from the hand's path",
+          .inputs = {kBasePose, kJoints}, .outputs = {kVel},
+          .params = {kSpeed, kAngle, kRadius, kSide, kMinArc, PeriodParam()}, .ends = Ending::Done()};
 }
 ModelBasedCtrl::ModelBasedCtrl(const ControllerContext& ctx)
-    : PeriodicController(ctx), pose_(input("BasePose")), joints_(input("Joints")), vel_(actuator("Vel")),
-      arm_(robot::arm()), speed_(positive("speed")), target_(positive("angle") * kPi / 180),
-      radius_(positive("radius")), min_arc_(positive("min_arc")) {
-  const std::string side = text("side");
-  if (side != "right" && side != "left") throw bad_param("side must be right or left, got '" + side + "'");
-  side_ = side == "right" ? -1.0 : 1.0;
-}
-void ModelBasedCtrl::Init() {
+    : PeriodicController(ctx), pose_(port(kBasePose)), joints_(port(kJoints)), vel_(port(kVel)), arm_(robot::arm()),
+      speed_(param(kSpeed)), target_(param(kAngle) * kPi / 180), radius_(param(kRadius)), min_arc_(param(kMinArc)),
+      side_(param(kSide) == "right" ? -1.0 : 1.0) {}
+void ModelBasedCtrl::on_configure() {
   have_pose_ = have_q_ = started_ = false;
   est_.reset();
   v_.setZero();
@@ -39,8 +41,8 @@ bool ModelBasedCtrl::Plausible(const math::HingeEstimator& e, double prior_radiu
   return e.fitted() && e.radius() > 0.5 * prior_radius && e.radius() < 2.0 * prior_radius;
 }
 void ModelBasedCtrl::MainCalc() {
-  if (fresh(pose_, base_)) have_pose_ = true;
-  if (fresh(joints_, q_)) have_q_ = true;
+  if (pose_.read(base_) == Read::New) have_pose_ = true;
+  if (joints_.read(q_) == Read::New) have_q_ = true;
   if (!have_pose_ || !have_q_) {
     vel_.write(v_);
     return;

@@ -2,9 +2,9 @@
 // The door pushed open along its estimated circle (paper, section 5: the model-based controller).
 #include <optional>
 
-#include "controllers/math/hinge_estimator.h"
-#include "controllers/math/kinematics.h"
-#include "controllers/robot/signals.h"
+#include "math/hinge_estimator.h"
+#include "math/kinematics.h"
+#include <dca/robot/signals.h>
 
 namespace dca::door {
 
@@ -25,11 +25,12 @@ class ModelBasedCtrl final : public PeriodicController {
   static bool Plausible(const math::HingeEstimator& e, double prior_radius);
 
  private:
-  void Init() override;
+  void on_configure() override;
   void MainCalc() override;
 
-  Input &pose_, &joints_;
-  Output& vel_;
+  In<robot::Vec3> pose_;
+  In<robot::Vec6> joints_;
+  Out<robot::Vec9> vel_;
   math::Chain arm_;
   double speed_, target_, radius_, min_arc_, side_;
   robot::Vec3 base_ = robot::Vec3::Zero();

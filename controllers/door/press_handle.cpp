@@ -1,31 +1,36 @@
-#include "controllers/door/press_handle.h"
+#include "door/press_handle.h"
 
-#include "controllers/registry.h"
-#include "controllers/robot/model.h"
+#include <dca/registry.h>
+#include "robot/model.h"
 
 namespace dca::door {
 
+namespace {
+const InSpec<robot::Vec6> kWrench = robot::WrenchIn(), kJoints = robot::JointsIn();
+const OutSpec<robot::Vec9> kVel = actuator(robot::VelOut());
+const Param<double> kSpeed{.name = "speed", .doc = "downward speed of the tool, m/s", .def = 0.03, .above = 0};
+const Param<double> kForce{.name = "force", .doc = "the force (N) at which the handle counts as stopped", .def = 30,
+                           .above = 0};
+const Param<double> kTravel{.name = "travel", .doc = "the travel (m) the handle must allow before it stops",
+                            .def = 0.02, .above = 0};
+const Param<double> kCompliance{.name = "compliance", .doc = "horizontal admittance, (m/s)/N", .def = 0.002};
+}  // namespace
+
 Manifest PressHandle::Describe() {
-  using P = ParamSpec;
-  return {"PressHandle", "presses the grasped handle down, compliantly, until it stops",
-          {robot::WrenchPort(), robot::JointsPort()}, {robot::VelPort()},
-          {P::Number("speed", "0.03", "downward speed of the tool, m/s"),
-           P::Number("force", "30", "the force (N) at which the handle counts as stopped"),
-           P::Number("travel", "0.02", "the travel (m) the handle must allow before it stops"),
-           P::Number("compliance", "0.002", "horizontal admittance, (m/s)/N"), PeriodParam()},
-          Ending::DoneOrAborted()};
+  return {.type = "PressHandle", .doc = "presses the grasped handle down, compliantly, until it stops",
+          .inputs = {kWrench, kJoints}, .outputs = {kVel},
+          .params = {kSpeed, kForce, kTravel, kCompliance, PeriodParam()}, .ends = Ending::DoneOrAborted()};
 }
 PressHandle::PressHandle(const ControllerContext& ctx)
-    : PeriodicController(ctx), wrench_(input("Wrench")), joints_(input("Joints")), vel_(actuator("Vel")),
-      arm_(robot::arm()), speed_(positive("speed")), force_(positive("force")), travel_(positive("travel")),
-      compliance_(number("compliance")) {}
-void PressHandle::Init() {
+    : PeriodicController(ctx), wrench_(port(kWrench)), joints_(port(kJoints)), vel_(port(kVel)), arm_(robot::arm()),
+      speed_(param(kSpeed)), force_(param(kForce)), travel_(param(kTravel)), compliance_(param(kCompliance)) {}
+void PressHandle::on_configure() {
   have_start_ = have_bias_ = false;
   v_.setZero();
 }
 void PressHandle::MainCalc() {
-  const bool new_q = fresh(joints_, q_);
-  const bool new_w = fresh(wrench_, w_);
+  const bool new_q = joints_.read(q_) == Read::New;
+  const bool new_w = wrench_.read(w_) == Read::New;
   if (!have_start_) {
     if (!new_q) return;
     z0_ = robot::tool_position(arm_, q_).z();
@@ -45,8 +50,8 @@ void PressHandle::MainCalc() {
   if (f.z() - bias_.z() >= force_) {
     vel_.write(robot::Vec9::Zero().eval());
     if (travel >= travel_) return Done(travel);
-    return Abort("handle jammed: " + text("force") + " N reached after " + std::to_string(travel) +
-                 " m of travel (needs " + text("travel") + " m)");
+    return Abort("handle jammed: " + text(kForce) + " N reached after " + std::to_string(travel) +
+                 " m of travel (needs " + text(kTravel) + " m)");
   }
   // Down at `speed`; horizontally the tool gives way to the lever (which swings in the door's plane), and to
   // any push left from the approach.

@@ -1,7 +1,7 @@
 #pragma once
 // The door's handle: pressed down, compliantly.
-#include "controllers/math/kinematics.h"
-#include "controllers/robot/signals.h"
+#include "math/kinematics.h"
+#include <dca/robot/signals.h>
 
 namespace dca::door {
 
@@ -14,11 +14,11 @@ namespace dca::door {
 ///   out Vel     vector[9] Vel
 class PressHandle final : public PeriodicController {
   DCA_CONTROLLER(PressHandle)
-  void Init() override;
+  void on_configure() override;
   void MainCalc() override;
 
-  Input &wrench_, &joints_;
-  Output& vel_;
+  In<robot::Vec6> wrench_, joints_;
+  Out<robot::Vec9> vel_;
   math::Chain arm_;
   double speed_, force_, travel_, compliance_, z0_ = 0;
   robot::Vec6 w_ = robot::Vec6::Zero(), q_ = robot::Vec6::Zero();

@@ -1,28 +1,34 @@
-#include "controllers/door/redundancy_resolution.h"
+#include "door/redundancy_resolution.h"
 
-#include "controllers/registry.h"
-#include "controllers/robot/model.h"
+#include <dca/registry.h>
+#include "robot/model.h"
 
 namespace dca::door {
 
+namespace {
+const InSpec<Vec9> kIn = robot::VelIn("In");
+const InSpec<Vec6> kJoints = robot::JointsIn();
+const OutSpec<Vec3> kBaseVel{.name = "BaseVel", .units = "m/s, m/s, rad/s", .actuator = true};
+const OutSpec<Vec6> kArmVel{.name = "ArmVel", .units = "rad/s", .actuator = true};
+const Param<double> kBaseWeight{.name = "base_weight", .doc = "cost of base motion (higher: the arm does more)",
+                                .def = 10, .above = 0};
+const Param<double> kArmWeight{.name = "arm_weight", .doc = "cost of arm motion", .def = 1, .above = 0};
+const Param<double> kDamping{.name = "damping", .doc = "least-squares damping near singularities", .def = 0.02};
+}  // namespace
+
 Manifest RedundancyResolution::Describe() {
-  return {"RedundancyResolution",
-          "spreads a tool twist over the base (3) and the arm (6): weighted, damped least squares",
-          {robot::VelPort("In"), robot::JointsPort()},
-          {vector_port("BaseVel", 3, "m/s, m/s, rad/s"), vector_port("ArmVel", 6, "rad/s")},
-          {ParamSpec::Number("base_weight", "10", "cost of base motion (higher: the arm does more)"),
-           ParamSpec::Number("arm_weight", "1", "cost of arm motion"),
-           ParamSpec::Number("damping", "0.02", "least-squares damping near singularities"),
-           PeriodParam(), robot::HoldParam()},
-          Ending::Never()};
+  return {.type = "RedundancyResolution",
+          .doc = "spreads a tool twist over the base (3) and the arm (6): weighted, damped least squares",
+          .inputs = {kIn, kJoints}, .outputs = {kBaseVel, kArmVel},
+          .params = {kBaseWeight, kArmWeight, kDamping, PeriodParam(), robot::HoldParam()}, .ends = Ending::Never()};
 }
 RedundancyResolution::RedundancyResolution(const ControllerContext& ctx)
-    : PeriodicController(ctx), in_(input("In")), joints_(input("Joints")), base_out_(actuator("BaseVel")),
-      arm_out_(actuator("ArmVel")), arm_(robot::arm()), cmd_(positive("hold")) {
+    : PeriodicController(ctx), in_(port(kIn)), joints_(port(kJoints)), base_out_(port(kBaseVel)),
+      arm_out_(port(kArmVel)), arm_(robot::arm()), cmd_(param(robot::HoldParam())) {
   weights_.resize(9);
-  weights_.head<3>().setConstant(positive("base_weight"));
-  weights_.tail<6>().setConstant(positive("arm_weight"));
-  params_.damping = number("damping");
+  weights_.head<3>().setConstant(param(kBaseWeight));
+  weights_.tail<6>().setConstant(param(kArmWeight));
+  params_.damping = param(kDamping);
 }
 
 void RedundancyResolution::Solve(const math::Chain& arm, const Vec9& cmd, const Vec6& q,
@@ -47,7 +53,7 @@ void RedundancyResolution::Solve(const math::Chain& arm, const Vec9& cmd, const 
 }
 
 void RedundancyResolution::MainCalc() {
-  if (fresh(joints_, q_)) have_q_ = true;
+  if (joints_.read(q_) == Read::New) have_q_ = true;
   const Vec9& cmd = cmd_.update(in_, now());
   Vec3 base = Vec3::Zero();
   Vec6 arm = Vec6::Zero();

@@ -1,8 +1,8 @@
 #pragma once
 // The drive of the whole robot: a tool twist spread over the base and the arm (paper, section 5).
-#include "controllers/math/kinematics.h"
-#include "controllers/math/redundancy.h"
-#include "controllers/robot/signals.h"
+#include "math/kinematics.h"
+#include "math/redundancy.h"
+#include <dca/robot/signals.h>
 
 namespace dca::door {
 
@@ -26,11 +26,13 @@ class RedundancyResolution final : public PeriodicController {
                     const math::RedundancyParams& params, Vec3* base, Vec6* arm_qd);
 
  private:
-  void Init() override { cmd_.reset(); }
+  void on_configure() override { cmd_.reset(); }
   void MainCalc() override;
 
-  Input &in_, &joints_;
-  Output &base_out_, &arm_out_;
+  In<Vec9> in_;
+  In<Vec6> joints_;
+  Out<Vec3> base_out_;
+  Out<Vec6> arm_out_;
   math::Chain arm_;
   math::JointVector weights_;
   math::RedundancyParams params_;

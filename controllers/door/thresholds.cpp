@@ -1,40 +1,40 @@
-#include "controllers/door/thresholds.h"
+#include "door/thresholds.h"
 
-#include "controllers/registry.h"
+#include <dca/registry.h>
 
 namespace dca::door {
 
+namespace {
+const InSpec<double> kDistanceIn{.name = "Distance", .units = "m"};
+const Param<double> kDistance{.name = "distance", .doc = "the threshold, m", .def = 0.7, .above = 0};
+const InSpec<robot::Vec6> kWrench = robot::WrenchIn();
+const Param<double> kForce{.name = "force", .doc = "the threshold, N", .def = 6, .above = 0};
+const Param<std::int64_t> kSamples{.name = "samples", .doc = "consecutive samples above the threshold", .def = 3,
+                                   .min = 1};
+const Param<double> kSettle{.name = "settle",
+                            .doc = "s after the start during which f0 is learnt (smoothed) and nothing fires",
+                            .def = 0.3, .min = 0};
+}  // namespace
+
 Manifest DistanceThreshold::Describe() {
-  return {"DistanceThreshold", "DONE(distance) when Distance falls to the threshold",
-          {scalar_port("Distance", "m")}, {},
-          {ParamSpec::Number("distance", "0.7", "the threshold, m"), PeriodParam()},
-          Ending::Done()};
+  return {.type = "DistanceThreshold", .doc = "DONE(distance) when Distance falls to the threshold",
+          .inputs = {kDistanceIn}, .params = {kDistance, PeriodParam()}, .ends = Ending::Done()};
 }
 DistanceThreshold::DistanceThreshold(const ControllerContext& ctx)
-    : PeriodicController(ctx), distance_(input("Distance")), level_(positive("distance")) {}
+    : PeriodicController(ctx), distance_(port(kDistanceIn)), level_(param(kDistance)) {}
 void DistanceThreshold::MainCalc() {
-  if (distance_.take_latest()) {
-    const double d = distance_.scalar();
-    if (d <= level_) Done(d);
-  }
+  double d = 0;
+  if (distance_.read(d) == Read::New && d <= level_) Done(d);
 }
 
 Manifest ForceThreshold::Describe() {
-  return {"ForceThreshold", "DONE(|f - f0|) when the force departs from its value at the start",
-          {robot::WrenchPort()}, {},
-          {ParamSpec::Number("force", "6", "the threshold, N"),
-           ParamSpec::Optional("samples", "integer", "3", "consecutive samples above the threshold"),
-           ParamSpec::Number("settle", "0.3",
-                               "s after the start during which f0 is learnt (smoothed) and nothing fires"),
-           PeriodParam()},
-          Ending::Done()};
+  return {.type = "ForceThreshold", .doc = "DONE(|f - f0|) when the force departs from its value at the start",
+          .inputs = {kWrench}, .params = {kForce, kSamples, kSettle, PeriodParam()}, .ends = Ending::Done()};
 }
 ForceThreshold::ForceThreshold(const ControllerContext& ctx)
-    : PeriodicController(ctx), wrench_(input("Wrench")), level_(positive("force")), settle_(non_negative("settle")),
-      need_(integer("samples")) {
-  if (need_ < 1) throw bad_param("samples must be at least 1");
-}
-void ForceThreshold::Init() {
+    : PeriodicController(ctx), wrench_(port(kWrench)), level_(param(kForce)), settle_(param(kSettle)),
+      need_(param(kSamples)) {}
+void ForceThreshold::on_configure() {
   above_ = 0;
   have_bias_ = false;
 }
@@ -42,7 +42,7 @@ void ForceThreshold::Init() {
 // jolt (the base stopping when the previous step ends, the gripper opening), and a reference taken from one
 // sample of that jolt fires at once. It is smoothed over the settle time and frozen after it.
 void ForceThreshold::MainCalc() {
-  if (!fresh(wrench_, w_)) return;
+  if (wrench_.read(w_) != Read::New) return;
   const Eigen::Vector3d f = w_.head<3>();
   if (!have_bias_) {
     bias_ = f;

@@ -1,6 +1,6 @@
 #pragma once
 // The door's detectors: they end their run with DONE when a measured quantity reaches a level.
-#include "controllers/robot/signals.h"
+#include <dca/robot/signals.h>
 
 namespace dca::door {
 
@@ -10,7 +10,7 @@ class DistanceThreshold final : public PeriodicController {
   DCA_CONTROLLER(DistanceThreshold)
   void MainCalc() override;
 
-  Input& distance_;
+  In<double> distance_;
   double level_;
 };
 
@@ -21,12 +21,12 @@ class DistanceThreshold final : public PeriodicController {
 ///   in  Wrench  vector[6] N, N m (from ForceTorque)
 class ForceThreshold final : public PeriodicController {
   DCA_CONTROLLER(ForceThreshold)
-  void Init() override;
+  void on_configure() override;
   void MainCalc() override;
 
-  Input& wrench_;
+  In<robot::Vec6> wrench_;
   double level_, settle_;
-  long need_, above_ = 0;
+  std::int64_t need_, above_ = 0;
   bool have_bias_ = false;
   robot::Vec6 w_ = robot::Vec6::Zero();
   Eigen::Vector3d bias_ = Eigen::Vector3d::Zero();

@@ -1,35 +1,42 @@
-#include "controllers/door/visual_servoing.h"
+#include "door/visual_servoing.h"
 
 #include <cmath>
 
-#include "controllers/registry.h"
-#include "controllers/robot/model.h"
+#include <dca/registry.h>
+#include "robot/model.h"
 
 namespace dca::door {
 
+namespace {
+const InSpec<robot::Vec3> kFeature = robot::FeatureIn();
+const OutSpec<robot::Vec9> kVel = actuator(robot::VelOut());
+const Param<double> kSpeed{.name = "speed", .doc = "forward speed, m/s", .def = 0.25};
+const Param<double> kGain{.name = "gain", .doc = "turn rate per radian of bearing error, 1/s", .def = 1.5};
+const Param<double> kHfov{.name = "hfov", .doc = "the camera's horizontal field of view, rad", .def = 1.0471975511965976,
+                          .above = 0};
+const Param<double> kWidth{.name = "width", .doc = "the image's width, px", .def = 640, .above = 0};
+const Param<double> kLost{.name = "lost", .doc = "ABORTED when the handle is not seen for this long, s", .def = 0.5,
+                          .above = 0};
+const Param<double> kHeight{.name = "height", .doc = "the image's height, px", .def = 480, .above = 0};
+const Param<double> kHandleHeight{.name = "handle_height", .doc = "the handle's height above the floor, m", .def = 1};
+const Param<double> kLateral{.name = "lateral", .doc = "the gripper's lateral position in the base frame (left +), m",
+                             .def = -0.075};
+}  // namespace
+
 Manifest VisualServoing::Describe() {
-  using P = ParamSpec;
-  return {"VisualServoing", "drives the robot towards the handle, lining the gripper up with it in the image",
-          {robot::FeaturePort()}, {robot::VelPort()},
-          {P::Number("speed", "0.25", "forward speed, m/s"),
-           P::Number("gain", "1.5", "turn rate per radian of bearing error, 1/s"),
-           P::Number("hfov", "1.0471975511965976", "the camera's horizontal field of view, rad"),
-           P::Number("width", "640", "the image's width, px"),
-           P::Number("lost", "0.5", "ABORTED when the handle is not seen for this long, s"),
-           P::Number("height", "480", "the image's height, px"),
-           P::Number("handle_height", "1", "the handle's height above the floor, m"),
-           P::Number("lateral", "-0.075", "the gripper's lateral position in the base frame (left +), m"),
-           PeriodParam()},
-          Ending::Aborted()};
+  return {.type = "VisualServoing",
+          .doc = "drives the robot towards the handle, lining the gripper up with it in the image",
+          .inputs = {kFeature}, .outputs = {kVel},
+          .params = {kSpeed, kGain, kHfov, kWidth, kLost, kHeight, kHandleHeight, kLateral, PeriodParam()},
+          .ends = Ending::Aborted()};
 }
 VisualServoing::VisualServoing(const ControllerContext& ctx)
-    : PeriodicController(ctx), feature_(input("Feature")), vel_(actuator("Vel")), speed_(number("speed")),
-      gain_(number("gain")), lost_(positive("lost")), handle_height_(number("handle_height")),
-      lateral_(number("lateral")), camera_(robot::camera()) {
-  const double width = positive("width");
-  focal_ = (width / 2) / std::tan(positive("hfov") / 2);
+    : PeriodicController(ctx), feature_(port(kFeature)), vel_(port(kVel)), speed_(param(kSpeed)), gain_(param(kGain)),
+      lost_(param(kLost)), handle_height_(param(kHandleHeight)), lateral_(param(kLateral)), camera_(robot::camera()) {
+  const double width = param(kWidth);
+  focal_ = (width / 2) / std::tan(param(kHfov) / 2);
   centre_u_ = width / 2;
-  centre_v_ = positive("height") / 2;
+  centre_v_ = param(kHeight) / 2;
 }
 robot::Vec9 VisualServoing::Law(double u, double speed, double gain, double focal_px, double centre_u) {
   // u grows to the right, which is -y of the base: a handle right of centre needs a negative yaw rate.
@@ -57,19 +64,18 @@ robot::Vec9 VisualServoing::Steer(const Eigen::Vector2d& handle, double lateral,
   v[8] = gain * std::atan2(handle.y() - lateral, handle.x());
   return v;
 }
-void VisualServoing::Run(const msgpack::object& init) {
+void VisualServoing::on_start(const msgpack::object&) {
   last_seen_ = now();
   v_.setZero();
-  PeriodicController::Run(init);
 }
 void VisualServoing::MainCalc() {
-  if (fresh(feature_, f_) && f_[2] > 0.5) {
+  if (feature_.read(f_) == Read::New && f_[2] > 0.5) {
     last_seen_ = now();
     const auto handle = Locate(f_[0], f_[1], camera_, focal_, centre_u_, centre_v_, handle_height_);
     v_ = handle ? Steer(*handle, lateral_, speed_, gain_) : Law(f_[0], speed_, gain_, focal_, centre_u_);
   } else if (to_seconds(now() - last_seen_) > lost_) {
     vel_.write(Vec9::Zero().eval());
-    return Abort("lost sight of the handle for more than " + text("lost") + " s");
+    return Abort("lost sight of the handle for more than " + text(kLost) + " s");
   }
   vel_.write(v_);
 }

@@ -3,7 +3,7 @@
 #include <Eigen/Geometry>
 #include <optional>
 
-#include "controllers/robot/signals.h"
+#include <dca/robot/signals.h>
 
 namespace dca::door {
 
@@ -34,11 +34,11 @@ class VisualServoing final : public PeriodicController {
   static Vec9 Steer(const Eigen::Vector2d& handle, double lateral, double speed, double gain);
 
  private:
-  void Run(const msgpack::object& init) override;
+  void on_start(const msgpack::object& init) override;
   void MainCalc() override;
 
-  Input& feature_;
-  Output& vel_;
+  In<robot::Vec3> feature_;
+  Out<Vec9> vel_;
   double speed_, gain_, focal_, centre_u_, centre_v_, lost_, handle_height_, lateral_;
   Eigen::Isometry3d camera_ = Eigen::Isometry3d::Identity();
   robot::Vec3 f_ = robot::Vec3::Zero();

@@ -1,4 +1,4 @@
-#include "controllers/math/hinge_estimator.h"
+#include "math/hinge_estimator.h"
 
 #include <Eigen/LU>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "controllers/math/kinematics.h"
+#include "math/kinematics.h"
 
 #include <urdf_model/model.h>
 #include <urdf_parser/urdf_parser.h>

@@ -1,4 +1,4 @@
-#include "controllers/math/redundancy.h"
+#include "math/redundancy.h"
 
 #include <Eigen/Cholesky>
 

@@ -4,7 +4,7 @@
 // null space. Pure maths, no allocation (fixed maximum sizes), safe in MainCalc.
 #include <Eigen/Core>
 
-#include "controllers/math/kinematics.h"
+#include "math/kinematics.h"
 
 namespace dca::math {
 

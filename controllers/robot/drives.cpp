@@ -1,28 +1,33 @@
 #include "controllers/robot/drives.h"
 
-#include "controllers/registry.h"
+#include <dca/registry.h>
 
 namespace dca::robot {
 
+namespace {
+const InSpec<Vec3> kBaseVel{.name = "Vel", .units = "m/s, m/s, rad/s"};
+const OutSpec<Vec3> kBaseCmd{.name = "Cmd", .units = "m/s, m/s, rad/s", .device = "base.cmd_vel", .actuator = true};
+const InSpec<Vec6> kArmVel{.name = "Vel", .units = "rad/s"};
+const InSpec<Vec6> kQ = device(JointsIn("Q"), "arm.q");
+const OutSpec<Vec6> kArmCmd{.name = "Cmd", .units = "rad/s", .device = "arm.cmd_qd", .actuator = true};
+const OutSpec<Vec6> kJoints = JointsOut();
+}  // namespace
+
 Manifest XR4000Ctrl::Describe() {
-  return {"XR4000Ctrl", "the base's velocity drive (Nomad XR4000)",
-          {vector_port("Vel", 3, "m/s, m/s, rad/s")},
-          {device(vector_port("Cmd", 3, "m/s, m/s, rad/s"), "base.cmd_vel")},
-          {PeriodParam(), HoldParam()},
-          Ending::Never()};
+  return {.type = "XR4000Ctrl", .doc = "the base's velocity drive (Nomad XR4000)", .inputs = {kBaseVel},
+          .outputs = {kBaseCmd}, .params = {PeriodParam(), HoldParam()}, .ends = Ending::Never()};
 }
-XR4000Ctrl::XR4000Ctrl(const ControllerContext& ctx) : Drive(ctx) {}
+XR4000Ctrl::XR4000Ctrl(const ControllerContext& ctx) : Drive(ctx, kBaseVel, kBaseCmd) {}
 
 Manifest Puma560Ctrl::Describe() {
-  return {"Puma560Ctrl", "the arm's joint-velocity drive (Puma 560); also publishes the joint angles",
-          {vector_port("Vel", 6, "rad/s"), device(JointsPort("Q"), "arm.q")},
-          {device(vector_port("Cmd", 6, "rad/s"), "arm.cmd_qd"), JointsPort()},
-          {PeriodParam(), HoldParam()},
-          Ending::Never()};
+  return {.type = "Puma560Ctrl", .doc = "the arm's joint-velocity drive (Puma 560); also publishes the joint angles",
+          .inputs = {kArmVel, kQ}, .outputs = {kArmCmd, kJoints}, .params = {PeriodParam(), HoldParam()},
+          .ends = Ending::Never()};
 }
-Puma560Ctrl::Puma560Ctrl(const ControllerContext& ctx) : Drive(ctx), q_in_(input("Q")), joints_(output("Joints")) {}
+Puma560Ctrl::Puma560Ctrl(const ControllerContext& ctx)
+    : Drive(ctx, kArmVel, kArmCmd), q_in_(port(kQ)), joints_(port(kJoints)) {}
 void Puma560Ctrl::MainCalc() {
-  if (fresh(q_in_, q_)) joints_.write(q_);
+  if (q_in_.read(q_) == Read::New) joints_.write(q_);
   Drive::MainCalc();
 }
 

@@ -1,22 +1,26 @@
 #pragma once
-// The robot's drives: the Nomad XR4000 base and the Puma 560 arm (see controllers/robot/signals.h for `hold`).
-// Each tick writes the held command to the device; Stop() writes zero.
-#include "controllers/robot/signals.h"
+// The robot's drives: the Nomad XR4000 base and the Puma 560 arm (see dca/robot/signals.h for `hold`).
+// Each tick writes the held command to the device; halt() writes zero (the command is an actuator).
+#include <dca/robot/signals.h>
 
 namespace dca::robot {
 
 /// A velocity drive: each tick, its command (input Vel, zero once `hold` s old) goes to the device output Cmd.
 template <int N>
 class Drive : public PeriodicController {
+ public:
+  using Vec = Eigen::Matrix<double, N, 1>;
+
  protected:
-  explicit Drive(const ControllerContext& ctx)
-      : PeriodicController(ctx), vel_(input("Vel")), cmd_(actuator("Cmd")), v_(positive("hold")) {}
-  void Init() override { v_.reset(); }
+  Drive(const ControllerContext& ctx, const InSpec<Vec>& vel, const OutSpec<Vec>& cmd)
+      : PeriodicController(ctx), vel_(port(vel)), cmd_(port(cmd)), v_(param(HoldParam())) {}
   void MainCalc() override { cmd_.write(v_.update(vel_, now())); }
 
  private:
-  Input& vel_;
-  Output& cmd_;
+  void on_configure() override { v_.reset(); }
+
+  In<Vec> vel_;
+  Out<Vec> cmd_;
   HeldCommand<N> v_;
 };
 
@@ -37,8 +41,8 @@ class Puma560Ctrl final : public Drive<6> {
   DCA_CONTROLLER(Puma560Ctrl)
   void MainCalc() override;
 
-  Input& q_in_;
-  Output& joints_;
+  In<Vec6> q_in_;
+  Out<Vec6> joints_;
   Vec6 q_ = Vec6::Zero();
 };
 

@@ -1,6 +1,6 @@
 #pragma once
 // The gripper.
-#include "controllers/robot/signals.h"
+#include <dca/robot/signals.h>
 
 namespace dca::robot {
 
@@ -10,11 +10,12 @@ namespace dca::robot {
 ///   out Cmd    vector[1] device gripper.cmd (0 open, 1 close)
 class GripperControl final : public PeriodicController {
   DCA_CONTROLLER(GripperControl)
-  void Run(const msgpack::object& init) override;
+  void on_start(const msgpack::object& init) override;
   void MainCalc() override;
 
-  Input& state_in_;
-  Output& cmd_;
+  In<Eigen::Matrix<double, 1, 1>> state_in_;
+  Out<Eigen::Matrix<double, 1, 1>> cmd_;
+  Eigen::Matrix<double, 1, 1> state_ = Eigen::Matrix<double, 1, 1>::Zero();
   double timeout_;
   bool close_ = false, seen_moving_ = false;
   Eigen::Matrix<double, 1, 1> cmd_value_;

@@ -1,9 +1,9 @@
-#include "controllers/robot/model.h"
+#include "robot/model.h"
 
 #include <filesystem>
 #include <stdexcept>
 
-#include "host/paths.h"
+#include <dca/paths.h>
 
 namespace dca::robot {
 

@@ -3,14 +3,14 @@
 #include <Eigen/Geometry>
 #include <string>
 
-#include "controllers/math/kinematics.h"
+#include "math/kinematics.h"
 
 namespace dca::robot {
 
 /// The robot's URDF: mobile_manipulator.urdf in the models directory (dca::models_dir(), host/paths.h).
 std::string urdf_path();
 /// The arm chain base_link -> tool0 of the robot's URDF. Throws std::invalid_argument naming the file (a
-/// controller's constructor lets it through: see controllers/controller.h).
+/// controller's constructor lets it through: see dca/controller.h).
 math::Chain arm();
 /// The camera's pose (camera_link: x along the optical axis, y left, z up) in base_link, from the robot's URDF.
 /// Throws std::invalid_argument naming the file.

@@ -1,20 +1,22 @@
 #include "controllers/robot/sensors.h"
 
-#include "controllers/registry.h"
+#include <dca/registry.h>
 
 namespace dca::robot {
 
+namespace {
+const InSpec<Eigen::Matrix<double, 1, 1>> kRaw{.name = "Raw", .units = "m", .device = "laser.range"};
+const OutSpec<double> kDistance{.name = "Distance", .units = "m"};
+}  // namespace
+
 Manifest LaserSensor::Describe() {
-  return {"LaserSensor", "the laser range finder: distance ahead of the base to the door's plane",
-          {device(vector_port("Raw", 1, "m"), "laser.range")},
-          {scalar_port("Distance", "m")},
-          {PeriodParam()},
-          Ending::Never()};
+  return {.type = "LaserSensor", .doc = "the laser range finder: distance ahead of the base to the door's plane",
+          .inputs = {kRaw}, .outputs = {kDistance}, .params = {PeriodParam()}, .ends = Ending::Never()};
 }
 LaserSensor::LaserSensor(const ControllerContext& ctx)
-    : PeriodicController(ctx), raw_(input("Raw")), distance_(output("Distance")) {}
+    : PeriodicController(ctx), raw_(port(kRaw)), distance_(port(kDistance)) {}
 void LaserSensor::MainCalc() {
-  if (raw_.take_latest() && raw_.vector().size() == 1) distance_.write(raw_.vector()[0]);
+  if (raw_.read(raw_value_) == Read::New) distance_.write(raw_value_[0]);
 }
 
 DCA_REGISTER_CONTROLLER(XR4000Odometry);

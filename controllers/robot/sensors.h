@@ -14,7 +14,7 @@
 //   in  Raw       vector[1] device laser.range      out Distance scalar    m to the door's plane
 #include <string_view>
 
-#include "controllers/robot/signals.h"
+#include <dca/robot/signals.h>
 
 namespace dca::robot {
 
@@ -24,28 +24,29 @@ struct SensorSpec {
   std::string_view input, output, units, signal;  ///< the device input, the output, both ports' units
 };
 
-/// A pass-through sensor: copies each fresh vector[N] sample of its device input to its output.
+/// A pass-through sensor: copies each new vector[N] sample of its device input to its output.
 template <int N, const SensorSpec& S>
 class Sensor final : public PeriodicController {
  public:
-  static Manifest Describe() {
-    return {std::string(S.type), std::string(S.doc),
-            {device(vector_port(std::string(S.input), N, std::string(S.units)), std::string(S.signal))},
-            {vector_port(std::string(S.output), N, std::string(S.units))},
-            {PeriodParam()},
-            Ending::Never()};
+  using Vec = Eigen::Matrix<double, N, 1>;
+  static InSpec<Vec> in_spec() {
+    return {.name = std::string(S.input), .units = std::string(S.units), .device = std::string(S.signal)};
   }
-  explicit Sensor(const ControllerContext& ctx)
-      : PeriodicController(ctx), in_(input(S.input)), out_(output(S.output)) {}
+  static OutSpec<Vec> out_spec() { return {.name = std::string(S.output), .units = std::string(S.units)}; }
+  static Manifest Describe() {
+    return {.type = std::string(S.type), .doc = std::string(S.doc), .inputs = {in_spec()}, .outputs = {out_spec()},
+            .params = {PeriodParam()}, .ends = Ending::Never()};
+  }
+  explicit Sensor(const ControllerContext& ctx) : PeriodicController(ctx), in_(port(in_spec())), out_(port(out_spec())) {}
 
  private:
   void MainCalc() override {
-    if (fresh(in_, v_)) out_.write(v_);
+    if (in_.read(v_) == Read::New) out_.write(v_);
   }
 
-  Input& in_;
-  Output& out_;
-  Eigen::Matrix<double, N, 1> v_ = Eigen::Matrix<double, N, 1>::Zero();
+  dca::In<Vec> in_;
+  dca::Out<Vec> out_;
+  Vec v_ = Vec::Zero();
 };
 
 inline constexpr SensorSpec kXR4000Odometry{"XR4000Odometry", "the base's odometry (Nomad XR4000)",
@@ -67,8 +68,9 @@ class LaserSensor final : public PeriodicController {
   DCA_CONTROLLER(LaserSensor)
   void MainCalc() override;
 
-  Input& raw_;
-  Output& distance_;
+  In<Eigen::Matrix<double, 1, 1>> raw_;
+  Out<double> distance_;
+  Eigen::Matrix<double, 1, 1> raw_value_ = Eigen::Matrix<double, 1, 1>::Zero();
 };
 
 }  // namespace dca::robot

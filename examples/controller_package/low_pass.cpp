@@ -5,52 +5,47 @@
 // the step has settled.
 #include <Eigen/Core>
 
-#include "controllers/controller.h"
-#include "controllers/registry.h"
+#include <dca/controller.h>
+#include <dca/registry.h>
 
 namespace mylab {
 
+const dca::InSpec<Eigen::VectorXd> kIn{.name = "In"};
+const dca::OutSpec<Eigen::VectorXd> kOut{.name = "Out"};
+const dca::Param<double> kTau{.name = "tau", .doc = "the time constant (s)", .above = 0};
+const dca::Param<double> kTolerance{.name = "tolerance", .doc = "DONE once |In - Out| <= tolerance everywhere (0: never)",
+                                    .def = 0, .min = 0};
+
 class LowPass final : public dca::PeriodicController {
   DCA_CONTROLLER(LowPass)
-  void Init() override { started_ = false; }
+  void on_configure() override { started_ = false; }
   void MainCalc() override;
 
-  dca::Input& in_;
-  dca::Output& out_;
+  dca::In<Eigen::VectorXd> in_;
+  dca::Out<Eigen::VectorXd> out_;
   double tau_, tolerance_;
   Eigen::VectorXd x_, y_;
   bool started_ = false;
 };
 
 dca::Manifest LowPass::Describe() {
-  using P = dca::ParamSpec;
-  return {"LowPass", "a first-order low-pass filter: y += dt / (tau + dt) * (In - y)",
-          {dca::vectorx_port("In")},
-          {dca::vectorx_port("Out")},
-          {P::Required("tau", "number", "the time constant (s)"), PeriodParam("0.01"),
-           P::Number("tolerance", "0", "DONE once |In - Out| <= tolerance everywhere (0: never)")},
-          dca::Ending::Done()};  // if it ends by itself, DONE (settled)
+  return {.type = "LowPass",
+          .doc = "a first-order low-pass filter: y += dt / (tau + dt) * (In - y)",
+          .inputs = {kIn},
+          .outputs = {kOut},
+          .params = {kTau, PeriodParam(0.01), kTolerance},
+          .ends = dca::Ending::Done()};  // if it ends by itself, DONE (settled)
 }
 
 LowPass::LowPass(const dca::ControllerContext& ctx)
-    : PeriodicController(ctx), in_(input("In")), out_(output("Out")), tau_(positive("tau")),
-      tolerance_(non_negative("tolerance")) {
-  x_.resize(16);  // grown (outside MainCalc's steady state) only for bigger samples
-  y_.resize(16);
-}
+    : PeriodicController(ctx), in_(port(kIn)), out_(port(kOut)), tau_(param(kTau)), tolerance_(param(kTolerance)) {}
 
 void LowPass::MainCalc() {
-  if (in_.take_latest()) {
-    const auto s = in_.vector();
-    if (!started_ || s.size() != x_.size()) {
-      x_ = s;
-      y_ = Eigen::VectorXd::Zero(s.size());
-      started_ = true;
-    } else {
-      x_ = s;
-    }
+  if (in_.read(x_) == dca::Read::None) return;  // x_ takes the sample's size (allocates only when it changes)
+  if (!started_ || y_.size() != x_.size()) {
+    y_ = Eigen::VectorXd::Zero(x_.size());
+    started_ = true;
   }
-  if (!started_) return;
   const double dt = period();
   y_ += dt / (tau_ + dt) * (x_ - y_);
   out_.write(y_);

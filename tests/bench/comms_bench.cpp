@@ -37,7 +37,7 @@
 #include <boost/asio/read.hpp>
 #include <boost/asio/write.hpp>
 
-#include "controllers/registry.h"
+#include <dca/registry.h>
 #include "host/net/endpoint.h"
 #include "host/timers.h"
 #include "tests/bench/bench_util.h"

@@ -1,5 +1,5 @@
 // Controller base class and registry: manifests, ports by name, parameters, life cycle, lock-step time.
-#include "controllers/controller.h"
+#include <dca/controller.h>
 
 #include <gtest/gtest.h>
 
@@ -8,10 +8,53 @@
 
 #include <boost/asio/io_context.hpp>
 
-#include "controllers/registry.h"
+#include <dca/registry.h>
 #include "tests/support/controller_fixture.h"
 
 namespace {
+
+// A controller that overrides every hook and calls no base: the public operations still do the safety duties.
+const dca::OutSpec<Eigen::Matrix<double, 3, 1>> kHookVel{.name = "Vel", .actuator = true};
+const dca::OutSpec<double> kHookLevel{.name = "Level", .actuator = true};
+const dca::OutSpec<double> kHookLog{.name = "Log"};  // not an actuator: left as it is
+int hook_calls = 0;
+
+class Hooks final : public dca::PeriodicController {
+  DCA_CONTROLLER(Hooks)
+  void on_configure() override { ++hook_calls; }
+  void on_start(const msgpack::object&) override { ++hook_calls; }
+  void on_halt() override { ++hook_calls; }
+  void MainCalc() override {
+    vel_.write(Eigen::Vector3d(1, 2, 3));
+    level_.write(4.0);
+    log_.write(5.0);
+  }
+
+  dca::Out<Eigen::Matrix<double, 3, 1>> vel_;
+  dca::Out<double> level_, log_;
+};
+dca::Manifest Hooks::Describe() {
+  return {.type = "TestHooks", .outputs = {kHookVel, kHookLevel, kHookLog}, .params = {PeriodParam()}};
+}
+Hooks::Hooks(const dca::ControllerContext& ctx)
+    : PeriodicController(ctx), vel_(port(kHookVel)), level_(port(kHookLevel)), log_(port(kHookLog)) {}
+DCA_REGISTER_CONTROLLER(Hooks);
+
+// Parameters with ranges and allowed values.
+const dca::Param<double> kTau{.name = "tau", .doc = "s", .def = 0.1, .above = 0};
+const dca::Param<double> kRatio{.name = "ratio", .def = 0.5, .min = 0, .max = 1};
+const dca::Param<std::int64_t> kCount{.name = "count", .def = 1, .min = 1};
+const dca::Param<std::string> kMode{.name = "mode", .def = "fast", .allowed = {"fast", "slow", "off"}};
+const dca::Param<std::vector<double>> kGains{.name = "gains", .max = 10};
+
+class Ranges final : public dca::Controller {
+  DCA_CONTROLLER(Ranges)
+};
+dca::Manifest Ranges::Describe() {
+  return {.type = "TestRanges", .params = {kTau, kRatio, kCount, kMode, kGains}};
+}
+Ranges::Ranges(const dca::ControllerContext& ctx) : Controller(ctx) {}
+DCA_REGISTER_CONTROLLER(Ranges);
 
 class ControllerTest : public dca::testing::ControllerFixture {
  protected:
@@ -50,7 +93,7 @@ class ControllerTest : public dca::testing::ControllerFixture {
 TEST_F(ControllerTest, RegistryListsTheBuiltinsWithoutAnInstance) {
   std::vector<std::string> names;
   for (const auto* m : dca::Registry::global().all()) names.push_back(m->type);
-  for (const char* t : {"Constant", "Counter", "Crash", "Deadline", "Gain", "Sum", "Threshold", "Timer"})
+  for (const char* t : {"Constant", "Counter", "Crash", "Deadline", "Gain", "Sum", "TestHooks", "Threshold", "Timer"})
     EXPECT_NE(std::find(names.begin(), names.end(), t), names.end()) << t;
   EXPECT_TRUE(std::is_sorted(names.begin(), names.end()));
   const auto* sum = dca::Registry::global().manifest("Sum");
@@ -84,6 +127,73 @@ TEST_F(ControllerTest, BadParametersNameTheControllerAndTheParameter) {
   EXPECT_EQ(make_error("Timer", {}, "/sys/t"), "Timer /sys/t: parameter 1 'seconds' is required");
   EXPECT_THROW(create("Timer", {"1", "2"}), std::invalid_argument);
   EXPECT_THROW(create("Threshold", {"1", "sideways"}), std::invalid_argument);
+}
+
+TEST_F(ControllerTest, HooksWithoutBaseCallsStillStartTheTimerAndZeroTheActuators) {
+  hook_calls = 0;
+  auto& c = make("TestHooks", {"0.01"}, "/h");
+  ASSERT_EQ(started(c), "");  // configure + start: on_configure, on_start
+  EXPECT_EQ(hook_calls, 2);
+  timers.advance_to(30 * kMs);
+  EXPECT_EQ(c.ticks(), 3u);  // the timer runs: on_start started nothing
+  EXPECT_EQ(latest(c, "Vel"), Eigen::Vector3d(1, 2, 3));
+  c.halt();
+  EXPECT_EQ(hook_calls, 3);
+  EXPECT_EQ(c.state(), dca::Controller::State::Stopped);
+  EXPECT_EQ(latest(c, "Vel"), Eigen::Vector3d::Zero());  // on_halt wrote nothing: the base did
+  EXPECT_EQ(latest(c, "Level")[0], 0.0);
+  EXPECT_EQ(latest(c, "Log")[0], 5.0);  // not an actuator
+  timers.advance_to(60 * kMs);
+  EXPECT_EQ(c.ticks(), 3u);  // and the timer stopped
+  // An abort (Done/Abort from inside, here a restart's halt) leaves them at zero the same way.
+  ASSERT_EQ(started(c), "");
+  timers.advance_to(70 * kMs);
+  EXPECT_EQ(latest(c, "Level")[0], 4.0);
+  c.halt();
+  EXPECT_EQ(latest(c, "Level")[0], 0.0);
+}
+
+TEST_F(ControllerTest, TheStatesChangeOnlyByTheirTransitions) {
+  using S = dca::Controller::State;
+  const S all[] = {S::Idle, S::Ready, S::Running, S::Finished, S::Stopped};
+  std::vector<std::string> legal;
+  for (S from : all)
+    for (S to : all)
+      if (dca::Controller::legal(from, to))
+        legal.push_back(std::string(dca::Controller::to_string(from)) + ">" + std::string(dca::Controller::to_string(to)));
+  EXPECT_EQ(legal, (std::vector<std::string>{"idle>ready", "ready>ready", "ready>running", "ready>stopped",
+                                             "running>finished", "running>stopped", "finished>ready",
+                                             "stopped>ready"}));
+  auto& c = make("Timer", {"0.005"}, "/t");
+  c.halt();  // nothing to stop: no change
+  EXPECT_EQ(c.state(), S::Idle);
+  ASSERT_EQ(started(c), "");
+  EXPECT_EQ(started(c), "Timer /t is already running");  // refused, and still running
+  EXPECT_EQ(c.state(), S::Running);
+  timers.advance_to(10 * kMs);
+  EXPECT_EQ(c.state(), S::Finished);
+  c.halt();  // finished: nothing to stop
+  EXPECT_EQ(c.state(), S::Finished);
+  EXPECT_EQ(events.size(), 1u);
+}
+
+TEST_F(ControllerTest, ParametersAreCheckedAgainstTheirRangesWhenSet) {
+  EXPECT_EQ(make_error("TestRanges", {"-0.005"}, "/r"), "TestRanges /r: parameter 'tau' must be positive, got -0.005");
+  EXPECT_EQ(make_error("TestRanges", {"1", "2"}, "/r"), "TestRanges /r: parameter 'ratio' must be in [0, 1], got 2");
+  EXPECT_EQ(make_error("TestRanges", {"1", "1", "0"}, "/r"), "TestRanges /r: parameter 'count' must be at least 1, got 0");
+  EXPECT_EQ(make_error("TestRanges", {"1", "1", "2.5"}, "/r"),
+            "TestRanges /r: parameter 'count' must be an integer, got '2.5'");
+  EXPECT_EQ(make_error("TestRanges", {"1", "1", "1", "fastest"}, "/r"),
+            "TestRanges /r: parameter 'mode' must be fast, slow or off, got 'fastest'");
+  EXPECT_EQ(make_error("TestRanges", {"1", "1", "1", "off", "3", "11"}, "/r"),
+            "TestRanges /r: parameter 'gains' (argument 6) must be at most 10, got 11");
+  EXPECT_EQ(make_error("TestRanges", {"1", "0", "1", "slow", "3", "10"}, "/r"), "no error");
+  EXPECT_EQ(make_error("TestRanges", {}, "/r"), "no error");  // the defaults are in range
+  const auto* m = dca::Registry::global().manifest("TestRanges");
+  ASSERT_NE(m, nullptr);
+  EXPECT_EQ(m->params[0].default_value, "0.1");
+  EXPECT_EQ(m->params[3].allowed, (std::vector<std::string>{"fast", "slow", "off"}));
+  EXPECT_TRUE(m->params[4].variadic);
 }
 
 TEST_F(ControllerTest, DoneAfterStopIsIgnored) {

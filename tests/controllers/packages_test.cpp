@@ -11,8 +11,8 @@
 #include <vector>
 
 #include "controllers/packages.h"
-#include "controllers/registry.h"
-#include "dca/version.h"
+#include <dca/registry.h>
+#include <dca/version.h>
 #include "host/paths.h"
 #include "tests/support/temp_dir.h"
 

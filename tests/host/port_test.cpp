@@ -76,4 +76,49 @@ TEST(PortTest, WrongSizeSampleIsRejectedAndCounted) {
   EXPECT_EQ(out.stats().samples, 1u);
 }
 
+// A sample's bytes.
+template <class T>
+dca::Bytes bytes_of(const T& v) {
+  return {reinterpret_cast<const std::byte*>(&v), sizeof v};
+}
+
+// What a controller's In<T>::read does (dca/port.h): one call takes the newest sample and says what it found.
+TEST(PortTest, AControllersReadSaysNoneOldOrNewInOneCall) {
+  dca::Input in(dca::scalar_port("x"), 4);
+  double x = -1;
+  EXPECT_EQ(dca::port_detail::read(in, x), dca::Read::None);
+  EXPECT_EQ(x, -1);  // untouched
+  in.deliver(bytes_of(1.0));
+  in.deliver(bytes_of(2.0));
+  EXPECT_EQ(dca::port_detail::read(in, x), dca::Read::New);
+  EXPECT_EQ(x, 2);  // the newest
+  x = -1;
+  EXPECT_EQ(dca::port_detail::read(in, x), dca::Read::Old);
+  EXPECT_EQ(x, 2);  // the last sample again
+  in.deliver_pulled(bytes_of(3.0));  // a pull answer is new too
+  EXPECT_EQ(dca::port_detail::read(in, x), dca::Read::New);
+  EXPECT_EQ(x, 3);
+  in.deliver(bytes_of(4.0));
+  in.deliver(bytes_of(5.0));
+  EXPECT_TRUE(dca::port_detail::pop(in, x));  // pop: in order
+  EXPECT_EQ(x, 4);
+  EXPECT_EQ(dca::port_detail::read(in, x), dca::Read::New);
+  EXPECT_EQ(x, 5);
+  EXPECT_FALSE(dca::port_detail::pop(in, x));
+
+  dca::Input v(dca::vector_port("v", 3));
+  Eigen::Vector3d a = Eigen::Vector3d::Zero();
+  EXPECT_EQ(dca::port_detail::read(v, a.data(), 3), dca::Read::None);
+  const Eigen::Vector3d sample(1, 2, 3);
+  v.deliver({reinterpret_cast<const std::byte*>(sample.data()), 3 * sizeof(double)});
+  EXPECT_EQ(dca::port_detail::read(v, a.data(), 3), dca::Read::New);
+  EXPECT_EQ(a, sample);
+
+  dca::Input vx(dca::vectorx_port("vx"));
+  Eigen::VectorXd b;
+  vx.deliver({reinterpret_cast<const std::byte*>(sample.data()), 2 * sizeof(double)});
+  EXPECT_EQ(dca::port_detail::read(vx, b), dca::Read::New);
+  EXPECT_EQ(b, Eigen::Vector2d(1, 2));
+}
+
 }  // namespace

@@ -167,6 +167,26 @@ suite:case("only_web_its_bindings_and_taps_include_host_web", function()
        "files outside host/web/, bindings/wrap_web* and bindings/wrap_taps* include host/web or Beast")
 end)
 
+--- A standard library header: <cstdint>, <string> (no folder, no extension).
+local function standard(p) return not p:match("/") and not p:match("%.") end
+
+suite:case("sdk_headers_include_only_the_sdk", function()
+  none(bad_includes({ "sdk/include" }, {}, function(p)
+    return not (p:match("^dca/") or p:match("^Eigen/") or p:match("^msgpack") or standard(p))
+  end), "SDK headers (sdk/include/dca/) include something other than the SDK, the standard library, Eigen or msgpack")
+end)
+
+suite:case("the_door_package_includes_only_the_sdk_and_its_own", function()
+  local own = { "^door/", "^math/", "^robot/model%.h$", "^dca/", "^Eigen/", "^urdf_model/", "^urdf_parser/" }
+  none(bad_includes({ "controllers/door", "controllers/math", "controllers/robot/model.h", "controllers/robot/model.cpp" },
+                    {}, function(p)
+    for _, ok in ipairs(own) do
+      if p:match(ok) then return false end
+    end
+    return not standard(p)
+  end), "the door package (controllers/door, math, robot/model.*) includes what an installed dca lacks")
+end)
+
 suite:case("host_layer_headers_state_their_rule", function()
   local bad = {}
   for _, layer in ipairs({ "codec", "net", "web" }) do

@@ -1,14 +1,14 @@
 // The controller packages of the package tests (tests/packages/CMakeLists.txt builds one per variant): one type,
 // named PKG_TYPE, `PKG_TYPE(host, k=2, period=0)`: in In, out Out = k * In (event-driven by default). Variants
 // break it on purpose: PKG_MISSING_SYMBOL calls a function no one defines, PKG_THROW_IN_CONSTRUCTOR and
-// PKG_THROW_IN_INIT throw from the constructor or Init, PKG_POSITIVE_K takes k with positive("k") (a bad
-// parameter: its node fails to start), PKG_BAD_PORT asks for input("SetPoint"), a name its manifest lacks,
+// PKG_THROW_IN_INIT throw from the constructor or on_configure, PKG_POSITIVE_K takes k as positive (a bad
+// parameter: its node fails to start), PKG_BAD_PORT binds an input "SetPoint", a name its manifest lacks,
 // PKG_STDERR writes k lines "line N of PKG_TYPE" to stderr at its first tick, then ends DONE(k).
 #include <cstdio>
 #include <stdexcept>
 
-#include "controllers/controller.h"
-#include "controllers/registry.h"
+#include <dca/controller.h>
+#include <dca/registry.h>
 
 #define PKG_STR2(x) #x
 #define PKG_STR(x) PKG_STR2(x)
@@ -19,17 +19,23 @@ double missing_for_tests(double x);  // defined nowhere: the loader must name it
 }  // namespace dca
 #endif
 
-#ifdef PKG_POSITIVE_K
-#define PKG_K positive
-#else
-#define PKG_K number
-#endif
 
 namespace {
 
+const dca::InSpec<double> kIn{.name = "In", .trigger = true};
+const dca::OutSpec<double> kOut{.name = "Out"};
+#ifdef PKG_POSITIVE_K
+const dca::Param<double> kK{.name = "k", .doc = "the gain", .def = 2, .above = 0};
+#else
+const dca::Param<double> kK{.name = "k", .doc = "the gain", .def = 2};
+#endif
+#ifdef PKG_BAD_PORT
+const dca::InSpec<double> kBadPort{.name = "SetPoint"};
+#endif
+
 class PKG_TYPE final : public dca::PeriodicController {
   DCA_CONTROLLER(PKG_TYPE)
-  void Init() override {
+  void on_configure() override {
 #ifdef PKG_THROW_IN_INIT
     throw std::runtime_error("calibration file /nonexistent/cal.yaml is missing");
 #endif
@@ -41,16 +47,17 @@ class PKG_TYPE final : public dca::PeriodicController {
     for (int i = 1; i <= static_cast<int>(k_); ++i) std::fprintf(stderr, "line %d of %s\n", i, PKG_STR(PKG_TYPE));
     return Done(k_);
 #endif
-    if (!in_.take_latest()) return;
-    double y = k_ * in_.scalar();
+    double x = 0;
+    if (in_.read(x) != dca::Read::New) return;
+    double y = k_ * x;
 #ifdef PKG_MISSING_SYMBOL
     y = dca::missing_for_tests(y);
 #endif
     out_.write(y);
   }
 
-  dca::Input& in_;
-  dca::Output& out_;
+  dca::In<double> in_;
+  dca::Out<double> out_;
   double k_;
 #ifdef PKG_STDERR
   bool said_ = false;
@@ -58,15 +65,14 @@ class PKG_TYPE final : public dca::PeriodicController {
 };
 
 dca::Manifest PKG_TYPE::Describe() {
-  return {PKG_STR(PKG_TYPE), "Out = k * In (a test package's type)", {dca::scalar_port("In")},
-          {dca::scalar_port("Out")},
-          {dca::ParamSpec::Number("k", "2", "the gain"), PeriodParam("0", "seconds between ticks; 0: on each sample")}};
+  return {.type = PKG_STR(PKG_TYPE), .doc = "Out = k * In (a test package's type)", .inputs = {kIn}, .outputs = {kOut},
+          .params = {kK, PeriodParam(0, "seconds between ticks; 0: on each sample", Period::ZeroIsEventDriven)}};
 }
 
 PKG_TYPE::PKG_TYPE(const dca::ControllerContext& ctx)
-    : PeriodicController(ctx, Period::ZeroIsEventDriven), in_(trigger("In")), out_(output("Out")), k_(PKG_K("k")) {
+    : PeriodicController(ctx, Period::ZeroIsEventDriven), in_(port(kIn)), out_(port(kOut)), k_(param(kK)) {
 #ifdef PKG_BAD_PORT
-  input("SetPoint");
+  (void)port(kBadPort);
 #endif
 #ifdef PKG_THROW_IN_CONSTRUCTOR
   throw std::runtime_error("cannot open the device /dev/nonexistent");
@@ -78,4 +84,4 @@ DCA_REGISTER_CONTROLLER(PKG_TYPE);
 }  // namespace
 
 // dca's entry point, in this translation unit (one per test package keeps the build short).
-#include "cmake/dca_package_entry.cpp"
+#include "dca_package_entry.cpp"

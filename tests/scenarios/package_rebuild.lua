@@ -13,24 +13,27 @@ local root = T.tmpdir()
 local function source(factor)
   T.write(root .. "/src/scaled.cpp", [[
 // Scaled(host): Out = FACTOR * In.
-#include "controllers/controller.h"
-#include "controllers/registry.h"
+#include <dca/controller.h>
+#include <dca/registry.h>
 namespace rebuilt {
 constexpr double kFactor = ]] .. factor .. [[;
+const dca::InSpec<double> kIn{.name = "In", .trigger = true};
+const dca::OutSpec<double> kOut{.name = "Out"};
 class Scaled final : public dca::PeriodicController {
   DCA_CONTROLLER(Scaled)
   void MainCalc() override {
-    if (in_.take_latest()) out_.write(kFactor * in_.scalar());
+    double x = 0;
+    if (in_.read(x) == dca::Read::New) out_.write(kFactor * x);
   }
-  dca::Input& in_;
-  dca::Output& out_;
+  dca::In<double> in_;
+  dca::Out<double> out_;
 };
 dca::Manifest Scaled::Describe() {
-  return {"Scaled", "Out = a constant * In", {dca::scalar_port("In")}, {dca::scalar_port("Out")},
-          {PeriodParam("0", "0: on each sample")}};
+  return {.type = "Scaled", .doc = "Out = a constant * In", .inputs = {kIn}, .outputs = {kOut},
+          .params = {PeriodParam(0, "0: on each sample", Period::ZeroIsEventDriven)}};
 }
 Scaled::Scaled(const dca::ControllerContext& ctx)
-    : PeriodicController(ctx, Period::ZeroIsEventDriven), in_(trigger("In")), out_(output("Out")) {}
+    : PeriodicController(ctx, Period::ZeroIsEventDriven), in_(port(kIn)), out_(port(kOut)) {}
 DCA_REGISTER_CONTROLLER(Scaled);
 }  // namespace rebuilt
 ]])

@@ -33,8 +33,8 @@
 
 #include <boost/asio/io_context.hpp>
 
-#include "controllers/controller.h"
-#include "controllers/registry.h"
+#include <dca/controller.h>
+#include <dca/registry.h>
 #include "host/net/endpoint.h"
 #include "host/timers.h"
 #include "sim/world.h"

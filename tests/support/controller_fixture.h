@@ -12,7 +12,7 @@
 
 #include <boost/asio/io_context.hpp>
 
-#include "controllers/registry.h"
+#include <dca/registry.h>
 #include "host/net/endpoint.h"
 #include "host/port.h"
 #include "host/timers.h"
@@ -98,7 +98,7 @@ class ControllerFixture : public ::testing::Test {
     ep.connect({from, out, to, in, "s", Mode::Push, 16}, {}, [&](const std::string& e) { err = e; });
     ASSERT_EQ(err, "");
   }
-  /// The latest sample written at `port` of `c` (zeros before the first).
+  /// The latest sample written at `port` of `c` (zeros before the first; a scalar as one element).
   static Eigen::VectorXd latest(const Controller& c, const std::string& port) {
     const auto* out = const_cast<Controller&>(c).ports().find_output(port);
     EXPECT_NE(out, nullptr);
@@ -106,7 +106,9 @@ class ControllerFixture : public ::testing::Test {
     msgpack::sbuffer sb;
     msgpack::packer<msgpack::sbuffer> pk(sb);
     out->pack_latest(pk);
-    const auto v = msgpack::unpack(sb.data(), sb.size()).get().as<std::vector<double>>();
+    const auto oh = msgpack::unpack(sb.data(), sb.size());
+    if (out->spec().type == PortType::Scalar) return Eigen::VectorXd::Constant(1, oh.get().as<double>());
+    const auto v = oh.get().as<std::vector<double>>();
     return Eigen::Map<const Eigen::VectorXd>(v.data(), static_cast<Eigen::Index>(v.size()));
   }
   void TearDown() override {

@@ -4,7 +4,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "controllers/package.h"
+#include <dca/package.h>
 
 extern "C" const dca::PackageEntry* dca_package_entry_v1();
 

@@ -3,7 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "controllers/robot/model.h"
-#include "controllers/robot/signals.h"
+#include <dca/robot/signals.h>
 #include "tests/support/controller_fixture.h"
 
 namespace {
@@ -107,7 +107,7 @@ TEST_F(RobotTest, GripperCloseIsDoneWhenGraspingAndAbortsOnNothing) {
 
 TEST_F(RobotTest, GripperRefusesAnUnknownAction) {
   EXPECT_EQ(make_error("GripperControl", {"squeeze"}, "/g"),
-            "GripperControl /g: action must be \"open\" or \"close\", got \"squeeze\"");
+            "GripperControl /g: parameter 'action' must be open or close, got 'squeeze'");
 }
 
 }  // namespace

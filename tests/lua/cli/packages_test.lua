@@ -111,7 +111,7 @@ suite:case("a_constructor_that_throws_ends_its_leaf_ABORTED_with_the_text_nothin
 end)
 
 suite:case("an_Init_that_throws_ends_its_leaf_ABORTED_with_the_text_nothing_left_running", function()
-  aborts("pkg_init_throws", "PkgInitThrows", "Init failed: calibration file /nonexistent/cal.yaml is missing")
+  aborts("pkg_init_throws", "PkgInitThrows", "on_configure failed: calibration file /nonexistent/cal.yaml is missing")
 end)
 
 suite:case("a_node_loads_packages_by_name_only_from_its_search_path", function()

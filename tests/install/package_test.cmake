@@ -3,18 +3,12 @@
 # builds it against that prefix (nothing of the source or build tree on its compile lines), runs its tests and
 # its system with the installed `dca run` to DONE, and has the installed `dca check` report a port typo in the
 # system at file:line:col from the package's manifest.
-#   cmake -DBUILD_DIR=... -DSOURCE_DIR=... -P install_package_test.cmake
+#   cmake -DBUILD_DIR=... -DSOURCE_DIR=... -P tests/install/package_test.cmake
 # It works in a fresh directory outside both trees (so that no path into them can hide in its build), removed
 # at the end when it passed.
 execute_process(COMMAND mktemp -d /tmp/dca_install_package_XXXXXX OUTPUT_VARIABLE WORK_DIR
                 OUTPUT_STRIP_TRAILING_WHITESPACE)
-function(run what)
-  execute_process(COMMAND ${ARGN} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
-  if(NOT rc EQUAL 0)
-    message(FATAL_ERROR "${what} failed (${rc}):\n${out}${err}")
-  endif()
-  set(out "${out}${err}" PARENT_SCOPE)
-endfunction()
+include(${CMAKE_CURRENT_LIST_DIR}/run.cmake)
 
 string(TIMESTAMP t0 "%s")
 run("cmake --install" ${CMAKE_COMMAND} --install ${BUILD_DIR} --prefix ${WORK_DIR}/prefix)
@@ -23,17 +17,8 @@ set(dca ${CMAKE_COMMAND} -E env --unset=DCA_LUA_DIR --unset=DCA_MODELS_DIR "DCA_
         ${WORK_DIR}/prefix/bin/dca)
 
 string(TIMESTAMP t1 "%s")
-run("configuring the example" ${CMAKE_COMMAND} -S ${WORK_DIR}/mylab -B ${WORK_DIR}/build -G Ninja
-    -DCMAKE_BUILD_TYPE=Release -DCMAKE_PREFIX_PATH=${WORK_DIR}/prefix)
-run("building the example" ${CMAKE_COMMAND} --build ${WORK_DIR}/build)
+build_outside("the example" ${WORK_DIR}/mylab ${WORK_DIR}/build)
 string(TIMESTAMP t2 "%s")
-file(READ ${WORK_DIR}/build/build.ninja ninja)
-foreach(tree ${SOURCE_DIR} ${BUILD_DIR})
-  string(FIND "${ninja}" "${tree}" at)
-  if(NOT at EQUAL -1)
-    message(FATAL_ERROR "the example's build refers to ${tree}: it must use the installed dca only")
-  endif()
-endforeach()
 if(NOT EXISTS ${WORK_DIR}/build/mylab.dca.so)
   message(FATAL_ERROR "no ${WORK_DIR}/build/mylab.dca.so")
 endif()

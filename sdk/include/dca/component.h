@@ -1,12 +1,12 @@
 #pragma once
-// What a node hosts: a component with named ports and a life cycle (configure / start / halt) that ends its runs with
-// DONE(value) or ABORTED(reason). dca::Controller (controllers/controller.h) is the one implementation; host/
-// knows only this interface, so host/ does not depend on controllers/.
+// What a node hosts: a component with named ports and a life cycle (configure / start / halt) that ends its runs
+// with DONE(value) or ABORTED(reason). dca::Controller (dca/controller.h) is the one implementation; the node
+// (host/node.h) knows only this interface, so host/ does not depend on controllers/.
 #include <cstdint>
 #include <functional>
 #include <string>
 
-#include "host/port.h"
+#include <dca/port.h>
 
 namespace dca {
 
@@ -24,7 +24,7 @@ class Component {
   virtual ~Component() = default;
   /// The instance's name (its PATH, e.g. "/door/hit").
   virtual const std::string& name() const = 0;
-  /// Its ports.
+  /// Its ports (host/port.h).
   virtual PortSet& ports() = 0;
   /// Acquires and resets. False, with the reason in *error (when not null), if it cannot.
   virtual bool configure(std::string* error) = 0;

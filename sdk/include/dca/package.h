@@ -1,7 +1,7 @@
 #pragma once
 // A controller package: a shared library of controller types, built outside (or inside) the dca tree against the
 // installed SDK, that dca loads by name (docs/packages.md). An author writes controllers
-// exactly as the built-ins (controllers/controller.h, DCA_REGISTER_CONTROLLER in each .cpp) and builds them with
+// exactly as the built-ins (dca/controller.h, DCA_REGISTER_CONTROLLER in each .cpp) and builds them with
 //   find_package(dca REQUIRED)
 //   dca_add_controller_package(mylab SOURCES pid.cpp filter.cpp)
 // which compiles every source with DCA_PACKAGE_NAME="mylab" and adds the entry point (cmake/dca_package_entry.cpp).
@@ -10,8 +10,8 @@
 // the package was built with. Only when both equal this dca's does it call `add_types`, so no code of a package
 // built against another dca ever touches this one's objects. Until then the package's static initialisers only
 // link their types into the package's own list (dca_package_links, hidden: every package has its own).
-#include "controllers/registry.h"
-#include "dca/version.h"
+#include <dca/registry.h>
+#include <dca/version.h>
 
 #define DCA_PACKAGE_STR2(x) #x
 #define DCA_PACKAGE_STR(x) DCA_PACKAGE_STR2(x)

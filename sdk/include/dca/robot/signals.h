@@ -22,7 +22,7 @@
 #include <Eigen/Core>
 #include <string>
 
-#include "controllers/controller.h"
+#include <dca/controller.h>
 
 namespace dca::robot {
 
@@ -30,18 +30,31 @@ using Vec3 = Eigen::Matrix<double, 3, 1>;
 using Vec6 = Eigen::Matrix<double, 6, 1>;
 using Vec9 = Eigen::Matrix<double, 9, 1>;
 
-/// `p` as a device port wired to the robot signal `signal` ("arm.q", "base.cmd_vel"; see sim/world.h).
-PortSpec device(PortSpec p, std::string signal);
+/// The signals' units, as their ports declare them.
+inline constexpr const char* kVelUnits = "Vel";
+inline constexpr const char* kJointsUnits = "rad";
+inline constexpr const char* kWrenchUnits = "N, N m";
+inline constexpr const char* kPoseUnits = "m, m, rad";
+inline constexpr const char* kFeatureUnits = "px, px, 1";
 
-/// A port of one of the signals above, named `name`.
-PortSpec VelPort(std::string name = "Vel");
-PortSpec JointsPort(std::string name = "Joints");
-PortSpec WrenchPort(std::string name = "Wrench");
-PortSpec PosePort(std::string name = "Pose");
-PortSpec FeaturePort(std::string name = "Feature");
+/// An input or output of one of the signals above, named `name`.
+inline InSpec<Vec9> VelIn(std::string name = "Vel") { return {.name = std::move(name), .units = kVelUnits}; }
+inline OutSpec<Vec9> VelOut(std::string name = "Vel") { return {.name = std::move(name), .units = kVelUnits}; }
+inline InSpec<Vec6> JointsIn(std::string name = "Joints") { return {.name = std::move(name), .units = kJointsUnits}; }
+inline OutSpec<Vec6> JointsOut(std::string name = "Joints") {
+  return {.name = std::move(name), .units = kJointsUnits};
+}
+inline InSpec<Vec6> WrenchIn(std::string name = "Wrench") { return {.name = std::move(name), .units = kWrenchUnits}; }
+inline InSpec<Vec3> PoseIn(std::string name = "Pose") { return {.name = std::move(name), .units = kPoseUnits}; }
+inline InSpec<Vec3> FeatureIn(std::string name = "Feature") {
+  return {.name = std::move(name), .units = kFeatureUnits};
+}
 
 /// The drives' parameter "hold".
-ParamSpec HoldParam();
+inline Param<double> HoldParam() {
+  return {.name = "hold", .doc = "a command older than this (s) counts as zero (a drive's deadman)", .def = 0.01,
+          .above = 0};
+}
 
 /// A drive's command: the newest sample of its input, used for `hold` after it arrived, then zero (a deadman).
 template <int N>
@@ -51,8 +64,8 @@ class HeldCommand {
   explicit HeldCommand(double hold_s) : hold_(static_cast<Nanos>(hold_s * 1e9)) {}
   /// The command at `now`: a sample that arrived since the last call, else the last one while it is younger
   /// than `hold`, else zero.
-  const Vec& update(Input& in, Nanos now) {
-    if (fresh(in, v_)) at_ = now;
+  const Vec& update(In<Vec>& in, Nanos now) {
+    if (in.read(v_) == Read::New) at_ = now;
     else if (at_ < 0 || now - at_ >= hold_) v_.setZero();
     return v_;
   }

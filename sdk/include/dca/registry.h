@@ -5,7 +5,7 @@
 // Register a type in its .cpp with DCA_REGISTER_CONTROLLER(T): T needs `static Manifest Describe()` and a
 // constructor `T(const ControllerContext&)`. The controllers library is linked whole-archive, so a registration
 // in any .cpp below controllers/ is never dropped by the linker. In a controller package (compiled with
-// DCA_PACKAGE_NAME, see controllers/package.h) the same macro only links the type into the package's own list,
+// DCA_PACKAGE_NAME, see dca/package.h) the same macro only links the type into the package's own list,
 // touching nothing of dca's; the loader adds the list to the registry once the package's ABI stamp matched.
 #include <functional>
 #include <memory>
@@ -13,7 +13,7 @@
 #include <string_view>
 #include <vector>
 
-#include "controllers/controller.h"
+#include <dca/controller.h>
 
 namespace dca {
 
@@ -68,5 +68,5 @@ struct RegisterController {
 /// Registers the controller class T under the type name in its manifest.
 #define DCA_REGISTER_CONTROLLER(T) static const ::dca::RegisterController<T> dca_register_controller_##T
 #else
-#include "controllers/package.h"
+#include <dca/package.h>
 #endif
