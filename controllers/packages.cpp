@@ -75,10 +75,69 @@ std::optional<std::pair<std::string, std::string>> read_stamp(const std::string&
   return std::make_pair(bytes.substr(v0, v1 - v0), bytes.substr(v1 + 1, a1 - v1 - 1));
 }
 
+// A stamp's parts by key ("sdk", "stdlib", "eigen", "msgpack", "cc"; an older dca's may have others), in order.
+std::vector<std::pair<std::string, std::string>> stamp_parts(const std::string& abi) {
+  std::vector<std::pair<std::string, std::string>> parts;
+  std::size_t at = 0;
+  while (at < abi.size()) {
+    auto end = abi.find(' ', at);
+    if (end == std::string::npos) end = abi.size();
+    const std::string part = abi.substr(at, end - at);
+    if (!part.empty()) parts.emplace_back(part.substr(0, part.find('-')), part);
+    at = end + 1;
+  }
+  return parts;
+}
+
+std::string stamp_part(const std::vector<std::pair<std::string, std::string>>& parts, const std::string& key) {
+  for (const auto& [k, v] : parts)
+    if (k == key) return v;
+  return "(none)";
+}
+
+std::string part_name(const std::string& key) {
+  if (key == "sdk") return "SDK headers";
+  if (key == "stdlib") return "standard library";
+  if (key == "eigen") return "Eigen";
+  return key;
+}
+
+}  // namespace
+
+std::string abi_differences(const std::string& package_abi) {
+  const auto ours = stamp_parts(DCA_ABI_STAMP), theirs = stamp_parts(package_abi);
+  std::vector<std::string> keys;
+  for (const auto* parts : {&ours, &theirs})
+    for (const auto& [k, v] : *parts)
+      if (k != "cc" && std::find(keys.begin(), keys.end(), k) == keys.end()) keys.push_back(k);
+  std::string out;
+  for (const auto& k : keys) {
+    const std::string a = stamp_part(theirs, k), b = stamp_part(ours, k);
+    if (a != b) out += (out.empty() ? "" : "; ") + part_name(k) + " " + a + " (package) vs " + b + " (this dca)";
+  }
+  return out;
+}
+
+namespace {
+
+// A package built against another dca: what differs, and the compilers of both (named, never compared).
 std::string built_elsewhere(const std::string& name, const std::string& file, const std::string& version,
-                     const std::string& abi) {
-  return quote(name, file) + " was built against dca " + version + " (ABI " + abi + "); this is dca " +
-         DCA_VERSION_STRING + " (ABI " DCA_ABI_STAMP "): rebuild the package against this dca";
+                            const std::string& abi) {
+  std::string why = version != DCA_VERSION_STRING
+                        ? "was built against dca " + version + "; this is dca " + DCA_VERSION_STRING
+                        : "was built against another dca " + version;
+  if (const auto d = abi_differences(abi); !d.empty()) why += ": " + d;
+  const auto compiler = [](const std::string& stamp) {
+    const auto cc = stamp_part(stamp_parts(stamp), "cc");
+    return cc == "(none)" ? std::string("an unnamed compiler") : cc.substr(3);
+  };
+  return quote(name, file) + " " + why + " (built with " + compiler(abi) + ", this dca with " +
+         compiler(DCA_ABI_STAMP) + "): rebuild the package against this dca";
+}
+
+// Whether a package's version and stamp are this dca's (its compiler may differ).
+bool compatible(const std::string& version, const std::string& abi) {
+  return version == DCA_VERSION_STRING && abi_differences(abi).empty();
 }
 
 std::string demangled(const std::string& symbol) {
@@ -91,7 +150,7 @@ std::string demangled(const std::string& symbol) {
 
 // Why dlopen refused `file`: a mismatch its stamp shows, a missing symbol, or the loader's own words.
 std::string open_error(const std::string& name, const std::string& file, const std::string& why) {
-  if (auto stamp = read_stamp(file); stamp && (stamp->first != DCA_VERSION_STRING || stamp->second != DCA_ABI_STAMP))
+  if (auto stamp = read_stamp(file); stamp && !compatible(stamp->first, stamp->second))
     return built_elsewhere(name, file, stamp->first, stamp->second);
   const std::string undefined = "undefined symbol: ";
   if (const auto at = why.find(undefined); at != std::string::npos) {
@@ -137,7 +196,7 @@ const PackageEntry* entry_of(void* handle, const std::string& name, const std::s
     *error = quote(name, file) + ": its entry point answered nothing usable";
     return nullptr;
   }
-  if (std::string(e->version) != DCA_VERSION_STRING || std::string(e->abi) != DCA_ABI_STAMP) {
+  if (!compatible(e->version, e->abi)) {
     *error = built_elsewhere(name, file, e->version, e->abi);
     return nullptr;
   }

@@ -41,6 +41,10 @@ const LoadedPackage* load_package_file(const std::string& name, const std::strin
 /// The names of the packages in `dirs` (files NAME.dca.so with a valid NAME), sorted, each once.
 std::vector<std::string> available_packages(const std::vector<std::string>& dirs);
 
+/// What differs between a package's ABI stamp (dca/package.h) and this dca's, by name ("SDK headers sdk-0 (package)
+/// vs sdk-1 (this dca); standard library ..."), or "" when nothing compared does: the compiler is never compared.
+std::string abi_differences(const std::string& package_abi);
+
 /// The packages loaded so far, in load order.
 std::vector<const LoadedPackage*> loaded_packages();
 

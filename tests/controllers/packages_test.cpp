@@ -11,7 +11,9 @@
 #include <vector>
 
 #include "controllers/packages.h"
+#include "host/port.h"
 #include <dca/registry.h>
+#include <dca/package.h>
 #include <dca/version.h>
 #include "host/paths.h"
 #include "tests/support/temp_dir.h"
@@ -109,11 +111,38 @@ TEST(PackagesTest, AMissingSymbolNamesTheLibraryAndTheSymbol) {
 TEST(PackagesTest, AnotherDcasPackageNamesBothVersions) {
   for (const std::string name : {"pkg_old", "pkg_old_missing"}) {  // loadable, and not even loadable
     const std::string e = load_error(name);
-    EXPECT_NE(e.find("was built against dca 0.0.9 (ABI sdk-0000000000000000); this is dca " DCA_VERSION_STRING),
+    EXPECT_NE(e.find("was built against dca 0.0.9; this is dca " DCA_VERSION_STRING
+                     ": SDK headers sdk-0000000000000000 (package) vs sdk-" DCA_SDK_HASH " (this dca)"),
               std::string::npos) << e;
     EXPECT_NE(e.find("rebuild the package against this dca"), std::string::npos) << e;
   }
   EXPECT_EQ(Registry::global().manifest("PkgOld"), nullptr);
+}
+
+// The refusal names what differs, not two equal versions.
+TEST(PackagesTest, ARefusalNamesWhatDiffersAndBothCompilers) {
+  const std::string sdk = load_error("pkg_other_sdk");
+  EXPECT_NE(sdk.find("was built against another dca " DCA_VERSION_STRING ": SDK headers sdk-0000000000000000 "
+                     "(package) vs sdk-" DCA_SDK_HASH " (this dca) (built with "),
+            std::string::npos) << sdk;
+  EXPECT_EQ(sdk.find("standard library"), std::string::npos) << sdk;
+  const std::string stdlib = load_error("pkg_other_stdlib");
+  EXPECT_NE(stdlib.find(": standard library stdlib-libc++-14000 (package) vs stdlib-libstdc++-"), std::string::npos)
+      << stdlib;
+  EXPECT_NE(stdlib.find(", this dca with gcc-"), std::string::npos) << stdlib;
+  EXPECT_EQ(dca::abi_differences(DCA_ABI_STAMP), "");
+  EXPECT_EQ(Registry::global().manifest("PkgOtherSdk"), nullptr);
+}
+
+// GCC and Clang share the C++ ABI: only the standard library and the SDK must match (dca/package.h).
+TEST(PackagesTest, AnotherCompilerWithTheSameStandardLibraryIsAccepted) {
+  EXPECT_EQ(load_error("pkg_other_cc"), "");
+  if (!fs::exists(packages_dir() + "/pkg_clang.dca.so")) GTEST_SKIP() << "no clang++: pkg_clang was not built";
+  ASSERT_EQ(load_error("pkg_clang"), "");
+  auto c = Registry::global().create("PkgClang", {"/c", "local", {"3"}, nullptr, nullptr});
+  ASSERT_NE(c, nullptr);
+  EXPECT_NE(c->ports().find_input("In"), nullptr);
+  EXPECT_EQ(c->type(), "PkgClang");
 }
 
 TEST(PackagesTest, ALibraryWithoutTheEntryPointIsNoPackage) {
@@ -137,10 +166,12 @@ TEST(PackagesTest, TheSearchPathIsTheVariableThePrefixThenTheSystemsFolder) {
   EXPECT_EQ(dirs[2], "/c");
   EXPECT_EQ(dirs[3], (fs::path(dca::exe_dir()).parent_path() / "lib/dca/controllers").string());
   EXPECT_EQ(dirs[4], "/sys/dir/packages");
-  EXPECT_EQ(dca::available_packages({packages_dir()}),
-            (std::vector<std::string>{"pkg_builtin", "pkg_init_throws", "pkg_missing", "pkg_none", "pkg_ok",
-                                      "pkg_old", "pkg_old_missing", "pkg_port_typo", "pkg_positive", "pkg_stderr",
-                                      "pkg_throws", "pkg_twin"}));
+  std::vector<std::string> all{"pkg_builtin",   "pkg_init_throws", "pkg_missing",      "pkg_none",
+                               "pkg_ok",        "pkg_old",         "pkg_old_missing",  "pkg_other_cc",
+                               "pkg_other_sdk", "pkg_other_stdlib", "pkg_port_typo",   "pkg_positive",
+                               "pkg_stderr",    "pkg_throws",      "pkg_twin"};
+  if (fs::exists(packages_dir() + "/pkg_clang.dca.so")) all.insert(all.begin() + 1, "pkg_clang");
+  EXPECT_EQ(dca::available_packages({packages_dir()}), all);
 }
 
 }  // namespace

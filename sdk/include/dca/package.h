@@ -7,7 +7,8 @@
 // which compiles every source with DCA_PACKAGE_NAME="mylab" and adds the entry point (cmake/dca_package_entry.cpp).
 //
 // Loading (controllers/packages.h) reads the entry point's plain C data first: the dca version and the ABI stamp
-// the package was built with. Only when both equal this dca's does it call `add_types`, so no code of a package
+// the package was built with. Only when the version and every compared part of the stamp equal this dca's does it
+// call `add_types`, so no code of a package
 // built against another dca ever touches this one's objects. Until then the package's static initialisers only
 // link their types into the package's own list (dca_package_links, hidden: every package has its own).
 #include <dca/registry.h>
@@ -16,12 +17,36 @@
 #define DCA_PACKAGE_STR2(x) #x
 #define DCA_PACKAGE_STR(x) DCA_PACKAGE_STR2(x)
 
-/// What must match between dca and a package: the SDK headers' hash (dca/version.h), the compiler's major version,
-/// libstdc++'s string ABI, and the Eigen and msgpack versions that lay out the types crossing the boundary.
-#define DCA_ABI_STAMP                                                                                        \
-  "sdk-" DCA_SDK_HASH " gcc-" DCA_PACKAGE_STR(__GNUC__) " cxx11abi-" DCA_PACKAGE_STR(_GLIBCXX_USE_CXX11_ABI) \
-  " eigen-" DCA_PACKAGE_STR(EIGEN_WORLD_VERSION) "." DCA_PACKAGE_STR(EIGEN_MAJOR_VERSION) "."               \
-  DCA_PACKAGE_STR(EIGEN_MINOR_VERSION) " msgpack-" MSGPACK_VERSION
+// The parts of the ABI stamp, each "key-value" (a package's entry point may override them: tests build "another
+// dca"'s packages that way).
+#ifndef DCA_ABI_SDK
+#define DCA_ABI_SDK "sdk-" DCA_SDK_HASH  // the SDK headers' hash (dca/version.h)
+#endif
+#ifndef DCA_ABI_STDLIB  // the standard library: its release and string ABI (libstdc++), or its version (libc++)
+#if defined(_LIBCPP_VERSION)
+#define DCA_ABI_STDLIB "stdlib-libc++-" DCA_PACKAGE_STR(_LIBCPP_VERSION)
+#else
+#define DCA_ABI_STDLIB \
+  "stdlib-libstdc++-" DCA_PACKAGE_STR(_GLIBCXX_RELEASE) "-cxx11abi" DCA_PACKAGE_STR(_GLIBCXX_USE_CXX11_ABI)
+#endif
+#endif
+#ifndef DCA_ABI_COMPILER  // the compiler: recorded and named in a refusal, never a reason for one (see below)
+#if defined(__clang__)
+#define DCA_ABI_COMPILER \
+  "cc-clang-" DCA_PACKAGE_STR(__clang_major__) "." DCA_PACKAGE_STR(__clang_minor__) "." DCA_PACKAGE_STR(__clang_patchlevel__)
+#else
+#define DCA_ABI_COMPILER \
+  "cc-gcc-" DCA_PACKAGE_STR(__GNUC__) "." DCA_PACKAGE_STR(__GNUC_MINOR__) "." DCA_PACKAGE_STR(__GNUC_PATCHLEVEL__)
+#endif
+#endif
+
+/// What must match between dca and a package, as space-separated "key-value" parts: the SDK headers' hash, the
+/// standard library (the types crossing the boundary are std::string, std::vector, std::function: laid out by it),
+/// and the Eigen and msgpack versions. The compiler ("cc-...") is recorded too but not compared: GCC and Clang
+/// share the Itanium C++ ABI on Linux, so a package built by clang++ against the same libstdc++ is accepted.
+#define DCA_ABI_STAMP                                                                                             \
+  DCA_ABI_SDK " " DCA_ABI_STDLIB " eigen-" DCA_PACKAGE_STR(EIGEN_WORLD_VERSION) "." DCA_PACKAGE_STR(             \
+      EIGEN_MAJOR_VERSION) "." DCA_PACKAGE_STR(EIGEN_MINOR_VERSION) " msgpack-" MSGPACK_VERSION " " DCA_ABI_COMPILER
 
 namespace dca {
 
