@@ -229,15 +229,19 @@ bool Input::pop() {
 
 bool Input::take_latest() {
   if (count_ == 0) return false;
+  take_queued();
+  return true;
+}
+// Out of line: a read that finds nothing new stays a few instructions (tests/bench/port_read_bench.cpp).
+[[gnu::noinline]] void Input::take_queued() {
   const std::size_t last = (head_ + count_ - 1) % slots_.size();
   make_current(slots_[last], sizes_[last]);
   head_ = 0;
   count_ = 0;
-  return true;
 }
 
 Read Input::take_for_read() {
-  take_latest();
+  if (count_ != 0) take_queued();
   if (!has_current()) return Read::None;
   if (!unread_) return Read::Old;
   unread_ = false;

@@ -157,6 +157,7 @@ class Input final : public Port {
 
  private:
   void make_current(const std::vector<std::byte>& b, std::size_t n);
+  void take_queued();  // take_latest() when something is queued
   std::vector<std::vector<std::byte>> slots_;
   std::vector<std::size_t> sizes_;
   std::size_t head_ = 0, count_ = 0;
