@@ -22,6 +22,17 @@ std::string port_type(const dca::PortSpec& p) {
   return t;
 }
 
+// "  (> 0)", "  (in [0, 1])", "  (one of: open, close)", or "".
+std::string range(const dca::ParamSpec& p) {
+  std::string r;
+  const auto n = [](double v) { return dca::format_number(v); };
+  if (p.above) r += "> " + n(*p.above);
+  if (p.min) r += (r.empty() ? ">= " : ", >= ") + n(*p.min);
+  if (p.max) r += (r.empty() ? "<= " : ", <= ") + n(*p.max);
+  for (std::size_t i = 0; i < p.allowed.size(); ++i) r += (i == 0 ? "one of: " : ", ") + p.allowed[i];
+  return r.empty() ? r : "  (" + r + ")";
+}
+
 void print(const dca::Manifest& m) {
   std::string sig = m.type + "(host";
   for (const auto& p : m.params) {
@@ -37,7 +48,7 @@ void print(const dca::Manifest& m) {
   if (!m.ends.after.empty()) ends += ", `" + m.ends.after + "` seconds after each start";
   std::printf("    ends   %s\n", ends.c_str());
   for (const auto& p : m.params)
-    std::printf("    param  %-10s %-8s %s\n", p.name.c_str(), p.type.c_str(), p.doc.c_str());
+    std::printf("    param  %-10s %-8s %s%s\n", p.name.c_str(), p.type.c_str(), p.doc.c_str(), range(p).c_str());
   for (const auto& p : m.inputs)
     std::printf("    in     %-10s %-8s %s%s%s\n", p.name.c_str(), port_type(p).c_str(), p.units.c_str(),
                 p.device.empty() ? "" : "  <- device ", p.device.c_str());
@@ -46,19 +57,39 @@ void print(const dca::Manifest& m) {
                 p.device.empty() ? "" : "  -> device ", p.device.c_str());
 }
 
-// Loads `names` (every package on the search path when empty and `all`); says what failed. --> false on a failure
-bool load(std::vector<std::string> names, const std::string& dir, bool all) {
+// Loads `names` (every package on the search path when empty and `all`); says what failed unless `quiet`, which
+// collects the failures in *failed instead. --> false on a failure
+bool load(std::vector<std::string> names, const std::string& dir, bool all, std::string* failed = nullptr) {
   const auto dirs = dca::controller_dirs(dir);
   if (names.empty() && all) names = dca::available_packages(dirs);
   bool ok = true;
   for (const auto& n : names) {
     std::string error;
-    if (!dca::load_package(n, dirs, &error)) {
-      std::fprintf(stderr, "dca types: %s\n", error.c_str());
-      ok = false;
-    }
+    if (dca::load_package(n, dirs, &error)) continue;
+    if (failed) failed->append("\n  ").append(error);
+    else std::fprintf(stderr, "dca types: %s\n", error.c_str());
+    ok = false;
   }
   return ok;
+}
+
+// `dca types NAME...`: each named type, searched among the built-ins and every package on the search path (or the
+// named packages); a package that does not load matters only when a type is not found.
+int print_named(const std::vector<std::string>& types, const std::vector<std::string>& packages,
+                const std::string& dir) {
+  std::string failed;
+  int rc = load(packages, dir, packages.empty(), packages.empty() ? &failed : nullptr) || packages.empty() ? 0 : 1;
+  const auto& reg = dca::Registry::global();
+  for (const auto& a : types) {
+    if (const auto* m = reg.manifest(a)) {
+      print(*m);
+      continue;
+    }
+    std::fprintf(stderr, "dca types: %s%s%s\n", reg.unknown_type(a).c_str(),
+                 failed.empty() ? "" : "\npackages on the search path that did not load:", failed.c_str());
+    rc = 1;
+  }
+  return rc;
 }
 
 int cmd_types(std::span<char* const> args) {
@@ -75,23 +106,12 @@ int cmd_types(std::span<char* const> args) {
     else if (a == "--dir") dir = args[++i];
     else types.push_back(a);
   }
-  int rc = load(packages, dir, types.empty()) ? 0 : 1;
-  const auto& reg = dca::Registry::global();
-  if (types.empty()) {
-    for (const auto* m : reg.all()) {
-      bool listed = packages.empty();
-      for (const auto& p : packages) listed = listed || m->package == p;
-      if (listed) print(*m);
-    }
-    return rc;
-  }
-  for (const auto& a : types) {
-    if (const auto* m = reg.manifest(a)) {
-      print(*m);
-    } else {
-      std::fprintf(stderr, "dca types: %s\n", reg.unknown_type(a).c_str());
-      rc = 1;
-    }
+  if (!types.empty()) return print_named(types, packages, dir);
+  const int rc = load(packages, dir, true) ? 0 : 1;
+  for (const auto* m : dca::Registry::global().all()) {
+    bool listed = packages.empty();
+    for (const auto& p : packages) listed = listed || m->package == p;
+    if (listed) print(*m);
   }
   return rc;
 }
@@ -102,12 +122,13 @@ DCA_SUBCOMMAND("types", "every controller type with its ports and parameters",
                "usage: dca types [--package NAME]... [--dir DIR] [TYPE...]\n"
                "       dca types --world ROBOT.urdf|mock:ROBOT.urdf\n\n"
                "Lists every controller type (or the named ones): its signature as written in a .dca file (the\n"
-               "first argument is the host), its package unless built in, its parameters, its input and output\n"
-               "ports with type (scalar, vector[N], vectorx, value) and units, and how a run ends by itself (never,\n"
-               "done, aborted, done or aborted; `dca check --verify` uses it). The types are the built-in ones and\n"
-               "those of every controller package on the search path ($DCA_CONTROLLER_PATH,\n"
+               "first argument is the host), its package unless built in, its parameters with their ranges, its\n"
+               "input and output ports with type (scalar, vector[N], vectorx, value) and units, and how a run ends\n"
+               "by itself (never, done, aborted, done or aborted; `dca check --verify` uses it). The types are the\n"
+               "built-in ones and those of every controller package on the search path ($DCA_CONTROLLER_PATH,\n"
                "<prefix>/lib/dca/controllers, DIR/packages with --dir DIR); with --package, that package's only.\n"
-               "Exit code 1 if a named type is unknown or a package does not load (each said on stderr).\n"
+               "A named TYPE is searched in all of them. Exit code 1 if a named type is unknown (naming the\n"
+               "packages that did not load) or, listing, a package does not load (each said on stderr).\n"
                "--world: the device ports of the URDF world (docs/robots.md): the command inputs and state outputs\n"
                "its joints' interfaces give, and the warnings of loading it; exit code 1 if it does not load.",
                cmd_types);

@@ -87,6 +87,11 @@ suite:case("dca_types_lists_a_packages_types", function()
   T.ok(not out:find("Gain(host", 1, true), "only the package's types:\n" .. out)
   dca("types --package nosuch", 1, "package 'nosuch' not found")
   out = T.dca("types", 0, "Gain(host", "(package door)", "ForceThreshold(host")
+  -- A named type is searched in every package on the path; those that fail to load matter only when it is not found.
+  dca("types PkgOtherCc", 0, "PkgOtherCc(host, k=2, period=0)    (package pkg_other_cc)",
+      "param  period     number   seconds between ticks; 0: on each sample  (>= 0)")
+  dca("types NoSuchType", 1, "unknown controller type 'NoSuchType'", "packages on the search path that did not load:",
+      "pkg_missing")
 end)
 
 -- No process of this test's runs left (their argv name the type).
