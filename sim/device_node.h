@@ -17,7 +17,7 @@
 #include <memory>
 #include <string>
 
-#include "host/component.h"
+#include <dca/component.h>
 #include "host/loop.h"
 #include "host/node.h"
 #include "host/codec/wire.h"

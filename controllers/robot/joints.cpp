@@ -2,43 +2,50 @@
 
 #include <cmath>
 
-#include "controllers/registry.h"
+#include <dca/registry.h>
 
 namespace dca::robot {
 
+namespace {
+using Vec1 = Eigen::Matrix<double, 1, 1>;
+const InSpec<Vec1> kQ{.name = "Q", .units = "rad or m", .device = "joint.{joint}.position"};
+const InSpec<Vec1> kQd{.name = "Qd", .units = "rad/s or m/s", .device = "joint.{joint}.velocity"};
+// (no actuator: halt()'s zero would be a position; on_halt zeroes a velocity command itself)
+const OutSpec<Vec1> kCmd{.name = "Cmd", .units = "rad or m, or rad/s or m/s",
+                         .device = "joint.{joint}.{interface}_command"};
+const Param<std::string> kJoint{.name = "joint", .doc = "the joint's name in the URDF"};
+const Param<double> kTarget{.name = "target", .doc = "the position to reach (rad or m)"};
+const Param<double> kTolerance{
+    .name = "tolerance", .doc = "DONE within this of the target, and slower than it per second", .def = 0.01, .above = 0};
+const Param<std::string> kInterface{
+    .name = "interface", .doc = "the command interface", .def = "position", .allowed = {"position", "velocity"}};
+const Param<double> kGain{.name = "gain", .doc = "velocity interface: the command is gain * error (1/s)", .def = 2,
+                          .above = 0};
+const Param<double> kTimeout{.name = "timeout", .doc = "ABORTED when not there after this many seconds", .def = 30,
+                             .above = 0};
+}  // namespace
+
 Manifest JointSetpoint::Describe() {
-  return {"JointSetpoint", "drives one joint of a URDF world to a target; DONE(position) when there",
-          {device(vector_port("Q", 1, "rad or m"), "joint.{joint}.position"),
-           device(vector_port("Qd", 1, "rad/s or m/s"), "joint.{joint}.velocity")},
-          {device(vector_port("Cmd", 1, "rad or m, or rad/s or m/s"), "joint.{joint}.{interface}_command")},
-          {ParamSpec::Required("joint", "string", "the joint's name in the URDF"),
-           ParamSpec::Required("target", "number", "the position to reach (rad or m)"),
-           ParamSpec::Number("tolerance", "0.01", "DONE within this of the target, and slower than it per second"),
-           ParamSpec::Optional("interface", "string", "position", "the command interface: position or velocity"),
-           ParamSpec::Number("gain", "2", "velocity interface: the command is gain * error (1/s)"),
-           ParamSpec::Number("timeout", "30", "ABORTED when not there after this many seconds"),
-           PeriodParam()},
-          Ending::DoneOrAborted()};
+  return {.type = "JointSetpoint", .doc = "drives one joint of a URDF world to a target; DONE(position) when there",
+          .inputs = {kQ, kQd}, .outputs = {kCmd},
+          .params = {kJoint, kTarget, kTolerance, kInterface, kGain, kTimeout, PeriodParam()},
+          .ends = Ending::DoneOrAborted()};
 }
 
 JointSetpoint::JointSetpoint(const ControllerContext& ctx)
-    : PeriodicController(ctx), q_in_(input("Q")), qd_in_(input("Qd")), cmd_(output("Cmd")),
-      target_(number("target")), tolerance_(positive("tolerance")), gain_(positive("gain")),
-      timeout_(positive("timeout")) {
-  const std::string i = text("interface");
-  if (i != "position" && i != "velocity") throw bad_param("interface must be \"position\" or \"velocity\", got \"" + i + "\"");
-  velocity_ = i == "velocity";
-}
+    : PeriodicController(ctx), q_in_(port(kQ)), qd_in_(port(kQd)), cmd_(port(kCmd)), target_(param(kTarget)),
+      tolerance_(param(kTolerance)), gain_(param(kGain)), timeout_(param(kTimeout)),
+      velocity_(param(kInterface) == "velocity") {}
 
-void JointSetpoint::Init() {
+void JointSetpoint::on_configure() {
   have_q_ = false;
   near_ = 0;
   qd_.setZero();
 }
 
 void JointSetpoint::MainCalc() {
-  if (fresh(q_in_, q_)) have_q_ = true;
-  fresh(qd_in_, qd_);
+  if (q_in_.read(q_) == Read::New) have_q_ = true;
+  qd_in_.read(qd_);
   if (!have_q_) return;
   const double error = target_ - q_[0];
   cmd_value_[0] = velocity_ ? gain_ * error : target_;
@@ -46,15 +53,13 @@ void JointSetpoint::MainCalc() {
   near_ = std::abs(error) <= tolerance_ && std::abs(qd_[0]) <= tolerance_ ? near_ + 1 : 0;
   if (near_ >= 2) return Done(q_[0]);
   if (to_seconds(now() - started()) > timeout_)
-    Abort("joint " + text("joint") + " did not reach " + text("target") + " within " + text("timeout") + " s");
+    Abort("joint " + param(kJoint) + " did not reach " + text(kTarget) + " within " + text(kTimeout) + " s");
 }
 
-void JointSetpoint::Stop() {
-  if (velocity_) {
-    cmd_value_.setZero();
-    cmd_.write(cmd_value_);
-  }
-  PeriodicController::Stop();
+void JointSetpoint::on_halt() {
+  if (!velocity_) return;
+  cmd_value_.setZero();
+  cmd_.write(cmd_value_);
 }
 
 DCA_REGISTER_CONTROLLER(JointSetpoint);
