@@ -86,13 +86,14 @@ std::string describe(const PortSpec& p) {
   return d;
 }
 
-// A port bound in a constructor must be the manifest's, of the bound type.
+// A port bound in a constructor must be the manifest's, of the bound type: std::invalid_argument otherwise, as for
+// a bad parameter, so that the node's start fails at once naming it (not a stand-in that aborts when it runs).
 template <class P>
 P& bound(P* p, const std::string& who, std::string_view name, PortType type, std::uint32_t size,
          const std::string& missing) {
-  if (!p) throw std::logic_error(missing + " (list it in Describe())");
+  if (!p) throw std::invalid_argument(missing + " (list it in Describe())");
   if (p->spec().type != type || (type == PortType::Vector && p->spec().size != size))
-    throw std::logic_error(who + ": port '" + std::string(name) + "' is " + describe(p->spec()) +
+    throw std::invalid_argument(who + ": port '" + std::string(name) + "' is " + describe(p->spec()) +
                            " in the manifest but bound as " + describe(PortSpec{"", type, size}));
   return *p;
 }
@@ -191,7 +192,7 @@ namespace {
 std::size_t param_index(const Manifest& m, std::string_view name) {
   for (std::size_t i = 0; i < m.params.size(); ++i)
     if (m.params[i].name == name) return i;
-  throw std::logic_error(m.type + ": no parameter '" + std::string(name) + "' in its manifest (list it in Describe())");
+  throw std::invalid_argument(m.type + ": no parameter '" + std::string(name) + "' in its manifest (list it in Describe())");
 }
 }  // namespace
 

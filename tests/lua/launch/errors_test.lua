@@ -68,7 +68,8 @@ end)
 suite:case("a_mistyped_port_name_fails_the_start_with_its_reason_at_once", function()
   local out, rc = run_ctl("pkg_port_typo", "PkgPortTypo(h1)")
   T.kept_logs(out)
-  fails_at_once(out, rc, "no input 'SetPoint' on main.ctl.filt; inputs are: In (exited with code 1 on host h1)")
+  fails_at_once(out, rc,
+    "no input 'SetPoint' on main.ctl.filt; inputs are: In (list it in Describe()) (exited with code 1 on host h1)")
 end)
 
 -- A failed run keeps its daemons' logs (the key goes) in a folder it names last, under $DCA_RUN_LOGS (the tests'
