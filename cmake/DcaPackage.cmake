@@ -7,6 +7,12 @@
 # file. `cmake --install` puts it in <prefix>/lib/dca/controllers (INSTALL_DIR to change that).
 # The library is linked against nothing of dca: the dca process that loads it provides those symbols.
 #
+# dca_add_controller_test(NAME PACKAGE pkg SOURCES src... [LIBS lib...])
+#
+# A unit test of a package's controllers, one at a time and with no running system (dca/testing/controller.h):
+# an executable NAME of SOURCES, the package's own objects (so its types are in the registry) and dca::testing,
+# plus LIBS (GTest::gtest_main for GoogleTest), registered with CTest as NAME.
+#
 # Used by the installed package config (dcaConfig.cmake) and by dca's own tree (the door package).
 include_guard(GLOBAL)
 
@@ -27,9 +33,13 @@ function(dca_add_controller_package name)
   if(NOT P_SOURCES)
     message(FATAL_ERROR "dca_add_controller_package(${name}): no SOURCES")
   endif()
-  add_library(${name} MODULE ${P_SOURCES} ${DCA_PACKAGE_ENTRY_SOURCE})
+  # The objects once: the package links them, and so does each of its tests (dca_add_controller_test).
+  add_library(${name}_objects OBJECT ${P_SOURCES} ${DCA_PACKAGE_ENTRY_SOURCE})
+  dca_package_properties(${name}_objects ${name})
+  add_library(${name} MODULE $<TARGET_OBJECTS:${name}_objects>)
   dca_package_properties(${name} ${name})
   if(P_LIBS)
+    target_link_libraries(${name}_objects PUBLIC ${P_LIBS})
     target_link_libraries(${name} PRIVATE ${P_LIBS})
   endif()
   if(P_OUTPUT_DIRECTORY)
@@ -39,4 +49,18 @@ function(dca_add_controller_package name)
     set(P_INSTALL_DIR lib/dca/controllers)
   endif()
   install(TARGETS ${name} LIBRARY DESTINATION ${P_INSTALL_DIR})
+endfunction()
+
+function(dca_add_controller_test name)
+  cmake_parse_arguments(T "" "PACKAGE" "SOURCES;LIBS" ${ARGN})
+  if(NOT T_SOURCES OR NOT T_PACKAGE)
+    message(FATAL_ERROR "dca_add_controller_test(${name}): give PACKAGE and SOURCES")
+  endif()
+  if(NOT TARGET ${T_PACKAGE}_objects)
+    message(FATAL_ERROR "dca_add_controller_test(${name}): no package '${T_PACKAGE}' (dca_add_controller_package first)")
+  endif()
+  add_executable(${name} ${T_SOURCES})
+  target_compile_features(${name} PRIVATE cxx_std_20)
+  target_link_libraries(${name} PRIVATE ${T_PACKAGE}_objects dca::testing ${T_LIBS})
+  add_test(NAME ${name} COMMAND ${name})
 endfunction()
