@@ -30,6 +30,9 @@ restart(path)                 a group: abort its expression and start it again (
                                 code, config values), wired and running as before; nothing else stops
 activate(path, label)         activate / deactivate a connection set of a process
 deactivate(path, label)
+read(path, port)              a leaf's port: its latest sample and how many samples it has seen
+stats(path)                   a leaf's timers: ticks, the period achieved (p50/p99/max, on its clock and on the
+                                wall clock), how late ticks started, and overruns (periods skipped)
 reload()                      re-read the system file (and reload("modules") the supervisor's Lua)
 config.get(key)               the configuration repository of this supervisor's host (replicated to all):
 config.set(key, value)          a value; write one key (or config.set{ key = value, ... }: one transaction)
@@ -185,6 +188,63 @@ local function action_commands(env, c, reload)
   end
 end
 
+--- A number of microseconds as text: "840 us", "10.000 ms", "1.250 s".
+local function us_text(us)
+  us = tonumber(us) or 0
+  if us >= 1e6 then return sformat("%.3f s", us / 1e6) end
+  if us >= 1000 then return sformat("%.3f ms", us / 1000) end
+  return sformat("%.0f us", us)
+end
+M.us_text = us_text
+
+--- A leaf's `stats` reply (host/node.cpp) as lines: one per timer, with its achieved period when it is periodic.
+function M.format_stats(path, r)
+  local lines = { sformat("%s (%s clock):", path, tostring(r.clock)) }
+  local intervals = {}
+  for _, iv in ipairs(r.intervals or {}) do intervals[tostring(iv.name) .. "@" .. tostring(iv.period_s)] = iv end
+  for _, t in ipairs(r.timers or {}) do
+    local period = (t.period_s or 0) > 0 and ("every " .. us_text(t.period_s * 1e6)) or "once"
+    lines[#lines + 1] = sformat("  %s %s%s: %d ticks, late p50 %s p99 %s max %s, overruns %d", tostring(t.name),
+      period, t.active and "" or " (stopped)", t.count or 0, us_text(t.p50_us), us_text(t.p99_us),
+      us_text(t.max_us), t.missed or 0)
+    local iv = intervals[tostring(t.name) .. "@" .. tostring(t.period_s)]
+    if iv and (iv.clock.n or 0) > 0 then
+      lines[#lines + 1] = sformat("    period achieved p50 %s p99 %s max %s; on the wall clock p50 %s p99 %s max %s",
+        us_text(iv.clock.p50_us), us_text(iv.clock.p99_us), us_text(iv.clock.max_us), us_text(iv.wall.p50_us),
+        us_text(iv.wall.p99_us), us_text(iv.wall.max_us))
+    end
+  end
+  if #lines == 1 then lines[2] = "  no timers" end
+  return concat(lines, "\n")
+end
+
+-- The commands that look at a leaf's data: read, stats (answered by its node).
+local function data_commands(env, c)
+  local sup, path_of = c.sup, c.path_of
+  local async = require "dca.async"
+  local function ask_leaf(p, msg)
+    local path = path_of(p)
+    local n = find(c.get_tree(), path)
+    if not n then error("no process " .. path, 0) end
+    if n.kind ~= "leaf" then error(path .. " is a group: " .. msg.type .. " asks a leaf", 0) end
+    local r, err = await(function(k) sup:to_leaf(path, msg, sup.timeouts.request, k) end)
+    local ok, why = async.outcome(r, err)
+    if not ok then error(path .. ": " .. tostring(why), 0) end
+    return r, path
+  end
+  function env.read(p, port)
+    if type(port) ~= "string" then error("read(path, port): the port's name", 0) end
+    local r = ask_leaf(p, { type = "read", port = port })
+    local v = r.value
+    if type(v) == "table" and #v == 1 then v = v[1] end
+    return v, sformat("(%d samples)", r.count or 0)
+  end
+  function env.stats(p)
+    local r, path = ask_leaf(p, { type = "stats" })
+    return M.format_stats(path, r)
+  end
+end
+
 -- config.get/set/list/log/watch/unwatch: the configuration repository of this supervisor's host.
 local function config_commands(sup)
   local config_text = require "dca.config"  -- render, format_log
@@ -245,6 +305,7 @@ function Repl:_env()
   local env = { print = c.say, sup = sup, config = config_commands(sup) }
   view_commands(env, c)
   action_commands(env, c, repl.opts.reload)
+  data_commands(env, c)
   return setmetatable(env, { __index = _G })
 end
 

@@ -99,8 +99,8 @@ suite:case("a_console_opens_on_a_sub_supervisor_and_on_the_root_while_the_system
   local path = tmpfile([[
 process G(h) {
   host { h }
-  instantiated_processes { t instof Threshold(h, 1); }
-  internal_event_actions { t }
+  instantiated_processes { t instof Threshold(h, 1); n instof Counter(h, 0.01); }
+  internal_event_actions { t, n }
 }
 process main() {
   instantiated_processes { g instof G("h2"); w instof Timer("h1", 600); }
@@ -132,6 +132,15 @@ process main() {
   T.contains(out, "door.width = 0.9")
   T.contains(out, "(host h2,")
   T.contains(out, "unknown key 'door.widht' (did you mean door.width?)")
+  -- a leaf's port and timers, asked of its node
+  out, rc = T.sh(string.format("printf '%%s\n' 'read(\"n\", \"Count\")' 'stats(\"n\")' 'read(\"t\", \"Nope\")' "
+    .. "'stats(\"main.g\")' | %s repl main.g --daemon %s --key %s", dca, h2, key))
+  T.eq(rc, 0, out)
+  T.ok(out:find("%(%d+ samples%)"), "read gives the value and a count:\n" .. out)
+  T.contains(out, "main.g.n (wall clock):\n  main.g.n every 10.000 ms: ")
+  T.contains(out, "overruns ")
+  T.contains(out, "main.g.t: no port 'Nope' on main.g.t; ports are: In")
+  T.contains(out, "main.g is a group: stats asks a leaf")
   -- the root, at the address dca run printed
   local root = text:match("console: dca repl main %-%-daemon (%S+)")
   out, rc = T.sh(string.format("printf 'tree()\n' | %s repl main --daemon %s --key %s", dca, root, key))

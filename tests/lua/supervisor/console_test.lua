@@ -188,4 +188,29 @@ suite:case("config_set_requests_are_answered_with_the_repositorys_verdict", func
   T.eq(written, { ["door.width"] = 0.8 })
 end)
 
+suite:case("stats_show_each_timer_with_the_period_it_achieved", function()
+  local console = require "dca.supervisor.console"
+  local summary = function(p50, p99, max) return { n = 99, p50_us = p50, p99_us = p99, max_us = max } end
+  local text = console.format_stats("main.pid", { clock = "sim",
+    timers = { { name = "main.pid", period_s = 0.01, active = true, count = 100, missed = 2, p50_us = 3,
+                 p99_us = 12.4, max_us = 1500 },
+               { name = "main.pid.once", period_s = 0, active = false, count = 1, missed = 0, p50_us = 0,
+                 p99_us = 0, max_us = 0 } },
+    intervals = { { name = "main.pid", period_s = 0.01, clock = summary(10000, 10000, 20000),
+                    wall = summary(980, 2500, 1250000) } } })
+  T.eq(text, "main.pid (sim clock):\n" ..
+    "  main.pid every 10.000 ms: 100 ticks, late p50 3 us p99 12 us max 1.500 ms, overruns 2\n" ..
+    "    period achieved p50 10.000 ms p99 10.000 ms max 20.000 ms; on the wall clock p50 980 us p99 2.500 ms max 1.250 s\n" ..
+    "  main.pid.once once (stopped): 1 ticks, late p50 0 us p99 0 us max 0 us, overruns 0")
+  T.eq(console.format_stats("main.x", { clock = "wall" }), "main.x (wall clock):\n  no timers")
+end)
+
+suite:case("read_asks_a_leafs_node_and_refuses_a_group", function()
+  local c, repl = running_system()
+  T.eq(eval(c, repl, 'read("mc", "Out")'), "nil\t(0 samples)")
+  T.contains(eval(c, repl, 'read("hitg", "Out")'), "main.hitg is a group: read asks a leaf")
+  T.contains(eval(c, repl, 'read("mc")'), "read(path, port): the port's name")
+  T.contains(eval(c, repl, 'read("nosuch", "Out")'), "no process 'nosuch'")
+end)
+
 return suite:run(...)
