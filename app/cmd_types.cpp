@@ -81,10 +81,13 @@ int print_named(const std::vector<std::string>& types, const std::vector<std::st
   int rc = load(packages, dir, packages.empty(), packages.empty() ? &failed : nullptr) || packages.empty() ? 0 : 1;
   const auto& reg = dca::Registry::global();
   for (const auto& a : types) {
-    if (const auto* m = reg.manifest(a)) {
-      print(*m);
-      continue;
-    }
+    bool found = false;  // every type of that name (several packages may define it), or the one of package.name
+    for (const auto* m : reg.all())
+      if (m->type == a || (!m->package.empty() && m->package + "." + m->type == a)) {
+        print(*m);
+        found = true;
+      }
+    if (found) continue;
     std::fprintf(stderr, "dca types: %s%s%s\n", reg.unknown_type(a).c_str(),
                  failed.empty() ? "" : "\npackages on the search path that did not load:", failed.c_str());
     rc = 1;

@@ -92,11 +92,21 @@ int l_types(lua_State* L) {
       lua_pushlstring(L, m->ends.after.data(), m->ends.after.size());
       lua_setfield(L, -2, "ends_after");
     }
+    lua_pushlstring(L, m->type.data(), m->type.size());
+    lua_setfield(L, -2, "type");
     if (!m->package.empty()) {
       lua_pushlstring(L, m->package.data(), m->package.size());
       lua_setfield(L, -2, "package");
+      // a package's type under package.name, and under its name too while no other loaded package has it
+      const std::string qualified = m->package + "." + m->type;
+      if (dca::Registry::global().manifest(m->type) == m) {
+        lua_pushvalue(L, -1);
+        lua_setfield(L, -3, m->type.c_str());
+      }
+      lua_setfield(L, -2, qualified.c_str());
+    } else {
+      lua_setfield(L, -2, m->type.c_str());
     }
-    lua_setfield(L, -2, m->type.c_str());
   }
   return 1;
 }

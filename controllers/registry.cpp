@@ -26,7 +26,7 @@ Registry& Registry::global() {
 }
 
 void Registry::add(Manifest m, Factory f) {
-  if (manifest(m.type)) throw std::invalid_argument("controller type '" + m.type + "' registered twice");
+  if (!named(m.type).empty()) throw std::invalid_argument("controller type '" + m.type + "' registered twice");
   for (const auto* ports : {&m.inputs, &m.outputs}) {
     std::set<std::string> seen;
     for (const auto& p : *ports)
@@ -39,16 +39,40 @@ void Registry::add(Manifest m, Factory f) {
   entries_.push_back({std::move(m), std::move(f)});
 }
 
-const Manifest* Registry::manifest(std::string_view type) const {
+std::vector<const Registry::Entry*> Registry::named(std::string_view type) const {
+  std::vector<const Entry*> hits;
+  const auto dot = type.rfind('.');
+  const std::string_view package = dot == std::string_view::npos ? std::string_view() : type.substr(0, dot);
+  const std::string_view bare = dot == std::string_view::npos ? type : type.substr(dot + 1);
   for (const auto& e : entries_)
-    if (e.manifest.type == type) return &e.manifest;
-  return nullptr;
+    if (e.manifest.type == bare && (dot == std::string_view::npos || e.manifest.package == package))
+      hits.push_back(&e);
+  return hits;
+}
+
+const Manifest* Registry::manifest(std::string_view type) const {
+  const auto hits = named(type);
+  return hits.size() == 1 ? &hits.front()->manifest : nullptr;
+}
+
+std::string Registry::ambiguous(std::string_view type) const {
+  const auto hits = named(type);
+  if (hits.size() < 2) return "";
+  std::string packages, choices;
+  for (std::size_t i = 0; i < hits.size(); ++i) {
+    const std::string& p = hits[i]->manifest.package;
+    packages += (i == 0 ? "" : i + 1 == hits.size() ? " and " : ", ") + p;
+    choices += (i == 0 ? "" : " or ") + p + "." + std::string(type);
+  }
+  return "type '" + std::string(type) + "' is defined by packages " + packages + ": write " + choices;
 }
 
 std::vector<const Manifest*> Registry::all() const {
   std::vector<const Manifest*> v;
   for (const auto& e : entries_) v.push_back(&e.manifest);
-  std::sort(v.begin(), v.end(), [](const Manifest* a, const Manifest* b) { return a->type < b->type; });
+  std::sort(v.begin(), v.end(), [](const Manifest* a, const Manifest* b) {
+    return a->type != b->type ? a->type < b->type : a->package < b->package;
+  });
   return v;
 }
 
@@ -63,13 +87,16 @@ std::string Registry::unknown_type(std::string_view type) const {
 }
 
 bool Registry::adopt(Registry&& staged, const std::string& package, std::string* error) {
+  // Two packages may define one name (a system then writes lab.PD); a built-in's name is dca's alone.
   for (const auto& e : staged.entries_)
-    if (const Manifest* had = manifest(e.manifest.type)) {
-      *error = "type '" + e.manifest.type + "' is defined by both " +
-               (had->package.empty() ? std::string("dca (a built-in type)") : "package '" + had->package + "'") +
-               " and package '" + package + "'";
-      return false;
-    }
+    for (const Entry* had : named(e.manifest.type))
+      if (had->manifest.package.empty() || had->manifest.package == package) {
+        *error = "type '" + e.manifest.type + "' is defined by both " +
+                 (had->manifest.package.empty() ? std::string("dca (a built-in type)")
+                                                : "package '" + had->manifest.package + "'") +
+                 " and package '" + package + "'";
+        return false;
+      }
   for (auto& e : staged.entries_) {
     e.manifest.package = package;
     entries_.push_back(std::move(e));
@@ -79,17 +106,16 @@ bool Registry::adopt(Registry&& staged, const std::string& package, std::string*
 }
 
 std::unique_ptr<Controller> Registry::create(std::string_view type, ControllerContext ctx) const {
-  for (const auto& e : entries_)
-    if (e.manifest.type == type) {
-      ctx.manifest = &e.manifest;
-      return e.factory(ctx);
-    }
-  throw std::invalid_argument(unknown_type(type));
+  const auto hits = named(type);
+  if (hits.size() > 1) throw std::invalid_argument(ambiguous(type));
+  if (hits.empty()) throw std::invalid_argument(unknown_type(type));
+  ctx.manifest = &hits.front()->manifest;
+  return hits.front()->factory(ctx);
 }
 
 std::unique_ptr<Controller> Registry::create_or_stand_in(std::string_view type, const ControllerContext& ctx) const {
   const Manifest* m = manifest(type);
-  if (!m) throw std::invalid_argument(unknown_type(type));
+  if (!m) throw std::invalid_argument(named(type).empty() ? unknown_type(type) : ambiguous(type));
   try {
     return create(type, ctx);
   } catch (const std::invalid_argument&) {

@@ -73,10 +73,33 @@ function M.check_options(ast, path, registry, world)
   local packages = M.packages(ast, path) or {}
   local all = M.registry()
   if not all then return {} end
-  local types, elsewhere = {}, {}
+  local types, elsewhere, ambiguous = {}, {}, {}
+  local of_used = {}  -- a type's name -> the manifests of the used packages that define it
   for name, m in pairs(all) do
-    if not m.package or (packages[m.package] and not packages[m.package].error) then types[name] = m
-    else elsewhere[name] = m.package end
+    if not m.package then
+      types[name] = m
+    elseif name:find(".", 1, true) then  -- each package type once, under package.name
+      local t = m.type or name:match("[^.]+$")
+      if packages[m.package] and not packages[m.package].error then
+        types[name] = m
+        of_used[t] = of_used[t] or {}
+        table.insert(of_used[t], m)
+      else
+        elsewhere[name] = m.package
+        elsewhere[t] = elsewhere[t] or m.package
+      end
+    end
+  end
+  -- a name one used package defines is the type; one several define must be written package.name
+  for t, list in pairs(of_used) do
+    if #list == 1 then
+      types[t], elsewhere[t] = list[1], nil
+    else
+      local names = {}
+      for _, m in ipairs(list) do names[#names + 1] = m.package end
+      table.sort(names)
+      ambiguous[t] = names
+    end
   end
   -- the packages on the search path the file does not use (names only: nothing of them is loaded), for hints
   local core, unused = core_or_nil(), {}
@@ -85,8 +108,8 @@ function M.check_options(ast, path, registry, world)
   end
   -- the robot process's signals, which the device ports are held to (nil in an executable without the world)
   local signals, werr = world_signals(core, world)
-  return { types = types, packages = packages, elsewhere = elsewhere, unused_packages = unused, world = signals,
-           world_error = werr }
+  return { types = types, packages = packages, elsewhere = elsewhere, ambiguous = ambiguous, unused_packages = unused,
+           world = signals, world_error = werr }
 end
 
 --- The whole text of the file at path. --> text | nil, "dca: cannot read ..."

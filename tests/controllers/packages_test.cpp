@@ -92,12 +92,27 @@ TEST(PackagesTest, AFileOrFolderOthersMayWriteIsNeverLoaded) {
   EXPECT_TRUE(dca::find_package("pkg_ok", {dir.path()}, &error)) << error;
 }
 
-TEST(PackagesTest, ATypeOfTwoPackagesNamesBoth) {
+TEST(PackagesTest, TwoPackagesMayDefineOneNameWhichIsThenQualified) {
   ASSERT_EQ(load_error("pkg_ok"), "");
-  const std::string e = load_error("pkg_twin");
-  EXPECT_NE(e.find("type 'PkgScale' is defined by both package 'pkg_ok' and package 'pkg_twin'"), std::string::npos) << e;
-  EXPECT_EQ(Registry::global().manifest("PkgScale")->package, "pkg_ok");  // all or nothing
-  const std::string b = load_error("pkg_builtin");
+  ASSERT_EQ(load_error("pkg_twin"), "");
+  const auto& reg = Registry::global();
+  const std::string both =
+      "type 'PkgScale' is defined by packages pkg_ok and pkg_twin: write pkg_ok.PkgScale or pkg_twin.PkgScale";
+  EXPECT_EQ(reg.manifest("PkgScale"), nullptr);
+  EXPECT_EQ(reg.ambiguous("PkgScale"), both);
+  ASSERT_NE(reg.manifest("pkg_ok.PkgScale"), nullptr);
+  EXPECT_EQ(reg.manifest("pkg_ok.PkgScale")->package, "pkg_ok");
+  ASSERT_NE(reg.manifest("pkg_twin.PkgScale"), nullptr);
+  EXPECT_EQ(reg.manifest("pkg_twin.PkgScale")->package, "pkg_twin");
+  EXPECT_EQ(reg.manifest("nosuch.PkgScale"), nullptr);
+  EXPECT_EQ(reg.ambiguous("Gain"), "");
+  try {
+    (void)reg.create("PkgScale", {"/a", "h1", {}, nullptr, nullptr});
+    ADD_FAILURE() << "no error";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_EQ(std::string(e.what()), both);
+  }
+  const std::string b = load_error("pkg_builtin");  // a built-in's name stays dca's
   EXPECT_NE(b.find("type 'Gain' is defined by both dca (a built-in type) and package 'pkg_builtin'"), std::string::npos) << b;
 }
 

@@ -7,6 +7,7 @@
 --     packages = { [name] = { types = {...} } | { error = "..." } },  -- optional: the file's `use`d packages
 --                                 -- as dca.load found them (an error is reported at its `use`)
 --     elsewhere = { [Type] = "package" },  -- optional: types of loaded packages the file does not use (hints)
+--     ambiguous = { [Type] = { "lab", "other" } },  -- optional: names several used packages define (lab.Type)
 --     unused_packages = { "name", ... },   -- optional: packages on the search path the file does not use (hints)
 --   })
 --   -- errors: list of { line =, col =, path = "main.dooropensyst.hit", msg = "..." } in file order;
@@ -381,7 +382,13 @@ local function leaves(ctx, p, sc)
     if not ctx.defs[inst.type] then
       local path, m = sc.base .. "." .. inst.name, ctx.manifest(inst.type)
       local home = ctx.opts.elsewhere and ctx.opts.elsewhere[inst.type]
-      if not m and home then
+      local several = ctx.opts.ambiguous and ctx.opts.ambiguous[inst.type]
+      if not m and several then
+        local choices = {}
+        for i, pk in ipairs(several) do choices[i] = pk .. "." .. inst.type end
+        err(ctx, path, inst.type_line, inst.type_col, "type '%s' is defined by packages %s: write %s", inst.type,
+            concat(several, " and "), concat(choices, " or "))
+      elseif not m and home then
         err(ctx, path, inst.type_line, inst.type_col,
             "unknown process type '%s': package '%s' defines it (add 'use %s;' at the top of the file)", inst.type,
             home, home)

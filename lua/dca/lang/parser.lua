@@ -95,6 +95,8 @@ local ws = (space + comment)^0
 local idchar = R("az", "AZ", "09") + "_"
 local ident = (R("az", "AZ") + "_") * idchar^0
 local NAME = C(ident) * ws
+-- A process type: a name, or one qualified by the package that defines it (lab.PD: two packages define PD).
+local TYPE_NAME = C(ident * (P"." * ident)^-1) * ws
 local function tok(s) return P(s) * ws end
 local function kw(w) return P(w) * -idchar * ws end
 
@@ -140,7 +142,7 @@ local args = expect(tok"(", "args_open", "iname", "itype") *
 
 local instance = Ct(pos() * -section_start * Cg(NAME, "name") * Cg(Cb("name"), "iname") *
                     expect(kw"instof", "instof", "iname") *
-                    pos("type_pos") * Cg(expect(NAME, "type_name", "iname"), "type") * Cg(Cb("type"), "itype") *
+                    pos("type_pos") * Cg(expect(TYPE_NAME, "type_name", "iname"), "type") * Cg(Cb("type"), "itype") *
                     Cg(args, "args") *
                     expect(tok";", "instance_semi", "iname"))
 

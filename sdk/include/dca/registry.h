@@ -28,12 +28,16 @@ class Registry {
 
   /// Adds a type. Throws std::invalid_argument if the name is taken or the manifest repeats a port name.
   void add(Manifest m, Factory f);
-  /// The manifest of `type`, or nullptr.
+  /// The manifest of `type`, or nullptr. `type` is a type's name ("PD"), or qualified by its package ("lab.PD");
+  /// a name two packages define is nullptr unless qualified (ambiguous() says so).
   const Manifest* manifest(std::string_view type) const;
-  /// Every manifest, sorted by type name.
+  /// "type 'PD' is defined by packages lab and other: write lab.PD or other.PD" when `type` names the types of
+  /// several packages; "" otherwise.
+  std::string ambiguous(std::string_view type) const;
+  /// Every manifest, sorted by type name, then package.
   std::vector<const Manifest*> all() const;
-  /// A new instance of `type`. Throws std::invalid_argument for an unknown type (listing the known ones) or a
-  /// bad parameter.
+  /// A new instance of `type` (a name, or package.name). Throws std::invalid_argument for an unknown type (listing
+  /// the known ones), a name several packages define (ambiguous()), or a bad parameter.
   std::unique_ptr<Controller> create(std::string_view type, ControllerContext ctx) const;
   /// As create(), except that a constructor that throws anything but std::invalid_argument (a bad parameter, which
   /// is passed on: the node's start fails naming it) gives a stand-in: a controller with the type's ports whose
@@ -43,7 +47,8 @@ class Registry {
   /// "unknown controller type 'X'; types are: A, B, ..."
   std::string unknown_type(std::string_view type) const;
   /// Moves every type of `staged` (a package's, filled by its entry point) in, each marked with `package`. All or
-  /// nothing: false, with *error naming both, when a type is already defined (built in or by another package).
+  /// nothing: false, with *error naming both, when a type's name is a built-in's. Two packages may define the
+  /// same name: a system then names the one it means as package.name.
   bool adopt(Registry&& staged, const std::string& package, std::string* error);
 
  private:
@@ -51,6 +56,8 @@ class Registry {
     Manifest manifest;
     Factory factory;
   };
+  /// The entries `type` names (a name, or package.name).
+  std::vector<const Entry*> named(std::string_view type) const;
   std::vector<Entry> entries_;
 };
 

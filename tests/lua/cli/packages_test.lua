@@ -54,10 +54,35 @@ suite:case("a_package_not_found_is_an_error_at_its_use_naming_every_path_searche
   os.remove(path)
 end)
 
-suite:case("a_type_two_packages_define_names_both", function()
+suite:case("a_type_two_packages_define_is_written_with_its_package", function()
   local path = system("use pkg_ok, pkg_twin;", "  instantiated_processes { a instof PkgScale(\"h1\"); }\n  internal_event_actions { a }")
-  dca("check " .. path, 1, path .. ":1:13: use: type 'PkgScale' is defined by both package 'pkg_ok' and package 'pkg_twin'")
+  dca("check " .. path, 1, path .. ":3:37: main.a: type 'PkgScale' is defined by packages pkg_ok and pkg_twin: " ..
+      "write pkg_ok.PkgScale or pkg_twin.PkgScale")
   os.remove(path)
+  -- each qualified, both in one system: the nodes load the package each names (k 2, then k 3: Out = 6 Count)
+  path = system("use pkg_ok, pkg_twin;", [[
+  instantiated_processes {
+    n instof Counter("h1", 0.01);
+    a instof pkg_ok.PkgScale("h1", 2);
+    b instof pkg_twin.PkgScale("h1", 3);
+    at60 instof Threshold("h1", 60, "rising");
+    limit instof Deadline("h1", 30);
+  }
+  internal_connections(a, run) { n, Count -> a, In; a, Out -> b, In; }
+  internal_connections(b, run) { b, Out -> at60, In; }
+  internal_event_actions { (at60 # limit) # (a[run], b[run], n) }]])
+  dca("check " .. path, 0)
+  dca("graph --svg -o /dev/null " .. path, nil)
+  dca("run " .. path, 0, "main: DONE")
+  os.remove(path)
+  -- a file that uses one of them writes the name alone
+  path = system("use pkg_twin;", "  instantiated_processes { a instof PkgScale(\"h1\"); }\n  internal_event_actions { a }")
+  dca("check " .. path, 0)
+  os.remove(path)
+  dca("types PkgScale", 0, "PkgScale(host, k=2, period=0)    (package pkg_ok)",
+      "PkgScale(host, k=2, period=0)    (package pkg_twin)")
+  local out = dca("types pkg_twin.PkgScale", 0, "(package pkg_twin)")
+  T.ok(not out:find("(package pkg_ok)", 1, true), out)
 end)
 
 suite:case("a_missing_symbol_another_dcas_package_and_a_library_that_is_no_package_are_refused", function()
