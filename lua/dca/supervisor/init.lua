@@ -405,7 +405,10 @@ function Sup:_start_child(name, init)
       -- a channel closed: the process's exit (or its loss, at most exit_grace later: dca.supervisor.net) follows
       -- with the real reason (its signal, its code), and the algebra or the policy takes that
       if not reply and tostring(err):find("closed") then return end
-      self:_fail_later(name, sformat("%s: %s", ch.path, why))
+      -- the reason goes with the leaf's path wherever it is said: a controller's own "<Type> <path>: ..." keeps
+      -- its type only (the path once, not three times)
+      local plain = ch.path:gsub("%p", "%%%0")
+      self:_fail_later(name, (tostring(why):gsub("^(%w[%w.]*) " .. plain .. "([: ])", "%1%2", 1)))
     end
   end
   -- while run_expr starts the expression, the answers to these runs are joined (run_expr's cb)

@@ -131,7 +131,10 @@ end
 local function aborts(pkg, ty, text)
   local path = system("use " .. pkg .. ";", "  instantiated_processes { bad instof " .. ty .. [[("h1"); wait instof Timer("h1", 60); }
   internal_event_actions { wait # bad }]])
-  T.kept_logs((dca("run " .. path, 1, ty .. " main.bad: " .. text, "main: ABORTED at main.bad")))
+  local out = dca("run " .. path, 1, "main: ABORTED at main.bad: " .. ty .. ": " .. text)
+  T.kept_logs(out)
+  T.ok(not out:find("main.bad: main.bad", 1, true) and not out:find(ty .. " main.bad", 1, true),
+       "the leaf's path is said once:\n" .. out)
   none_left(ty)
   os.remove(path)
 end
