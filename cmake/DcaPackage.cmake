@@ -1,6 +1,7 @@
 # dca_add_controller_package(NAME SOURCES src... [LIBS lib...] [OUTPUT_DIRECTORY dir] [INSTALL_DIR dir])
 #
-# A controller package (docs/packages.md): a shared library NAME.dca.so of the controller
+# A controller package (docs/packages.md): a shared library NAME.dca.so (the target NAME_module; the target NAME
+# is its objects, where target_include_directories and the like go) of the controller
 # types defined in SOURCES (each registered with DCA_REGISTER_CONTROLLER, controllers/registry.h), built against
 # the dca SDK (the target dca::sdk) with dca's entry point, so that a .dca file's `use NAME;` loads it. dca finds
 # it in $DCA_CONTROLLER_PATH, in <dca prefix>/lib/dca/controllers, or in a `packages/` folder beside the .dca
@@ -33,22 +34,24 @@ function(dca_add_controller_package name)
   if(NOT P_SOURCES)
     message(FATAL_ERROR "dca_add_controller_package(${name}): no SOURCES")
   endif()
-  # The objects once: the package links them, and so does each of its tests (dca_add_controller_test).
-  add_library(${name}_objects OBJECT ${P_SOURCES} ${DCA_PACKAGE_ENTRY_SOURCE})
-  dca_package_properties(${name}_objects ${name})
-  add_library(${name} MODULE $<TARGET_OBJECTS:${name}_objects>)
+  # The target NAME is the package's objects, compiled once: `target_include_directories(NAME ...)`,
+  # `target_link_libraries(NAME ...)` and the like apply to them as to any library, and reach both the package
+  # (the MODULE NAME_module, built as NAME.dca.so) and each of its tests (dca_add_controller_test).
+  add_library(${name} OBJECT ${P_SOURCES} ${DCA_PACKAGE_ENTRY_SOURCE})
   dca_package_properties(${name} ${name})
+  add_library(${name}_module MODULE)
+  dca_package_properties(${name}_module ${name})
+  target_link_libraries(${name}_module PRIVATE ${name})
   if(P_LIBS)
-    target_link_libraries(${name}_objects PUBLIC ${P_LIBS})
-    target_link_libraries(${name} PRIVATE ${P_LIBS})
+    target_link_libraries(${name} PUBLIC ${P_LIBS})
   endif()
   if(P_OUTPUT_DIRECTORY)
-    set_target_properties(${name} PROPERTIES LIBRARY_OUTPUT_DIRECTORY ${P_OUTPUT_DIRECTORY})
+    set_target_properties(${name}_module PROPERTIES LIBRARY_OUTPUT_DIRECTORY ${P_OUTPUT_DIRECTORY})
   endif()
   if(NOT P_INSTALL_DIR)
     set(P_INSTALL_DIR lib/dca/controllers)
   endif()
-  install(TARGETS ${name} LIBRARY DESTINATION ${P_INSTALL_DIR})
+  install(TARGETS ${name}_module LIBRARY DESTINATION ${P_INSTALL_DIR})
 endfunction()
 
 function(dca_add_controller_test name)
@@ -56,11 +59,11 @@ function(dca_add_controller_test name)
   if(NOT T_SOURCES OR NOT T_PACKAGE)
     message(FATAL_ERROR "dca_add_controller_test(${name}): give PACKAGE and SOURCES")
   endif()
-  if(NOT TARGET ${T_PACKAGE}_objects)
+  if(NOT TARGET ${T_PACKAGE}_module)
     message(FATAL_ERROR "dca_add_controller_test(${name}): no package '${T_PACKAGE}' (dca_add_controller_package first)")
   endif()
   add_executable(${name} ${T_SOURCES})
   target_compile_features(${name} PRIVATE cxx_std_20)
-  target_link_libraries(${name} PRIVATE ${T_PACKAGE}_objects dca::testing ${T_LIBS})
+  target_link_libraries(${name} PRIVATE ${T_PACKAGE} dca::testing ${T_LIBS})
   add_test(NAME ${name} COMMAND ${name})
 endfunction()
