@@ -2,12 +2,15 @@
 
 #include <cxxabi.h>
 #include <dlfcn.h>
+#include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <cctype>
+#include <cerrno>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <memory>
@@ -102,6 +105,101 @@ std::string part_name(const std::string& key) {
   return key;
 }
 
+FileIdentity identity_of(const struct stat& st) {
+  return {static_cast<std::uint64_t>(st.st_dev), static_cast<std::uint64_t>(st.st_ino),
+          static_cast<std::uint64_t>(st.st_size),
+          static_cast<std::int64_t>(st.st_mtim.tv_sec) * 1'000'000'000 + st.st_mtim.tv_nsec};
+}
+
+// The folders a private copy may go in: $XDG_RUNTIME_DIR, $TMPDIR, /tmp (those set), in that order.
+std::vector<std::string> copy_bases() {
+  std::vector<std::string> out;
+  for (const char* var : {"XDG_RUNTIME_DIR", "TMPDIR"})
+    if (const char* v = std::getenv(var); v != nullptr && v[0] == '/') out.emplace_back(v);
+  out.emplace_back("/tmp");
+  return out;
+}
+
+// Writes all of `n` bytes. False with errno set.
+bool write_all(int fd, const char* data, std::size_t n) {
+  while (n > 0) {
+    const ssize_t w = ::write(fd, data, n);
+    if (w < 0 && errno == EINTR) continue;
+    if (w <= 0) return false;
+    data += w;
+    n -= static_cast<std::size_t>(w);
+  }
+  return true;
+}
+
+// Copies the open file `in` into `to` (created, this user's only). False with *why.
+bool copy_bytes(int in, const std::string& to, std::string* why) {
+  const int out = ::open(to.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC | O_NOFOLLOW, 0700);
+  if (out < 0) return *why = "cannot create " + to + ": " + std::strerror(errno), false;
+  char buf[1 << 16];
+  bool ok = true;
+  for (;;) {
+    const ssize_t r = ::read(in, buf, sizeof buf);
+    if (r < 0 && errno == EINTR) continue;
+    if (r == 0) break;
+    if (r < 0 || !write_all(out, buf, static_cast<std::size_t>(r))) {
+      *why = std::string("cannot copy it: ") + std::strerror(errno);
+      ok = false;
+      break;
+    }
+  }
+  if (::close(out) != 0 && ok) *why = std::string("cannot copy it: ") + std::strerror(errno), ok = false;
+  return ok;
+}
+
+// The private copy a package is loaded from (see controllers/packages.h): made by make(), removed with its folder
+// when it goes (right after dlopen: the mapping keeps the pages of the deleted file).
+class PrivateCopy {
+ public:
+  PrivateCopy() = default;
+  PrivateCopy(const PrivateCopy&) = delete;
+  PrivateCopy& operator=(const PrivateCopy&) = delete;
+  ~PrivateCopy() {
+    if (!path_.empty()) ::unlink(path_.c_str());
+    if (!dir_.empty()) ::rmdir(dir_.c_str());
+  }
+  const std::string& path() const { return path_; }
+
+  // Copies `file` (named NAME.dca.so in the copy's folder, as in backtraces); *id: the file as copied. False with
+  // *why: the file cannot be read, no folder can hold the copy, or the file changed while it was copied.
+  bool make(const std::string& file, FileIdentity* id, std::string* why) {
+    const int in = ::open(file.c_str(), O_RDONLY | O_CLOEXEC);
+    if (in < 0) return *why = std::string("cannot read it: ") + std::strerror(errno), false;
+    struct stat before {}, after {};
+    bool ok = ::fstat(in, &before) == 0;
+    if (!ok) *why = std::string("cannot examine it: ") + std::strerror(errno);
+    ok = ok && made_dir(why);
+    if (ok) path_ = dir_ + "/" + fs::path(file).filename().string();
+    ok = ok && copy_bytes(in, path_, why);
+    if (ok && (::fstat(in, &after) != 0 || identity_of(after) != identity_of(before))) {
+      *why = "it changed while it was read (being written?): load it again once it is written";
+      ok = false;
+    }
+    ::close(in);
+    if (ok) *id = identity_of(before);
+    return ok;
+  }
+
+ private:
+  bool made_dir(std::string* why) {
+    std::string tried;
+    for (const auto& base : copy_bases()) {
+      std::string tmpl = base + "/dca-package-XXXXXX";
+      if (::mkdtemp(tmpl.data()) != nullptr) return dir_ = tmpl, true;  // mode 0700
+      tried += (tried.empty() ? "" : ", ") + base + " (" + std::strerror(errno) + ")";
+    }
+    *why = "no folder can hold its private copy: tried " + tried;
+    return false;
+  }
+
+  std::string dir_, path_;
+};
+
 }  // namespace
 
 std::string abi_differences(const std::string& package_abi) {
@@ -148,9 +246,13 @@ std::string demangled(const std::string& symbol) {
   return out;
 }
 
-// Why dlopen refused `file`: a mismatch its stamp shows, a missing symbol, or the loader's own words.
-std::string open_error(const std::string& name, const std::string& file, const std::string& why) {
-  if (auto stamp = read_stamp(file); stamp && !compatible(stamp->first, stamp->second))
+// Why dlopen refused `file` (loaded from its private copy `copy`, read for the stamp and never named): a mismatch
+// its stamp shows, a missing symbol, or the loader's own words.
+std::string open_error(const std::string& name, const std::string& file, const std::string& copy,
+                       std::string why) {
+  for (auto at = why.find(copy); !copy.empty() && at != std::string::npos; at = why.find(copy, at + file.size()))
+    why.replace(at, copy.size(), file);
+  if (auto stamp = read_stamp(copy); stamp && !compatible(stamp->first, stamp->second))
     return built_elsewhere(name, file, stamp->first, stamp->second);
   const std::string undefined = "undefined symbol: ";
   if (const auto at = why.find(undefined); at != std::string::npos) {
@@ -160,7 +262,11 @@ std::string open_error(const std::string& name, const std::string& file, const s
            (demangled(symbol) != symbol ? " (" + symbol + ")" : "") +
            ": the library needs it and neither dca nor the libraries the package links provide it";
   }
-  return "cannot load " + quote(name, file) + ": " + why;
+  std::string hint;
+  if (why.find("failed to map segment") != std::string::npos)
+    hint = " (its private copy was in " + fs::path(copy).parent_path().parent_path().string() +
+           ": a file system mounted noexec cannot hold code; set XDG_RUNTIME_DIR or TMPDIR to a folder that can)";
+  return "cannot load " + quote(name, file) + ": " + why + hint;
 }
 
 // Runs the entry point's add_types into a staged registry, then into the global one (all or nothing).
@@ -256,14 +362,23 @@ const LoadedPackage* load_package(const std::string& name, const std::vector<std
 const LoadedPackage* load_package_file(const std::string& name, const std::string& file, std::string* error) {
   for (const auto& p : loaded())
     if (p->name == name) return p.get();
-  ::dlerror();
-  void* handle = ::dlopen(file.c_str(), RTLD_NOW | RTLD_LOCAL);
-  if (handle == nullptr) {
-    const char* why = ::dlerror();
-    *error = open_error(name, file, why ? why : "dlopen failed");
-    return nullptr;
-  }
   auto pkg = std::make_unique<LoadedPackage>();
+  void* handle = nullptr;
+  {
+    PrivateCopy copy;  // removed, with its folder, once opened
+    std::string why;
+    if (!copy.make(file, &pkg->identity, &why)) {
+      *error = "cannot load " + quote(name, file) + ": " + why;
+      return nullptr;
+    }
+    ::dlerror();
+    handle = ::dlopen(copy.path().c_str(), RTLD_NOW | RTLD_LOCAL);
+    if (handle == nullptr) {
+      const char* dl = ::dlerror();
+      *error = open_error(name, file, copy.path(), dl ? dl : "dlopen failed");
+      return nullptr;
+    }
+  }
   pkg->name = name;
   pkg->file = file;
   const PackageEntry* e = entry_of(handle, name, file, error);
@@ -288,6 +403,21 @@ std::vector<std::string> available_packages(const std::vector<std::string>& dirs
     }
   }
   return {names.begin(), names.end()};
+}
+
+std::string package_changed(const std::string& name, const std::vector<std::string>& dirs) {
+  const LoadedPackage* pkg = nullptr;
+  for (const auto& p : loaded())
+    if (p->name == name) pkg = p.get();
+  if (pkg == nullptr) return "";
+  std::string error;
+  const auto file = find_package(name, dirs, &error);
+  if (!file) return error;
+  if (*file != pkg->file) return *file + " would be loaded now, not " + pkg->file + " which this process loaded";
+  struct stat st {};
+  if (::stat(file->c_str(), &st) != 0) return *file + " cannot be examined: " + std::strerror(errno);
+  if (identity_of(st) != pkg->identity) return *file + " changed on disk since this process loaded it";
+  return "";
 }
 
 std::vector<const LoadedPackage*> loaded_packages() {

@@ -3,10 +3,12 @@
 // controller author meets named with the package, the file and what is wrong.
 #include <gtest/gtest.h>
 
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <string>
 #include <vector>
 
@@ -16,6 +18,7 @@
 #include <dca/package.h>
 #include <dca/version.h>
 #include "host/paths.h"
+#include "tests/support/controller_fixture.h"
 #include "tests/support/temp_dir.h"
 
 namespace {
@@ -120,6 +123,7 @@ TEST(PackagesTest, AMissingSymbolNamesTheLibraryAndTheSymbol) {
   const std::string e = load_error("pkg_missing");
   EXPECT_NE(e.find("package 'pkg_missing' (" + packages_dir() + "/pkg_missing.dca.so)"), std::string::npos) << e;
   EXPECT_NE(e.find("missing symbol 'dca::missing_for_tests(double)'"), std::string::npos) << e;
+  EXPECT_EQ(e.find("dca-package-"), std::string::npos) << "the private copy is never named: " << e;
   EXPECT_EQ(Registry::global().manifest("PkgMissing"), nullptr);
 }
 
@@ -169,6 +173,94 @@ TEST(PackagesTest, AFailedLoadMayBeTriedAgain) {
   EXPECT_NE(load_error("pkg_missing"), "");
   EXPECT_NE(load_error("pkg_missing"), "");
   EXPECT_TRUE(dca::loaded_packages().empty());
+}
+
+// Writes the bytes of `from` into the file `to` in place, as `cp from to` does: the same file (inode), truncated,
+// then written.
+void overwrite_in_place(const std::string& from, const std::string& to) {
+  std::string bytes(fs::file_size(from), '\0');
+  std::ifstream in(from, std::ios::binary);
+  in.read(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  ASSERT_FALSE(bytes.empty()) << from;
+  struct stat before {}, after {};
+  ASSERT_EQ(::stat(to.c_str(), &before), 0) << to;
+  std::ofstream out(to, std::ios::binary | std::ios::trunc);
+  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  out.close();
+  ASSERT_TRUE(out.good()) << to;
+  ASSERT_EQ(::stat(to.c_str(), &after), 0) << to;
+  ASSERT_EQ(after.st_ino, before.st_ino) << "the same file";
+}
+
+// The lines of /proc/self/maps that name `text`.
+std::vector<std::string> mappings_of(const std::string& text) {
+  std::ifstream maps("/proc/self/maps");
+  std::vector<std::string> out;
+  for (std::string line; std::getline(maps, line);)
+    if (line.find(text) != std::string::npos) out.push_back(line);
+  return out;
+}
+
+class PackagesRunTest : public dca::testing::ControllerFixture {};
+
+// `cp new.so pkg_ok.dca.so` while pkg_ok is loaded: the file changes under the process (the same inode, truncated
+// and written). The process runs a private copy of the file as it was at load (controllers/packages.cpp), so its
+// instances are made and run, and loading again answers the loaded package: nothing crashes.
+TEST_F(PackagesRunTest, AFileReplacedInPlaceLeavesTheLoadedCodeRunning) {
+  dca::test::TempDir dir("packages");
+  const std::string file = dir.path() + "/pkg_ok.dca.so";
+  fs::copy_file(packages_dir() + "/pkg_ok.dca.so", file);
+  std::string error;
+  const auto* p = dca::load_package("pkg_ok", {dir.path()}, &error);
+  ASSERT_NE(p, nullptr) << error;
+  EXPECT_EQ(p->file, fs::canonical(file).string());  // the original named, never the copy
+  overwrite_in_place(packages_dir() + "/variants/renamed/pkg_ok.dca.so", file);
+  auto& c = make("PkgScale", {"3"}, "/scale");  // k = 3, a trigger on In
+  auto& in = feed(dca::scalar_port("X"), "/scale", "In");
+  ep.activate("s");
+  ASSERT_EQ(started(c), "");
+  in.write(2.0);
+  EXPECT_DOUBLE_EQ(latest(c, "Out")[0], 6.0);  // the code loaded: its output is still Out
+  EXPECT_EQ(dca::load_package("pkg_ok", {dir.path()}, &error), p) << error;
+}
+
+// The copy a package is loaded from lives in a folder of its own under $XDG_RUNTIME_DIR (else $TMPDIR, else /tmp),
+// removed with the copy right after the load: the process maps a deleted file, and nothing is left behind.
+TEST(PackagesTest, TheCopyLoadedIsGoneOnceLoaded) {
+  dca::test::TempDir runtime("runtime");
+  const char* old = std::getenv("XDG_RUNTIME_DIR");
+  const std::string saved = old ? old : "";
+  ::setenv("XDG_RUNTIME_DIR", runtime.path().c_str(), 1);
+  const std::string e = load_error("pkg_ok");
+  if (old) ::setenv("XDG_RUNTIME_DIR", saved.c_str(), 1);
+  else ::unsetenv("XDG_RUNTIME_DIR");
+  ASSERT_EQ(e, "");
+  EXPECT_TRUE(fs::is_empty(runtime.path())) << "a copy or its folder was left in " << runtime.path();
+  const auto maps = mappings_of(runtime.path() + "/");
+  ASSERT_FALSE(maps.empty()) << "pkg_ok was not loaded from a copy under " << runtime.path();
+  for (const auto& m : maps) {
+    EXPECT_NE(m.find("/pkg_ok.dca.so (deleted)"), std::string::npos) << m;
+  }
+  EXPECT_TRUE(mappings_of(packages_dir() + "/pkg_ok.dca.so").empty()) << "the original file is mapped";
+}
+
+// What a process loaded against what it would load now: the file's identity (device, inode, size, modification
+// time) at its load, and where the search path leads.
+TEST(PackagesTest, APackageChangedOnDiskIsTold) {
+  dca::test::TempDir dir("packages");
+  const std::string file = dir.path() + "/pkg_ok.dca.so";
+  fs::copy_file(packages_dir() + "/pkg_ok.dca.so", file);
+  EXPECT_EQ(dca::package_changed("pkg_ok", {dir.path()}), "") << "not loaded: nothing to compare";
+  std::string error;
+  ASSERT_NE(dca::load_package("pkg_ok", {dir.path()}, &error), nullptr) << error;
+  EXPECT_EQ(dca::package_changed("pkg_ok", {dir.path()}), "");
+  overwrite_in_place(packages_dir() + "/variants/k3/pkg_ok.dca.so", file);
+  const std::string real = fs::canonical(file).string();
+  EXPECT_EQ(dca::package_changed("pkg_ok", {dir.path()}), real + " changed on disk since this process loaded it");
+  EXPECT_EQ(dca::package_changed("pkg_ok", {packages_dir(), dir.path()}),
+            packages_dir() + "/pkg_ok.dca.so would be loaded now, not " + real + " which this process loaded");
+  fs::remove(file);
+  EXPECT_NE(dca::package_changed("pkg_ok", {dir.path()}).find("package 'pkg_ok' not found"), std::string::npos);
 }
 
 TEST(PackagesTest, TheSearchPathIsTheVariableThePrefixThenTheSystemsFolder) {

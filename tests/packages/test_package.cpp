@@ -3,7 +3,8 @@
 // break it on purpose: PKG_MISSING_SYMBOL calls a function no one defines, PKG_THROW_IN_CONSTRUCTOR and
 // PKG_THROW_IN_INIT throw from the constructor or on_configure, PKG_POSITIVE_K takes k as positive (a bad
 // parameter: its node fails to start), PKG_BAD_PORT binds an input "SetPoint", a name its manifest lacks,
-// PKG_STDERR writes k lines "line N of PKG_TYPE" to stderr at its first tick, then ends DONE(k).
+// PKG_STDERR writes k lines "line N of PKG_TYPE" to stderr at its first tick, then ends DONE(k). A rebuilt pkg_ok
+// (tests/packages/CMakeLists.txt, lib/variants/): PKG_DEFAULT_K another default k, PKG_OUT another name of Out.
 #include <cstdio>
 #include <stdexcept>
 
@@ -23,11 +24,17 @@ double missing_for_tests(double x);  // defined nowhere: the loader must name it
 namespace {
 
 const dca::InSpec<double> kIn{.name = "In", .trigger = true};
-const dca::OutSpec<double> kOut{.name = "Out"};
+#ifndef PKG_OUT
+#define PKG_OUT Out
+#endif
+#ifndef PKG_DEFAULT_K
+#define PKG_DEFAULT_K 2
+#endif
+const dca::OutSpec<double> kOut{.name = PKG_STR(PKG_OUT)};
 #ifdef PKG_POSITIVE_K
-const dca::Param<double> kK{.name = "k", .doc = "the gain", .def = 2, .above = 0};
+const dca::Param<double> kK{.name = "k", .doc = "the gain", .def = PKG_DEFAULT_K, .above = 0};
 #else
-const dca::Param<double> kK{.name = "k", .doc = "the gain", .def = 2};
+const dca::Param<double> kK{.name = "k", .doc = "the gain", .def = PKG_DEFAULT_K};
 #endif
 #ifdef PKG_BAD_PORT
 const dca::InSpec<double> kBadPort{.name = "SetPoint"};
