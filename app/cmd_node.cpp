@@ -95,6 +95,9 @@ int cmd_node(std::span<char* const> args) {
   o.load_package = [](const std::string& name, const std::string& dir, std::string* error) {
     return dca::load_package(name, dca::controller_dirs(dir), error) != nullptr;
   };
+  o.package_changed = [](const std::string& name, const std::string& dir) {
+    return dca::package_changed(name, dca::controller_dirs(dir));
+  };
   dca::Loop loop;
   dca::Node node(loop, o,
                  [](const std::string& type, const std::string& name, const std::string& host,

@@ -116,6 +116,7 @@ namespace {
 // One hosted leaf: its component, its own control listener and the channels its supervisors opened there.
 struct Leaf {
   std::string type, name;
+  std::string package, system_dir;  // a shared node's leaf of a package's type: what its `add` named
   std::uint64_t instance = 0;  // this process's count of leaves added, at its add (Location::instance)
   std::unique_ptr<Component> component;
   Listener::Ptr control;
@@ -207,6 +208,7 @@ struct Node::Impl {
   std::uint64_t instances = 0;                      // leaves added so far (each one's Leaf::instance)
   Value ports(const Leaf& leaf) const;
   Value stats(const Leaf& leaf) const;
+  Value code_of(const Leaf& leaf) const;
 };
 
 Node::Node(Loop& loop, NodeOptions options, ComponentFactory factory)
@@ -532,6 +534,20 @@ void Node::Impl::connect_master(const Address& address, const Done& done_fn) {
   });
 }
 
+// code {}: the process a leaf's code runs in, and whether its package's file changed since the process loaded it.
+Value Node::Impl::code_of(const Leaf& leaf) const {
+  Value r = Value::map().set("pid", static_cast<std::int64_t>(::getpid()))
+                .set("leaves", static_cast<std::int64_t>(leaves.size()));
+  if (opts.shared) r.set("shared", opts.name + "#" + std::to_string(::getpid()));
+  if (!leaf.package.empty()) {
+    r.set("package", leaf.package);
+    if (opts.package_changed) {
+      if (std::string why = opts.package_changed(leaf.package, leaf.system_dir); !why.empty()) r.set("changed", why);
+    }
+  }
+  return r;
+}
+
 Value Node::Impl::ports(const Leaf& leaf) const {
   Value ins = Value::array(), outs = Value::array(), links = Value::array();
   for (const auto& p : leaf.component->ports().inputs()) {
@@ -731,6 +747,8 @@ bool Node::Impl::handle_control(Leaf& leaf, const Channel::Ptr& ch, const Messag
     ch->reply(m, ports(leaf));
   } else if (t == "stats") {
     ch->reply(m, stats(leaf));
+  } else if (t == "code") {
+    ch->reply(m, code_of(leaf));
   } else {
     return false;
   }
@@ -779,6 +797,8 @@ void Node::Impl::add(const Channel::Ptr& ch, const Message& m) {
   }
   Leaf* leaf = add_leaf(type, name, args, &err);
   if (!leaf) return void(ch->reply_error(m, err));
+  leaf->package = p["package"].as_string();
+  leaf->system_dir = p["system_dir"].as_string();
   const Value e = endpoints(leaf);
   daemon->request({"register", 0, Value::map().set("name", name).set("endpoints", e)},
                   std::chrono::milliseconds(opts.timeout_ms), [this, ch, m, name, e](Response r) {

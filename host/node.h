@@ -53,6 +53,12 @@
 //                                                sent so far (evs: per leaf), leaves = its leaves' PATHs,
 //                                                sent = {to = {key = n}} the links whose counts moved, dig
 //                                                (trace) = {out = [[port, n, digest, value]], sw = [sets]}
+//   code {}                                   -> ok {pid, leaves, shared, package, changed}: the process the
+//                                                leaf's code runs in (shared: a shared node's NAME#PID, nil
+//                                                in a one-leaf node; leaves: how many it hosts) and, for a
+//                                                leaf added with a package, that package and why its file is no
+//                                                longer what this process loaded (nil when it is:
+//                                                NodeOptions::package_changed). A restart asks it first.
 //   exit {}                                   -> ok {}, then the node stops its component and exits 0
 // Leaves: each leaf has everything a one-leaf node has: its own control address (a listener of its own) taking
 // every request above, its events (sent on its own control channels only), and its registration under its PATH
@@ -123,6 +129,9 @@ struct NodeOptions {
   /// A shared node: loads the controller package an `add` names (package, system_dir) before creating its
   /// leaf; false with *error (`dca node` loads through controllers/packages.h). Unset: `add` with a package fails.
   std::function<bool(const std::string& package, const std::string& system_dir, std::string* error)> load_package;
+  /// A shared node: why the package an `add` named (package, system_dir) is no longer the file this process
+  /// loaded, "" when it is (the `code` request's `changed`; controllers/packages.h package_changed). Unset: "".
+  std::function<std::string(const std::string& package, const std::string& system_dir)> package_changed;
 };
 
 /// Creates the hosted component: (type, name, host, args, timers). Throws std::invalid_argument with a message

@@ -156,6 +156,11 @@ class NodeTest : public ::testing::Test {
   void start_shared(const std::string& name, dca::Nanos period = 0, bool sim = false) {
     dca::NodeOptions o = node_options(name, sim);
     o.shared = true;
+    o.load_package = [](const std::string&, const std::string&, std::string*) { return true; };
+    o.package_changed = [this](const std::string& package, const std::string& system_dir) {
+      packages_asked.push_back(package + " " + system_dir);
+      return changed;
+    };
     nodes.push_back(std::make_unique<dca::Node>(
         loop, o,
         [this, period](const std::string& type, const std::string& n, const std::string&,
@@ -220,6 +225,9 @@ class NodeTest : public ::testing::Test {
   std::vector<Message> events;
   std::map<std::string, TestComponent*> shared_made;  // a shared node's leaves (start_shared)
   int created = 0;
+  // a shared node's packages (start_shared): each `add` naming one loads it; package_changed answers `changed`
+  std::vector<std::string> packages_asked;
+  std::string changed;
   bool hold_register = false;  // the stand-in daemon leaves register requests unanswered (counted in held)
   int held = 0;
 };
@@ -440,6 +448,34 @@ TEST_F(NodeTest, LeavesOfASharedNodeConnectInProcessAndListTheirOwnLinks) {
   EXPECT_EQ(call(sb, "ports").message.payload["links"].as_array().size(), 0u);
   r = call(sb, "read", Value::map().set("port", "In"));
   EXPECT_EQ(r.message.payload["value"].as_float(), 4.0);
+}
+
+// code {}, which a restart asks first: the process a leaf runs in and, for a leaf added with a package, whether the
+// package's file is still the one the process loaded (NodeOptions::package_changed).
+TEST_F(NodeTest, CodeSaysALeafsProcessAndWhetherItsPackageChanged) {
+  auto proc = shared_with({"/g/a"});
+  ASSERT_TRUE(call(proc, "add", Value::map().set("controller", "Test").set("name", "/g/b").set("args", Value::array())
+                                    .set("package", "pkg").set("system_dir", "/sys")).ok());
+  const std::string self = "leaves@h#" + std::to_string(::getpid());
+  auto sa = supervise("/g/a");
+  auto sb = supervise("/g/b");
+  auto a = call(sa, "code").message.payload;
+  EXPECT_EQ(a["shared"].as_string(), self);
+  EXPECT_EQ(a["pid"].as_int(), ::getpid());
+  EXPECT_EQ(a["leaves"].as_int(), 2);
+  EXPECT_TRUE(a["package"].is_nil());  // a built-in's code changes with dca only
+  auto b = call(sb, "code").message.payload;
+  EXPECT_EQ(b["package"].as_string(), "pkg");
+  EXPECT_TRUE(b["changed"].is_nil());
+  changed = "/sys/packages/pkg.dca.so changed on disk since this process loaded it";
+  b = call(sb, "code").message.payload;
+  EXPECT_EQ(b["changed"].as_string(), changed);
+  EXPECT_EQ(packages_asked, (std::vector<std::string>{"pkg /sys", "pkg /sys"}));
+  // a one-leaf node: no shared process
+  start_node("/solo");
+  auto solo = call(supervise("/solo"), "code").message.payload;
+  EXPECT_TRUE(solo["shared"].is_nil());
+  EXPECT_EQ(solo["leaves"].as_int(), 1);
 }
 
 // restart(path) of a leaf in a shared node: remove, then add the same PATH: a fresh instance in the same

@@ -8,7 +8,8 @@ local sys = S.system(src .. "/scripts/systems/test_restart.dca")
 
 local PROCESSES = { "main.src", "main.pipe", "main.pipe.gain", "main.pipe.sink", "main.pipe.count" }
 -- Under a shared placement (`dca scenario --placement group|host`) a restarted leaf is a fresh instance in the
--- same shared node (host/node.h `remove` then `add`): its pid stays, its config("key") arguments are read again.
+-- same shared node (host/node.h `remove` then `add`): its pid stays, its config("key") arguments are read again,
+-- and the answer says it runs the code that process loaded (dca.supervisor.restart code_check).
 local shared = sys.backend == "real" and (S.placement or "process") ~= "process"
 
 -- The pid of the live process at `path` (memory: the in-memory cluster's process slots).
@@ -54,9 +55,15 @@ end)
 local function restart(path, key, value)
   local before = pids()
   sys:config("h2"):set(key, value)
-  S.eq(type_line("restart('" .. path:gsub("^main%.", "") .. "')"), path .. ": restarted")
-  if shared then S.eq(pid(path), before[path], "a fresh instance in the same shared node")
-  else S.ok(pid(path) ~= before[path], "a new process") end
+  local said = type_line("restart('" .. path:gsub("^main%.", "") .. "')")
+  if shared then
+    S.contains(said, path .. ": restarted (a fresh instance in shared node leaves:")
+    S.contains(said, "#" .. before[path] .. " (--placement " .. S.placement .. "), with the code that process loaded)")
+    S.eq(pid(path), before[path], "a fresh instance in the same shared node")
+  else
+    S.eq(said, path .. ": restarted")
+    S.ok(pid(path) ~= before[path], "a new process")
+  end
   others_unchanged(before, path)
   return before
 end

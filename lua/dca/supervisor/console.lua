@@ -27,7 +27,9 @@ event(path, "done", value)    inject a leaf event ("done" value | "aborted" reas
 abort(path)                   abort a process (its owner's algebra decides what follows); abort() the group
 restart(path)                 a group: abort its expression and start it again (new event actions take
                                 effect); a leaf: start its process anew from what is on disk now (rebuilt
-                                code, config values), wired and running as before; nothing else stops
+                                code, config values), wired and running as before; nothing else stops. A
+                                leaf sharing its process (--placement group|host) keeps that process's
+                                code: refused, the leaf running on, when its package changed on disk
 activate(path, label)         activate / deactivate a connection set of a process
 deactivate(path, label)
 read(path, port)              a leaf's port: its latest sample and how many samples it has seen
@@ -172,8 +174,8 @@ local function action_commands(env, c, reload)
   end
   function env.restart(p)
     local path = path_of(p)
-    local ok, err = await(function(k) sup:restart(path, k) end)
-    return done(ok, err, path .. ": restarted")
+    local ok, how = await(function(k) sup:restart(path, k) end)
+    return done(ok, how, path .. ": restarted" .. (ok and how and " (" .. how .. ")" or ""))
   end
   local function set(p, label, what)
     local path = path_of(p)

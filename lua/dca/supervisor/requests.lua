@@ -60,7 +60,12 @@ M.HANDLERS = {
   node = function(sup, msg, reply) sup:to_leaf(msg.leaf, msg.msg, sup.timeouts.request, passed_on(reply)) end,
   tree = function(sup, _, reply) sup:tree(function(tr) reply({ type = "ok", tree = tr }) end) end,
   inject = function(sup, msg, reply) sup:inject(msg.path, msg.msg, done_by(reply)) end,
-  restart = function(sup, msg, reply) sup:restart(msg.path, done_by(reply)) end,
+  -- ok {note}: how a leaf was restarted, when that says something (a leaf in a shared node: restart.code_check)
+  restart = function(sup, msg, reply)
+    sup:restart(msg.path, function(ok, how)
+      reply(ok and { type = "ok", note = how } or { type = "error", reason = how })
+    end)
+  end,
   switch = function(sup, msg, reply) sup:switch(msg.path, msg.label, msg.what, done_by(reply)) end,
   ports = function(sup, msg, reply) taps.request(sup, msg, reply) end,
   tap = function(sup, msg, reply) taps.request(sup, msg, reply) end,

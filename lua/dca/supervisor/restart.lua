@@ -4,6 +4,7 @@
 --   restart.manual(sup, path, cb)   -- the process at `path`: this group (its expression again), a leaf of it
 --                                   --   (restart.leaf), or a process below (through the child supervisor)
 --   restart.leaf(sup, name, cb)     -- the leaf `name` of this group anew, wired and running as before
+--   restart.code_check(sup, ch, cb) -- whether leaf `ch` may start anew with the code on disk now (shared nodes)
 --   restart.policy_takes(sup, kind) --> whether the group's policy restarts a fault of `kind` now
 --   restart.fault(sup, names, how, kind, reason, cause)  -- a fault for the policy (handled from the loop)
 --   restart.host(sup, ch, f)        --> the host child `ch` restarts on after fault `f` (failover), or nil
@@ -36,20 +37,74 @@ local function now_ns(at) return at and math.floor(at * 1e9 + 0.5) or nil end
 
 local RESTARTABLE = { inactive = true, running = true, done = true, aborted = true }
 
---- Starts the leaf `name` of this group anew (see above). cb(true) once it is started, wired and (if it was
---- running) running again; cb(nil, reason) if it cannot be restarted (the leaf untouched) or if the restart
---- failed (the leaf then ended ABORTED with the reason, as for any abort).
-function M.leaf(sup, name, cb)
+-- Why leaf `name` cannot be restarted now (nil: it can).
+local function not_restartable(sup, name)
   local ch = sup.children[name]
-  if not ch or ch.kind ~= "leaf" then cb(nil, sformat("%s has no leaf '%s'", sup.path, tostring(name))) return end
-  if child.restart(ch, "replacing") then cb(nil, ch.path .. " is already being restarted") return end
+  if not ch or ch.kind ~= "leaf" then return sformat("%s has no leaf '%s'", sup.path, tostring(name)) end
+  if child.restart(ch, "replacing") then return ch.path .. " is already being restarted" end
   if not ch.handle or not RESTARTABLE[ch.state] then
-    cb(nil, sformat("%s is not running (%s)", ch.path, ch.exit_reason or ch.state))
-    return
+    return sformat("%s is not running (%s)", ch.path, ch.exit_reason or ch.state)
   end
+end
+
+--- Starts the leaf `name` of this group anew (see above). cb(true[, note]) once it is started, wired and (if it
+--- was running) running again (note: how, for a leaf in a shared node: M.code_check); cb(nil, reason) if it
+--- cannot be restarted (the leaf untouched, running on) or if the restart failed (the leaf then ended ABORTED
+--- with the reason, as for any abort).
+function M.leaf(sup, name, cb)
+  local why = not_restartable(sup, name)
+  if why then cb(nil, why) return end
+  local ch, old = sup.children[name], sup.children[name].handle
+  M.code_check(sup, ch, function(ok, how)
+    if not ok then sup:say("%s", how) cb(nil, how) return end
+    why = not_restartable(sup, name) or (ch.handle ~= old and ch.path .. " was restarted meanwhile") or nil
+    if why then cb(nil, why) return end
+    M.replace(sup, name, how, cb)
+  end)
+end
+
+--- Whether leaf `ch` may start anew with the code on disk now, asked before anything of it stops. A leaf in a
+--- shared node (`--placement group|host`) with other leaves starts anew in that same process, which cannot
+--- replace a package it loaded: when the node says the leaf's package file changed since it loaded it, the
+--- restart is refused naming the leaf, its process and what to do (the leaf runs on); else it goes on, with a
+--- note that it reuses the process's code. A leaf alone in its node gets a fresh node (its supervisor lets go of
+--- the old one), so it goes on, said too. cb(true[, note]) | cb(nil, reason)
+function M.code_check(sup, ch, cb)
+  if (sup.placement or "process") == "process" then cb(true) return end
+  ch.handle.request({ type = "code" }, sup.timeouts.request, function(r, err)
+    local info, why = async.outcome(r, err)
+    if not info then
+      cb(nil, sformat("restart of %s refused: its node did not say which code it runs: %s", ch.path, why))
+      return
+    end
+    if not info.shared then cb(true) return end
+    local others = (tonumber(info.leaves) or 1) - 1
+    local where = sformat("shared node %s (--placement %s)", tostring(info.shared), sup.placement)
+    if others == 0 then
+      -- its supervisor lets go of the node with its last leaf: it starts in a fresh one (docs/placement.md)
+      cb(true, sformat("alone in %s: a fresh process, with the code as it is on disk now", where))
+      return
+    end
+    if info.changed then
+      cb(nil, sformat("restart of %s refused: package '%s' is not what its process loaded (%s); %s shares its "
+        .. "process with %d other lea%s in %s: a package loaded in a process cannot be replaced there; run the "
+        .. "system with --placement process to change code live (%s runs on with the code it had)", ch.path,
+        tostring(info.package), tostring(info.changed), ch.path, others, others == 1 and "f" or "ves", where,
+        ch.path))
+      return
+    end
+    cb(true, sformat("a fresh instance in %s, with the code that process loaded%s", where,
+      info.package and sformat(": package '%s' is unchanged on disk", tostring(info.package)) or ""))
+  end)
+end
+
+-- The restart of leaf `name` once it may (M.leaf): its old process stopped and ended, then M.respawn. `note`
+-- (M.code_check's) goes with the transition line and the answer.
+function M.replace(sup, name, note, cb)
+  local ch = sup.children[name]
   local was_running = ch.state == "running" and sup.run ~= nil and sup.run:is_running(name)
   local old = ch.handle
-  child.mark(ch, { replacing = true })
+  child.mark(ch, { replacing = true, code = note })
   child.set(ch, "restarting")
   sup:say("%s: restarting", ch.path)
   local function ended(ok, err)
@@ -119,7 +174,9 @@ function M.tail(sup, name, was_running, cb)
       sup.rt.report({ type = "restarted", path = ch.path })
       M.run_again(sup, name, was_running)
       M.restarted_line(sup, ch)
-      cb(true)
+      local note = child.restart(ch, "code")
+      child.unmark(ch, "code")
+      cb(true, note)
     end)
   end)
 end
@@ -133,7 +190,7 @@ end
 -- ABORTED with the reason (its group's algebra decides what follows). cb(nil, reason)
 function M.failed(sup, name, was_running, reason, cb)
   local ch = sup.children[name]
-  child.unmark(ch, "replacing")
+  child.unmark(ch, "replacing", "code")
   local h = ch.handle
   ch.handle, ch.exit_reason = nil, reason
   child.set(ch, "exited")
@@ -373,8 +430,9 @@ function M.run_again(sup, name, was_running)
 end
 
 function M.restarted_line(sup, ch)
-  local pid = ch.handle and ch.handle.pid
-  sup:say("%s: restarted%s%s", ch.path, child.restart(ch, "note") or "", pid and sformat(" (pid %s)", tostring(pid)) or "")
+  local pid, code = ch.handle and ch.handle.pid, child.restart(ch, "code")
+  sup:say("%s: restarted%s%s%s", ch.path, child.restart(ch, "note") or "", pid and sformat(" (pid %s)", tostring(pid)) or "",
+    code and ": " .. code or "")
 end
 
 --- Past the restart intensity: the running children stopped (LIFO), the group ended ABORTED with `reason`, its
@@ -403,7 +461,7 @@ end
 
 --- Restarts the process at `path`: a group's expression is aborted and started again (its latest event
 --- actions take effect); a leaf is started anew from what is on disk now, while everything else runs
---- (M.leaf, done by the leaf's own group). cb(true) | cb(nil, reason)
+--- (M.leaf, done by the leaf's own group). cb(true[, note]) | cb(nil, reason)
 function M.manual(sup, path, cb)
   if path == sup.path then
     sup:abort(function()
@@ -422,11 +480,11 @@ function M.manual(sup, path, cb)
     cb(ok, err)
   end
   if ch and ch.kind == "leaf" then M.leaf(sup, ch.name, finish) return end
-  sup:_forward(path, { type = "restart", path = path }, function(ok, err)
-    if not ok then finish(nil, err) return end
+  sup:_forward(path, { type = "restart", path = path }, function(r, err)
+    if not r then finish(nil, err) return end
     -- a leaf below: this group's connections of it are made again before the answer (the `restarted` event
     -- does the same for the groups above one that restarts a leaf by itself; a connection made twice is one)
-    wiring.rewire(sup, path, finish)
+    wiring.rewire(sup, path, function(ok, werr) finish(ok, ok and r.note or werr) end)
   end)
 end
 
