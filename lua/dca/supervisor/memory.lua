@@ -15,6 +15,7 @@
 --   c:kill(path, "SEGV") ; c:lose_host("h3") ; c:fail_spawn[path] = "reason" | "silent" ; c:freeze(path)
 --   c.spawn_delay[path] = seconds            -- that process starts only after this much virtual time
 --   c.refuse_to[name] = "reason"             -- a `connect` to that destination is refused (a tap point gone)
+--   c.code[path] = manifest                  -- the ports its node lists from then on (`ports {}`): new code
 --   fake.cluster{ heartbeat = { period, silence } }  -- supervisors ping their child supervisors
 --   fake.cluster{ types = { T = manifest }, world = true }  -- device ports, wired to the fake `world` node
 --   fake.cluster{ config = { ["door.stop_distance"] = 0.45 } } -- the repository config("key") arguments read
@@ -59,7 +60,7 @@ function M.cluster(opts)
     behave = opts.behave or {}, nodes = {}, sups = {}, procs = {},
     trace = {}, commands = {}, reports = {}, fail_spawn = {}, spawn_delay = {}, lost_hosts = {},
     outcome = nil, timeouts = opts.timeouts, lines = {}, pid = 100, heartbeat = opts.heartbeat,
-    types = opts.types, config = opts.config,
+    types = opts.types, config = opts.config, code = {},
   }, Cluster)
   if opts.world then c:add_world(opts.world_host) end
   return c
@@ -412,6 +413,11 @@ function Node:serve(msg, reply)
   elseif t == "deactivate" then
     self.active[msg.set] = nil
     reply({ type = "ok" })
+  elseif t == "ports" then
+    -- its type's ports: the code a test put in place for its path (c.code), else its manifest (c.types); none
+    -- listed when neither is known (the restart's check of them then has nothing to compare)
+    local m = (c.code and c.code[self.path]) or (c.types and c.types[self.type])
+    reply(m and { type = "ok", inputs = m.inputs or {}, outputs = m.outputs or {} } or { type = "ok" })
   elseif t == "read" then
     reply({ type = "ok", value = self.ports[msg.port] })
   else

@@ -11,11 +11,12 @@
 --   restart.leaf_restarted(sup, path)  -- a leaf below was restarted: this group's connections of it again
 --   restart.restarting_peer(sup, peer) --> the path being restarted that the data peer "PATH.port" is part of
 --   restart.policy_now(sup, at)     --> the time of the restart window
--- The rest are its steps: take-down, bring-up (respawn, restore, tail), failure, escalation.
+-- The rest are its steps: take-down, bring-up (respawn, adopt, restore, tail), failure, escalation.
 --
 -- Restart of a leaf, by hand: the old process is stopped (Stop(): actuators at zero) and ended, a fresh one of the
--- same instance (type, arguments, host; its `config("key")` arguments read again) is started, the connections of
--- the leaf are made again in both directions by every group that owns one (this one, then each ancestor as the
+-- same instance (type, arguments, host; its `config("key")` arguments read again) is started, its ports are
+-- checked against the system's connections of them (a rebuild may have changed them: a misfit fails the restart,
+-- never half-wired), the connections of the leaf are made again in both directions by every group that owns one (this one, then each ancestor as the
 -- `restarted {path}` event goes up), its active sets are activated again, and it is run again with its `init` if
 -- it was running. The algebra sees nothing: no event of the old process counts, and its exit is not a crash.
 -- Other processes never stop.
@@ -124,7 +125,7 @@ function M.replace(sup, name, note, cb)
   end
 end
 
--- The fresh process of leaf `name` (its old one ended), then M.restore. A spawn failure fails the restart.
+-- The fresh process of leaf `name` (its old one ended), then M.adopt. A spawn failure fails the restart.
 function M.respawn(sup, name, was_running, cb)
   local ch = sup.children[name]
   local answered = false
@@ -139,12 +140,26 @@ function M.respawn(sup, name, was_running, cb)
     if answered then if handle then handle.kill("KILL") end return end
     answered = true
     if not handle then M.failed(sup, name, was_running, child.start_error(ch, err, how), cb) return end
-    if M.stopping_all(sup, ch) then
-      child.unmark(ch, "replacing")
-      handle.kill("TERM")
-      cb(nil, ch.path .. ": stopped while restarting")
-      return
-    end
+    M.adopt(sup, name, was_running, handle, cb)
+  end)
+end
+
+-- The fresh process `handle` of leaf `name` becomes the leaf's once its ports fit the system's uses of them
+-- (wiring.check_ports: a rebuild may have renamed or retyped one), then M.restore. A misfit is never wired: the
+-- process is ended and the restart fails with the reason (the leaf ends ABORTED, as after a failed start).
+function M.adopt(sup, name, was_running, handle, cb)
+  local ch = sup.children[name]
+  local function stopped()
+    if not M.stopping_all(sup, ch) then return false end
+    child.unmark(ch, "replacing")
+    handle.kill("TERM")
+    cb(nil, ch.path .. ": stopped while restarting")
+    return true
+  end
+  if stopped() then return end
+  wiring.check_ports(sup, ch.path, handle, function(ok, why)
+    if not ok then handle.kill("KILL") M.failed(sup, name, was_running, why, cb) return end
+    if stopped() then return end
     ch.handle = handle   -- from here on its exit is a crash like any other
     child.unmark(ch, "replacing")
     child.set(ch, "inactive")

@@ -7,6 +7,8 @@
 --   wiring.devices(sup, cb, only)   -- the device ports of its leaves (of leaf `only`) wired to the world
 --   wiring.rewire(sup, path, cb)    -- its connections of the leaf or subtree `path` (started anew) made again
 --   wiring.device_ports(spec, types)   --> the device ports of the group's own leaves
+--   wiring.check_ports(sup, path, handle, cb)  -- the ports of leaf `path`'s new process (a restart) against
+--                                   --   every use of them this group knows (M.ports_mismatch)
 --   wiring.is_device_input(sup, leaf, port)  --> whether that port of that leaf is a device input
 -- cb(true) | cb(nil, the first reason, naming the connection or port).
 local M = {}
@@ -17,7 +19,7 @@ local port_types = require "dca.lang.ports"
 local spec_mod = require "dca.supervisor.spec"
 local taps = require "dca.supervisor.taps"
 
-local ipairs, tostring, sformat, concat = ipairs, tostring, string.format, table.concat
+local ipairs, type, tostring, sformat, concat = ipairs, type, tostring, string.format, table.concat
 
 -- Sends a message to the node of leaf `leaf_path`, directly when it is ours, else through the child DCAS
 -- whose subtree holds it. cb(reply, err).
@@ -176,6 +178,125 @@ function M.is_device_input(sup, leaf, port)
     if p.leaf == leaf and p.port == port and p.dir == "in" then return true end
   end
   return false
+end
+
+---------------------------------------------------------------------------------------------- ports of new code
+
+local WORD = { inputs = "input", outputs = "output" }
+
+-- The port `name` in a list of port specs ({name, type, size}), or nil.
+local function port_in(list, name)
+  for _, p in ipairs(list or {}) do if p.name == name then return p end end
+end
+
+-- The manifest port of leaf `path` (a leaf of this group's tree, by its type in `types`), in `dir`, or nil.
+local function manifest_port(sup, types, path, dir, name)
+  local t
+  spec_mod.walk(sup.spec, function(n) if n.kind == "leaf" and n.path == path then t = types[n.type] end end)
+  return t and port_in(t[dir], name)
+end
+
+-- The uses this group knows of leaf `path`'s ports: its connections (the peer's port named, to check the shape
+-- against), its device ports and its external_io aliases naming them (groups above may connect those; their
+-- direction and shape are the old code's). { { dir, port, what, peer = {path, dir, port} | nil }, ... }
+local function port_uses(sup, path, types)
+  local uses = {}
+  for _, w in ipairs(sup.wires or {}) do
+    local what = sformat("connection %s.%s -> %s.%s (set %s)", w.src, w.out, w.dst, w["in"], w.set)
+    if w.src == path then
+      uses[#uses + 1] = { dir = "outputs", port = w.out, what = what, peer = { w.dst, "inputs", w["in"] } }
+    end
+    if w.dst == path then
+      uses[#uses + 1] = { dir = "inputs", port = w["in"], what = what, peer = { w.src, "outputs", w.out } }
+    end
+  end
+  for _, p in ipairs(M.device_ports(sup.spec, types)) do
+    if p.leaf == path then
+      uses[#uses + 1] = { dir = p.dir == "in" and "inputs" or "outputs", port = p.port,
+                          what = "its device port " .. (p.dir == "in" and "from " or "to ") .. p.signal }
+    end
+  end
+  for _, x in ipairs(sup.spec.external_io or {}) do
+    local c = spec_mod.child(sup.spec, x.instance)
+    if c and c.path == path then
+      local t = types[c.type] or {}
+      local dir = port_in(t.outputs, x.port) and "outputs" or port_in(t.inputs, x.port) and "inputs" or nil
+      uses[#uses + 1] = { dir = dir, port = x.port, what = sformat("external_io %s of %s", x.alias, sup.path) }
+    end
+  end
+  return uses
+end
+
+local function names(list)
+  local out = {}
+  for _, p in ipairs(list or {}) do out[#out + 1] = tostring(p.name) end
+  return #out > 0 and concat(out, ", ") or "none"
+end
+
+-- What is wrong with use `u` of the new ports `got` of the leaf (nil: nothing). `old`: its type's manifest as
+-- the system was checked with it (a port of the same type and size fits as it did).
+local function use_problem(sup, types, got, u, old)
+  local dirs = u.dir and { u.dir } or { "inputs", "outputs" }
+  local new, dir
+  for _, d in ipairs(dirs) do
+    new = port_in(got[d], u.port)
+    if new then dir = d break end
+  end
+  if not new then
+    if u.dir then
+      return sformat("its new code has no %s '%s' (%s are: %s), which %s uses", WORD[u.dir], u.port, u.dir,
+        names(got[u.dir]), u.what)
+    end
+    return sformat("its new code has no port '%s' (inputs are: %s; outputs are: %s), which %s uses", u.port,
+      names(got.inputs), names(got.outputs), u.what)
+  end
+  local shape = port_types.shape(new)
+  local was = old and port_types.shape(port_in(old[dir], u.port))
+  -- the same type and size as the code the system was checked with: it fits as it did
+  if not shape or (was and port_types.text(was) == port_types.text(shape)) then return nil end
+  local pp = u.peer and manifest_port(sup, types, u.peer[1], u.peer[2], u.peer[3])
+  local peer = pp and port_types.shape(pp)
+  if peer then
+    local ok = dir == "outputs" and port_types.fits(shape, peer) or dir == "inputs" and port_types.fits(peer, shape)
+    if ok then return nil end
+    return sformat("its new code's %s '%s' is a %s, which does not fit %s: %s.%s is a %s", WORD[dir], u.port,
+      port_types.text(shape), u.what, u.peer[1], u.peer[3], port_types.text(peer))
+  end
+  if was then
+    return sformat("its new code's %s '%s' is a %s, not the %s it was, which %s needs", WORD[dir], u.port,
+      port_types.text(shape), port_types.text(was), u.what)
+  end
+end
+
+--- Why the ports `got` (a node's `ports {}` answer: inputs and outputs, each {name, type, size}) of the new
+--- process of leaf `path` (a restart) do not fit what this group knows the system does with that leaf: its
+--- connections (the name, the direction, and the type and size against the other end's), its device ports and
+--- its external_io aliases (the name and direction, and the type and size the old code had). nil when they fit,
+--- or when the answer lists no ports (a runtime whose nodes do not tell).
+function M.ports_mismatch(sup, path, got)
+  if type(got) ~= "table" or (got.inputs == nil and got.outputs == nil) then return nil end
+  local types = sup.rt.types and sup.rt.types() or {}
+  local leaf
+  spec_mod.walk(sup.spec, function(n) if n.kind == "leaf" and n.path == path then leaf = n end end)
+  local old = leaf and types[leaf.type]
+  local problems, seen = {}, {}
+  for _, u in ipairs(port_uses(sup, path, types)) do
+    local why = use_problem(sup, types, got, u, old)
+    if why and not seen[why] then seen[why] = true problems[#problems + 1] = why end
+  end
+  if #problems == 0 then return nil end
+  return sformat("restart of %s refused: %s", path, concat(problems, "; "))
+end
+
+--- Asks the new process `handle` of leaf `path` for its ports and checks them against the system's uses of
+--- them (M.ports_mismatch), before anything is wired to it. cb(true) | cb(nil, reason)
+function M.check_ports(sup, path, handle, cb)
+  handle.request({ type = "ports" }, sup.timeouts.request, function(r, err)
+    local got, why = async.outcome(r, err)
+    if not got then cb(nil, sformat("%s: its new process did not list its ports: %s", path, why)) return end
+    why = M.ports_mismatch(sup, path, got)
+    if why then cb(nil, why) else cb(true) end
+  end)
 end
 
 -- Whether the leaf `leaf` is `path` or lies below it (a restarted group's subtree).

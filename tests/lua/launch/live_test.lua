@@ -6,6 +6,8 @@
 --   - a shared node (--placement group): the node cannot replace a package it loaded, so the restart is refused
 --     with the reason, and the leaf runs on with its code (before, it answered "restarted" and ran the old code);
 --     with the file unchanged the restart goes on and says it reuses the code that process loaded.
+--   - a build whose output no longer has the name the system connects: the restart is refused naming the port
+--     and the connection, before anything is wired to the new process (before, the system ran half-wired).
 -- Every wait is on an event (a sample read, a console answer) with a deadline that only bounds a hang.
 local T = require "dca.testing"
 local suite = T.suite("live")
@@ -84,6 +86,24 @@ S.step("pkg_ok replaced in place by a build with k = 3, restart('sc'): k = 3", f
   S.eq(say("restart('sc')"), "main.sc: restarted")
   S.ok(sys:pid("main.sc") ~= before, "a new process")
   wait_factor(3)
+end)
+]])
+  T.eq(rc, 0, "the scenario passes\n" .. out)
+end)
+
+suite:case("a_restart_whose_new_code_renamed_a_connected_port_is_refused_naming_it_and_never_wired", function()
+  local out, rc = scenario("process", [[
+S.step("pkg_ok replaced in place by a build whose output Out is named Scaled: restart('sc') is refused", function()
+  replace("renamed")
+  S.contains(say("restart('sc')"), "restart of main.sc refused: its new code has no output 'Out' (outputs are: "
+    .. "Scaled), which connection main.sc.Out -> main.sink.In (set main:sc[run]) uses")
+  -- its old process was ended for the new one: the leaf ends ABORTED with the reason, its group decides
+  local out = sys:wait_outcome(30)
+  S.eq(out.type, "aborted")
+  S.eq(out.path, "main.sc")
+  S.contains(out.reason, "restart of main.sc refused: its new code has no output 'Out'")
+  S.eq(#sys:lines_matching("^main%.sc: restarted"), 0, "never restarted, never wired")
+  S.eq(#sys:lines_matching("^main%.sc: restart failed: restart of main%.sc refused: "), 1, "said in the output")
 end)
 ]])
   T.eq(rc, 0, "the scenario passes\n" .. out)

@@ -535,6 +535,74 @@ suite:case("breaks_towards_a_leaf_being_restarted_are_logged_not_said", function
   T.contains(table.concat(c.root_sup:recent(50), "\n"), "while main.compliant restarts")
 end)
 
+-- The compliant system's types with typed ports (scalars), for the check of a restarted leaf's new ports.
+local function scalars(ins, outs)
+  local t = { inputs = {}, outputs = {} }
+  for _, n in ipairs(ins) do t.inputs[#t.inputs + 1] = { name = n, type = "scalar", size = 1 } end
+  for _, n in ipairs(outs) do t.outputs[#t.outputs + 1] = { name = n, type = "scalar", size = 1 } end
+  return t
+end
+local compliant_types = {
+  ForceSensor = scalars({}, { "Out1" }), CompliantCtrl = scalars({ "In1" }, { "Out1" }),
+  Puma560 = scalars({ "In1" }, {}), Threshold = scalars({ "In1" }, {}),
+}
+
+-- Restarts main.compliant whose new code has the ports `new` (memory's c.code): refused with a reason that
+-- contains `...`; nothing connected to the new process; the leaf ended ABORTED with the reason.
+local function refused_restart(new, ...)
+  local c = running(compliant(), { types = compliant_types })
+  c:settle(1)
+  local from = #c.commands
+  c.code["main.compliant"] = new
+  local ok, err = restart(c, c.root_sup, "main.compliant")
+  T.eq(ok, nil)
+  says(err, "restart of main.compliant refused: ", ...)
+  for i = from + 1, #c.commands do
+    T.ok(not c.commands[i]:find("connect", 1, true), "nothing wired after the restart: " .. c.commands[i])
+  end
+  T.ok(not c:node("main.compliant").p.alive, "the new process is ended")
+  local out = c:outcome_within(100)
+  T.eq(out.type, "aborted")
+  T.eq(out.path, "main.compliant")
+  says(out.reason, "restart of main.compliant refused: ")
+  T.contains(table.concat(c.lines, "\n"), "main.compliant: restart failed: restart of main.compliant refused: ")
+end
+
+suite:case("a_restart_whose_new_code_lacks_a_connected_port_is_refused_naming_it_and_never_wired", function()
+  refused_restart(scalars({ "In1" }, { "Force" }), "its new code has no output 'Out1' (outputs are: Force), "
+    .. "which connection main.compliant.Out1 -> main.puma.In1 (set main:compliant[lbl1]) uses")
+  refused_restart(scalars({}, { "Out1" }), "its new code has no input 'In1' (inputs are: none), "
+    .. "which connection main.forcedata.Out1 -> main.compliant.In1 (set main:forcedata[lbl1]) uses")
+end)
+
+suite:case("a_restart_whose_new_code_retyped_a_connected_port_is_refused_naming_both_ends", function()
+  local new = scalars({ "In1" }, {})
+  new.outputs[1] = { name = "Out1", type = "vector", size = 3 }
+  refused_restart(new, "its new code's output 'Out1' is a vector[3], which does not fit connection "
+    .. "main.compliant.Out1 -> main.puma.In1 (set main:compliant[lbl1]): main.puma.In1 is a scalar")
+end)
+
+-- main.door.mc.rr's input In is the alias Vel of main.door.mc, which main.door connects: its group refuses a
+-- restart whose new code lacks it (the group above is not asked: the alias is the use it knows).
+suite:case("a_restart_whose_new_code_lacks_a_port_an_external_io_alias_names_is_refused", function()
+  local c = running(door())
+  c:settle(3)
+  c.code["main.door.mc.rr"] = scalars({ "Velocity" }, { "Out" })
+  local ok, err = restart(c, c.sups["main.door.mc"], "main.door.mc.rr")
+  T.eq(ok, nil)
+  T.eq(err, "restart of main.door.mc.rr refused: its new code has no port 'In' (inputs are: Velocity; outputs are: "
+    .. "Out), which external_io Vel of main.door.mc uses")
+end)
+
+suite:case("a_restart_whose_new_code_keeps_the_connected_ports_goes_on", function()
+  local c = running(compliant(), { types = compliant_types })
+  c:settle(1)
+  c.code["main.compliant"] = scalars({ "In1", "Gain" }, { "Out1", "Debug" })  -- ports added: nothing breaks
+  T.eq(restart(c, c.root_sup, "main.compliant"), true)
+  c:settle(c.t)
+  T.eq(c.root_sup.children.compliant.state, "running")
+end)
+
 suite:case("an_unknown_request_is_refused_naming_the_requests_there_are", function()
   local c = fake.cluster{ behave = behave }
   local sup = c:root(compliant())
