@@ -267,7 +267,7 @@ function Mon:_command(c, m)
   self.commands = self.commands + 1
   self.o.request(req, function(r)
     local ok = r and r.type ~= "error"
-    local text = r and (r.reason or r.text or r.output) or "no answer"
+    local text = r and (r.reason or r.text or r.output or r.note) or "no answer"
     if c:is_open() then send(c, { type = "reply", id = id, ok = ok and true or false, text = tostring(text or "") }) end
   end)
 end

@@ -73,6 +73,10 @@ suite:case("a_refused_command_is_not_ok_and_says_why", function()
     if msg.type == "config_set" and msg.key == "door.bad" then
       return { type = "error", reason = "unknown key 'door.bad' (did you mean door.width?) on host h1" }
     end
+    if msg.type == "restart" and msg.path == "main.s" then
+      return { type = "ok", note = "a fresh instance in shared node leaves:main@h1#42 (--placement group), with the "
+        .. "code that process loaded" }
+    end
     if msg.type == "restart" then return { type = "error", reason = "main.zz: no such process" } end
     return { type = "ok", text = "set 1 key: transaction 7 of h1" }
   end)
@@ -84,6 +88,10 @@ suite:case("a_refused_command_is_not_ok_and_says_why", function()
   T.eq(p.got[#p.got], { type = "reply", id = 2, ok = true, text = "set 1 key: transaction 7 of h1" })
   mon:_message(p, core.json_encode{ type = "command", id = 3, cmd = "restart", path = "main.zz" })
   T.eq(p.got[#p.got], { type = "reply", id = 3, ok = false, text = "main.zz: no such process" })
+  -- a restart's note (a leaf in a shared node reuses the loaded code) is its reply's text
+  mon:_message(p, core.json_encode{ type = "command", id = 4, cmd = "restart", path = "main.s" })
+  T.eq(p.got[#p.got], { type = "reply", id = 4, ok = true, text = "a fresh instance in shared node "
+    .. "leaves:main@h1#42 (--placement group), with the code that process loaded" })
   mon:close()
 end)
 
