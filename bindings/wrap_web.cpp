@@ -1,7 +1,7 @@
 // dca.WebServer and dca.WebConnection: the monitor's HTTP/WebSocket server (host/web) for Lua, and JSON.
 //
-//   local srv, err = core.web_listen("127.0.0.1:0", { max_connections = 64, max_message = 65536,
-//                                                      max_queue = 4 MiB, close_queue = 16 MiB })
+//   local srv, err = core.web_listen("127.0.0.1:0", { max_connections = 64, max_unauthenticated = 16,
+//                                                      max_message = 65536, max_queue = 4 MiB, close_queue = 16 MiB })
 //   srv:address()  srv:token()  srv:add_token(t)
 //   srv:add_key_token([key_file]) --> token | nil, err   -- also admit the cluster key's token (web::key_token)
 //   core.monitor_token([key_file]) --> token | nil, err  -- that token, for a key holder (dca monitor --token)
@@ -120,6 +120,7 @@ int core_web_listen(lua_State* L) {
   LoopState& ls = loop_state(L);
   web::Limits limits;
   limits.max_connections = size_option(L, "max_connections", limits.max_connections);
+  limits.max_unauthenticated = size_option(L, "max_unauthenticated", limits.max_unauthenticated);
   limits.max_message_bytes = size_option(L, "max_message", limits.max_message_bytes);
   limits.max_queue_bytes = size_option(L, "max_queue", limits.max_queue_bytes);
   limits.close_queue_bytes = size_option(L, "close_queue", limits.close_queue_bytes);
@@ -339,7 +340,8 @@ void push_counters(lua_State* L, std::initializer_list<std::pair<const char*, st
 int srv_stats(lua_State* L) {
   const web::ServerStats st = open_server(L).stats();
   push_counters(L, {{"http_requests", st.http_requests}, {"websockets", st.websockets}, {"refused", st.refused},
-                    {"bad_requests", st.bad_requests}, {"over_limit", st.over_limit}, {"open", st.open}});
+                    {"bad_requests", st.bad_requests}, {"over_limit", st.over_limit}, {"open", st.open},
+                    {"evicted", st.evicted}, {"authenticated", st.authenticated}});
   return 1;
 }
 

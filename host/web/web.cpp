@@ -71,6 +71,8 @@ struct Subscription {
   std::string rows;  // "[t,v,...],[t,v,...]"
 };
 
+class HttpSession;
+
 class WsSession : public Connection, public std::enable_shared_from_this<WsSession> {
  public:
   WsSession(tcp::socket socket, std::weak_ptr<ServerImpl> server, std::uint64_t id, std::string protocol,
@@ -149,6 +151,7 @@ class ServerImpl : public Server, public SampleHub::Observer {
   ServerStats stats() const override {
     ServerStats s = stats_;
     s.open = open_sockets_;
+    s.authenticated = authenticated_;
     return s;
   }
   void close() override;
@@ -162,8 +165,19 @@ class ServerImpl : public Server, public SampleHub::Observer {
                                                            std::string* chosen);
   void upgrade(tcp::socket socket, http::request<http::string_body> req, const std::string& chosen,
                const std::string& peer);
-  void socket_closed() {
+  /// A socket closed; `authenticated` when it had presented the token.
+  void socket_closed(bool authenticated) {
     if (open_sockets_ > 0) open_sockets_--;
+    if (authenticated && authenticated_ > 0) authenticated_--;
+  }
+  /// A pending socket presented the token: false (and nothing counted) when the token holders' sockets are full.
+  bool admit() {
+    if (authenticated_ >= limits_.max_connections) {
+      stats_.over_limit++;
+      return false;
+    }
+    authenticated_++;
+    return true;
   }
   void ws_closed(std::uint64_t id) { sessions_.erase(id); }
   void count_bad() { stats_.bad_requests++; }
@@ -176,6 +190,7 @@ class ServerImpl : public Server, public SampleHub::Observer {
  private:
   void accept();
   void arm_flush();
+  void add_pending(const std::shared_ptr<HttpSession>& h);
 
   boost::asio::io_context& io_;
   tcp::acceptor acceptor_;
@@ -191,7 +206,8 @@ class ServerImpl : public Server, public SampleHub::Observer {
   SampleHub hub_;
   std::map<std::uint64_t, std::weak_ptr<WsSession>> sessions_;
   std::uint64_t next_id_ = 1;
-  std::size_t open_sockets_ = 0;
+  std::size_t open_sockets_ = 0, authenticated_ = 0;
+  std::deque<std::weak_ptr<HttpSession>> pending_;  // sockets yet to present the token, oldest first
   ServerStats stats_;
 };
 
@@ -202,9 +218,16 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
   HttpSession(tcp::socket socket, std::weak_ptr<ServerImpl> server, std::string peer)
       : stream_(std::move(socket)), server_(std::move(server)), peer_(std::move(peer)) {}
   ~HttpSession() {
-    if (auto s = server_.lock(); s && !upgraded_) s->socket_closed();
+    if (auto s = server_.lock(); s && !upgraded_) s->socket_closed(authed_);
   }
   void read();
+  /// Whether it presented the token (it has left the pending pool).
+  bool authenticated() const { return authed_ || upgraded_; }
+  /// Closes a pending socket to make room for a newer one.
+  void evict() {
+    beast::error_code ignored;
+    stream_.socket().close(ignored);
+  }
 
  private:
   void on_read(beast::error_code ec);
@@ -216,7 +239,7 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
   beast::flat_buffer buffer_{16 * 1024};
   std::optional<http::request_parser<http::string_body>> parser_;
   std::shared_ptr<http::response<http::string_body>> res_;
-  bool upgraded_ = false;
+  bool upgraded_ = false, authed_ = false;
 };
 
 void HttpSession::read() {
@@ -225,7 +248,7 @@ void HttpSession::read() {
   parser_.emplace();
   parser_->header_limit(static_cast<std::uint32_t>(s->limits().max_request_bytes));
   parser_->body_limit(s->limits().max_request_bytes);
-  stream_.expires_after(s->limits().request_timeout);
+  stream_.expires_after(authed_ ? s->limits().request_timeout : s->limits().auth_timeout);
   http::async_read(stream_, buffer_, *parser_,
                    [self = shared_from_this()](beast::error_code ec, std::size_t) { self->on_read(ec); });
 }
@@ -251,6 +274,18 @@ void HttpSession::on_read(beast::error_code ec) {
     return;
   }
   auto req = parser_->release();
+  if (!authed_ && s->authorized(req)) {
+    if (!s->admit()) {
+      http::response<http::string_body> res{http::status::service_unavailable, 11};
+      res.set(http::field::content_type, "text/plain");
+      res.body() = "too many connections\n";
+      res.keep_alive(false);
+      res.prepare_payload();
+      respond(std::move(res));
+      return;
+    }
+    authed_ = true;
+  }
   if (websocket::is_upgrade(req)) {
     std::string chosen;
     if (auto no = s->refusal(req, &chosen)) {
@@ -390,7 +425,7 @@ void WsSession::closed(const std::string& reason) {
   auto self = shared_from_this();
   if (auto s = server_.lock()) {
     s->ws_closed(id_);
-    s->socket_closed();
+    s->socket_closed(true);  // a WebSocket presented the token (its upgrade was admitted)
   }
   // the handler is let go of: a protocol that keeps its connections (as most do) would otherwise hold this
   // session, which holds it, for ever
@@ -478,13 +513,10 @@ void ServerImpl::accept() {
       beast::error_code pe;
       const auto ep = socket.remote_endpoint(pe);
       const std::string peer = pe ? "?" : ep.address().to_string() + ":" + std::to_string(ep.port());
-      if (self->open_sockets_ >= self->limits_.max_connections) {
-        self->stats_.over_limit++;
-        socket.close(pe);
-      } else {
-        self->open_sockets_++;
-        std::make_shared<HttpSession>(std::move(socket), w, peer)->read();
-      }
+      self->open_sockets_++;
+      auto h = std::make_shared<HttpSession>(std::move(socket), w, peer);
+      self->add_pending(h);
+      h->read();
       self->accept();
       return;
     }
@@ -494,6 +526,20 @@ void ServerImpl::accept() {
       if (auto s = w.lock(); s && !s->closed_) s->accept();
     });
   });
+}
+
+// A new socket joins the pending pool; when it is full, the oldest pending socket is closed first.
+void ServerImpl::add_pending(const std::shared_ptr<HttpSession>& h) {
+  std::erase_if(pending_, [](const std::weak_ptr<HttpSession>& w) {
+    const auto p = w.lock();
+    return !p || p->authenticated();
+  });
+  while (!pending_.empty() && pending_.size() >= limits_.max_unauthenticated) {
+    if (auto p = pending_.front().lock()) p->evict();
+    pending_.pop_front();
+    stats_.evicted++;
+  }
+  pending_.push_back(h);
 }
 
 bool ServerImpl::authorized(const http::request<http::string_body>& req) const {

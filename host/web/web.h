@@ -11,7 +11,14 @@
 // upgrade and a data page are answered 401 and nothing else happens; public pages load (they show nothing
 // without data). Tokens are compared in constant time.
 //
-// Bounds (Limits): at most `max_connections` sockets; an HTTP request's header and body, and a WebSocket
+// Viewers and strangers apart (as OpenSSH's MaxStartups): a socket that has not yet presented the token is
+// "pending". At most `max_unauthenticated` are pending: one more closes the oldest pending one (so idle sockets,
+// reopened as they close, cannot keep a token holder out: each new connection gets its turn), and a pending socket
+// must present the token within `auth_timeout`. A socket that presented it (an authorised request, or a
+// WebSocket) leaves the pending pool for the `max_connections` reserved to token holders; one more token holder
+// beyond them is answered 503.
+//
+// Bounds (Limits): at most `max_connections` token holders' sockets; an HTTP request's header and body, and a WebSocket
 // message received, are limited in size (a bigger one closes that connection); an HTTP request must arrive
 // within `request_timeout`; a WebSocket silent for `idle_timeout` is pinged, and closed when nothing comes back
 // (a dead peer, or one that stopped in the middle of a frame). What the server sends to a WebSocket client is
@@ -47,7 +54,9 @@ namespace dca::web {
 
 /// The server's bounds (see the header).
 struct Limits {
-  std::size_t max_connections = 64;            ///< open sockets (HTTP and WebSocket); more are closed at accept
+  std::size_t max_connections = 64;            ///< sockets that presented the token (HTTP and WebSocket); 503 beyond
+  std::size_t max_unauthenticated = 16;        ///< sockets yet to present it; one more closes the oldest of them
+  std::chrono::milliseconds auth_timeout{3000};  ///< how long a socket may take to present the token
   std::size_t max_request_bytes = 16 * 1024;   ///< an HTTP request's header, and its body
   std::size_t max_message_bytes = 64 * 1024;   ///< a WebSocket message received
   std::size_t max_queue_bytes = 4 << 20;       ///< beyond it, droppable messages are dropped
@@ -106,7 +115,9 @@ struct Page {
 /// What the server counted.
 struct ServerStats {
   std::uint64_t http_requests = 0, websockets = 0, refused = 0, bad_requests = 0, over_limit = 0;
-  std::size_t open = 0;
+  std::uint64_t evicted = 0;  ///< pending sockets closed to make room for a newer one
+  std::size_t open = 0;       ///< open sockets
+  std::size_t authenticated = 0;  ///< of them, those that presented the token
 };
 
 class Server : public std::enable_shared_from_this<Server> {

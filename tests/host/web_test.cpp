@@ -163,6 +163,50 @@ TEST_F(WebServerTest, WebSocketWithTheTokenSpeaksTheChosenSubprotocol) {
   ASSERT_TRUE(run_until(io, [&] { return echo->opened == 2; }));
 }
 
+// Opens `n` TCP sockets to the server that never send a byte (each one accepted before the next is opened).
+std::vector<std::unique_ptr<tcp::socket>> idle_sockets(boost::asio::io_context& io, const tcp::endpoint& at,
+                                                       const dca::web::Server& server, int n) {
+  std::vector<std::unique_ptr<tcp::socket>> out;
+  for (int i = 0; i < n; ++i) {
+    auto s = std::make_unique<tcp::socket>(io);
+    bool done = false;
+    const auto accepted = [&] { return server.stats().http_requests + server.stats().open + server.stats().evicted; };
+    const auto before = accepted();
+    s->async_connect(at, [&](boost::system::error_code) { done = true; });
+    EXPECT_TRUE(run_until(io, [&] { return done && accepted() > before; }));
+    out.push_back(std::move(s));
+  }
+  return out;
+}
+
+TEST_F(WebServerTest, IdleSocketsWithoutTheTokenCannotKeepATokenHolderOut) {
+  // four times the pending pool and more than max_connections: the oldest idle ones are closed as newer come
+  auto idle = idle_sockets(io, endpoint(), *server, 80);
+  EXPECT_EQ(server->stats().evicted, 80u - dca::web::Limits{}.max_unauthenticated);
+  websocket::stream<beast::tcp_stream> operator_ws(io);
+  ASSERT_EQ(ws_connect(operator_ws, with_token("/ws")), "");
+  ASSERT_TRUE(run_until(io, [&] { return echo->opened == 1; }));
+  EXPECT_EQ(server->stats().authenticated, 1u);
+  // more strangers later take nothing from the token holder: its socket is no longer pending
+  auto more = idle_sockets(io, endpoint(), *server, 40);
+  ASSERT_TRUE(ws_write(operator_ws, "abort"));
+  EXPECT_EQ(ws_read(operator_ws), "abort");
+  EXPECT_EQ(get(with_token("/data")), 200);
+  EXPECT_LE(server->stats().open, 1u + dca::web::Limits{}.max_unauthenticated + 1u);
+}
+
+TEST_F(WebServerTest, ASocketThatNeverPresentsTheTokenIsClosedAtTheDeadline) {
+  auto idle = idle_sockets(io, endpoint(), *server, 1);
+  char byte = 0;
+  bool closed = false;
+  idle.front()->async_read_some(boost::asio::buffer(&byte, 1), [&](boost::system::error_code ec, std::size_t) {
+    closed = static_cast<bool>(ec);
+  });
+  // the server's auth_timeout (3 s by default) ends it: waited for as an event, bounded far beyond it
+  ASSERT_TRUE(run_until(io, [&] { return closed; }, std::chrono::seconds(60)));
+  EXPECT_TRUE(run_until(io, [&] { return server->stats().open == 0; }));
+}
+
 TEST_F(WebServerTest, AnOversizeMessageClosesThatConnectionOnly) {
   websocket::stream<beast::tcp_stream> big(io), other(io);
   ASSERT_EQ(ws_connect(big, with_token("/ws")), "");
