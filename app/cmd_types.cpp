@@ -22,7 +22,7 @@ std::string port_type(const dca::PortSpec& p) {
   return t;
 }
 
-// "  (> 0)", "  (in [0, 1])", "  (one of: open, close)", or "".
+// "  (> 0)", "  (in [0, 1])", "  (one of: open, close)", or ""; then "  (live)" for a live parameter.
 std::string range(const dca::ParamSpec& p) {
   std::string r;
   const auto n = [](double v) { return dca::format_number(v); };
@@ -30,7 +30,7 @@ std::string range(const dca::ParamSpec& p) {
   if (p.min) r += (r.empty() ? ">= " : ", >= ") + n(*p.min);
   if (p.max) r += (r.empty() ? "<= " : ", <= ") + n(*p.max);
   for (std::size_t i = 0; i < p.allowed.size(); ++i) r += (i == 0 ? "one of: " : ", ") + p.allowed[i];
-  return r.empty() ? r : "  (" + r + ")";
+  return (r.empty() ? r : "  (" + r + ")") + (p.live ? "  (live)" : "");
 }
 
 void print(const dca::Manifest& m) {

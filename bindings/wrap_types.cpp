@@ -1,6 +1,6 @@
 // core.types(): the controller registry's manifests for Lua (dca check uses them).
 //   { [TypeName] = { doc = "...", inputs = { {name=, type=, size=, units=, device= (device ports only)} ... }, outputs = {...},
-//                    params = { {name=, type=, required=, default=, variadic=, doc=} ... },
+//                    params = { {name=, type=, required=, default=, variadic=, live=, doc=} ... },
 //                    ends = "never" | "done" | "aborted" | "done or aborted" | nil (undeclared: anything),
 //                    ends_after = the parameter holding the seconds after which it ends (Timer) | nil,
 //                    package = "mylab" (a package's type only) } }
@@ -52,7 +52,7 @@ void push_params(lua_State* L, const std::vector<dca::ParamSpec>& params) {
   lua_createtable(L, static_cast<int>(params.size()), 0);
   int i = 1;
   for (const auto& p : params) {
-    lua_createtable(L, 0, 6);
+    lua_createtable(L, 0, 7);
     lua_pushlstring(L, p.name.data(), p.name.size());
     lua_setfield(L, -2, "name");
     lua_pushlstring(L, p.type.data(), p.type.size());
@@ -65,6 +65,8 @@ void push_params(lua_State* L, const std::vector<dca::ParamSpec>& params) {
     }
     lua_pushboolean(L, p.variadic);
     lua_setfield(L, -2, "variadic");
+    lua_pushboolean(L, p.live);
+    lua_setfield(L, -2, "live");
     lua_pushlstring(L, p.doc.data(), p.doc.size());
     lua_setfield(L, -2, "doc");
     lua_rawseti(L, -2, i++);

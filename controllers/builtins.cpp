@@ -61,7 +61,7 @@ Constant::Constant(const ControllerContext& ctx)
 namespace {
 const InSpec<Eigen::VectorXd> kGainIn{.name = "In", .trigger = true};
 const OutSpec<Eigen::VectorXd> kGainOut{.name = "Out"};
-const Param<double> kK{.name = "k", .doc = "the gain"};
+const Param<double> kK{.name = "k", .doc = "the gain", .live = true};
 }  // namespace
 Manifest Gain::Describe() {
   return {.type = "Gain", .doc = "Out = k * In, on each In sample (or every period)", .inputs = {kGainIn},
@@ -73,6 +73,11 @@ Manifest Gain::Describe() {
 Gain::Gain(const ControllerContext& ctx)
     : PeriodicController(ctx, Period::ZeroIsEventDriven), in_(port(kGainIn)), out_(port(kGainOut)), k_(param(kK)) {
   y_.resize(64);  // grown (outside MainCalc's steady state) only for bigger samples
+}
+// k changes while it runs (docs/packages.md, "Live parameters"): the next sample is scaled by the new k.
+std::string Gain::on_parameter(std::string_view) {
+  k_ = param(kK);
+  return "";
 }
 void Gain::MainCalc() {
   if (in_.read(x_) == Read::None) return;

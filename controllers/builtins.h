@@ -7,7 +7,7 @@
 // Deadline(host, seconds)            no ports. ABORTED("deadline of S s passed") `seconds` after each run.
 // Constant(host, period, values...)  out Out: vectorx[len(values)], units of the values.
 //                                    Writes the values at each tick (period 0: once, at run).
-// Gain(host, k, period=0)            in In: vectorx; out Out: vectorx, Out = k * In (same size).
+// Gain(host, k, period=0)            in In: vectorx; out Out: vectorx, Out = k * In (same size); k is live.
 //                                    Event-driven on In by default.
 // Sum(host, period=0)                in In1, In2: vectorx (same size); out Out: vectorx = In1 + In2.
 //                                    Event-driven on either input by default; ABORTED on a size mismatch.
@@ -64,6 +64,7 @@ class Constant final : public PeriodicController {
 class Gain final : public PeriodicController {
   DCA_CONTROLLER(Gain)
   void MainCalc() override;
+  std::string on_parameter(std::string_view name) override;  // k is live
 
   In<Eigen::VectorXd> in_;
   Out<Eigen::VectorXd> out_;

@@ -225,6 +225,62 @@ std::invalid_argument Controller::bad_param(const std::string& what) const {
   return std::invalid_argument(manifest_.type + " " + ctx_.name + ": " + what);
 }
 
+// ----------------------------------------------------------------------------------- live parameters ---
+
+std::string Controller::on_parameter(std::string_view name) {
+  return manifest_.type + " has no on_parameter() to take '" + std::string(name) + "'";
+}
+
+// Checked as at construction (bad_value), stored, then the type's hook; its refusal (or throw) restores the old
+// value. Runs on the node's loop thread, between two ticks: never during MainCalc.
+bool Controller::set_parameter(std::string_view name, const std::string& text, std::string* error) {
+  const auto& ps = manifest_.params;
+  std::size_t i = 0;
+  while (i < ps.size() && ps[i].name != name) ++i;
+  if (i == ps.size()) {
+    std::string names;
+    for (const auto& p : ps) names += (names.empty() ? "" : ", ") + p.name;
+    return fail(error, ": no parameter '" + std::string(name) + "' (parameters: " +
+                           (names.empty() ? std::string("none") : names) + ")");
+  }
+  const auto& p = ps[i];
+  if (!p.live || p.variadic)
+    return fail(error, ": parameter '" + p.name + "' is not live: it changes at the leaf's next start");
+  if (in_main_calc_) return fail(error, ": parameter '" + p.name + "' cannot change during MainCalc");
+  if (auto why = bad_value(p, text); !why.empty()) return fail(error, ": " + why);
+  if (auto why = change_param(i, text); !why.empty())
+    return fail(error, ": parameter '" + p.name + "' not changed: " + why);
+  return true;
+}
+
+// Stores `text` as parameter i and calls the hook: "" when it took it, else why not (the old value restored; after
+// a throw the hook reads the old value again).
+std::string Controller::change_param(std::size_t i, const std::string& text) {
+  const std::size_t given = ctx_.params.size();
+  const std::string old = i < given ? ctx_.params[i] : manifest_.params[i].default_value;
+  for (std::size_t j = given; j <= i; ++j) ctx_.params.push_back(manifest_.params[j].default_value);
+  ctx_.params[i] = text;
+  const std::string& name = manifest_.params[i].name;
+  std::string why;
+  bool threw = false;
+  try {
+    why = on_parameter(name);
+  } catch (const std::exception& e) {
+    why = std::string("on_parameter failed: ") + e.what();
+    threw = true;
+  }
+  if (why.empty()) return "";
+  ctx_.params[i] = old;
+  ctx_.params.resize(given);  // an absent argument stays absent: its default again
+  if (threw) {
+    try {
+      (void)on_parameter(name);
+    } catch (const std::exception&) {  // it threw with the new value: the old one is its members' as before
+    }
+  }
+  return why;
+}
+
 // ---------------------------------------------------------------------------------- the life cycle ---
 
 bool Controller::fail(std::string* error, const std::string& what) const {

@@ -107,6 +107,11 @@ void ControllerUnderTest::start_bytes(const char* data, std::size_t n) {
 
 void ControllerUnderTest::halt() { impl_->c->halt(); }
 
+std::string ControllerUnderTest::set_parameter(std::string_view name, const std::string& text) {
+  std::string error;
+  return impl_->c->set_parameter(name, text, &error) ? std::string() : error;
+}
+
 Controller::State ControllerUnderTest::state() const { return impl_->c->state(); }
 
 const std::optional<Ended>& ControllerUnderTest::ended() const { return impl_->ended; }

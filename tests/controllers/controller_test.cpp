@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -42,7 +43,7 @@ DCA_REGISTER_CONTROLLER(Hooks);
 
 // Parameters with ranges and allowed values.
 const dca::Param<double> kTau{.name = "tau", .doc = "s", .def = 0.1, .above = 0};
-const dca::Param<double> kRatio{.name = "ratio", .def = 0.5, .min = 0, .max = 1};
+const dca::Param<double> kRatio{.name = "ratio", .def = 0.5, .min = 0, .max = 1, .live = true};  // no hook
 const dca::Param<std::int64_t> kCount{.name = "count", .def = 1, .min = 1};
 const dca::Param<std::string> kMode{.name = "mode", .def = "fast", .allowed = {"fast", "slow", "off"}};
 const dca::Param<std::vector<double>> kGains{.name = "gains", .max = 10};
@@ -55,6 +56,37 @@ dca::Manifest Ranges::Describe() {
 }
 Ranges::Ranges(const dca::ControllerContext& ctx) : Controller(ctx) {}
 DCA_REGISTER_CONTROLLER(Ranges);
+
+// Live parameters (docs/packages.md): gain and mode change while it runs, through its hook, which refuses a gain
+// of 7 and throws on 8 (after taking it: the base has it read the old value again); fixed is not live.
+const dca::OutSpec<double> kLiveOut{.name = "Out"};
+const dca::Param<double> kLiveGain{.name = "gain", .def = 1, .min = 0, .max = 10, .live = true};
+const dca::Param<std::string> kLiveMode{.name = "mode", .def = "a", .allowed = {"a", "b"}, .live = true};
+const dca::Param<double> kFixed{.name = "fixed", .def = 1};
+
+class Live final : public dca::PeriodicController {
+  DCA_CONTROLLER(Live)
+  std::string on_parameter(std::string_view name) override {
+    if (name == kLiveMode.name) mode_ = param(kLiveMode);
+    if (name != kLiveGain.name) return "";
+    const double g = param(kLiveGain);
+    if (g == 7) return "7 brings bad luck";
+    gain_ = g;
+    if (g == 8) throw std::runtime_error("eight is too many");
+    return "";
+  }
+  void MainCalc() override { out_.write(gain_); }
+
+  dca::Out<double> out_;
+  double gain_;
+  std::string mode_;
+};
+dca::Manifest Live::Describe() {
+  return {.type = "TestLive", .outputs = {kLiveOut}, .params = {kLiveGain, kLiveMode, kFixed, PeriodParam()}};
+}
+Live::Live(const dca::ControllerContext& ctx)
+    : PeriodicController(ctx), out_(port(kLiveOut)), gain_(param(kLiveGain)), mode_(param(kLiveMode)) {}
+DCA_REGISTER_CONTROLLER(Live);
 
 class ControllerTest : public dca::testing::ControllerFixture {
  protected:
@@ -194,6 +226,70 @@ TEST_F(ControllerTest, ParametersAreCheckedAgainstTheirRangesWhenSet) {
   EXPECT_EQ(m->params[0].default_value, "0.1");
   EXPECT_EQ(m->params[3].allowed, (std::vector<std::string>{"fast", "slow", "off"}));
   EXPECT_TRUE(m->params[4].variadic);
+}
+
+// set_parameter: between two ticks, the next MainCalc sees the new value; the old one stays when refused.
+static std::string set(dca::Controller& c, std::string_view name, const std::string& text) {
+  std::string error;
+  return c.set_parameter(name, text, &error) ? "" : error;
+}
+
+TEST_F(ControllerTest, ALiveParameterTakesEffectAtTheNextTick) {
+  auto& c = make("TestLive", {}, "/l");  // gain absent: its default, 1
+  ASSERT_EQ(started(c), "");
+  timers.advance_to(10 * kMs);
+  EXPECT_EQ(latest(c, "Out")[0], 1.0);
+  EXPECT_EQ(set(c, "gain", "2.5"), "");
+  EXPECT_EQ(latest(c, "Out")[0], 1.0);  // nothing runs until the next tick
+  timers.advance_to(20 * kMs);
+  EXPECT_EQ(latest(c, "Out")[0], 2.5);
+  EXPECT_EQ(set(c, "mode", "b"), "");
+  EXPECT_EQ(c.state(), dca::Controller::State::Running);
+  const auto* m = dca::Registry::global().manifest("TestLive");
+  ASSERT_NE(m, nullptr);
+  EXPECT_TRUE(m->params[0].live);
+  EXPECT_FALSE(m->params[2].live);
+}
+
+TEST_F(ControllerTest, ALiveParameterRefusedByItsHookKeepsTheOldValue) {
+  auto& c = make("TestLive", {"3"}, "/l");
+  ASSERT_EQ(started(c), "");
+  EXPECT_EQ(set(c, "gain", "7"), "TestLive /l: parameter 'gain' not changed: 7 brings bad luck");
+  timers.advance_to(10 * kMs);
+  EXPECT_EQ(latest(c, "Out")[0], 3.0);
+  EXPECT_EQ(set(c, "gain", "8"), "TestLive /l: parameter 'gain' not changed: on_parameter failed: eight is too many");
+  timers.advance_to(20 * kMs);
+  EXPECT_EQ(latest(c, "Out")[0], 3.0);  // the hook took 8, then threw: it read 3 again
+  EXPECT_EQ(set(c, "gain", "4"), "");  // and the next change is taken as any other
+  timers.advance_to(30 * kMs);
+  EXPECT_EQ(latest(c, "Out")[0], 4.0);
+  // a live parameter of a type without a hook: the base's refuses
+  auto& r = make("TestRanges", {}, "/r");
+  EXPECT_EQ(set(r, "ratio", "0.25"), "TestRanges /r: parameter 'ratio' not changed: TestRanges has no on_parameter() "
+                                     "to take 'ratio'");
+}
+
+TEST_F(ControllerTest, AParameterNotLiveOrUnknownIsRefusedByName) {
+  auto& c = make("TestLive", {"3", "a", "2"}, "/l");
+  ASSERT_EQ(started(c), "");
+  EXPECT_EQ(set(c, "fixed", "5"), "TestLive /l: parameter 'fixed' is not live: it changes at the leaf's next start");
+  EXPECT_EQ(set(c, "period", "0.02"), "TestLive /l: parameter 'period' is not live: it changes at the leaf's next start");
+  EXPECT_EQ(set(c, "gian", "5"), "TestLive /l: no parameter 'gian' (parameters: gain, mode, fixed, period)");
+  timers.advance_to(10 * kMs);
+  EXPECT_EQ(latest(c, "Out")[0], 3.0);
+}
+
+TEST_F(ControllerTest, ALiveValueOutOfRangeOrOfAnotherTypeIsRefusedAsAtConstruction) {
+  auto& c = make("TestLive", {"3"}, "/l");
+  ASSERT_EQ(started(c), "");
+  EXPECT_EQ(set(c, "gain", "11"), "TestLive /l: parameter 'gain' must be in [0, 10], got 11");
+  EXPECT_EQ(set(c, "gain", "-1"), "TestLive /l: parameter 'gain' must be in [0, 10], got -1");
+  EXPECT_EQ(set(c, "gain", "fast"), "TestLive /l: parameter 'gain' must be a number, got 'fast'");
+  EXPECT_EQ(set(c, "mode", "c"), "TestLive /l: parameter 'mode' must be a or b, got 'c'");
+  EXPECT_EQ(make_error("TestLive", {"11"}, "/l"), "TestLive /l: parameter 'gain' must be in [0, 10], got 11");
+  timers.advance_to(10 * kMs);
+  EXPECT_EQ(latest(c, "Out")[0], 3.0);
+  EXPECT_EQ(c.state(), dca::Controller::State::Running);
 }
 
 TEST_F(ControllerTest, DoneAfterStopIsIgnored) {

@@ -31,6 +31,14 @@ suite:case("params_are_listed_in_order", function()
   T.eq(core.types().Constant.params[2].variadic, true)
 end)
 
+-- A live parameter (docs/packages.md, "Live parameters"): Gain's k changes while it runs, its period does not.
+suite:case("live_parameters_are_marked_in_core_types_and_dca_types", function()
+  local gain = core.types().Gain
+  T.eq(gain.params[1].live, true)
+  T.eq(gain.params[2].live, false)
+  T.dca("types Gain", 0, "param  k          number   the gain  (live)")
+end)
+
 suite:case("dca_types_prints_signatures_and_ports", function()
   T.dca("types", 0, "Gain(host, k, period=0)", "in     In1", "Timer(host, seconds)", "Constant(host, period, values...)")
 end)

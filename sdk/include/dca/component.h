@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <functional>
 #include <string>
+#include <string_view>
 
 #include <dca/port.h>
 
@@ -33,6 +34,13 @@ class Component {
   virtual bool start(Bytes init, std::string* error) = 0;
   /// Stops the run (leaves actuators safe); a later DONE/ABORTED of this run is ignored. Idempotent.
   virtual void halt() = 0;
+  /// Changes a parameter while it runs (`text` as a .dca argument is written), between two ticks: true, or false
+  /// with the reason in *error (when not null). A component without live parameters refuses every one.
+  virtual bool set_parameter(std::string_view name, const std::string& text, std::string* error) {
+    (void)text;
+    if (error) *error = this->name() + ": no parameter '" + std::string(name) + "' changes while it runs";
+    return false;
+  }
   /// Where DONE/ABORTED go (set by the node).
   std::function<void(const ComponentEvent&)> on_event;
 };

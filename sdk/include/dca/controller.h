@@ -36,6 +36,19 @@
 // takes its default, a bad one is an error naming the controller and the parameter
 // ("parameter 'tau' must be positive, got -0.005"): the constructor throws std::invalid_argument (the one place
 // where an exception crosses the controller API: Registry::create passes it on).
+//
+// Live parameters: a parameter declared `.live = true` may change while the controller exists (docs/packages.md,
+// "Live parameters"). The node calls set_parameter(name, text) on its loop thread, between two ticks (never during
+// MainCalc): the base refuses a parameter that is unknown or not live, checks the text exactly as at construction
+// (type, range, allowed values), stores it, then calls the private hook on_parameter(name), which reads
+// `param(kX)` again into the members MainCalc uses and returns "" to accept, or a reason to refuse. On a refusal
+// (or a throw) the base restores the old value: the controller keeps running with it. A type with a live
+// parameter overrides on_parameter(); the base's refuses every change ("no on_parameter()"). For example:
+//   const dca::Param<double> kKp{.name = "kp", .doc = "proportional gain", .min = 0, .live = true};
+//   std::string Pid::on_parameter(std::string_view name) {
+//     if (name == kKp.name) kp_ = param(kKp);
+//     return "";
+//   }
 #include <charconv>
 #include <cstdint>
 #include <memory>
@@ -74,6 +87,7 @@ struct ParamSpec {
   std::optional<double> max = {};    ///< numbers: the greatest value allowed
   std::optional<double> above = {};  ///< numbers: values must be greater than this (0: positive)
   std::vector<std::string> allowed = {};  ///< text: the values allowed (empty: any)
+  bool live = false;  ///< may change while it runs (set_parameter; the type's on_parameter() takes it)
 };
 
 /// A number as a parameter's default is written: the shortest text that reads back the same.
@@ -95,9 +109,10 @@ struct Param {
   std::optional<double> max = {};    ///< numbers: the greatest value allowed
   std::optional<double> above = {};  ///< numbers: values must be greater than this (0: positive)
   std::vector<std::string> allowed = {};  ///< text: the values allowed (empty: any)
+  bool live = false;  ///< may change while it runs: set_parameter(), then the type's on_parameter() (above)
 
   operator ParamSpec() const {  // NOLINT(google-explicit-constructor): a manifest lists specs
-    ParamSpec s{.name = name, .doc = doc, .min = min, .max = max, .above = above, .allowed = allowed};
+    ParamSpec s{.name = name, .doc = doc, .min = min, .max = max, .above = above, .allowed = allowed, .live = live};
     if constexpr (std::is_same_v<T, std::string>) s.type = "string";
     if constexpr (std::is_same_v<T, std::int64_t>) s.type = "integer";
     if constexpr (std::is_same_v<T, std::vector<double>>) s.variadic = true;
@@ -197,6 +212,10 @@ class Controller : public Component {
   std::uint64_t reentries() const { return reentries_; }
   /// MainCalc calls so far.
   std::uint64_t ticks() const { return ticks_; }
+  /// Changes the live parameter `name` to `text` (as a .dca argument is written), between two ticks: refused
+  /// when it is unknown, not declared `.live`, not a value of it (the constructor's checks) or when on_parameter()
+  /// refuses or throws; then false, the old value kept, with "<Type> <path>: <why>" in *error.
+  bool set_parameter(std::string_view name, const std::string& text, std::string* error) final;
 
  protected:
   /// Creates the ports listed in ctx.manifest and checks every parameter (type, range, allowed values). Throws
@@ -267,6 +286,10 @@ class Controller : public Component {
   virtual void MainCalc() {}
   /// Releases. The actuators are written zero after it, by the base.
   virtual void on_halt() {}
+  /// The live parameter `name` has a new value (set_parameter checked and stored it): read it again with
+  /// param(), between two ticks. "" accepts; a reason (or a throw) refuses, and the base restores the old value.
+  /// The base's refuses: a type with a live parameter overrides it.
+  virtual std::string on_parameter(std::string_view name);
 
   friend class PeriodicController;
   friend struct ControllerAccess;  // the node's side and the tests (controllers/controller_access.h)
@@ -278,6 +301,7 @@ class Controller : public Component {
   std::string text(std::string_view name) const;
   std::vector<double> numbers(std::string_view name) const;
   void check_params() const;
+  std::string change_param(std::size_t i, const std::string& text);
   void tick();
   void arm();
   void release();

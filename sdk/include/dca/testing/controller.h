@@ -72,6 +72,9 @@ class ControllerUnderTest {
   void configure();
   /// halt(): the timer and triggers stop, on_halt(), then every actuator output reads zero.
   void halt();
+  /// Changes a live parameter as the node does between two ticks (Controller::set_parameter): "" when it took
+  /// the value, else why not ("<Type> <path>: parameter 'kp' must be at least 0, got -1"; the old value kept).
+  std::string set_parameter(std::string_view name, const std::string& text);
   /// The controller's state.
   Controller::State state() const;
   /// How the last run ended by itself (Done or Abort), or nothing (not ended, or started again since).
