@@ -256,8 +256,8 @@ void LockstepCore::took(Subscriber& s, Nanos t, const Value& reply) {
   if (opts_.trace) traced(t, reply["dig"], s.out);
 }
 
-// The trace's lines for one answer: each output whose count moved (count, digest, latest value) and each set
-// switched.
+// The trace's lines for one answer: each output whose count moved (count, digest, latest value), each set
+// switched and each live parameter changed.
 void LockstepCore::traced(Nanos t, const Value& dig, std::map<std::string, std::uint64_t>& out) {
   const std::string at = std::to_string(t);
   for (const auto& o : dig["out"].as_array()) {
@@ -271,6 +271,7 @@ void LockstepCore::traced(Nanos t, const Value& dig, std::map<std::string, std::
                            a[2].as_string() + " value=" + a[3].str());
   }
   for (const auto& sw : dig["sw"].as_array()) trace_lines_.push_back(at + " S " + sw.as_string());
+  for (const auto& p : dig["par"].as_array()) trace_lines_.push_back(at + " P " + p.as_string());
 }
 
 void LockstepCore::answered(std::uint64_t id, Nanos t, const std::string& error, bool replied, const Value& reply) {

@@ -6,10 +6,12 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <charconv>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <set>
 
 #include "host/net/auth.h"
@@ -188,6 +190,7 @@ struct Node::Impl {
   void read(Leaf& leaf, const Channel::Ptr& ch, const Message& m);
   void connect(Leaf& leaf, const Channel::Ptr& ch, const Message& m);
   void pull(Leaf& leaf, const Channel::Ptr& ch, const Message& m);
+  void set_param(Leaf& leaf, const Channel::Ptr& ch, const Message& m);
   std::string take_expected(const Value& expect);
   Value sent_changes();
   Value digests();
@@ -205,6 +208,7 @@ struct Node::Impl {
   std::map<std::string, std::uint64_t> evs_told;   // the events per leaf of the last advance's answer
   bool leaves_told = false;                        // the leaves are in an advance's answer since they changed
   std::vector<std::string> switches;               // activations since the last advance (trace)
+  std::vector<std::string> params;                 // live parameters changed since the last advance (trace)
   std::uint64_t instances = 0;                      // leaves added so far (each one's Leaf::instance)
   Value ports(const Leaf& leaf) const;
   Value stats(const Leaf& leaf) const;
@@ -749,10 +753,41 @@ bool Node::Impl::handle_control(Leaf& leaf, const Channel::Ptr& ch, const Messag
     ch->reply(m, stats(leaf));
   } else if (t == "code") {
     ch->reply(m, code_of(leaf));
+  } else if (t == "set_param") {
+    set_param(leaf, ch, m);
   } else {
     return false;
   }
   return true;
+}
+
+namespace {
+// A parameter's value as a .dca argument is written: a string as it is, a number in the fewest digits that read
+// back the same (as the supervisor writes a node's arguments), true/false; nothing for anything else.
+std::optional<std::string> argument_text(const Value& v) {
+  if (v.is_string()) return v.as_string();
+  if (v.is_bool()) return std::string(v.as_bool() ? "true" : "false");
+  if (v.is_int()) return std::to_string(v.as_int());
+  if (!v.is_float()) return std::nullopt;
+  char b[32];
+  const auto r = std::to_chars(b, b + sizeof b, v.as_float());
+  return std::string(b, r.ptr);
+}
+}  // namespace
+
+// set_param {name, value}: a live parameter of the leaf changed (Component::set_parameter), here on the loop
+// thread, so between two ticks; an accepted change is recorded for the trace, at the tick of the next advance
+// (the first whose MainCalc sees it).
+void Node::Impl::set_param(Leaf& leaf, const Channel::Ptr& ch, const Message& m) {
+  const std::string& name = m.payload["name"].as_string();
+  const auto text = argument_text(m.payload["value"]);
+  if (name.empty() || !text)
+    return void(ch->reply_error(m, "set_param needs a name and a value (a number, a string or a boolean)"));
+  std::string err;
+  if (!leaf.component->set_parameter(name, *text, &err)) return void(ch->reply_error(m, err));
+  params.push_back(leaf.name + " " + name + "=" + *text);
+  if (params.size() > 1000) params.erase(params.begin());
+  ch->reply(m, Value::map().set("value", *text));
 }
 
 // A request on a leaf's own control channel: its own requests, then the process's (advance; exit ends the
@@ -894,7 +929,7 @@ Value Node::Impl::sent_changes() {
   return out;
 }
 
-// Trace: each output's samples and digest, and the set switches since the last answer.
+// Trace: each output's samples and digest, the set switches and the live parameters changed since the last answer.
 Value Node::Impl::digests() {
   Value d = Value::array();
   for (const auto& [name, leaf] : leaves)
@@ -904,7 +939,10 @@ Value Node::Impl::digests() {
   Value sw = Value::array();
   for (auto& x : switches) sw.array_ref().push_back(Value(x));
   switches.clear();
-  return Value::map().set("out", d).set("sw", sw);
+  Value par = Value::array();
+  for (auto& x : params) par.array_ref().push_back(Value(x));
+  params.clear();
+  return Value::map().set("out", d).set("sw", sw).set("par", par);
 }
 
 Value Node::sent_changes() { return impl_->endpoint ? impl_->sent_changes() : Value::map(); }

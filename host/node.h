@@ -30,6 +30,9 @@
 //   disconnect {set}                          -> ok {}
 //   activate {set} / deactivate {set}         -> ok {}         a flag flip, never a socket opened or closed
 //   read {port}                               -> ok {value, count}  the latest sample of any port (nil before)
+//   set_param {name, value}                   -> ok {value}    a live parameter changed between two ticks
+//                                                (Component::set_parameter; value: a number, string or boolean,
+//                                                answered as the text the controller took); refused naming why
 //   pull {port, timeout_ms}                   -> ok {value, count}  asks the input's pull connections for
 //                                                their latest sample; answers when it has arrived
 //   ports {}                                  -> ok {inputs = [...], outputs = [...], links = [...]} with
@@ -52,7 +55,8 @@
 //                                                the next deadline (nil when none), ev = done/aborted events
 //                                                sent so far (evs: per leaf), leaves = its leaves' PATHs,
 //                                                sent = {to = {key = n}} the links whose counts moved, dig
-//                                                (trace) = {out = [[port, n, digest, value]], sw = [sets]}
+//                                                (trace) = {out = [[port, n, digest, value]], sw = [sets],
+//                                                par = ["PATH name=value"]: the live parameters changed}
 //   code {}                                   -> ok {pid, leaves, shared, package, changed}: the process the
 //                                                leaf's code runs in (shared: a shared node's NAME#PID, nil
 //                                                in a one-leaf node; leaves: how many it hosts) and, for a

@@ -2,11 +2,13 @@
 -- first divergence of two. One line per fact, sorted by tick (ns), then by text:
 --   T_NS D PATH.PORT n=COUNT digest=FNV value=LATEST   an output wrote at this tick (the world's and every node's)
 --   T_NS S PATH +SET | -SET                            a connection set switched at this leaf (its source)
+--   T_NS P PATH NAME=VALUE                             a live parameter of the leaf changed (taken by the
+--                                                      node before this tick: its MainCalc here sees it)
 --   T_NS E PATH events=N                               the leaf's done/aborted events so far
 --   T_NS L PATH                                        the leaf's node was lost (did not answer its advance)
 --   T_NS T LINE                                        a supervisor's transition line at the event's time
 --                                                      (a pid in it written "(pid)": it differs from run to run)
--- The clock master (the world) writes D, S, E and L lines as the rounds end; the run adds the T lines and
+-- The clock master (the world) writes D, S, P, E and L lines as the rounds end; the run adds the T lines and
 -- merges both, so two runs of the same seed give the same file, byte for byte, whatever the load.
 --
 --   trace.merge(world_file, t_lines, out_file, last) --> true | nil, err (t_lines: { {ns, text} ... }; the
