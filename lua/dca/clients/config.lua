@@ -128,21 +128,28 @@ function Client:status(cb)
 end
 
 --- Calls fn(ev) for every change below `prefix` (local or replicated); cb(reply, err) once the watch is set.
-function Client:watch(prefix, fn, cb)
+--- `owner` (optional) tags the watch: unwatch(prefix) ends the untagged ones (a console's), unwatch(prefix, cb,
+--- owner) that owner's (a supervisor's, dca.supervisor.live), so neither ends the other's.
+function Client:watch(prefix, fn, cb, owner)
   prefix = trim(prefix)
   self:_request({ type = "config_watch", prefix = prefix }, function(r, err)
-    if r then self.watchers[#self.watchers + 1] = { prefix = prefix, fn = fn } end
+    if r then self.watchers[#self.watchers + 1] = { prefix = prefix, fn = fn, owner = owner } end
     if cb then cb(r, err) end
   end)
 end
 
---- Stops the watches of `prefix`.
-function Client:unwatch(prefix, cb)
+--- Stops the watches of `prefix` (of `owner`, see watch); the daemon stops sending its changes once no watch of
+--- the prefix is left on this client.
+function Client:unwatch(prefix, cb, owner)
   prefix = trim(prefix)
+  local left = false
   for i = #self.watchers, 1, -1 do
-    if self.watchers[i].prefix == prefix then table.remove(self.watchers, i) end
+    local w = self.watchers[i]
+    if w.prefix == prefix and w.owner == owner then table.remove(self.watchers, i)
+    elseif w.prefix == prefix then left = true end
   end
-  self:_request({ type = "config_unwatch", prefix = prefix }, cb)
+  -- (another's watch of it stays: asked again, which the daemon keeps as one, so cb still comes from the loop)
+  self:_request({ type = left and "config_watch" or "config_unwatch", prefix = prefix }, cb)
 end
 
 function Client:on_close(fn) self.close_fn = fn end

@@ -31,7 +31,8 @@
 -- tree; run() sends the world `go` once the root's run has been answered. sys:world_status() is the world's
 -- `status {}` (t, door_angle, base_pose, latched, ...), sys:world_read(port) its `read {port}` (the latest
 -- base.cmd_vel / arm.cmd_qd it received, or a sensor output such as arm.q), sys:world_hold() / world_hold_at(t) / world_go()
--- stop and restart its time, sys:wait_world(what, pred(status), t) waits for a condition on its status.
+-- stop and restart its time, sys:world_hold_when(t) before run() holds it at t however fast it flows (then
+-- sys:world_wait_held(t)), sys:wait_world(what, pred(status), t) waits for a condition on its status.
 --
 -- The trace (ARCHITECTURE.md "Time"): the first system in simulated time writes the run's trace (`dca scenario
 -- --trace FILE`, else a temporary file kept only on a failure); a failing scenario prints `seed N, trace FILE,

@@ -250,13 +250,13 @@ function System:config(host)
   function repo.set(_, key, value)
     local values = type(key) == "table" and key or { [key] = value }
     for k, v in pairs(values) do
-      c.config[k] = v
       for _, w in ipairs(c.config_watchers) do
         if k == w.prefix or w.prefix == "" or k:sub(1, #w.prefix + 1) == w.prefix .. "." then
           w.events[#w.events + 1] = { key = k, value = v, origin = host }
         end
       end
     end
+    c:config_set(values)  -- and the supervisors' watches (their leaves' live parameters)
     return true
   end
   function repo.list(_, prefix)

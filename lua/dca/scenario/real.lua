@@ -197,11 +197,21 @@ end
 --- and that tick has settled (its round and any barrier done: what happens at it has happened).
 --- --> the time held at
 function System:world_hold_at(t, timeout)
+  self:world_hold_when(t)
+  self:world_go()
+  return self:world_wait_held(t, timeout)
+end
+
+--- Time will hold once it reaches `t` (seconds), set while it does not flow (before run(): a run whose time
+--- flows faster than the scenario asks is held at a known tick all the same); world_wait_held(t) then waits for it.
+function System:world_hold_when(t)
   self:_world({ type = "hold", at = math.floor(t * 1e9 + 0.5) }, "the world's hold")
-  self:_world({ type = "go" }, "the world's go")
-  local st = self:wait_world(sformat("time held at %g s, settled", t),
-    function(s) return not s.running and s.settled and s.t >= t - 1e-9 end, timeout)
-  return st.t
+end
+
+--- Waits until time holds at `t` or after and that tick has settled. --> the time held at
+function System:world_wait_held(t, timeout)
+  return self:wait_world(sformat("time held at %g s, settled", t),
+    function(s) return not s.running and s.settled and s.t >= t - 1e-9 end, timeout).t
 end
 
 --- Lets the world's time flow again.

@@ -41,7 +41,9 @@ config.get(key)               the configuration repository of this supervisor's 
 config.set(key, value)          a value; write one key (or config.set{ key = value, ... }: one transaction)
 config.list(prefix)             the keys below prefix; the last n transactions and the conflicts (the
 config.log(n)                   losing writes); print each change below prefix, local or replicated, as
-config.watch(prefix)            a console line (config.unwatch(prefix) stops)
+config.watch(prefix)            a console line (config.unwatch(prefix) stops). A running leaf whose live
+                                parameter is config("key") takes a new value of the key at once (a line says
+                                so, or why not); another applies at its next start
 help()                        this text
 Any other Lua is evaluated here, in the supervisor; `return` is implied for expressions.
 Paths are full (main.door.hit) or any unique suffix (door.hit).]]

@@ -57,6 +57,7 @@
 --   dca.supervisor.restart   manual restarts and the supervision policy's (take-down, bring-up, escalation)
 --   dca.supervisor.requests  the requests a supervisor answers, one handler per type
 --   dca.supervisor.taps      taps on output ports, and the taps a restart makes again
+--   dca.supervisor.live      live parameters: a change of a leaf's config("key") told to the leaf while it runs
 -- This file is the start protocol (new, configure), the expression (run), the children's events, shutdown and
 -- tree.
 local previous = package.loaded["dca.supervisor"]
@@ -65,6 +66,7 @@ local M = type(previous) == "table" and previous or {}
 local algebra = require "dca.algebra"
 local async = require "dca.async"
 local child = require "dca.supervisor.child"
+local live = require "dca.supervisor.live"
 local policy = require "dca.supervisor.policy"
 local requests = require "dca.supervisor.requests"
 local restart = require "dca.supervisor.restart"
@@ -315,6 +317,8 @@ local START = {
     if not self.rt.join_clock then k(true) return end
     self.rt.join_clock(self.path, k)
   end,
+  -- the configuration keys its leaves read, watched: a change reaches their live parameters (dca.supervisor.live)
+  function(self, k) live.watch(self, k) end,
 }
 
 --- Start protocol below this group: children started inactive, then connected. cb(true) | cb(nil, reason).
@@ -682,6 +686,7 @@ function Sup:shutdown(cb)
     return
   end
   self.shutdown_waiters = { cb }
+  live.unwatch(self)
   self:abort(function()
     self.state = "stopping"
     local names = {}

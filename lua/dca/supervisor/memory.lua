@@ -18,7 +18,10 @@
 --   c.code[path] = manifest                  -- the ports its node lists from then on (`ports {}`): new code
 --   fake.cluster{ heartbeat = { period, silence } }  -- supervisors ping their child supervisors
 --   fake.cluster{ types = { T = manifest }, world = true }  -- device ports, wired to the fake `world` node
---   fake.cluster{ config = { ["door.stop_distance"] = 0.45 } } -- the repository config("key") arguments read
+--   fake.cluster{ config = { ["door.stop_distance"] = 0.45 } } -- the repository config("key") arguments read;
+--                                            with it each supervisor has rt.config_client (get, set, watch, unwatch)
+--   c:config_set{ key = value }              -- a write to it, as from another host: every watch sees it
+--   c.refuse_param[path] = "reason"          -- that leaf refuses `set_param` (a live parameter) with the reason
 --   c.trace      -- every delivered message: { from =, to =, type = , kind = "request"|"reply"|"event" }
 --   c.commands   -- every command a node received: "path type [set]"
 local supervisor = require "dca.supervisor"
@@ -58,7 +61,7 @@ function M.cluster(opts)
   local c = setmetatable({
     t = 0, queue = {}, qhead = 1, qtail = 0, timers = {}, tseq = 0,
     behave = opts.behave or {}, nodes = {}, sups = {}, procs = {},
-    trace = {}, commands = {}, reports = {}, fail_spawn = {}, spawn_delay = {}, lost_hosts = {},
+    trace = {}, commands = {}, reports = {}, fail_spawn = {}, spawn_delay = {}, lost_hosts = {}, refuse_param = {},
     outcome = nil, timeouts = opts.timeouts, lines = {}, pid = 100, heartbeat = opts.heartbeat,
     types = opts.types, config = opts.config, code = {},
   }, Cluster)
@@ -279,6 +282,7 @@ function Cluster:rt(p, report)
   rt.now = function() return c.t end
   rt.sup_of = function() return c.sups[p.path] end
   rt.types = function() return c.types or {} end
+  if c.config then rt.config_client = function(cb) c:push(function() cb(c:_config_client(p)) end) end end
   rt.world = function(msg, timeout, cb)
     local w = c.world_handle
     if not w then c:push(function() cb(nil, "no process is registered as `world`", true) end) return end
@@ -299,6 +303,57 @@ function Cluster:rt(p, report)
     end
   end
   return rt
+end
+
+local function under(key, prefix)
+  return prefix == "" or key == prefix or key:sub(1, #prefix + 1) == prefix .. "."
+end
+
+--- A write to the repository (cluster{config}), as from any host: each watch whose process lives sees it.
+function Cluster:config_set(values)
+  self.config = self.config or {}
+  local keys = {}
+  for k in pairs(values) do keys[#keys + 1] = k end
+  table.sort(keys)
+  for _, key in ipairs(keys) do
+    self.config[key] = copy(values[key])
+    for _, w in ipairs(self.config_watches or {}) do
+      if under(key, w.prefix) then
+        local ev = { key = key, value = copy(values[key]), origin = "memory" }
+        self:push(function() if w.p.alive and not w.p.frozen then w.fn(ev) end end)
+      end
+    end
+  end
+end
+
+-- The repository as process `p` reaches it (rt.config_client): dca.clients.config's get, set, watch, unwatch.
+function Cluster:_config_client(p)
+  local c = self
+  c.config_watches = c.config_watches or {}
+  local function later(k, ...)
+    local r = table.pack(...)
+    if k then c:push(function() k(table.unpack(r, 1, r.n)) end) end
+  end
+  local client = { host = "memory" }
+  function client.get(_, key, k)
+    if c.config[key] == nil then later(k, nil, sformat("unknown key '%s'", tostring(key))) else later(k, copy(c.config[key])) end
+  end
+  function client.set(_, values, k)
+    c:config_set(values)
+    later(k, { keys = 1, seq = 1, origin = "memory" })
+  end
+  function client.watch(_, prefix, fn, k, owner)
+    c.config_watches[#c.config_watches + 1] = { p = p, prefix = prefix or "", fn = fn, owner = owner }
+    later(k, { prefix = prefix })
+  end
+  function client.unwatch(_, prefix, k, owner)
+    for i = #c.config_watches, 1, -1 do
+      local w = c.config_watches[i]
+      if w.p == p and w.prefix == (prefix or "") and w.owner == owner then remove(c.config_watches, i) end
+    end
+    later(k, { prefix = prefix })
+  end
+  return client
 end
 
 --- The root DCAS for `spec`; its reports land in c.reports and c.outcome.
@@ -420,6 +475,12 @@ function Node:serve(msg, reply)
     reply(m and { type = "ok", inputs = m.inputs or {}, outputs = m.outputs or {} } or { type = "ok" })
   elseif t == "read" then
     reply({ type = "ok", value = self.ports[msg.port] })
+  elseif t == "set_param" then
+    -- a live parameter: taken (node.params), or refused as the test asked (c.refuse_param)
+    if c.refuse_param[self.path] then reply({ type = "error", reason = c.refuse_param[self.path] }) return end
+    self.params = self.params or {}
+    self.params[msg.name] = msg.value
+    reply({ type = "ok", value = tostring(msg.value) })
   else
     reply({ type = "error", reason = "unknown command " .. tostring(t) })
   end

@@ -12,7 +12,8 @@
 --         args = { 2.5 },                                           -- the .dca arguments after the host;
 --                                                                   -- { config = "door.stop_distance" }
 --                                                                   -- for config("door.stop_distance")
---         params = { { name = "distance", type = "number" } },      -- the manifest's parameters (if known)
+--         params = { { name = "distance", type = "number",          -- the manifest's parameters (if known);
+--                      live = true } },                              --   live: changes while it runs
 --         package = "door", system_dir = "/abs/dir",                -- a package's type: its package, and the
 --                                                                   -- .dca file's folder (dca.load.spec)
 --         standby = { "h1b" } },                                    -- its standby hosts in order (the group's
@@ -183,7 +184,8 @@ function M.from_model(node, file, default_host)
       if c.manifest and c.manifest.params then
         info = {}
         for i, pm in ipairs(c.manifest.params) do
-          info[i] = type(pm) == "table" and { name = pm.name, type = pm.type } or { name = tostring(pm) }
+          info[i] = type(pm) == "table" and { name = pm.name, type = pm.type, live = pm.live or nil }
+                    or { name = tostring(pm) }
         end
       end
       spec.children[#spec.children + 1] = { name = c.name, path = c.path, kind = "leaf", type = c.type,
