@@ -12,9 +12,13 @@
 //                    port's samples are counted, not published)
 //   tp:stats()       --> { [path] = { taken =, dropped =, unpublished = } }
 //   tp:close()
-//   core.foxglove(srv, { name = "dca main", subscribe = fn(topic), unsubscribe = fn(topic) })
+//   core.foxglove(srv, { name = "dca main", subscribe = fn(topic), unsubscribe = fn(topic),
+//                        get_parameters = fn(names, reply), set_parameters = fn(params, reply) })
 //                    -- serves foxglove.websocket.v1 on srv: subscribe(topic) runs when a channel gets its first
-//                    -- subscriber, unsubscribe(topic) when it loses its last
+//                    -- subscriber, unsubscribe(topic) when it loses its last; with both parameter functions the
+//                    -- server has the capability `parameters`: get_parameters({name...}) (empty: every one),
+//                    -- set_parameters({ {name =, value =}... }), each answering once, now or later, with
+//                    -- reply({ {name =, value =}... }) or reply(nil, error)
 #include <lua.hpp>
 
 #include <unistd.h>
@@ -27,6 +31,7 @@
 
 #include "bindings/lua_loop.h"
 #include "bindings/lua_support.h"
+#include "bindings/lua_value.h"
 #include "bindings/wrap_web.h"
 #include "host/net/auth.h"
 #include "host/net/tap.h"
@@ -199,6 +204,70 @@ int tp_gc(lua_State* L) {
   return 0;
 }
 
+// A parameter request's answer for Lua: a function reply(params) | reply(nil, error), answering once (later calls
+// do nothing).
+constexpr const char* kReplyMeta = "dca.FoxgloveReply";
+struct ReplyUD {
+  foxglove::Protocol::ParamsReply fn;
+};
+
+int reply_gc(lua_State* L) {
+  static_cast<ReplyUD*>(luaL_checkudata(L, 1, kReplyMeta))->~ReplyUD();
+  return 0;
+}
+
+int reply_call(lua_State* L) {
+  auto* ud = static_cast<ReplyUD*>(lua_touserdata(L, lua_upvalueindex(1)));
+  if (!ud || !ud->fn) return 0;
+  const auto fn = std::move(ud->fn);
+  ud->fn = nullptr;
+  wire::Value params;
+  std::string error;
+  if (lua_isnoneornil(L, 1)) {
+    const char* e = lua_type(L, 2) == LUA_TSTRING ? lua_tostring(L, 2) : nullptr;
+    error = e ? e : "no answer";
+  } else if (!lua::to_value(L, 1, params, &error)) {
+    error = "the parameters: " + error;
+  }
+  fn(params, error);
+  return 0;
+}
+
+void push_reply(lua_State* L, foxglove::Protocol::ParamsReply fn) {
+  auto* ud = static_cast<ReplyUD*>(lua_newuserdatauv(L, sizeof(ReplyUD), 0));
+  new (ud) ReplyUD{std::move(fn)};
+  luaL_setmetatable(L, kReplyMeta);
+  lua_pushcclosure(L, reply_call, 1);
+}
+
+// The run's parameter functions (opts get_parameters, set_parameters at `index`) on `proto`: both or none.
+void serve_parameters(lua_State* L, int index, lua::LoopState& ls, foxglove::Protocol& proto) {
+  lua_getfield(L, index, "get_parameters");
+  lua_getfield(L, index, "set_parameters");
+  if (!lua_isfunction(L, -2) || !lua_isfunction(L, -1)) return lua_pop(L, 2);
+  auto get = std::make_shared<lua::LuaRef>(L, -2, ls);
+  auto set = std::make_shared<lua::LuaRef>(L, -1, ls);
+  lua_pop(L, 2);
+  proto.get_parameters = [get](const std::vector<std::string>& names, foxglove::Protocol::ParamsReply reply) {
+    lua::invoke(*get, [&names, &reply](lua_State* S) {
+      lua_createtable(S, static_cast<int>(names.size()), 0);
+      for (std::size_t i = 0; i < names.size(); ++i) {
+        lua_pushlstring(S, names[i].data(), names[i].size());
+        lua_rawseti(S, -2, static_cast<lua_Integer>(i + 1));
+      }
+      push_reply(S, std::move(reply));
+      return 2;
+    });
+  };
+  proto.set_parameters = [set](const wire::Value& params, foxglove::Protocol::ParamsReply reply) {
+    lua::invoke(*set, [&params, &reply](lua_State* S) {
+      lua::push_value(S, params);
+      push_reply(S, std::move(reply));
+      return 2;
+    });
+  };
+}
+
 int core_foxglove(lua_State* L) {
   auto server = lua::check_web_server(L, 1);
   luaL_checktype(L, 2, LUA_TTABLE);
@@ -221,6 +290,7 @@ int core_foxglove(lua_State* L) {
   };
   proto->on_first_subscribe = call(on_sub);
   proto->on_last_unsubscribe = call(on_unsub);
+  serve_parameters(L, 2, ls, *proto);
   server->add_protocol(foxglove::kSubprotocol, proto);
   lua_pushboolean(L, 1);
   return 1;
@@ -232,6 +302,8 @@ void open_taps(lua_State* L) {
   static const luaL_Reg methods[] = {{"endpoints", tp_endpoints}, {"add", tp_add},   {"stats", tp_stats},
                                      {"close", tp_close},         {nullptr, nullptr}};
   lua::register_type(L, kMeta, methods, {tp_gc, tp_close, nullptr});
+  static const luaL_Reg no_methods[] = {{nullptr, nullptr}};
+  lua::register_type(L, kReplyMeta, no_methods, {reply_gc, nullptr, nullptr});
   static const luaL_Reg functions[] = {{"tap_point", core_tap_point}, {"foxglove", core_foxglove}, {nullptr, nullptr}};
   luaL_setfuncs(L, functions, 0);
 }

@@ -100,10 +100,12 @@ Protocol::~Protocol() {
 void Protocol::on_open(const web::Connection::Ptr& c) {
   Client& cl = clients_[c->id()];
   cl.conn = c;
+  Value capabilities = Value::array();
+  if (get_parameters && set_parameters) capabilities.array_ref().push_back(Value("parameters"));
   const Value info = Value::map()
                          .set("op", "serverInfo")
                          .set("name", name_)
-                         .set("capabilities", Value::array())
+                         .set("capabilities", std::move(capabilities))
                          .set("sessionId", web::random_token(8));
   c->send(json::encode(info));
   std::vector<const SampleHub::Topic*> all;
@@ -140,7 +142,59 @@ void Protocol::on_message(const web::Connection::Ptr& c, std::string_view data, 
   const std::string op = msg["op"].as_string();
   if (op == "subscribe") return subscribe(cl, msg);
   if (op == "unsubscribe") return unsubscribe(cl, msg);
+  if (op == "getParameters" && get_parameters) return get_params(cl, msg);
+  if (op == "setParameters" && set_parameters) return set_params(cl, msg);
   status(cl, 1, "unsupported operation '" + op + "'");
+}
+
+// The answer to a parameter request of `c`: parameterValues {parameters, id} (id as the request had it), or a
+// status naming the request; nothing when the connection closed meanwhile.
+Protocol::ParamsReply Protocol::answer(const Client& c, std::string op, const Value& id) {
+  std::weak_ptr<web::Connection> weak = c.conn;
+  return [weak, op = std::move(op), id](const Value& params, const std::string& error) {
+    const auto conn = weak.lock();
+    if (!conn || !conn->is_open()) return;
+    if (!error.empty()) {
+      const std::string said = op + (id.is_string() ? " '" + id.as_string() + "'" : "") + ": " + error;
+      conn->send(json::encode(Value::map().set("op", "status").set("level", 2).set("message", said)));
+      return;
+    }
+    Value m = Value::map().set("op", "parameterValues").set("parameters", params.is_array() ? params : Value::array());
+    if (id.is_string()) m.set("id", id);
+    conn->send(json::encode(m));
+  };
+}
+
+// getParameters {parameterNames: [string], id}: the names (none or empty: every one) checked, then asked of the run.
+void Protocol::get_params(Client& c, const Value& msg) {
+  const Value& names = msg["parameterNames"];
+  const Value& id = msg["id"];
+  if (!(names.is_nil() || names.is_array()) || !(id.is_nil() || id.is_string()))
+    return status(c, 2, "getParameters: parameterNames is an array of strings, id a string");
+  std::vector<std::string> list;
+  for (const auto& n : names.as_array()) {
+    if (!n.is_string()) return status(c, 2, "getParameters: parameterNames is an array of strings");
+    list.push_back(n.as_string());
+  }
+  get_parameters(list, answer(c, "getParameters", id));
+}
+
+// setParameters {parameters: [{name, value}], id}: each needs a name and a value (a key is never unset), then
+// written by the run as one change.
+void Protocol::set_params(Client& c, const Value& msg) {
+  const Value& ps = msg["parameters"];
+  const Value& id = msg["id"];
+  if (!ps.is_array() || ps.as_array().empty() || !(id.is_nil() || id.is_string()))
+    return status(c, 2, "setParameters: parameters is a non-empty array of {name, value}, id a string");
+  Value clean = Value::array();
+  for (const auto& p : ps.as_array()) {
+    const Value& name = p["name"];
+    const Value& value = p["value"];
+    if (!name.is_string() || name.as_string().empty() || value.is_nil())
+      return status(c, 2, "setParameters: each parameter needs a name and a value (a key cannot be unset)");
+    clean.array_ref().push_back(Value::map().set("name", name).set("value", value));
+  }
+  set_parameters(clean, answer(c, "setParameters", id));
 }
 
 void Protocol::subscribe(Client& c, const Value& msg) {

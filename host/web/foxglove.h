@@ -15,11 +15,17 @@
 // message (/robot_description, std_msgs/String) sends it to each subscriber when it subscribes: so Foxglove's
 // 3D panel draws the robot (host/codec/frames.h).
 //
-// Server -> client: serverInfo (at open; no optional capability), advertise (at open: every topic; later: each
-// new one), unadvertise (a topic removed), status (a refused request), binary Message Data (opcode 1,
-// subscription id, timestamp in ns, the JSON payload; little-endian). Client -> server: subscribe
-// {subscriptions: [{id, channelId}]}, unsubscribe {subscriptionIds}. Anything else is answered with a status
-// (level 1 or 2) and ignored; a malformed message too; the connection stays. Samples are sent droppable
+// Server -> client: serverInfo (at open; the capability `parameters` when the run serves them, below), advertise
+// (at open: every topic; later: each new one), unadvertise (a topic removed), status (a refused request), binary
+// Message Data (opcode 1, subscription id, timestamp in ns, the JSON payload; little-endian), parameterValues
+// {parameters: [{name, value}], id} (the answer to getParameters and setParameters). Client -> server: subscribe
+// {subscriptions: [{id, channelId}]}, unsubscribe {subscriptionIds}, getParameters {parameterNames, id} (none:
+// every one), setParameters {parameters: [{name, value}], id}. Anything else is answered with a status (level 1
+// or 2) and ignored; a malformed message too; the connection stays.
+//
+// Parameters are the run's configuration repository's keys (docs/configuration.md): the Protocol only parses and
+// answers; get_parameters and set_parameters (set by the run: dca.launch.live) read and write them. A set goes the
+// way of the monitor's config_set, so it reaches the running leaves whose live parameter reads that key. Samples are sent droppable
 // (host/web: a slow client loses samples, counted, and never stalls the loop).
 //
 // When a channel gets its first subscriber (over every connection) on_first_subscribe(topic) runs, and when its
@@ -67,6 +73,15 @@ class Protocol final : public web::Protocol, public SampleHub::Observer {
   void on_sample(const SampleHub::Topic& t, std::int64_t t_ns, std::span<const double> values) override;
 
   std::function<void(const std::string& topic)> on_first_subscribe, on_last_unsubscribe;
+  /// The answer to a parameter request, once, from the loop: params = [{name, value}] (parameterValues to the
+  /// connection that asked, while it is open), or error "" -> params, else why not (a status, level 2).
+  using ParamsReply = std::function<void(const wire::Value& params, const std::string& error)>;
+  /// getParameters: the values of `names` (empty: every one). With set_parameters, set before a client connects,
+  /// serverInfo says `parameters`.
+  std::function<void(const std::vector<std::string>& names, ParamsReply reply)> get_parameters;
+  /// setParameters: `params` = [{name, value}] (each with a name and a value), written at once; the reply has
+  /// their values after the write.
+  std::function<void(const wire::Value& params, ParamsReply reply)> set_parameters;
   /// Message Data frames sent, and those the connections dropped (slow clients).
   std::uint64_t sent() const { return sent_; }
   std::uint64_t dropped() const { return dropped_; }
@@ -80,6 +95,9 @@ class Protocol final : public web::Protocol, public SampleHub::Observer {
   void status(Client& c, int level, const std::string& message);
   void subscribe(Client& c, const wire::Value& msg);
   void unsubscribe(Client& c, const wire::Value& msg);
+  void get_params(Client& c, const wire::Value& msg);
+  void set_params(Client& c, const wire::Value& msg);
+  static ParamsReply answer(const Client& c, std::string op, const wire::Value& id);
   void count(std::uint32_t channel, int delta);
   void send_message(Client& c, std::uint32_t sub, std::int64_t t_ns, const std::string& payload);
 

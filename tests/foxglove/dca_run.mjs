@@ -2,7 +2,10 @@
 //   const run = startRun(DCA, ARGS)   run.said(RE, MS, WHAT) --> the match (rejects after MS)   run.ended --> code
 //   run.out()   run.kill()            deadline(MS, WHAT): a promise rejected after MS
 //   run.report(failures)              the run's last lines and each failure, exit 1 (nothing when none)
+//   await pageToEnd(url, run, failures)  the monitor's page opened (time starts under --monitor-wait), the run's
+//                                        end awaited: its exit code checked 0; the page closed
 import { spawn } from "node:child_process";
+import WebSocket from "ws";
 
 export const deadline = (ms, what) =>
   new Promise((_, reject) => setTimeout(() => reject(new Error(`timed out: ${what}`)), ms).unref());
@@ -30,4 +33,12 @@ export function startRun(dca, args) {
       process.exit(1);
     },
   };
+}
+
+export async function pageToEnd(url, run, failures, ms = 120000) {
+  const page = new WebSocket(url, ["dca.monitor.v1"]);
+  page.on("error", (e) => failures.push(`page: ${e.message}`));
+  const code = await Promise.race([run.ended, deadline(ms, "the end of the run")]);
+  if (code !== 0) failures.push(`dca run ended with ${code}`);
+  page.close();
 }

@@ -9,7 +9,7 @@
 // 3. The run ends DONE. Exit 1 on a failure.
 import foxglove from "@foxglove/ws-protocol";
 import WebSocket from "ws";
-import { deadline, startRun } from "./dca_run.mjs";
+import { deadline, pageToEnd, startRun } from "./dca_run.mjs";
 
 const { FoxgloveClient } = foxglove;
 const [dca, src] = process.argv.slice(2);
@@ -18,7 +18,7 @@ const check = (ok, what) => { if (!ok) failures.push(what); };
 
 const run = startRun(dca, ["run", `${src}/worlds/ur10/ur10_setpoint.dca`, "--sim", `${src}/worlds/ur10/ur10.urdf`,
                         "--monitor", "--monitor-wait"]);
-const { said, ended } = run;
+const { said } = run;
 const FRAMES = "/world/links/frames", URDF = "/robot_description";
 
 try {
@@ -43,12 +43,8 @@ try {
   urdfSub = client.subscribe(channels.get(URDF).id);
   framesSub = client.subscribe(channels.get(FRAMES).id);
   await said(/live: tapped world\.links\.frames/, 20000, "dca's tap of the link frames");
-  const page = new WebSocket(url, ["dca.monitor.v1"]);  // time starts (--monitor-wait)
-  page.on("error", (e) => failures.push(`page: ${e.message}`));
-  const code = await Promise.race([ended, deadline(120000, "the end of the run")]);
-  check(code === 0, `dca run ended with ${code}`);
+  await pageToEnd(url, run, failures);  // time starts (--monitor-wait)
   client.close();
-  page.close();
 
   check(urdf.length === 1 && /<robot name="ur10"/.test(urdf[0]?.data ?? ""), `${URDF}: ${urdf.length} messages`);
   const links = [...(urdf[0]?.data ?? "").matchAll(/<link name="([^"]+)"/g)].map((m) => m[1]);

@@ -3,7 +3,9 @@
 -- Force", "/world/arm/q": the recordings' topics), tapped (host/tap.h) into a tap point of the root's process when
 -- a viewer first subscribes to it. The server also speaks the Foxglove WebSocket protocol (core.foxglove), so
 -- Foxglove and Lichtblick connect to ws://ADDR/?token=T and plot them; the monitor's page subscribes to the same
--- topics (live:tap_topic).
+-- topics (live:tap_topic). Foxglove's parameters (its Parameters panel) are the configuration repository's keys:
+-- getParameters reads them on the root's host, setParameters writes them as the monitor's config_set does (through
+-- the root), so a change reaches the running leaves whose live parameter reads that key (dca.supervisor.live).
 --
 --   local live, err = require("dca.launch.live").start(ctx, sup, srv, cb)
 --       ctx: the start context (spec, hosts, key, sim), sup: the root supervisor, srv: the dca.WebServer;
@@ -65,6 +67,9 @@ function M.start(ctx, sup, srv, cb)
                                   stamp = ctx.o.sim and "writer" or "arrival" }
   if not tp then cb(nil, err) return end
   local self = setmetatable({ tp = tp, name = name, sup = sup, srv = srv, ctx = ctx, by_topic = {}, tapped = {} }, Live)
+  self.config_set = function(values, k)
+    sup:handle({ type = "config_set", key = values }, function(r) k(async.outcome(r)) end)
+  end
   self.link = function(p, k)
     taps.connect(sup, { p }, name, { queue = 256, send = function(leaf, msg, timeout, k2) self:_send(leaf, msg, timeout, k2) end }, k)
   end
@@ -76,16 +81,50 @@ function M.start(ctx, sup, srv, cb)
   return self
 end
 
--- Serves Foxglove on the server and registers the tap point at `daemon`. k(true) | k(nil, err)
+-- Serves Foxglove on the server and registers the tap point at `daemon` (whose configuration repository Foxglove's
+-- parameters read). k(true) | k(nil, err)
 function Live:_serve(daemon, key, title, k)
-  core.foxglove(self.srv, { name = title, subscribe = function(topic) self:tap_topic(topic) end })
+  core.foxglove(self.srv, { name = title, subscribe = function(topic) self:tap_topic(topic) end,
+                            get_parameters = function(names, reply) self:_get_parameters(names, reply) end,
+                            set_parameters = function(params, reply) self:_set_parameters(params, reply) end })
   require("dca.clients.daemon").connect(daemon, clients.key_opts(key), function(d, derr)
     if not d then k(nil, sformat("live taps: the daemon at %s: %s", tostring(daemon), tostring(derr))) return end
     self.daemon = d
+    self.config = require("dca.config").client(d)
     d:register(self.name, self.tp:endpoints(), clients.result(function(r, rerr)
       if not r then k(nil, "live taps: " .. tostring(rerr)) return end
       k(true)
     end))
+  end)
+end
+
+-- Foxglove's getParameters: the keys `names` (none: every key) and their values, as the repository of the root's
+-- host holds them; a name that is no key is left out. reply({ {name =, value =}... }) | reply(nil, err)
+function Live:_get_parameters(names, reply)
+  if not self.config then reply(nil, "the configuration repository is not reached yet") return end
+  self.config:list("", function(entries, err)
+    if not entries then reply(nil, tostring(err)) return end
+    local want
+    for _, n in ipairs(names) do want = want or {} want[n] = true end
+    local out = {}
+    for _, e in ipairs(entries) do
+      if not want or want[e.key] then out[#out + 1] = { name = e.key, value = e.value } end
+    end
+    reply(out)
+  end)
+end
+
+-- Foxglove's setParameters: one transaction written as the monitor's config_set (the root's repository, whose
+-- watch tells the live leaves), answered with the keys' values after it, or the repository's refusal.
+function Live:_set_parameters(params, reply)
+  local values, names = {}, {}
+  for _, p in ipairs(params) do
+    values[p.name] = p.value
+    names[#names + 1] = p.name
+  end
+  self.config_set(values, function(ok, err)
+    if not ok then reply(nil, err) return end
+    self:_get_parameters(names, reply)
   end)
 end
 
@@ -94,6 +133,9 @@ function M.attach(o, srv, request, cb)
   local ip = tostring(o.daemon):match("^(%d+%.%d+%.%d+%.%d+):%d+$") or "127.0.0.1"
   local name = sformat("taps:%s@%d", tostring(o.root), core.pid())
   local self = setmetatable({ name = name, srv = srv, ctx = { say = function() end }, by_topic = {}, tapped = {} }, Live)
+  self.config_set = function(values, k)
+    request({ type = "config_set", key = values }, function(r) k(async.outcome(r)) end)
+  end
   self.link = function(p, k)
     request({ type = "tap", path = p.path, to = name }, function(r)
       local ok, why = async.outcome(r)
@@ -197,7 +239,7 @@ end
 function Live:stats() return self.tp and self.tp:stats() or {} end
 
 function Live:close()
-  if self.daemon then self.daemon:close() self.daemon = nil end
+  if self.daemon then self.daemon:close() self.daemon, self.config = nil, nil end
   if self.tp then self.tp:close() end
 end
 
