@@ -48,6 +48,8 @@ void push_ports(lua_State* L, const std::vector<dca::PortSpec>& ports) {
   }
 }
 
+void push_strings(lua_State* L, const std::vector<std::string>& v);
+
 void push_params(lua_State* L, const std::vector<dca::ParamSpec>& params) {
   lua_createtable(L, static_cast<int>(params.size()), 0);
   int i = 1;
@@ -67,6 +69,16 @@ void push_params(lua_State* L, const std::vector<dca::ParamSpec>& params) {
     lua_setfield(L, -2, "variadic");
     lua_pushboolean(L, p.live);
     lua_setfield(L, -2, "live");
+    // the range or the allowed values, which dca check holds literal arguments to (dca.lang.check)
+    for (const auto& [key, bound] : {std::pair{"min", p.min}, std::pair{"max", p.max}, std::pair{"above", p.above}})
+      if (bound) {
+        lua_pushnumber(L, *bound);
+        lua_setfield(L, -2, key);
+      }
+    if (!p.allowed.empty()) {
+      push_strings(L, p.allowed);
+      lua_setfield(L, -2, "allowed");
+    }
     lua_pushlstring(L, p.doc.data(), p.doc.size());
     lua_setfield(L, -2, "doc");
     lua_rawseti(L, -2, i++);

@@ -411,6 +411,33 @@ local function leaves(ctx, p, sc)
   end
 end
 
+--- Whether number v is within a manifest parameter's range (its min, max: inclusive; above: exclusive).
+function M.in_range(prm, v)
+  return not (prm.min and v < prm.min) and not (prm.max and v > prm.max) and not (prm.above and v <= prm.above)
+end
+
+--- A parameter's range as the controller's own check says it (controllers/controller.cpp range_text): "positive",
+--- "at least 0", "in [0, 1]", "in (0, 1]", "at most 5", "above 2".
+function M.range_text(prm)
+  local n = function(v) return sformat("%.14g", v) end
+  if prm.max and (prm.min or prm.above) then
+    return sformat("in %s%s, %s]", prm.above and "(" or "[", n(prm.above or prm.min), n(prm.max))
+  end
+  if prm.max then return "at most " .. n(prm.max) end
+  if prm.above then return prm.above == 0 and "positive" or "above " .. n(prm.above) end
+  return "at least " .. n(prm.min)
+end
+
+--- With `v`: whether `allowed` holds it. Without: "a, b or c".
+function M.one_of(allowed, v)
+  if v ~= nil then
+    for _, a in ipairs(allowed) do if a == v then return true end end
+    return false
+  end
+  if #allowed == 1 then return allowed[1] end
+  return concat(allowed, ", ", 1, #allowed - 1) .. " or " .. allowed[#allowed]
+end
+
 --- The range of parameter counts a manifest accepts, and the parameters as shown in messages.
 local function parameter_range(ps)
   local min, max, shown = 0, #ps, {}
@@ -448,6 +475,12 @@ function M.leaf_parameters(ctx, path, inst, m)
     elseif prm and prm.type == "integer" and a.kind == "number" and math.type(a.value) ~= "integer" then
       err(ctx, path, a.line, a.col, "parameter '%s' of %s is an integer, got %s", prm.name, inst.type,
           tostring(a.value))
+    elseif prm and a.kind == "number" and not M.in_range(prm, a.value) then
+      err(ctx, path, a.line, a.col, "parameter '%s' of %s must be %s, got %s", prm.name, inst.type,
+          M.range_text(prm), tostring(a.value))
+    elseif prm and a.kind == "string" and prm.allowed and #prm.allowed > 0 and not M.one_of(prm.allowed, a.value) then
+      err(ctx, path, a.line, a.col, "parameter '%s' of %s must be %s, got '%s'", prm.name, inst.type,
+          M.one_of(prm.allowed), a.value)
     end
   end
 end

@@ -61,6 +61,25 @@ suite:case("a_huge_identifier_gives_an_error_of_bounded_size", function()
   T.cleanup()
 end)
 
+suite:case("literal_parameters_are_held_to_their_ranges_and_allowed_values", function()
+  local path = T.tmpfile([[
+process main() {
+  instantiated_processes {
+    t  instof Timer("h", -1);
+    th instof Threshold("h", 1, "upward");
+    ok instof Threshold("h", 1, "falling");
+  }
+  internal_event_actions { t, th, ok }
+}
+]])
+  T.dca("check " .. path, 1,
+    path .. ":3:26: main.t: parameter 'seconds' of Timer must be at least 0, got -1",
+    path .. ":4:33: main.th: parameter 'direction' of Threshold must be rising, falling or either, got 'upward'")
+  local out = T.dca("check " .. path, 1)
+  T.ok(not out:find("main.ok", 1, true), "an allowed value passes:\n" .. out)
+  os.remove(path)
+end)
+
 suite:case("tree_option_prints_the_instances", function()
   local path = src .. "/scripts/systems/compliant_motion.dca"
   T.eq(T.dca("check --no-registry --tree " .. path, 0),

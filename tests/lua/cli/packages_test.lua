@@ -85,6 +85,13 @@ suite:case("a_type_two_packages_define_is_written_with_its_package", function()
   T.ok(not out:find("(package pkg_ok)", 1, true), out)
 end)
 
+suite:case("a_package_parameters_range_is_checked_at_its_literal", function()
+  local path = system("use pkg_positive;", "  instantiated_processes { a instof PkgPositive(\"h1\", -0.005); }\n" ..
+    "  internal_event_actions { a }")
+  dca("check " .. path, 1, path .. ":3:50: main.a: parameter 'k' of PkgPositive must be positive, got -0.005")
+  os.remove(path)
+end)
+
 suite:case("a_missing_symbol_another_dcas_package_and_a_library_that_is_no_package_are_refused", function()
   local path = system("use pkg_missing;\nuse pkg_old;\nuse pkg_none;", "  instantiated_processes { }\n  internal_event_actions { }")
   dca("check " .. path, 1,
