@@ -88,7 +88,7 @@ end)
 suite:case("a_package_parameters_range_is_checked_at_its_literal", function()
   local path = system("use pkg_positive;", "  instantiated_processes { a instof PkgPositive(\"h1\", -0.005); }\n" ..
     "  internal_event_actions { a }")
-  dca("check " .. path, 1, path .. ":3:50: main.a: parameter 'k' of PkgPositive must be positive, got -0.005")
+  dca("check " .. path, 1, path .. ":3:55: main.a: parameter 'k' of PkgPositive must be positive, got -0.005")
   os.remove(path)
 end)
 
