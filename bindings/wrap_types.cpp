@@ -22,6 +22,7 @@
 #include "bindings/core.h"
 #include "controllers/packages.h"
 #include <dca/registry.h>
+#include "controllers/controller_access.h"
 #include "host/paths.h"
 
 namespace {
@@ -75,6 +76,10 @@ void push_params(lua_State* L, const std::vector<dca::ParamSpec>& params) {
         lua_pushnumber(L, *bound);
         lua_setfield(L, -2, key);
       }
+    if (const std::string range = dca::range_text(p); !range.empty()) {
+      lua_pushlstring(L, range.data(), range.size());
+      lua_setfield(L, -2, "range");
+    }
     if (!p.allowed.empty()) {
       push_strings(L, p.allowed);
       lua_setfield(L, -2, "allowed");

@@ -109,6 +109,16 @@ Output& Controller::output(std::string_view name, PortType type, std::uint32_t s
   return bound(ports_->find_output(name), who, name, type, size, ports_->no_such_output(who, name));
 }
 
+std::string range_text(const ParamSpec& p) {
+  const auto n = [](double v) { return format_number(v); };
+  if (p.max && (p.min || p.above))
+    return "in " + (p.above ? "(" + n(*p.above) : "[" + n(*p.min)) + ", " + n(*p.max) + "]";
+  if (p.max) return "at most " + n(*p.max);
+  if (p.above) return *p.above == 0 ? "positive" : "above " + n(*p.above);
+  if (p.min) return "at least " + n(*p.min);
+  return "";
+}
+
 namespace {
 double parse_number(const std::string& s, bool& ok) {
   errno = 0;
@@ -125,16 +135,6 @@ bool parse_integer(const std::string& s, std::int64_t& v) {
   return !s.empty() && end && *end == '\0' && errno == 0;
 }
 
-// "positive", "at least 0", "in [0, 1]", "in (0, 1]", "at most 5", "above 2"; "" when `p` has no range.
-std::string range_text(const ParamSpec& p) {
-  const auto n = [](double v) { return format_number(v); };
-  if (p.max && (p.min || p.above))
-    return "in " + (p.above ? "(" + n(*p.above) : "[" + n(*p.min)) + ", " + n(*p.max) + "]";
-  if (p.max) return "at most " + n(*p.max);
-  if (p.above) return *p.above == 0 ? "positive" : "above " + n(*p.above);
-  if (p.min) return "at least " + n(*p.min);
-  return "";
-}
 
 bool in_range(const ParamSpec& p, double v) {
   return !(p.min && v < *p.min) && !(p.max && v > *p.max) && !(p.above && v <= *p.above);

@@ -8,6 +8,10 @@
 
 namespace dca {
 
+/// A parameter's range as its check says it: "positive", "at least 0", "in [0, 1]", "in (0, 1]", "at most 5",
+/// "above 2"; "" when it has none (controllers/controller.cpp; dca check quotes it through core.types()).
+std::string range_text(const ParamSpec& p);
+
 struct ControllerAccess {
   /// One MainCalc, outside the timer (benchmarks and tests).
   static void main_calc(Controller& c) { c.MainCalc(); }

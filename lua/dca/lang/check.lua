@@ -416,18 +416,6 @@ function M.in_range(prm, v)
   return not (prm.min and v < prm.min) and not (prm.max and v > prm.max) and not (prm.above and v <= prm.above)
 end
 
---- A parameter's range as the controller's own check says it (controllers/controller.cpp range_text): "positive",
---- "at least 0", "in [0, 1]", "in (0, 1]", "at most 5", "above 2".
-function M.range_text(prm)
-  local n = function(v) return sformat("%.14g", v) end
-  if prm.max and (prm.min or prm.above) then
-    return sformat("in %s%s, %s]", prm.above and "(" or "[", n(prm.above or prm.min), n(prm.max))
-  end
-  if prm.max then return "at most " .. n(prm.max) end
-  if prm.above then return prm.above == 0 and "positive" or "above " .. n(prm.above) end
-  return "at least " .. n(prm.min)
-end
-
 --- With `v`: whether `allowed` holds it. Without: "a, b or c".
 function M.one_of(allowed, v)
   if v ~= nil then
@@ -477,7 +465,7 @@ function M.leaf_parameters(ctx, path, inst, m)
           tostring(a.value))
     elseif prm and a.kind == "number" and not M.in_range(prm, a.value) then
       err(ctx, path, a.line, a.col, "parameter '%s' of %s must be %s, got %s", prm.name, inst.type,
-          M.range_text(prm), tostring(a.value))
+          prm.range or "in range", tostring(a.value))
     elseif prm and a.kind == "string" and prm.allowed and #prm.allowed > 0 and not M.one_of(prm.allowed, a.value) then
       err(ctx, path, a.line, a.col, "parameter '%s' of %s must be %s, got '%s'", prm.name, inst.type,
           M.one_of(prm.allowed), a.value)
