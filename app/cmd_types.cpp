@@ -6,8 +6,8 @@
 
 #include "controllers/packages.h"
 #include <dca/registry.h>
-#include "app/sim_robot.h"
 #include "app/subcommand.h"
+#include "app/world_ports.h"
 #include "host/paths.h"
 
 namespace {
@@ -104,7 +104,7 @@ int cmd_types(std::span<char* const> args) {
       std::fprintf(stderr, "dca types: %s needs a value\n", a.c_str());
       return 2;
     }
-    if (a == "--world") return dca::app::print_world_ports(args[i + 1]);  // a robot world's ports
+    if (a == "--world") return dca::app::types_of_world(args[i + 1]);  // a world's ports
     if (a == "--package") packages.emplace_back(args[++i]);
     else if (a == "--dir") dir = args[++i];
     else types.push_back(a);
@@ -123,7 +123,7 @@ int cmd_types(std::span<char* const> args) {
 
 DCA_SUBCOMMAND("types", "every controller type with its ports and parameters",
                "usage: dca types [--package NAME]... [--dir DIR] [TYPE...]\n"
-               "       dca types --world ROBOT.urdf|mock:ROBOT.urdf\n\n"
+               "       dca types --world WORLD\n\n"
                "Lists every controller type (or the named ones): its signature as written in a .dca file (the\n"
                "first argument is the host), its package unless built in, its parameters with their ranges, its\n"
                "input and output ports with type (scalar, vector[N], vectorx, value) and units, and how a run ends\n"
@@ -132,6 +132,7 @@ DCA_SUBCOMMAND("types", "every controller type with its ports and parameters",
                "<prefix>/lib/dca/controllers, DIR/packages with --dir DIR); with --package, that package's only.\n"
                "A named TYPE is searched in all of them. Exit code 1 if a named type is unknown (naming the\n"
                "packages that did not load) or, listing, a package does not load (each said on stderr).\n"
-               "--world: the device ports of the URDF world (docs/robots.md): the command inputs and state outputs\n"
-               "its joints' interfaces give, and the warnings of loading it; exit code 1 if it does not load.",
+               "--world: the device ports of a world (`dca sim --worlds`; ROBOT.urdf, mock:ROBOT.urdf: docs/robots.md):\n"
+               "its command inputs and state outputs (a URDF world's, its joints' interfaces) and the warnings of\n"
+               "loading it; exit code 1 if it does not load.",
                cmd_types);

@@ -24,6 +24,9 @@ extern "C" int luaopen_dca_core(lua_State* L) {
   const auto dir = dca::lua_dir();
   lua_pushlstring(L, dir.data(), dir.size());
   lua_setfield(L, -2, "lua_dir");
+  const auto worlds = dca::worlds_dir();
+  lua_pushlstring(L, worlds.data(), worlds.size());
+  lua_setfield(L, -2, "worlds_dir");
   dca::bindings::open_readline(L);
   dca::bindings::open_inotify(L);
   dca::bindings::open_types(L);

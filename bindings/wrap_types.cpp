@@ -9,8 +9,10 @@
 //   core.package_dirs(system_dir)       --> { dir, ... }  the search path, in order
 //   core.packages(system_dir)           --> { name, ... } the packages found on it, sorted
 //   core.absolute(path)                 --> the path made absolute (from the working directory), normalised
-// The robot process's signals (bindings/core.h), for dca check's device ports, of world SPEC (default "door"):
-//   core.world_signals([SPEC]) --> { outputs = { [signal] = {name=, type=, size=, units=} }, inputs = {...} }
+// The robot process's signals (bindings/core.h), for dca check's device ports, of world SPEC (default: the default
+// world), its options ({"KEY=VALUE", ...}) checked:
+//   core.world_signals([SPEC [, OPTIONS]]) --> { world = SPEC (the default's name when none), outputs = { [signal] =
+//                                              {name=, type=, size=, units=} }, inputs = {...} }
 //                                | nil, error (a world that cannot be loaded) | nil (no worlds in this executable)
 #include <lua.hpp>
 
@@ -198,15 +200,25 @@ int l_world_signals(lua_State* L) {
     return 1;
   }
   std::size_t n = 0;
-  const char* spec = luaL_optlstring(L, 1, "door", &n);
+  const char* spec = luaL_optlstring(L, 1, "", &n);
+  std::vector<std::string> options;
+  if (lua_istable(L, 2)) {
+    for (lua_Integer i = 1; lua_rawgeti(L, 2, i) == LUA_TSTRING; ++i) {
+      options.emplace_back(lua_tostring(L, -1));
+      lua_pop(L, 1);
+    }
+    lua_pop(L, 1);
+  }
   dca::bindings::WorldSignals s;
   std::string error;
-  if (!source(std::string(spec, n), &s, &error)) {
+  if (!source(std::string(spec, n), options, &s, &error)) {
     lua_pushnil(L);
     lua_pushlstring(L, error.data(), error.size());
     return 2;
   }
-  lua_createtable(L, 0, 2);
+  lua_createtable(L, 0, 3);
+  lua_pushlstring(L, s.world.data(), s.world.size());
+  lua_setfield(L, -2, "world");
   push_signals(L, s.outputs);
   lua_setfield(L, -2, "outputs");
   push_signals(L, s.inputs);

@@ -30,6 +30,11 @@ std::string installed_or_source(const char* relative, const char* source, bool (
   return source;
 }
 
+bool is_dir(const fs::path& p) {
+  std::error_code ec;
+  return fs::is_directory(p, ec);
+}
+
 }  // namespace
 
 std::string exe_path() {
@@ -53,10 +58,12 @@ std::string lua_dir() {
 
 std::string models_dir() {
   if (const char* e = env("DCA_MODELS_DIR")) return e;
-  return installed_or_source(DCA_INSTALL_MODELS_DIR, DCA_SOURCE_MODELS_DIR, [](const fs::path& p) {
-    std::error_code ec;
-    return fs::is_directory(p, ec);
-  });
+  return installed_or_source(DCA_INSTALL_MODELS_DIR, DCA_SOURCE_MODELS_DIR, is_dir);
+}
+
+std::string worlds_dir() {
+  if (const char* e = env("DCA_WORLDS_DIR")) return e;
+  return installed_or_source(DCA_INSTALL_WORLDS_DIR, DCA_SOURCE_WORLDS_DIR, is_dir);
 }
 
 std::vector<std::string> controller_dirs(const std::string& system_dir) {

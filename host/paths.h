@@ -22,6 +22,11 @@ std::string lua_dir();
 
 // models_dir(): dca/paths.h (the SDK's).
 
+/// The directory of the world plug-ins' own files (docs/worlds.md: worlds/NAME/world.lua, models, systems):
+/// $DCA_WORLDS_DIR if set; else <exe>/../share/dca/worlds when it exists (an installed dca); else the source
+/// tree's worlds/ (a build tree).
+std::string worlds_dir();
+
 /// The directories searched for controller packages (`use NAME;` in a .dca file), in order: each entry of
 /// $DCA_CONTROLLER_PATH (':'-separated; a relative one taken from the working directory), then
 /// <exe>/../lib/dca/controllers (where an installed dca, and a build tree, keep theirs), then

@@ -68,6 +68,8 @@ class ValueSink final : public StatusSink {
     for (const auto& l : lines) a.emplace_back(l);
     v_.set(key, Value(std::move(a)));
   }
+  void flag(const std::string& key, bool x) override { v_.set(key, x); }
+  void integer(const std::string& key, std::int64_t x) override { v_.set(key, x); }
 
  private:
   Value& v_;
@@ -78,7 +80,7 @@ class ValueSink final : public StatusSink {
 struct DeviceNode::Impl {
   Impl(Loop& l, DeviceWorld& w, DeviceNodeOptions o)
       : loop(l), world(w), opts(std::move(o)), clock(l, clock_options(opts, w), hooks()),
-        taps(clock, opts.record.empty() ? nullptr : std::make_unique<Recorder>(opts.record, Recorder::Groups::none)) {
+        taps(clock, make_recorder(opts.record, w, &own_format)) {
     if (!opts.trace.empty() && !(trace = std::fopen(opts.trace.c_str(), "w")))
       throw std::runtime_error("cannot write the trace " + opts.trace);
     buffer.resize(64);
@@ -94,10 +96,21 @@ struct DeviceNode::Impl {
   Node* node = nullptr;
   std::FILE* trace = nullptr;
   std::vector<double> buffer;  // a sensor's values
+  bool own_format = false;  // the world records itself (DeviceWorld::own_recorder)
   Lockstep clock;
   WorldTaps taps;  // tap, record_end, note; the recording
   std::vector<std::uint16_t> channels;  // each sensor's recording channel
   long record_every = 1, steps = 0;
+
+  // The recording of `path` ("" none): the world's own format, else the generic MCAP.
+  static std::unique_ptr<Recorder> make_recorder(const std::string& path, DeviceWorld& w, bool* own) {
+    if (path.empty()) return nullptr;
+    if (auto r = w.own_recorder(path)) {
+      *own = true;
+      return r;
+    }
+    return std::make_unique<Recorder>(path);
+  }
 
   static LockstepOptions clock_options(const DeviceNodeOptions& o, const DeviceWorld& w) {
     LockstepOptions c;
@@ -134,6 +147,8 @@ struct DeviceNode::Impl {
   // The recording's channels: one per sensor signal, as its live topic (the link frames as
   // foxglove.FrameTransforms), the URDF on /robot_description (once, at time 0); then the signals at 0.
   void start_recording() {
+    record_every = std::max<long>(1, std::lround(opts.record_period / world.period()));
+    if (own_format) return world.record(*taps.recorder());
     Recorder& r = *taps.recorder();
     for (const auto& sig : world.sensors()) {
       if (is_frames(sig)) {
@@ -146,7 +161,6 @@ struct DeviceNode::Impl {
     if (const std::string urdf = world.robot_description(); !urdf.empty())
       r.write(r.add_channel(frames::kDescriptionTopic, frames::description_schema(), frames::kDescriptionSchemaName),
               0, frames::description_message(urdf));
-    record_every = std::max<long>(1, std::lround(opts.record_period / world.period()));
     record_sensors();
   }
 
@@ -191,7 +205,10 @@ struct DeviceNode::Impl {
     }
     world.step();
     ++steps;
-    if (taps.recorder() && steps % record_every == 0) record_sensors();
+    if (taps.recorder() && steps % record_every == 0) {
+      if (own_format) world.record(*taps.recorder());
+      else record_sensors();
+    }
   }
 
   void publish() {
@@ -220,7 +237,10 @@ struct DeviceNode::Impl {
 
 DeviceNode::DeviceNode(Loop& loop, DeviceWorld& world, DeviceNodeOptions options)
     : impl_(std::make_unique<Impl>(loop, world, std::move(options))) {
-  // the run that drove time is gone: nobody will stop us, so stop (as the door world does)
+  impl_->clock.on_duration = [this] {
+    if (on_duration) on_duration();
+  };
+  // the run that drove time is gone: nobody will stop us, so stop
   impl_->clock.on_master_lost = [this](const std::string& why) {
     std::fprintf(stderr, "dca sim: %s: the world stops\n", why.c_str());
     impl_->loop.stop();

@@ -1,15 +1,16 @@
 #pragma once
-// A DeviceWorld (sim/device_world.h) as a process: the world's signals as the ports of a component named `world`
-// (by default), hosted by the ordinary node runtime (host/node.h), and the clock master of every node on
-// simulated time (host/lockstep.h), as sim/world_node.h does for the door world (docs/time.md; docs/data-plane.md,
-// "Device ports: the robot"; docs/robots.md).
+// A world (sim/device_world.h: the door world, a URDF world, any world plug-in's; docs/worlds.md) as a process:
+// the world's signals as the ports of a component named `world` (by default), hosted by the ordinary node runtime
+// (host/node.h), and the clock master of every node on simulated time (host/lockstep.h) (docs/time.md;
+// docs/data-plane.md, "Device ports: the robot"; docs/robots.md).
 //
 // Each tick: the command samples counted for the world are taken in (the latest of each input goes to
 // DeviceWorld::command), the world steps one period, and when subscribers are due its sensors are written to
 // the outputs. A command input whose writer the clock master lost or forgot for a new instance is told to the
 // world (DeviceWorld::writer_gone). `status {}` is the clock's status and the world's fields. Taps, `record_end`
-// and `note` are the door world's (sim/world_taps.h). With `record` (FILE.mcap) every sensor signal is recorded
-// every record_period on a channel named as its live topic ("/world/joint/J/position", {"value": [x]}; the
+// and `note`: sim/world_taps.h. With `record`, a world with a recording of its own format writes it
+// (DeviceWorld::own_recorder: the door world's signal groups, MCAP or CSV); any other records FILE.mcap: every
+// sensor signal every record_period on a channel named as its live topic ("/world/joint/J/position", {"value": [x]}; the
 // link frames, DeviceWorld::frames, as foxglove.FrameTransforms), the URDF once on /robot_description,
 // beside the tapped ports and the run's lines (docs/recording.md). `robot_description {}` answers {urdf, frames =
 // [[parent, child], ...], port = "links.frames"}: what a viewer draws the robot from.
@@ -56,6 +57,8 @@ class DeviceNode {
   std::int64_t now() const;
   /// The reply to `status {}`.
   wire::Value status() const;
+  /// Called once when `duration` is reached (time then holds).
+  std::function<void()> on_duration;
 
   struct Impl;
 

@@ -5,11 +5,13 @@
 // C++17-clean, so both the Simbody side and the C++20 node see it.
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "host/codec/frames.h"
+#include "sim/recorder.h"
 
 namespace dca::sim {
 
@@ -29,6 +31,8 @@ class StatusSink {
   /// A map {name = value}.
   virtual void table(const std::string& key, const std::vector<std::pair<std::string, double>>& entries) = 0;
   virtual void texts(const std::string& key, const std::vector<std::string>& lines) = 0;
+  virtual void flag(const std::string& key, bool v) = 0;
+  virtual void integer(const std::string& key, std::int64_t v) = 0;
 };
 
 /// A world behind device ports. Not thread-safe; deterministic: the same commands give the same sensors.
@@ -66,6 +70,15 @@ class DeviceWorld {
   }
   /// The robot's URDF text for viewers (/robot_description), "" when there is none.
   virtual std::string robot_description() const { return {}; }
+  /// A world with a recording of its own format (the door world's signal groups, and its CSV export): the
+  /// Recorder for `path`, its channels added (nullptr: the generic recording, MCAP only, one channel per sensor
+  /// signal). Throws std::runtime_error("FILE: reason") when it cannot be written.
+  virtual std::unique_ptr<Recorder> own_recorder(const std::string& path) {
+    (void)path;
+    return nullptr;
+  }
+  /// With own_recorder: the world's signals now into `r` (at the start and every record period).
+  virtual void record(Recorder& r) { (void)r; }
 };
 
 }  // namespace dca::sim

@@ -1,42 +1,27 @@
 #pragma once
-// Recording a run of the world as MCAP (FILE.mcap: one JSON channel per signal group, log time = simulated
-// time; host/codec/mcap.h) or CSV (any other name), and drawing either with gnuplot. C++17-clean.
+// Recording a run of a world as MCAP (FILE.mcap: JSON channels, log time = simulated time; host/codec/mcap.h),
+// or as CSV (any other name) for a world that has a CSV export of its own (the door world's,
+// worlds/door/recording.h). C++17-clean.
 #include <cstdint>
 #include <cstdio>
 #include <memory>
 #include <string>
 
-#include "sim/world.h"
-
 namespace dca::sim {
 
-/// The CSV's header line (without newline). Columns, in this order: time (s); q1..q6 (rad); base_x, base_y (m),
-/// base_yaw (rad); fx, fy, fz (N), tx, ty, tz (N m) in the sensor frame; door_angle, handle_angle (rad);
-/// gripper_width (m), gripper_state (see GripperState); laser (m); phase (a number the writer chooses, e.g.
-/// the scripted DoorPhase, -1 if none).
-const char* csv_header();
-
-/// The MCAP recording's channels, one per signal group, in channel id order (1, 2, ...): /world/arm (q1..q6),
-/// /world/base (x, y, yaw), /world/wrench (fx, fy, fz, tx, ty, tz), /world/door (door_angle, handle_angle),
-/// /world/gripper (width, state), /world/laser (range), /world/phase (phase). Each message is a JSON object
-/// with these fields (numbers), its log time the simulated time in ns.
-constexpr int kMcapChannels = 7;
-
-/// Writes the world's signals at each call of record(): a CSV row, or one MCAP message per channel when the
-/// path ends in ".mcap". The constructor throws std::runtime_error("FILE: reason") if the file cannot be
-/// written.
+/// A recording file. The constructor throws std::runtime_error("FILE: reason") if the file cannot be written.
 class Recorder {
  public:
-  /// The channels a recording starts with: the door world's signal groups (kMcapChannels, written by record()),
-  /// or none (another world's recording: MCAP only, its channels added with add_channel).
-  enum class Groups { door, none };
-  /// Throws std::runtime_error("FILE: reason") also for Groups::none and a name not ending in ".mcap".
-  explicit Recorder(const std::string& path, Groups groups = Groups::door);
+  /// MCAP when `path` ends in ".mcap"; else a CSV whose first line is `csv_header` (a world without a CSV export
+  /// passes none: then any name but FILE.mcap is refused).
+  explicit Recorder(const std::string& path, const std::string& csv_header = "");
   ~Recorder();
   Recorder(const Recorder&) = delete;
   Recorder& operator=(const Recorder&) = delete;
-  /// Appends the door world's current sensors (and `phase`); nothing with Groups::none.
-  void record(const Sensors& s, int phase = -1);
+  /// Whether this is an MCAP recording (else CSV).
+  bool mcap() const { return mcap_ != nullptr; }
+  /// CSV only: one row (its text, without the newline).
+  void csv_row(const std::string& row);
   /// MCAP only (a CSV ignores it): one message on the channel /dca/events (added at the first note) at simulated
   /// time `t`: {"line": line, "path": path, "state": state} (path and state empty for a line that is no
   /// transition), e.g. a progress line of `dca run` ("main.door.hit: running").
@@ -68,17 +53,7 @@ class Recorder {
   std::unique_ptr<Mcap> mcap_;  // set when recording MCAP
   long rows_ = 0;
   uint64_t dropped_ = 0;
-  Groups groups_ = Groups::door;
 };
-
-/// Draws a recording (CSV, or MCAP when `file` ends in ".mcap"): door and handle angles, wrist force, base
-/// position against time, and the base's path, to a PNG (gnuplot's pngcairo terminal). False with *error
-/// (naming the file) when it cannot.
-bool plot_csv(const std::string& file, const std::string& png, std::string* error);
-
-/// Converts an MCAP recording of Recorder to the CSV Recorder writes (csv_header()'s columns, one row per
-/// log time). False with *error ("FILE: why") when it is not such a recording.
-bool mcap_to_csv(const std::string& mcap, const std::string& csv, std::string* error);
 
 /// Whether `path` names an MCAP file (ends in ".mcap").
 bool is_mcap(const std::string& path);

@@ -233,7 +233,7 @@ function M.read_file(path)
       end
       local col = #lead + #key + #eq + 1
       if key:sub(1, 1) == "." or key:sub(-1) == "." or key:find("..", 1, true) then
-        return fail(#lead + 1, "'" .. key .. "' is not a dotted key (like door.stop_distance)")
+        return fail(#lead + 1, "'" .. key .. "' is not a dotted key (like arm.stop_distance)")
       end
       if raw == "" then return fail(col, "no value for " .. key) end
       local v, ecol, verr = line_value(raw, col)

@@ -1,4 +1,4 @@
-// The in-process closed-loop door harness (tests/sim/door_harness.h) as a benchmark: the door task of
+// The in-process closed-loop door harness (worlds/door/tests/door_harness.h) as a benchmark: the door task of
 // door_open.dca in one process, one TimerServer, no sockets and no supervisors: the baseline that
 // tests/bench/door_bench.lua measures the supervised system against, on the same seed, in the same run.
 //
@@ -10,8 +10,8 @@
 #include <cstdio>
 #include <cstdlib>
 
-#include "sim/world.h"
-#include "tests/sim/door_harness.h"
+#include "worlds/door/world.h"
+#include "worlds/door/tests/door_harness.h"
 
 int main(int argc, char** argv) {
   const int seed = argc > 1 ? std::atoi(argv[1]) : 0;

@@ -15,7 +15,7 @@
 #include <vector>
 
 #include "host/loop.h"  // before any other Asio header
-#include "sim/world.h"
+#include "worlds/door/world.h"
 #include "tests/bench/bench_util.h"
 #include "tests/support/key_dir.h"
 #include "tests/support/sim_world.h"
@@ -77,7 +77,7 @@ double lockstep(int nodes, double period, double seconds, const dca::test::KeyDi
   dopts.sim_clock = true;
   const std::string lean = std::filesystem::path(DCA_EXE).parent_path() / "dca-node";
   dopts.allow.allow(lean);
-  dca::sim::WorldNodeOptions wo;
+  dca::sim::DeviceNodeOptions wo;
   wo.duration = seconds;
   dca::test::SimWorld sim(loop, dopts, wo, keys.key_file);
   std::string error;

@@ -14,9 +14,9 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include "sim/door_script.h"
-#include "sim/recorder.h"
-#include "sim/world.h"
+#include "worlds/door/door_script.h"
+#include "worlds/door/recording.h"
+#include "worlds/door/world.h"
 #include "tests/bench/bench_util.h"
 
 namespace {
@@ -30,7 +30,7 @@ constexpr int kRecordEvery = 10;   // every 10 ms
 void run(const std::string& variant, const std::string& path) {
   dca::sim::World w(dca::sim::door_world());
   dca::sim::ScriptedDoorOpening script;
-  std::optional<dca::sim::Recorder> rec;
+  std::optional<dca::sim::DoorRecording> rec;
   if (!path.empty()) rec.emplace(path);
   std::vector<double> us;
   us.reserve(kSteps);
@@ -51,10 +51,10 @@ void run(const std::string& variant, const std::string& path) {
   double mb_per_min = 0;
   if (rec) {
     std::string error;
-    if (!rec->close(&error)) std::fprintf(stderr, "%s\n", error.c_str());
+    if (!rec->recorder().close(&error)) std::fprintf(stderr, "%s\n", error.c_str());
     struct stat st {};
     if (stat(path.c_str(), &st) == 0) mb_per_min = static_cast<double>(st.st_size) / 1e6 / (kSteps * 1e-3) * 60;
-    std::fprintf(stderr, "%s\n", rec->summary().c_str());
+    std::fprintf(stderr, "%s\n", rec->recorder().summary().c_str());
     unlink(path.c_str());
   }
   std::sort(record_us.begin(), record_us.end());

@@ -9,9 +9,9 @@
 #include <string>
 #include <vector>
 
-#include "sim/door_script.h"
+#include "worlds/door/door_script.h"
 #include "sim/simbody_check.h"
-#include "sim/world.h"
+#include "worlds/door/world.h"
 #include "tests/bench/bench_util.h"
 
 namespace {

@@ -203,6 +203,34 @@ suite:case("host_layer_headers_state_their_rule", function()
   none(bad, "headers of host/codec, host/net and host/web without their folder's rule line")
 end)
 
+suite:case("outside_worlds_no_lua_and_no_app_file_names_a_world", function()
+  local bad = {}
+  local function scan(path, code)
+    local n = 0
+    for l in (code .. "\n"):gmatch("([^\n]*)\n") do
+      n = n + 1
+      if l:lower():find("door", 1, true) then bad[#bad + 1] = fmt("%s:%d: %s", path, n, l:match("^%s*(.-)%s*$")) end
+    end
+  end
+  for _, path in ipairs(files({ "lua/dca" }, "%.lua$")) do
+    local fh = assert(io.open(root .. "/" .. path))
+    local src = fh:read("a")
+    fh:close()
+    -- comments and long strings blanked line for line, so that the line numbers stay
+    local function blank(c) return (c:gsub("[^\n]", "")) end
+    local code = src:gsub("(%-%-%[(=*)%[.-%]%2%])", blank)
+    code = code:gsub("(%[(=*)%[.-%]%2%])", blank)
+    scan(path, (code:gsub("%-%-[^\n]*", "")))
+  end
+  for _, path in ipairs(files({ "app" }, "")) do
+    local fh = assert(io.open(root .. "/" .. path))
+    local src = fh:read("a")
+    fh:close()
+    scan(path, (src:gsub("//[^\n]*", ""):gsub("#[^\n]*", function(c) return path:match("CMakeLists") and "" or c end)))
+  end
+  none(bad, "lines outside worlds/ name a world (docs/worlds.md)")
+end)
+
 suite:case("child_states_change_only_through_child_set", function()
   -- a child record (dca.supervisor.child) is `ch` or `....children[name]`; its state is set by child.set only
   local bad = {}

@@ -1,11 +1,11 @@
--- The door system in simulated time (real backend), its handle jammed (`dca sim --jammed`, passed as the
--- system's `jammed` option): PressHandle presses until its force limit without the handle giving way and ends
+-- The door system in simulated time (real backend), its handle jammed (the door world's option `jammed`,
+-- `--world-opt jammed`): PressHandle presses until its force limit without the handle giving way and ends
 -- ABORTED; the system aborts with that reason (naming main.dooropensyst.presshandle and the force limit), and
 -- the door stays shut.
 local S = require "dca.scenario"
 S.backends = { "real" }
 local door = dofile((os.getenv("DCA_SOURCE_DIR") or ".") .. "/tests/support/door_scenario.lua")
-local sys = door.system(S, { jammed = true })
+local sys = door.system(S, { world_opts = { "jammed" } })
 local PH = "main.dooropensyst.presshandle"
 
 door.up(S, sys, "the tree comes up on three hosts with the jammed world")

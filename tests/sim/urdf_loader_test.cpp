@@ -11,7 +11,7 @@
 #include <map>
 #include <sstream>
 
-#include "sim/door_model.h"
+#include "worlds/door/door_model.h"
 #include "sim/urdf_bodies.h"
 #include "sim/urdf_parse.h"
 #include "tests/support/temp_dir.h"

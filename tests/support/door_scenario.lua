@@ -1,6 +1,6 @@
 -- The door system in simulated time for the tests/scenarios/door_*.lua scenarios (each says S.backends = {"real"}):
 --   local door = dofile((os.getenv("DCA_SOURCE_DIR") or ".") .. "/tests/support/door_scenario.lua")
---   local sys = door.system(S, { jammed = true })   -- door_open.dca with the door world, seed 1, and these options
+--   local sys = door.system(S, { world_opts = { "jammed" } })  -- door_open.dca, the door world, seed 1, these options
 --   door.up(S, sys, "the tree comes up ...")         -- the step that starts it: up, the world's time at 0
 --   door.variant("DoorOpenSystem", "supervision { ... }")  -- door_open.dca with that section: file, options;
 --                                                    --   T.cleanup() (dca.testing) once it is up removes the file

@@ -1,6 +1,6 @@
 #pragma once
-// Test and benchmark support: an in-process daemon and the simulated world hosted as the node `world` (the
-// clock master, sim/world_node.h), on one Loop, with the control channels a test talks to them on.
+// Test and benchmark support: an in-process daemon and the door world hosted as the node `world` (the clock
+// master, sim/device_node.h), on one Loop, with the control channels a test talks to them on.
 #include <chrono>
 #include <memory>
 #include <optional>
@@ -11,8 +11,8 @@
 #include "host/daemon.h"
 #include "host/net/channel.h"
 #include "host/node.h"
-#include "sim/world.h"
-#include "sim/world_node.h"
+#include "sim/device_node.h"
+#include "worlds/door/door_world.h"
 #include "tests/support/channel_pair.h"
 
 namespace dca::test {
@@ -20,11 +20,13 @@ namespace dca::test {
 /// The daemon and the world; `held` turns true when the world reaches its duration.
 class SimWorld {
  public:
-  SimWorld(Loop& on, DaemonOptions daemon_options, sim::WorldNodeOptions world_options, std::string key_file)
+  SimWorld(Loop& on, DaemonOptions daemon_options, sim::DeviceNodeOptions world_options, std::string key_file,
+           double command_timeout = 0.05)
       : loop(on),
         daemon(on.io(), daemon_options),
-        world(sim::door_world()),
-        world_node(on, world, world_options),
+        device(sim::door_world(), command_timeout),
+        world(device.world()),
+        world_node(on, device, world_options),
         key_file_(std::move(key_file)),
         channel_options_{daemon_options.key} {
     world_node.on_duration = [this] { held = true; };
@@ -77,8 +79,9 @@ class SimWorld {
 
   Loop& loop;
   Daemon daemon;
-  sim::World world;
-  sim::WorldNode world_node;
+  sim::DoorDeviceWorld device;
+  sim::World& world;
+  sim::DeviceNode world_node;
   std::unique_ptr<Node> node;
   bool held = false;
 

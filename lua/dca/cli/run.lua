@@ -12,7 +12,7 @@ M.summary = "run a .dca system: start its hosts and supervisor tree, run it, rep
 M.usage = [=[usage: dca run FILE.dca [--root NAME] [--hosts FILE] [--repl] [--watch] [--timeout S] [--quiet]
                     [--config FILE | --no-config] [--set KEY=VALUE]... [--state-dir DIR]
                     [--placement process|group|host]
-                    [--sim WORLD [--seed N] [--door-width W] [--record FILE.mcap|FILE.csv] [--jammed] [--realtime]
+                    [--sim WORLD [--world-opt KEY=VALUE]... [--seed N] [--record FILE.mcap|FILE.csv] [--realtime]
                     [--record-ports all|PATH.PORT,...] [--trace FILE]] [--monitor [ADDR] [--monitor-wait]]
 
 Checks FILE.dca (errors stop here, nothing is started), starts one local daemon per host name on 127.0.0.1
@@ -32,22 +32,21 @@ per group as it comes up and one per process transition, and runs the root expre
                   `host` every leaf on one host in one shared node. Leaves that share a node exchange
                   samples in process and take one lock-step advance per tick; a crash of a shared node
                   ends each of its leaves (ARCHITECTURE.md, "Placement"). The outcome is the same.
-  --sim WORLD     run in simulated time: FILE.dca's device ports checked against WORLD's signals (door,
-                  ROBOT.urdf, mock:ROBOT.urdf: see `dca check --sim`; without --sim, the door's), the
-                  daemons on the simulated clock, the world (`dca sim --serve
-                  --world WORLD`, e.g. door) started through the first host's daemon before the tree, its
-                  device ports wired to the leaves that have them, time started when the root runs; the
-                  lines carry the simulated time and the end prints the world's summary (door angle,
-                  simulated and wall time, each step's start and end, and the control periods achieved
-                  by the leaves of every MotionControl group: intervals between their MainCalc calls on the
-                  simulated and on the wall clock, p50/p99/max)
-  --seed N, --door-width W, --record FILE.mcap|FILE.csv   passed to the world (see `dca sim --help`)
+  --sim WORLD     run in simulated time: FILE.dca's device ports checked against WORLD's signals (a world
+                  plug-in's name, `dca sim --worlds`; ROBOT.urdf, mock:ROBOT.urdf: docs/robots.md; without
+                  --sim, the default world's, as `dca check`), the daemons on the simulated clock, the world
+                  (`dca sim --serve --world WORLD`) started through the first host's daemon before the tree,
+                  its device ports wired to the leaves that have them, time started when the root runs; the
+                  lines carry the simulated time and the end prints the world's summary (simulated and wall
+                  time, each step's start and end, and what the world's report adds: docs/worlds.md)
+  --world-opt KEY=VALUE  one of the world's own options, checked before anything starts (repeatable; a
+                  flag alone: --world-opt KEY), e.g. --world-opt door_width=0.9 --world-opt jammed
+  --seed N, --record FILE.mcap|FILE.csv   passed to the world (see `dca sim --help`)
   --record-ports all|PATH.PORT,...
                   with --record FILE.mcap: the samples of these output ports (every leaf's with `all`, e.g.
                   main.dooropensyst.dooropen.visualserv.Vel) recorded too, one channel per port
                   (/main/.../Vel, JSON with its JSON Schema), each sample at the tick its leaf wrote it: taps
                   into the world, which is in lock-step, so the recording is exact and the run unchanged
-  --jammed        passed to the world: the door handle's latch never releases (a fault to test against)
   --realtime      passed to the world: simulated time is paced to the wall clock (the nodes stay in
                   lock-step with it), so the wall-clock periods in the summary are the real control periods
   --trace FILE    write the run's trace (simulated time): every output's samples per tick (count, digest,
@@ -71,7 +70,7 @@ M.PLACEMENTS = { process = true, group = true, host = true }
 
 local OPTIONS = {
   ["--root"] = "value", ["--hosts"] = "value", ["--sim"] = "value", ["--seed"] = "number",
-  ["--door-width"] = "number", ["--record"] = "value", ["--jammed"] = "flag", ["--realtime"] = "flag",
+  ["--world-opt"] = "list:world_opts", ["--record"] = "value", ["--realtime"] = "flag",
   ["--timeout"] = "number", ["--repl"] = "flag", ["--watch"] = "flag", ["--quiet"] = "flag",
   ["--config"] = "value", ["--no-config"] = "flag", ["--state-dir"] = "value", ["--set"] = "list:sets",
   ["--placement"] = "value", ["--trace"] = "value", ["--monitor"] = "flag", ["--monitor-wait"] = "flag",
@@ -97,8 +96,8 @@ end
 -- The options that exclude each other or need another: the first broken rule. --> error text | nil
 local function rule_broken(o)
   if not o.file then return "which .dca file?" end
-  if (o.seed or o.door_width or o.record or o.jammed) and not o.sim then
-    return "--seed, --door-width, --record and --jammed go with --sim WORLD"
+  if (o.seed or o.world_opts or o.record) and not o.sim then
+    return "--seed, --world-opt and --record go with --sim WORLD"
   end
   if o.trace and not o.sim then return "--trace goes with --sim WORLD"
   end
@@ -153,7 +152,12 @@ end
 function M.main(args)
   local o, perr = parse_args(args)
   if not o then return args_mod.usage_error(perr, M.usage) end
-  -- the device ports are held to the world of the run (without --sim: the door's, as `dca check`)
+  -- the world's own options checked before anything starts (the world itself is, with the system, below)
+  if o.world_opts then
+    local ok, werr = require("dca.worlds").check(o.sim, o.world_opts)
+    if not ok then io.stderr:write("dca run: --world-opt: ", tostring(werr), "\n") return 2 end
+  end
+  -- the device ports are held to the world of the run (without --sim: the default world's, as `dca check`)
   local spec, err = require("dca.load").spec(o.file, { root = o.root, world = o.sim })
   if not spec then io.stderr:write(err, "\n") return 2 end
   o.config = o.config or (not o.no_config and require("dca.config").defaults_file(o.file)) or nil

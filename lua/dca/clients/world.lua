@@ -3,15 +3,15 @@
 -- and exit (ARCHITECTURE.md, "Time" and "The robot: device ports").
 --
 --   local world = require "dca.clients.world"
---   local w = world.new{ daemon = ADDR, host = NAME, key = FILE, world = NAME, seed = N, door_width = W,
---                        record = FILE, jammed = true, realtime = true, wait = S, log = FILE }
+--   local w = world.new{ daemon = ADDR, host = NAME, key = FILE, world = SPEC, seed = N,
+--                        world_opts = { "KEY=VALUE", ... }, record = FILE, realtime = true, wait = S, log = FILE }
 --   (log: the daemon's output file, when local: a world that ends while starting is shown with its own words)
 --   w:start(function(ok, err) end)     -- spawn `dca sim --serve`, wait until `world` is registered, connect
 --   w:request(msg, timeout, cb)        -- cb(reply) | cb(nil, err)
 --   w:go(cb)  w:hold(cb)               -- time flows / stops after the current tick
 --   w:stop(cb)                         -- `exit` to the world, then waits for its exit (SIGKILL after a grace)
 --   w.on_lost = function(reason) end   -- the world exited by itself (every node on its clock stops)
---   o.jammed: the handle's latch never releases; o.realtime: simulated time paced to the wall clock;
+--   o.world_opts: the world's own options (`--world-opt`, docs/worlds.md); o.realtime: simulated time paced to the wall clock;
 --   o.tick_timeout: ms a node may take to answer an advance before it is dropped from the clock
 local core = require "dca.core"
 local clients = require "dca.clients"
@@ -25,7 +25,7 @@ local W = {}
 W.__index = W
 
 --- The options a world takes besides where it runs (see the header): what a system's start passes through.
-M.OPTIONS = { "world", "seed", "door_width", "record", "jammed", "realtime", "wait", "trace", "tick_timeout" }
+M.OPTIONS = { "world", "seed", "world_opts", "record", "realtime", "wait", "trace", "tick_timeout" }
 
 -- A robot world's spec with its URDF file made absolute ("mock:FILE?OPTIONS" keeps its prefix and options): the
 -- world process starts in its daemon's folder (docs/robots.md). Any other world name as it is.
@@ -41,9 +41,8 @@ function M.argv(o)
   local argv = { "dca", "sim", "--serve", "--daemon", o.daemon, "--host", o.host, "--world", world_spec(o.world) }
   if o.key then argv[#argv + 1] = "--key" argv[#argv + 1] = o.key end
   if o.seed then argv[#argv + 1] = "--seed" argv[#argv + 1] = tostring(o.seed) end
-  if o.door_width then argv[#argv + 1] = "--door-width" argv[#argv + 1] = tostring(o.door_width) end
+  for _, kv in ipairs(o.world_opts or {}) do argv[#argv + 1] = "--world-opt" argv[#argv + 1] = tostring(kv) end
   if o.record then argv[#argv + 1] = "--record" argv[#argv + 1] = o.record end
-  if o.jammed then argv[#argv + 1] = "--jammed" end
   if o.trace then argv[#argv + 1] = "--trace" argv[#argv + 1] = o.trace end
   if o.realtime then argv[#argv + 1] = "--realtime" end
   -- (ms: a node that does not answer an advance within it is dropped from the clock; default 10000)

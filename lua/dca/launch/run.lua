@@ -203,7 +203,7 @@ function Run:start_monitor()
   local mon, err = require("dca.monitor.server").start{
     addr = self.o.monitor ~= true and self.o.monitor or nil, name = self.spec.path, root = self.spec.path,
     mode = "live",
-    request = request, world = world }
+    request = request, world = world, world_spec = self.o.sim }
   if not mon then return nil, err end
   mon.srv:add_key_token(self.ctx.key)  -- a key holder's token too (`dca monitor --token --key FILE`)
   self.monitor = mon

@@ -1,7 +1,7 @@
 -- dca.launch.sim: a run in simulated time (`dca run FILE --sim WORLD`, a scenario with { sim = WORLD }): the
 -- world process (dca.clients.world) started before the tree, progress lines stamped with the world's time,
 -- the transitions kept as the steps of the run, and the end-of-run summary: the world's figures, the steps
--- and what the world's report hook (dca.launch.reports) adds.
+-- and what the world's report hook (its descriptor's, dca.worlds) adds.
 --
 --   local sim = require "dca.launch.sim"
 --   local s = sim.new(world_opts, spec)     -- world_opts: those of dca.clients.world.new
@@ -10,7 +10,7 @@
 --                                           -- (when it answered: at or after the event), or `at` when given
 --   s:summary(wall, cb(lines, status))      -- simulated and wall time, lock-step figures, steps, the hook's
 local world_client = require "dca.clients.world"
-local reports = require "dca.launch.reports"
+local worlds = require "dca.worlds"
 
 local M = {}
 
@@ -20,7 +20,7 @@ local S = {}
 S.__index = S
 
 function M.new(o, spec)
-  local hook = reports.for_world(o.world)
+  local hook = worlds.descriptor(o.world).report
   return setmetatable({ world = world_client.new(o), hook = hook, leaves = spec and hook.leaves(spec) or {},
                         steps = {}, order = {}, pending = {}, t_last = 0 }, S)
 end

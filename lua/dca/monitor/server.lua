@@ -9,6 +9,7 @@
 --     request = function(msg, cb) end, -- a console request (net.CONSOLE: tree, inject, restart, repl, ...): the
 --                                      -- same authenticated path as the REPL; cb(reply) with reply.type
 --     world = function(msg, cb) end,   -- optional: a request to the world (status polled for the plots)
+--     world_spec = SPEC,                -- the world's spec (its descriptor's topics are plotted; nil: the default)
 --     model = m,                       -- optional: a model already filled (a replay: dca.monitor.replay)
 --     series = { {id, name, fields, rows} },  -- optional: recorded signals, offered as topics; a page that
 --                                      -- subscribes to one gets its rows whole ({type = "series", ...})
@@ -200,8 +201,8 @@ function Mon:_watch_config()
   end)
 end
 
--- The world's status, published as the topics /world/door and /world/base (the plots' live source until
--- port taps feed the same hub).
+-- The world's status, published as the topics its descriptor names (dca.worlds: e.g. /world/base from the
+-- status's base_pose), the plots' live source beside the port taps.
 function Mon:_poll_world()
   if self.world_pending or not next(self.pages) then return end
   self.world_pending = true
@@ -211,11 +212,17 @@ function Mon:_poll_world()
     local srv, t = self.srv, tonumber(r.t)
     if t == self.world_t then return end
     self.world_t = t
-    self.door_topic = self.door_topic or srv:topic("/world/door", { "door_angle", "handle_angle" })
-    srv:publish(self.door_topic, t, { tonumber(r.door_angle) or 0, tonumber(r.handle_angle) or 0 })
-    if type(r.base_pose) == "table" then
-      self.base_topic = self.base_topic or srv:topic("/world/base", { "x", "y", "yaw" })
-      srv:publish(self.base_topic, t, r.base_pose)
+    self.world_topics = self.world_topics or {}
+    for i, d in ipairs(require("dca.worlds").descriptor(self.o.world_spec).topics) do
+      local values = {}
+      for k, f in ipairs(d.fields) do
+        local v = d.array and type(r[d.array]) == "table" and r[d.array][k] or r[f]
+        values[k] = tonumber(v) or 0
+      end
+      if not d.array or type(r[d.array]) == "table" then
+        self.world_topics[i] = self.world_topics[i] or srv:topic(d.topic, d.fields)
+        srv:publish(self.world_topics[i], t, values)
+      end
     end
   end)
 end

@@ -25,8 +25,8 @@
 -- wait_state is met when the process has been in the state since the last run() (from the transition
 -- lines, so a short state is never missed).
 --
--- Simulated time with a world (real backend only): S.system(file, { sim = "door", seed = N, door_width = W,
--- jammed = true, world_host = NAME }) starts the daemons on the simulated clock and the world (`dca sim
+-- Simulated time with a world (real backend only): S.system(file, { sim = WORLD, seed = N,
+-- world_opts = { "KEY=VALUE", ... }, world_host = NAME }) starts the daemons on the simulated clock and the world (`dca sim
 -- --serve`, as `dca run --sim` does, through the daemon of world_host, default the first host name) before the
 -- tree; run() sends the world `go` once the root's run has been answered. sys:world_status() is the world's
 -- `status {}` (t, door_angle, base_pose, latched, ...), sys:world_read(port) its `read {port}` (the latest

@@ -88,7 +88,7 @@ end
 
 --- Resolves a full path or a unique suffix against the spec tree of `spec`. --> path | nil, err
 function M.resolve(spec, path)
-  if type(path) ~= "string" then return nil, "a path is a string such as \"main.door.hit\"" end
+  if type(path) ~= "string" then return nil, "a path is a string such as \"main.arm.pd\"" end
   local hits = {}
   spec_mod.walk(spec, function(n)
     if n.path == path then hits = { n.path } return end

@@ -61,7 +61,7 @@ function M.select(spec, types, selection)
         errs[#errs + 1] = sformat("%s has no output '%s' (outputs: %s)", leaf, port,
           #leaves[leaf] > 0 and concat(leaves[leaf], ", ") or "none")
       else
-        errs[#errs + 1] = sformat("no leaf %s in %s (a port is named PATH.PORT, e.g. main.door.hit.Out)",
+        errs[#errs + 1] = sformat("no leaf %s in %s (a port is named PATH.PORT, e.g. main.arm.pd.Out)",
           tostring(leaf or path), spec.path)
       end
     end

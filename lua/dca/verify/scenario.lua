@@ -135,8 +135,8 @@ function M.text(result, file, root, n)
     "local function idle() end",
     sformat("local opts = { root = %s, behave = { %s } }", q(root or "main"), concat(types, ", ")),
     -- a system with device ports runs, on the real backend, in the simulated world its robot lives in
-    world and sformat("if S.backend == \"real\" then opts = { root = %s, sim = \"door\" } end -- its world",
-                      q(root or "main")) or "-- (no device ports: no world)",
+    world and sformat("if S.backend == \"real\" then opts = { root = %s, sim = %s } end -- its world",
+                      q(root or "main"), q(require("dca.worlds").resolve() or "")) or "-- (no device ports: no world)",
     sformat("local sys = S.system(%s, opts)", q(file)),
     "S.step(\"the tree comes up\", function() sys:up() end)",
     "S.step(\"run\", function() sys:run() end)",

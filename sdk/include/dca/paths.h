@@ -5,7 +5,7 @@
 namespace dca {
 
 /// The directory of the URDF models: $DCA_MODELS_DIR if set; else <exe>/../share/dca/models when it exists
-/// (an installed dca); else the source tree's sim/models (a build tree).
+/// (an installed dca); else the source tree's worlds/door/models (a build tree).
 std::string models_dir();
 
 }  // namespace dca

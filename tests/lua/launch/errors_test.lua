@@ -9,8 +9,8 @@ local dca, src = T.exe, T.src
 
 suite:case("a_world_with_a_broken_urdf_says_the_xml_error_with_file_and_line", function()
   local dir = T.tmpdir()
-  for _, name in ipairs(assert(core.list_dir(src .. "/sim/models"))) do
-    if name:find("%.urdf$") then T.write(dir .. "/" .. name, T.read(src .. "/sim/models/" .. name)) end
+  for _, name in ipairs(assert(core.list_dir(src .. "/worlds/door/models"))) do
+    if name:find("%.urdf$") then T.write(dir .. "/" .. name, T.read(src .. "/worlds/door/models/" .. name)) end
   end
   local urdf = dir .. "/mobile_manipulator.urdf"
   local text = T.read(urdf)
