@@ -8,8 +8,9 @@
 --   ports.check(tree, world) --> { { line, col, msg }, ... }: every connection of the instance tree
 --                                (dca.lang.model) and every device port against `world`, the robot process's
 --                                signals { outputs = { [name] = spec }, inputs = { [name] = spec } } or nil
---   ports.device_signal(device, params, args) --> signal | nil, why: a device signal with the leaf's
---                                arguments put in for its {param}s (the check's and the wiring's one expansion)
+--   ports.device_signal(device, params, args) --> signal | false | nil, why: a device signal with the leaf's
+--                                arguments put in for its {param}s and {param[i]}s (the check's and the
+--                                wiring's one expansion); false: no i-th word, the port is left unwired
 --
 -- A scalar is one double, a vector[n] n of them, a vectorx any number, a value a msgpack value. An output feeds
 -- an input when both are values, or both numeric and the input is a vectorx (it takes any size) or the two
@@ -49,12 +50,14 @@ function M.fits(out, inp)
 end
 
 --- A device signal named after the leaf's arguments (docs/robots.md): "joint.{joint}.position" takes the
---- argument of parameter `joint`, or its default. `params` are the manifest's, `args` the leaf's arguments after
---- its host, in the same order. --> the signal | nil, why (a parameter the leaf lacks, or an argument that is no
---- literal string or number: config("key") is read only at the start)
+--- argument of parameter `joint`, or its default; "joint.{joints[2]}.position" takes the second word of it (words
+--- are separated by spaces or commas). `params` are the manifest's, `args` the leaf's arguments after its host, in
+--- the same order. --> the signal | false (no such word: the port is no device port of this leaf, left unwired)
+--- | nil, why (a parameter the leaf lacks, or an argument that is no literal string or number: config("key") is
+--- read only at the start)
 function M.device_signal(device, params, args)
-  local err
-  local signal = device:gsub("{([%w_]+)}", function(name)
+  local err, absent
+  local function argument(name)
     for i, pm in ipairs(params or {}) do
       if pm.name == name then
         local v = args and args[i]
@@ -66,8 +69,18 @@ function M.device_signal(device, params, args)
     end
     err = err or sformat("its device signal %s names no parameter '%s'", device, name)
     return ""
-  end)
+  end
+  local signal = device:gsub("{([%w_]+)%[(%d+)%]}", function(name, n)
+    local k, word = 0, nil
+    for w in argument(name):gmatch("[^%s,]+") do
+      k = k + 1
+      if k == tonumber(n) then word = w break end
+    end
+    absent = absent or word == nil
+    return word or ""
+  end):gsub("{([%w_]+)}", argument)
   if err then return nil, err end
+  if absent then return false end
   return signal
 end
 
@@ -177,7 +190,8 @@ local function device_errors(leaf, world, errors)
         local mine = sformat("%s.%s (%s, device port of %s)", leaf.path, p.name, M.text(port), leaf.type)
         local name, why = M.device_signal(p.device, leaf.manifest.params, leaf.params)
         local sig = name and signals[name]
-        if not name then
+        if name == false then  -- an unused slot ({joints[7]} of six joints): no device port, nothing to check
+        elseif not name then
           report("%s: %s", mine, why)
         elseif not sig then
           report("%s: the world has no %s '%s'", mine, dir == "inputs" and "sensor" or "command", name)

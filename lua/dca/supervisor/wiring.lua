@@ -92,8 +92,10 @@ function M.device_ports(spec, types)
         for _, p in ipairs(t[dir] or {}) do
           if p.device and p.device ~= "" then
             local signal, err = port_types.device_signal(p.device, t.params, c.args)
-            list[#list + 1] = { leaf = c.path, type = c.type, port = p.name, signal = signal or p.device,
-                                dir = dir == "inputs" and "in" or "out", err = err }
+            if signal ~= false then  -- false: an unused slot ({joints[7]} of six joints), left unwired
+              list[#list + 1] = { leaf = c.path, type = c.type, port = p.name, signal = signal or p.device,
+                                  dir = dir == "inputs" and "in" or "out", err = err }
+            end
           end
         end
       end

@@ -29,6 +29,12 @@ local registry = {
   Wide = { inputs = { port("Q", "vector", 2, "joint.{joint}.position"), port("Counts", "vector", 6, "safety.clamps") },
           outputs = { port("Cmd", "vector", 3, "joint.{joint}.position_command") },
           params = { { name = "joint", type = "string", required = true } } },
+  Arm = { inputs = { port("Q1", "vector", 1, "joint.{joints[1]}.position"),
+                     port("Q2", "vector", 1, "joint.{joints[2]}.position"),
+                     port("Q3", "vector", 1, "joint.{joints[3]}.position") },
+          outputs = { port("Cmd3", "vector", 1, "joint.{joints[3]}.{interface}_command") },
+          params = { { name = "joints", type = "string", required = true },
+                     { name = "interface", type = "string", required = false, default = "position" } } },
   Typo = { inputs = { port("Q", "vector", 1, "joint.{jont}.position") }, outputs = {},
            params = { { name = "joint", type = "string", required = true } } },
 }
@@ -155,6 +161,25 @@ suite:case("device_signals_named_after_parameters_take_the_leaf_s_arguments_or_d
        { nil, "its device signal joint.{jont}.position names no parameter 'jont'" })
   T.eq({ ports.device_signal("joint.{joint}.position", params, { { config = "arm.joint" } }) },
        { nil, "its device signal joint.{joint}.position needs a literal argument 'joint'" })
+end)
+
+suite:case("a_numbered_word_of_an_argument_names_a_slot_and_a_missing_word_leaves_it_unwired", function()
+  local params = registry.Arm.params
+  T.eq(ports.device_signal("joint.{joints[2]}.{interface}_command", params, { "elbow wrist,tool", "velocity" }),
+       "joint.wrist.velocity_command", "words are separated by spaces or commas")
+  T.eq(ports.device_signal("joint.{joints[3]}.position", params, { "elbow, wrist,  tool" }), "joint.tool.position")
+  T.eq(ports.device_signal("joint.{joints[4]}.position", params, { "elbow wrist tool" }), false, "no fourth word")
+  T.eq(ports.device_signal("joint.{joints[1]}.position", params, { "" }), false, "no word at all")
+  T.eq({ ports.device_signal("joint.{jonts[1]}.position", params, { "elbow" }) },
+       { nil, "its device signal joint.{jonts[1]}.position names no parameter 'jonts'" })
+  T.eq({ ports.device_signal("joint.{joints[1]}.position", params, { { config = "arm.joints" } }) },
+       { nil, "its device signal joint.{joints[1]}.position needs a literal argument 'joints'" })
+  -- two joints of a three-slot type: the third slot is no device port, so nothing to hold to the world
+  T.eq(errors_of([[
+  instantiated_processes { a instof Arm("h", "elbow wrist"); }
+  internal_event_actions { a }]], world), {
+    "2:28: main.a.Q2 (vector[1], device port of Arm): the world has no sensor 'joint.wrist.position'",
+  })
 end)
 
 suite:case("a_template_naming_a_missing_parameter_or_signal_is_an_error_at_the_leaf", function()

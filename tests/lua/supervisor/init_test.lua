@@ -331,6 +331,22 @@ suite:case("device_ports_are_wired_to_the_world_at_connect_time_and_stay_active"
   T.eq(c:alive(), { "main.plan", "main.drive" }, "the world is not one of the tree's processes")
 end)
 
+-- A type for any number of joints, up to its slots (joint_control's): a slot past the leaf's joints is not wired.
+suite:case("only_the_slots_a_leaf_s_joints_name_are_wired_to_the_world", function()
+  local types = { Arm = { inputs = { { name = "Q1", device = "joint.{joints[1]}.position" },
+                                     { name = "Q2", device = "joint.{joints[2]}.position" } },
+                          outputs = { { name = "Cmd1", device = "joint.{joints[1]}.position_command" },
+                                      { name = "Cmd2", device = "joint.{joints[2]}.position_command" } },
+                          params = { { name = "joints", type = "string", required = true } } } }
+  local c = fake.cluster{ behave = behave, types = types, world = true }
+  c:root(root("main", "h1", "arm", { leaf("arm", "Arm", "h1", { "elbow" }) }, {}))
+  T.eq(c:configure(), true)
+  T.eq(c:node("world").conns,
+       { { out = "joint.elbow.position", to = "main.arm", ["in"] = "Q1", set = "main.arm:device", queue = 1 } })
+  T.eq(c:node("main.arm").conns,
+       { { out = "Cmd1", to = "world", ["in"] = "joint.elbow.position_command", set = "main.arm:device", queue = 1 } })
+end)
+
 suite:case("a_missing_world_fails_the_start_naming_the_leaf_and_its_device_ports", function()
   local c = fake.cluster{ behave = behave, types = device_types }
   local err = start_fails(c, robot())
