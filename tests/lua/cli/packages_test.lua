@@ -43,7 +43,7 @@ suite:case("a_type_from_a_package_the_file_does_not_use_is_unknown", function()
   local path = system("", [[  instantiated_processes { a instof PkgScale("h1"); }
   internal_event_actions { a }]])
   dca("check " .. path, 1, path .. ":3:37: main.a: unknown process type 'PkgScale' (not defined in this file, " ..
-      "not built in, not in a package the file uses; packages it could use: door, pkg_builtin, ")
+      "not built in, not in a package the file uses; packages it could use: door, joint_control, pkg_builtin, ")
   os.remove(path)
 end)
 
