@@ -176,15 +176,25 @@ suite:case("sdk_headers_include_only_the_sdk", function()
   end), "SDK headers (sdk/include/dca/) include something other than the SDK, the standard library, Eigen or msgpack")
 end)
 
-suite:case("the_door_package_includes_only_the_sdk_and_its_own", function()
-  local own = { "^door/", "^math/", "^robot/model%.h$", "^dca/", "^Eigen/", "^urdf_model/", "^urdf_parser/" }
-  none(bad_includes({ "controllers/door", "controllers/math", "controllers/robot/model.h", "controllers/robot/model.cpp" },
-                    {}, function(p)
+-- A package built in the tree like a user's: its files include only the SDK, the standard library and `own`.
+local function package_includes_only(folders, own, what)
+  none(bad_includes(folders, {}, function(p)
     for _, ok in ipairs(own) do
       if p:match(ok) then return false end
     end
     return not standard(p)
-  end), "the door package (controllers/door, math, robot/model.*) includes what an installed dca lacks")
+  end), what .. " includes what an installed dca lacks")
+end
+
+suite:case("the_door_package_includes_only_the_sdk_and_its_own", function()
+  package_includes_only({ "controllers/door", "controllers/math", "controllers/robot/model.h", "controllers/robot/model.cpp" },
+    { "^door/", "^math/", "^robot/model%.h$", "^dca/", "^Eigen/", "^urdf_model/", "^urdf_parser/" },
+    "the door package (controllers/door, math, robot/model.*)")
+end)
+
+suite:case("the_joint_control_package_includes_only_the_sdk_and_its_own", function()
+  package_includes_only({ "controllers/joint_control" }, { "^joint_[%w_]+%.h$", "^dca/", "^Eigen/" },
+    "the joint_control package (controllers/joint_control)")
 end)
 
 suite:case("host_layer_headers_state_their_rule", function()
