@@ -90,4 +90,11 @@ void JointGroup::reset_state() {
   qd_.setZero();
 }
 
+std::string JointGroup::silent() const {
+  std::string list;
+  for (std::size_t i = 0; i < names_.size(); ++i)
+    if (have_[i] == 0) list += (list.empty() ? "" : ", ") + names_[i];
+  return list;
+}
+
 }  // namespace dca::joint_control

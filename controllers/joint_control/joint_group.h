@@ -59,6 +59,8 @@ class JointGroup : public PeriodicController {
   void command(const Eigen::VectorXd& u);
   /// Forgets the samples read (before a run).
   void reset_state();
+  /// The joints whose position has had no sample yet, e.g. "elbow_joint, wrist_1_joint".
+  std::string silent() const;
 
   Eigen::VectorXd q_, qd_;
 

@@ -60,9 +60,8 @@ JointTrajectory::JointTrajectory(const ControllerContext& ctx)
   const std::vector<double> plan = param(kPlan);
   if (const std::string why = check(plan.data(), plan.size()); !why.empty())
     throw bad_param("parameter 'waypoints': " + why);
+  given_ = plan;
   plan_.reserve(kMaxWaypoints * static_cast<std::size_t>(size() + 1));
-  plan_ = plan;
-  count_ = plan.size() / static_cast<std::size_t>(size() + 1);
   for (Eigen::VectorXd* v : {&from_, &setpoint_, &velocity_ref_, &cmd_}) *v = Eigen::VectorXd::Zero(size());
 }
 
@@ -98,6 +97,8 @@ void JointTrajectory::load(const double* v, std::size_t n) {
 void JointTrajectory::on_configure() {
   reset_state();
   holding_ = false;
+  plan_.assign(given_.begin(), given_.end());  // each run follows the parameters' plan (none: waits for one)
+  count_ = plan_.size() / static_cast<std::size_t>(size() + 1);
   next_ = 0;
   near_ = 0;
 }
@@ -137,7 +138,11 @@ std::string JointTrajectory::late() const {
 }
 
 void JointTrajectory::MainCalc() {
-  if (!read_state()) return;  // (a trajectory that came meanwhile stays new until read)
+  if (!read_state()) {  // (a trajectory that came meanwhile stays new until read)
+    if (to_seconds(now() - started()) > timeout_)
+      Abort("no position of joint " + silent() + " within " + text(kTimeout) + " s: is the world serving it?");
+    return;
+  }
   if (!holding_) {  // the first tick with every joint's position: the setpoint starts there
     holding_ = true;
     setpoint_ = q_;

@@ -46,7 +46,8 @@ class JointTrajectory final : public JointGroup {
   Out<double> reached_out_;
   double tolerance_, gain_, timeout_;
   bool velocity_ = false, holding_ = false;
-  std::vector<double> plan_;        // the waypoints: (1 + N) numbers each
+  std::vector<double> given_;       // the parameters' waypoints
+  std::vector<double> plan_;        // the waypoints followed: (1 + N) numbers each
   std::size_t count_ = 0, next_ = 0;  // waypoints, and the one the setpoint goes to
   Nanos segment_start_ = 0;
   int near_ = 0;

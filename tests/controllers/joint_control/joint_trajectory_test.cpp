@@ -136,6 +136,30 @@ TEST(JointTrajectory, WaypointsThatAreNoTrajectoryAtTheInputEndItAborted) {
                                "each of the 2 joints)");
 }
 
+TEST(JointTrajectory, EachRunFollowsTheParametersPlanAgain) {
+  ControllerUnderTest c("JointTrajectory", args({"a b", "0.01", "position", "2", "60", "0.01"}));
+  Joints j{c, Eigen::Vector2d(0.1, 0.2), Eigen::Vector2d::Zero()};
+  c.start();
+  expect_reached(run(j));
+  j.q = Eigen::Vector2d(-0.3, 0.4);  // moved meanwhile: the next run starts from there
+  c.start();
+  EXPECT_EQ(c.get("Reached"), 3.0) << "not written before the run's first tick";
+  expect_reached(run(j));
+  ASSERT_TRUE(c.ended() && c.ended()->done);
+}
+
+TEST(JointTrajectory, AJointWithNoPositionEndsItAbortedAfterTheTimeoutNamingIt) {
+  ControllerUnderTest c("JointTrajectory", args({"a b", "0.01", "position", "2", "0.5", "0.01"}));
+  c.start();
+  for (int k = 0; k < 60 && c.state() == Controller::State::Running; ++k) {
+    c.set("Q1", Joints::one(0.1));  // joint b says nothing
+    c.step();
+  }
+  ASSERT_TRUE(c.ended().has_value());
+  EXPECT_EQ(c.ended()->reason, "no position of joint b within 0.5 s: is the world serving it?");
+  EXPECT_EQ(c.writes("Cmd1"), 0u) << "nothing commanded before every joint's position is known";
+}
+
 std::string refusal(const std::vector<std::string>& params) {
   return dca::joint_control::testing::refusal("JointTrajectory", params);
 }
