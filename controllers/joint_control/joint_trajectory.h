@@ -15,9 +15,9 @@ namespace dca::joint_control {
 /// difference of their times, along a minimum-jerk curve (at rest at each waypoint). A waypoint is reached when
 /// every joint is within `tolerance` of it and slower than `tolerance` per second, on two ticks in a row, once
 /// its time is up; the next segment starts then. DONE (the seconds it took) at the last; ABORTED, naming the
-/// joint furthest off, when not there after `timeout` s. Waypoints come from the parameters or from the input
-/// Waypoints (the same numbers, as a vectorx: a new sample replaces the trajectory from where the setpoint is,
-/// its times counted from its arrival). With neither it holds the joints where they are.
+/// joint furthest off (or the joints that never reported), when not there after `timeout` s. Each run starts
+/// with the parameters' waypoints; a sample at the input Waypoints (the same numbers, as a vectorx) replaces them
+/// from where the setpoint is, its times counted from its arrival. With none it holds the joints where they are.
 /// Through the position command (the setpoint) or the velocity command (the setpoint's velocity plus gain times
 /// the error); halt() leaves a position command to the world (which holds it) and writes a zero velocity.
 ///   in  Q1..Q8, Qd1..Qd8, out Cmd1..Cmd8: the joints' device ports (joint_group.h)
