@@ -239,7 +239,7 @@ suite:case("a_world_that_does_not_load_is_one_error_at_its_own_file_and_line", f
   local out = T.dca("check " .. path .. " --sim " .. urdf, 1, path .. ":2:")
   T.ok(out:find(urdf .. ":3:1: joint 'j'", 1, true) > out:find(path .. ":2:", 1, true), out)
   T.eq(select(2, out:gsub("its parent link 'zz'", "")), 1, "once: " .. out)
-  T.dca("check " .. ur10_system .. " --sim nowhere", 1, "world 'nowhere': a world is door, ROBOT.urdf or mock:ROBOT.urdf")
+  T.dca("check " .. ur10_system .. " --sim nowhere", 1, "world 'nowhere': no such world (`dca sim --worlds` lists them; or ROBOT.urdf, mock:ROBOT.urdf)")
   T.dca("check " .. ur10_system .. " --sim 'mock:" .. ur10 .. "?dead=nope'", 1,
         "mock:", "dead=nope: the robot has no moving joint of that name")
   os.remove(urdf)
