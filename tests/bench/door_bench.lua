@@ -64,7 +64,7 @@ end
 local function demo(seed, placement, period, base, base_opened, before)
   local extra = sformat(" --placement %s", placement)
   if period == "1ms" then extra = extra .. " --set motion.period=0.001" end
-  local out, code = run(sformat("%s run %s/scripts/systems/door_open.dca --sim door --seed %d --quiet%s",
+  local out, code = run(sformat("%s run %s/worlds/door/systems/door_open.dca --sim door --seed %d --quiet%s",
     before or exe, src, seed, extra))
   local deg = out:match("door opened to ([%d.%-]+) deg")
   local sim, wall = out:match("simulated ([%d.]+) s in ([%d.]+) s of wall%-clock time")

@@ -19,7 +19,7 @@ local run = require("dca.testing").sh
 local function num(s) return tonumber(s) or 0 end
 
 local seed = math.tointeger(tonumber(arg and arg[1])) or 3
-local system = src .. "/scripts/systems/door_open.dca"
+local system = src .. "/worlds/door/systems/door_open.dca"
 local client = src .. "/tests/foxglove/bench_client.mjs"
 
 local VARIANTS = {

@@ -35,7 +35,7 @@ local run = require("dca.testing").sh  -- output (stdout and stderr), exit code
 
 local function q(s) return "'" .. tostring(s):gsub("'", "'\\''") .. "'" end
 
-local door = src .. "/scripts/systems/door_open.dca"
+local door = src .. "/worlds/door/systems/door_open.dca"
 
 local VARIANTS = {
   sim_10ms = { period = 0.01 },

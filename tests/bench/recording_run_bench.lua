@@ -34,7 +34,7 @@ local VARIANTS = {
 local function one(seed, v, base)
   local file = sformat("%s/dca_recording_run_bench_%s.mcap", os.getenv("TMPDIR") or "/tmp", v.name)
   os.remove(file)
-  local out, code = run(sformat("%s run %s/scripts/systems/door_open.dca --sim door --seed %d --quiet" .. v.args, exe,
+  local out, code = run(sformat("%s run %s/worlds/door/systems/door_open.dca --sim door --seed %d --quiet" .. v.args, exe,
     src, seed, file))
   local sim, wall = out:match("simulated ([%d.]+) s in ([%d.]+) s of wall%-clock time")
   local rounds, p50, p99, max = out:match("lock%-step: (%d+) rounds, %d+ advances; wall time per round p50 (%d+) us, p99 (%d+) us, max (%d+) us")

@@ -34,13 +34,13 @@ end
 
 -- The door-opening system's configuration defaults (its config("key") parameters), for the in-memory cluster.
 local door_config = {}
-for _, e in ipairs(assert(require("dca.config").read_file(src .. "/scripts/systems/door_open.config"))) do
+for _, e in ipairs(assert(require("dca.config").read_file(src .. "/worlds/door/systems/door_open.config"))) do
   door_config[e.key] = e.value
 end
 
--- The door-opening system (scripts/systems/door_open.dca) as a spec.
+-- The door-opening system (worlds/door/systems/door_open.dca) as a spec.
 local function door_spec()
-  local ast, tree = require("dca.load").file(src .. "/scripts/systems/door_open.dca", { registry = false })
+  local ast, tree = require("dca.load").file(src .. "/worlds/door/systems/door_open.dca", { registry = false })
   assert(ast and tree, tree)
   return spec_mod.from_model(tree, "door_open.dca")
 end

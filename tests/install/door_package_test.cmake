@@ -18,7 +18,7 @@ file(COPY ${SOURCE_DIR}/tests/install/door/CMakeLists.txt DESTINATION ${WORK_DIR
 build_outside("the door package" ${WORK_DIR}/src ${WORK_DIR}/build)
 
 set(env ${CMAKE_COMMAND} -E env --unset=DCA_LUA_DIR --unset=DCA_MODELS_DIR)
-set(system ${SOURCE_DIR}/scripts/systems/door_open.dca)
+set(system ${SOURCE_DIR}/worlds/door/systems/door_open.dca)
 run("dca types --package door" ${env} DCA_CONTROLLER_PATH=${WORK_DIR}/build ${WORK_DIR}/prefix/bin/dca types
     --package door)
 string(FIND "${out}" "PressHandle(host, speed=0.03, force=30, travel=0.02, compliance=0.002, period=0.01)    (package door)" at)

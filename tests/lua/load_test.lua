@@ -3,7 +3,7 @@ local T = require "dca.testing"
 local load = require "dca.load"
 local suite = T.suite("load")
 
-local door = T.src .. "/scripts/systems/door_open.dca"
+local door = T.src .. "/worlds/door/systems/door_open.dca"
 
 suite:case("file_gives_the_ast_and_the_tree_of_main", function()
   local ast, tree = load.file(door)

@@ -10,7 +10,7 @@ end
 
 suite:case("a_system_file_that_checks_reaches_the_supervisor", function()
   local sup, got = stub(), nil
-  reload.system(sup, T.src .. "/scripts/systems/door_open.dca", {}, function(lines, err) got = { lines, err } end)
+  reload.system(sup, T.src .. "/worlds/door/systems/door_open.dca", {}, function(lines, err) got = { lines, err } end)
   T.eq(got, { { "updated" } })
   T.eq(#sup.specs, 1)
   T.eq(sup.specs[1].path, "main")

@@ -39,7 +39,7 @@ if [ "$mode" = urdf ]; then
   exec node "$here/read_robot.mjs" "$work/ur10.mcap" "$src/worlds/ur10/ur10.urdf"
 fi
 if [ "$mode" = ports ]; then
-  system="$src/scripts/systems/door_open.dca"
+  system="$src/worlds/door/systems/door_open.dca"
   if ! "$dca" run "$system" --sim door --placement "${5:-process}" --record "$work/door.mcap" --record-ports all \
       --trace "$work/taps.trace" >"$work/door.log" 2>&1; then
     tail -40 "$work/door.log"
@@ -63,7 +63,7 @@ elif [ "$mode" = sim ]; then
   "$dca" sim --duration 3 --record "$work/door.mcap" | tee "$work/door.log"
   node "$here/read_mcap.mjs" "$work/door.mcap" "$(grep '^recorded ' "$work/door.log")"
 else
-  if ! "$dca" run "$src/scripts/systems/door_open.dca" --sim door --record "$work/door.mcap" >"$work/door.log" 2>&1
+  if ! "$dca" run "$src/worlds/door/systems/door_open.dca" --sim door --record "$work/door.mcap" >"$work/door.log" 2>&1
   then
     tail -40 "$work/door.log"
     echo "FAIL: dca run did not end DONE" >&2

@@ -22,7 +22,7 @@ delete childEnv.DCA_PARENT_PID;
 
 const [what, exe, src, roundsArg] = process.argv.slice(2);
 const rounds = Number(roundsArg) || 2;
-const door = join(src, 'scripts/systems/door_open.dca');
+const door = join(src, 'worlds/door/systems/door_open.dca');
 const log = (...a) => process.stderr.write(a.join(' ') + '\n');
 
 function stats(xs) {

@@ -13,7 +13,7 @@ import { childEnv, startMonitor, until } from './driver.mjs';
 const [mode, exe, src, out] = process.argv.slice(2);
 const CHROMIUM = process.env.DCA_CHROMIUM || '/usr/bin/chromium';
 mkdirSync(out, { recursive: true });
-const door = join(src, 'scripts/systems/door_open.dca');
+const door = join(src, 'worlds/door/systems/door_open.dca');
 let failures = 0;
 function check(ok, what) {
   console.log(`${ok ? 'ok  ' : 'FAIL'} ${what}`);

@@ -1,4 +1,4 @@
--- The door system in simulated time for the tests/scenarios/door_*.lua scenarios (each says S.backends = {"real"}):
+-- The door system in simulated time for the worlds/door/tests/scenarios/door_*.lua scenarios (each says S.backends = {"real"}):
 --   local door = dofile((os.getenv("DCA_SOURCE_DIR") or ".") .. "/tests/support/door_scenario.lua")
 --   local sys = door.system(S, { world_opts = { "jammed" } })  -- door_open.dca, the door world, seed 1, these options
 --   door.up(S, sys, "the tree comes up ...")         -- the step that starts it: up, the world's time at 0
@@ -16,7 +16,7 @@ local src = os.getenv("DCA_SOURCE_DIR") or "."
 function M.system(S, opts)
   local o = { sim = "door", seed = 1 }
   for k, v in pairs(opts or {}) do o[k] = v end
-  local file = o.file or src .. "/scripts/systems/door_open.dca"
+  local file = o.file or src .. "/worlds/door/systems/door_open.dca"
   o.file = nil
   return S.system(file, o)
 end
@@ -25,12 +25,12 @@ end
 -- to a temporary file (the package is found on the search path, the defaults come from door_open.config).
 -- --> the file, the options for M.system; T.cleanup() removes the file once the system is up
 function M.variant(proc, section)
-  local f = assert(io.open(src .. "/scripts/systems/door_open.dca")) local text = f:read("a") f:close()
+  local f = assert(io.open(src .. "/worlds/door/systems/door_open.dca")) local text = f:read("a") f:close()
   local n
   text, n = text:gsub("(\nprocess " .. proc .. "%b()%s*{%s*host%s*%b{})", "%1\n  " .. section)
   assert(n == 1, "door_open.dca: no process " .. proc .. " with a host { } line")
   local file = T.tmpfile(text)
-  return file, { file = file, config = src .. "/scripts/systems/door_open.config" }
+  return file, { file = file, config = src .. "/worlds/door/systems/door_open.config" }
 end
 
 function M.up(S, sys, name)

@@ -81,7 +81,7 @@ process main() {
 end)
 
 suite:case("tree_option_prints_the_instances", function()
-  local path = src .. "/scripts/systems/compliant_motion.dca"
+  local path = src .. "/worlds/door/systems/compliant_motion.dca"
   T.eq(T.dca("check --no-registry --tree " .. path, 0),
        path .. ": ok: 2 groups, 7 instances (6 leaves), 6 connections, 2 hosts (arm, control)\n" ..
        "main : main  { motion }\n" ..
@@ -206,7 +206,7 @@ suite:case("a_urdf_system_checks_against_its_urdf_and_fails_against_the_door_nam
       ur10_system .. ": 6 errors")
   end
   -- and the door's system against the UR10: the door's signals are missing there
-  local door_open = src .. "/scripts/systems/door_open.dca"
+  local door_open = src .. "/worlds/door/systems/door_open.dca"
   T.dca("check " .. door_open .. " --sim " .. ur10, 1, "the world has no sensor 'arm.q'")
 end)
 

@@ -1,5 +1,5 @@
 -- dca graph's DOT: golden/graph_door_open.dot is exactly what dca.lang.graph prints for the door system
--- (scripts/systems/door_open.dca, without the registry), so a change of layout or labels is a reviewed diff.
+-- (worlds/door/systems/door_open.dca, without the registry), so a change of layout or labels is a reviewed diff.
 -- DCA_GOLDEN_UPDATE=1 rewrites it (review the diff, and look at `dot -Tpng` of it).
 local T = require "dca.testing"
 local parser = require "dca.lang.parser"
@@ -8,7 +8,7 @@ local graph = require "dca.lang.graph"
 local suite = T.suite("lang_graph")
 
 local golden = T.here() .. "/golden/graph_door_open.dot"
-local door = T.src .. "/scripts/systems/door_open.dca"
+local door = T.src .. "/worlds/door/systems/door_open.dca"
 
 local function door_tree()
   local ast = assert(parser.parse(T.read(door), "door_open.dca"))

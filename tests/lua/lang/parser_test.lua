@@ -152,7 +152,7 @@ suite:case("paper_systems_parse", function()
     T.ok(ast, err)
     T.ok(ast.by_name.main, "main in " .. name)
   end
-  local ast = assert(parser.parse(read(src .. "/scripts/systems/door_open.dca"), "door_open.dca"))
+  local ast = assert(parser.parse(read(src .. "/worlds/door/systems/door_open.dca"), "door_open.dca"))
   T.eq(algebra.tostring(ast.by_name.DoorOpenSystem.actions.expr),
        "motionctrl # ((visualserv[lbl1], camera) # distdetect ; (opengrip, approach[lbl1]) # hit ; closegrip ; " ..
        "presshandle[lbl1] # (pressft, pressjoints) ; dooropen[lbl1])")

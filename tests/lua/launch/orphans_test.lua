@@ -96,7 +96,7 @@ end
 local function kill_all(pids) for _, p in ipairs(pids) do core.kill(p, "KILL") end end
 
 suite:case("kill_9_of_dca_run_mid_run_leaves_no_process_and_no_temp_dir_after_2_s", function()
-  local pid, out = start_run(src .. "/scripts/systems/door_open.dca", "--sim", "door")
+  local pid, out = start_run(src .. "/worlds/door/systems/door_open.dca", "--sim", "door")
   local up = wait_until(function() return T.read(out):find("approach: running", 1, true) ~= nil end, 60)
   local pids = descendants(pid)
   local dir = key_dir(pids)
@@ -118,7 +118,7 @@ end)
 -- exit code 1, and nothing of it is left. On the previous main it printed the world's end, then waited for ever
 -- with its daemons and supervisors up and no outcome.
 suite:case("kill_9_of_the_world_ends_the_run_aborted_and_leaves_nothing", function()
-  local pid, out = start_run(src .. "/scripts/systems/door_open.dca", "--sim", "door")
+  local pid, out = start_run(src .. "/worlds/door/systems/door_open.dca", "--sim", "door")
   local up = wait_until(function() return T.read(out):find("approach: running", 1, true) ~= nil end, 60)
   local pids = descendants(pid)
   T.ok(up, "the door run reached its approach step:\n" .. T.read(out))
@@ -156,7 +156,7 @@ suite:case("kill_9_of_dca_run_on_hand_started_daemons_leaves_only_the_daemons", 
   local hosts_file = T.write(dir .. "/hosts", table.concat(lines, "\n") .. "\n")
   local out = T.tmpname(".out")
   local pid = assert(core.spawn({ "/usr/bin/env", "DCA_KEY_FILE=" .. key, dca, "run",
-    src .. "/scripts/systems/door_open.dca", "--sim", "door", "--hosts", hosts_file }, { stdout = out }))
+    src .. "/worlds/door/systems/door_open.dca", "--sim", "door", "--hosts", hosts_file }, { stdout = out }))
   local up = wait_until(function() return T.read(out):find("approach: running", 1, true) ~= nil end, 60)
   local of_run = {}
   for _, h in ipairs(names) do
@@ -179,7 +179,7 @@ suite:case("kill_9_of_dca_run_on_hand_started_daemons_leaves_only_the_daemons", 
 end)
 
 suite:case("sigint_at_20_moments_of_start_up_ends_with_130_and_leaves_nothing", function()
-  local system = src .. "/scripts/systems/door_open.dca"
+  local system = src .. "/worlds/door/systems/door_open.dca"
   for k = 0, 38, T.sanitized and 6 or 2 do  -- (every sixth line under the sanitizers: 7 moments)
     local pid, out = start_run(system, "--sim", "door")
     T.ok(wait_until(function() return lines(out) >= k end, 30), "line " .. k .. " came:\n" .. T.read(out))

@@ -1,5 +1,5 @@
 -- Simulated-time systems in scenarios: the refusals that name what is wrong (the runs themselves are
--- tests/scenarios/door_*.lua, scenario_real.door_*; the world's argv is tests/lua/clients/world_test.lua).
+-- worlds/door/tests/scenarios/door_*.lua, scenario_real.door_*; the world's argv is tests/lua/clients/world_test.lua).
 local T = require "dca.testing"
 local suite = T.suite("scenario_sim")
 

@@ -8,7 +8,7 @@ local suite = T.suite("taps")
 local dca, src = T.exe, T.src
 
 local function door_spec()
-  return assert(require("dca.load").spec(src .. "/scripts/systems/door_open.dca", {}))
+  return assert(require("dca.load").spec(src .. "/worlds/door/systems/door_open.dca", {}))
 end
 
 suite:case("all_selects_every_leaf_output_of_the_tree", function()
@@ -34,7 +34,7 @@ suite:case("unknown_ports_are_named_with_their_leafs_outputs", function()
 end)
 
 suite:case("record_ports_needs_an_mcap_recording_and_known_ports", function()
-  local system = src .. "/scripts/systems/door_open.dca"
+  local system = src .. "/worlds/door/systems/door_open.dca"
   local out, rc = T.sh(dca .. " run " .. system .. " --sim door --record-ports all")
   T.eq(rc, 2, "exit code")
   T.contains(out, "--record-ports goes with --record FILE.mcap")

@@ -1,5 +1,5 @@
 // The door-opening controllers (controllers/door/, controllers/robot/) open the simulated door in closed loop, sequenced as
-// scripts/systems/door_open.dca runs them, with the timing of the distributed lock-step system (see
+// worlds/door/systems/door_open.dca runs them, with the timing of the distributed lock-step system (see
 // door_harness.h): from the nominal pose and from ten seeded starting poses and door widths, a jammed handle
 // makes PressHandle abort at its force limit, and a crashed or stopped VisualServoing leaves the robot still.
 // Set DCA_DOOR_TRACE=1 to print the run every 100 ms of simulated time.

@@ -1,5 +1,5 @@
 #pragma once
-// DoorHarness: the paper's door-opening system (scripts/systems/door_open.dca) run in one process against the
+// DoorHarness: the paper's door-opening system (worlds/door/systems/door_open.dca) run in one process against the
 // simulated world (sim::World), in closed loop, with the timing the distributed lock-step system has:
 //   - the world steps every 1 ms; at tick t it publishes the sensors of the state at t on its device signals,
 //     then the controllers due at t run (one TimerServer on a simulated clock, every controller on the aligned

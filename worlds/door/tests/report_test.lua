@@ -9,7 +9,7 @@ local worlds = require "dca.worlds"
 
 suite:case("the_period_leaves_of_the_door_are_motioncontrols_three_controllers", function()
   local door = worlds.descriptor("door").report
-  local spec, err = require("dca.load").spec(src .. "/scripts/systems/door_open.dca")
+  local spec, err = require("dca.load").spec(src .. "/worlds/door/systems/door_open.dca")
   T.ok(spec, tostring(err))
   T.eq(door.leaves(spec), { "main.dooropensyst.motionctrl.xr4000", "main.dooropensyst.motionctrl.puma",
                             "main.dooropensyst.motionctrl.redundancy" })

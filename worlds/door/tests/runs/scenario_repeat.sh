@@ -4,7 +4,7 @@
 # root's outcome, as `dca run --trace`); with "loaded", once more while two busy loops burn both cores. Any
 # difference fails and prints `dca trace diff` (the first divergence), with the traces kept for a re-run.
 # With "placement", once more with every leaf of a host in one shared node (`--placement host`).
-#   tests/door/scenario_repeat.sh DCA_EXE SCENARIO.lua [RUNS] [loaded] [placement]
+#   worlds/door/tests/runs/scenario_repeat.sh DCA_EXE SCENARIO.lua [RUNS] [loaded] [placement]
 set -uo pipefail
 dca="$1"; scenario="$2"; runs="${3:-2}"; loaded=""; placement=""
 for opt in "${@:4}"; do

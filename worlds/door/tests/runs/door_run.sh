@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # One supervised run of the paper's door-opening system in simulated time, as the demo runs it:
-#   tests/door/door_run.sh DCA_EXE SEED [dca run options...]
+#   worlds/door/tests/runs/door_run.sh DCA_EXE SEED [dca run options...]
 # Passes when `dca run` ends DONE (exit 0) and the world's summary says the door opened to at least 70 degrees
 # (DOOR_MIN and DOOR_MAX in the environment change the bounds). Prints the run's output (the steps and the
 # summary) either way.
@@ -9,7 +9,7 @@ dca="$1"; seed="$2"; shift 2
 src="${DCA_SOURCE_DIR:-$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)}"
 log="$(mktemp)"
 trap 'rm -f "$log"' EXIT
-"$dca" run "$src/scripts/systems/door_open.dca" --sim door --seed "$seed" "$@" >"$log" 2>&1
+"$dca" run "$src/worlds/door/systems/door_open.dca" --sim door --seed "$seed" "$@" >"$log" 2>&1
 code=$?
 grep -v " broken " "$log" | tail -40
 angle=$(sed -n 's/^door opened to \([0-9.-]*\) deg.*/\1/p' "$log" | tail -1)

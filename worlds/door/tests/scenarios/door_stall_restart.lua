@@ -1,6 +1,6 @@
 -- A node that stalls in simulated time (ARCHITECTURE.md "Time", "A dropped node"): VisualServoing's process is
 -- stopped (SIGSTOP) at a fixed tick, mid-approach, in the door system with a restart policy on its group (as
--- tests/scenarios/door_crash_restart.lua). The clock master drops it when its advance is not answered within the
+-- worlds/door/tests/scenarios/door_crash_restart.lua). The clock master drops it when its advance is not answered within the
 -- tick timeout (here 3 s of wall time) and tells it (its clock channel closed); its supervisor, told by the
 -- barrier to wait for the exit of a lost leaf whose process lives on, kills it (SIGKILL), hears its exit, and
 -- the policy restarts it within that tick. The door still opens. (Before: the supervisor waited for an exit

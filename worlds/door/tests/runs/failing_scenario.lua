@@ -1,4 +1,4 @@
--- A scenario in simulated time that fails on purpose (tests/door/scenario_rerun.sh, CTest door.failing_rerun):
+-- A scenario in simulated time that fails on purpose (worlds/door/tests/runs/scenario_rerun.sh, CTest door.failing_rerun):
 -- the door system runs to a held tick (1 s) and a step asserts what is not so. dca scenario then prints the
 -- seed, the trace file and the command that runs it again; that run fails the same way with the same trace.
 -- Not in tests/scenarios/: it is not meant to pass.

@@ -1,6 +1,6 @@
 -- The door survives a transient crash: the door system with a restart policy on its DoorOpenSystem
 -- group (`supervision { strategy one_for_one; restart on crash; }`) in simulated time; VisualServoing crashes
--- (SIGSEGV) mid-approach, at a fixed tick (time held at 2 s, as tests/scenarios/door_crash.lua does). The clock
+-- (SIGSEGV) mid-approach, at a fixed tick (time held at 2 s, as worlds/door/tests/scenarios/door_crash.lua does). The clock
 -- master finds its node lost at the next tick and the group's supervisor restarts it within that tick's barrier
 -- (a fresh process, its links made again both ways, Init and Run at that tick): the algebra sees nothing and
 -- the task carries on, the door opens to at least 70 degrees and the run ends DONE.

@@ -5,7 +5,7 @@
 # once per placement of the leaves in shared nodes (`--placement group`, `--placement host`: in-process links).
 # Any difference fails and prints `dca trace diff` (the first divergence: tick, process, port, both values),
 # the seed and the trace files, which are kept for a re-run.
-#   tests/door/door_repeat.sh DCA_EXE SEED [RUNS] [dca run options...]
+#   worlds/door/tests/runs/door_repeat.sh DCA_EXE SEED [RUNS] [dca run options...]
 set -uo pipefail
 dca="$1"; seed="$2"; runs="${3:-5}"; shift 3 2>/dev/null || shift $#
 src="${DCA_SOURCE_DIR:-$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)}"
@@ -16,7 +16,7 @@ cleanup() {
   [ -n "$daemon" ] && kill "$daemon" 2>/dev/null
 }
 trap cleanup EXIT
-system="$src/scripts/systems/door_open.dca"
+system="$src/worlds/door/systems/door_open.dca"
 
 one() {  # one run: NAME [extra dca run options...]
   local name="$1"; shift

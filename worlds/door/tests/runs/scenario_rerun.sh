@@ -1,14 +1,14 @@
 #!/usr/bin/env bash
 # A failing scenario in simulated time says how to see its failure again, and that re-run reproduces it
-# tests/door/failing_scenario.lua fails on purpose; its output must name the seed, the trace file
+# worlds/door/tests/runs/failing_scenario.lua fails on purpose; its output must name the seed, the trace file
 # and the command (`seed N, trace FILE, rerun: dca scenario ...`); that command, run, fails in the same step
 # with the same message, and its trace is the first run's byte for byte (`dca trace diff`).
-#   tests/door/scenario_rerun.sh DCA_EXE
+#   worlds/door/tests/runs/scenario_rerun.sh DCA_EXE
 set -uo pipefail
 dca="$1"
 src="${DCA_SOURCE_DIR:-$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)}"
 dir="$(mktemp -d)"
-"$dca" scenario --backend real "$src/tests/door/failing_scenario.lua" >"$dir/first.log" 2>&1
+"$dca" scenario --backend real "$src/worlds/door/tests/runs/failing_scenario.lua" >"$dir/first.log" 2>&1
 code=$?
 [ "$code" = 1 ] || { echo "FAIL: the scenario should fail (exit 1), got $code:"; cat "$dir/first.log"; exit 1; }
 line="$(grep -E '^  seed [0-9]+, trace [^,]+, rerun: dca scenario ' "$dir/first.log")" ||

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The trace records restarts: the door system with a restart policy, VisualServoing killed by SIGSEGV
-# mid-approach in simulated time (tests/scenarios/door_crash_restart.lua), run with `--trace FILE`; the policy's
+# mid-approach in simulated time (worlds/door/tests/scenarios/door_crash_restart.lua), run with `--trace FILE`; the policy's
 # transition lines are in the trace at the tick its loss was found (T lines carry their event's time): the
 # group's "one_for_one after visualserv killed by SIGSEGV ...: restarting visualserv" and the leaf's
 # "restarted 1/1 in 5 s", at the same tick, before the root's DONE. That tick is defined (ARCHITECTURE.md "Time",
@@ -8,13 +8,13 @@
 # next tick, 2.010 s (its period is 10 ms), and the restart is part of that tick's barrier: the lost line and
 # both restart lines at 2010000000 ns, no sample of it at that tick, and the new process's first sample (n=1)
 # at the first multiple of its period after the restart, 2020000000 ns.
-#   tests/door/restart_trace.sh DCA_EXE
+#   worlds/door/tests/runs/restart_trace.sh DCA_EXE
 set -uo pipefail
 dca="$1"
 src="${DCA_SOURCE_DIR:-$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)}"
 dir="$(mktemp -d)"
 trap 'rm -rf "$dir"' EXIT
-if ! "$dca" scenario --backend real --trace "$dir/run.trace" "$src/tests/scenarios/door_crash_restart.lua" \
+if ! "$dca" scenario --backend real --trace "$dir/run.trace" "$src/worlds/door/tests/scenarios/door_crash_restart.lua" \
     >"$dir/run.log" 2>&1; then
   echo "FAIL: the scenario failed:"; cat "$dir/run.log"; exit 1
 fi
