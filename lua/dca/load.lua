@@ -58,9 +58,11 @@ function M.packages(ast, path)
   return out
 end
 
---- The signals of world `spec` (nil: the door) which the device ports are held to: nil when there are none to
---- hold them to (world = false, or an executable without the worlds). --> signals | nil | nil, error
+--- The signals of world `spec` (nil: the door; a table: those signals) which the device ports are held to: nil
+--- when there are none to hold them to (world = false, or an executable without the worlds).
+--- --> signals | nil | nil, error
 local function world_signals(core, spec)
+  if type(spec) == "table" then return spec end  -- a robot's driver's ports (dca.launch.driver)
   if spec == false or not (core and type(core.world_signals) == "function") then return nil end
   return core.world_signals(spec)
 end

@@ -13,7 +13,8 @@ M.usage = [=[usage: dca run FILE.dca [--root NAME] [--hosts FILE] [--repl] [--wa
                     [--config FILE | --no-config] [--set KEY=VALUE]... [--state-dir DIR]
                     [--placement process|group|host]
                     [--sim WORLD [--world-opt KEY=VALUE]... [--seed N] [--record FILE.mcap|FILE.csv] [--realtime]
-                    [--record-ports all|PATH.PORT,...] [--trace FILE]] [--monitor [ADDR] [--monitor-wait]]
+                    [--record-ports all|PATH.PORT,...] [--trace FILE]] [--driver 'TYPE(HOST, ARGS...)']
+                    [--monitor [ADDR] [--monitor-wait]]
 
 Checks FILE.dca (errors stop here, nothing is started), starts one local daemon per host name on 127.0.0.1
 (or uses the daemons named in --hosts, lines of "name address"), starts the supervisor tree, shows one line
@@ -42,6 +43,12 @@ per group as it comes up and one per process transition, and runs the root expre
   --world-opt KEY=VALUE  one of the world's own options, checked before anything starts (repeatable; a
                   flag alone: --world-opt KEY), e.g. --world-opt door_width=0.9 --world-opt jammed
   --seed N, --record FILE.mcap|FILE.csv   passed to the world (see `dca sim --help`)
+  --driver 'TYPE(HOST, ARGS...)'
+                  run against a robot's driver in wall-clock time instead of a simulated world: the controller
+                  TYPE (written and checked as an instance in a .dca file: pkg.Type for a package's) started in
+                  `dca node --name world` on HOST before the tree and stopped after it; its ports are the
+                  robot's signals, checked against the leaves' device ports and wired to them
+                  (docs/drivers.md)
   --record-ports all|PATH.PORT,...
                   with --record FILE.mcap: the samples of these output ports (every leaf's with `all`, e.g.
                   main.dooropensyst.dooropen.visualserv.Vel) recorded too, one channel per port
@@ -74,7 +81,7 @@ local OPTIONS = {
   ["--timeout"] = "number", ["--repl"] = "flag", ["--watch"] = "flag", ["--quiet"] = "flag",
   ["--config"] = "value", ["--no-config"] = "flag", ["--state-dir"] = "value", ["--set"] = "list:sets",
   ["--placement"] = "value", ["--trace"] = "value", ["--monitor"] = "flag", ["--monitor-wait"] = "flag",
-  ["--record-ports"] = "value",
+  ["--record-ports"] = "value", ["--driver"] = "value",
 }
 
 -- `--monitor ADDR`: the address, when the argument after --monitor is one (else --monitor alone). --> argv
@@ -105,6 +112,7 @@ local function rule_broken(o)
     return "--record-ports goes with --record FILE.mcap"
   end
   if o.config and o.no_config then return "--config and --no-config exclude each other" end
+  if o.driver and o.sim then return "--driver and --sim exclude each other: a driver is the robot" end
   if o.state_dir and o.hosts then return "--state-dir is for the local daemons, not those of --hosts" end
   if o.realtime and not o.sim then return "--realtime goes with --sim WORLD" end
   if o.monitor_wait and not (o.monitor and o.sim) then return "--monitor-wait goes with --monitor and --sim WORLD" end
@@ -157,8 +165,15 @@ function M.main(args)
     local ok, werr = require("dca.worlds").check(o.sim, o.world_opts)
     if not ok then io.stderr:write("dca run: --world-opt: ", tostring(werr), "\n") return 2 end
   end
-  -- the device ports are held to the world of the run (without --sim: the default world's, as `dca check`)
-  local spec, err = require("dca.load").spec(o.file, { root = o.root, world = o.sim })
+  -- the device ports are held to the world of the run (without --sim: the default world's, as `dca check`), or
+  -- to the ports of its driver
+  local world = o.sim
+  if o.driver then
+    local d, derr = require("dca.launch.driver").read(o.driver, o.file)
+    if not d then io.stderr:write("dca run: ", derr, "\n") return 2 end
+    o.driver, world = d, d.signals
+  end
+  local spec, err = require("dca.load").spec(o.file, { root = o.root, world = world })
   if not spec then io.stderr:write(err, "\n") return 2 end
   o.config = o.config or (not o.no_config and require("dca.config").defaults_file(o.file)) or nil
   -- a defaults file that does not read stops the run here, before any daemon starts

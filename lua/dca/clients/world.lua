@@ -13,6 +13,8 @@
 --   w.on_lost = function(reason) end   -- the world exited by itself (every node on its clock stops)
 --   o.world_opts: the world's own options (`--world-opt`, docs/worlds.md); o.realtime: simulated time paced to the wall clock;
 --   o.tick_timeout: ms a node may take to answer an advance before it is dropped from the clock
+--   Another robot process (a driver: dca.launch.driver): o.argv its argv, o.what its name in messages, o.said
+--   the prefix of its own lines in the log, o.class its client's class (default dca.clients.Plain)
 local core = require "dca.core"
 local clients = require "dca.clients"
 local daemon_client = require "dca.clients.daemon"
@@ -57,11 +59,12 @@ end
 -- The world's exit event: remembered, and told to whoever waits (a start not finished fails with it).
 function W:_exit(msg, finish)
   self.exited = daemon_client.describe_exit(msg, self.o.host)
-  if not self.stopping and self.started and self.on_lost then self.on_lost("the world " .. self.exited) end
+  local what = self.o.what or "the world"
+  if not self.stopping and self.started and self.on_lost then self.on_lost(what .. " " .. self.exited) end
   local ws = self.exit_waiters or {}
   self.exit_waiters = nil
   for _, w in ipairs(ws) do w() end
-  finish(nil, "the world (dca sim --serve) " .. self.exited .. self:_own_words())
+  finish(nil, (self.o.what or "the world (dca sim --serve)") .. " " .. self.exited .. self:_own_words())
 end
 
 -- What the world said before it ended, when its daemon's log is at hand (o.log: a daemon `dca run` started
@@ -71,7 +74,7 @@ function W:_own_words()
   if not f then return "" end
   local said = {}
   for line in f:lines() do
-    if line:find("^dca sim: ") then said[#said + 1] = "\n  " .. line end
+    if line:find(self.o.said or "dca sim: ", 1, true) == 1 then said[#said + 1] = "\n  " .. line end
   end
   f:close()
   return table.concat(said)
@@ -91,7 +94,7 @@ function W:start(cb)
   daemon_client.connect(o.daemon, clients.key_opts(o.key), function(dc, err)
     if not dc then finish(nil, sformat("the daemon of host %s at %s: %s", o.host, o.daemon, tostring(err))) return end
     self.daemon = dc
-    dc:spawn(M.argv(o), { name = "world", timeout = 10, on_exit = function(msg) self:_exit(msg, finish) end },
+    dc:spawn(o.argv or M.argv(o), { name = "world", timeout = 10, on_exit = function(msg) self:_exit(msg, finish) end },
       clients.result(function(r, serr)
         if not r then finish(nil, sformat("could not start the world on host %s: %s", o.host, tostring(serr))) return end
         self.child, self.pid = r.child, r.pid
@@ -103,7 +106,8 @@ end
 -- Waits until the world has registered (o.wait seconds, default 60) and connects to it.
 function W:_connect(dc, finish)
   local wait = self.o.wait or 60
-  clients.open(dc, "world", wait, clients.key_opts(self.o.key), clients.Plain, function(c, err, missing)
+  local class = self.o.class or clients.Plain
+  clients.open(dc, "world", wait, clients.key_opts(self.o.key), class, function(c, err, missing)
     if not c then
       finish(nil, missing and sformat("the world did not register within %gs: %s", wait, tostring(err)) or
         ("the " .. tostring(err)))

@@ -85,7 +85,7 @@ end
 function Run:down()
   local s = self.ctx.sim
   self.sup:shutdown(function()
-    if not s then self.loop:stop() return end
+    if not s then require("dca.launch.driver").stop(self.ctx, function() self.loop:stop() end) return end
     self:live_summary()
     self:end_recording(function() s.world:stop(function() self:write_trace() self.loop:stop() end) end)
   end)
@@ -246,7 +246,8 @@ end
 function Run:reload(what, cb)
   local reload = require "dca.reload"
   if what == "modules" then cb(reload.modules()) return end
-  reload.system(self.sup, what or self.o.file, { root = self.o.root, world = self.o.sim }, function(lines, err)
+  local world = self.o.sim or (self.o.driver and self.o.driver.signals)  -- (a driver's: dca.launch.driver)
+  reload.system(self.sup, what or self.o.file, { root = self.o.root, world = world }, function(lines, err)
     if not lines then lines = { "reload refused, the running version is kept:", err }
     elseif #lines == 0 then lines = { "no change" } end
     cb(lines)
@@ -331,19 +332,20 @@ end
 -- With --sim: the daemons' clock checked (a hosts file) and the world started, then the tree comes up.
 function Run:start_world()
   local ctx = self.ctx
-  start.sequence(ctx, { "sim_clock", "world" }, function(ok, err, step, kind)
+  start.sequence(ctx, { "sim_clock", "world", "driver" }, function(ok, err, step, kind)
+    local robot = ctx.sim and ctx.sim.world or ctx.driver  -- the world, or a robot's driver (--driver)
     if not ok then
       if self.stopping then return end  -- interrupted: the world's start was cut short on purpose
       err_line(self, tostring(err))
       self.code = start_code(self.o, step, kind)
-      if ctx.sim then ctx.sim.world:stop(function() self.loop:stop() end) else self.loop:stop() end
+      if robot then robot:stop(function() self.loop:stop() end) else self.loop:stop() end
       return
     end
-    if ctx.sim then
+    if robot then
       -- the world gone, nothing can run on: the root ends ABORTED with the cause and everything is stopped
       -- (bounded: stop_all's grace), instead of the run waiting for ever with its daemons and supervisors up
-      ctx.sim.world.on_lost = function(reason)
-        err_line(self, reason, " (the nodes on its clock stop with it)")
+      robot.on_lost = function(reason)
+        err_line(self, reason, ctx.sim and " (the nodes on its clock stop with it)" or "")
         if self.code == nil then self.code = 1 end
         if self.sup.state == "running" then
           self.sup:abort(function() self:stop_all(1) end, "the robot process was lost: " .. reason)

@@ -7,6 +7,7 @@
 --   tree       the root supervisor (dca.supervisor) on the network runtime (dca.supervisor.net)
 --   sim_clock  with o.sim and a hosts file: every daemon is on the simulated clock
 --   world      with o.sim: the world process (dca.launch.sim) through o.world_host (default the first host)
+--   driver     with o.driver: a robot's driver as the world, in wall-clock time (dca.launch.driver)
 --
 -- then the tree's own start (sup:configure) and run. A step returns true or nil, err (and a kind of error);
 -- sim_clock and world wait on the network, so start.sequence runs the steps in a coroutine that each such
@@ -146,8 +147,11 @@ function M.sim_clock(ctx, cb)
   j.close()
 end
 
+--- With o.driver, the robot's driver first, as the world (dca.launch.driver). cb(true) | cb(nil, err)
+function M.driver(ctx, cb) require("dca.launch.driver").start(ctx, cb) end
+
 -- The steps that wait on the network: step(ctx, cb) calls back cb(true) | cb(nil, err).
-local WAITS = { sim_clock = true, world = true }
+local WAITS = { sim_clock = true, world = true, driver = true }
 
 -- Runs step `name` to its end, suspending the running coroutine while it waits. --> ok, err, kind
 local function run_step(ctx, name)
@@ -207,6 +211,7 @@ function M.cleanup(ctx, keep)
   if ctx.rt and ctx.rt.root_daemon then ctx.rt.root_daemon:close() end
   if ctx.rt then ctx.rt.close() end
   if ctx.sim then ctx.sim.world:close() end
+  if ctx.driver then ctx.driver:close() end
   if ctx.daemons then ctx.daemons:stop() end
   local kept, err
   if keep and ctx.daemons and ctx.keydir then kept, err = keep_logs(ctx) end
