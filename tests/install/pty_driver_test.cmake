@@ -44,6 +44,11 @@ run("the system on mock hardware" ${dca} run ${system} --sim mock:${urdf})
 expect("the system on mock hardware" "main: DONE")
 run("the system on the Simbody world" ${dca} run ${system} --sim ${urdf})
 expect("the system on the Simbody world" "main: DONE")
+# The UR10 pick and place of examples/ur10 (joint_control's JointTrajectory, the installed package), unchanged,
+# on the driver too: its waypoints reached through the serial line, in wall-clock time.
+run("the pick and place on the driver" ${WORK_DIR}/build/pty_arm -- ${dca} run ${SOURCE_DIR}/examples/ur10/pick_and_place.dca
+    --driver ${driver})
+expect("the pick and place on the driver" "main.pick: done" "main.place: done" "main: DONE")
 
 # A device that is not there: the start fails naming it. An arm that hangs up: the run ends ABORTED naming it.
 execute_process(COMMAND ${dca} run ${system} --driver "pty_driver.SerialArm(\"arm\", \"${WORK_DIR}/none\")"
@@ -61,5 +66,5 @@ if(NOT rc EQUAL 1)
 endif()
 expect("an arm that hangs up" "main: ABORTED at main: the robot process was lost: the driver pty_driver.SerialArm"
        "sent no valid state line for 1 s [(]lines: 0 with a bad checksum, 0 garbled, 0 too long; the other side closed")
-message(STATUS "the pty driver's system ended DONE on the driver, the mock hardware and the Simbody world")
+message(STATUS "the pty driver's system ended DONE on the driver, the mock hardware and the Simbody world; the UR10 pick and place on the driver")
 file(REMOVE_RECURSE ${WORK_DIR})
