@@ -1,4 +1,5 @@
-// Real-time factor of the simulated door world at 1 kHz in lock-step (target: >= 20x on a 2-core machine),
+// Real-time factor of the simulated door world at 1 kHz in lock-step (target: >= 20x on a 2-core machine), and
+// through its device layer against World directly (the door world's move onto the generic layer: no slower),
 // beside two baselines measured in the same run: a one-body Simbody pendulum stepped the same number of times
 // with the same integrator settings, and an empty loop of the same length. Variants alternate (A B A B).
 // RESULT lines on stdout (BENCHMARKS.md); per-step latencies in microseconds; rtf = simulated / wall time.
@@ -10,6 +11,7 @@
 #include <vector>
 
 #include "worlds/door/door_script.h"
+#include "worlds/door/door_world.h"
 #include "sim/simbody_check.h"
 #include "worlds/door/world.h"
 #include "tests/bench/bench_util.h"
@@ -94,6 +96,43 @@ std::vector<double> world_scripted(double* door_deg) {
   return us;
 }
 
+// The same streamed commands through the door world's device layer (worlds/door/door_world.h), as the world
+// process runs it since the door moved onto it: the three command inputs handed in by index, the step with the
+// watchdog, and the eleven sensor outputs read out, every tick. Beside world_new_commands plus the same sensor
+// read-out from World directly (what the door's own node did before the move).
+std::vector<double> device_new_commands(int n, bool device_layer) {
+  dca::sim::DoorDeviceWorld d(dca::sim::door_world(), 0.05);
+  dca::sim::World& w = d.world();
+  std::vector<double> us, out(8);
+  us.reserve(static_cast<size_t>(n));
+  volatile double sink = 0;
+  for (int i = 0; i < n; ++i) {
+    const double s = (i / 500) % 2 ? 1 : -1;
+    const double arm[6] = {0.05 * s, 0.02 * s, -0.03 * s, 0.1 * s, 0.05 * s, 0.1 * s};
+    const double base[3] = {0.05 * s + 1e-6 * (i % 7), 0, 0}, grip = 0;
+    const auto t0 = Clock::now();
+    if (device_layer) {
+      d.command(0, base, 3), d.command(1, arm, 6), d.command(2, &grip, 1);
+      d.step();
+      for (std::size_t k = 0; k < d.sensors().size(); ++k) {
+        d.sensor(k, out.data());
+        sink = sink + out[0];
+      }
+    } else {
+      dca::sim::Commands c;
+      std::copy(arm, arm + 6, c.arm_qd.begin());
+      std::copy(base, base + 3, c.base_vel.begin());
+      w.set_commands(c);
+      w.step();
+      const dca::sim::Sensors& x = w.sensors();
+      sink = sink + x.arm_q[0] + x.arm_qd[0] + x.base_pose.x + x.base_vel[0] + x.wrench[0] + x.laser_range +
+             x.camera_handle[0] + x.door_angle + x.handle_angle + x.gripper_width;
+    }
+    us.push_back(std::chrono::duration<double, std::micro>(Clock::now() - t0).count());
+  }
+  return us;
+}
+
 // Baseline: the one-body pendulum, the same number of 1 ms steps with Simbody's SemiExplicitEulerIntegrator
 // (its total time only, spread evenly over the steps).
 std::vector<double> pendulum(int n) {
@@ -127,6 +166,8 @@ int main() {
     measure("pendulum_1body_1kHz_simbody_integrator", [&] { return pendulum(n); });
     measure("door_1kHz_new_cmd_each_tick", [&] { return world_new_commands(n); });
     measure("empty_loop", [&] { return empty_loop(n); });
+    measure("door_1kHz_new_cmd_world_direct", [&] { return device_new_commands(n, false); });
+    measure("door_1kHz_new_cmd_device_layer", [&] { return device_new_commands(n, true); });
     double door = 0;
     size_t steps = 0;
     measure("door_1kHz_scripted_opening", [&] {
