@@ -22,7 +22,7 @@ run_pid=$!
 # while it runs: the Threshold's node (on manip) must have an established TCP connection from vision's
 # address to one of its own listening ports: the data connection from the Counter, host to host
 direct=""
-for _ in $(seq 1 300); do
+for _ in $(seq 1 30000); do  # until the run ends (it is bounded by its own timeout)
   node=$(pgrep -f -- "node --type Threshold --name main.chain.det.level" | head -1)
   if [ -n "$node" ]; then
     ports=$(ip netns exec "${ns[2]}" ss -tlnpH 2>/dev/null | grep "pid=$node," | awk '{print $4}' | sed 's/.*://')
