@@ -12,6 +12,8 @@
 #include <set>
 #include <sstream>
 
+#include "sim/urdf/sensors.h"
+
 namespace dca::sim {
 namespace {
 
@@ -37,6 +39,7 @@ class XmlChecker {
     meshes(robot);
   }
   const std::vector<XmlJoint>& joints() const { return joints_; }
+  bool has_link(const std::string& name) const { return links_.count(name) > 0; }
   std::vector<std::string> warnings;
 
   // urdfdom's message `what` (which names no line, "[NAME]" at most) with the place of the joint or link it
@@ -173,7 +176,8 @@ std::string text_of(const TiXmlElement* e) {
 // Reads ros2_control tags into the joints' command interfaces and initial values.
 class Ros2Control {
  public:
-  Ros2Control(const XmlChecker& x, std::vector<JointSpec>& joints) : x_(x), joints_(joints) {}
+  Ros2Control(const XmlChecker& x, std::vector<JointSpec>& joints, std::vector<SensorSpec>& sensors)
+      : x_(x), joints_(joints), sensors_(sensors) {}
 
   // Reads every <ros2_control> of `robot`: true if one declares a joint.
   bool read(const TiXmlElement* robot, std::vector<std::string>& warnings) {
@@ -185,6 +189,8 @@ class Ros2Control {
         if (kind == "joint") {
           joint(e, warnings);
           any = true;
+        } else if (kind == "sensor" && sensor(e)) {
+          continue;
         } else if (kind != "hardware") {
           warnings.push_back(x_.at(e) + ": <" + kind + "> '" + std::string(e->Attribute("name") ? e->Attribute("name") : "") +
                              "' of ros2_control is not simulated: left out");
@@ -263,8 +269,95 @@ class Ros2Control {
     j.commands.push_back(spec);
   }
 
+  // The kind of sensor `e` from its state interfaces, its groups into `s`: false when none is of a kind
+  // simulated (the sensor is left out, with a warning).
+  bool sensor_interfaces(const TiXmlElement* e, SensorSpec& s, const std::string& who) const {
+    bool known = false;
+    for (const TiXmlElement* i = e->FirstChildElement("state_interface"); i; i = i->NextSiblingElement("state_interface")) {
+      const std::string name = i->Attribute("name") ? i->Attribute("name") : "";
+      const auto dot = name.rfind('.');
+      const std::string group = name.substr(0, dot == std::string::npos ? 0 : dot);
+      const std::string component = dot == std::string::npos ? "" : name.substr(dot + 1);
+      SensorKind k;
+      if (!known && sensor_kind_of(group, &k)) s.kind = k, known = true;
+      if (!known) continue;
+      std::string expected;
+      bool matched = false;
+      for (const auto& g : sensor_groups(s.kind))
+        for (const auto* c : g.components) {
+          const std::string full = std::string(g.name) + "." + c;
+          expected += (expected.empty() ? "" : ", ") + full;
+          if (full != name) continue;
+          matched = true;
+          if (std::find(s.groups.begin(), s.groups.end(), g.name) == s.groups.end()) s.groups.push_back(g.name);
+        }
+      if (!matched)
+        x_.fail(i, who + ": state interface '" + name + "' is not one of a " + to_string(s.kind) + " sensor (" +
+                       expected + ")");
+    }
+    if (known) {  // canonical order
+      std::vector<std::string> ordered;
+      for (const auto& g : sensor_groups(s.kind))
+        if (std::find(s.groups.begin(), s.groups.end(), g.name) != s.groups.end()) ordered.push_back(g.name);
+      s.groups = ordered;
+    }
+    return known;
+  }
+
+  // Where force-torque sensor `s` measures: its fixed joint (param joint, else the fixed joint whose child is
+  // frame_id) and that joint's child link.
+  void sensor_joint(const TiXmlElement* e, const std::map<std::string, const TiXmlElement*>& ps, SensorSpec& s,
+                    const std::string& who) const {
+    const XmlJoint* found = nullptr;
+    const TiXmlElement* at = ps.count("joint") ? ps.at("joint") : ps.count("frame_id") ? ps.at("frame_id") : e;
+    if (at == e) x_.fail(e, who + ": a force_torque sensor needs <param name=\"joint\"> naming a fixed joint");
+    const std::string name = text_of(at);
+    for (const auto& j : x_.joints())
+      if (ps.count("joint") ? j.name == name : j.child == name) found = &j;
+    if (!found)
+      x_.fail(at, who + (ps.count("joint") ? ": joint '" + name + "' is not a joint of the model"
+                                           : ": frame_id '" + name + "' is the child link of no joint"));
+    if (found->type != "fixed")
+      x_.fail(at, who + ": joint '" + found->name + "' is " + found->type +
+                      ": a force_torque sensor measures across a fixed joint (" + x_.at(found->e) + ")");
+    if (ps.count("joint") && ps.count("frame_id") && text_of(ps.at("frame_id")) != found->child)
+      x_.fail(ps.at("frame_id"), who + ": frame_id must be the joint's child link '" + found->child + "'");
+    s.joint = found->name;
+    s.link = found->child;
+    if (ps.count("measure_direction")) {
+      const std::string v = text_of(ps.at("measure_direction"));
+      if (v != "child_to_parent" && v != "parent_to_child")
+        x_.fail(ps.at("measure_direction"), who + ": measure_direction is child_to_parent or parent_to_child, not '" + v + "'");
+      s.child_to_parent = v == "child_to_parent";
+    }
+  }
+
+  // A <sensor>: false when it is of no kind simulated.
+  bool sensor(const TiXmlElement* e) {
+    SensorSpec s;
+    s.name = e->Attribute("name") ? e->Attribute("name") : "";
+    const std::string who = "ros2_control sensor '" + s.name + "'";
+    if (!sensor_interfaces(e, s, who)) return false;
+    if (s.name.empty()) x_.fail(e, "a ros2_control <sensor> without a name");
+    for (const auto& other : sensors_)
+      if (other.name == s.name) x_.fail(e, who + " is declared twice (first at " + other.where + ")");
+    s.where = x_.at(e);
+    const auto ps = params_of(e);
+    if (s.kind == SensorKind::force_torque) {
+      sensor_joint(e, ps, s, who);
+    } else {
+      const TiXmlElement* at = ps.count("link") ? ps.at("link") : ps.count("frame_id") ? ps.at("frame_id") : nullptr;
+      if (!at) x_.fail(e, who + ": an " + to_string(s.kind) + " sensor needs <param name=\"frame_id\"> naming its link");
+      s.link = text_of(at);
+      if (!x_.has_link(s.link)) x_.fail(at, who + ": link '" + s.link + "' is not a link of the model");
+    }
+    sensors_.push_back(std::move(s));
+    return true;
+  }
+
   const XmlChecker& x_;
   std::vector<JointSpec>& joints_;
+  std::vector<SensorSpec>& sensors_;
 };
 
 JointLimitSpec limits_of(const urdf::Joint& j) {
@@ -301,6 +394,15 @@ const char* to_string(JointInterface i) {
     case JointInterface::position: return "position";
     case JointInterface::velocity: return "velocity";
     case JointInterface::effort: return "effort";
+  }
+  return "?";
+}
+
+const char* to_string(SensorKind k) {
+  switch (k) {
+    case SensorKind::force_torque: return "force_torque";
+    case SensorKind::imu: return "imu";
+    case SensorKind::odometry: return "odometry";
   }
   return "?";
 }
@@ -370,7 +472,7 @@ RobotDescription load_description_string(const std::string& text, const std::str
     d.joints.push_back(std::move(s));
   }
   d.warnings = std::move(x.warnings);
-  d.declared = Ros2Control(x, d.joints).read(robot, d.warnings);
+  d.declared = Ros2Control(x, d.joints, d.sensors).read(robot, d.warnings);
   if (!d.declared)
     for (auto& j : d.joints) {
       CommandSpec c;

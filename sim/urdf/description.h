@@ -11,7 +11,9 @@
 //     loop: URDF describes trees);
 //   - a link moved by a joint other than fixed has an <inertial>;
 //   - a <ros2_control> joint names a moving joint of the model, with command interfaces position, velocity or
-//     effort, and numbers where numbers are due.
+//     effort, and numbers where numbers are due;
+//   - a <ros2_control> sensor (force-torque, IMU, odometry) names a link, or a fixed joint for force-torque, of
+//     the model, and only state interfaces of its kind.
 // Then urdfdom's own checks and the inertia checks of sim/urdf_parse.h.
 // Meshes are visuals only: a <mesh filename> that cannot be found (package:// resolved through
 // $DCA_PACKAGE_PATH, then $ROS_PACKAGE_PATH; a relative path from the URDF's folder) is a warning naming it.
@@ -72,6 +74,23 @@ struct JointSpec {
   std::string where;                 ///< "FILE:LINE:COL" of the <joint> element
 };
 
+/// What a ros2_control <sensor> measures (docs/robots.md, "Sensors"): its kind follows from its state
+/// interfaces (force.x .. torque.z; orientation.x .. linear_acceleration.z; pose.x .. twist.yaw).
+enum class SensorKind : std::uint8_t { force_torque, imu, odometry };
+/// "force_torque", "imu" or "odometry".
+const char* to_string(SensorKind k);
+
+/// A sensor of the robot: a <sensor> of <ros2_control> with its state interfaces and parameters.
+struct SensorSpec {
+  std::string name;
+  SensorKind kind = SensorKind::imu;
+  std::string link;                  ///< the frame of its readings: FT the joint's child link; IMU, odometry the link
+  std::string joint;                 ///< FT: the fixed joint it measures across
+  bool child_to_parent = true;       ///< FT: the wrench the child side applies on the parent (else the reverse)
+  std::vector<std::string> groups;   ///< the groups of interfaces declared (force, torque, ...), in canonical order
+  std::string where;                 ///< "FILE:LINE:COL" of the <sensor> element
+};
+
 /// Options of loading.
 struct DescriptionOptions {
   /// The command interface of every moving joint when the file declares no <ros2_control> joint at all.
@@ -85,6 +104,7 @@ struct RobotDescription {
   std::string text;                  ///< the URDF's text, as read (for viewers: /robot_description)
   std::vector<JointSpec> joints;     ///< revolute, continuous and prismatic joints, in document order
   bool declared = false;             ///< the file has <ros2_control> joints (else every joint has the default)
+  std::vector<SensorSpec> sensors;   ///< ros2_control sensors, in document order
   std::vector<std::string> warnings; ///< "FILE:LINE:COL: mesh 'URI' not found (...)": the visual is left out
   /// The joint named `name`, or nullptr.
   const JointSpec* joint(const std::string& joint_name) const;

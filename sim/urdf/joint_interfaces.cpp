@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "sim/urdf/frames.h"
+#include "sim/urdf/sensors.h"
 
 namespace dca::sim {
 namespace {
@@ -39,6 +40,7 @@ std::vector<DeviceSignal> joint_sensor_signals(const RobotDescription& d) {
   if (const auto n = link_frames(d).size(); n > 0)
     out.push_back({"links.frames", static_cast<std::uint32_t>(n * frames::kValuesPerFrame),
                    "per link frame: x y z (m), qx qy qz qw, in its parent link"});
+  for (auto& s : sensor_signals(d)) out.push_back(std::move(s));
   return out;
 }
 

@@ -29,8 +29,8 @@ struct JointDrive {
 
 /// The ports of `d`: per moving joint, outputs joint.NAME.position, .velocity, .effort; per declared command
 /// interface, the input joint.NAME.KIND_command; when there are inputs, the outputs safety.clamps and
-/// safety.stale (counts per input, in input order); last links.frames, 7 numbers per link frame
-/// (sim/urdf/frames.h). Every one a vector.
+/// safety.stale (counts per input, in input order); then links.frames, 7 numbers per link frame
+/// (sim/urdf/frames.h); last the sensors' ports sensor.NAME.GROUP (sim/urdf/sensors.h). Every one a vector.
 std::vector<DeviceSignal> joint_sensor_signals(const RobotDescription& d);
 std::vector<DeviceSignal> joint_command_signals(const RobotDescription& d);
 

@@ -77,6 +77,10 @@ JointWorld::JointWorld(RobotDescription description, double period)
   sensors_ = joint_sensor_signals(description_);
   commands_ = joint_command_signals(description_);
   frames_ = sim::link_frames(description_);
+  sensor_ports_ = sensor_ports(description_);
+  first_sensor_port_ = sensors_.size() - sensor_ports_.size();  // the sensors' ports come last
+  std::size_t offset = 0;
+  for (const auto& s : description_.sensors) sensor_offset_.push_back(offset), offset += sensor_values(s.kind);
 }
 
 void JointWorld::command(std::size_t i, const double* v, std::size_t n) {
@@ -95,6 +99,12 @@ void JointWorld::sensor(std::size_t i, double* out) const {
   if (i < joint_ports) {
     const JointState& s = state_[i / 3];
     out[0] = i % 3 == 0 ? s.position : i % 3 == 1 ? s.velocity : s.effort;
+    return;
+  }
+  if (i >= first_sensor_port_) {
+    if (readings_tick_ != tick_) read_sensors(readings_), readings_tick_ = tick_;
+    const SensorPort& p = sensor_ports_[i - first_sensor_port_];
+    std::copy_n(readings_.begin() + static_cast<std::ptrdiff_t>(sensor_offset_[p.sensor] + p.offset), p.size, out);
     return;
   }
   if (sensors_[i].name == "links.frames") return link_frames(out);
@@ -153,7 +163,7 @@ namespace {
 class MockWorld final : public JointWorld {
  public:
   MockWorld(RobotDescription d, double period, double lag, const std::vector<std::string>& dead)
-      : JointWorld(std::move(d), period), alpha_(lag > 0 ? 1 - std::exp(-period / lag) : 1.0) {
+      : JointWorld(std::move(d), period), alpha_(lag > 0 ? 1 - std::exp(-period / lag) : 1.0), mock_sensors_(description_) {
     dead_.assign(state_.size(), 0);
     for (const auto& name : dead) {
       const JointSpec* j = description_.joint(name);
@@ -204,11 +214,13 @@ class MockWorld final : public JointWorld {
     for (std::size_t j = 0; j < state_.size(); ++j) q_[j] = state_[j].position;
     joint_frames(description_, q_, out);
   }
+  void read_sensors(std::vector<double>& out) const override { mock_sensors_.read(state_, out); }
   void more_summary(std::vector<std::string>& lines) const override {
     if (!dead_names_.empty()) lines.push_back("mock: dead drives (commands ignored): " + dead_names_);
   }
 
   double alpha_;
+  MockSensors mock_sensors_;
   std::vector<char> dead_;  // per joint: its drive is dead
   std::string dead_names_;
   mutable std::vector<double> q_;  // link_frames' joint positions

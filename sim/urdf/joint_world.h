@@ -16,6 +16,7 @@
 #include "host/codec/frames.h"
 #include "sim/device_world.h"
 #include "sim/urdf/joint_interfaces.h"
+#include "sim/urdf/sensors.h"
 
 namespace dca::sim {
 
@@ -61,6 +62,8 @@ class JointWorld : public DeviceWorld {
   virtual void link_frames(double* out) const = 0;
 
  protected:
+  /// Every sensor's reading now (sim/urdf/sensors.h: sensor_values(kind) each, in description order).
+  virtual void read_sensors(std::vector<double>& out) const = 0;
   virtual void advance() = 0;
   virtual std::string kind() const = 0;
   /// The world's own status fields and summary lines.
@@ -76,6 +79,11 @@ class JointWorld : public DeviceWorld {
   long tick_ = 0;
   std::vector<DeviceSignal> sensors_, commands_;
   std::vector<frames::Frame> frames_;
+  std::size_t first_sensor_port_ = 0;        // sensors_: the sensors' ports come last
+  std::vector<SensorPort> sensor_ports_;
+  std::vector<std::size_t> sensor_offset_;   // per sensor: where its reading starts in readings_
+  mutable std::vector<double> readings_;     // read once per step, when a sensor port is first read
+  mutable long readings_tick_ = -1;
 };
 
 /// The Simbody world of `description` (sim/urdf/urdf_world.cpp). Throws UrdfError when Simbody rejects it.

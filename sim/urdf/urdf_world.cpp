@@ -5,6 +5,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <set>
+
+#include <urdf_model/model.h>
 
 #include "sim/urdf/integrate.h"
 #include "sim/urdf/joint_world.h"
@@ -86,6 +89,8 @@ class SimbodyWorld final : public JointWorld {
     SimTK::Matrix M;
     matter_.calcM(state_sim_, M);
     for (auto& s : servos_) s.inertia = std::max(1e-6, static_cast<double>(M(s.u, s.u)));
+    efforts_.assign(servos_.size(), 0.0);
+    for (const auto& sensor : description_.sensors) ft_bodies_.push_back(subtree_bodies(sensor));
     system_.realize(state_sim_, SimTK::Stage::Velocity);
   }
 
@@ -147,6 +152,80 @@ class SimbodyWorld final : public JointWorld {
   }
 
   std::string kind() const override { return "Simbody world"; }
+
+  // A force-torque sensor's bodies: those that carry the links below its joint (a massless link welded to its
+  // parent's body adds nothing). Empty for other sensors.
+  std::vector<SimTK::MobilizedBodyIndex> subtree_bodies(const SensorSpec& sensor) const {
+    if (sensor.kind != SensorKind::force_torque) return {};
+    std::set<std::string> below;
+    std::vector<urdf::LinkConstSharedPtr> todo{description_.urdf.model->getLink(sensor.link)};
+    while (!todo.empty()) {
+      const urdf::LinkConstSharedPtr l = todo.back();
+      todo.pop_back();
+      if (!l) continue;
+      below.insert(l->name);
+      for (const auto& c : l->child_links) todo.push_back(c);
+    }
+    std::set<int> in, out;
+    for (const auto& [link, body] : loaded_.link_body) (below.count(link) ? in : out).insert(int(body));
+    std::vector<SimTK::MobilizedBodyIndex> bodies;
+    for (const int b : in)
+      if (!out.count(b)) bodies.emplace_back(b);
+    return bodies;
+  }
+
+  // The wrench across a force-torque sensor's joint, from the motion of the bodies below it (Newton-Euler: what
+  // the parent applies is their rate of change of momentum less their weight), about the point `o` in Ground.
+  void subtree_wrench(const std::vector<SimTK::MobilizedBodyIndex>& bodies, const SimTK::Vec3& o, SimTK::Vec3* f,
+                      SimTK::Vec3* t) const {
+    const SimTK::Vec3 g(0, 0, -kGravity);
+    for (const auto b : bodies) {
+      const SimTK::MobilizedBody& mb = matter_.getMobilizedBody(b);
+      const SimTK::MassProperties& mp = mb.getBodyMassProperties(state_sim_);
+      const double m = mp.getMass();
+      const SimTK::Rotation& R = mb.getBodyRotation(state_sim_);
+      const SimTK::Vec3 c = mb.findStationLocationInGround(state_sim_, mp.getMassCenter());
+      const SimTK::Vec3 a = mb.findStationAccelerationInGround(state_sim_, mp.getMassCenter());
+      const SimTK::Vec3& w = mb.getBodyAngularVelocity(state_sim_);
+      const SimTK::Vec3& alpha = mb.getBodyAngularAcceleration(state_sim_);
+      const SimTK::Mat33 I = R * mp.calcCentralInertia().toMat33() * ~R;
+      const SimTK::Vec3 force = m * (a - g);
+      *f += force;
+      *t += I * alpha + w % (I * w) + (c - o) % force;
+    }
+  }
+
+  // Readings as docs/robots.md says ("Sensors"), from the state realized to Acceleration.
+  void read_sensors(std::vector<double>& out) const override {
+    out.clear();
+    if (description_.sensors.empty()) return;
+    system_.realize(state_sim_, SimTK::Stage::Acceleration);
+    const auto put = [&out](const SimTK::Vec3& v) { out.insert(out.end(), {v[0], v[1], v[2]}); };
+    for (std::size_t k = 0; k < description_.sensors.size(); ++k) {
+      const SensorSpec& sensor = description_.sensors[k];
+      const SimTK::Transform X_GL = loaded_.link_pose(matter_, state_sim_, sensor.link);
+      const SimTK::MobilizedBody& mb = matter_.getMobilizedBody(loaded_.link_body.at(sensor.link));
+      const SimTK::Vec3 station = loaded_.link_in_body.at(sensor.link).p();
+      const SimTK::Vec3& w = mb.getBodyAngularVelocity(state_sim_);
+      if (sensor.kind == SensorKind::force_torque) {
+        SimTK::Vec3 f(0), t(0);
+        subtree_wrench(ft_bodies_[k], X_GL.p(), &f, &t);
+        const double sign = sensor.child_to_parent ? -1.0 : 1.0;  // f, t: what the parent applies on the child
+        put(sign * (~X_GL.R() * f));
+        put(sign * (~X_GL.R() * t));
+      } else if (sensor.kind == SensorKind::imu) {
+        const SimTK::Quaternion q = X_GL.R().convertRotationToQuaternion();  // (w, x, y, z)
+        out.insert(out.end(), {q[1], q[2], q[3], q[0]});
+        put(~X_GL.R() * w);
+        put(~X_GL.R() * (mb.findStationAccelerationInGround(state_sim_, station) + SimTK::Vec3(0, 0, kGravity)));
+      } else {
+        const SimTK::Mat33 R = X_GL.R().asMat33();
+        const double yaw = std::atan2(R(1, 0), R(0, 0));
+        const SimTK::Vec3 v = SimTK::Rotation(-yaw, SimTK::ZAxis) * mb.findStationVelocityInGround(state_sim_, station);
+        out.insert(out.end(), {X_GL.p()[0], X_GL.p()[1], yaw, v[0], v[1], w[2]});
+      }
+    }
+  }
   // The frames from the bodies' transforms in Ground: each link's relative to its parent link's.
   void link_frames(double* out) const override {
     system_.realize(state_sim_, SimTK::Stage::Position);
@@ -178,6 +257,7 @@ class SimbodyWorld final : public JointWorld {
   LoadedUrdf loaded_;
   SimTK::State state_sim_;
   std::vector<Servo> servos_;
+  std::vector<std::vector<SimTK::MobilizedBodyIndex>> ft_bodies_;  // per sensor (force-torque: its bodies)
   SimTK::Vector qdot_;
 };
 
