@@ -105,7 +105,8 @@ TEST(RobotSensorsTest, AnImuAtRestReadsGravityAlongItsLinksUpAxis) {
 }
 
 // Spinning the base at 1 rad/s: both IMUs read the rate about z; the tool's, 0.5 m from the axis, also reads
-// the centripetal 0.5 m/s² towards it in the Simbody world (the mock is quasi-static: gravity only).
+// the centripetal 0.5 m/s² towards it in the Simbody world (the mock is quasi-static: gravity only), and the
+// force-torque sensor the tool's centripetal pull.
 TEST(RobotSensorsTest, AnImuOnASpinningBaseReadsItsRate) {
   auto w = worlds();
   for (std::size_t k = 0; k < w.size(); ++k) {
@@ -114,6 +115,9 @@ TEST(RobotSensorsTest, AnImuOnASpinningBaseReadsItsRate) {
     expect_near(read(*w[k], "sensor.tool_imu.angular_velocity"), {0, 0, 1}, 2e-3, w[k]->describe());
     const double centripetal = k == 0 ? -0.5 : 0.0;
     expect_near(read(*w[k], "sensor.tool_imu.linear_acceleration"), {centripetal, 0, kG}, 1e-2, w[k]->describe());
+    // the tool's centre of mass, 0.6 m out, pulls the flange outwards by 3 kg x 0.6 m/s² (the mock: static)
+    expect_near(read(*w[k], "sensor.wrist_ft.force"), {k == 0 ? 1.8 : 0.0, 0, -3 * kG}, 1e-2, w[k]->describe());
+    expect_near(read(*w[k], "sensor.wrist_ft.torque"), {0, 0.1 * 3 * kG, 0}, 1e-2, w[k]->describe());
     const double yaw = read(*w[k], "joint.base_yaw_joint.position")[0];
     const auto q = read(*w[k], "sensor.base_imu.orientation");
     expect_near(q, {0, 0, std::sin(yaw / 2), std::cos(yaw / 2)}, 1e-9, w[k]->describe());
@@ -180,6 +184,14 @@ TEST_F(BrokenSensors, NameTheirFileLineAndElement) {
                                             "      <param name=\"joint\">f</param>\n    </sensor>\n"),
             d + "interface.urdf:10:7: ros2_control sensor 'ft': state interface 'force.w' is not one of a force_torque "
                 "sensor (force.x, force.y, force.z, torque.x, torque.y, torque.z)");
+  EXPECT_EQ(error_of("direction.urdf", ft + "      <param name=\"joint\">f</param>\n"
+                                            "      <param name=\"measure_direction\">down</param>\n    </sensor>\n"),
+            d + "direction.urdf:11:7: ros2_control sensor 'ft': measure_direction is child_to_parent or "
+                "parent_to_child, not 'down'");
+  const std::string imu = "    <sensor name=\"imu\">\n      <state_interface name=\"orientation.w\"/>\n"
+                          "      <param name=\"frame_id\">b</param>\n    </sensor>\n";
+  EXPECT_EQ(error_of("twice.urdf", imu + imu),
+            d + "twice.urdf:12:5: ros2_control sensor 'imu' is declared twice (first at " + d + "twice.urdf:8:5)");
   // a sensor of a kind not simulated (a range finder) loads, left out with a warning, as before
   EXPECT_EQ(error_of("range.urdf", "    <sensor name=\"sonar\">\n      <state_interface name=\"range\"/>\n"
                                    "    </sensor>\n"),
