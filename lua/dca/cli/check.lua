@@ -29,12 +29,14 @@ source line and a caret); exits 1 when there are errors, else prints a one-line 
                   with which value, ABORTED with which reasons), states where it is stuck, operands that can
                   never start, connection sets active together that feed one input twice, and the
                   properties of its verify { } section, each finding with a shortest trace; exits 1 when a
-                  property is violated
+                  property is violated, else 3 when the exploration stopped at --max-states (a partial
+                  exploration: every verdict it could not establish is "unknown")
   --no-faults     leave out crashes and lost hosts (by default any process can crash, any host be lost)
   --traces        also print a trace to every outcome
   --emit-scenario FILE.lua  write the first counter-example as a scenario `dca scenario` replays
   --promela       print the expression model as Promela (spin) instead of the report
-  --max-states N  stop exploring a group after N states (default 500000; the report then says it is partial)]==]
+  --max-states N  stop exploring a group after N states (default 500000; the report then says it is partial,
+                  and so is every group above it)]==]
 
 --- The instance tree as indented text: "name : Type @host (params)" per line; groups show their expression.
 function M.tree_text(tree)
@@ -111,7 +113,8 @@ function M.main(argv)
   return 0
 end
 
---- `--verify`: the report (or the Promela model), the emitted scenario; 1 when a property is violated.
+--- `--verify`: the report (or the Promela model), the emitted scenario; 1 when a property is violated, else 3
+--- when a group was explored only in part (docs/verify.md "Exit codes").
 function M.verify(file, ast, tree, o)
   local verify = require "dca.verify"
   local result, errs = verify.system(tree, { faults = not o.no_faults, ast = ast, max_states = o.max_states })
@@ -123,14 +126,15 @@ function M.verify(file, ast, tree, o)
     io.stdout:write(require("dca.verify.promela").system(result))
     return 0
   end
-  local text, _, violated = require("dca.verify.report").text(result, { file = file, traces = o.traces })
+  local text, _, violated, _, partial = require("dca.verify.report").text(result, { file = file, traces = o.traces })
   io.stdout:write(text)
   if o.emit_scenario then
     local ok, werr = require("dca.verify.scenario").write(o.emit_scenario, result, file, o.root)
     if not ok then io.stderr:write(werr, "\n") return 1 end
     io.stdout:write(o.emit_scenario, ": ", ok, "\n")
   end
-  return violated > 0 and 1 or 0
+  if violated > 0 then return 1 end
+  return partial > 0 and 3 or 0
 end
 
 return M

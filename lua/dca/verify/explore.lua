@@ -121,22 +121,29 @@ local function running_names(c, running)
 end
 
 -- Records the findings of a state just reached: stuck, conflicting sets, monitors on states.
-local function findings(g, ctx, i, snap)
+-- (a group operand that got stuck waits for ever: its `inside` = what it waits on, from its own exploration)
+local function findings(g, ctx, i, snap, stuck)
   local c = ctx.c
   local names = running_names(c, snap.running)
   local live = false
   for _, l in ipairs(snap.running) do
-    for _, ev in ipairs(ctx.operands[c.name[l]].events) do
-      if not ev.fault then live = true end
+    if not (stuck and stuck[l]) then
+      for _, ev in ipairs(ctx.operands[c.name[l]].events) do
+        if not ev.fault then live = true end
+      end
     end
   end
   if not live and #snap.running > 0 then
-    local waiting = {}
-    for _, l in ipairs(snap.running) do waiting[#waiting + 1] = c.name[l] end
+    local waiting, inside = {}, {}
+    for _, l in ipairs(snap.running) do
+      local nm = c.name[l]
+      waiting[#waiting + 1] = nm
+      if stuck and stuck[l] then inside[nm] = ctx.stuck_ev[nm] end
+    end
     local w = concat(waiting, ", ")
     if not g.stuck_seen[w] then  -- the shortest trace to each set of waited-for operands
       g.stuck_seen[w] = true
-      g.stuck[#g.stuck + 1] = { trace = trace_to(ctx.states, i), waiting = waiting, state = i }
+      g.stuck[#g.stuck + 1] = { trace = trace_to(ctx.states, i), waiting = waiting, state = i, inside = inside }
     end
   end
   if ctx.sets[1] then
@@ -192,8 +199,17 @@ local function timer_may_end(ctx, cohort, running, l)
   return true
 end
 
+-- The key's part for the group occurrences that got stuck (ids, sorted), "" for none.
+local function stuck_key(stuck)
+  if not stuck then return "" end
+  local ids = {}
+  for id in pairs(stuck) do ids[#ids + 1] = id end
+  sort(ids)
+  return concat(ids, ",")
+end
+
 -- Reaching a snapshot: an end (recorded), a known state (skipped), or a new state (queued).
-local function reach(g, ctx, from, step, snap, mstate, cohort, ckey)
+local function reach(g, ctx, from, step, snap, mstate, cohort, ckey, stuck)
   if snap.st == "done" then
     local v = value_text(snap.value)
     if not g.done[v] then g.done[v] = trace_to(ctx.states, from, step) end
@@ -206,7 +222,7 @@ local function reach(g, ctx, from, step, snap, mstate, cohort, ckey)
     end
     return
   end
-  local key = key_of(ctx.c, snap, mstate .. "|" .. ckey)
+  local key = key_of(ctx.c, snap, mstate .. "|" .. ckey .. "|" .. stuck_key(stuck))
   local known = ctx.seen[key]
   local states = ctx.states
   local i = known or #states + 1
@@ -215,7 +231,7 @@ local function reach(g, ctx, from, step, snap, mstate, cohort, ckey)
     ctx.efrom[n], ctx.eto[n] = from, i
   end
   if known then return end
-  states[i] = { snap = snap, from = from, step = step, mon = mstate, cohort = cohort }
+  states[i] = { snap = snap, from = from, step = step, mon = mstate, cohort = cohort, stuck = stuck }
   ctx.seen[key] = i
   for _, l in ipairs(snap.running) do
     g.started[l] = true
@@ -224,7 +240,7 @@ local function reach(g, ctx, from, step, snap, mstate, cohort, ckey)
     local set = ctx.c.label[l] and (nm .. "[" .. ctx.c.label[l] .. "]")
     if set and not g.first_running[set] then g.first_running[set] = trace_to(states, i) end
   end
-  findings(g, ctx, i, snap)
+  findings(g, ctx, i, snap, stuck)
 end
 
 -- Whether the state graph has a cycle (Kahn: the states left once those without predecessors are peeled).
@@ -250,20 +266,178 @@ local function has_cycle(n, efrom, eto)
   return removed < n
 end
 
---- Explores the expression (see the top of the file). Returns g.
+local PAR, SEQ, DIS, COND, REC = 1, 2, 3, 4, 5  -- dca.algebra's operator codes (expr.c.op)
+
+--- The states explored per group when opts.max_states is not given.
+M.MAX_STATES = 500000
+
+-- One event `ev` of leaf occurrence l in state st, not yet reached: { snap, step, ms, viol, cohort, ckey,
+-- stuck, cmds }. A group operand's "stuck" event changes nothing in the engine: the occurrence still runs,
+-- and from now on it can only end by a fault (st.stuck marks it).
+local function fire(g, ctx, st, l, ev)
+  local run, rec, c = ctx.run, ctx.rec, ctx.c
+  local name = c.name[l]
+  local step = { name = name, ev = ev }
+  rec.reset()
+  local after, stuck
+  if ev.kind == "stuck" then
+    after, stuck = st.snap, { [l] = true }
+    for id in pairs(st.stuck or {}) do stuck[id] = true end
+  else
+    run:restore(st.snap)
+    run:event(name, ev.kind, ev.value)
+    after = run:snapshot()
+    if st.stuck then
+      local on = {}
+      for _, id in ipairs(after.running) do if st.stuck[id] then on[id] = true stuck = on end end
+    end
+  end
+  g.transitions = g.transitions + 1
+  local ms, viol = st.mon, nil
+  if ctx.monitors_n > 0 and ev.kind ~= "stuck" then
+    ms, viol = monitor_step(ctx.monitors, st.mon, step, rec, running_names(c, after.running))
+  end
+  local cohort, ckey = cohorts(ctx, st.cohort, st.snap.running, after.running)
+  return { snap = after, step = step, ms = ms, viol = viol, cohort = cohort, ckey = ckey, stuck = stuck,
+           cmds = rec.cmds }
+end
+
+local function commit(g, ctx, i, s)
+  for _, k in ipairs(s.viol or {}) do
+    if not g.violations[k] then g.violations[k] = trace_to(ctx.states, i, s.step) end
+  end
+  reach(g, ctx, i, s.step, s.snap, s.ms, s.cohort, s.ckey, s.stuck)
+end
+
+-- Walks up from leaf l: f(p, x) for each ancestor p (x its child on the way) until f says true or false;
+-- nil past the root.
+local function up(c, l, f)
+  local x, p = l, c.parent[l]
+  while p ~= 0 do
+    local v = f(p, x)
+    if v ~= nil then return v end
+    x, p = p, c.parent[p]
+  end
+  return nil
+end
+
+-- Whether a DONE of leaf l in snapshot snap stays local: it ends no operand of a '#' (which would abort the
+-- others), so it only starts what follows it and counts down a ',' that still waits for another operand.
+local function local_done(c, snap, l)
+  return up(c, l, function(p, x)
+    local o = c.op[p]
+    if o == DIS then return false end
+    if (o == PAR and snap.cnt[p] > 1) or (o == SEQ and c.cidx[x] < c.nk[p]) or (o == COND and c.cidx[x] == 1)
+       or o == REC then
+      return true
+    end
+  end) ~= false
+end
+
+-- Whether event ev of leaf l can happen in state st: a stuck group only by a fault; a timer by a fault, or
+-- by itself once no shorter timer of its cohort runs.
+local function enabled(ctx, st, l, ev, timer_ok)
+  if st.stuck and st.stuck[l] then return ev.fault end
+  return ev.fault or timer_ok
+end
+
+-- The reduction (docs/verify.md "Reduction"): the successors by the moving events (DONE, a group getting
+-- stuck) of one leaf whose moves are local and invisible, or nil when no leaf qualifies (all are explored).
+local function ample(g, ctx, st)
+  local c, snap = ctx.c, st.snap
+  for _, l in ipairs(snap.running) do
+    local name = c.name[l]
+    if ctx.quiet[l] and not (st.stuck and st.stuck[l]) and local_done(c, snap, l)
+       and timer_may_end(ctx, st.cohort, snap.running, l) then
+      local out = {}
+      for _, ev in ipairs(ctx.operands[name].events) do
+        if ev.kind == "done" or ev.kind == "stuck" then out[#out + 1] = fire(g, ctx, st, l, ev) end
+      end
+      if out[1] then return out end
+    end
+  end
+  return nil
+end
+
+-- Expands state i: every terminal event (an ABORTED or a fault ends the whole expression: SEMANTICS.md §5)
+-- of every running leaf, and the moving events of all of them or of the reduction's one leaf.
+local function expand(g, ctx, i)
+  local st = ctx.states[i]
+  local snap = st.snap
+  local amp = ctx.reduce and ample(g, ctx, st)
+  for _, l in ipairs(snap.running) do
+    local timer_ok = timer_may_end(ctx, st.cohort, snap.running, l)
+    for _, ev in ipairs(ctx.operands[ctx.c.name[l]].events) do
+      local moving = ev.kind == "done" or ev.kind == "stuck"
+      if enabled(ctx, st, l, ev, timer_ok) and not (amp and moving) then commit(g, ctx, i, fire(g, ctx, st, l, ev)) end
+    end
+  end
+  for _, s in ipairs(amp or {}) do commit(g, ctx, i, s) end
+end
+
+-- Whether a DONE of leaf l can, in any state, start or abort a watched leaf (vis_under[id]: a watched leaf
+-- lies below node id): the operand it starts next, the operands a '#' it ends aborts, and so on upward.
+local function touches(c, l, vis_under)
+  return up(c, l, function(p, x)
+    local o, i, ks = c.op[p], c.cidx[x], c.kids[p]
+    if o == SEQ and i < c.nk[p] then return vis_under[ks[i + 1]] end
+    if o == COND and i == 1 then return vis_under[ks[2]] end
+    if o == REC then return vis_under[ks[3 - i]] end
+    if o == DIS then
+      for j, k in ipairs(ks) do if j ~= i and vis_under[k] then return true end end
+    end
+  end) or false
+end
+
+-- Which leaves the reduction may pick (ctx.quiet[id]): not watched by a monitor or a connection-set pair, never
+-- starting or aborting a watched one, and not under a ':;' (its events can repeat: always explored, so that
+-- no cycle is left unexplored). A DONE of a quiet leaf changes nothing a property sees, in any state.
+local function watched(ctx, expr, opts)
+  local visible, c = {}, ctx.c
+  for _, m in ipairs(ctx.monitors) do
+    if m.all then return nil end
+    for _, n in ipairs(m.names or {}) do visible[n] = true end
+  end
+  for _, p in ipairs(ctx.sets) do
+    visible[p.a:match("^[^%[]+")], visible[p.b:match("^[^%[]+")] = true, true
+  end
+  for _, n in ipairs(opts.visible or {}) do visible[n] = true end
+  local vis_under, quiet = {}, {}
+  for id = c.n, 1, -1 do  -- preorder ids: a node's subtree is id .. c.last[id]
+    local v = c.name[id] and visible[c.name[id]] or false
+    for _, k in ipairs(c.kids[id] or {}) do v = v or vis_under[k] end
+    vis_under[id] = v
+  end
+  for id = 1, c.n do
+    if c.name[id] then
+      local p = c.parent[id]
+      while p ~= 0 and c.op[p] ~= REC do p = c.parent[p] end
+      quiet[id] = p == 0 and not vis_under[id] and not touches(c, id, vis_under)
+    end
+  end
+  ctx.quiet = quiet
+  return expr
+end
+
+--- Explores the expression (see the top of the file). Returns g. opts.reduce = false: every event in every
+--- state (the full exploration the reduction is checked against).
 function M.group(expr, operands, opts)
   opts = opts or {}
   local rec = recorder()
   local run = algebra.new(expr, rec.commands)
   local ctx = { c = expr.c, operands = operands, sets = opts.sets or {}, monitors = opts.monitors or {},
-                seen = {}, states = {}, efrom = {}, eto = {}, timed = {} }
+                seen = {}, states = {}, efrom = {}, eto = {}, timed = {}, run = run, rec = rec, stuck_ev = {} }
+  ctx.monitors_n = #ctx.monitors
+  ctx.reduce = opts.reduce ~= false and watched(ctx, expr, opts) ~= nil
   for id = 1, expr.c.n do
     local op = expr.c.name[id] and operands[expr.c.name[id]]
     if op and op.after then ctx.timed[id], ctx.timed_any = op.after, true end
   end
-  local g = { done = {}, aborted = {}, stuck = {}, stuck_seen = {}, started = {}, first_running = {}, conflicts = {}, conflict_seen = {},
-              violations = {},
-              states = 0, transitions = 0, expr = expr }
+  for name, op in pairs(operands) do
+    for _, ev in ipairs(op.events) do if ev.kind == "stuck" then ctx.stuck_ev[name] = ev end end
+  end
+  local g = { done = {}, aborted = {}, stuck = {}, stuck_seen = {}, started = {}, first_running = {}, conflicts = {},
+              conflict_seen = {}, violations = {}, states = 0, transitions = 0, expr = expr, reduced = ctx.reduce }
   local m0 = {}
   for i, m in ipairs(ctx.monitors) do m0[i] = m.initial or "0" end
   run:start()
@@ -272,37 +446,13 @@ function M.group(expr, operands, opts)
   for _, k in ipairs(bad or {}) do g.violations[k] = g.violations[k] or {} end
   local snap0 = run:snapshot()
   reach(g, ctx, nil, nil, snap0, mstate, cohorts(ctx, nil, nil, snap0.running))
-  local max = opts.max_states or 500000
-  local monitors_n = #ctx.monitors
+  local max = opts.max_states or M.MAX_STATES
   local states, i = ctx.states, 1
   while states[i] do
-    local st = states[i]
-    local snap = st.snap
-    for _, l in ipairs(snap.running) do
-      local name = ctx.c.name[l]
-      local timer_ok = timer_may_end(ctx, st.cohort, snap.running, l)
-      for _, ev in ipairs(operands[name].events) do
-        if not (ev.fault or timer_ok) then goto next_event end
-        run:restore(snap)
-        rec.reset()
-        run:event(name, ev.kind, ev.value)
-        g.transitions = g.transitions + 1
-        local step = { name = name, ev = ev }
-        local after = run:snapshot()
-        local ms, viol = st.mon, nil
-        if monitors_n > 0 then
-          ms, viol = monitor_step(ctx.monitors, st.mon, step, rec, running_names(ctx.c, after.running))
-        end
-        for _, k in ipairs(viol or {}) do
-          if not g.violations[k] then g.violations[k] = trace_to(states, i, step) end
-        end
-        reach(g, ctx, i, step, after, ms, cohorts(ctx, st.cohort, snap.running, after.running))
-        ::next_event::
-      end
-    end
-    st.snap = nil  -- expanded: traces need only the links
+    expand(g, ctx, i)
+    states[i].snap = nil  -- expanded: traces need only the links
     i = i + 1
-    if i > max and states[i] then g.truncated = true break end
+    if i > max and states[i] then g.truncated, g.unexplored = true, #states - i + 1 break end
   end
   g.states = #states
   g.state_list = states

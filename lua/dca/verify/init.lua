@@ -66,6 +66,12 @@ local function group_events(node, r, faults)
     if a.fault then fault[#fault + 1] = item else plain[#plain + 1] = item end
   end
   if #plain > 0 then ev[#ev + 1] = { kind = "aborted", value = name .. " aborted", reasons = plain, group = true } end
+  -- a group that can get stuck can, seen from its parent, stop for ever: after this event it only ends by a
+  -- fault, so a parent that waits for it is stuck too (and says where, with the inner trace)
+  local st = r.stuck[1]
+  if st then
+    ev[#ev + 1] = { kind = "stuck", value = "stuck", inner = st.trace, waiting = st.waiting, group = true, r = r }
+  end
   if faults then
     fault[#fault + 1] = { text = name .. "'s supervisor or its host was lost", fault = true, lost = true }
     ev[#ev + 1] = { kind = "error", value = "lost", fault = true, reasons = fault, group = true }
@@ -181,7 +187,8 @@ end
 -- The outcomes of an exploration as lists sorted by text, aborted split by reason.
 local function summarize(g, operands)
   local r = { done = {}, aborted = {}, stuck = g.stuck, conflicts = {}, dead = {}, states = g.states,
-              transitions = g.transitions, cycle = g.cycle, truncated = g.truncated, first_running = g.first_running }
+              transitions = g.transitions, cycle = g.cycle, truncated = g.truncated, first_running = g.first_running,
+              partial = g.truncated, unexplored = g.unexplored, reduced = g.reduced }
   for v, trace in pairs(g.done) do r.done[#r.done + 1] = { value = v, trace = trace } end
   sort(r.done, function(x, y) return x.value < y.value end)
   local seen = {}
@@ -217,7 +224,7 @@ local function summarize(g, operands)
   -- nothing can happen from the start but a fault: a group that runs until it is stopped, like a sensor (not a
   -- finding here; a parent that waits for it gets stuck, and that is one)
   if r.stuck[1] and r.stuck[1].state == 1 then
-    r.until_stopped, r.stuck = true, {}
+    r.until_stopped, r.stopped_waiting, r.stuck = true, r.stuck[1].waiting, {}
   end
   r.operands = operands
   return r
@@ -247,23 +254,53 @@ end
 --- Explores one expression whose operands behave as `operands` (name -> { events }), with the properties
 --- `list` (dca.verify.props) and the pairs of connection sets `sets` that must not be active together.
 --- --> r (see the top; without type, path and node)
-function M.expression(expr, operands, list, sets, max_states)
+-- In a partial exploration, a state that waits on a group explored only in part is not proven stuck: that
+-- group may end in the part of it left unexplored (r.stuck_unknown; r.until_stopped becomes r.stops_unknown).
+local function doubts(r, operands)
+  local function doubtful(waiting)
+    for _, w in ipairs(waiting or {}) do
+      local op = operands[w]
+      if op and op.group and op.group.partial then return true end
+    end
+    return false
+  end
+  local keep, unknown = {}, {}
+  for _, s in ipairs(r.stuck) do
+    if doubtful(s.waiting) then unknown[#unknown + 1] = s else keep[#keep + 1] = s end
+  end
+  r.stuck, r.stuck_unknown = keep, unknown
+  if r.until_stopped and doubtful(r.stopped_waiting) then r.until_stopped, r.stops_unknown = nil, true end
+end
+
+--- A partial exploration (stopped at max_states, here or in a group below) proves only what it found: a
+--- violation it reached, an end it reached; every other verdict is unknown (item.ok = nil, item.unknown).
+--- reduce = false: the full exploration (see dca.verify.explore).
+function M.expression(expr, operands, list, sets, max_states, reduce)
   local monitors, mprops = {}, {}
   for _, p in ipairs(list or {}) do
     local m = props.monitor(p, operands)
     if m then monitors[#monitors + 1] = m; mprops[#mprops + 1] = p end
   end
-  local g = explore.group(expr, operands, { sets = sets, monitors = monitors, max_states = max_states })
+  local g = explore.group(expr, operands, { sets = sets, monitors = monitors, max_states = max_states,
+                                            reduce = reduce })
   local r = summarize(g, operands)
   r.expr, r.props = expr, {}
+  for _, op in pairs(operands) do if op.group and op.group.partial then r.partial = true end end
+  local partial = r.partial
+  if partial then doubts(r, operands) end
   for k, p in ipairs(mprops) do
-    r.props[#r.props + 1] = { prop = p, ok = not g.violations[k], trace = g.violations[k] }
+    local v = g.violations[k]
+    local item = { prop = p, ok = not v, trace = v }
+    if not v and partial then item.ok, item.unknown = nil, true end
+    r.props[#r.props + 1] = item
   end
   for _, p in ipairs(list or {}) do
     if p.kind == "can_end" then
       local ok = can_end(p, r, operands)
       local item = { prop = p, ok = ok, outcome = true }
-      if not ok and p.negated then item.trace = M.outcome_trace(r, p.how)
+      if partial and (ok == (p.negated == true)) then
+        item.ok, item.unknown = nil, true  -- an end not found may lie in the part left unexplored
+      elseif not ok and p.negated then item.trace = M.outcome_trace(r, p.how)
       elseif not ok then item.stuck = M.stuck_below(r) end
       r.props[#r.props + 1] = item
     end
@@ -281,15 +318,17 @@ local function group(ctx, node)
     if child.kind == "group" then
       operands[child.name] = group_events(child, group(ctx, child), ctx.faults)
     else
-      operands[child.name] = M.leaf_events(child.name, child.manifest and child.manifest.ends, ctx.faults)
-      operands[child.name].after = M.seconds(child)
+      local beh = M.leaf_events(child.name, child.manifest and child.manifest.ends, ctx.faults)
+      beh.after = M.seconds(child)
+      for _, ev in ipairs(beh.events) do if not ev.fault then ev.after = beh.after end end
+      operands[child.name] = beh
     end
   end
   local list, perrs = group_props(node, ctx.ast)
   for _, e in ipairs(perrs) do ctx.errors[#ctx.errors + 1] = e end
   local sets = set_conflicts(node, ctx.conns)
   for _, p in ipairs(cross_conflicts(node, ctx.conns)) do sets[#sets + 1] = p end
-  local r = M.expression(def.actions.expr, operands, list, sets, ctx.max_states)
+  local r = M.expression(def.actions.expr, operands, list, sets, ctx.max_states, ctx.reduce)
   local kept = {}
   for _, c in ipairs(r.conflicts) do
     c.inner = c.pair.chain and chain_traces(ctx, c.pair)
@@ -311,11 +350,14 @@ function M.system(tree, opts)
   local t0 = clock()
   local conns = model.connections(tree) or {}
   local ctx = { memo = {}, groups = {}, errors = {}, states = 0, transitions = 0, conns = conns,
-                faults = opts.faults ~= false, ast = opts.ast, max_states = opts.max_states }
+                faults = opts.faults ~= false, ast = opts.ast, max_states = opts.max_states, reduce = opts.reduce }
   local root = group(ctx, tree)
   if #ctx.errors > 0 then return nil, ctx.errors end
+  local partial = 0
+  for _, r in ipairs(ctx.groups) do if r.truncated then partial = partial + 1 end end
   return { groups = ctx.groups, root = root, states = ctx.states, transitions = ctx.transitions,
-           seconds = clock() - t0, faults = ctx.faults, memory_kb = collectgarbage("count") }
+           seconds = clock() - t0, faults = ctx.faults, memory_kb = collectgarbage("count"), truncated = partial,
+           max_states = opts.max_states or explore.MAX_STATES }
 end
 
 return M

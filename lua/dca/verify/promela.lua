@@ -72,7 +72,7 @@ end
 -- Promela for a state property's violation: a condition over st[] (any occurrence of a name running).
 local function running_cond(c, name)
   local parts = {}
-  for _, id in ipairs(leaf_ids(c, name)) do parts[#parts + 1] = "st[" .. id .. "] == 1" end
+  for _, id in ipairs(leaf_ids(c, name)) do parts[#parts + 1] = "st[" .. id .. "] != 0" end
   if #parts == 0 then return "false" end
   return "(" .. concat(parts, " || ") .. ")"
 end
@@ -127,7 +127,7 @@ local function gen_abort(w, g, id)
   for l = id, c.last[id] do
     if c.op[l] == LEAF then
       for _, hk in ipairs(g.hooks.stop[c.name[l]] or {}) do
-        w.put(sformat("if :: st[%d] == 1 -> %s :: else -> skip fi;", l, hk.code))
+        w.put(sformat("if :: st[%d] != 0 -> %s :: else -> skip fi;", l, hk.code))
       end
       w.put("st[" .. l .. "] = 0;")
     end
@@ -196,18 +196,24 @@ local function gen_step(w, g, id, guard, pre, ok)
 end
 
 -- The loop's options for every event of every leaf: DONE; ABORTED or a fault (one option, the reason chosen
--- first: the same code follows).
+-- first: the same code follows). A group operand that can get stuck has an option to do so (st 2: it still
+-- runs, and only a fault can end it).
 local function gen_events(w, g)
   local c = g.c
   for id = 1, c.n do
     if c.op[id] == LEAF then
       local name = c.name[id]
       local vi = g.vals[name]
-      local aborts, faults = false, false
+      local aborts, faults, stuck = false, false, false
       for _, ev in ipairs(g.operands[name].events) do
         if ev.kind == "done" then gen_step(w, g, id, sformat("st[%d] == 1", id), nil, true)
+        elseif ev.kind == "stuck" then stuck = true
         elseif ev.fault then faults = true
         else aborts = true end
+      end
+      if stuck then
+        w.put(sformat(":: st[%d] == 1 -> st[%d] = 2", id, id))
+        gen_step(w, g, id, sformat("faults && st[%d] == 2", id), sformat("why = %d;", vi * 4 + 1), false)
       end
       if aborts and faults then
         gen_step(w, g, id, sformat("st[%d] == 1", id),

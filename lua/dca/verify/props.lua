@@ -252,13 +252,18 @@ local function exclusive(p)
 end
 
 --- The monitor of a property over a group whose operands are `operands` (name -> behaviour), or nil for the
---- properties decided on the outcomes (can_end).
+--- properties decided on the outcomes (can_end). m.names: the names it watches (m.all: every operand's), which
+--- the explorer's reduction leaves alone.
 function M.monitor(p, operands)
-  if p.kind == "starts_after_done" then return starts_after_done(p) end
-  if p.kind == "ends_before_start" then return ends_before_start(p) end
-  if p.kind == "runs_while" then return runs_while(p, operands) end
-  if p.kind == "exclusive" then return exclusive(p) end
-  return nil
+  local m
+  if p.kind == "starts_after_done" then m = starts_after_done(p)
+  elseif p.kind == "ends_before_start" then m = ends_before_start(p)
+  elseif p.kind == "runs_while" then m = runs_while(p, operands)
+  elseif p.kind == "exclusive" then m = exclusive(p)
+  else return nil end
+  m.names, m.all = {}, p.any or nil
+  for i, n in ipairs(M.names(p)) do m.names[i] = n.text end
+  return m
 end
 
 return M

@@ -2,8 +2,9 @@
 --
 --   report.text(result, { file = "door_open.dca", traces = true })  --> the whole report
 --   report.flatten(trace, prefix)  --> the leaf events of a group's trace: { path, kind, group, direct } ...
---                                      (kind: done | aborted | crashed | lost; direct: what a scenario makes
---                                      happen; group: the end of a group operand that follows from inner events)
+--                                      (kind: done | aborted | crashed | lost | stuck; direct: what a scenario
+--                                      makes happen; group: the end of a group operand that follows from inner
+--                                      events, or its getting stuck; after: a timer's seconds)
 --   report.trace_lines(r, trace)   --> numbered lines: each event, and the starts and aborts it caused
 local algebra = require "dca.algebra"
 local explore = require "dca.verify.explore"
@@ -15,6 +16,7 @@ local ipairs, sformat, concat = ipairs, string.format, table.concat
 local function kind_of(ev)
   if ev.kind == "done" then return "done" end
   if ev.kind == "error" then return "crashed" end
+  if ev.kind == "stuck" then return "stuck" end
   return "aborted"
 end
 
@@ -29,13 +31,15 @@ function M.flatten(trace, prefix, out)
     if inner then M.flatten(inner, path .. ".", out) end
     local kind = kind_of(ev)
     if reason and reason.lost then kind = "lost" end
-    out[#out + 1] = { path = path, kind = kind, group = ev.group, direct = not inner, value = ev.value }
+    out[#out + 1] = { path = path, kind = kind, group = ev.group, direct = not inner, value = ev.value,
+                      after = ev.after, waiting = ev.waiting }
   end
   return out
 end
 
 local function event_text(e)
   if e.kind == "lost" then return e.path .. " lost (its supervisor or its host)" end
+  if e.kind == "stuck" then return "-> " .. e.path .. " gets stuck: waits forever on " .. concat(e.waiting, ", ") end
   if e.group and not e.direct then return "-> " .. e.path .. " " .. e.kind end
   return e.path .. " " .. e.kind
 end
@@ -62,7 +66,7 @@ function M.trace_lines(r, trace, indent)
       n = n + 1
       lines[#lines + 1] = sformat("%s%2d. %s", indent, n, event_text(e))
     end
-    run:event(s.name, s.ev.kind, s.ev.value)
+    if s.ev.kind ~= "stuck" then run:event(s.name, s.ev.kind, s.ev.value) end
     local cmds = commands()
     if cmds ~= "" then lines[#lines + 1] = indent .. "    => " .. cmds end
   end
@@ -79,7 +83,10 @@ local function outcomes(r, out, traces)
     out[#out + 1] = "  can end DONE with " .. d.value
     if traces then for _, l in ipairs(M.trace_lines(r, d.trace)) do out[#out + 1] = l end end
   end
-  if #r.done == 0 then out[#out + 1] = "  can never end DONE" end
+  if #r.done == 0 then
+    out[#out + 1] = r.partial and "  unknown   whether it can end DONE (none found in the part explored)"
+      or "  can never end DONE"
+  end
   local faults = 0
   for _, a in ipairs(r.aborted) do
     if a.fault then faults = faults + 1
@@ -92,8 +99,12 @@ local function outcomes(r, out, traces)
     out[#out + 1] = sformat("  can end ABORTED by a fault: %s", plural(faults, "crash or lost host", "crashes or lost hosts"))
   end
   if r.cycle then out[#out + 1] = "  can run for ever: its runs can come back to a state they were in (':;')" end
-  if r.until_stopped then
+  if r.stops_unknown then
+    out[#out + 1] = "  unknown   whether it runs until it is stopped (it waits on a group explored in part)"
+  elseif r.until_stopped then
     out[#out + 1] = "  runs until it is stopped: nothing in it ends by itself"
+  elseif r.never_ends and r.partial then
+    out[#out + 1] = "  unknown   whether it can end by itself (no end but by a fault found in the part explored)"
   elseif r.never_ends then
     out[#out + 1] = "  FINDING can never end by itself: only a fault can end it"
   end
@@ -106,12 +117,22 @@ local function findings(r, out, traces)
       out[#out + 1] = sformat("  ... and %d more stuck states", #r.stuck - 3)
       break
     end
-    out[#out + 1] = "  FINDING can get stuck: waits forever on " .. concat(s.waiting, ", ") ..
+    local waits = {}
+    for j, w in ipairs(s.waiting) do  -- a group operand stuck inside: where it waits
+      local ev = s.inside and s.inside[w]
+      waits[j] = ev and sformat("%s (stuck: %s.%s waits forever on %s)", w, r.path, w, concat(ev.waiting, ", ")) or w
+    end
+    out[#out + 1] = "  FINDING can get stuck: waits forever on " .. concat(waits, ", ") ..
       " (nothing running can end but by a fault)"
     for _, l in ipairs(M.trace_lines(r, s.trace)) do out[#out + 1] = l end
   end
+  for _, s in ipairs(r.stuck_unknown or {}) do
+    out[#out + 1] = "  unknown   whether it can get stuck waiting on " .. concat(s.waiting, ", ") ..
+      " (a group it waits on was explored in part)"
+  end
   for _, leaf in ipairs(r.dead) do
-    out[#out + 1] = sformat("  FINDING %s (line %d, col %d) can never start", leaf.label and
+    out[#out + 1] = sformat(r.partial and "  unknown   whether %s (line %d, col %d) can start (not in the part explored)"
+      or "  FINDING %s (line %d, col %d) can never start", leaf.label and
       (leaf.name .. "[" .. leaf.label .. "]") or leaf.name, leaf.line or 0, leaf.col or 0)
   end
   for _, c in ipairs(r.conflicts) do
@@ -123,11 +144,12 @@ local function findings(r, out, traces)
     end
   end
   for _, p in ipairs(r.props) do
-    out[#out + 1] = (p.ok and "  holds     " or "  VIOLATED  ") .. p.prop.text
+    out[#out + 1] = (p.unknown and "  unknown   " or p.ok and "  holds     " or "  VIOLATED  ") .. p.prop.text ..
+      (p.unknown and " (not proven: the exploration is partial)" or "")
     if not p.ok and p.trace then
       out[#out + 1] = "    counter-example:"
       for _, l in ipairs(M.trace_lines(r, p.trace)) do out[#out + 1] = l end
-    elseif not p.ok and p.outcome then
+    elseif not p.ok and p.outcome and not p.unknown then
       out[#out + 1] = "    no run of " .. r.path .. " ends that way"
       if p.stuck then
         out[#out + 1] = sformat("    %s gets stuck waiting on %s:", p.stuck.r.path, concat(p.stuck.stuck.waiting, ", "))
@@ -135,11 +157,18 @@ local function findings(r, out, traces)
       end
     end
   end
-  if r.truncated then out[#out + 1] = "  WARNING exploration stopped at the state limit: the results are partial" end
+  if r.truncated then
+    out[#out + 1] = sformat("  PARTIAL exploration stopped at the state limit (--max-states): %s explored, %s left " ..
+      "unexplored; what was found holds, nothing else is proven", plural(r.states - r.unexplored, "state"),
+      plural(r.unexplored, "state"))
+  elseif r.partial then
+    out[#out + 1] = "  PARTIAL a group below was explored only in part: what was found holds, nothing else is proven"
+  end
   if not traces then return end
 end
 
---- The whole report. opts: { file = name, traces = true (traces of the outcomes too) }.
+--- The whole report. opts: { file = name, traces = true (traces of the outcomes too) }. --> text, findings,
+--- violated properties, unknown verdicts (a partial exploration's), groups explored only in part
 function M.text(result, opts)
   opts = opts or {}
   local out = {}
@@ -149,16 +178,22 @@ function M.text(result, opts)
     outcomes(r, out, opts.traces)
     findings(r, out, opts.traces)
   end
-  local nf, nv = 0, 0
+  local nf, nv, nu, np = 0, 0, 0, 0
   for _, r in ipairs(result.groups) do
-    nf = nf + #r.stuck + #r.dead + #r.conflicts + ((r.never_ends and not r.until_stopped) and 1 or 0)
-    for _, p in ipairs(r.props) do if not p.ok then nv = nv + 1 end end
+    nf = nf + #r.stuck + #r.conflicts
+    if not r.partial then nf = nf + #r.dead + ((r.never_ends and not r.until_stopped) and 1 or 0) end
+    if r.partial then np = np + 1 end
+    for _, p in ipairs(r.props) do
+      if p.unknown then nu = nu + 1 elseif not p.ok then nv = nv + 1 end
+    end
   end
-  out[#out + 1] = sformat("%s: verified: %s, %s explored, %s, %s, %s%s", opts.file or "system",
-    plural(#result.groups, "group"), plural(result.states, "state"), plural(nf, "finding"),
-    plural(nv, "violated property", "violated properties"),
-    result.faults and "faults on" or "faults off (--no-faults)", "")
-  return concat(out, "\n") .. "\n", nf, nv
+  local partial = np > 0 and sformat(", PARTIAL: %s explored in part (--max-states %d), %s",
+    plural(np, "group"), result.max_states or 0, plural(nu, "verdict") .. " unknown") or ""
+  out[#out + 1] = sformat("%s: %s: %s, %s explored, %s, %s, %s%s", opts.file or "system",
+    np > 0 and "not fully verified" or "verified", plural(#result.groups, "group"), plural(result.states, "state"),
+    plural(nf, "finding"), plural(nv, "violated property", "violated properties"),
+    result.faults and "faults on" or "faults off (--no-faults)", partial)
+  return concat(out, "\n") .. "\n", nf, nv, nu, np
 end
 
 return M

@@ -1,13 +1,17 @@
 -- dca.verify.scenario: a counter-example of `dca check --verify` as a scenario (`dca scenario FILE.lua`, see
 -- dca.scenario) that makes the same run happen: the tree comes up, each leaf event of the trace is injected
 -- (done, aborted) or caused (a crash: SIGSEGV; a lost group: its supervisor killed) once its process runs,
--- and the last step checks that the violation is there. The leaves' own behaviours (a Timer's timeout, a
--- Counter's count) are switched off, so only the trace drives the run.
+-- and the last step checks the state the counter-example ends in (which operands of its group run, which do
+-- not) and that the violation is there. The leaves' own behaviours (a Counter's count) are switched off, so
+-- only the trace drives the run, except the timers' (Timer, Deadline, with their seconds written in the file):
+-- the trace's timer events are awaited, not injected, so a trace whose timers cannot end in its order fails.
 --
 --   local text, what = scenario.text(result, "door.dca", "main")   -- nil when there is no counter-example
 --   local ok, err = scenario.write("cex.lua", result, "door.dca", "main")
 local report = require "dca.verify.report"
 local model = require "dca.lang.model"
+local algebra = require "dca.algebra"
+local verify = require "dca.verify"
 
 local M = {}
 
@@ -65,12 +69,17 @@ end
 
 local function q(s) return sformat("%q", s) end
 
--- The Lua lines of one event step.
+-- The Lua lines of one event step (a timer's own end is awaited: its seconds, and a margin).
 local function event_step(e)
   if e.group and not e.direct then return nil end
   local lines = { sformat("S.step(%q, function()", e.path .. " " .. e.kind) }
   lines[#lines + 1] = sformat("  sys:wait_state(%s, \"running\", 5)", q(e.path))
-  if e.kind == "done" then
+  if e.after and (e.kind == "done" or e.kind == "aborted") then
+    lines[1] = sformat("S.step(%q, function()", e.path .. " " .. e.kind .. " (its own time: " .. e.after .. " s)")
+    lines[#lines + 1] = sformat("  sys:wait(%s, function() return sys:state(%s) ~= \"running\" end, %s)",
+      q(e.path .. " ends by itself"), q(e.path), e.after + 5)
+    lines[#lines + 1] = sformat("  S.eq(sys:state(%s), %q, %q)", q(e.path), e.kind, e.path .. " ended by itself")
+  elseif e.kind == "done" then
     lines[#lines + 1] = sformat("  sys:inject(%s, \"done\", %s)", q(e.path), q(tostring(e.value)))
   elseif e.kind == "aborted" then
     lines[#lines + 1] = sformat("  sys:inject(%s, \"aborted\", %s)", q(e.path), q("aborted (dca check --verify)"))
@@ -83,11 +92,29 @@ local function event_step(e)
   return concat(lines, "\n")
 end
 
--- The Lua lines of the last step: the violation is there.
+-- The state group r is in at the end of `trace` (replayed through its expression): each operand running or
+-- not, as assertions.
+local function final_state(r, trace, l)
+  local run = algebra.new(r.node.process.actions.expr, {})
+  run:start()
+  for _, s in ipairs(trace) do
+    if s.ev.kind ~= "stuck" then run:event(s.name, s.ev.kind, s.ev.value) end
+  end
+  if run:status() ~= "running" then return end
+  l[#l + 1] = sformat("  S.eq(sys:state(%s), \"running\", %q)", q(r.path), r.path .. " still runs")
+  for _, name in ipairs(r.node.process.actions.expr.names) do
+    local path = r.path .. "." .. name
+    if run:is_running(name) then l[#l + 1] = sformat("  S.eq(sys:state(%s), \"running\", %q)", q(path), name .. " runs")
+    else l[#l + 1] = sformat("  S.ok(sys:state(%s) ~= \"running\", %q)", q(path), name .. " does not run") end
+  end
+end
+
+-- The Lua lines of the last step: the state the trace ends in, and the violation is there.
 local function check_step(r, cex)
   local base = r.path .. "."
   local l = { sformat("S.step(%q, function()", "the violation: " .. cex.text) }
   local k = cex.kind
+  if k ~= "can_end" then final_state(r, cex.trace, l) end
   if k == "starts_after_done" or k == "ends_before_start" then
     local who = k == "starts_after_done" and cex.prop.a.text or cex.prop.b.text
     l[#l + 1] = sformat("  S.eq(sys:state(%s), \"running\", %q)", q(base .. who), who .. " has started")
@@ -121,16 +148,24 @@ function M.text(result, file, root, n)
   if not pick then return nil end
   local r, cex = pick.r, pick.cex
   local types, seen, world = {}, {}, false
+  local timed = {}  -- a type stays on when every leaf of it is a timer the verifier knows the seconds of
   model.walk(result.root.node, function(n)
-    if n.kind == "leaf" and not seen[n.type] then seen[n.type] = true types[#types + 1] = n.type .. " = idle" end
+    if n.kind == "leaf" then timed[n.type] = timed[n.type] ~= false and verify.seconds(n) ~= nil end
+  end)
+  model.walk(result.root.node, function(n)
+    if n.kind == "leaf" and not seen[n.type] and not timed[n.type] then
+      seen[n.type] = true
+      types[#types + 1] = n.type .. " = idle"
+    end
     for _, list in ipairs(n.kind == "leaf" and n.manifest and { n.manifest.inputs or {}, n.manifest.outputs or {} } or {}) do
       for _, port in ipairs(list) do world = world or port.device ~= nil end
     end
   end)
   local out = {
     "-- The counter-example of `dca check --verify " .. file .. "`: " .. cex.text .. ".",
-    "-- Replay: dca scenario THIS_FILE (each leaf event is injected once its process runs; in memory the leaves'",
-    "-- own behaviours are off, so only this trace drives the run; --backend real runs the real processes).",
+    "-- Replay: dca scenario THIS_FILE (each leaf event is injected once its process runs, a timer's awaited; in",
+    "-- memory the other leaves' own behaviours are off, so only this trace drives the run; --backend real runs",
+    "-- the real processes). The last step checks the state the trace ends in.",
     "local S = require \"dca.scenario\"",
     "local function idle() end",
     sformat("local opts = { root = %s, behave = { %s } }", q(root or "main"), concat(types, ", ")),
