@@ -104,11 +104,13 @@ function M.main(argv)
     end
   end
   local s = model.summary(tree)
-  io.stdout:write(string.format("%s: ok: %s, %s (%s), %s, %s (%s)\n", file, plural(s.groups, "group"),
+  -- with --promela, standard output is the model alone (spin reads it): the summary goes to standard error
+  local say = (o.verify and o.promela) and io.stderr or io.stdout
+  say:write(string.format("%s: ok: %s, %s (%s), %s, %s (%s)\n", file, plural(s.groups, "group"),
                                 plural(s.instances, "instance"), plural(s.leaves, "leaf"):gsub("leafs", "leaves"),
                                 plural(s.connections, "connection"), plural(#s.hosts, "host"),
                                 table.concat(s.hosts, ", ")))
-  if o.tree then io.stdout:write(M.tree_text(tree)) end
+  if o.tree then say:write(M.tree_text(tree)) end
   if o.verify then return M.verify(file, ast, tree, o) end
   return 0
 end

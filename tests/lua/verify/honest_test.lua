@@ -82,4 +82,11 @@ suite:case("a_replay_keeps_the_timers_on_in_the_order_of_the_trace", function()
   T.ok(not text:find("Timer = idle", 1, true) and not text:find("Deadline = idle", 1, true), text)
 end)
 
+suite:case("promela_writes_only_the_model_to_standard_output", function()
+  local out, rc = T.sh("(" .. T.exe .. " check " .. systems .. "/stuck_inside.dca --verify --promela 2>/dev/null)")
+  T.eq(rc, 0)
+  T.eq(out:match("^[^\n]*"), "/* dca check --verify --promela: the expression model (SEMANTICS.md), one expression per run */")
+  T.dca("check " .. systems .. "/stuck_inside.dca --verify --promela", 0, "stuck_inside.dca: ok: 2 groups")
+end)
+
 return suite:run(...)
