@@ -172,8 +172,8 @@ local function can_end(p, r, operands)
   local d, a
   if operands[name] then
     local beh = operands[name]
-    for _, ev in ipairs(beh.events) do
-      if ev.kind == "done" then d = true elseif not ev.fault then a = true end
+    for _, ev in ipairs(r.first_running[name] and beh.events or {}) do  -- one that never starts never ends
+      if ev.kind == "done" then d = true elseif not ev.fault and ev.kind ~= "stuck" then a = true end
     end
   else
     d = #r.done > 0
@@ -297,11 +297,12 @@ function M.expression(expr, operands, list, sets, max_states, reduce)
   for _, p in ipairs(list or {}) do
     if p.kind == "can_end" then
       local ok = can_end(p, r, operands)
-      local item = { prop = p, ok = ok, outcome = true }
+      local item = { prop = p, ok = ok, outcome = true,
+                     never_starts = operands[p.a.text] and not r.first_running[p.a.text] or nil }
       if partial and (ok == (p.negated == true)) then
         item.ok, item.unknown = nil, true  -- an end not found may lie in the part left unexplored
       elseif not ok and p.negated then item.trace = M.outcome_trace(r, p.how)
-      elseif not ok then item.stuck = M.stuck_below(r) end
+      elseif not ok and not item.never_starts then item.stuck = M.stuck_below(r) end
       r.props[#r.props + 1] = item
     end
   end

@@ -145,12 +145,14 @@ local function findings(r, out, traces)
   end
   for _, p in ipairs(r.props) do
     out[#out + 1] = (p.unknown and "  unknown   " or p.ok and "  holds     " or "  VIOLATED  ") .. p.prop.text ..
-      (p.unknown and " (not proven: the exploration is partial)" or "")
+      (p.unknown and " (not proven: the exploration is partial)" or
+       (p.never_starts and p.ok) and (" (vacuous: " .. p.prop.a.text .. " never starts)") or "")
     if not p.ok and p.trace then
       out[#out + 1] = "    counter-example:"
       for _, l in ipairs(M.trace_lines(r, p.trace)) do out[#out + 1] = l end
     elseif not p.ok and p.outcome and not p.unknown then
-      out[#out + 1] = "    no run of " .. r.path .. " ends that way"
+      out[#out + 1] = p.never_starts and sformat("    %s never starts in any run of %s", p.prop.a.text, r.path)
+        or ("    no run of " .. r.path .. " ends that way")
       if p.stuck then
         out[#out + 1] = sformat("    %s gets stuck waiting on %s:", p.stuck.r.path, concat(p.stuck.stuck.waiting, ", "))
         for _, l in ipairs(M.trace_lines(p.stuck.r, p.stuck.stuck.trace)) do out[#out + 1] = l end

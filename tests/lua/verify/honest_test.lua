@@ -82,6 +82,12 @@ suite:case("a_replay_keeps_the_timers_on_in_the_order_of_the_trace", function()
   T.ok(not text:find("Timer = idle", 1, true) and not text:find("Deadline = idle", 1, true), text)
 end)
 
+suite:case("a_property_on_an_operand_that_never_starts_says_so", function()
+  T.dca("check " .. systems .. "/vacuous.dca --verify", 1, "VIOLATED  b can end done",
+        "b never starts in any run of main", "holds     b cannot end done (vacuous: b never starts)",
+        "holds     a cannot end aborted\n")
+end)
+
 suite:case("promela_writes_only_the_model_to_standard_output", function()
   local out, rc = T.sh("(" .. T.exe .. " check " .. systems .. "/stuck_inside.dca --verify --promela 2>/dev/null)")
   T.eq(rc, 0)
