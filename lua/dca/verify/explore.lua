@@ -343,8 +343,15 @@ end
 
 -- The reduction (docs/verify.md "Reduction"): the successors by the moving events (DONE, a group getting
 -- stuck) of one leaf whose moves are local and invisible, or nil when no leaf qualifies (all are explored).
+-- (Not while a timer waits for a shorter one of its cohort: the shorter one's DONE, while still local, is what
+-- lets the longer one end, and picking a sibling of it first could make that DONE end a '#' instead.)
 local function ample(g, ctx, st)
   local c, snap = ctx.c, st.snap
+  if ctx.timed_any then
+    for _, l in ipairs(snap.running) do
+      if ctx.timed[l] and not timer_may_end(ctx, st.cohort, snap.running, l) then return nil end
+    end
+  end
   for _, l in ipairs(snap.running) do
     local name = c.name[l]
     if ctx.quiet[l] and not (st.stuck and st.stuck[l]) and local_done(c, snap, l)

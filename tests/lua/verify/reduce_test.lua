@@ -31,12 +31,12 @@ end
 local function operands(expr, ends, faults, rnd)
   local ops = {}
   for _, name in ipairs(expr.names) do
-    local pick = rnd(6)
+    local pick = rnd(6)  -- 1: a group; 2, 3: a timer of 1 to 3 s
     if pick == 1 then
       ops[name] = group_operand(name, faults, rnd)
     else
       ops[name] = verify.leaf_events(name, ends[name], faults)
-      if pick == 2 and ends[name] ~= "never" then ops[name].after = rnd(3) end
+      if pick <= 3 and ends[name] ~= "never" then ops[name].after = rnd(3) end
     end
   end
   return ops
@@ -83,10 +83,11 @@ suite:case("the_reduced_exploration_reaches_the_full_ones_verdicts_on_700_genera
   for i = 1, count do
     local text, ends, ptext = gen.expression(rnd, i <= 300 and 2 + rnd(6) or 2 + rnd(12))
     local expr = assert(algebra.parse(text))
-    if i > 300 then for name in pairs(ends) do ends[name] = ENDS[rnd2(#ENDS)] or nil end end
+    if i > 300 then for _, name in ipairs(expr.names) do ends[name] = ENDS[rnd2(#ENDS)] or nil end end
     local list = props.parse(ptext, 1)
     local faults = rnd2(2) == 1
     local ops = operands(expr, ends, faults, i <= 300 and function() return 6 end or rnd2)
+    -- (timers: a third of the leaves, some in one cohort with different seconds)
     local pairs_ = i > 300 and rnd2(4) == 1 and sets(expr, rnd2) or nil
     local full = verify.expression(expr, ops, list, pairs_, nil, false)
     local red = verify.expression(expr, ops, list, pairs_, nil, true)
@@ -115,6 +116,19 @@ suite:case("a_concurrent_group_of_16_leaves_takes_a_few_dozen_states", function(
   local full = verify.expression(twelve, ops, {}, nil, nil, false)
   local red = verify.expression(twelve, ops, {}, nil, nil, true)
   T.eq(full.states, 4095)  -- every subset of the 12 ended but all of them
+  T.eq(verdicts(red), verdicts(full))
+end)
+
+suite:case("a_timer_that_waits_for_a_shorter_one_still_ends_in_the_reduced_exploration", function()
+  -- L3 (1 s) and the Deadline L4 (2 s) start together: L4 can abort only after L3's DONE, which must come
+  -- while L2 still runs (else it ends the '#'); picking L2's DONE first would lose "L4 aborted"
+  local expr = assert(algebra.parse("(L2 , L3) # L4"))
+  local ops = { L2 = verify.leaf_events("L2", "done", false), L3 = verify.leaf_events("L3", "done", false),
+                L4 = verify.leaf_events("L4", "aborted", false) }
+  ops.L3.after, ops.L4.after = 1, 2
+  local full = verify.expression(expr, ops, {}, nil, nil, false)
+  local red = verify.expression(expr, ops, {}, nil, nil, true)
+  T.eq(full.ends_by, { "aborted:L4" })
   T.eq(verdicts(red), verdicts(full))
 end)
 
