@@ -240,9 +240,18 @@ function M.outcome_trace(r, how)
 end
 
 --- Where group r (or a group operand below it, first in the text) gets stuck: { r = the group, stuck = its
---- first stuck state { trace, waiting } } | nil. The explanation of an end that cannot happen.
+--- first stuck state { trace, waiting } } | nil. The explanation of an end that cannot happen: when r is stuck
+--- only because a group it waits on is, that group's own stuck state.
 function M.stuck_below(r)
-  if r.stuck[1] then return { r = r, stuck = r.stuck[1] } end
+  local s = r.stuck[1]
+  if s then
+    for _, w in ipairs(s.waiting) do  -- stuck because a group it waits on is: where that one got stuck
+      local ev = s.inside and s.inside[w]
+      local below = ev and ev.r and M.stuck_below(ev.r)
+      if below then return below end
+    end
+    return { r = r, stuck = s }
+  end
   for _, leaf in ipairs(r.expr.leaves) do
     local op = r.operands[leaf.name]
     local found = op and op.group and M.stuck_below(op.group)

@@ -37,12 +37,12 @@ suite:case("a_group_that_can_get_stuck_makes_its_waiting_parent_stuck", function
   local out = T.dca("check " .. file .. " --verify --no-faults", 1,
     "main.d2 (process S)", "FINDING can get stuck: waits forever on ns2",
     "FINDING can get stuck: waits forever on d2 (stuck: main.d2 waits forever on ns2)",
-    "-> d2 gets stuck: waits forever on ns2", "VIOLATED  main can end done", "main gets stuck waiting on d2")
+    "-> d2 gets stuck: waits forever on ns2", "VIOLATED  main can end done", "main.d2 gets stuck waiting on ns2")
   T.contains(out, "2 findings")
   -- its replay: the inner trace runs, then main waits for ever with g1 done and d2 running
   local cex = T.tmpname(".lua")
   T.dca("check " .. file .. " --verify --no-faults --emit-scenario " .. cex, 1,
-        "the counter-example: main can end done is violated: main gets stuck")
+        "the counter-example: main can end done is violated: main.d2 gets stuck")
   T.dca("scenario " .. cex, 0, "main.d2.xs1 done", "0 failed")
   os.remove(cex)
 end)

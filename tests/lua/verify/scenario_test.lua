@@ -30,9 +30,9 @@ suite:case("the_paper_door_replays_stuck_after_the_door_is_open", function()
   local file = abs(here .. "/systems/door_paper.dca")
   local out_file = T.tmpname(".lua")
   T.dca("check " .. file .. " --verify --emit-scenario " .. out_file, 1, "VIOLATED  main can end done",
-        "the counter-example: main can end done is violated: main gets stuck")
+        "the counter-example: main can end done is violated: main.dooropensyst gets stuck")
   T.dca("scenario " .. out_file, 0, "main.dooropensyst.dooropen.model done",
-        "the violation: main can end done is violated: main gets stuck", "0 failed")
+        "the violation: main can end done is violated: main.dooropensyst gets stuck", "0 failed")
   os.remove(out_file)
 end)
 
