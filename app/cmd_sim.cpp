@@ -46,6 +46,8 @@ constexpr const char* kUsage =
     "paces it. Prints `dca sim: world ready` once registered and a summary when it exits.\n"
     "  --sync S             every subscriber is advanced at least every S seconds (default 0.01)\n"
     "  --tick-timeout MS    a node that does not answer an advance in MS is dropped from the clock (10000)\n"
+    "  --record-outputs     with --record FILE.mcap: the world's outputs as published too, exactly, on\n"
+    "                       /dca/world/outputs (what `--world replay:FILE.mcap` serves again)\n"
     "  --trace FILE         writes the lock-step trace: every output's samples per tick (count, digest, value),\n"
     "                       set switches, events, lost nodes (`dca trace diff` compares two)\n\n"
     "Exit code 0 on success, 1 if the world fails or cannot be built, 2 on a usage error.";
@@ -53,7 +55,7 @@ constexpr const char* kUsage =
 struct Options {
   std::string world;
   std::vector<std::string> world_opts;
-  bool serve = false, go = false, realtime = false, list = false;
+  bool serve = false, go = false, realtime = false, list = false, record_outputs = false;
   std::string daemon, name = "world", key, host, trace, record;
   std::uint64_t seed = 0;
   double duration = -1, period = 1e-3, record_period = 0.01, sync_period = 0.01;
@@ -75,7 +77,7 @@ std::optional<double> number(const char* s) {
 // Sets flag `a` (an option without a value): false when `a` is no flag.
 bool set_flag(const std::string& a, Options& o) {
   bool* flag = a == "--realtime" ? &o.realtime : a == "--serve" ? &o.serve : a == "--go" ? &o.go
-               : a == "--worlds" ? &o.list : nullptr;
+               : a == "--worlds" ? &o.list : a == "--record-outputs" ? &o.record_outputs : nullptr;
   if (flag != nullptr) *flag = true;
   return flag != nullptr;
 }
@@ -154,7 +156,7 @@ int serve(const Options& o, dca::sim::DeviceWorld& world) {
   dno.realtime = o.realtime;
   dno.duration = o.duration;
   dno.trace = o.trace;
-  dno.record = o.record, dno.record_period = o.record_period;
+  dno.record = o.record, dno.record_period = o.record_period, dno.record_outputs = o.record_outputs;
   dca::sim::DeviceNode dn(loop, world, dno);
   dca::NodeOptions no;
   no.name = o.name;

@@ -100,6 +100,8 @@ struct DeviceNode::Impl {
   Lockstep clock;
   WorldTaps taps;  // tap, record_end, note; the recording
   std::vector<std::uint16_t> channels;  // each sensor's recording channel
+  std::uint16_t outputs_channel = 0;     // /dca/world/outputs (record_outputs)
+  std::string outputs_json;              // a message of it
   long record_every = 1, steps = 0;
 
   // The recording of `path` ("" none): the world's own format, else the generic MCAP.
@@ -148,6 +150,7 @@ struct DeviceNode::Impl {
   // foxglove.FrameTransforms), the URDF on /robot_description (once, at time 0); then the signals at 0.
   void start_recording() {
     record_every = std::max<long>(1, std::lround(opts.record_period / world.period()));
+    if (opts.record_outputs && taps.recorder()->mcap()) start_outputs(*taps.recorder());
     if (own_format) return world.record(*taps.recorder());
     Recorder& r = *taps.recorder();
     for (const auto& sig : world.sensors()) {
@@ -162,6 +165,40 @@ struct DeviceNode::Impl {
       r.write(r.add_channel(frames::kDescriptionTopic, frames::description_schema(), frames::kDescriptionSchemaName),
               0, frames::description_message(urdf));
     record_sensors();
+  }
+
+  // record_outputs: the world's signals at time 0 on /dca/world/signals ({period, sensors, commands}, each signal
+  // {name, size, units}), and the channel of the outputs as published.
+  void start_outputs(Recorder& r) {
+    const auto list = [](const std::vector<DeviceSignal>& sigs) {
+      Value a = Value::array();
+      for (const auto& s : sigs)
+        a.array_ref().push_back(Value::map().set("name", s.name).set("size", std::int64_t{s.size}).set("units", s.units));
+      return a;
+    };
+    const Value v = Value::map().set("period", world.period()).set("sensors", list(world.sensors()))
+                        .set("commands", list(world.commands()));
+    r.write(r.add_channel("/dca/world/signals", "{\"type\":\"object\"}"), 0, json::encode(v));
+    outputs_channel = r.add_channel("/dca/world/outputs", "{\"type\":\"object\",\"properties\":{\"values\":"
+                                    "{\"type\":\"array\",\"description\":\"each sensor's values, in order\"}}}");
+  }
+
+  // record_outputs: the outputs as just published, {"values": [[...], ...]} at the world's time.
+  void record_outputs() {
+    const auto& sensors = world.sensors();
+    outputs_json = "{\"values\":[";
+    for (std::size_t i = 0; i < sensors.size(); ++i) {
+      if (buffer.size() < sensors[i].size) buffer.resize(sensors[i].size);
+      world.sensor(i, buffer.data());
+      outputs_json += i ? ",[" : "[";
+      for (std::uint32_t k = 0; k < sensors[i].size; ++k) {
+        if (k) outputs_json += ',';
+        json::append_number(outputs_json, buffer[k]);
+      }
+      outputs_json += ']';
+    }
+    outputs_json += "]}";
+    taps.recorder()->write(outputs_channel, std::llround(world.time() * 1e9), outputs_json);
   }
 
   // The output that holds the world's link frames.
@@ -218,6 +255,7 @@ struct DeviceNode::Impl {
       world.sensor(i, buffer.data());
       component->outputs[i]->write(Eigen::Map<const Eigen::VectorXd>(buffer.data(), sensors[i].size));
     }
+    if (outputs_channel != 0 && taps.recorder()) record_outputs();
   }
 
   Value status() const {

@@ -39,6 +39,9 @@ struct DeviceNodeOptions {
   std::string trace;              ///< file the lock-step trace goes to ("" = none; docs/time.md)
   std::string record;             ///< the MCAP file to record to ("" = none): the constructor throws for another
   double record_period = 0.01;    ///< s between recorded signals
+  /// With an MCAP `record`: the world's outputs as published too, exactly (what a replay serves; see
+  /// "Replay" in docs/recording.md): the signals once on /dca/world/signals, every publish on /dca/world/outputs.
+  bool record_outputs = false;
 };
 
 class DeviceNode {

@@ -14,6 +14,11 @@
 --   trace.merge(world_file, t_lines, out_file, last) --> true | nil, err (t_lines: { {ns, text} ... }; the
 --                                                lines after tick `last`, the root's outcome, are left out)
 --   trace.diff(file_a, file_b)                 --> nil (identical) | text of the first divergence, or nil, err
+--   trace.diff_recordings(mcap_a, mcap_b)      --> nil, text (identical) | text of the first difference, or
+--                                                false, err: the channels both MCAP recordings hold (ports and
+--                                                world signals; not the run's lines) compared message by
+--                                                message before the earlier run's end (its outcome's tick,
+--                                                whose writes race the stop; docs/recording.md, "Replay")
 local M = {}
 
 local sformat, tonumber, ipairs = string.format, tonumber, ipairs
@@ -93,6 +98,78 @@ function M.diff(file_a, file_b)
     end
   end
   return nil
+end
+
+-- The tick of the run's outcome in recording `rec` (its root's "DONE" or "ABORTED" line on /dca/events), or
+-- past its last message. The writes of that tick race the run's stop, so they are not compared.
+local function end_of(rec)
+  local last = 0
+  for _, m in ipairs(rec.messages) do
+    local ch = rec.channels[m.channel]
+    if ch and ch.topic == "/dca/events" and (m.data:find('"state":"DONE"', 1, true) or
+                                             m.data:find('"state":"ABORTED"', 1, true)) then
+      return m.t
+    end
+    if m.t >= last then last = m.t + 1 end
+  end
+  return last
+end
+
+-- The channels of recording `rec` by topic: { [topic] = { {t, data}, ... } }, the lines' channels left out, the
+-- messages before tick `before` only.
+local SKIPPED = { ["/dca/events"] = true, ["/dca/log"] = true, ["/dca/world/signals"] = true }
+local function by_topic(rec, before)
+  local out = {}
+  for _, m in ipairs(rec.messages) do
+    local topic = rec.channels[m.channel] and rec.channels[m.channel].topic
+    if topic and not SKIPPED[topic] and m.t < before then
+      local list = out[topic] or {}
+      out[topic] = list
+      list[#list + 1] = m
+    end
+  end
+  return out
+end
+
+-- The first difference of two lists of messages: its time (ns), index, or nil.
+local function first_difference(a, b)
+  for i = 1, math.max(#a, #b) do
+    local x, y = a[i], b[i]
+    if not x or not y or x.t ~= y.t or x.data ~= y.data then
+      return (x and y) and math.min(x.t, y.t) or (x or y).t, i
+    end
+  end
+end
+
+local function show_message(m)
+  if not m then return "(no more messages)" end
+  return sformat("%s at %.9f s", m.data, m.t / 1e9)
+end
+
+--- The first message where recordings `file_a` and `file_b` differ (see the header).
+function M.diff_recordings(file_a, file_b)
+  local core = require "dca.core"
+  local ra, aerr = core.mcap_read(file_a)
+  if not ra then return false, sformat("%s: %s", file_a, tostring(aerr)) end
+  local rb, berr = core.mcap_read(file_b)
+  if not rb then return false, sformat("%s: %s", file_b, tostring(berr)) end
+  local before = math.min(end_of(ra), end_of(rb))
+  local a, b = by_topic(ra, before), by_topic(rb, before)
+  local topics, best, n = {}, nil, 0
+  for topic in pairs(a) do if b[topic] then topics[#topics + 1] = topic end end
+  table.sort(topics)
+  for _, topic in ipairs(topics) do
+    n = n + #a[topic]
+    local t, i = first_difference(a[topic], b[topic])
+    if t and (not best or t < best.t) then best = { t = t, i = i, topic = topic } end
+  end
+  if not best then
+    return nil, sformat("identical: %s and %s (%d messages on %d channels compared, before the run's end at %.9f s)",
+      file_a, file_b, n, #topics, before / 1e9)
+  end
+  return sformat("first difference at tick %.9f s (%d ns), message %d of %s:\n  %s: %s\n  %s: %s", best.t / 1e9,
+    best.t, best.i, best.topic, file_a, show_message(a[best.topic][best.i]), file_b,
+    show_message(b[best.topic][best.i]))
 end
 
 return M

@@ -13,7 +13,8 @@ M.usage = [=[usage: dca run FILE.dca [--root NAME] [--hosts FILE] [--repl] [--wa
                     [--config FILE | --no-config] [--set KEY=VALUE]... [--state-dir DIR]
                     [--placement process|group|host]
                     [--sim WORLD [--world-opt KEY=VALUE]... [--seed N] [--record FILE.mcap|FILE.csv] [--realtime]
-                    [--record-ports all|PATH.PORT,...] [--trace FILE]] [--driver 'TYPE(HOST, ARGS...)']
+                    [--record-ports all|PATH.PORT,...] [--trace FILE]] [--replay REC.mcap]
+                    [--driver 'TYPE(HOST, ARGS...)']
                     [--monitor [ADDR] [--monitor-wait]]
 
 Checks FILE.dca (errors stop here, nothing is started), starts one local daemon per host name on 127.0.0.1
@@ -54,6 +55,13 @@ per group as it comes up and one per process transition, and runs the root expre
                   main.dooropensyst.dooropen.visualserv.Vel) recorded too, one channel per port
                   (/main/.../Vel, JSON with its JSON Schema), each sample at the tick its leaf wrote it: taps
                   into the world, which is in lock-step, so the recording is exact and the run unchanged
+                  (the world's outputs too, as published: what --replay serves again)
+  --replay REC.mcap
+                  run against a recording instead of a simulator (--sim replay:REC.mcap, no physics): the
+                  world's outputs recorded by `--record REC.mcap --record-ports ...` served at their recorded
+                  ticks, every controller live; record this run too and `dca trace diff REC.mcap NEW.mcap`
+                  names the first tick and port where a live output differs from the recording (a trace
+                  with --trace compares as well)
   --realtime      passed to the world: simulated time is paced to the wall clock (the nodes stay in
                   lock-step with it), so the wall-clock periods in the summary are the real control periods
   --trace FILE    write the run's trace (simulated time): every output's samples per tick (count, digest,
@@ -81,7 +89,7 @@ local OPTIONS = {
   ["--timeout"] = "number", ["--repl"] = "flag", ["--watch"] = "flag", ["--quiet"] = "flag",
   ["--config"] = "value", ["--no-config"] = "flag", ["--state-dir"] = "value", ["--set"] = "list:sets",
   ["--placement"] = "value", ["--trace"] = "value", ["--monitor"] = "flag", ["--monitor-wait"] = "flag",
-  ["--record-ports"] = "value", ["--driver"] = "value",
+  ["--record-ports"] = "value", ["--driver"] = "value", ["--replay"] = "value",
 }
 
 -- `--monitor ADDR`: the address, when the argument after --monitor is one (else --monitor alone). --> argv
@@ -134,8 +142,11 @@ local function parse_args(args)
     o.set = o.set or {}
     o.set[k] = v
   end
+  if o.replay and o.sim then return nil, "dca run: --replay and --sim exclude each other: the recording is the world" end
+  if o.replay then o.sim = "replay:" .. o.replay end
   local broken = rule_broken(o)
   if broken then return nil, "dca run: " .. broken end
+  o.record_outputs = o.record_ports and true or nil
   for _, k in ipairs({ "record", "trace" }) do
     if o[k] and o[k]:sub(1, 1) ~= "/" then o[k] = (os.getenv("PWD") or ".") .. "/" .. o[k] end
   end

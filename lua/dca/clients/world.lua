@@ -27,11 +27,14 @@ local W = {}
 W.__index = W
 
 --- The options a world takes besides where it runs (see the header): what a system's start passes through.
-M.OPTIONS = { "world", "seed", "world_opts", "record", "realtime", "wait", "trace", "tick_timeout" }
+M.OPTIONS = { "world", "seed", "world_opts", "record", "record_outputs", "realtime", "wait", "trace", "tick_timeout" }
 
--- A robot world's spec with its URDF file made absolute ("mock:FILE?OPTIONS" keeps its prefix and options): the
--- world process starts in its daemon's folder (docs/robots.md). Any other world name as it is.
+-- A robot world's spec with its URDF file made absolute ("mock:FILE?OPTIONS" keeps its prefix and options), and
+-- a replay's recording (replay:FILE.mcap): the world process starts in its daemon's folder (docs/robots.md). Any
+-- other world name as it is.
 local function world_spec(w)
+  local replayed = type(w) == "string" and w:match("^replay:(.+)$")
+  if replayed then return "replay:" .. core.absolute(replayed) end
   if type(w) ~= "string" or not w:find("%.urdf") then return w end
   local prefix, rest = w:match("^(mock:)(.*)$")
   local file, options = (rest or w):match("^([^?]*)(.*)$")
@@ -45,6 +48,7 @@ function M.argv(o)
   if o.seed then argv[#argv + 1] = "--seed" argv[#argv + 1] = tostring(o.seed) end
   for _, kv in ipairs(o.world_opts or {}) do argv[#argv + 1] = "--world-opt" argv[#argv + 1] = tostring(kv) end
   if o.record then argv[#argv + 1] = "--record" argv[#argv + 1] = o.record end
+  if o.record_outputs then argv[#argv + 1] = "--record-outputs" end
   if o.trace then argv[#argv + 1] = "--trace" argv[#argv + 1] = o.trace end
   if o.realtime then argv[#argv + 1] = "--realtime" end
   -- (ms: a node that does not answer an advance within it is dropped from the clock; default 10000)
