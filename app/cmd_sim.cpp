@@ -48,6 +48,9 @@ constexpr const char* kUsage =
     "  --tick-timeout MS    a node that does not answer an advance in MS is dropped from the clock (10000)\n"
     "  --record-outputs     with --record FILE.mcap: the world's outputs as published too, exactly, on\n"
     "                       /dca/world/outputs (what `--world replay:FILE.mcap` serves again)\n"
+    "  --blackbox B,A[,MB]  with --record FILE.mcap: a black box instead (docs/recording.md): the last B s held\n"
+    "                       (at most MB MiB, default 64), written with A s after a fault or a `blackbox` request\n"
+    "                       to FILE-1.mcap, FILE-2.mcap, ...\n"
     "  --trace FILE         writes the lock-step trace: every output's samples per tick (count, digest, value),\n"
     "                       set switches, events, lost nodes (`dca trace diff` compares two)\n\n"
     "Exit code 0 on success, 1 if the world fails or cannot be built, 2 on a usage error.";
@@ -55,7 +58,8 @@ constexpr const char* kUsage =
 struct Options {
   std::string world;
   std::vector<std::string> world_opts;
-  bool serve = false, go = false, realtime = false, list = false, record_outputs = false;
+  bool serve = false, go = false, realtime = false, list = false, record_outputs = false, blackbox = false;
+  dca::sim::BlackboxOptions box;
   std::string daemon, name = "world", key, host, trace, record;
   std::uint64_t seed = 0;
   double duration = -1, period = 1e-3, record_period = 0.01, sync_period = 0.01;
@@ -90,6 +94,18 @@ bool positive(const char* v, double& out) {
   return true;
 }
 
+// --blackbox B,A[,MB]: "" or what is wrong with it.
+std::string blackbox(const char* v, Options& o) {
+  double b = -1, a = -1, mb = 64;
+  char tail = 0;
+  const int n = v ? std::sscanf(v, "%lf,%lf,%lf%c", &b, &a, &mb, &tail) : 0;
+  if ((n != 2 && n != 3) || !(b >= 0 && a >= 0 && mb > 0 && b < 1e6 && a < 1e6 && mb < 1e6))
+    return "--blackbox needs SECONDS_BEFORE,SECONDS_AFTER[,MIB] (non-negative seconds, e.g. 5,1)";
+  o.blackbox = true;
+  o.box.before = b, o.box.after = a, o.box.max_bytes = static_cast<std::size_t>(mb * 1024 * 1024);
+  return "";
+}
+
 // Applies option `a` with value `v` (nullptr: missing): "" or what is wrong with it.
 std::string set_value(const std::string& a, const char* v, Options& o) {
   if (a == "--seed") {
@@ -102,6 +118,7 @@ std::string set_value(const std::string& a, const char* v, Options& o) {
   if (a == "--period")
     return positive(v, o.period) && o.period <= 0.01 ? "" : "--period needs seconds in (0, 0.01]";
   if (a == "--record-period") return positive(v, o.record_period) ? "" : "--record-period needs positive seconds";
+  if (a == "--blackbox") return blackbox(v, o);
   if (a == "--sync") return positive(v, o.sync_period) ? "" : "--sync needs positive seconds";
   if (a == "--tick-timeout") {
     double ms = 0;
@@ -123,7 +140,7 @@ std::string set_value(const std::string& a, const char* v, Options& o) {
 int parse(std::span<char* const> args, Options& o) {
   static const std::string kValued =
       " --world --world-opt --seed --duration --period --record-period --record --trace --daemon --name --key"
-      " --host --sync --tick-timeout ";
+      " --host --sync --tick-timeout --blackbox ";
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string a = args[i];
     if (set_flag(a, o)) continue;
@@ -157,6 +174,7 @@ int serve(const Options& o, dca::sim::DeviceWorld& world) {
   dno.duration = o.duration;
   dno.trace = o.trace;
   dno.record = o.record, dno.record_period = o.record_period, dno.record_outputs = o.record_outputs;
+  dno.blackbox = o.blackbox, dno.box = o.box;
   dca::sim::DeviceNode dn(loop, world, dno);
   dca::NodeOptions no;
   no.name = o.name;

@@ -84,6 +84,8 @@ struct DeviceNode::Impl {
     if (!opts.trace.empty() && !(trace = std::fopen(opts.trace.c_str(), "w")))
       throw std::runtime_error("cannot write the trace " + opts.trace);
     buffer.resize(64);
+    if (opts.blackbox && !(taps.recorder() && taps.recorder()->blackbox(opts.box)))
+      throw std::runtime_error(opts.record + ": a black box records MCAP only (FILE.mcap)");
     if (taps.recorder()) start_recording();
   }
   ~Impl() {

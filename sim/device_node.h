@@ -42,6 +42,11 @@ struct DeviceNodeOptions {
   /// With an MCAP `record`: the world's outputs as published too, exactly (what a replay serves; see
   /// "Replay" in docs/recording.md): the signals once on /dca/world/signals, every publish on /dca/world/outputs.
   bool record_outputs = false;
+  /// With an MCAP `record`: a black box instead of the whole recording (sim/recorder.h; docs/recording.md, "Black
+  /// box"), triggered by a fault among the run's lines (`note` with state aborted or lost) or on demand
+  /// (`blackbox {why}`).
+  bool blackbox = false;
+  BlackboxOptions box;
 };
 
 class DeviceNode {

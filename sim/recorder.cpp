@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
+#include <deque>
 #include <stdexcept>
 #include <utility>
 #include <vector>
@@ -25,6 +26,74 @@ struct Recorder::Mcap {
   dca::mcap::Writer writer;
   uint16_t events = 0;  // the channel /dca/events, once there is a note
   uint16_t log = 0;     // the channel /dca/log, once there is a line
+  struct Added {
+    std::string topic, schema_name, schema;
+  };
+  std::vector<Added> added;  // the channels, in id order (a black box made later takes them over)
+};
+
+namespace {
+std::string json_string(const std::string& s);
+}  // namespace
+
+// The black box's channels and its ring of messages (docs/recording.md, "Black box").
+struct Recorder::Box {
+  struct Channel {
+    std::string topic, schema_name, schema;
+  };
+  struct Held {
+    uint16_t channel;
+    uint64_t t;
+    std::string json;
+  };
+  BlackboxOptions o;
+  uint64_t before_ns = 0, after_ns = 0;
+  std::vector<Channel> channels;  // channel id - 1
+  std::deque<Held> held;
+  std::size_t bytes = 0;
+  uint64_t latest = 0;          // the latest message's time
+  bool pending = false;         // a trigger waits for its after-window
+  uint64_t t_trigger = 0;
+  std::string why;
+  uint64_t dropped = 0;         // messages dropped by the size bound
+  std::vector<std::string> files;  // what each trigger wrote
+
+  // Drops what no trigger can need any more, then the oldest past the size bound.
+  void evict() {
+    const uint64_t keep = pending ? t_trigger : latest;
+    const uint64_t from = keep > before_ns ? keep - before_ns : 0;
+    while (!held.empty() && (held.front().t < from || bytes > o.max_bytes)) {
+      if (held.front().t >= from) ++dropped;
+      bytes -= held.front().json.size() + sizeof(Held);
+      held.pop_front();
+    }
+  }
+
+  // The trigger's file: every channel, the trigger on /dca/blackbox, the messages of its window.
+  std::string write(const std::string& file) const {
+    std::FILE* f = std::fopen(file.c_str(), "w");
+    if (!f) return file + ": cannot write the black box: " + std::strerror(errno);
+    dca::mcap::Writer w([f](std::string_view b) { return std::fwrite(b.data(), 1, b.size(), f) == b.size(); },
+                        "dca sim", 64 * 1024);
+    for (const auto& c : channels) w.add_channel(c.topic, c.schema_name, c.schema);
+    const uint16_t box = w.add_channel("/dca/blackbox", "dca/blackbox",
+                                       R"({"type":"object","title":"/dca/blackbox","properties":{"trigger":)"
+                                       R"({"type":"string"},"t":{"type":"number"},"before":{"type":"number"},)"
+                                       R"("after":{"type":"number"}}})");
+    char numbers[128];
+    std::snprintf(numbers, sizeof numbers, ",\"t\":%.9f,\"before\":%.9g,\"after\":%.9g}",
+                  static_cast<double>(t_trigger) / 1e9, o.before, o.after);
+    w.write(box, t_trigger, "{\"trigger\":" + json_string(why) + numbers);
+    const uint64_t from = t_trigger > before_ns ? t_trigger - before_ns : 0, to = t_trigger + after_ns;
+    for (const auto& m : held)
+      if (m.t >= from && m.t <= to) w.write(m.channel, m.t, m.json);
+    const bool bad = !w.finish() || std::ferror(f) != 0;
+    if (std::fclose(f) != 0 || bad) return file + ": error writing the black box";
+    char window[96];
+    std::snprintf(window, sizeof window, " at %.3f s, [%.3f, %.3f] s, ", static_cast<double>(t_trigger) / 1e9,
+                  static_cast<double>(from) / 1e9, static_cast<double>(to) / 1e9);
+    return file + ": " + why + window + std::to_string(w.stats().messages - 1) + " messages";
+  }
 };
 
 namespace {
@@ -49,39 +118,85 @@ std::string json_string(const std::string& s) {
 
 }  // namespace
 
+uint16_t Recorder::channel(const std::string& topic, const std::string& schema_name, const std::string& schema) {
+  if (box_) {
+    box_->channels.push_back({topic, schema_name, schema});
+    return static_cast<uint16_t>(box_->channels.size());
+  }
+  if (!f_ || !mcap_) return 0;
+  mcap_->added.push_back({topic, schema_name, schema});
+  return mcap_->writer.add_channel(topic, schema_name, schema);
+}
+
+void Recorder::put(uint16_t channel, uint64_t t_ns, std::string json) {
+  if (channel == 0) return;
+  if (!box_) {
+    if (f_ && mcap_) mcap_->writer.write(channel, t_ns, json);
+    return;
+  }
+  Box& b = *box_;
+  b.latest = std::max(b.latest, t_ns);
+  b.bytes += json.size() + sizeof(Box::Held);
+  b.held.push_back({channel, t_ns, std::move(json)});
+  if (b.pending && b.latest > b.t_trigger + b.after_ns) {
+    b.files.push_back(b.write(path_.substr(0, path_.size() - 5) + "-" + std::to_string(b.files.size() + 1) + ".mcap"));
+    b.pending = false;
+  }
+  b.evict();
+}
+
 void Recorder::note(double t, const std::string& line, const std::string& path, const std::string& state) {
-  if (!f_ || !mcap_) return;
+  if (!mcap_) return;
   if (mcap_->events == 0)
-    mcap_->events = mcap_->writer.add_channel(
+    mcap_->events = channel(
         "/dca/events", "dca/events",
         R"({"type":"object","title":"/dca/events","properties":{"line":{"type":"string"},)"
         R"("path":{"type":"string"},"state":{"type":"string"}}})");
   const auto ns = static_cast<uint64_t>(std::llround(std::max(0.0, t) * 1e9));
-  mcap_->writer.write(mcap_->events, ns,
-                      "{\"line\":" + json_string(line) + ",\"path\":" + json_string(path) +
-                          ",\"state\":" + json_string(state) + "}");
+  put(mcap_->events, ns,
+      "{\"line\":" + json_string(line) + ",\"path\":" + json_string(path) + ",\"state\":" + json_string(state) + "}");
 }
 
 void Recorder::log(double t, const std::string& path, const std::string& line) {
-  if (!f_ || !mcap_) return;
+  if (!mcap_) return;
   if (mcap_->log == 0)
-    mcap_->log = mcap_->writer.add_channel(
+    mcap_->log = channel(
         "/dca/log", "dca/log",
         R"({"type":"object","title":"/dca/log","properties":{"path":{"type":"string"},"line":{"type":"string"}}})");
   const auto ns = static_cast<uint64_t>(std::llround(std::max(0.0, t) * 1e9));
-  mcap_->writer.write(mcap_->log, ns, "{\"path\":" + json_string(path) + ",\"line\":" + json_string(line) + "}");
+  put(mcap_->log, ns, "{\"path\":" + json_string(path) + ",\"line\":" + json_string(line) + "}");
 }
 
 uint16_t Recorder::add_channel(const std::string& topic, const std::string& schema, const std::string& schema_name) {
-  if (!f_ || !mcap_) return 0;
   const std::string name = !schema_name.empty() ? schema_name : topic.size() > 1 ? topic.substr(1) : topic;
-  return mcap_->writer.add_channel(topic, name, schema);
+  return channel(topic, name, schema);
 }
 
 void Recorder::write(uint16_t channel, int64_t t_ns, const std::string& json) {
-  if (!f_ || !mcap_ || channel == 0) return;
-  mcap_->writer.write(channel, static_cast<uint64_t>(std::max<int64_t>(0, t_ns)), json);
+  put(channel, static_cast<uint64_t>(std::max<int64_t>(0, t_ns)), json);
 }
+
+bool Recorder::blackbox(const BlackboxOptions& o) {
+  if (!mcap_ || box_ || !f_) return false;
+  std::fclose(f_);  // (only the magic and header were written: PATH itself is never the black box's file)
+  f_ = nullptr;
+  std::remove(path_.c_str());
+  box_ = std::make_unique<Box>();
+  for (const auto& c : mcap_->added) box_->channels.push_back({c.topic, c.schema_name, c.schema});
+  box_->o = o;
+  box_->before_ns = static_cast<uint64_t>(std::llround(std::max(0.0, o.before) * 1e9));
+  box_->after_ns = static_cast<uint64_t>(std::llround(std::max(0.0, o.after) * 1e9));
+  return true;
+}
+
+void Recorder::trigger(double t, const std::string& why) {
+  if (!box_ || box_->pending) return;
+  box_->pending = true;
+  box_->t_trigger = static_cast<uint64_t>(std::llround(std::max(0.0, t) * 1e9));
+  box_->why = why;
+}
+
+std::size_t Recorder::held_bytes() const { return box_ ? box_->bytes : 0; }
 
 Recorder::Recorder(const std::string& path, const std::string& csv_header) : path_(path) {
   if (csv_header.empty() && !is_mcap(path))
@@ -107,6 +222,11 @@ void Recorder::csv_row(const std::string& row) {
 }
 
 bool Recorder::close(std::string* error) {
+  if (box_ && box_->pending) {
+    box_->files.push_back(
+        box_->write(path_.substr(0, path_.size() - 5) + "-" + std::to_string(box_->files.size() + 1) + ".mcap"));
+    box_->pending = false;
+  }
   if (!f_) return true;
   std::FILE* f = f_;
   f_ = nullptr;
@@ -117,6 +237,12 @@ bool Recorder::close(std::string* error) {
 }
 
 std::string Recorder::summary() const {
+  if (box_) {
+    std::string s = path_ + ": black box, " + std::to_string(box_->files.size()) + " written";
+    for (const auto& f : box_->files) s += "; " + f;
+    if (box_->dropped) s += "; " + std::to_string(box_->dropped) + " messages dropped by its size bound";
+    return s;
+  }
   if (!mcap_) return path_ + ": " + std::to_string(rows_) + " rows";
   const dca::mcap::Stats& st = mcap_->writer.stats();
   const size_t channels = mcap_->writer.channels();

@@ -2,12 +2,20 @@
 // Recording a run of a world as MCAP (FILE.mcap: JSON channels, log time = simulated time; host/codec/mcap.h),
 // or as CSV (any other name) for a world that has a CSV export of its own (the door world's,
 // worlds/door/recording.h). C++17-clean.
+#include <cstddef>
 #include <cstdint>
 #include <cstdio>
 #include <memory>
 #include <string>
 
 namespace dca::sim {
+
+/// A black box (docs/recording.md, "Black box"): what the recording would write, held in memory for the last
+/// `before` seconds of simulated time and at most `max_bytes`, and written to a file of its own around a trigger.
+struct BlackboxOptions {
+  double before = 5, after = 1;       ///< s of simulated time kept before a trigger, and written after it
+  std::size_t max_bytes = 64u << 20;  ///< the messages held at most (the oldest dropped first, counted)
+};
 
 /// A recording file. The constructor throws std::runtime_error("FILE: reason") if the file cannot be written.
 class Recorder {
@@ -35,6 +43,15 @@ class Recorder {
   uint16_t add_channel(const std::string& topic, const std::string& schema, const std::string& schema_name = "");
   /// MCAP only: one message (JSON text) on a channel of add_channel at simulated time `t_ns` (a CSV ignores it).
   void write(uint16_t channel, int64_t t_ns, const std::string& json);
+  /// MCAP only, before any message is written (its channels are kept): the recording becomes a black box. PATH
+  /// itself is not written: the n-th trigger writes PATH without ".mcap" + "-n.mcap". False for a CSV.
+  bool blackbox(const BlackboxOptions& o);
+  /// A black box's trigger at simulated time `t` (s) for `why`: once time passes t + after (or at close), the file
+  /// of the messages in [t - before, t + after] is written, with {"trigger", "t", "before", "after"} on
+  /// /dca/blackbox. A trigger while one is pending is counted in that one. Ignored by a plain recording.
+  void trigger(double t, const std::string& why);
+  /// A black box's messages held now (bytes), and the files it wrote (their summaries).
+  std::size_t held_bytes() const;
   /// Samples a tap dropped (host/net/tap.h), for the summary.
   void set_dropped(uint64_t n) { dropped_ = n; }
   /// Flushes and closes. False with *error ("FILE: reason") on a write error. The destructor closes too, and
@@ -51,6 +68,10 @@ class Recorder {
   std::string path_;
   std::FILE* f_ = nullptr;
   std::unique_ptr<Mcap> mcap_;  // set when recording MCAP
+  struct Box;
+  std::unique_ptr<Box> box_;    // set for a black box
+  uint16_t channel(const std::string& topic, const std::string& schema_name, const std::string& schema);
+  void put(uint16_t channel, uint64_t t_ns, std::string json);
   long rows_ = 0;
   uint64_t dropped_ = 0;
 };

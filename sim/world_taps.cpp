@@ -30,8 +30,16 @@ void WorldTaps::record_taps() {
 bool WorldTaps::handle(const std::shared_ptr<Channel>& ch, const Message& m, double now_s) {
   if (m.type == "tap") return add_tap(ch, m), true;
   if (m.type == "record_end") return end(ch, m), true;
+  if (m.type == "blackbox") {  // on demand: the black box's trigger now
+    const std::string why = m.payload["why"].as_string();
+    if (recorder_) recorder_->trigger(now_s, why.empty() ? "on demand" : why);
+    return ch->reply(m, Value::map().set("t", now_s)), true;
+  }
   if (m.type != "note") return false;
   const double t = m.payload["t"].as_float(now_s);
+  const std::string& state = m.payload["state"].as_string();
+  if (recorder_ && (state == "aborted" || state == "lost"))  // a fault: the black box's trigger
+    recorder_->trigger(t, m.payload["line"].as_string());
   if (recorder_ && m.payload["channel"].as_string() == "log")  // a process's stderr line (/dca/log)
     recorder_->log(t, m.payload["path"].as_string(), m.payload["line"].as_string());
   else if (recorder_)

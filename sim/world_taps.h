@@ -8,7 +8,9 @@
 //                                               tap::json_schema) when recording MCAP; answers {input}
 //   record_end {}                               the recording closed now, what was written at the last tick
 //                                               counted in first; answers {summary} ({} when not recording)
-//   note {t, line, path, state}                 a line of the run on /dca/events at simulated time t
+//   note {t, line, path, state}                 a line of the run on /dca/events at simulated time t; a black
+//                                               box's trigger when state is aborted or lost (a fault)
+//   blackbox {why}                              a black box's trigger now, on demand; answers {t}
 // Being on the clock, the world takes in exactly the samples written before each tick: record_taps() at the
 // start of each step records them at their writers' ticks (the stamps).
 #include <cstdint>

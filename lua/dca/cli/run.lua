@@ -14,6 +14,7 @@ M.usage = [=[usage: dca run FILE.dca [--root NAME] [--hosts FILE] [--repl] [--wa
                     [--placement process|group|host]
                     [--sim WORLD [--world-opt KEY=VALUE]... [--seed N] [--record FILE.mcap|FILE.csv] [--realtime]
                     [--record-ports all|PATH.PORT,...] [--trace FILE]] [--replay REC.mcap]
+                    [--blackbox SECONDS_BEFORE,SECONDS_AFTER[,MIB]]
                     [--driver 'TYPE(HOST, ARGS...)']
                     [--monitor [ADDR] [--monitor-wait]]
 
@@ -62,6 +63,11 @@ per group as it comes up and one per process transition, and runs the root expre
                   ticks, every controller live; record this run too and `dca trace diff REC.mcap NEW.mcap`
                   names the first tick and port where a live output differs from the recording (a trace
                   with --trace compares as well)
+  --blackbox B,A[,MIB]
+                  with --record FILE.mcap: a black box instead of the whole recording: what it would write
+                  held for the last B seconds (at most MIB MiB, default 64) and written, with A seconds
+                  after, to FILE-1.mcap, FILE-2.mcap, ... when a process aborts or is lost; the file
+                  names its trigger on /dca/blackbox and holds the run's lines
   --realtime      passed to the world: simulated time is paced to the wall clock (the nodes stay in
                   lock-step with it), so the wall-clock periods in the summary are the real control periods
   --trace FILE    write the run's trace (simulated time): every output's samples per tick (count, digest,
@@ -90,6 +96,7 @@ local OPTIONS = {
   ["--config"] = "value", ["--no-config"] = "flag", ["--state-dir"] = "value", ["--set"] = "list:sets",
   ["--placement"] = "value", ["--trace"] = "value", ["--monitor"] = "flag", ["--monitor-wait"] = "flag",
   ["--record-ports"] = "value", ["--driver"] = "value", ["--replay"] = "value",
+  ["--blackbox"] = "value",
 }
 
 -- `--monitor ADDR`: the address, when the argument after --monitor is one (else --monitor alone). --> argv
@@ -118,6 +125,9 @@ local function rule_broken(o)
   end
   if o.record_ports and not (o.record and o.record:match("%.mcap$")) then
     return "--record-ports goes with --record FILE.mcap"
+  end
+  if o.blackbox and not (o.record and o.record:match("%.mcap$")) then
+    return "--blackbox goes with --record FILE.mcap"
   end
   if o.config and o.no_config then return "--config and --no-config exclude each other" end
   if o.driver and o.sim then return "--driver and --sim exclude each other: a driver is the robot" end

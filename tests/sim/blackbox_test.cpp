@@ -1,0 +1,141 @@
+// The black box of a recording (sim/recorder.h; docs/recording.md, "Black box"): a trigger's file holds exactly
+// the messages of [t - before, t + after] that the whole recording holds, names its trigger, and the memory it
+// takes stays bounded by time and by size over many simulated minutes.
+#include "sim/recorder.h"
+
+#include "host/codec/mcap.h"
+#include "tests/support/temp_dir.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace {
+
+namespace fs = std::filesystem;
+using dca::sim::BlackboxOptions;
+using dca::sim::Recorder;
+
+fs::path temp(const std::string& name) {
+  static const dca::test::TempDir dir("blackbox_test");
+  return fs::path(dir.path()) / name;
+}
+
+dca::mcap::Contents read(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  dca::mcap::Contents c;
+  std::string error;
+  EXPECT_TRUE(dca::mcap::read(ss.str(), &c, &error)) << p << ": " << error;
+  return c;
+}
+
+// Feeds `r` a run of `seconds`: /a every ms, /b every 10 ms, a line at 1.5 s; `at` (s) triggers the black box.
+void feed(Recorder& r, double seconds, double at = -1) {
+  const auto a = r.add_channel("/a", R"({"type":"object"})");
+  const auto b = r.add_channel("/b", R"({"type":"object"})");
+  const long ticks = static_cast<long>(seconds * 1000 + 0.5);
+  for (long k = 0; k <= ticks; ++k) {
+    const std::int64_t t = k * 1'000'000;
+    if (k == static_cast<long>(at * 1000 + 0.5)) r.trigger(static_cast<double>(k) / 1000, "main.x: aborted (test)");
+    r.write(a, t, "{\"value\":" + std::to_string(k) + "}");
+    if (k % 10 == 0) r.write(b, t, "{\"value\":[" + std::to_string(k) + ",1]}");
+    if (k == 1500) r.note(1.5, "main.x: running", "main.x", "running");
+  }
+}
+
+TEST(Blackbox, TheFileHoldsExactlyTheWindowOfTheWholeRecording) {
+  {
+    Recorder full(temp("full.mcap").string());
+    feed(full, 5);
+  }
+  {
+    Recorder box(temp("box.mcap").string());
+    ASSERT_TRUE(box.blackbox(BlackboxOptions{1.0, 0.5, 64u << 20}));
+    feed(box, 5, 3.0);
+    std::string error;
+    ASSERT_TRUE(box.close(&error)) << error;
+    EXPECT_NE(box.summary().find("black box, 1 written"), std::string::npos) << box.summary();
+  }
+  EXPECT_FALSE(fs::exists(temp("box.mcap"))) << "the path itself is not written";
+  const auto full = read(temp("full.mcap")), box = read(temp("box-1.mcap"));
+  std::vector<std::string> want, got;
+  for (const auto& m : full.messages)
+    if (m.log_time >= 2'000'000'000 && m.log_time <= 3'500'000'000)
+      want.push_back(full.channels.at(m.channel).topic + " " + std::to_string(m.log_time) + " " + m.data);
+  std::string trigger;
+  for (const auto& m : box.messages) {
+    const auto& topic = box.channels.at(m.channel).topic;
+    if (topic == "/dca/blackbox") trigger = m.data;
+    else got.push_back(topic + " " + std::to_string(m.log_time) + " " + m.data);
+  }
+  EXPECT_EQ(got, want);
+  EXPECT_EQ(want.size(), 1501u + 151u + 0u);
+  EXPECT_NE(trigger.find("\"trigger\":\"main.x: aborted (test)\""), std::string::npos) << trigger;
+  EXPECT_NE(trigger.find("\"t\":3.000000000"), std::string::npos) << trigger;
+}
+
+TEST(Blackbox, TheRunsLinesInTheWindowAreKept) {
+  {
+    Recorder box(temp("lines.mcap").string());
+    ASSERT_TRUE(box.blackbox(BlackboxOptions{1.0, 0.1, 64u << 20}));
+    feed(box, 3, 2.0);
+  }
+  const auto c = read(temp("lines-1.mcap"));
+  int lines = 0;
+  for (const auto& m : c.messages)
+    if (c.channels.at(m.channel).topic == "/dca/events") {
+      ++lines;
+      EXPECT_EQ(m.log_time, 1'500'000'000u);
+    }
+  EXPECT_EQ(lines, 1);
+}
+
+// VmRSS of this process (KiB).
+long rss_kib() {
+  std::ifstream in("/proc/self/status");
+  for (std::string l; std::getline(in, l);)
+    if (l.rfind("VmRSS:", 0) == 0) return std::stol(l.substr(6));
+  return -1;
+}
+
+TEST(Blackbox, MemoryStaysBoundedOverManySimulatedMinutes) {
+  Recorder box(temp("long.mcap").string());
+  ASSERT_TRUE(box.blackbox(BlackboxOptions{2.0, 1.0, 1u << 20}));
+  const auto a = box.add_channel("/a", R"({"type":"object"})");
+  const auto b = box.add_channel("/b", R"({"type":"object"})");
+  const std::string sample = R"({"value":[0.125,-3.5,2.25,1.0,0.0,7.75]})";
+  std::size_t most = 0;
+  long rss_at_1min = 0;
+  for (long k = 0; k <= 10L * 60 * 1000; ++k) {  // ten simulated minutes at 1 kHz, two channels
+    box.write(a, k * 1'000'000, sample);
+    box.write(b, k * 1'000'000, sample);
+    most = std::max(most, box.held_bytes());
+    if (k == 60 * 1000) rss_at_1min = rss_kib();
+  }
+  EXPECT_LE(most, std::size_t{1} << 20) << "bounded by size";
+  EXPECT_LT(most, 2u * 2001u * (sample.size() + 64u)) << "bounded by time: two seconds of messages";
+  EXPECT_LT(rss_kib() - rss_at_1min, 8 * 1024) << "the process's memory stays where it was after a minute";
+}
+
+TEST(Blackbox, TheSizeBoundDropsTheOldestAndSaysSo) {
+  Recorder box(temp("small.mcap").string());
+  ASSERT_TRUE(box.blackbox(BlackboxOptions{60.0, 0.0, 64u << 10}));
+  feed(box, 5, 4.0);
+  EXPECT_LE(box.held_bytes(), std::size_t{64} << 10);
+  std::string error;
+  ASSERT_TRUE(box.close(&error)) << error;
+  EXPECT_NE(box.summary().find("dropped by its size bound"), std::string::npos) << box.summary();
+}
+
+TEST(Blackbox, OnlyAnMcapRecordingIsABlackBox) {
+  Recorder csv(temp("x.csv").string(), "time");
+  EXPECT_FALSE(csv.blackbox(BlackboxOptions{}));
+}
+
+}  // namespace
