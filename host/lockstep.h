@@ -137,6 +137,10 @@ class LockstepCore {
   void unsubscribe(const void* origin);
   /// `hold {at}`: time holds once it reaches `at` (ns).
   void hold_at(Nanos at) { hold_at_ = at; }
+  /// A line of the trace at this tick ("W ..."; docs/time.md), when tracing.
+  void note(const std::string& text) {
+    if (opts_.trace) trace_lines_.push_back(std::to_string(now()) + " " + text);
+  }
   /// `go`: time starts (or resumes) flowing. True if it was held.
   bool go();
   /// `hold`: time stops after the current tick.
@@ -253,6 +257,8 @@ class Lockstep {
   wire::Value status() const { return core_.status(); }
   /// LockstepCore::take_owner.
   std::string take_owner() { return core_.take_owner(); }
+  /// LockstepCore::note.
+  void note(const std::string& text) { core_.note(text); }
   /// Called once when the duration is reached (time then holds).
   std::function<void()> on_duration;
   /// Called once, with why, when the channel that said `go` (the master: a run's root) has closed: time then

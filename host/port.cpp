@@ -159,7 +159,26 @@ Input::~Input() {
 }
 
 void Input::add_feeder(InputFeeder* f) { feeders_.push_back(f); }
-void Input::remove_feeder(InputFeeder* f) { std::erase(feeders_, f); }
+void Input::remove_feeder(InputFeeder* f) {
+  std::erase(feeders_, f);
+  if (holder_ == f) holder_ = nullptr;  // its writer is gone: the next writer may take the input at once
+}
+
+void Input::deliver_from(InputFeeder* from, Bytes b) {
+  if (lease_ > 0 && from != nullptr) {
+    const std::uint64_t lease = std::clamp<std::uint64_t>(interval_, 1, lease_);
+    if (holder_ != nullptr && holder_ != from && ticks_ - held_at_ < lease) {
+      ++refused_;
+      if (on_refused) on_refused(from->writer(), holder_->writer());
+      return;
+    }
+    if (holder_ != from) interval_ = 0;
+    else if (ticks_ > held_at_) interval_ = ticks_ - held_at_;
+    holder_ = from;
+    held_at_ = ticks_;
+  }
+  deliver(b);
+}
 
 void Input::reserve_queue(std::size_t n) {
   if (n <= slots_.size()) return;
@@ -360,11 +379,12 @@ std::string link_key(const ConnectRequest& r) {
   return r.from + "|" + r.out + ">" + r.to + "|" + r.in + "@" + r.set;
 }
 
-void LinkGate::deliver(Input& in, Bytes b) {
+void LinkGate::deliver(Input& in, Bytes b, InputFeeder* from) {
   ++received_;
+  from_ = from;
   if (!gated || (held_head_ == held_.size() && delivered_ < allowed_)) {
     ++delivered_;
-    return in.deliver(b);
+    return in.deliver_from(from, b);
   }
   held_.emplace_back(b.begin(), b.end());
 }
@@ -374,7 +394,7 @@ bool LinkGate::release(Input* in, std::uint64_t n) {
   while (delivered_ < allowed_ && held_head_ < held_.size()) {
     ++delivered_;
     auto& h = held_[held_head_++];
-    if (in) in->deliver({h.data(), h.size()});
+    if (in) in->deliver_from(from_, {h.data(), h.size()});
   }
   if (held_head_ == held_.size()) {
     held_.clear();

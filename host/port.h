@@ -92,6 +92,8 @@ class InputFeeder {
   virtual ~InputFeeder() = default;
   /// The input is being destroyed: forget it.
   virtual void input_gone() = 0;
+  /// The writer whose samples this connection carries ("PATH.PORT"), as an exclusive input names it.
+  virtual std::string writer() const { return {}; }
 };
 
 /// Something that answers a pull request for an input (one per pull connection feeding it).
@@ -141,6 +143,21 @@ class Input final : public Port {
 
   /// Called by connections: a pushed sample. Queued (drop-oldest when full), then on_sample runs.
   void deliver(Bytes b);
+  /// A pushed sample of connection `from`: on an exclusive input, refused when another connection holds it
+  /// (see set_exclusive); else as deliver.
+  void deliver_from(InputFeeder* from, Bytes b);
+  /// One writer at a time (a robot's command input, docs/safety.md): the connection whose sample was taken
+  /// last holds the input for one of its own periods after each sample (the ticks, tick(), between its last
+  /// two; one tick before it has two; at most `max_lease_ticks`); a sample of another connection meanwhile is
+  /// refused: counted, never delivered, and on_refused(writer, holder) runs. So two writers in the same tick, or
+  /// interleaved, are refused, and a writer that follows another after its period takes over. 0: off.
+  void set_exclusive(std::uint32_t max_lease_ticks) { lease_ = max_lease_ticks; }
+  /// A tick of the clock that drives this input's owner (the world's step): the holder's lease runs down.
+  void tick() { ++ticks_; }
+  /// Samples refused from a second writer.
+  std::uint64_t refused() const { return refused_; }
+  /// Runs at each refused sample with the refused writer and the one holding the input ("PATH.PORT").
+  std::function<void(const std::string& writer, const std::string& holder)> on_refused;
   /// Called by connections: a pull answer. Becomes the current sample directly, then on_sample runs.
   void deliver_pulled(Bytes b);
   /// Runs after each delivered sample (a controller triggered by its input sets this).
@@ -168,6 +185,9 @@ class Input final : public Port {
   std::vector<PullSource*> pull_sources_;
   std::vector<InputFeeder*> feeders_;
   bool warned_drop_ = false;
+  std::uint32_t lease_ = 0;          // set_exclusive
+  InputFeeder* holder_ = nullptr;    // the connection holding an exclusive input
+  std::uint64_t ticks_ = 0, held_at_ = 0, interval_ = 0, refused_ = 0;
 };
 
 /// Lock-step delivery of one push connection (docs/time.md): the samples that arrived on it are
@@ -177,8 +197,9 @@ class Input final : public Port {
 /// goes straight through. Not real-time safe while holding (a held sample is copied).
 class LinkGate {
  public:
-  /// A sample of this connection for `in`: delivered, or held while gated and beyond the released count.
-  void deliver(Input& in, Bytes b);
+  /// A sample of this connection (`from`, the connection feeding `in`) for `in`: delivered, or held while gated
+  /// and beyond the released count.
+  void deliver(Input& in, Bytes b, InputFeeder* from = nullptr);
   /// The master's count for this connection: held samples up to `n` go to `in`. Returns true when `n` samples
   /// have arrived.
   bool release(Input* in, std::uint64_t n);
@@ -188,10 +209,15 @@ class LinkGate {
   std::uint64_t allowed() const { return allowed_; }
   /// Held samples and counts forgotten (a new connection under the same name).
   void reset();
+  /// Connection `f` is gone: samples held for it no longer name it.
+  void forget(const InputFeeder* f) {
+    if (from_ == f) from_ = nullptr;
+  }
   bool gated = false;
 
  private:
   std::uint64_t received_ = 0, delivered_ = 0, allowed_ = 0;
+  InputFeeder* from_ = nullptr;  // the connection whose samples these are
   std::vector<std::vector<std::byte>> held_;
   std::size_t held_head_ = 0;
 };

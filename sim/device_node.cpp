@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <map>
 #include <stdexcept>
 #include <vector>
 
@@ -105,6 +106,8 @@ struct DeviceNode::Impl {
   std::uint16_t outputs_channel = 0;     // /dca/world/outputs (record_outputs)
   std::string outputs_json;              // a message of it
   long record_every = 1, steps = 0;
+  std::map<std::string, std::uint64_t> refused;  // a command input's samples refused from a second writer
+  std::vector<std::string> second_writers;       // each (input, writer, holder) once: what was said
 
   // The recording of `path` ("" none): the world's own format, else the generic MCAP.
   static std::unique_ptr<Recorder> make_recorder(const std::string& path, DeviceWorld& w, bool* own) {
@@ -234,6 +237,30 @@ struct DeviceNode::Impl {
     return Value::map().set("urdf", world.robot_description()).set("frames", std::move(fs)).set("port", "links.frames");
   }
 
+  // Every command input takes one writer at a time (Input::set_exclusive): the lease in ticks.
+  void exclusive_inputs() {
+    const auto lease = static_cast<std::uint32_t>(std::max<long>(1, std::lround(opts.writer_lease / world.period())));
+    for (Input* in : component->inputs) {
+      in->set_exclusive(lease);
+      in->on_refused = [this, in](const std::string& writer, const std::string& holder) {
+        refused_writer(in->name(), writer, holder);
+      };
+    }
+  }
+
+  void refused_writer(const std::string& input, const std::string& writer, const std::string& holder) {
+    ++refused[input];
+    clock.note("W world." + input + " refused=" + writer + " holder=" + holder);
+    const std::string who = input + ": " + writer + " refused, held by " + holder + " at ";
+    for (const auto& s : second_writers)
+      if (s.rfind(who, 0) == 0) return;
+    if (second_writers.size() >= 64) return;  // bounded: the counts go on
+    char at[32];
+    std::snprintf(at, sizeof at, "%.3f s", to_seconds(clock.now()));
+    second_writers.push_back(who + at);
+    std::fprintf(stderr, "dca sim: a second writer on %s\n", second_writers.back().c_str());
+  }
+
   void step() {
     taps.record_taps();
     for (std::size_t i = 0; i < component->inputs.size(); ++i) {
@@ -244,6 +271,7 @@ struct DeviceNode::Impl {
     }
     world.step();
     ++steps;
+    for (Input* in : component->inputs) in->tick();
     if (taps.recorder() && steps % record_every == 0) {
       if (own_format) world.record(*taps.recorder());
       else record_sensors();
@@ -264,6 +292,12 @@ struct DeviceNode::Impl {
     Value v = clock.status();
     ValueSink sink(v);
     world.status(sink);
+    if (!refused.empty()) {
+      Value m = Value::map();
+      for (const auto& [input, n] : refused) m.set(input, static_cast<std::int64_t>(n));
+      v.set("writers_refused", std::move(m));
+      sink.texts("second_writers", second_writers);
+    }
     return v;
   }
 
@@ -306,6 +340,7 @@ std::unique_ptr<Node> DeviceNode::make_node(NodeOptions options) {
              TimerServer&) {
         auto c = std::make_unique<DeviceComponent>(name, impl_->world);
         impl_->component = c.get();
+        impl_->exclusive_inputs();
         impl_->taps.attach(&c->taps);
         return std::unique_ptr<Component>(std::move(c));
       });

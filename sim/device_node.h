@@ -7,7 +7,12 @@
 // Each tick: the command samples counted for the world are taken in (the latest of each input goes to
 // DeviceWorld::command), the world steps one period, and when subscribers are due its sensors are written to
 // the outputs. A command input whose writer the clock master lost or forgot for a new instance is told to the
-// world (DeviceWorld::writer_gone). `status {}` is the clock's status and the world's fields. Taps, `record_end`
+// world (DeviceWorld::writer_gone). One writer at a time on each command input (docs/safety.md): a second
+// writer's samples within the holder's lease (one of its periods, at most writer_lease) are refused, counted
+// (status `writers_refused` = {input = n}, `second_writers` = ["INPUT: WRITER refused, held by HOLDER at T s",
+// ...]), traced (`T W world.INPUT refused=WRITER holder=HOLDER`) and said on stderr once per writer, holder and
+// input.
+// `status {}` is the clock's status and the world's fields. Taps, `record_end`
 // and `note`: sim/world_taps.h. With `record`, a world with a recording of its own format writes it
 // (DeviceWorld::own_recorder: the door world's signal groups, MCAP or CSV); any other records FILE.mcap: every
 // sensor signal every record_period on a channel named as its live topic ("/world/joint/J/position", {"value": [x]}; the
@@ -37,6 +42,8 @@ struct DeviceNodeOptions {
   bool realtime = false;          ///< pace time to the wall clock
   double duration = -1;           ///< s of simulated time after which time holds (-1: never)
   std::string trace;              ///< file the lock-step trace goes to ("" = none; docs/time.md)
+  double writer_lease = 0.05;     ///< s: the longest a command input stays one writer's after its last sample
+                                  ///< (docs/safety.md: one of the writer's periods, at most this)
   std::string record;             ///< the MCAP file to record to ("" = none): the constructor throws for another
   double record_period = 0.01;    ///< s between recorded signals
   /// With an MCAP `record`: the world's outputs as published too, exactly (what a replay serves; see

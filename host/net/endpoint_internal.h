@@ -295,6 +295,7 @@ class LocalLink final : public Connection, public PullSource, public InputFeeder
   ~LocalLink() override { LocalLink::close(); }
   void on_write(Bytes b) override;
   void input_gone() override { in_ = nullptr; }
+  std::string writer() const override { return info_.request.from + "." + info_.request.out; }
   void request() override;
   void on_activate() override;
   void close() override;
@@ -385,11 +386,12 @@ class InLink final : public PullSource, public InputFeeder {
 
   void deliver(Kind kind, Bytes body) {
     if (!in_) return;
-    if (kind == Kind::Sample) gate_->deliver(*in_, body);
+    if (kind == Kind::Sample) gate_->deliver(*in_, body, this);
     else in_->deliver_pulled(body);
   }
   void request() override;
   void input_gone() override;
+  std::string writer() const override { return r_.from + "." + r_.out; }
   /// Stops feeding the input.
   void detach() {
     if (in_) {
@@ -397,6 +399,7 @@ class InLink final : public PullSource, public InputFeeder {
       in_->remove_pull_source(this);
     }
     in_ = nullptr;
+    gate_->forget(this);
   }
   const ConnectRequest& request_of() const { return r_; }
 

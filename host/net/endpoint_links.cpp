@@ -17,7 +17,7 @@ void LocalLink::on_write(Bytes b) {
     return;
   }
   ++info_.sent;
-  gate_->deliver(*in_, body(b));
+  gate_->deliver(*in_, body(b), this);
 }
 
 void LocalLink::request() {
@@ -35,6 +35,7 @@ void LocalLink::close() {
     in_->remove_pull_source(this);
   }
   in_ = nullptr;
+  gate_->forget(this);
   Connection::close();
 }
 

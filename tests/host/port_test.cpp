@@ -122,3 +122,77 @@ TEST(PortTest, AControllersReadSaysNoneOldOrNewInOneCall) {
 }
 
 }  // namespace
+
+namespace {
+
+// A connection feeding an input, as the endpoint's links are (host/net/endpoint_internal.h).
+struct FakeFeeder final : dca::InputFeeder {
+  explicit FakeFeeder(std::string w) : w_(std::move(w)) {}
+  void input_gone() override {}
+  std::string writer() const override { return w_; }
+  std::string w_;
+};
+
+// A one-double vector sample.
+std::vector<std::byte> vec1(const dca::PortSpec& spec, double v) {
+  dca::Output o(spec);
+  o.write(Eigen::VectorXd::Constant(1, v));
+  const auto b = o.latest_bytes();
+  return {b.begin(), b.end()};
+}
+
+}  // namespace
+
+// One writer at a time (docs/safety.md): the holder keeps the input for one of its periods after each sample;
+// another writer's samples meanwhile are refused and named; after the holder's period, or once its connection
+// is gone, another writer takes over.
+TEST(PortTest, AnExclusiveInputRefusesASecondWriterWithinTheHoldersPeriod) {
+  const auto spec = dca::vector_port("cmd", 1, "rad");
+  dca::Input in(spec, 4);
+  in.set_exclusive(50);
+  FakeFeeder a("main.a.Cmd"), b("main.b.Cmd");
+  in.add_feeder(&a);
+  in.add_feeder(&b);
+  std::vector<std::string> told;
+  in.on_refused = [&](const std::string& w, const std::string& h) { told.push_back(w + " by " + h); };
+  auto tick = [&](int n) {
+    for (int i = 0; i < n; ++i) in.tick();
+  };
+  in.deliver_from(&a, vec1(spec, 1.0));  // a holds it: one tick before its second sample
+  in.deliver_from(&b, vec1(spec, 2.0));  // the same tick: refused
+  ASSERT_TRUE(in.take_latest());
+  EXPECT_EQ(in.vector()[0], 1.0);
+  EXPECT_EQ(in.refused(), 1u);
+  tick(10);
+  in.deliver_from(&a, vec1(spec, 1.5));  // a every 10 ticks: its period is 10
+  tick(5);
+  in.deliver_from(&b, vec1(spec, 2.0));  // interleaved, 5 ticks after a's: refused
+  EXPECT_EQ(in.refused(), 2u);
+  ASSERT_TRUE(in.take_latest());
+  EXPECT_EQ(in.vector()[0], 1.5);
+  tick(5);
+  in.deliver_from(&b, vec1(spec, 2.5));  // a's period has passed without a sample: b takes over
+  ASSERT_TRUE(in.take_latest());
+  EXPECT_EQ(in.vector()[0], 2.5);
+  EXPECT_EQ(in.refused(), 2u);
+  in.deliver_from(&a, vec1(spec, 1.0));  // now a is the second writer
+  EXPECT_EQ(in.refused(), 3u);
+  in.remove_feeder(&b);                  // b's connection is gone: a may write at once
+  in.deliver_from(&a, vec1(spec, 0.5));
+  ASSERT_TRUE(in.take_latest());
+  EXPECT_EQ(in.vector()[0], 0.5);
+  EXPECT_EQ(told, (std::vector<std::string>{"main.b.Cmd by main.a.Cmd", "main.b.Cmd by main.a.Cmd",
+                                            "main.a.Cmd by main.b.Cmd"}));
+  in.remove_feeder(&a);
+}
+
+// Not exclusive (every other input): many writers, every sample taken.
+TEST(PortTest, AnInputThatIsNotExclusiveTakesEveryWriter) {
+  const auto spec = dca::vector_port("in", 1, "");
+  dca::Input in(spec, 4);
+  FakeFeeder a("a.Out"), b("b.Out");
+  in.deliver_from(&a, vec1(spec, 1.0));
+  in.deliver_from(&b, vec1(spec, 2.0));
+  EXPECT_EQ(in.queued(), 2u);
+  EXPECT_EQ(in.refused(), 0u);
+}

@@ -100,6 +100,14 @@ function S:_figures(r, wall, lines)
       tonumber(r.rounds_s) or 0, tonumber(r.barrier_s) or 0, tonumber(r.take_s) or 0)
   end
   for _, d in ipairs(r.dropped or {}) do lines[#lines + 1] = "dropped from the clock: " .. tostring(d) end
+  -- one writer at a time on each command input (docs/safety.md): the second writers the world refused
+  local inputs = {}
+  for input in pairs(type(r.writers_refused) == "table" and r.writers_refused or {}) do inputs[#inputs + 1] = input end
+  table.sort(inputs)
+  for _, input in ipairs(inputs) do
+    lines[#lines + 1] = sformat("second writer refused on %s: %d samples", input, tonumber(r.writers_refused[input]) or 0)
+  end
+  for _, w in ipairs(r.second_writers or {}) do lines[#lines + 1] = "  " .. tostring(w) end
   if #self.order == 0 then return end
   lines[#lines + 1] = "steps (simulated time, s):"
   for _, path in ipairs(self.order) do

@@ -1,0 +1,59 @@
+-- One writer at a time on a robot's command input (docs/safety.md): two leaves that command one joint at the same
+-- time. The world takes the first writer's samples and refuses the second's at the tick they come, counted,
+-- traced and said in the summary with both paths; the joint goes where its one writer sends it.
+local T = require "dca.testing"
+local suite = T.suite("safety")
+
+local dca, src = T.exe, T.src
+local ur10 = src .. "/worlds/ur10/ur10.urdf"
+
+-- Two JointSetpoint leaves on the elbow, concurrently: the one that holds the joint reaches its target while the
+-- other's samples are refused; once the holder is done (and its period has passed), the other takes the joint.
+local TWO_WRITERS = [[
+process main() {
+  instantiated_processes {
+    up   instof JointSetpoint("arm", "elbow_joint", 1.0, 0.01);
+    down instof JointSetpoint("arm", "elbow_joint", -1.0, 0.01);
+    limit instof Deadline("arm", 3);
+  }
+  internal_event_actions { (up , down) # limit }
+}
+]]
+
+suite:case("a_second_writer_on_a_joint_is_refused_at_its_tick_and_named_with_the_holder", function()
+  local dir = T.tmpdir()
+  T.write(dir .. "/two.dca", TWO_WRITERS)
+  local trace = dir .. "/run.trace"
+  local out, rc = T.sh("timeout 120 " .. dca .. " run " .. dir .. "/two.dca --sim mock:" .. ur10 .. " --trace " .. trace)
+  T.eq(rc, 0, out)
+  T.contains(out, "second writer refused on joint.elbow_joint.position_command: ")
+  local refused, holder = out:match("joint%.elbow_joint%.position_command: (main%.%w+%.Cmd) refused, held by (main%.%w+%.Cmd) at")
+  T.ok(holder and refused and holder ~= refused, "both paths named: " .. out)
+  -- the holder ends first, at its own target; then the refused one takes the joint to its own
+  local first = holder:match("^main%.(%w+)")
+  local second = refused:match("^main%.(%w+)")
+  local t_first = tonumber(out:match("%[sim%s+([%d.]+)%] main%." .. first .. ": done"))
+  local t_second = tonumber(out:match("%[sim%s+([%d.]+)%] main%." .. second .. ": done"))
+  T.ok(t_first and t_second and t_first < t_second, "the holder is done before the refused writer: " .. out)
+  T.contains(out, second == "up" and "elbow_joint 1.0000" or "elbow_joint -1.0000")
+  -- every refused sample is in the trace at its tick, naming both
+  local n = 0
+  for line in T.read(trace):gmatch("[^\n]+") do
+    if line:find(" W world.joint.elbow_joint.position_command refused=" .. refused .. " holder=" .. holder, 1, true) then
+      n = n + 1
+    end
+  end
+  local count = tonumber(out:match("second writer refused on joint%.elbow_joint%.position_command: (%d+) samples"))
+  T.eq(n, count, "one trace line per refused sample")
+  T.ok(n > 0, "refused samples traced")
+end)
+
+suite:case("writers_one_after_the_other_are_no_second_writer", function()
+  local dir = T.tmpdir()
+  T.write(dir .. "/seq.dca", (TWO_WRITERS:gsub("%(up , down%) # limit", "(up ; down) # limit")))
+  local out, rc = T.sh("timeout 120 " .. dca .. " run " .. dir .. "/seq.dca --sim mock:" .. ur10)
+  T.eq(rc, 0, out)
+  T.ok(not out:find("second writer", 1, true), "no refusal: " .. out)
+end)
+
+return suite:run(...)
