@@ -166,6 +166,10 @@ void Input::remove_feeder(InputFeeder* f) {
 
 void Input::deliver_from(InputFeeder* from, Bytes b) {
   if (lease_ > 0 && from != nullptr) {
+    if (std::find(feeders_.begin(), feeders_.end(), from) == feeders_.end()) {
+      ++refused_;  // a sample held for a connection that has closed since: its writer is gone
+      return;
+    }
     const std::uint64_t lease = std::clamp<std::uint64_t>(interval_, 1, lease_);
     if (holder_ != nullptr && holder_ != from && ticks_ - held_at_ < lease) {
       ++refused_;

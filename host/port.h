@@ -144,7 +144,9 @@ class Input final : public Port {
   /// Called by connections: a pushed sample. Queued (drop-oldest when full), then on_sample runs.
   void deliver(Bytes b);
   /// A pushed sample of connection `from`: on an exclusive input, refused when another connection holds it
-  /// (see set_exclusive); else as deliver.
+  /// (see set_exclusive); else as deliver. `from` is an identity: a connection no longer among the feeders
+  /// (a sample held for it after it closed) is never dereferenced; on an exclusive input such a sample is
+  /// dropped.
   void deliver_from(InputFeeder* from, Bytes b);
   /// One writer at a time (a robot's command input, docs/safety.md): the connection whose sample was taken
   /// last holds the input for one of its own periods after each sample (the ticks, tick(), between its last
@@ -209,15 +211,11 @@ class LinkGate {
   std::uint64_t allowed() const { return allowed_; }
   /// Held samples and counts forgotten (a new connection under the same name).
   void reset();
-  /// Connection `f` is gone: samples held for it no longer name it.
-  void forget(const InputFeeder* f) {
-    if (from_ == f) from_ = nullptr;
-  }
   bool gated = false;
 
  private:
   std::uint64_t received_ = 0, delivered_ = 0, allowed_ = 0;
-  InputFeeder* from_ = nullptr;  // the connection whose samples these are
+  InputFeeder* from_ = nullptr;  // the connection whose samples these are (an identity: it may be gone)
   std::vector<std::vector<std::byte>> held_;
   std::size_t held_head_ = 0;
 };

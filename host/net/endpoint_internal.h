@@ -399,7 +399,6 @@ class InLink final : public PullSource, public InputFeeder {
       in_->remove_pull_source(this);
     }
     in_ = nullptr;
-    gate_->forget(this);
   }
   const ConnectRequest& request_of() const { return r_; }
 

@@ -35,7 +35,6 @@ void LocalLink::close() {
     in_->remove_pull_source(this);
   }
   in_ = nullptr;
-  gate_->forget(this);
   Connection::close();
 }
 

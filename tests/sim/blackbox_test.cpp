@@ -120,7 +120,11 @@ TEST(Blackbox, MemoryStaysBoundedOverManySimulatedMinutes) {
   }
   EXPECT_LE(most, std::size_t{1} << 20) << "bounded by size";
   EXPECT_LT(most, 2u * 2001u * (sample.size() + 64u)) << "bounded by time: two seconds of messages";
+#if !defined(__SANITIZE_ADDRESS__)  // AddressSanitizer keeps freed blocks in its quarantine (256 MiB): RSS grows
   EXPECT_LT(rss_kib() - rss_at_1min, 8 * 1024) << "the process's memory stays where it was after a minute";
+#else
+  (void)rss_at_1min;
+#endif
 }
 
 TEST(Blackbox, TheSizeBoundDropsTheOldestAndSaysSo) {
