@@ -10,6 +10,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cstdlib>
 #include <string>
@@ -47,9 +48,21 @@ struct Pty {
     pollfd p{slave, POLLIN, 0};
     ASSERT_EQ(poll(&p, 1, 5000), 1) << "the pty did not pass the line on within 5 s";
   }
-  // What the driver sent, once something came (within 5 s).
-  std::string heard() const {
-    pollfd p{master, POLLIN, 0};
+  // The first `lines` lines the driver sent (each command is a write of its own, so one read may hold only the
+  // first), waiting at most 5 s for them.
+  std::string heard(int lines) const {
+    std::string got;
+    std::array<char, 4096> buf;
+    while (std::count(got.begin(), got.end(), '\n') < lines) {
+      pollfd p{master, POLLIN, 0};
+      if (poll(&p, 1, 5000) != 1) break;
+      const ssize_t n = read(master, buf.data(), buf.size());
+      if (n <= 0) break;
+      got.append(buf.data(), static_cast<std::size_t>(n));
+    }
+    return got;
+  }
+};
     if (poll(&p, 1, 5000) != 1) return "";
     std::array<char, 4096> buf;
     const ssize_t n = read(master, buf.data(), buf.size());
@@ -97,7 +110,7 @@ TEST(SerialArm, SendsCommandsWithinTheLimitsAndCountsEachClamp) {
   d.set("joint.elbow_joint.position_command", one(10.0));  // past the elbow's soft limit 3.0916
   d.set("joint.wrist_1_joint.velocity_command", one(-0.5));
   d.step();
-  const std::string sent = pty.heard();
+  const std::string sent = pty.heard(2);
   EXPECT_NE(sent.find("C 2 P 3.09159265*"), std::string::npos) << sent;
   EXPECT_NE(sent.find("C 3 V -0.5*"), std::string::npos) << sent;
   EXPECT_EQ(sent.find("C 0 "), std::string::npos) << "a joint never commanded is left to the arm: " << sent;
@@ -117,11 +130,11 @@ TEST(SerialArm, AStaleVelocityBecomesZeroAndAStalePositionHolds) {
   d.set("joint.wrist_1_joint.velocity_command", one(-0.5));
   pty.say(state_line(0));  // (so that the arm is not taken for dead)
   d.step();
-  (void)pty.heard();
+  (void)pty.heard(2);
   d.advance(0.06);
   tcflush(pty.master, TCIFLUSH);  // what came before going stale
   d.step();
-  const std::string sent = pty.heard();
+  const std::string sent = pty.heard(2);
   EXPECT_NE(sent.find("C 3 V 0*"), std::string::npos) << sent;
   EXPECT_NE(sent.find("C 2 P 1*"), std::string::npos) << sent;
   const Eigen::VectorXd stale = d.get_vector("safety.stale");
