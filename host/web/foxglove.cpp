@@ -1,5 +1,7 @@
 #include "host/web/foxglove.h"
 
+#include <algorithm>
+
 #include <cstring>
 
 #include "host/codec/frames.h"
@@ -197,28 +199,38 @@ void Protocol::set_params(Client& c, const Value& msg) {
   set_parameters(clean, answer(c, "setParameters", id));
 }
 
+// A client holds at most one subscription per channel (as Foxglove's own server): a request cannot make one sample
+// go out many times. Refused entries are answered with one status per request, the first reason and the count.
 void Protocol::subscribe(Client& c, const Value& msg) {
+  std::string first_refusal;
+  std::size_t refused = 0;
+  const auto refuse = [&](std::string why) {
+    if (refused++ == 0) first_refusal = std::move(why);
+  };
+  const auto server = server_.lock();
   for (const auto& s : msg["subscriptions"].as_array()) {
     if (!s["id"].is_int() || !s["channelId"].is_int() || s["id"].as_int() < 0) {
-      status(c, 2, "subscribe: each subscription needs an id and a channelId");
+      refuse("each subscription needs an id and a channelId");
       continue;
     }
     const auto id = static_cast<std::uint32_t>(s["id"].as_int());
     const auto channel = static_cast<std::uint32_t>(s["channelId"].as_int());
-    if (c.subs.count(id)) {
-      status(c, 2, "subscribe: subscription id " + std::to_string(id) + " is in use");
-      continue;
-    }
-    const auto server = server_.lock();
     const auto* t = server ? server->samples().topic(channel) : nullptr;
-    if (!t) {
-      status(c, 2, "subscribe: no channel " + std::to_string(channel));
-      continue;
+    if (c.subs.count(id)) {
+      refuse("subscription id " + std::to_string(id) + " is in use");
+    } else if (!t) {
+      refuse("no channel " + std::to_string(channel));
+    } else if (std::any_of(c.subs.begin(), c.subs.end(), [&](const auto& e) { return e.second == channel; })) {
+      refuse("channel " + std::to_string(channel) + " is subscribed already");
+    } else {
+      c.subs[id] = channel;
+      count(channel, 1);
+      if (!t->message.empty()) send_message(c, id, 0, t->message);  // a topic of one message: it, at once
     }
-    c.subs[id] = channel;
-    count(channel, 1);
-    if (!t->message.empty()) send_message(c, id, 0, t->message);  // a topic of one message: it, at once
   }
+  if (refused > 0)
+    status(c, 2, "subscribe: " + first_refusal +
+                     (refused > 1 ? " (and " + std::to_string(refused - 1) + " more refused)" : std::string()));
 }
 
 void Protocol::unsubscribe(Client& c, const Value& msg) {
