@@ -315,8 +315,10 @@ void LockstepCore::drop(std::uint64_t id, const std::string& why) {
   } else {  // each of its leaves ends: one exit each at their supervisors
     const auto& leaves = it->second.leaves;
     lost_ += leaves.empty() ? 1 : leaves.size();
-    if (leaves.empty()) ++lost_names_[it->second.name];
-    for (const auto& l : leaves) ++lost_names_[l];
+    for (const auto& l : leaves.empty() ? std::vector<std::string>{it->second.name} : leaves) {
+      ++lost_names_[l];
+      lost_why_[l] = why;
+    }
     for (const auto& l : leaves.empty() ? std::vector<std::string>{it->second.name} : leaves) writer_gone(l);
   }
   gone_events_ += it->second.events;
@@ -368,7 +370,8 @@ void LockstepCore::wave(Nanos t) {
   waiting_ = static_cast<int>(sups.size()) + 1;
   std::weak_ptr<bool> alive = alive_;
   const Value c = counts();
-  const Value q = Value::map().set("t", t).set("events", c["events"]).set("lost", c["lost"]);
+  const Value q =
+      Value::map().set("t", t).set("events", c["events"]).set("lost", c["lost"]).set("why", c["why"]);
   for (const auto id : sups) {
     subs_[id].link->request("quiesce", q,
                             [this, alive, id, t](const std::string& error, bool replied, const Value& reply) {
@@ -424,10 +427,11 @@ void LockstepCore::after_tick() {
 }
 
 Value LockstepCore::counts() const {
-  Value events = Value::map(), lost = Value::map();
+  Value events = Value::map(), lost = Value::map(), why = Value::map();
   for (const auto& [name, n] : node_events_) events.set(name, n);
   for (const auto& [name, n] : lost_names_) lost.set(name, n);
-  return Value::map().set("events", events).set("lost", lost);
+  for (const auto& [name, w] : lost_why_) why.set(name, w);
+  return Value::map().set("events", events).set("lost", lost).set("why", why);
 }
 
 Value LockstepCore::status() const {

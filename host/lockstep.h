@@ -229,6 +229,7 @@ class LockstepCore {
   std::uint64_t gone_events_ = 0, lost_ = 0, gone_received_ = 0, settled_ = 0;
   std::map<std::string, std::uint64_t> node_events_;  // by node name: its events so far (told in `quiesce`)
   std::map<std::string, std::uint64_t> lost_names_;  // by leaf: times its node was lost (told in `quiesce`)
+  std::map<std::string, std::string> lost_why_;       // by leaf: why its node was last dropped (told in `quiesce`)
   std::vector<std::pair<std::uint64_t, std::uint64_t>> last_wave_;
   bool supervisor_lost_ = false;
   std::uint64_t barriers_ = 0, waves_ = 0;

@@ -62,7 +62,7 @@ end
 function Net:_quiesce(ch, id, q)
   local ls = self.ls
   if not self._arrived(q) then
-    self._end_lost(q.lost)
+    self._end_lost(q.lost, q.why)
     core.after(0.0005, function() self._quiesce(ch, id, q) end)
     return
   end
@@ -89,8 +89,8 @@ end
 -- so that its exit comes and the barrier waiting for it ends. A shared node is killed whole: the master drops
 -- a process. If that exit does not come either (its daemon gone) within opts.stop_grace (default 5 s) of the
 -- SIGKILL, it is taken as arrived, said in the log (leaf, host), and the node's end told as lost: the barrier
--- is bounded.
-function Net:_end_lost(lost)
+-- is bounded. `why` (by leaf): the master's reason, which its exit then carries before the signal that ended it.
+function Net:_end_lost(lost, why)
   local ls = self.ls
   for path, n in pairs(lost or {}) do
     if self.my_leaves[path] and (ls.exited[path] or 0) < n and (ls.ended[path] or 0) < n then
@@ -103,6 +103,7 @@ function Net:_end_lost(lost)
           for leaf in pairs(p.leaves or {}) do hit = hit or leaf.path == path end
           if hit and not p.exited and not p.ended then
             procs[#procs + 1] = p
+            p.kill_why = why and why[path] and sformat("dropped by the clock master: %s", tostring(why[path]))
             local d = p.daemon or p.dc
             d:kill(p.child, "KILL")
           end

@@ -466,7 +466,10 @@ function Net:_watch_daemon(host, d, dc)
   dc:on_exit(function(msg)
     local p = self.by_child[host .. ":" .. tostring(msg.child)]
     if not p then return end
-    p:exited_with(self, daemon_client.describe_exit(msg, host), msg)
+    local reason = daemon_client.describe_exit(msg, host)
+    -- killed by this supervisor for a known cause (a stall the clock master saw): the cause first
+    if p.kill_why then reason = sformat("%s; %s", p.kill_why, reason) end
+    p:exited_with(self, reason, msg)
     p:gone()
   end)
   dc:on_close(function(reason)

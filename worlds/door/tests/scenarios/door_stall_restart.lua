@@ -3,7 +3,7 @@
 -- worlds/door/tests/scenarios/door_crash_restart.lua). The clock master drops it when its advance is not answered within the
 -- tick timeout (here 3 s of wall time) and tells it (its clock channel closed); its supervisor, told by the
 -- barrier to wait for the exit of a lost leaf whose process lives on, kills it (SIGKILL), hears its exit, and
--- the policy restarts it within that tick. The door still opens. (Before: the supervisor waited for an exit
+-- the policy restarts it within that tick; its exit says the stall, then the kill. The door still opens. (Before: the supervisor waited for an exit
 -- that never came, and the run stalled.)
 local S = require "dca.scenario"
 local T = require "dca.testing"
@@ -26,9 +26,13 @@ S.step("VisualServoing stalls (SIGSTOP): dropped from the clock, killed by its s
   S.eq(sys:state(VS), "running")
   S.ok(sys:pid(VS) ~= at.pid, "a new process")
   S.eq(sys.outcome, nil, "the task runs on")
+  -- its end names the cause first, then the kill (before: only "killed by SIGKILL", dca's own kill)
   local killed
-  for _, l in ipairs(sys:transitions()) do killed = killed or l:find(VS .. ": exited: killed by SIGKILL", 1, true) end
-  S.ok(killed, "its old process was killed")
+  for _, l in ipairs(sys:transitions()) do
+    killed = killed or (l:find(VS .. ": exited: dropped by the clock master: did not answer the advance to ", 1, true)
+      and l:find("within 3000 ms); killed by SIGKILL", 1, true) and l)
+  end
+  S.ok(killed, "its old process was killed, and the cause said: " .. S.show(sys:transitions()))
 end)
 
 door.opens(S, sys)
