@@ -3,12 +3,15 @@
 #include <cxxabi.h>
 #include <dlfcn.h>
 #include <fcntl.h>
+#include <signal.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cerrno>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
@@ -359,6 +362,40 @@ const LoadedPackage* load_package(const std::string& name, const std::vector<std
   return load_package_file(name, *file, error);
 }
 
+// While a package's own code runs during its load (its static initialisers in dlopen, its add_types), a fatal
+// signal first writes a line naming the package to stderr, then takes its course (the handler before, or the
+// default: the process dies by that signal). Without it, `dca check` or a node died with no word of which package
+// did it. The line is made before; the handler only write(2)s it and puts the earlier handlers back.
+class LoadingGuard {
+ public:
+  LoadingGuard(const std::string& name, const std::string& file) {
+    const std::string line = "dca: package '" + name + "' (" + file +
+                             ") crashed while loading (in its static initialisers or add_types); it is not " +
+                             "loaded: fix or remove it\n";
+    std::snprintf(message_, sizeof message_, "%s", line.c_str());
+    struct sigaction sa {};
+    sa.sa_handler = &LoadingGuard::on_signal;
+    sigemptyset(&sa.sa_mask);
+    for (std::size_t i = 0; i < kSignals.size(); ++i) ::sigaction(kSignals[i], &sa, &before_[i]);
+  }
+  ~LoadingGuard() { restore(); }
+  LoadingGuard(const LoadingGuard&) = delete;
+  LoadingGuard& operator=(const LoadingGuard&) = delete;
+
+ private:
+  static constexpr std::array<int, 5> kSignals{SIGSEGV, SIGBUS, SIGILL, SIGFPE, SIGABRT};
+  static void restore() {
+    for (std::size_t i = 0; i < kSignals.size(); ++i) ::sigaction(kSignals[i], &before_[i], nullptr);
+  }
+  // The faulting instruction runs again on return and meets the earlier handler; abort() raises again itself.
+  static void on_signal(int) {
+    (void)!::write(STDERR_FILENO, message_, std::strlen(message_));
+    restore();
+  }
+  static inline char message_[1024];
+  static inline std::array<struct sigaction, kSignals.size()> before_{};
+};
+
 const LoadedPackage* load_package_file(const std::string& name, const std::string& file, std::string* error) {
   for (const auto& p : loaded())
     if (p->name == name) return p.get();
@@ -372,6 +409,7 @@ const LoadedPackage* load_package_file(const std::string& name, const std::strin
       return nullptr;
     }
     ::dlerror();
+    const LoadingGuard guard(name, file);
     handle = ::dlopen(copy.path().c_str(), RTLD_NOW | RTLD_LOCAL);
     if (handle == nullptr) {
       const char* dl = ::dlerror();
@@ -382,7 +420,11 @@ const LoadedPackage* load_package_file(const std::string& name, const std::strin
   pkg->name = name;
   pkg->file = file;
   const PackageEntry* e = entry_of(handle, name, file, error);
-  if (e == nullptr || !add_types(*e, name, file, *pkg, error)) {
+  const bool added = e != nullptr && [&] {
+    const LoadingGuard guard(name, file);
+    return add_types(*e, name, file, *pkg, error);
+  }();
+  if (!added) {
     ::dlclose(handle);  // nothing of it is left in the registry
     return nullptr;
   }

@@ -3,8 +3,11 @@
 // break it on purpose: PKG_MISSING_SYMBOL calls a function no one defines, PKG_THROW_IN_CONSTRUCTOR and
 // PKG_THROW_IN_INIT throw from the constructor or on_configure, PKG_POSITIVE_K takes k as positive (a bad
 // parameter: its node fails to start), PKG_BAD_PORT binds an input "SetPoint", a name its manifest lacks,
+// PKG_CRASH_IN_STATIC_INIT faults in a static initialiser,
 // PKG_STDERR writes k lines "line N of PKG_TYPE" to stderr at its first tick, then ends DONE(k). A rebuilt pkg_ok
 // (tests/packages/CMakeLists.txt, lib/variants/): PKG_DEFAULT_K another default k, PKG_OUT another name of Out.
+#include <sys/mman.h>
+
 #include <cstdio>
 #include <stdexcept>
 
@@ -87,6 +90,15 @@ PKG_TYPE::PKG_TYPE(const dca::ControllerContext& ctx)
 }
 
 DCA_REGISTER_CONTROLLER(PKG_TYPE);
+
+#ifdef PKG_CRASH_IN_STATIC_INIT
+// A static initialiser that faults for real (a store to a read-only page): dlopen runs it.
+const int kCrash = [] {
+  void* page = ::mmap(nullptr, 4096, PROT_READ, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+  if (page != MAP_FAILED) *static_cast<volatile int*>(page) = 1;
+  return 0;
+}();
+#endif
 
 }  // namespace
 

@@ -47,6 +47,17 @@ suite:case("a_type_from_a_package_the_file_does_not_use_is_unknown", function()
   os.remove(path)
 end)
 
+-- A package whose static initialiser faults kills the process that loads it (its code runs in dlopen), but not
+-- silently: the line before the signal names the package and its file. (Before: `dca check` died with no word.)
+suite:case("a_package_that_crashes_while_loading_is_named_before_the_process_dies", function()
+  local path = system("use pkg_crash;", "  instantiated_processes { a instof PkgCrash(\"h1\"); }\n  internal_event_actions { a }")
+  local out, code = T.sh("DCA_CONTROLLER_PATH=" .. dir .. "/crash " .. T.exe .. " check " .. path)
+  T.contains(out, "dca: package 'pkg_crash' (" .. dir .. "/crash/pkg_crash.dca.so) crashed while loading " ..
+             "(in its static initialisers or add_types)", "dca check")
+  T.ok(code ~= 0 and code ~= 1, "it died by the signal, exit code " .. tostring(code))
+  os.remove(path)
+end)
+
 suite:case("a_package_not_found_is_an_error_at_its_use_naming_every_path_searched", function()
   local path = system("use pkg_ok,\n    nosuch;", "  instantiated_processes { a instof PkgScale(\"h1\"); }\n  internal_event_actions { a }")
   dca("check " .. path, 1, path .. ":2:5: use: package 'nosuch' not found (searched: " .. dir .. "/nosuch.dca.so, ",
