@@ -8,7 +8,7 @@
 --   --   value = <done value>, fault = true|nil, reasons = { ... } (aborted/error) }
 --   -- opts: { sets = { { a = "owner[label]", b = "owner[label]" | "operand", why = ... } ... } (connection sets
 --   --   that must not be active together; an operand's name: while it runs), monitors = { m ... }
---   --   (dca.verify.props), max_states = N }
+--   --   (dca.verify.props), max_states = N, together = { { key, names = { operand | "owner[label]" } } } }
 --
 -- Reductions, both sound for this algebra: a state is the set of running leaf occurrences (not their start
 -- order, which only orders abort commands) with the values collected so far, so interleavings of independent
@@ -18,6 +18,7 @@
 --   g.done[value] = trace, g.aborted[operand] = { trace =, ev = } (the event that ended the group), g.stuck =
 --   { { trace, waiting = { names } } }, g.started[leaf id] = true, g.conflicts = { { pair, trace } },
 --   g.first_running[operand or "owner[label]"] = a shortest trace to a state where it runs,
+--   g.together[key] = a shortest trace to a state where all of opts.together's { key, names } are active,
 --   g.violations[monitor index] = trace, g.states, g.transitions, g.cycle (a state that can repeat: :;)
 --   A trace is a list of steps { name =, ev = } from the start.
 local algebra = require "dca.algebra"
@@ -152,6 +153,16 @@ local function findings(g, ctx, i, snap, stuck)
       if act[p.a] and act[p.b] and not g.conflict_seen[p] then
         g.conflict_seen[p] = true
         g.conflicts[#g.conflicts + 1] = { pair = p, trace = trace_to(ctx.states, i) }
+      end
+    end
+  end
+  if ctx.together[1] then  -- names wanted active together (dca.verify.writers): the first state with all
+    local act = active_sets(c, snap.running)
+    for _, t in ipairs(ctx.together) do
+      if not g.together[t.key] then
+        local all = true
+        for _, n in ipairs(t.names) do all = all and act[n] == true end
+        if all then g.together[t.key] = trace_to(ctx.states, i) end
       end
     end
   end
@@ -409,6 +420,9 @@ local function watched(ctx, expr, opts)
     visible[p.a:match("^[^%[]+")], visible[p.b:match("^[^%[]+")] = true, true
   end
   for _, n in ipairs(opts.visible or {}) do visible[n] = true end
+  for _, t in ipairs(ctx.together) do  -- the writers' leaves and sets' owners: their order is seen
+    for _, n in ipairs(t.names) do visible[n:match("^[^%[]+")] = true end
+  end
   local vis_under, quiet = {}, {}
   for id = c.n, 1, -1 do  -- preorder ids: a node's subtree is id .. c.last[id]
     local v = c.name[id] and visible[c.name[id]] or false
@@ -433,7 +447,8 @@ function M.group(expr, operands, opts)
   local rec = recorder()
   local run = algebra.new(expr, rec.commands)
   local ctx = { c = expr.c, operands = operands, sets = opts.sets or {}, monitors = opts.monitors or {},
-                seen = {}, states = {}, efrom = {}, eto = {}, timed = {}, run = run, rec = rec, stuck_ev = {} }
+                seen = {}, states = {}, efrom = {}, eto = {}, timed = {}, run = run, rec = rec, stuck_ev = {},
+                together = opts.together or {} }
   ctx.monitors_n = #ctx.monitors
   ctx.reduce = opts.reduce ~= false and watched(ctx, expr, opts) ~= nil
   for id = 1, expr.c.n do
@@ -444,7 +459,7 @@ function M.group(expr, operands, opts)
     for _, ev in ipairs(op.events) do if ev.kind == "stuck" then ctx.stuck_ev[name] = ev end end
   end
   local g = { done = {}, aborted = {}, stuck = {}, stuck_seen = {}, started = {}, first_running = {}, conflicts = {},
-              conflict_seen = {}, violations = {}, states = 0, transitions = 0, expr = expr, reduced = ctx.reduce }
+              conflict_seen = {}, violations = {}, together = {}, states = 0, transitions = 0, expr = expr, reduced = ctx.reduce }
   local m0 = {}
   for i, m in ipairs(ctx.monitors) do m0[i] = m.initial or "0" end
   run:start()

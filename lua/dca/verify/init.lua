@@ -22,6 +22,7 @@
 local explore = require "dca.verify.explore"
 local props = require "dca.verify.props"
 local model = require "dca.lang.model"
+local writers = require "dca.verify.writers"
 
 local M = {}
 
@@ -284,15 +285,16 @@ end
 --- A partial exploration (stopped at max_states, here or in a group below) proves only what it found: a
 --- violation it reached, an end it reached; every other verdict is unknown (item.ok = nil, item.unknown).
 --- reduce = false: the full exploration (see dca.verify.explore).
-function M.expression(expr, operands, list, sets, max_states, reduce)
+function M.expression(expr, operands, list, sets, max_states, reduce, together)
   local monitors, mprops = {}, {}
   for _, p in ipairs(list or {}) do
     local m = props.monitor(p, operands)
     if m then monitors[#monitors + 1] = m; mprops[#mprops + 1] = p end
   end
   local g = explore.group(expr, operands, { sets = sets, monitors = monitors, max_states = max_states,
-                                            reduce = reduce })
+                                            reduce = reduce, together = together })
   local r = summarize(g, operands)
+  r.together = g.together
   r.expr, r.props = expr, {}
   for _, op in pairs(operands) do if op.group and op.group.partial then r.partial = true end end
   local partial = r.partial
@@ -338,7 +340,7 @@ local function group(ctx, node)
   for _, e in ipairs(perrs) do ctx.errors[#ctx.errors + 1] = e end
   local sets = set_conflicts(node, ctx.conns)
   for _, p in ipairs(cross_conflicts(node, ctx.conns)) do sets[#sets + 1] = p end
-  local r = M.expression(def.actions.expr, operands, list, sets, ctx.max_states, ctx.reduce)
+  local r = M.expression(def.actions.expr, operands, list, sets, ctx.max_states, ctx.reduce, ctx.together[def.name])
   local kept = {}
   for _, c in ipairs(r.conflicts) do
     c.inner = c.pair.chain and chain_traces(ctx, c.pair)
@@ -352,6 +354,33 @@ local function group(ctx, node)
   return r
 end
 
+-- The inputs declared `exclusive INST.PORT` in the verify sections of the tree's groups: { { node, prop } };
+-- a port that is no input of INST is an error at its file:line:col (ctx.errors).
+local function exclusive_decls(tree, ctx)
+  local out, seen = {}, {}
+  model.walk(tree, function(node)
+    if node.kind ~= "group" then return end
+    for _, p in ipairs((props.of_process(node.process, { [node.name] = true }))) do
+      local child = p.kind == "one_writer" and node.children[p.a.text]
+      if child then
+        local port = p.port.text
+        local leaf, lport = model.resolve(node, p.a.text, port)
+        local ok = leaf ~= nil and not leaf.manifest  -- a type the registry does not know: nor its ports
+        for _, q in ipairs(leaf and leaf.manifest and leaf.manifest.inputs or {}) do ok = ok or q.name == lport end
+        if ok then out[#out + 1] = { node = node, prop = p }
+        elseif not seen[p.pos] then
+          seen[p.pos] = true
+          local line, col = 0, 0
+          if ctx.ast then line, col = ctx.ast.index:at(p.port.pos) end
+          ctx.errors[#ctx.errors + 1] = { line = line, col = col, path = node.path,
+            msg = sformat("'%s' has no input '%s' (exclusive names an input of an instance)", p.a.text, port) }
+        end
+      end
+    end
+  end)
+  return out
+end
+
 --- Verifies the tree of a checked system (dca.load.file's second result). opts: { faults = true|false,
 --- ast = the AST (for property errors' positions), max_states = N per group }. Returns the result (see the
 --- top), or nil and a list of errors { line, col, path, msg } (a property that does not parse).
@@ -361,8 +390,15 @@ function M.system(tree, opts)
   local conns = model.connections(tree) or {}
   local ctx = { memo = {}, groups = {}, errors = {}, states = 0, transitions = 0, conns = conns,
                 faults = opts.faults ~= false, ast = opts.ast, max_states = opts.max_states, reduce = opts.reduce }
+  local plan = writers.plan(tree, conns, exclusive_decls(tree, ctx))
+  ctx.together = writers.needs(plan)
   local root = group(ctx, tree)
   if #ctx.errors > 0 then return nil, ctx.errors end
+  local found = writers.findings(plan, ctx.memo)
+  for _, r in ipairs(ctx.groups) do
+    local f = found[r] or {}
+    r.writers, r.dead_paths, r.claims, r.writers_unknown = f.writers or {}, f.dead_paths or {}, f.claims or {}, f.unknown or {}
+  end
   local partial = 0
   for _, r in ipairs(ctx.groups) do if r.truncated then partial = partial + 1 end end
   return { groups = ctx.groups, root = root, states = ctx.states, transitions = ctx.transitions,

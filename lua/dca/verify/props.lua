@@ -10,6 +10,7 @@
 --   main can end done;                                 some run ends DONE (also: aborted; or just `can end`)
 --   main cannot end aborted;                           no run ends ABORTED (`cannot end`: none ends at all)
 --   never (approach and presshandle running);          never both (or all the named) at once
+--   exclusive motionctrl.In;                            one writer at a time on that input (dca.verify.writers)
 --
 --   local props = require "dca.verify.props"
 --   local list, errors = props.parse(section, file_index_fn)
@@ -31,7 +32,7 @@ local function tokens(text, base)
     if ns then
       out[#out + 1] = { kind = "name", text = ssub(text, ns, ne), pos = base + ns - 1 }
       i = ne + 1
-    elseif c == "(" or c == ")" or c == ";" then
+    elseif c == "(" or c == ")" or c == ";" or c == "." then
       out[#out + 1] = { kind = c, text = c, pos = base + i - 1 }
       i = i + 1
     else
@@ -43,7 +44,7 @@ end
 
 local PATTERNS = [[the properties are: A never starts before B is done; A always ends before B starts; ]] ..
   [[A runs while any step runs; A runs while B runs; G can end [done|aborted]; G cannot end [done|aborted]; ]] ..
-  [[never (A and B running)]]
+  [[never (A and B running); exclusive A.PORT]]
 
 -- A reader over one property's tokens with labelled failures.
 local function reader(toks, first, last, fail_at)
@@ -131,6 +132,11 @@ local function parse_one(toks, first, last, fail_at)
   if t.kind == "name" and t.text == "never" then
     r.i = r.i + 1
     p = parse_never(r, fail_at, t.pos)
+  elseif t.kind == "name" and t.text == "exclusive" and r.peek(2) and r.peek(2).kind == "." then
+    r.i = r.i + 1
+    local a = r.name("an instance name after 'exclusive'")
+    r.i = r.i + 1
+    p = { kind = "one_writer", a = a, port = r.name("an input port after '" .. a.text .. ".'") }
   elseif t.kind == "name" then
     r.i = r.i + 1
     p = parse_named(r, fail_at, t)
@@ -141,7 +147,7 @@ local function parse_one(toks, first, last, fail_at)
   p.pos = t.pos
   local words = {}
   for k = first, last do words[#words + 1] = toks[k].text end
-  p.text = (concat(words, " "):gsub("%( ", "("):gsub(" %)", ")"))
+  p.text = (concat(words, " "):gsub("%( ", "("):gsub(" %)", ")"):gsub(" %. ", "."))
   return p
 end
 

@@ -110,6 +110,33 @@ local function outcomes(r, out, traces)
   end
 end
 
+-- The lines of a trace of group r, then the traces inside the groups below it (c.inner), in that order.
+local function traced(r, c, out)
+  for _, l in ipairs(M.trace_lines(r, c.trace)) do out[#out + 1] = l end
+  for _, inner in ipairs(c.inner or {}) do
+    out[#out + 1] = sformat("      then inside %s (process %s):", inner.path, inner.r.type)
+    for _, l in ipairs(M.trace_lines(inner.r, inner.trace)) do out[#out + 1] = l end
+  end
+end
+
+-- One writer per input (dca.verify.writers): two writers in one state, dead command paths, inputs that two
+-- groups claim, and what a partial exploration leaves unknown.
+local function writer_findings(r, out)
+  for _, w in ipairs(r.writers or {}) do
+    out[#out + 1] = sformat("  FINDING two writers on %s: %s and %s can write it in the same state", w.input, w.a, w.b)
+    traced(r, w, out)
+  end
+  for _, d in ipairs(r.dead_paths or {}) do
+    out[#out + 1] = d.set and sformat("  FINDING dead command path: %s (set %s) never reaches %s: never active "
+      .. "while its drive runs", d.path, d.set, d.input)
+      or sformat("  FINDING dead actuator: %s never runs, so %s never reaches %s", d.actuator, d.path, d.input)
+  end
+  for _, c in ipairs(r.claims or {}) do
+    out[#out + 1] = sformat("  FINDING %s is claimed by two groups: %s", c.input, c.text)
+  end
+  for _, u in ipairs(r.writers_unknown or {}) do out[#out + 1] = "  unknown   " .. u end
+end
+
 -- The findings of group r: stuck states, dead operands, conflicting connection sets, properties.
 local function findings(r, out, traces)
   for k, s in ipairs(r.stuck) do
@@ -137,12 +164,9 @@ local function findings(r, out, traces)
   end
   for _, c in ipairs(r.conflicts) do
     out[#out + 1] = sformat("  FINDING connection sets %s and %s can be active together: %s", c.a, c.b, c.why)
-    for _, l in ipairs(M.trace_lines(r, c.trace)) do out[#out + 1] = l end
-    for _, inner in ipairs(c.inner or {}) do
-      out[#out + 1] = sformat("      then inside %s (process %s):", inner.path, inner.r.type)
-      for _, l in ipairs(M.trace_lines(inner.r, inner.trace)) do out[#out + 1] = l end
-    end
+    traced(r, c, out)
   end
+  writer_findings(r, out)
   for _, p in ipairs(r.props) do
     out[#out + 1] = (p.unknown and "  unknown   " or p.ok and "  holds     " or "  VIOLATED  ") .. p.prop.text ..
       (p.unknown and " (not proven: the exploration is partial)" or
@@ -182,7 +206,8 @@ function M.text(result, opts)
   end
   local nf, nv, nu, np = 0, 0, 0, 0
   for _, r in ipairs(result.groups) do
-    nf = nf + #r.stuck + #r.conflicts
+    nf = nf + #r.stuck + #r.conflicts + #(r.writers or {}) + #(r.dead_paths or {}) + #(r.claims or {})
+    nu = nu + #(r.writers_unknown or {})
     if not r.partial then nf = nf + #r.dead + ((r.never_ends and not r.until_stopped) and 1 or 0) end
     if r.partial then np = np + 1 end
     for _, p in ipairs(r.props) do

@@ -17,7 +17,8 @@ local M = {}
 
 local ipairs, sformat, concat = ipairs, string.format, table.concat
 
--- Every counter-example, in report order: violated properties, then stuck states and sets active together.
+-- Every counter-example, in report order: violated properties, then stuck states, sets active together and
+-- two writers of one input in one state.
 -- --> { { r, cex = { trace, kind, text, prop | waiting | sets } } ... }
 local function all(result)
   local out = {}
@@ -43,6 +44,10 @@ local function all(result)
         (r.path .. "." .. p.b:match("^[^%[]+"))
       out[#out + 1] = { r = r, cex = { trace = c.trace, inner = c.inner, kind = "conflict", owners = owners,
                                        text = c.why } }
+    end
+    for _, w in ipairs(r.writers or {}) do
+      out[#out + 1] = { r = r, cex = { trace = w.trace, inner = w.inner, kind = "conflict", owners = w.running,
+                                       text = w.why } }
     end
   end
   return out

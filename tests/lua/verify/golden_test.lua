@@ -31,7 +31,8 @@ local function golden(case, path, name, out_path, traces)
 end
 
 local kinds = { "stuck", "never_ends", "dead", "conflict", "cross_conflict", "cross_conflict_deep", "props", "loop",
-                "timers" }
+                "timers", "writers_par", "writers_groups", "writers_label", "writers_restart", "writers_dead",
+                "writers_claims" }
 for _, k in ipairs(kinds) do
   golden(k, here .. "/golden/" .. k .. ".dca", k .. ".dca", here .. "/golden/" .. k .. ".out", true)
 end
