@@ -22,6 +22,7 @@
 --   g.violations[monitor index] = trace, g.states, g.transitions, g.cycle (a state that can repeat: :;)
 --   A trace is a list of steps { name =, ev = } from the start.
 local algebra = require "dca.algebra"
+local zone = require "dca.verify.zone"
 
 local M = {}
 
@@ -171,43 +172,20 @@ local function findings(g, ctx, i, snap, stuck)
   end
 end
 
--- Timers (a leaf whose type ends `after` a number of seconds, known: operands[name].after): those started in
--- one step form a cohort, and in a cohort the shorter ends first (a longer one's own end waits until no
--- shorter one of its cohort runs). Timers started in different steps may end in any order: the explorer has
--- no clock. --> { [leaf id] = cohort's smallest member }, its text for the state's key (nil, "" without timers)
-local function cohorts(ctx, prev, prev_running, running)
+-- Timers (a leaf whose type ends `after` a number of seconds, known: operands[name].after): the zone of their
+-- clocks (dca.verify.zone) after the step from prev_running to running by leaf l's event ev. --> the zone,
+-- its text for the state's key (nil, "" without timers)
+local function timer_zone(ctx, prev, prev_running, running, l, ev)
   if not ctx.timed_any then return nil, "" end
-  local was = {}
-  for _, l in ipairs(prev_running or {}) do was[l] = true end
-  local groups, order = {}, {}
-  for _, l in ipairs(running) do
-    if ctx.timed[l] then
-      local rep = (prev and was[l] and prev[l]) or "new"
-      if not groups[rep] then groups[rep] = {} order[#order + 1] = rep end
-      local m = groups[rep]
-      m[#m + 1] = l
-    end
-  end
-  local cohort, parts = {}, {}
-  for _, rep in ipairs(order) do
-    local members = groups[rep]
-    sort(members)
-    for _, l in ipairs(members) do cohort[l] = members[1] end
-    parts[#parts + 1] = concat(members, ",")
-  end
-  sort(parts)
-  return cohort, concat(parts, ";")
+  local own = l ~= nil and ctx.timed[l] ~= nil and not ev.fault and ev.kind ~= "stuck"
+  local z = zone.step(prev, ctx.timed, l, own, prev_running or {}, running)
+  return z, zone.key(z)
 end
 
--- Whether timer l may end by itself now: no shorter timer of its cohort is running.
-local function timer_may_end(ctx, cohort, running, l)
-  local d = ctx.timed[l]
-  if not d or not cohort then return true end
-  for _, m in ipairs(running) do
-    local dm = ctx.timed[m]
-    if m ~= l and dm and dm < d and cohort[m] == cohort[l] then return false end
-  end
-  return true
+-- Whether timer l may end by itself now: its clock can reach its seconds before another timer must end.
+local function timer_may_end(ctx, tz, _, l)
+  if not ctx.timed[l] or not tz then return true end
+  return zone.may_end(tz, ctx.timed, l)
 end
 
 -- The key's part for the group occurrences that got stuck (ids, sorted), "" for none.
@@ -220,7 +198,7 @@ local function stuck_key(stuck)
 end
 
 -- Reaching a snapshot: an end (recorded), a known state (skipped), or a new state (queued).
-local function reach(g, ctx, from, step, snap, mstate, cohort, ckey, stuck)
+local function reach(g, ctx, from, step, snap, mstate, tz, ckey, stuck)
   if snap.st == "done" then
     local v = value_text(snap.value)
     if not g.done[v] then g.done[v] = trace_to(ctx.states, from, step) end
@@ -242,7 +220,7 @@ local function reach(g, ctx, from, step, snap, mstate, cohort, ckey, stuck)
     ctx.efrom[n], ctx.eto[n] = from, i
   end
   if known then return end
-  states[i] = { snap = snap, from = from, step = step, mon = mstate, cohort = cohort, stuck = stuck }
+  states[i] = { snap = snap, from = from, step = step, mon = mstate, tz = tz, stuck = stuck }
   ctx.seen[key] = i
   for _, l in ipairs(snap.running) do
     g.started[l] = true
@@ -282,7 +260,7 @@ local PAR, SEQ, DIS, COND, REC = 1, 2, 3, 4, 5  -- dca.algebra's operator codes 
 --- The states explored per group when opts.max_states is not given.
 M.MAX_STATES = 500000
 
--- One event `ev` of leaf occurrence l in state st, not yet reached: { snap, step, ms, viol, cohort, ckey,
+-- One event `ev` of leaf occurrence l in state st, not yet reached: { snap, step, ms, viol, tz, ckey,
 -- stuck, cmds }. A group operand's "stuck" event changes nothing in the engine: the occurrence still runs,
 -- and from now on it can only end by a fault (st.stuck marks it).
 local function fire(g, ctx, st, l, ev)
@@ -308,8 +286,8 @@ local function fire(g, ctx, st, l, ev)
   if ctx.monitors_n > 0 and ev.kind ~= "stuck" then
     ms, viol = monitor_step(ctx.monitors, st.mon, step, rec, running_names(c, after.running))
   end
-  local cohort, ckey = cohorts(ctx, st.cohort, st.snap.running, after.running)
-  return { snap = after, step = step, ms = ms, viol = viol, cohort = cohort, ckey = ckey, stuck = stuck,
+  local tz, ckey = timer_zone(ctx, st.tz, st.snap.running, after.running, l, ev)
+  return { snap = after, step = step, ms = ms, viol = viol, tz = tz, ckey = ckey, stuck = stuck,
            cmds = rec.cmds }
 end
 
@@ -317,7 +295,7 @@ local function commit(g, ctx, i, s)
   for _, k in ipairs(s.viol or {}) do
     if not g.violations[k] then g.violations[k] = trace_to(ctx.states, i, s.step) end
   end
-  reach(g, ctx, i, s.step, s.snap, s.ms, s.cohort, s.ckey, s.stuck)
+  reach(g, ctx, i, s.step, s.snap, s.ms, s.tz, s.ckey, s.stuck)
 end
 
 -- Walks up from leaf l: f(p, x) for each ancestor p (x its child on the way) until f says true or false;
@@ -346,7 +324,7 @@ local function local_done(c, snap, l)
 end
 
 -- Whether event ev of leaf l can happen in state st: a stuck group only by a fault; a timer by a fault, or
--- by itself once no shorter timer of its cohort runs.
+-- by itself once its clock can reach its seconds (dca.verify.zone).
 local function enabled(ctx, st, l, ev, timer_ok)
   if st.stuck and st.stuck[l] then return ev.fault end
   return ev.fault or timer_ok
@@ -354,19 +332,13 @@ end
 
 -- The reduction (docs/verify.md "Reduction"): the successors by the moving events (DONE, a group getting
 -- stuck) of one leaf whose moves are local and invisible, or nil when no leaf qualifies (all are explored).
--- (Not while a timer waits for a shorter one of its cohort: the shorter one's DONE, while still local, is what
--- lets the longer one end, and picking a sibling of it first could make that DONE end a '#' instead.)
+-- (A quiet leaf is no timer and starts or aborts none: its DONE leaves the timers' clocks as they are.)
 local function ample(g, ctx, st)
   local c, snap = ctx.c, st.snap
-  if ctx.timed_any then
-    for _, l in ipairs(snap.running) do
-      if ctx.timed[l] and not timer_may_end(ctx, st.cohort, snap.running, l) then return nil end
-    end
-  end
   for _, l in ipairs(snap.running) do
     local name = c.name[l]
     if ctx.quiet[l] and not (st.stuck and st.stuck[l]) and local_done(c, snap, l)
-       and timer_may_end(ctx, st.cohort, snap.running, l) then
+       and timer_may_end(ctx, st.tz, snap.running, l) then
       local out = {}
       for _, ev in ipairs(ctx.operands[name].events) do
         if ev.kind == "done" or ev.kind == "stuck" then out[#out + 1] = fire(g, ctx, st, l, ev) end
@@ -384,7 +356,7 @@ local function expand(g, ctx, i)
   local snap = st.snap
   local amp = ctx.reduce and ample(g, ctx, st)
   for _, l in ipairs(snap.running) do
-    local timer_ok = timer_may_end(ctx, st.cohort, snap.running, l)
+    local timer_ok = timer_may_end(ctx, st.tz, snap.running, l)
     for _, ev in ipairs(ctx.operands[ctx.c.name[l]].events) do
       local moving = ev.kind == "done" or ev.kind == "stuck"
       if enabled(ctx, st, l, ev, timer_ok) and not (amp and moving) then commit(g, ctx, i, fire(g, ctx, st, l, ev)) end
@@ -407,9 +379,9 @@ local function touches(c, l, vis_under)
   end) or false
 end
 
--- Which leaves the reduction may pick (ctx.quiet[id]): not watched by a monitor or a connection-set pair, never
--- starting or aborting a watched one, and not under a ':;' (its events can repeat: always explored, so that
--- no cycle is left unexplored). A DONE of a quiet leaf changes nothing a property sees, in any state.
+-- Which leaves the reduction may pick (ctx.quiet[id]): not watched by a monitor or a connection-set pair and
+-- no timer (a timer's clock sees when the others start and end), never starting or aborting such a one, and
+-- not under a ':;' (its events can repeat: always explored, so that no cycle is left unexplored). A DONE of a quiet leaf changes nothing a property sees, in any state.
 local function watched(ctx, expr, opts)
   local visible, c = {}, ctx.c
   for _, m in ipairs(ctx.monitors) do
@@ -425,7 +397,7 @@ local function watched(ctx, expr, opts)
   end
   local vis_under, quiet = {}, {}
   for id = c.n, 1, -1 do  -- preorder ids: a node's subtree is id .. c.last[id]
-    local v = c.name[id] and visible[c.name[id]] or false
+    local v = c.name[id] and (visible[c.name[id]] or ctx.timed[id] ~= nil) or false
     for _, k in ipairs(c.kids[id] or {}) do v = v or vis_under[k] end
     vis_under[id] = v
   end
@@ -450,11 +422,11 @@ function M.group(expr, operands, opts)
                 seen = {}, states = {}, efrom = {}, eto = {}, timed = {}, run = run, rec = rec, stuck_ev = {},
                 together = opts.together or {} }
   ctx.monitors_n = #ctx.monitors
-  ctx.reduce = opts.reduce ~= false and watched(ctx, expr, opts) ~= nil
   for id = 1, expr.c.n do
     local op = expr.c.name[id] and operands[expr.c.name[id]]
     if op and op.after then ctx.timed[id], ctx.timed_any = op.after, true end
   end
+  ctx.reduce = opts.reduce ~= false and watched(ctx, expr, opts) ~= nil
   for name, op in pairs(operands) do
     for _, ev in ipairs(op.events) do if ev.kind == "stuck" then ctx.stuck_ev[name] = ev end end
   end
@@ -467,7 +439,7 @@ function M.group(expr, operands, opts)
   local mstate, bad = monitor_step(ctx.monitors, concat(m0), first, rec, nil)
   for _, k in ipairs(bad or {}) do g.violations[k] = g.violations[k] or {} end
   local snap0 = run:snapshot()
-  reach(g, ctx, nil, nil, snap0, mstate, cohorts(ctx, nil, nil, snap0.running))
+  reach(g, ctx, nil, nil, snap0, mstate, timer_zone(ctx, nil, nil, snap0.running))
   local max = opts.max_states or M.MAX_STATES
   local states, i = ctx.states, 1
   while states[i] do
