@@ -146,6 +146,7 @@ struct Node::Impl {
   Channel::Ptr daemon;
   Channel::Ptr master;  // the clock master (simulated time)
   std::function<bool(const Channel::Ptr&, const Message&)> hook;
+  std::function<void(const Message&)> before_hook;  // before_request
   Listener::Ptr control;            // a shared node's own control address (add, remove, advance, exit)
   std::shared_ptr<std::set<Channel::Ptr>> channels = std::make_shared<std::set<Channel::Ptr>>();  // accepted there
   std::string ip;  // the daemon's IP: where this node listens
@@ -225,6 +226,7 @@ std::size_t Node::leaves() const { return impl_->leaves.size(); }
 void Node::on_request(std::function<bool(const std::shared_ptr<Channel>&, const wire::Message&)> hook) {
   impl_->hook = std::move(hook);
 }
+void Node::before_request(std::function<void(const wire::Message&)> hook) { impl_->before_hook = std::move(hook); }
 int Node::exit_code() const { return impl_->code; }
 bool Node::failure_told() const { return impl_->failure_told; }
 
@@ -794,6 +796,7 @@ void Node::Impl::set_param(Leaf& leaf, const Channel::Ptr& ch, const Message& m)
 // leaf only in a shared node), then the hook (the world's clock master requests).
 void Node::Impl::handle(Leaf& leaf, const Channel::Ptr& ch, const Message& m) {
   if (done || !find(leaf.name)) return void(ch->reply_error(m, "node " + leaf.name + " is stopping"));
+  if (before_hook) before_hook(m);
   if (handle_control(leaf, ch, m)) return;
   if (m.type == "exit" && opts.shared) {
     ch->reply(m);

@@ -177,6 +177,9 @@ class Node {
   /// "unknown request"; it returns true when it handled (answered or will answer) it. The world process uses
   /// this for its clock master requests. Set before start().
   void on_request(std::function<bool(const std::shared_ptr<Channel>&, const wire::Message&)> hook);
+  /// Called with each request on a leaf's control channel before the node handles it (the world writes its
+  /// replayed samples due before a set changes: sim/device_node.h).
+  void before_request(std::function<void(const wire::Message&)> hook);
 
   /// Lock-step, for the clock master's owner (the world, in this process): its links whose counts moved
   /// ({to = {key = sent}}), the expected samples let into its inputs ("" or why not), its outputs' digests

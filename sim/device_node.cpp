@@ -29,6 +29,7 @@ class DeviceComponent final : public Component {
   DeviceComponent(std::string name, const DeviceWorld& w) : name_(std::move(name)) {
     for (const auto& s : w.sensors()) outputs.push_back(&ports_.add_output(vector_port(s.name, s.size, s.units)));
     for (const auto& s : w.commands()) inputs.push_back(&ports_.add_input(vector_port(s.name, s.size, s.units), 16));
+    for (const auto& p : w.recorded_ports()) replayed.push_back(&ports_.add_output(vector_port("replay:" + p.path, p.size)));
   }
   const std::string& name() const override { return name_; }
   PortSet& ports() override { return ports_; }
@@ -37,6 +38,7 @@ class DeviceComponent final : public Component {
   void halt() override {}
   std::vector<Output*> outputs;  // DeviceWorld::sensors() order
   std::vector<Input*> inputs;    // DeviceWorld::commands() order
+  std::vector<Output*> replayed; // DeviceWorld::recorded_ports() order: "replay:PATH"
 
  private:
   std::string name_;
@@ -108,6 +110,8 @@ struct DeviceNode::Impl {
   long record_every = 1, steps = 0;
   std::map<std::string, std::uint64_t> refused;  // a command input's samples refused from a second writer
   std::vector<std::string> second_writers;       // each (input, writer, holder) once: what was said
+  std::vector<std::size_t> replay_next;          // each recorded port's next sample to write
+  std::uint64_t replay_written = 0;
 
   // The recording of `path` ("" none): the world's own format, else the generic MCAP.
   static std::unique_ptr<Recorder> make_recorder(const std::string& path, DeviceWorld& w, bool* own) {
@@ -286,12 +290,28 @@ struct DeviceNode::Impl {
       component->outputs[i]->write(Eigen::Map<const Eigen::VectorXd>(buffer.data(), sensors[i].size));
     }
     if (outputs_channel != 0 && taps.recorder()) record_outputs();
+    write_replayed(clock.now() - 1);
+  }
+
+  // The recorded ports' samples of ticks up to `until` not written yet, in order (docs/recording.md,
+  // "Replaying ports"): at a publish at t those of the ticks before t, visible to readers from t on as the live
+  // writer's would be; before a set's change at t those of t too, which the live writer wrote before it.
+  void write_replayed(std::int64_t until) {
+    const auto& ports = world.recorded_ports();
+    if (ports.empty() || !component) return;
+    replay_next.resize(ports.size(), 0);
+    for (std::size_t i = 0; i < ports.size(); ++i) {
+      const RecordedPort& p = ports[i];
+      for (std::size_t& k = replay_next[i]; k < p.times.size() && p.times[k] <= until; ++k, ++replay_written)
+        component->replayed[i]->write(Eigen::Map<const Eigen::VectorXd>(p.values.data() + k * p.size, p.size));
+    }
   }
 
   Value status() const {
     Value v = clock.status();
     ValueSink sink(v);
     world.status(sink);
+    if (!world.recorded_ports().empty()) sink.integer("replay_samples_written", static_cast<std::int64_t>(replay_written));
     if (!refused.empty()) {
       Value m = Value::map();
       for (const auto& [input, n] : refused) m.set(input, static_cast<std::int64_t>(n));
@@ -345,6 +365,10 @@ std::unique_ptr<Node> DeviceNode::make_node(NodeOptions options) {
         return std::unique_ptr<Component>(std::move(c));
       });
   node->on_request([this](const std::shared_ptr<Channel>& ch, const Message& m) { return impl_->handle(ch, m); });
+  // a set's change at t: the replayed samples of t first, written before it as the live writer's were
+  node->before_request([this](const Message& m) {
+    if (m.type == "activate" || m.type == "deactivate") impl_->write_replayed(impl_->clock.now());
+  });
   impl_->node = node.get();
   return node;
 }

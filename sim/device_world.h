@@ -22,6 +22,15 @@ struct DeviceSignal {
   std::string units;
 };
 
+/// A controller output as a recording holds it (docs/recording.md, "Replaying ports"): every sample's tick and
+/// values, for a world that writes them again in place of the live writer (the replay world).
+struct RecordedPort {
+  std::string path;                  ///< "main.door.hit.Out": the output's path, as in `dca graph`
+  std::uint32_t size = 1;            ///< doubles per sample
+  std::vector<std::int64_t> times;   ///< each sample's tick (ns), ascending
+  std::vector<double> values;        ///< the samples, flat
+};
+
 /// Where a world writes its `status {}` fields (the node turns them into the reply's map).
 class StatusSink {
  public:
@@ -66,6 +75,12 @@ class DeviceWorld {
   /// recordings, as foxglove.FrameTransforms. None by default.
   virtual const std::vector<frames::Frame>& frames() const {
     static const std::vector<frames::Frame> none;
+    return none;
+  }
+  /// Recorded controller outputs the world can write again, each as the output "replay:PATH" of the world
+  /// component, sample by sample at its recorded tick (sim/device_node.h). None by default.
+  virtual const std::vector<RecordedPort>& recorded_ports() const {
+    static const std::vector<RecordedPort> none;
     return none;
   }
   /// The robot's URDF text for viewers (/robot_description), "" when there is none.

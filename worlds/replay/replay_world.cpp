@@ -3,6 +3,8 @@
 #include <cmath>
 #include <fstream>
 #include <limits>
+#include <map>
+#include <set>
 #include <stdexcept>
 
 #include "host/codec/json.h"
@@ -63,6 +65,63 @@ bool read_outputs(const mcap::Contents::Message& m, std::size_t width, ReplayRec
   return true;
 }
 
+// The output path a port channel's topic names ("/main/door/hit/Out" gives "main.door.hit.Out"); "" for the
+// world's own channels and the run's lines.
+std::string port_of(const std::string& topic) {
+  if (topic.size() < 2 || topic[0] != '/') return "";
+  for (const char* own : {"/world/", "/dca/", "/robot_description"})
+    if (topic.rfind(own, 0) == 0) return "";
+  std::string path = topic.substr(1);
+  for (char& c : path)
+    if (c == '/') c = '.';
+  return path;
+}
+
+// A port's sample {"value": x | [x, ...]} appended to `port` at `t`: false when it holds no numbers or not as
+// many as the earlier ones (a Value port, a dynamic vector): such a port is not replayable.
+bool read_sample(const std::string& data, std::int64_t t, RecordedPort* port) {
+  wire::Value v;
+  if (!json::decode(data, &v, nullptr) || !v.is_map()) return false;
+  const wire::Value& x = v["value"];
+  const auto number = [](const wire::Value& e, double* out) {
+    if (e.is_nil()) return *out = std::numeric_limits<double>::quiet_NaN(), true;
+    return e.is_number() ? (*out = e.as_float(), true) : false;
+  };
+  const std::size_t before = port->values.size();
+  double d = 0;
+  if (x.is_array()) {
+    for (const auto& e : x.as_array()) {
+      if (!number(e, &d)) return port->values.resize(before), false;
+      port->values.push_back(d);
+    }
+  } else if (number(x, &d)) {
+    port->values.push_back(d);
+  } else {
+    return false;
+  }
+  const std::size_t n = port->values.size() - before;
+  if (port->times.empty()) port->size = static_cast<std::uint32_t>(n);
+  if (n == 0 || n != port->size || (!port->times.empty() && t < port->times.back()))
+    return port->values.resize(before), false;
+  port->times.push_back(t);
+  return true;
+}
+
+// Every recorded controller output with numbers of one size into rec->ports (the others are left out).
+void read_ports(const mcap::Contents& c, ReplayRecording* rec) {
+  std::map<std::uint16_t, RecordedPort> ports;
+  std::set<std::uint16_t> broken;
+  for (const auto& [id, ch] : c.channels)
+    if (const std::string path = port_of(ch.topic); !path.empty()) ports[id].path = path;
+  for (const auto& m : c.messages) {
+    auto it = ports.find(m.channel);
+    if (it == ports.end() || broken.count(m.channel)) continue;
+    if (!read_sample(m.data, static_cast<std::int64_t>(m.log_time), &it->second)) broken.insert(m.channel);
+  }
+  for (auto& [id, p] : ports)
+    if (!broken.count(id) && !p.times.empty()) rec->ports.push_back(std::move(p));
+}
+
 }  // namespace
 
 std::string replay_file(const std::string& spec) {
@@ -93,6 +152,7 @@ ReplayRecording read_replay(const std::string& path) {
                                   " ns does not fit the world's signals");
     }
   }
+  read_ports(c, &rec);
   return rec;
 }
 

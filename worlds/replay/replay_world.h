@@ -18,6 +18,7 @@ struct ReplayRecording {
   std::vector<DeviceSignal> sensors, commands;
   std::vector<std::int64_t> times;          ///< each publish's time (ns), ascending
   std::vector<std::vector<double>> values;  ///< each publish's values, the sensors' in order, flat
+  std::vector<RecordedPort> ports;          ///< the controller outputs recorded with numbers (--record-ports)
 };
 
 /// Reads the recording of `path` (at most 1 GiB). Throws std::invalid_argument("FILE: why") when it cannot be read
@@ -41,6 +42,7 @@ class ReplayWorld final : public DeviceWorld {
   // What the run shows: the publishes replayed and recorded, the file.
   void status(StatusSink& sink) const override;
   std::string describe() const override;
+  const std::vector<RecordedPort>& recorded_ports() const override { return rec_.ports; }
   std::vector<std::string> summary() const override;
   std::vector<std::string> warnings() const override { return {}; }
 

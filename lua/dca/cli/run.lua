@@ -13,7 +13,7 @@ M.usage = [=[usage: dca run FILE.dca [--root NAME] [--hosts FILE] [--repl] [--wa
                     [--config FILE | --no-config] [--set KEY=VALUE]... [--state-dir DIR]
                     [--placement process|group|host]
                     [--sim WORLD [--world-opt KEY=VALUE]... [--seed N] [--record FILE.mcap|FILE.csv] [--realtime]
-                    [--record-ports all|PATH.PORT,...] [--trace FILE]] [--replay REC.mcap]
+                    [--record-ports all|PATH.PORT,...] [--trace FILE]] [--replay REC.mcap [--replay-ports PATTERN,...]]
                     [--blackbox SECONDS_BEFORE,SECONDS_AFTER[,MIB]]
                     [--driver 'TYPE(HOST, ARGS...)']
                     [--monitor [ADDR] [--monitor-wait]]
@@ -63,6 +63,11 @@ per group as it comes up and one per process transition, and runs the root expre
                   ticks, every controller live; record this run too and `dca trace diff REC.mcap NEW.mcap`
                   names the first tick and port where a live output differs from the recording (a trace
                   with --trace compares as well)
+  --replay-ports PATTERN,...
+                  with --replay: these controller outputs written again from the recording at their recorded
+                  ticks, in place of their live writers (cut from the inputs they feed; still recorded): a
+                  port PATH.PORT, a leaf or a group (all their outputs), `*` any text, `world` the world's
+                  signals (always from the file under --replay); each must be recorded with numbers
   --blackbox B,A[,MIB]
                   with --record FILE.mcap: a black box instead of the whole recording: what it would write
                   held for the last B seconds (at most MIB MiB, default 64) and written, with A seconds
@@ -96,7 +101,7 @@ local OPTIONS = {
   ["--config"] = "value", ["--no-config"] = "flag", ["--state-dir"] = "value", ["--set"] = "list:sets",
   ["--placement"] = "value", ["--trace"] = "value", ["--monitor"] = "flag", ["--monitor-wait"] = "flag",
   ["--record-ports"] = "value", ["--driver"] = "value", ["--replay"] = "value",
-  ["--blackbox"] = "value",
+  ["--blackbox"] = "value", ["--replay-ports"] = "value",
 }
 
 -- `--monitor ADDR`: the address, when the argument after --monitor is one (else --monitor alone). --> argv
@@ -126,6 +131,7 @@ local function rule_broken(o)
   if o.record_ports and not (o.record and o.record:match("%.mcap$")) then
     return "--record-ports goes with --record FILE.mcap"
   end
+  if o.replay_ports and not o.replay then return "--replay-ports goes with --replay REC.mcap" end
   if o.blackbox and not (o.record and o.record:match("%.mcap$")) then
     return "--blackbox goes with --record FILE.mcap"
   end
@@ -206,6 +212,15 @@ function M.main(args)
     -- the ports named must exist before anything starts (the manifests of the file's packages are loaded)
     local ok, terr = require("dca.supervisor.taps").select(spec, require("dca.core").types(), o.record_ports)
     if not ok then io.stderr:write("dca run: --record-ports: ", terr, "\n") return 2 end
+  end
+  if o.replay_ports then
+    -- the outputs named must exist and be in the recording before anything starts
+    local rp = require "dca.launch.replay_ports"
+    local paths, rerr = rp.select(spec, require("dca.core").types(), o.replay_ports)
+    local ok = paths ~= nil
+    if ok then ok, rerr = rp.check(paths, o.replay) end
+    if not ok then io.stderr:write("dca run: --replay-ports: ", rerr, "\n") return 2 end
+    rp.mark(spec, paths)
   end
   o.check, o.summary, o.wait = true, true, o.timeout
   return require("dca.launch.run").main(spec, o, OUT)

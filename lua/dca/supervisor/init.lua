@@ -361,7 +361,7 @@ function Sup:_set(name, label, what)
   -- kept so that a restarted source's sets are activated again (wiring.rewire)
   self.active_sets = self.active_sets or {}
   self.active_sets[id] = what == "activate" or nil
-  for _, src in ipairs(srcs) do self:to_leaf(src, { type = what, set = id }) end
+  for _, src in ipairs(srcs) do wiring.at_source(self, src, { type = what, set = id }) end
 end
 
 -- An event into the expression, from the loop (never from inside a command).

@@ -10,6 +10,10 @@
 --   wiring.check_ports(sup, path, handle, cb)  -- the ports of leaf `path`'s new process (a restart) against
 --                                   --   every use of them this group knows (M.ports_mismatch)
 --   wiring.is_device_input(sup, leaf, port)  --> whether that port of that leaf is a device input
+--   wiring.replayed(sup, src, out) --> whether output src.out is replayed (spec.replay_ports: `dca run
+--                                   --   --replay-ports`): its connections start at the world's "replay:PATH"
+--   wiring.at_source(sup, src, msg, timeout, cb)  -- a message to a connection's source: the leaf, or the world
+--                                   --   for wiring.WORLD (set_sources of a replayed output's sets)
 -- cb(true) | cb(nil, the first reason, naming the connection or port).
 local M = {}
 
@@ -44,6 +48,27 @@ function M.to_leaf(sup, leaf_path, msg, timeout, cb)
   end
 end
 
+--- The source of a set in set_sources that is the world: a replayed output's connections start there.
+M.WORLD = "@world"
+
+function M.replayed(sup, src, out)
+  local list = sup.spec.replay_ports
+  if not list then return false end
+  if not sup.replay_set then
+    sup.replay_set = {}
+    for _, p in ipairs(list) do sup.replay_set[p] = true end
+  end
+  return sup.replay_set[src .. "." .. out] == true
+end
+
+function M.at_source(sup, src, msg, timeout, cb)
+  if src ~= M.WORLD then M.to_leaf(sup, src, msg, timeout, cb) return end
+  sup.rt.world(msg, timeout or sup.timeouts.request, cb or function(reply, err)
+    local ok, why = async.outcome(reply, err)
+    if not ok then sup:log("%s: %s to the world: %s", sup.path, tostring(msg.type), why) end
+  end)
+end
+
 -- (the start protocol, phase 2) This group's own connections, resolved to leaf ports, created inactive at each source node.
 function M.connect(sup, cb)
   local wires, errs = spec_mod.wiring(sup.spec)
@@ -53,7 +78,8 @@ function M.connect(sup, cb)
   for _, w in ipairs(wires) do
     local s = sup.set_sources[w.set]
     if not s then s = {} sup.set_sources[w.set] = s end
-    if not s[w.src] then s[w.src] = true s[#s + 1] = w.src end
+    local src = M.replayed(sup, w.src, w.out) and M.WORLD or w.src
+    if not s[src] then s[src] = true s[#s + 1] = src end
   end
   M.connect_wires(sup, wires, cb)
 end
@@ -71,14 +97,18 @@ function M.connect_wires(sup, list, cb, after)
   j.close()
 end
 
--- One connection `w` (from spec_mod.wiring) made at its source node. cb(true) | cb(nil, reason naming it)
+-- One connection `w` (from spec_mod.wiring) made at its source node; a replayed output's at the world, from its
+-- recorded samples, the live writer cut from it. cb(true) | cb(nil, reason naming it)
 function M.connect_wire(sup, w, cb)
-  M.to_leaf(sup, w.src, { type = "connect", out = w.out, to = w.dst, ["in"] = w["in"], set = w.set, mode = "push" },
-    sup.timeouts.connect, function(reply, err)
-      local ok, why = async.outcome(reply, err)
-      if ok then cb(true) return end
-      cb(nil, sformat("%s: connecting %s.%s -> %s.%s (set %s): %s", sup.path, w.src, w.out, w.dst, w["in"], w.set, why))
-    end)
+  local replayed = M.replayed(sup, w.src, w.out)
+  local msg = { type = "connect", out = replayed and ("replay:" .. w.src .. "." .. w.out) or w.out, to = w.dst,
+                ["in"] = w["in"], set = w.set, mode = "push" }
+  M.at_source(sup, replayed and M.WORLD or w.src, msg, sup.timeouts.connect, function(reply, err)
+    local ok, why = async.outcome(reply, err)
+    if ok then cb(true) return end
+    cb(nil, sformat("%s: connecting %s%s.%s -> %s.%s (set %s): %s", sup.path, replayed and "the replay of " or "",
+      w.src, w.out, w.dst, w["in"], w.set, why))
+  end)
 end
 
 --- The device ports of the group's own leaves, in declaration order:
@@ -324,7 +354,8 @@ function M.rewire(sup, path, cb)
       k(true)
       return
     end
-    M.to_leaf(sup, w.src, { type = "activate", set = w.set }, sup.timeouts.connect, function(r, err)
+    local src = M.replayed(sup, w.src, w.out) and M.WORLD or w.src
+    M.at_source(sup, src, { type = "activate", set = w.set }, sup.timeouts.connect, function(r, err)
       local ok, why = async.outcome(r, err)
       if ok then k(true) return end
       k(nil, sformat("%s: activating %s at %s: %s", sup.path, w.set, w.src, why))

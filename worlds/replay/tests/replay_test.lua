@@ -1,7 +1,10 @@
 -- The replay world (docs/recording.md, "Replay"): the door run recorded with every port, then run again against
 -- its recording (`dca run --replay REC.mcap`: the world's outputs from the file, no Simbody, every controller
 -- live): every controller output equals the recording tick for tick (`dca trace diff REC.mcap NEW.mcap` says
--- identical); a changed gain is named at its first differing tick and port. And the refusals before a start.
+-- identical); a changed gain is named at its first differing tick and port. With --replay-ports the sensors
+-- and a controller's outputs are written again from the file in place of their live writers: still identical,
+-- and a gain changed in a replayed controller changes its own (recorded) output but not what its readers got.
+-- And the refusals before a start.
 local T = require "dca.testing"
 local suite = T.suite("replay")
 
@@ -16,11 +19,17 @@ local function diff(a, b)
   return T.sh(dca .. " trace diff " .. a .. " " .. b)
 end
 
-suite:case("a_replay_gives_every_output_again_and_a_changed_gain_is_named", function()
-  local rec, again, changed = T.tmpname(".mcap"), T.tmpname(".mcap"), T.tmpname(".mcap")
+-- The door run recorded with every port (each case runs in a process of its own, and removes it).
+local function recorded()
+  local rec = T.tmpname(".mcap")
   local out, rc = run("--sim door --record " .. rec .. " --record-ports all")
   T.eq(rc, 0, "the recorded run:\n" .. out)
-  out, rc = run("--replay " .. rec .. " --record " .. again .. " --record-ports all")
+  return rec
+end
+
+suite:case("a_replay_gives_every_output_again_and_a_changed_gain_is_named", function()
+  local rec, again, changed = recorded(), T.tmpname(".mcap"), T.tmpname(".mcap")
+  local out, rc = run("--replay " .. rec .. " --record " .. again .. " --record-ports all")
   T.eq(rc, 0, "the replay:\n" .. out)
   out, rc = diff(rec, again)
   T.eq(rc, 0, "dca trace diff:\n" .. out)
@@ -33,6 +42,54 @@ suite:case("a_replay_gives_every_output_again_and_a_changed_gain_is_named", func
   T.eq(rc, 1, "dca trace diff:\n" .. out)
   T.contains(out, "first difference at tick ")
   T.contains(out, "/main/dooropensyst/motionctrl/")
+  for _, f in ipairs({ rec, again, changed }) do os.remove(f) end
+end)
+
+-- The messages of `topic` in a recording: "t data" each.
+local function series(file, topic)
+  local rec = assert(require("dca.core").mcap_read(file))
+  local out = {}
+  for _, m in ipairs(rec.messages) do
+    if rec.channels[m.channel].topic == topic then out[#out + 1] = m.t .. " " .. m.data end
+  end
+  return out
+end
+
+-- Every sensor of the door system (the leaves that read the world's signals and write what they measure).
+local SENSORS = "main.dooropensyst.camera,main.dooropensyst.pressft,main.dooropensyst.pressjoints,"
+  .. "main.dooropensyst.dooropen.force,main.dooropensyst.dooropen.xr4000,main.dooropensyst.dooropen.puma,"
+  .. "main.dooropensyst.hit.force,main.dooropensyst.distdetect.laser,main.dooropensyst.motionctrl.puma.Joints"
+
+suite:case("replayed_ports_stand_in_for_their_live_writers", function()
+  local rec, again, changed = recorded(), T.tmpname(".mcap"), T.tmpname(".mcap")
+  -- the sensors and one controller's output from the file, the rest live: every output as recorded
+  local out, rc = run("--replay " .. rec .. " --replay-ports world," .. SENSORS
+    .. ",main.dooropensyst.dooropen.compliant.Vel --record " .. again .. " --record-ports all")
+  T.eq(rc, 0, "the replay:\n" .. out)
+  out, rc = diff(rec, again)
+  T.eq(rc, 0, "dca trace diff:\n" .. out)
+  T.contains(out, "identical: ")
+  -- the redundancy resolution replayed with another damping: its own live output differs at its first
+  -- tick, named; its readers got the recorded samples, so their commands are the recorded ones
+  out, rc = run("--replay " .. rec .. " --replay-ports " .. SENSORS .. ",main.dooropensyst.motionctrl.redundancy"
+    .. " --set motion.damping=0.05 --record " .. changed .. " --record-ports all")
+  T.eq(rc, 0, "the replay with another damping:\n" .. out)
+  out, rc = diff(rec, changed)
+  T.eq(rc, 1, "dca trace diff:\n" .. out)
+  T.contains(out, "first difference at tick 4.080000000 s (4080000000 ns), message 408 of "
+    .. "/main/dooropensyst/motionctrl/redundancy/ArmVel:")
+  for _, port in ipairs({ "puma/Cmd", "xr4000/Cmd" }) do
+    local a, b = series(rec, "/main/dooropensyst/motionctrl/" .. port), series(changed, "/main/dooropensyst/motionctrl/" .. port)
+    -- (the writes of the end's tick race the stop of the leaves: one more or less, as `dca trace diff` knows)
+    local n = math.min(#a, #b)
+    T.ok(n > 1000 and math.abs(#a - #b) <= 1, port .. ": as many commands as recorded: " .. #a .. ", " .. #b)
+    for i = 1, n do if a[i] ~= b[i] then T.eq(b[i], a[i], port .. " message " .. i) end end
+  end
+  out, rc = run("--replay " .. rec .. " --replay-ports main.nowhere,main.dooropensyst.camera.Nope")
+  T.eq(rc, 2, "exit code:\n" .. out)
+  T.contains(out, "--replay-ports: 'main.nowhere' names no output, leaf or group of main")
+  T.contains(out, "'main.dooropensyst.camera.Nope' names no output")
+  T.ok(not out:find("daemon at", 1, true), "nothing started:\n" .. out)
   for _, f in ipairs({ rec, again, changed }) do os.remove(f) end
 end)
 
@@ -49,5 +106,8 @@ suite:case("a_replay_is_refused_before_a_start_when_it_cannot_be", function()
   T.contains(out, plain .. ": ")
   T.ok(not out:find("daemon at", 1, true), "nothing started:\n" .. out)
   os.remove(plain)
+  out, rc = run("--sim door --replay-ports main.dooropensyst.camera")
+  T.eq(rc, 2, "exit code:\n" .. out)
+  T.contains(out, "--replay-ports goes with --replay REC.mcap")
 end)
 return suite:run(...)
