@@ -50,7 +50,8 @@ constexpr const char* kUsage =
     "                       /dca/world/outputs (what `--world replay:FILE.mcap` serves again)\n"
     "  --blackbox B,A[,MB]  with --record FILE.mcap: a black box instead (docs/recording.md): the last B s held\n"
     "                       (at most MB MiB, default 64), written with A s after a fault or a `blackbox` request\n"
-    "                       to FILE-1.mcap, FILE-2.mcap, ...\n"
+    "                       to FILE-1.mcap, FILE-2.mcap, ...; also on the first refusal of a second writer, and\n"
+    "                       a storm of limit clamps (--blackbox-storm N,S: N clamped within S s, default 10,1)\n"
     "  --trace FILE         writes the lock-step trace: every output's samples per tick (count, digest, value),\n"
     "                       set switches, events, lost nodes (`dca trace diff` compares two)\n\n"
     "Exit code 0 on success, 1 if the world fails or cannot be built, 2 on a usage error.";
@@ -106,6 +107,16 @@ std::string blackbox(const char* v, Options& o) {
   return "";
 }
 
+// --blackbox-storm N,SECONDS: "" or what is wrong with it.
+std::string storm(const char* v, Options& o) {
+  double n = 0, w = 0;
+  char tail = 0;
+  if (!v || std::sscanf(v, "%lf,%lf%c", &n, &w, &tail) != 2 || !(n >= 1 && n < 1e9 && w > 0 && w < 1e6))
+    return "--blackbox-storm needs CLAMPS,SECONDS (at least 1 clamp within positive seconds, e.g. 10,1)";
+  o.box.storm_clamps = static_cast<std::uint64_t>(n), o.box.storm_window = w;
+  return "";
+}
+
 // Applies option `a` with value `v` (nullptr: missing): "" or what is wrong with it.
 std::string set_value(const std::string& a, const char* v, Options& o) {
   if (a == "--seed") {
@@ -119,6 +130,7 @@ std::string set_value(const std::string& a, const char* v, Options& o) {
     return positive(v, o.period) && o.period <= 0.01 ? "" : "--period needs seconds in (0, 0.01]";
   if (a == "--record-period") return positive(v, o.record_period) ? "" : "--record-period needs positive seconds";
   if (a == "--blackbox") return blackbox(v, o);
+  if (a == "--blackbox-storm") return storm(v, o);
   if (a == "--sync") return positive(v, o.sync_period) ? "" : "--sync needs positive seconds";
   if (a == "--tick-timeout") {
     double ms = 0;
@@ -140,7 +152,7 @@ std::string set_value(const std::string& a, const char* v, Options& o) {
 int parse(std::span<char* const> args, Options& o) {
   static const std::string kValued =
       " --world --world-opt --seed --duration --period --record-period --record --trace --daemon --name --key"
-      " --host --sync --tick-timeout --blackbox ";
+      " --host --sync --tick-timeout --blackbox --blackbox-storm ";
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string a = args[i];
     if (set_flag(a, o)) continue;

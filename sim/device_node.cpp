@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <deque>
 #include <map>
 #include <stdexcept>
 #include <vector>
@@ -111,6 +112,9 @@ struct DeviceNode::Impl {
   std::map<std::string, std::uint64_t> refused;  // a command input's samples refused from a second writer
   std::vector<std::string> second_writers;       // each (input, writer, holder) once: what was said
   std::vector<std::size_t> replay_next;          // each recorded port's next sample to write
+  long clamps_sensor = -1;                       // watch_clamps: the index of "safety.clamps" (size(): none)
+  std::deque<std::pair<double, double>> clamp_history;  // (t, clamps so far) over the storm's window
+  bool in_storm = false;
   std::uint64_t replay_written = 0;
 
   // The recording of `path` ("" none): the world's own format, else the generic MCAP.
@@ -263,6 +267,40 @@ struct DeviceNode::Impl {
     std::snprintf(at, sizeof at, "%.3f s", to_seconds(clock.now()));
     second_writers.push_back(who + at);
     std::fprintf(stderr, "dca sim: a second writer on %s\n", second_writers.back().c_str());
+    // a black box's trigger: the first refusal of this writer, holder and input
+    if (opts.blackbox && taps.recorder())
+      taps.recorder()->trigger(world.time(), "a second writer on " + who.substr(0, who.size() - 4));
+  }
+
+  // A storm of limit clamps (BlackboxOptions::storm_clamps within storm_window): the black box's trigger, once
+  // per storm. The clamps are the world's "safety.clamps" sensor (per command input, counted since the start).
+  void watch_clamps() {
+    if (!opts.blackbox || !taps.recorder()) return;
+    if (clamps_sensor < 0) {
+      clamps_sensor = static_cast<long>(world.sensors().size());
+      for (std::size_t i = 0; i < world.sensors().size(); ++i)
+        if (world.sensors()[i].name == "safety.clamps") clamps_sensor = static_cast<long>(i);
+    }
+    const auto i = static_cast<std::size_t>(clamps_sensor);
+    if (i >= world.sensors().size()) return;
+    buffer.resize(std::max<std::size_t>(buffer.size(), world.sensors()[i].size));
+    world.sensor(i, buffer.data());
+    double sum = 0;
+    for (std::uint32_t k = 0; k < world.sensors()[i].size; ++k) sum += buffer[k];
+    const double t = world.time();
+    clamp_history.emplace_back(t, sum);
+    // the count at the window's start: the last entry at or before t - window (nothing clamped before the first)
+    while (clamp_history.size() > 1 && clamp_history[1].first <= t - opts.box.storm_window + 1e-9)
+      clamp_history.pop_front();
+    const double base = clamp_history.front().first <= t - opts.box.storm_window + 1e-9 ? clamp_history.front().second : 0;
+    const bool storm = sum - base >= static_cast<double>(opts.box.storm_clamps);
+    if (storm && !in_storm) {
+      char why[128];
+      std::snprintf(why, sizeof why, "a storm of limit clamps: %.0f within %g s", sum - base, opts.box.storm_window);
+      std::fprintf(stderr, "dca sim: %s at %.3f s\n", why, t);
+      taps.recorder()->trigger(t, why);
+    }
+    in_storm = storm;
   }
 
   void step() {
@@ -275,6 +313,7 @@ struct DeviceNode::Impl {
     }
     world.step();
     ++steps;
+    watch_clamps();
     for (Input* in : component->inputs) in->tick();
     if (taps.recorder() && steps % record_every == 0) {
       if (own_format) world.record(*taps.recorder());

@@ -50,8 +50,8 @@ struct DeviceNodeOptions {
   /// "Replay" in docs/recording.md): the signals once on /dca/world/signals, every publish on /dca/world/outputs.
   bool record_outputs = false;
   /// With an MCAP `record`: a black box instead of the whole recording (sim/recorder.h; docs/recording.md, "Black
-  /// box"), triggered by a fault among the run's lines (`note` with state aborted or lost) or on demand
-  /// (`blackbox {why}`).
+  /// box"), triggered by a fault among the run's lines (`note` with state aborted or lost), on demand
+  /// (`blackbox {why}`), by the first refusal of a second writer, and by a storm of limit clamps (box.storm_*).
   bool blackbox = false;
   BlackboxOptions box;
 };

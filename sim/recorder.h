@@ -15,6 +15,11 @@ namespace dca::sim {
 struct BlackboxOptions {
   double before = 5, after = 1;       ///< s of simulated time kept before a trigger, and written after it
   std::size_t max_bytes = 64u << 20;  ///< the messages held at most (the oldest dropped first, counted)
+  /// A storm of limit clamps, a trigger of the world process (sim/device_node.h): at least `storm_clamps`
+  /// command samples clamped (the world's "safety.clamps", summed) within `storm_window` s of simulated time.
+  /// Once per storm: it is over when the window holds fewer again.
+  std::uint64_t storm_clamps = 10;
+  double storm_window = 1;
 };
 
 /// A recording file. The constructor throws std::runtime_error("FILE: reason") if the file cannot be written.

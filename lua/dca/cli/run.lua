@@ -14,7 +14,7 @@ M.usage = [=[usage: dca run FILE.dca [--root NAME] [--hosts FILE] [--repl] [--wa
                     [--placement process|group|host]
                     [--sim WORLD [--world-opt KEY=VALUE]... [--seed N] [--record FILE.mcap|FILE.csv] [--realtime]
                     [--record-ports all|PATH.PORT,...] [--trace FILE]] [--replay REC.mcap [--replay-ports PATTERN,...]]
-                    [--blackbox SECONDS_BEFORE,SECONDS_AFTER[,MIB]]
+                    [--blackbox SECONDS_BEFORE,SECONDS_AFTER[,MIB] [--blackbox-storm CLAMPS,SECONDS]]
                     [--driver 'TYPE(HOST, ARGS...)']
                     [--monitor [ADDR] [--monitor-wait]]
 
@@ -72,7 +72,12 @@ per group as it comes up and one per process transition, and runs the root expre
                   with --record FILE.mcap: a black box instead of the whole recording: what it would write
                   held for the last B seconds (at most MIB MiB, default 64) and written, with A seconds
                   after, to FILE-1.mcap, FILE-2.mcap, ... when a process aborts or is lost; the file
-                  names its trigger on /dca/blackbox and holds the run's lines
+                  names its trigger on /dca/blackbox and holds the run's lines; also triggered by the first
+                  refusal of a second writer on a command input, a storm of limit clamps, `blackbox(WHY)` in
+                  the REPL and SIGUSR2 to dca run
+  --blackbox-storm CLAMPS,SECONDS
+                  with --blackbox: a storm is CLAMPS command samples clamped to the robot's limits within
+                  SECONDS of simulated time (default 10,1), a trigger once per storm
   --realtime      passed to the world: simulated time is paced to the wall clock (the nodes stay in
                   lock-step with it), so the wall-clock periods in the summary are the real control periods
   --trace FILE    write the run's trace (simulated time): every output's samples per tick (count, digest,
@@ -102,6 +107,7 @@ local OPTIONS = {
   ["--placement"] = "value", ["--trace"] = "value", ["--monitor"] = "flag", ["--monitor-wait"] = "flag",
   ["--record-ports"] = "value", ["--driver"] = "value", ["--replay"] = "value",
   ["--blackbox"] = "value", ["--replay-ports"] = "value",
+  ["--blackbox-storm"] = "value",
 }
 
 -- `--monitor ADDR`: the address, when the argument after --monitor is one (else --monitor alone). --> argv
@@ -135,6 +141,7 @@ local function rule_broken(o)
   if o.blackbox and not (o.record and o.record:match("%.mcap$")) then
     return "--blackbox goes with --record FILE.mcap"
   end
+  if o.blackbox_storm and not o.blackbox then return "--blackbox-storm goes with --blackbox" end
   if o.config and o.no_config then return "--config and --no-config exclude each other" end
   if o.driver and o.sim then return "--driver and --sim exclude each other: a driver is the robot" end
   if o.state_dir and o.hosts then return "--state-dir is for the local daemons, not those of --hosts" end

@@ -27,7 +27,7 @@ local W = {}
 W.__index = W
 
 --- The options a world takes besides where it runs (see the header): what a system's start passes through.
-M.OPTIONS = { "world", "seed", "world_opts", "record", "record_outputs", "blackbox", "realtime", "wait", "trace", "tick_timeout" }
+M.OPTIONS = { "world", "seed", "world_opts", "record", "record_outputs", "blackbox", "blackbox_storm", "realtime", "wait", "trace", "tick_timeout" }
 
 -- A robot world's spec with its URDF file made absolute ("mock:FILE?OPTIONS" keeps its prefix and options), and
 -- a replay's recording (replay:FILE.mcap): the world process starts in its daemon's folder (docs/robots.md). Any
@@ -50,6 +50,7 @@ function M.argv(o)
   if o.record then argv[#argv + 1] = "--record" argv[#argv + 1] = o.record end
   if o.record_outputs then argv[#argv + 1] = "--record-outputs" end
   if o.blackbox then argv[#argv + 1] = "--blackbox" argv[#argv + 1] = o.blackbox end
+  if o.blackbox_storm then argv[#argv + 1] = "--blackbox-storm" argv[#argv + 1] = o.blackbox_storm end
   if o.trace then argv[#argv + 1] = "--trace" argv[#argv + 1] = o.trace end
   if o.realtime then argv[#argv + 1] = "--realtime" end
   -- (ms: a node that does not answer an advance within it is dropped from the clock; default 10000)

@@ -71,6 +71,93 @@ suite:case("a_fault_writes_the_window_of_the_full_recording_around_it", function
   for _, x in ipairs({ full, box, file }) do os.remove(x) end
 end)
 
+-- A robot's command input (docs/safety.md): two writers on one joint, and one writer far past its limit.
+local ur10 = src .. "/worlds/ur10/ur10.urdf"
+local TWO_WRITERS = T.read(src .. "/tests/lua/launch/systems/two_writers.dca")
+local FAR = [[
+process main() {
+  instantiated_processes {
+    far   instof JointSetpoint("arm", "elbow_joint", 10.0, 0.01);
+    limit instof Deadline("arm", 1);
+  }
+  internal_event_actions { far # limit }
+}
+]]
+
+-- `file` run on the mock UR10 with `args`. --> its output, exit code
+local function robot_run(file, args)
+  return T.sh("timeout 120 " .. dca .. " run " .. file .. " --quiet --sim mock:" .. ur10 .. " " .. args)
+end
+
+-- The black box's trigger message of `rec`, and the tick of the run's end (its first outcome line).
+local function trigger_and_end(rec)
+  local trigger, t_end
+  for _, m in ipairs(rec.messages) do
+    local topic = rec.channels[m.channel].topic
+    if topic == "/dca/blackbox" then trigger = m end
+    if topic == "/dca/events" and not t_end and m.data:find('"state":"[A-Z]+"') then t_end = m.t end
+  end
+  return trigger, t_end
+end
+
+-- The first black box of a run of `file` against its full recording: the trigger names `why` at tick `t`
+-- (nil: the trigger's own) and the file holds exactly the full recording's messages of [t - 0.5, t + 0.2]
+-- (up to the run's end). --> the trigger's tick
+local function box_equals_full(dir, file, why, t)
+  local full, box = dir .. "/full.mcap", dir .. "/box.mcap"
+  local out, rc = robot_run(file, "--record " .. full)
+  T.ok(rc == 0 or rc == 1, "the full recording:\n" .. out)
+  out, rc = robot_run(file, "--record " .. box .. " --blackbox 0.5,0.2")
+  T.ok(rc == 0 or rc == 1, "the black box:\n" .. out)
+  local f, b = assert(core.mcap_read(full)), assert(core.mcap_read(dir .. "/box-1.mcap"))
+  local trigger = trigger_and_end(b)
+  local _, t_end = trigger_and_end(f)
+  T.ok(trigger and t_end, "a trigger and the run's end")
+  T.contains(trigger.data, why)
+  if t then T.eq(trigger.t, t, "the trigger's tick") end
+  local from, to = math.max(0, trigger.t - 500000000), math.min(trigger.t + 200000000, t_end - 1)
+  local skip = { ["/dca/blackbox"] = true, ["/dca/events"] = true, ["/dca/log"] = true }
+  T.eq(window(b, from, to, skip), window(f, from, to, skip), "the full recording's window")
+  return trigger.t
+end
+
+suite:case("a_second_writer_triggers_the_black_box_at_its_first_refusal", function()
+  local dir = T.tmpdir()
+  T.write(dir .. "/two.dca", TWO_WRITERS)
+  -- the first refusal's tick, from the trace
+  local out, rc = robot_run(dir .. "/two.dca", "--trace " .. dir .. "/run.trace")
+  T.eq(rc, 0, out)
+  local first = tonumber(T.read(dir .. "/run.trace"):match("(%d+) W world%.joint%.elbow_joint%.position_command refused="))
+  T.ok(first, "a refusal in the trace")
+  box_equals_full(dir, dir .. "/two.dca", "a second writer on joint.elbow_joint.position_command: main.", first)
+end)
+
+suite:case("a_storm_of_limit_clamps_triggers_the_black_box_once", function()
+  local dir = T.tmpdir()
+  T.write(dir .. "/far.dca", FAR)
+  local t = box_equals_full(dir, dir .. "/far.dca", "a storm of limit clamps: 10 within 1 s")
+  -- the storm's tick: the world's clamp count reaches 10 between its records before and after it
+  local f = assert(core.mcap_read(dir .. "/full.mcap"))
+  local before, after
+  for _, m in ipairs(f.messages) do
+    if f.channels[m.channel].topic == "/world/safety/clamps" then
+      local n = 0  -- the clamps of every command input
+      for x in m.data:gmatch("[%d.]+") do n = n + tonumber(x) end
+      if m.t < t then before = n elseif not after then after = n end
+    end
+  end
+  T.ok(before and before < 10 and after and after >= 10, "10 clamps reached at the trigger: " .. tostring(before)
+    .. ", " .. tostring(after))
+  -- one storm, one file: the clamps go on for the whole second at 100 a second, the storm is not triggered
+  -- again; the second file is the deadline's abort
+  T.ok(not io.open(dir .. "/box-3.mcap"), "one file for the storm, one for the deadline's abort")
+  T.contains(T.read(dir .. "/box-2.mcap"), "aborted")
+  -- 10 clamps within 50 ms are no storm at one clamped sample every 10 ms
+  local out = robot_run(dir .. "/far.dca", "--record " .. dir .. "/again.mcap --blackbox 0.5,0.2 --blackbox-storm 10,0.05")
+  T.contains(out, "black box, 1 written")
+  T.ok(not T.read(dir .. "/again-1.mcap"):find("storm", 1, true), "no storm:\n" .. out)
+end)
+
 suite:case("a_black_box_needs_an_mcap_recording", function()
   local out, rc = T.sh(dca .. " run " .. system .. " --sim door --blackbox 1,1")
   T.eq(rc, 2, "exit code")

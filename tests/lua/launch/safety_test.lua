@@ -7,18 +7,8 @@ local suite = T.suite("safety")
 local dca, src = T.exe, T.src
 local ur10 = src .. "/worlds/ur10/ur10.urdf"
 
--- Two JointSetpoint leaves on the elbow, concurrently: the one that holds the joint reaches its target while the
--- other's samples are refused; once the holder is done (and its period has passed), the other takes the joint.
-local TWO_WRITERS = [[
-process main() {
-  instantiated_processes {
-    up   instof JointSetpoint("arm", "elbow_joint", 1.0, 0.01);
-    down instof JointSetpoint("arm", "elbow_joint", -1.0, 0.01);
-    limit instof Deadline("arm", 3);
-  }
-  internal_event_actions { (up , down) # limit }
-}
-]]
+-- Two JointSetpoint leaves on the elbow, concurrently
+local TWO_WRITERS = T.read(src .. "/tests/lua/launch/systems/two_writers.dca")
 
 suite:case("a_second_writer_on_a_joint_is_refused_at_its_tick_and_named_with_the_holder", function()
   local dir = T.tmpdir()
