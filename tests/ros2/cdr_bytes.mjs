@@ -1,17 +1,20 @@
 // The independent side of ros2.cdr_bytes_rosmsg2_serialization: for every DIR/<pkg>.msg.<T>.json that
 // ros2_msgs_samples wrote, @foxglove/rosmsg2-serialization's MessageWriter encodes the JSON from the
 // @foxglove/rosmsg-msgs-common ROS 2 Jazzy definitions: the bytes must equal dca's DIR/<pkg>.msg.<T>.cdr; its
-// MessageReader decodes dca's bytes: the values must equal the JSON. Writes DIR/<pkg>.msg.<T>.node.cdr for
-// ros2_msgs_samples read.
+// MessageReader decodes dca's bytes: the values must equal the JSON. dca's ros2msg definition
+// (DIR/<pkg>.msg.<T>.msg, the schema of the MCAP ros2 profile) parsed by @foxglove/rosmsg must give the same
+// fields as @foxglove/rosmsg-msgs-common's, and decode dca's bytes to the same values. Writes
+// DIR/<pkg>.msg.<T>.node.cdr for ros2_msgs_samples read.
 import { readdirSync, readFileSync, writeFileSync } from "node:fs";
 import { createRequire } from "node:module";
 import { isDeepStrictEqual } from "node:util";
 
 const require = createRequire(import.meta.url);
-let common, serialization;
+let common, serialization, rosmsg;
 try {
   common = require("@foxglove/rosmsg-msgs-common");
   serialization = require("@foxglove/rosmsg2-serialization");
+  rosmsg = require("@foxglove/rosmsg");
 } catch (e) {
   console.error(`tests/ros2/node_modules is incomplete (${e.message}): scripts/setup installs it (npm ci)`);
   process.exit(1);
@@ -20,6 +23,37 @@ const { ros2jazzy } = common;
 const { MessageReader, MessageWriter } = serialization;
 
 const dir = process.argv[2];
+
+// A definition's fields as the check compares them: "pkg/msg/T" and ROS 2's "time" named as "pkg/T", default values
+// only where dca's text gives one (the common definitions give "float64 x 0" where dca writes "float64 x").
+const norm = (t) => (t === "time" ? "builtin_interfaces/Time" : t.replace("/msg/", "/"));
+const fields = (def, defaults) =>
+  def.definitions.map((f) => ({
+    name: f.name, type: norm(f.type), isArray: !!f.isArray, arrayLength: f.arrayLength, isComplex: !!f.isComplex,
+    ...(defaults[f.name] !== undefined ? { d: f.defaultValue } : {}),
+  }));
+const plainOf = (v) => JSON.parse(JSON.stringify(v, (k, x) => (ArrayBuffer.isView(x) ? Array.from(x) : x)));
+
+// 1 when dca's ros2msg text of `name` does not parse to the common definitions, or does not decode `cdr` to `want`.
+function checkDefinition(name, text, cdr, want) {
+  const parsed = rosmsg.parse(text, { ros2: true });
+  let bad = 0;
+  for (const [i, def] of parsed.entries()) {
+    const key = i === 0 ? name : norm(def.name);
+    const ours = Object.fromEntries(def.definitions.map((f) => [f.name, f.defaultValue]));
+    if (!isDeepStrictEqual(fields(def, ours), fields(ros2jazzy[key], ours))) {
+      console.log(`${name}: dca's definition of ${key} differs:`);
+      console.log(`  ${JSON.stringify(def)}\n  ${JSON.stringify(ros2jazzy[key])}`);
+      bad = 1;
+    }
+  }
+  const decoded = new MessageReader(parsed).readMessage(cdr);
+  if (!isDeepStrictEqual(plainOf(decoded), want)) {
+    console.log(`${name}: dca's bytes decode otherwise with dca's ros2msg definition`);
+    bad = 1;
+  }
+  return bad;
+}
 const all = Object.values(ros2jazzy);
 let failed = 0;
 let checked = 0;
@@ -46,12 +80,13 @@ for (const f of readdirSync(dir).filter((f) => f.endsWith(".json")).sort()) {
     failed++;
   }
   // typed arrays (float64[] and float64[36] decode to Float64Array) compared as plain arrays
-  const plain = JSON.parse(JSON.stringify(decoded, (k, v) => (ArrayBuffer.isView(v) ? Array.from(v) : v)));
+  const plain = plainOf(decoded);
   if (!isDeepStrictEqual(plain, value)) {
     console.log(`${name}: dca's bytes decode to ${JSON.stringify(plain)}\n  expected ${JSON.stringify(value)}`);
     failed++;
   }
-  if (same) console.log(`${name}: ${dca.length} bytes, the same on both sides`);
+  failed += checkDefinition(name, readFileSync(`${dir}/${base}.msg`, "utf8"), dca, plain);
+  if (same) console.log(`${name}: ${dca.length} bytes, the same on both sides; its ros2msg definition checked`);
   checked++;
 }
 if (checked < 20) {

@@ -1,6 +1,7 @@
 // The C++ side of the ros2.cdr_bytes test (cdr_bytes.mjs is the other):
-//   ros2_msgs_samples write DIR   for every message type, DIR/<pkg>.msg.<T>.cdr (dca's CDR of its sample) and
-//                                 DIR/<pkg>.msg.<T>.json (the sample's values)
+//   ros2_msgs_samples write DIR   for every message type, DIR/<pkg>.msg.<T>.cdr (dca's CDR of its sample),
+//                                 DIR/<pkg>.msg.<T>.json (the sample's values) and DIR/<pkg>.msg.<T>.msg (its
+//                                 ros2msg definition, the MCAP ros2 profile's schema)
 //   ros2_msgs_samples read DIR    decodes DIR/<pkg>.msg.<T>.node.cdr (written by @foxglove/rosmsg2-serialization
 //                                 from the JSON) and checks it is the sample, and its bytes are dca's
 #include <dca/msgs.h>
@@ -35,6 +36,7 @@ bool write(const std::string& dir) {
   std::ofstream(file<M>(dir, ".cdr"), std::ios::binary).write(reinterpret_cast<const char*>(b.data()),
                                                                static_cast<std::streamsize>(b.size()));
   std::ofstream(file<M>(dir, ".json")) << to_json(m) << "\n";
+  std::ofstream(file<M>(dir, ".msg")) << ros2msg_definition<M>();
   return !b.empty();
 }
 

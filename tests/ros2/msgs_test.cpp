@@ -7,6 +7,7 @@
 #include <openssl/sha.h>
 
 #include <array>
+#include <cmath>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -77,6 +78,27 @@ TEST(Msgs, TypeDescriptionOfTime) {
             "\"type\": {\"type_id\": 6, \"capacity\": 0, \"string_capacity\": 0, \"nested_type_name\": \"\"}}, "
             "{\"name\": \"nanosec\", \"type\": {\"type_id\": 7, \"capacity\": 0, \"string_capacity\": 0, "
             "\"nested_type_name\": \"\"}}]}, \"referenced_type_descriptions\": []}");
+}
+
+// As ros2 bag writes them (rosbag2's local message definition source, docs/message_definition_encoding.md):
+// dependencies depth first, each once, after a blank line, 80 '=' and "MSG: pkg/T".
+TEST(Msgs, Ros2msgDefinitionsListTheDependenciesAfterTheirDelimiter) {
+  const std::string line = "\n" + std::string(80, '=') + "\nMSG: ";
+  EXPECT_EQ(ros2msg_definition<Header>(),
+            "builtin_interfaces/Time stamp\nstring frame_id\n" + line +
+                "builtin_interfaces/Time\nint32 sec\nuint32 nanosec\n");
+  EXPECT_EQ(ros2msg_definition<Quaternion>(), "float64 x\nfloat64 y\nfloat64 z\nfloat64 w 1\n");
+  EXPECT_EQ(ros2msg_definition<PoseStamped>(),
+            "std_msgs/Header header\ngeometry_msgs/Pose pose\n" + line +
+                "geometry_msgs/Pose\ngeometry_msgs/Point position\ngeometry_msgs/Quaternion orientation\n" + line +
+                "geometry_msgs/Point\nfloat64 x\nfloat64 y\nfloat64 z\n" + line +
+                "geometry_msgs/Quaternion\nfloat64 x\nfloat64 y\nfloat64 z\nfloat64 w 1\n" + line +
+                "std_msgs/Header\nbuiltin_interfaces/Time stamp\nstring frame_id\n" + line +
+                "builtin_interfaces/Time\nint32 sec\nuint32 nanosec\n");
+  const std::string odom = ros2msg_definition<Odometry>();
+  EXPECT_NE(odom.find(line + "geometry_msgs/PoseWithCovariance\ngeometry_msgs/Pose pose\nfloat64[36] covariance\n"),
+            std::string::npos);
+  EXPECT_NE(ros2msg_definition<JointState>().find("\nstring[] name\nfloat64[] position\n"), std::string::npos);
 }
 
 TEST(Msgs, Names) {
@@ -216,6 +238,14 @@ TEST(Msgs, DecodeRefusesOversizedSequences) {
   auto jb = encode(j);  // header (4 + 8 + 4 + 1), pad 3, then the names' count at 20
   jb[20] = std::byte(kMaxJoints + 1);
   EXPECT_EQ(cdr_decode(jb, j).error, CdrError::TooLong);
+}
+
+TEST(Msgs, ToJsonIsValidJsonWhateverTheValues) {
+  Header h;
+  ASSERT_TRUE(h.frame_id.assign("a\"\\\x01\xff\xc3\xa9\xed\xa0\x80"));  // quote, backslash, control, bad byte,
+  EXPECT_EQ(to_json(h), "{\"stamp\":{\"sec\":0,\"nanosec\":0},\"frame_id\":"  // é, a surrogate
+                        "\"a\\\"\\\\\\u0001\xef\xbf\xbd\xc3\xa9\xef\xbf\xbd\xef\xbf\xbd\xef\xbf\xbd\"}");
+  EXPECT_EQ(to_json(Vector3{std::nan(""), HUGE_VAL, 1}), R"({"x":null,"y":null,"z":1})");
 }
 
 TEST(Msgs, ToJsonNamesTheFields) {
