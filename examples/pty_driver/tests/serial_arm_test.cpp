@@ -63,12 +63,6 @@ struct Pty {
     return got;
   }
 };
-    if (poll(&p, 1, 5000) != 1) return "";
-    std::array<char, 4096> buf;
-    const ssize_t n = read(master, buf.data(), buf.size());
-    return n > 0 ? std::string(buf.data(), static_cast<std::size_t>(n)) : "";
-  }
-};
 
 std::string state_line(double elbow) {
   State s;
