@@ -46,6 +46,7 @@ void print(const dca::Manifest& m) {
   std::string ends(dca::to_string(m.ends.kind));
   if (ends.empty()) ends = "undeclared (taken as: done or aborted)";
   if (!m.ends.after.empty()) ends += ", `" + m.ends.after + "` seconds after each start";
+  if (!m.ends.never_when.empty()) ends += " (never when " + m.ends.never_when + " is " + m.ends.never_value + ")";
   std::printf("    ends   %s\n", ends.c_str());
   for (const auto& p : m.params)
     std::printf("    param  %-10s %-8s %s%s\n", p.name.c_str(), p.type.c_str(), p.doc.c_str(), range(p).c_str());

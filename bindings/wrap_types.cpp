@@ -3,6 +3,8 @@
 //                    params = { {name=, type=, required=, default=, variadic=, live=, doc=} ... },
 //                    ends = "never" | "done" | "aborted" | "done or aborted" | nil (undeclared: anything),
 //                    ends_after = the parameter holding the seconds after which it ends (Timer) | nil,
+//                    never_when = { param, value } | nil: a run never ends by itself when that parameter is
+//                                 that value (a Counter with limit 0),
 //                    package = "mylab" (a package's type only) } }
 // Controller packages (controllers/packages.h), `system_dir` the .dca file's folder or nil:
 //   core.load_package(name, system_dir) --> { name=, file=, version=, types = {...} } | nil, error
@@ -112,6 +114,14 @@ int l_types(lua_State* L) {
     if (!m->ends.after.empty()) {
       lua_pushlstring(L, m->ends.after.data(), m->ends.after.size());
       lua_setfield(L, -2, "ends_after");
+    }
+    if (!m->ends.never_when.empty()) {
+      lua_createtable(L, 0, 2);
+      lua_pushlstring(L, m->ends.never_when.data(), m->ends.never_when.size());
+      lua_setfield(L, -2, "param");
+      lua_pushlstring(L, m->ends.never_value.data(), m->ends.never_value.size());
+      lua_setfield(L, -2, "value");
+      lua_setfield(L, -2, "never_when");
     }
     lua_pushlstring(L, m->type.data(), m->type.size());
     lua_setfield(L, -2, "type");

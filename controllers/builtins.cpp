@@ -150,7 +150,8 @@ const Param<std::int64_t> kLimit{.name = "limit", .doc = "DONE when the count re
 }  // namespace
 Manifest Counter::Describe() {
   return {.type = "Counter", .doc = "writes 1, 2, 3, ... on Count, one per tick; DONE(count) at the limit",
-          .outputs = {kCount}, .params = {PeriodParam(std::nullopt), kLimit}, .ends = Ending::Done()};
+          .outputs = {kCount}, .params = {PeriodParam(std::nullopt), kLimit},
+          .ends = Ending::Done().NeverWhen("limit", "0")};
 }
 Counter::Counter(const ControllerContext& ctx) : PeriodicController(ctx), out_(port(kCount)), limit_(param(kLimit)) {}
 void Counter::MainCalc() {

@@ -64,6 +64,9 @@ end)
 
 suite:case("dca_types_prints_how_a_run_ends", function()
   T.dca("types Timer LaserSensor", 0, "ends   done, `seconds` seconds after each start", "ends   never")
+  T.dca("types Counter", 0, "ends   done (never when limit is 0)")
+  local nw = require("dca.core").types().Counter.never_when
+  T.eq({ nw.param, nw.value }, { "limit", "0" })
 end)
 
 suite:case("dca_types_of_an_unknown_type_fails_listing_the_known", function()

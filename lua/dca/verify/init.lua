@@ -26,7 +26,8 @@ local writers = require "dca.verify.writers"
 
 local M = {}
 
-local ipairs, pairs, type, sformat, sort, clock = ipairs, pairs, type, string.format, table.sort, os.clock
+local ipairs, pairs, type, tostring, tonumber, sformat, sort, clock = ipairs, pairs, type, tostring, tonumber,
+  string.format, table.sort, os.clock
 
 --- The seconds after which leaf node n ends by itself (its type's `ends_after` parameter, when the argument is a
 --- number written in the file), or nil.
@@ -37,6 +38,26 @@ function M.seconds(n)
     if p.name == m.ends_after then return type(n.params[i]) == "number" and n.params[i] or nil end
   end
   return nil
+end
+
+--- How leaf node n can end by itself: its manifest's `ends`, or "never" when its type declares a parameter value
+--- that makes it never end (`never_when`, docs/packages.md) and the leaf's argument (or the default) is that value.
+function M.ends(n)
+  local m = n.manifest
+  if not m then return nil end
+  local nw = m.never_when
+  if nw then
+    for i, p in ipairs(m.params or {}) do
+      if p.name == nw.param then
+        local v = n.params[i]
+        if v == nil then v = p.default end
+        if v ~= nil and (tostring(v) == nw.value or tonumber(v) ~= nil and tonumber(v) == tonumber(nw.value)) then
+          return "never"
+        end
+      end
+    end
+  end
+  return m.ends
 end
 
 --- What a leaf operand `name` can do, from its manifest's `ends` (nil: anything), with faults or not.
@@ -330,8 +351,9 @@ local function group(ctx, node)
     if child.kind == "group" then
       operands[child.name] = group_events(child, group(ctx, child), ctx.faults)
     else
-      local beh = M.leaf_events(child.name, child.manifest and child.manifest.ends, ctx.faults)
-      beh.after = M.seconds(child)
+      local beh = M.leaf_events(child.name, M.ends(child), ctx.faults)
+      -- (a group with a supervision policy may restart a timer: its clock starts again, so it has none here)
+      beh.after = not node.supervision and M.seconds(child) or nil
       for _, ev in ipairs(beh.events) do if not ev.fault then ev.after = beh.after end end
       operands[child.name] = beh
     end

@@ -130,6 +130,8 @@ struct Ending {
   enum class Kind : std::uint8_t { Unspecified, Never, Done, Aborted, DoneOrAborted };
   Kind kind = Kind::Unspecified;
   std::string after = {};  ///< the number parameter holding the seconds after which it ends (Timer), or ""
+  std::string never_when = {};  ///< a parameter that, at never_value, makes a run never end by itself, or ""
+  std::string never_value = {};  ///< that parameter's value, as written in a file ("0")
 
   /// Runs until it is stopped (a sensor, a drive).
   static Ending Never() { return {Kind::Never}; }
@@ -143,6 +145,14 @@ struct Ending {
   static Ending DoneAfter(std::string param) { return {Kind::Done, std::move(param)}; }
   /// Ends ABORTED `param` seconds after each start.
   static Ending AbortedAfter(std::string param) { return {Kind::Aborted, std::move(param)}; }
+  /// The same, but a run never ends by itself when parameter `param` is `value`: `Ending::Done().NeverWhen("limit",
+  /// "0")` (a Counter whose limit is 0 counts for ever). `dca check --verify` reads the leaf's argument.
+  [[nodiscard]] Ending NeverWhen(std::string param, std::string value) const {
+    Ending e = *this;
+    e.never_when = std::move(param);
+    e.never_value = std::move(value);
+    return e;
+  }
 };
 
 /// "never", "done", "aborted", "done or aborted", or "" when unspecified.

@@ -32,7 +32,7 @@ end
 
 local kinds = { "stuck", "never_ends", "dead", "conflict", "cross_conflict", "cross_conflict_deep", "props", "loop",
                 "timers", "writers_par", "writers_groups", "writers_label", "writers_restart", "writers_dead",
-                "writers_claims", "timers_steps" }
+                "writers_claims", "timers_steps", "ends_params" }
 for _, k in ipairs(kinds) do
   golden(k, here .. "/golden/" .. k .. ".dca", k .. ".dca", here .. "/golden/" .. k .. ".out", true)
 end
