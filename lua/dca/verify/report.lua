@@ -127,8 +127,8 @@ local function writer_findings(r, out)
     traced(r, w, out)
   end
   for _, d in ipairs(r.dead_paths or {}) do
-    out[#out + 1] = d.set and sformat("  FINDING dead command path: %s (set %s) never reaches %s: never active "
-      .. "while its drive runs", d.path, d.set, d.input)
+    out[#out + 1] = d.set and sformat("  FINDING dead command path: %s (set %s) never reaches %s: never %s "
+      .. "while its drive runs", d.path, d.set, d.input, d.hops > 1 and "all active together" or "active")
       or sformat("  FINDING dead actuator: %s never runs, so %s never reaches %s", d.actuator, d.path, d.input)
   end
   for _, c in ipairs(r.claims or {}) do

@@ -108,21 +108,42 @@ local function query(conds)
   return q
 end
 
--- The command paths into each device writer: a connection into a leaf that writes a device input.
+-- The longest command path followed up from a drive, in connections (a chain of controllers feeding it).
+local MAX_HOPS = 4
+
+-- The command paths into each device writer: the writer itself (it must run), then every chain of connections
+-- that ends at it, up to MAX_HOPS long, each leaf on it running and each connection's set active in one state.
+-- A chain's `parent` is the chain one hop shorter that it extends.
 local function command_paths(conns, inputs, order)
-  local out = {}
+  local out, into = {}, {}
+  for _, c in ipairs(conns) do
+    into[c.to] = into[c.to] or {}
+    into[c.to][#into[c.to] + 1] = c
+  end
+  local function walk(key, leaf, conds, text, parent, depth, seen)
+    for _, c in ipairs(into[leaf] or {}) do
+      if not seen[c.from] then
+        local cs = { runs(c.from), active(c) }
+        for _, x in ipairs(conds) do cs[#cs + 1] = x end
+        local hop = sformat("%s.%s -> %s.%s", c.from.path, c.out, c.to.path, c["in"])
+        local entry = { input = key, path = text and (hop .. "; " .. text) or hop, set = c.set, q = query(cs),
+                        parent = parent, hops = depth }
+        out[#out + 1] = entry
+        if depth < MAX_HOPS then
+          seen[c.from] = true
+          walk(key, c.from, cs, entry.path, entry, depth + 1, seen)
+          seen[c.from] = nil
+        end
+      end
+    end
+  end
   for _, key in ipairs(order) do
     local inp = inputs[key]
     if inp.device then
       for _, w in ipairs(inp.writers) do
-        out[#out + 1] = { input = key, path = w.who, q = query({ runs(w.leaf) }),
-                          actuator = w.leaf.path }
-        for _, c in ipairs(conns) do
-          if c.to == w.leaf then
-            out[#out + 1] = { input = key, path = sformat("%s.%s -> %s.%s", c.from.path, c.out, c.to.path, c["in"]),
-                              set = c.set, q = query({ runs(c.from), active(c), runs(w.leaf) }) }
-          end
-        end
+        local entry = { input = key, path = w.who, q = query({ runs(w.leaf) }), actuator = w.leaf.path }
+        out[#out + 1] = entry
+        walk(key, w.leaf, { runs(w.leaf) }, nil, entry, 1, { [w.leaf] = true })
       end
     end
   end
@@ -241,12 +262,16 @@ function M.findings(plan, memo)
                     why = sformat("%s is written by %s and %s in the same state", shown, p.a.who, p.b.who) }
     end
   end
+  local dead = {}
   for _, p in ipairs(plan.paths) do
     local r = memo[p.q.at.process.name]
     local a = answer(p.q, memo)
-    if a == nil and once(r, "d" .. p.path .. tostring(p.set)) then
+    if a == nil then dead[p] = true end
+    if p.parent and dead[p.parent] then  -- a longer chain through a dead one: that one is reported
+      dead[p] = true
+    elseif a == nil and once(r, "d" .. p.path .. tostring(p.set)) then
       local d = at(out, r).dead_paths
-      d[#d + 1] = { input = p.input, path = p.path, set = p.set, actuator = p.actuator }
+      d[#d + 1] = { input = p.input, path = p.path, set = p.set, actuator = p.actuator, hops = p.hops }
     elseif a == "unknown" and once(r, "du" .. p.path .. tostring(p.set)) then
       local u = at(out, r).unknown
       u[#u + 1] = sformat("whether the command path %s can reach %s (not in the part explored)", p.path, p.input)

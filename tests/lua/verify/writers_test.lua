@@ -121,6 +121,29 @@ suite:case("dead_command_paths_and_dead_actuators_are_reported", function()
   T.contains(out, "FINDING dead actuator: main.grip never runs, so main.grip.Cmd never reaches world.gripper.cmd")
 end)
 
+suite:case("a_chain_of_connections_that_never_reaches_its_drive_is_a_dead_command_path", function()
+  -- src feeds gain only before the drive runs; gain feeds the drive while it runs: the last hop lives, the
+  -- chain src -> gain -> drive is dead (and reported once, not again for chains through it)
+  local _, out = verified([[
+process main() {
+  instantiated_processes {
+    src   instof Constant("h", 0.1, 1, 0, 0);
+    gain  instof Gain("h", 2);
+    drive instof XR4000Ctrl("h");
+    warm  instof Timer("h", 1);
+    stop  instof Timer("h", 5);
+  }
+  internal_connections(src, lbl1)  { src, Out -> gain, In; }
+  internal_connections(gain, lbl1) { gain, Out -> drive, Vel; }
+  internal_event_actions { (src[lbl1] # warm) ; (stop # (gain[lbl1], drive)) }
+}
+]], "chain.dca")
+  T.contains(out, "FINDING dead command path: main.src.Out -> main.gain.In; main.gain.Out -> main.drive.Vel " ..
+    "(set main:src[lbl1]) never reaches world.base.cmd_vel: never all active together while its drive runs")
+  local _, n = out:gsub("dead command path", "")
+  T.eq(n, 1, out)
+end)
+
 suite:case("exclusive_names_an_input_of_an_instance_at_file_line_col", function()
   local text = T.read(golden .. "writers_label.dca"):gsub("exclusive drive%.Vel", "exclusive drive.Cmd")
   local ast, tree = load.text(text, "w.dca", {})
