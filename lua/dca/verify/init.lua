@@ -403,6 +403,30 @@ local function exclusive_decls(tree, ctx)
   return out
 end
 
+-- Each `exclusive INST.PORT` property becomes a verdict of its group: violated when two writers of that input
+-- were found (the finding has the trace), unknown when a partial exploration left a pair undecided.
+local function exclusive_verdicts(plan, ctx)
+  local seen = {}
+  for _, d in ipairs(plan.decls) do
+    local r = ctx.memo[d.node.process.name]
+    if r and not seen[r.type .. "\0" .. d.prop.pos] then
+      seen[r.type .. "\0" .. d.prop.pos] = true
+      local shown = d.node.path .. "." .. d.prop.a.text .. "." .. d.prop.port.text
+      local item = { prop = d.prop, ok = true }
+      for _, g in ipairs(ctx.groups) do
+        for _, w in ipairs(g.writers) do
+          if w.input == shown and item.ok then item.ok, item.writers = false, w end
+        end
+        for _, u in ipairs(g.writers_unknown) do
+          if item.ok and u:find(" " .. shown .. " ", 1, true) then item.ok, item.unknown = nil, true end
+        end
+      end
+      r.props[#r.props + 1] = item
+      sort(r.props, function(x, y) return x.prop.pos < y.prop.pos end)
+    end
+  end
+end
+
 --- Verifies the tree of a checked system (dca.load.file's second result). opts: { faults = true|false,
 --- ast = the AST (for property errors' positions), max_states = N per group }. Returns the result (see the
 --- top), or nil and a list of errors { line, col, path, msg } (a property that does not parse).
@@ -413,6 +437,7 @@ function M.system(tree, opts)
   local ctx = { memo = {}, groups = {}, errors = {}, states = 0, transitions = 0, conns = conns,
                 faults = opts.faults ~= false, ast = opts.ast, max_states = opts.max_states, reduce = opts.reduce }
   local plan = writers.plan(tree, conns, exclusive_decls(tree, ctx))
+  plan.decls = plan.decls or {}
   ctx.together = writers.needs(plan)
   local root = group(ctx, tree)
   if #ctx.errors > 0 then return nil, ctx.errors end
@@ -421,6 +446,7 @@ function M.system(tree, opts)
     local f = found[r] or {}
     r.writers, r.dead_paths, r.claims, r.writers_unknown = f.writers or {}, f.dead_paths or {}, f.claims or {}, f.unknown or {}
   end
+  exclusive_verdicts(plan, ctx)
   local partial = 0
   for _, r in ipairs(ctx.groups) do if r.truncated then partial = partial + 1 end end
   return { groups = ctx.groups, root = root, states = ctx.states, transitions = ctx.transitions,

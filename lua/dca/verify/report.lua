@@ -171,7 +171,10 @@ local function findings(r, out, traces)
     out[#out + 1] = (p.unknown and "  unknown   " or p.ok and "  holds     " or "  VIOLATED  ") .. p.prop.text ..
       (p.unknown and " (not proven: the exploration is partial)" or
        (p.never_starts and p.ok) and (" (vacuous: " .. p.prop.a.text .. " never starts)") or "")
-    if not p.ok and p.trace then
+    if p.writers then
+      out[#out + 1] = sformat("    %s and %s can write it in the same state (the FINDING above has the trace)",
+        p.writers.a, p.writers.b)
+    elseif not p.ok and p.trace then
       out[#out + 1] = "    counter-example:"
       for _, l in ipairs(M.trace_lines(r, p.trace)) do out[#out + 1] = l end
     elseif not p.ok and p.outcome and not p.unknown then

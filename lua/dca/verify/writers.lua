@@ -156,7 +156,7 @@ function M.plan(tree, conns, decls)
   local inputs, order = {}, {}
   device_writers(tree, inputs, order)
   declared_writers(conns, decls, inputs, order)
-  local plan = { inputs = inputs, order = order, pairs = {}, claims = {} }
+  local plan = { inputs = inputs, order = order, pairs = {}, claims = {}, decls = decls }
   for _, key in ipairs(order) do
     local ws, groups, gorder = inputs[key].writers, {}, {}
     for i = 1, #ws do

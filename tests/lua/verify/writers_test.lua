@@ -87,6 +87,9 @@ suite:case("two_writers_through_a_connection_set_switch_on_an_exclusive_input", 
     :gsub("%(drive, fast%[lbl1%], %(wait ; slow%[lbl1%]%)%)", "(drive, ((fast[lbl1] # wait) ; slow[lbl1]))")
   local result, out = verified(text)
   T.eq(#two_writers(result), 0, out)
+  T.contains(out, "holds     exclusive drive.Vel")
+  T.contains(select(2, verified(T.read(golden .. "writers_label.dca"))), "VIOLATED  exclusive drive.Vel\n" ..
+    "    main.fast.Out and main.slow.Out can write it in the same state")
   -- the drive's own labels switching the source: none either
   local own = T.read(golden .. "writers_label.dca")
     :gsub("internal_connections%(fast, lbl1%)", "internal_connections(drive, lbl1)")
