@@ -12,7 +12,9 @@
 
 namespace {
 
+// "scalar", "vector[3]", "vectorx", "value", or a message port's ROS 2 type ("geometry_msgs/msg/Twist").
 std::string port_type(const dca::PortSpec& p) {
+  if (p.type == dca::PortType::Message) return p.message;
   std::string t(dca::to_string(p.type));
   if (p.type == dca::PortType::Vector) {
     t.push_back('[');

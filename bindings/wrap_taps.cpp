@@ -7,9 +7,9 @@
 //                                   -- time), or its arrival here on the Unix epoch (wall-clock runs: the nodes'
 //                                   -- monotonic clocks mean nothing to a viewer, nor across hosts)
 //   tp:endpoints()   --> { host =, data_uds =, data_tcp = }   (what the daemon's `register` takes)
-//   tp:add(path, port_type, size, units, queue) --> the topic ("/main/door/hit/Force") | nil, err: its samples go
-//                    to that topic of srv's samples (fields "value", or "value[0]".. for a vector; a value
-//                    port's samples are counted, not published)
+//   tp:add(path, port_type, size, units, queue[, message]) --> the topic ("/main/door/hit/Force") | nil, err: its
+//                    samples go to that topic of srv's samples (fields "value", or "value[0]".. for a vector; a
+//                    value or message port's samples are counted, not published)
 //   tp:stats()       --> { [path] = { taken =, dropped =, unpublished = } }
 //   tp:close()
 //   core.foxglove(srv, { name = "dca main", subscribe = fn(topic), unsubscribe = fn(topic),
@@ -148,6 +148,8 @@ int tp_add(lua_State* L) {
   const auto size = static_cast<std::uint32_t>(luaL_optinteger(L, 4, 1));
   const char* units = luaL_optstring(L, 5, "");
   const auto queue = static_cast<std::size_t>(luaL_optinteger(L, 6, 64));
+  PortSpec spec{path, PortType::Scalar, size, units, {}};
+  spec.message = luaL_optstring(L, 7, "");
   char err[512] = {};
   std::string topic;
   {
@@ -155,12 +157,12 @@ int tp_add(lua_State* L) {
     const auto t = port_type_from(type);
     if (!t) {
       error = std::string("unknown port type '") + type + "'";
-    } else if (ud->point->add(path, {path, *t, size, units, {}}, std::min<std::size_t>(queue, 4096), &error)) {
+    } else if (spec.type = *t; ud->point->add(path, spec, std::min<std::size_t>(queue, 4096), &error)) {
       topic = tap::topic_of(path);
       auto server = ud->server.lock();
       // the topic the run made at start (dca.launch.live) is used as it is: made again, it would be advertised
       // again to every viewer
-      if (server && *t != PortType::Value && !ud->topics.count(path)) {
+      if (server && *t != PortType::Value && *t != PortType::Message && !ud->topics.count(path)) {
         const auto* known = server->samples().find(topic);
         ud->topics[path] = known ? known->id : server->samples().add_topic(topic, fields_of({path, *t, size, units, {}}));
       }

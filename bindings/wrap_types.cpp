@@ -49,6 +49,10 @@ void push_ports(lua_State* L, const std::vector<dca::PortSpec>& ports) {
       lua_pushlstring(L, p.device.data(), p.device.size());
       lua_setfield(L, -2, "device");
     }
+    if (!p.message.empty()) {
+      lua_pushlstring(L, p.message.data(), p.message.size());
+      lua_setfield(L, -2, "message");
+    }
     lua_rawseti(L, -2, i++);
   }
 }

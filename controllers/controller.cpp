@@ -81,6 +81,7 @@ TimerServer& Controller::timers() const {
 
 namespace {
 std::string describe(const PortSpec& p) {
+  if (p.type == PortType::Message) return p.message.empty() ? "message" : p.message;
   std::string d(to_string(p.type));
   if (p.type == PortType::Vector) d += "[" + std::to_string(p.size) + "]";
   return d;
@@ -344,6 +345,7 @@ void Controller::release() {
   }
   for (auto* out : actuators_) {
     if (out->spec().type == PortType::Scalar) out->write(0.0);
+    else if (out->message()) out->write_bytes(out->message()->zero());
     else out->write(Eigen::VectorXd::Zero(out->spec().size));
   }
 }

@@ -14,12 +14,13 @@ std::string_view to_string(PortType t) {
     case PortType::Vector: return "vector";
     case PortType::VectorX: return "vectorx";
     case PortType::Value: return "value";
+    case PortType::Message: return "message";
   }
   return "?";
 }
 
 std::optional<PortType> port_type_from(std::string_view s) {
-  for (auto t : {PortType::Scalar, PortType::Vector, PortType::VectorX, PortType::Value})
+  for (auto t : {PortType::Scalar, PortType::Vector, PortType::VectorX, PortType::Value, PortType::Message})
     if (to_string(t) == s) return t;
   return std::nullopt;
 }
@@ -53,9 +54,15 @@ PortSpec vectorx_port(std::string name, std::string units) {
 PortSpec value_port(std::string name, std::string units) {
   return {std::move(name), PortType::Value, 0, std::move(units), {}};
 }
+PortSpec message_port(std::string name, std::string message, std::string units) {
+  PortSpec s{std::move(name), PortType::Message, 0, std::move(units), {}};
+  s.message = std::move(message);
+  return s;
+}
 
 namespace {
 std::string describe(const PortSpec& s) {
+  if (s.type == PortType::Message) return s.message;
   std::string d(to_string(s.type));
   if (s.type == PortType::Vector) {
     d += '[';
@@ -68,13 +75,15 @@ std::string describe(const PortSpec& s) {
 
 // Numeric ports carry doubles: a scalar is one, a vector[N] N, a vectorx any number. A vectorx end takes the
 // other end's size; two fixed sizes must be equal (so a scalar and a vector[1] connect). A sample that does not
-// fit the input is refused there and counted (Port::accepts). Values connect to values only. dca check holds
+// fit the input is refused there and counted (Port::accepts). Values connect to values only, messages to messages
+// of the same type (its CDR is checked as it arrives: docs/data-plane.md, "Typed messages"). dca check holds
 // the sizes it can work out to the same rules before anything starts (docs/data-plane.md, "Port types").
 std::string compatibility_error(const PortSpec& out, const PortSpec& in) {
   const auto fixed = [](const PortSpec& p) { return p.type == PortType::Scalar || p.type == PortType::Vector; };
   const auto size = [](const PortSpec& p) { return p.type == PortType::Scalar ? 1u : p.size; };
   bool ok = false;
-  if (out.type == PortType::Value || in.type == PortType::Value) ok = out.type == in.type;
+  if (out.type == PortType::Message || in.type == PortType::Message) ok = out.type == in.type && out.message == in.message;
+  else if (out.type == PortType::Value || in.type == PortType::Value) ok = out.type == in.type;
   else ok = !fixed(out) || !fixed(in) || size(out) == size(in);
   if (ok) return "";
   return "output '" + out.name + "' is " + describe(out) + " but input '" + in.name + "' is " + describe(in);
@@ -92,7 +101,13 @@ Transport choose_transport(std::string_view my_host, bool dest_local, const Loca
 
 Port::Port(PortSpec spec) : spec_(std::move(spec)) {
   if (spec_.type == PortType::Scalar) spec_.size = 1;
-  if (spec_.type == PortType::VectorX || spec_.type == PortType::Value) spec_.size = 0;
+  if (spec_.type != PortType::Scalar && spec_.type != PortType::Vector) spec_.size = 0;
+  if (spec_.type == PortType::Message) {
+    message_ = msgs::find_type(spec_.message);
+    if (!message_) throw std::invalid_argument("port '" + spec_.name + "': no message type '" + spec_.message + "'");
+    latest_.resize(message_->max_size);  // its samples never allocate
+    return;
+  }
   latest_.resize(std::max<std::size_t>(spec_.size, 1) * sizeof(double));
 }
 
@@ -110,6 +125,7 @@ bool Port::accepts(Bytes b) {
     case PortType::Vector: ok = b.size() == spec_.size * sizeof(double); break;
     case PortType::VectorX: ok = b.size() % sizeof(double) == 0; break;
     case PortType::Value: ok = !b.empty(); break;
+    case PortType::Message: ok = message_->valid(b); break;
   }
   if (!ok) ++stats_.rejected;
   return ok;
@@ -146,6 +162,7 @@ void pack_sample(msgpack::packer<msgpack::sbuffer>& pk, PortType type, Bytes b, 
 }  // namespace
 
 void Port::pack_latest(msgpack::packer<msgpack::sbuffer>& pk) const {
+  if (message_ && has_latest_) return message_->pack(latest_bytes(), pk);
   pack_sample(pk, spec_.type, latest_bytes(), has_latest_);
 }
 
@@ -375,6 +392,12 @@ bool write(Output& out, const double* v, std::size_t n) {
 
 bool write_bytes(Output& out, const char* data, std::size_t n) {
   return out.write_bytes({reinterpret_cast<const std::byte*>(data), n});
+}
+
+Read read_bytes(Input& in, Bytes& x) {
+  const Read r = in.take_for_read();
+  if (r != Read::None) x = in.current_bytes();
+  return r;
 }
 
 }  // namespace port_detail

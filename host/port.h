@@ -22,6 +22,8 @@
 #include <memory>
 #include <optional>
 #include <span>
+
+#include "host/codec/msgs.h"
 #include <string>
 #include <string_view>
 #include <vector>
@@ -68,6 +70,8 @@ class Port {
   Bytes latest_bytes() const { return {latest_.data(), latest_size_}; }
   /// Counters.
   const PortStats& stats() const { return stats_; }
+  /// A Message port's type (nullptr for the others).
+  const msgs::TypeInfo* message() const { return message_; }
   /// Packs the latest sample as msgpack: nil before any, a number (scalar), an array of numbers (vectors), or
   /// the value itself.
   void pack_latest(msgpack::packer<msgpack::sbuffer>& pk) const;
@@ -80,6 +84,7 @@ class Port {
   bool accepts(Bytes b);
 
   PortSpec spec_;
+  const msgs::TypeInfo* message_ = nullptr;  ///< a Message port's type
   std::vector<std::byte> latest_;
   std::size_t latest_size_ = 0;
   bool has_latest_ = false;

@@ -55,6 +55,7 @@ void WorldTaps::add_tap(const std::shared_ptr<Channel>& ch, const Message& m) {
   if (!type) return void(ch->reply_error(m, "tap: unknown port type '" + p["port_type"].as_string() + "'"));
   PortSpec spec{p["path"].as_string(), *type, static_cast<std::uint32_t>(p["size"].as_int(1)), p["units"].as_string(), {}};
   if (spec.type == PortType::Scalar) spec.size = 1;
+  spec.message = p["message"].as_string();
   const auto queue = static_cast<std::size_t>(std::clamp<std::int64_t>(p["queue"].as_int(256), 1, 4096));
   std::string error;
   const auto* t = taps_->add(spec.name, spec, queue, &error);

@@ -34,6 +34,7 @@ void adopt_linked_package() {
 Bytes as_bytes(const char* data, std::size_t n) { return {reinterpret_cast<const std::byte*>(data), n}; }
 
 std::string describe(const PortSpec& s) {
+  if (s.type == PortType::Message) return s.message;
   std::string t(to_string(s.type));
   if (s.type == PortType::Vector) t += "[" + std::to_string(s.size) + "]";
   return t;
@@ -136,6 +137,19 @@ void ControllerUnderTest::set_bytes(std::string_view input, const char* data, st
   Input& in = impl_->input(input);
   if (in.spec().type != PortType::Value) throw impl_->wrong(in.spec(), "value");
   in.deliver(as_bytes(data, n));
+}
+
+void ControllerUnderTest::set_message_bytes(std::string_view input, std::string_view type,
+                                            std::span<const std::byte> cdr) {
+  Input& in = impl_->input(input);
+  if (in.spec().type != PortType::Message || in.spec().message != type) throw impl_->wrong(in.spec(), type);
+  in.deliver(cdr);
+}
+
+std::span<const std::byte> ControllerUnderTest::message_bytes(std::string_view output, std::string_view type) const {
+  const Output& out = impl_->output(output);
+  if (out.spec().type != PortType::Message || out.spec().message != type) throw impl_->wrong(out.spec(), type);
+  return out.latest_bytes();
 }
 
 double ControllerUnderTest::get(std::string_view output) const {

@@ -80,7 +80,8 @@ double at(Bytes b, std::size_t i) {
 
 bool sample_values(const PortSpec& spec, Bytes sample, std::vector<double>& out) {
   out.clear();
-  if (spec.type == PortType::Value || sample.size() % sizeof(double) != 0) return false;
+  if (spec.type == PortType::Value || spec.type == PortType::Message || sample.size() % sizeof(double) != 0)
+    return false;
   if (spec.type == PortType::Scalar && sample.size() != sizeof(double)) return false;
   if (spec.type == PortType::Vector && sample.size() != spec.size * sizeof(double)) return false;
   for (std::size_t i = 0; i < sample.size() / sizeof(double); ++i) out.push_back(at(sample, i));
@@ -90,7 +91,10 @@ bool sample_values(const PortSpec& spec, Bytes sample, std::vector<double>& out)
 std::string sample_json(const PortSpec& spec, Bytes sample) {
   std::string out = "{\"value\":";
   std::vector<double> v;
-  if (spec.type == PortType::Value) {
+  if (spec.type == PortType::Message) {
+    const auto* m = msgs::find_type(spec.message);
+    out += m ? m->json(sample) : "null";
+  } else if (spec.type == PortType::Value) {
     try {
       auto oh = msgpack::unpack(reinterpret_cast<const char*>(sample.data()), sample.size());
       put_object(out, oh.get(), 0);
@@ -130,6 +134,11 @@ std::string json_schema(const std::string& title, const PortSpec& spec) {
       break;
     case PortType::VectorX: s += R"({"type":"array","items":)" + num + "}"; break;
     case PortType::Value: s += "{}"; break;
+    case PortType::Message: {
+      const auto* m = msgs::find_type(spec.message);
+      s += m ? m->json_schema() : "{}";
+      break;
+    }
   }
   return s + "}}";
 }
@@ -147,6 +156,10 @@ Taps::Tap* Taps::add(const std::string& path, const PortSpec& spec, std::size_t 
   }
   if (spec.type == PortType::Vector && spec.size == 0) {
     *error = "tap " + path + ": a vector port needs its size";
+    return nullptr;
+  }
+  if (spec.type == PortType::Message && !msgs::find_type(spec.message)) {
+    *error = "tap " + path + ": no message type '" + spec.message + "'";
     return nullptr;
   }
   auto t = std::make_unique<Tap>();

@@ -43,9 +43,10 @@ bool unstamp(Bytes stamped, std::int64_t& t, Bytes& sample);
 /// The JSON Schema of the messages of a port of spec `spec` (sample_json's), titled `title`.
 std::string json_schema(const std::string& title, const PortSpec& spec);
 /// A sample as a JSON object: {"value": x} (scalar), {"value": [x, ...]} (vectors), {"value": <the msgpack value
-/// as JSON>} (value ports; a malformed one is null). Non-finite numbers are null.
+/// as JSON>} (value ports; a malformed one is null), {"value": {"linear": {"x": 1, ...}, ...}} (message ports:
+/// fields by name, docs/data-plane.md "Typed messages"). Non-finite numbers are null.
 std::string sample_json(const PortSpec& spec, Bytes sample);
-/// A numeric sample's values (scalar and vector ports); false for value ports and malformed samples.
+/// A numeric sample's values (scalar and vector ports); false for value and message ports and malformed samples.
 bool sample_values(const PortSpec& spec, Bytes sample, std::vector<double>& out);
 
 /// The tap inputs of one component (a PortSet it owns): added by path, drained in order.

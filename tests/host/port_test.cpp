@@ -3,7 +3,11 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
+#include <map>
 #include <stdexcept>
+
+#include <dca/msgs_cdr.h>
 
 namespace {
 
@@ -119,6 +123,52 @@ TEST(PortTest, AControllersReadSaysNoneOldOrNewInOneCall) {
   vx.deliver({reinterpret_cast<const std::byte*>(sample.data()), 2 * sizeof(double)});
   EXPECT_EQ(dca::port_detail::read(vx, b), dca::Read::New);
   EXPECT_EQ(b, Eigen::Vector2d(1, 2));
+}
+
+// A message port (docs/data-plane.md, "Typed messages"): connects to its own type only, takes its type's CDR
+// (checked as it arrives), hands a controller the bytes to decode, and shows its latest as a map of fields.
+TEST(PortTest, AMessagePortTakesItsTypesCdrOnly) {
+  const auto twist = dca::message_port("Cmd", "geometry_msgs/msg/Twist");
+  EXPECT_EQ(dca::compatibility_error(twist, dca::message_port("In", "geometry_msgs/msg/Twist")), "");
+  EXPECT_EQ(dca::compatibility_error(twist, dca::message_port("In", "geometry_msgs/msg/Wrench")),
+            "output 'Cmd' is geometry_msgs/msg/Twist but input 'In' is geometry_msgs/msg/Wrench");
+  EXPECT_EQ(dca::compatibility_error(twist, dca::value_port("In")),
+            "output 'Cmd' is geometry_msgs/msg/Twist but input 'In' is value");
+  EXPECT_EQ(dca::compatibility_error(dca::vectorx_port("Out"), twist),
+            "output 'Out' is vectorx but input 'Cmd' is geometry_msgs/msg/Twist");
+  EXPECT_THROW(dca::Input(dca::message_port("In", "geometry_msgs/msg/Twst")), std::invalid_argument);
+  EXPECT_EQ(dca::port_type_from("message"), dca::PortType::Message);
+
+  dca::msgs::Twist t{{1, 2, 3}, {0, 0, 0.5}};
+  std::array<std::byte, dca::msgs::cdr_max_size<dca::msgs::Twist>> buf{};
+  const dca::Bytes cdr(buf.data(), dca::msgs::cdr_encode(t, buf));
+  dca::Output out(twist);
+  EXPECT_TRUE(out.write_bytes(cdr));
+  EXPECT_FALSE(out.write_bytes(cdr.first(20)));  // short
+  EXPECT_FALSE(out.write(1.0));
+  dca::msgs::JointState js;
+  js.name.resize(3);
+  std::vector<std::byte> other(dca::msgs::cdr_max_size<dca::msgs::JointState>);
+  other.resize(dca::msgs::cdr_encode(js, other));
+  EXPECT_FALSE(out.write_bytes(other));  // another type's CDR, longer than a Twist's
+  EXPECT_EQ(out.stats().rejected, 3u);
+
+  dca::Input in(dca::message_port("In", "geometry_msgs/msg/Twist"), 2);
+  dca::Bytes got;
+  EXPECT_EQ(dca::port_detail::read_bytes(in, got), dca::Read::None);
+  in.deliver(cdr);
+  ASSERT_EQ(dca::port_detail::read_bytes(in, got), dca::Read::New);
+  dca::msgs::Twist back;
+  ASSERT_TRUE(dca::msgs::cdr_decode(got, back));
+  EXPECT_EQ(back, t);
+
+  msgpack::sbuffer sb;
+  msgpack::packer<msgpack::sbuffer> pk(sb);
+  in.pack_latest(pk);
+  const auto oh = msgpack::unpack(sb.data(), sb.size());
+  const auto m = oh.get().as<std::map<std::string, std::map<std::string, double>>>();
+  EXPECT_EQ(m.at("linear").at("y"), 2);
+  EXPECT_EQ(m.at("angular").at("z"), 0.5);
 }
 
 }  // namespace

@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <map>
@@ -13,6 +15,7 @@
 
 #include <boost/asio/io_context.hpp>
 
+#include <dca/msgs_cdr.h>
 #include "host/codec/data_frame.h"
 #include "tests/support/run_until.h"
 
@@ -232,6 +235,21 @@ TEST(TapJson, SamplesSchemasTopicsAndMalformedStamps) {
   EXPECT_EQ(tap::json_schema("/a", dca::vector_port("v", 2, "m")),
             "{\"type\":\"object\",\"title\":\"/a\",\"properties\":{\"value\":{\"type\":\"array\",\"items\":"
             "{\"type\":\"number\",\"description\":\"m\"},\"minItems\":2,\"maxItems\":2}}}");
+  // a message port: its fields by name, and its type's schema (docs/data-plane.md, "Typed messages")
+  const auto twist = dca::message_port("cmd", "geometry_msgs/msg/Twist");
+  const dca::msgs::Twist tw{{1, 0.5, 0}, {0, 0, -2}};
+  std::array<std::byte, dca::msgs::cdr_max_size<dca::msgs::Twist>> buf{};
+  const dca::Bytes cdr(buf.data(), dca::msgs::cdr_encode(tw, buf));
+  EXPECT_EQ(tap::sample_json(twist, cdr),
+            R"({"value":{"linear":{"x":1,"y":0.5,"z":0},"angular":{"x":0,"y":0,"z":-2}}})");
+  EXPECT_EQ(tap::sample_json(twist, cdr.first(10)), "{\"value\":null}");
+  const std::string xyz = R"({"type":"object","title":"geometry_msgs/msg/Vector3","properties":{"x":{"type":"number"},)"
+                          R"("y":{"type":"number"},"z":{"type":"number"}}})";
+  EXPECT_EQ(tap::json_schema("/cmd", twist),
+            R"({"type":"object","title":"/cmd","properties":{"value":{"type":"object","title":"geometry_msgs/msg/Twist",)"
+            R"("properties":{"linear":)" + xyz + ",\"angular\":" + xyz + "}}}}");
+  std::vector<double> values;
+  EXPECT_FALSE(tap::sample_values(twist, cdr, values));
   std::int64_t t = 0;
   dca::Bytes sample;
   const char three[3] = {1, 2, 3};

@@ -1,9 +1,11 @@
 -- dca.lang.ports: the types of ports, which output can feed which input, and the sizes a check can work out
 -- before anything runs (docs/lua.md, "Port types"). Pure Lua: the manifests come from the caller.
 --
---   ports.shape(spec)        --> { kind = "scalar" | "vector" | "vectorx" | "value", size = n | nil } | nil
---                                (a manifest port {type=, size=}; nil when the manifest gives no type)
---   ports.text(shape)        --> "scalar", "vector[3]", "vectorx", "vectorx of size 3", "value"
+--   ports.shape(spec)        --> { kind = "scalar" | "vector" | "vectorx" | "value" | "message", size = n | nil,
+--                                message = "geometry_msgs/msg/Twist" | nil } | nil
+--                                (a manifest port {type=, size=, message=}; nil when the manifest gives no type)
+--   ports.text(shape)        --> "scalar", "vector[3]", "vectorx", "vectorx of size 3", "value",
+--                                "geometry_msgs/msg/Twist"
 --   ports.fits(out, in)      --> true | false, why ("" or ": ..." to end a message with)
 --   ports.check(tree, world) --> { { line, col, msg }, ... }: every connection of the instance tree
 --                                (dca.lang.model) and every device port against `world`, the robot process's
@@ -12,8 +14,9 @@
 --                                arguments put in for its {param}s and {param[i]}s (the check's and the
 --                                wiring's one expansion); false: no i-th word, the port is left unwired
 --
--- A scalar is one double, a vector[n] n of them, a vectorx any number, a value a msgpack value. An output feeds
--- an input when both are values, or both numeric and the input is a vectorx (it takes any size) or the two
+-- A scalar is one double, a vector[n] n of them, a vectorx any number, a value a msgpack value, a message one ROS 2
+-- message of its type (docs/data-plane.md, "Typed messages"). An output feeds an input when both are values, both
+-- messages of the same type, or both numeric and the input is a vectorx (it takes any size) or the two
 -- sizes are equal (so a scalar and a vector[1] meet). A vectorx output's size is known to the check only for
 -- the built-ins below; any other vectorx output feeds vectorx inputs only.
 local M = {}
@@ -33,16 +36,21 @@ function M.shape(spec)
   if t == "scalar" then return { kind = "scalar", size = 1 } end
   if t == "vector" then return { kind = "vector", size = spec.size } end
   if t == "vectorx" or t == "value" then return { kind = t } end
+  if t == "message" then return { kind = t, message = spec.message } end
   return nil
 end
 
 function M.text(s)
   if s.kind == "vector" then return sformat("vector[%s]", tostring(s.size)) end
+  if s.kind == "message" then return tostring(s.message) end
   if s.kind == "vectorx" and s.size then return sformat("vectorx of size %d", s.size) end
   return s.kind
 end
 
 function M.fits(out, inp)
+  if out.kind == "message" or inp.kind == "message" then
+    return out.kind == inp.kind and out.message == inp.message, ""
+  end
   if out.kind == "value" or inp.kind == "value" then return out.kind == inp.kind, "" end
   if inp.kind == "vectorx" or out.size == inp.size then return true end
   if not out.size then return false, ": dca check cannot tell how many values it writes" end

@@ -204,7 +204,7 @@ function Live:tap_topic(topic, cb)
   if state then state[#state + 1] = cb return end  -- being made
   local waiting = { cb }
   self.tapped[topic] = waiting
-  local added, aerr = self.tp:add(p.path, p.type, p.size, p.units, 256)
+  local added, aerr = self.tp:add(p.path, p.type, p.size, p.units, 256, p.message)
   local function finish(ok, err)
     self.tapped[topic] = ok and true or nil
     if ok then self.ctx.say(sformat("live: tapped %s (%s)", p.path, topic)) end

@@ -122,7 +122,8 @@ function Run:record_ports(cb)
   local list, err = taps.select(self.spec, self.ctx.rt.types and self.ctx.rt.types() or {}, o.record_ports)
   if not list then cb(nil, err) return end
   taps.connect(self.sup, list, "world", { prepare = function(p, k)
-    s.world:request({ type = "tap", path = p.path, port_type = p.type, size = p.size, units = p.units }, 10,
+    s.world:request({ type = "tap", path = p.path, port_type = p.type, size = p.size, units = p.units,
+                      message = p.message }, 10,
       function(r, werr) k(r ~= nil, werr) end)
   end }, function(ok, terr)
     if ok then self:say(sformat("recording %d ports to %s", #list, tostring(o.record))) self.recorded = list end

@@ -4,7 +4,8 @@
 --
 --   taps.outputs(spec, types)             --> every output of the tree's leaves, in tree order:
 --                                             { { path = "main.door.hit.Out", leaf = "main.door.hit", port = "Out",
---                                                 type = "vector", size = 3, units = "" }, ... }
+--                                                 type = "vector", size = 3, units = "",
+--                                                 message = nil (a message port's ROS 2 type) }, ... }
 --   taps.select(spec, types, "all" | "a.b.P,c.d.Q")  --> those outputs | nil, err (every unknown path named, with
 --                                             the outputs of its leaf when the leaf exists)
 --   taps.connect(sup, list, to, opts, cb)  -- each output linked to the tap input "tap:PATH" of component `to`
@@ -34,7 +35,7 @@ function M.outputs(spec, types)
     local t = types[n.type]
     for _, o in ipairs(t and t.outputs or {}) do
       list[#list + 1] = { path = n.path .. "." .. o.name, leaf = n.path, port = o.name, type = o.type,
-                          size = o.size, units = o.units or "" }
+                          size = o.size, units = o.units or "", message = o.message }
     end
   end)
   return list

@@ -7,13 +7,16 @@
 //   Eigen::Matrix<double, N, 1>   vector[N]     N
 //   Eigen::VectorXd               vectorx       any
 //   dca::PortValue                value         a msgpack value
+//   a dca::msgs type (dca/msgs.h)  message       one ROS 2 message (its CDR), e.g. geometry_msgs/msg/Twist
 //
 // In<T>::read(x) takes the newest sample in one call and says what it found (OROCOS's FlowStatus): Read::New (a
 // sample arrived since the last read: x is it), Read::Old (nothing new: x is the last sample again) or Read::None
 // (never a sample: x untouched). The node's side of a port (queues, connections, transports) is host/port.h:
 // nothing of it is in this header, so a change to the transports changes no package's ABI.
 //
-// Threading: one thread (the node's loop). read() and write() of scalar and fixed-size ports do not allocate.
+// Threading: one thread (the node's loop). read() and write() of scalar, fixed-size and message ports do not
+// allocate. A message port's samples are the message's CDR (dca/msgs_cdr.h): In<M>::read decodes it, Out<M>::write
+// encodes it; a port of one message type connects to a port of the same type only (docs/data-plane.md).
 #include <cstddef>
 #include <cstdint>
 #include <optional>
@@ -25,6 +28,9 @@
 #include <Eigen/Core>
 #include <msgpack.hpp>
 
+#include "dca/msgs.h"
+#include "dca/msgs_cdr.h"
+
 namespace dca {
 
 /// What a port carries.
@@ -33,9 +39,10 @@ enum class PortType : std::uint8_t {
   Vector,   ///< a fixed number of doubles (Eigen::Matrix<double, N, 1>), N = PortSpec::size
   VectorX,  ///< any number of doubles (Eigen::VectorXd); PortSpec::size is 0
   Value,    ///< a msgpack value (any shape); PortSpec::size is 0
+  Message,  ///< a ROS 2 message (dca/msgs.h) as CDR, named by PortSpec::message; PortSpec::size is 0
 };
 
-/// "scalar", "vector", "vectorx" or "value".
+/// "scalar", "vector", "vectorx", "value" or "message".
 std::string_view to_string(PortType t);
 /// The PortType named `s`, or nothing.
 std::optional<PortType> port_type_from(std::string_view s);
@@ -52,6 +59,8 @@ struct PortSpec {
   std::string device = {};
   bool trigger = false;   ///< an input whose samples run MainCalc (a plain or event-driven controller)
   bool actuator = false;  ///< an output that halt() writes zero to (all of its elements): left safe
+  /// A Message port's ROS 2 type ("geometry_msgs/msg/Twist", a dca::msgs type's ros_name); "" for the others.
+  std::string message = {};
 };
 
 /// A scalar port spec.
@@ -62,6 +71,8 @@ PortSpec vector_port(std::string name, std::uint32_t size, std::string units = "
 PortSpec vectorx_port(std::string name, std::string units = "");
 /// A msgpack value port spec.
 PortSpec value_port(std::string name, std::string units = "");
+/// A message port spec: `message` is a dca::msgs type's ros_name.
+PortSpec message_port(std::string name, std::string message, std::string units = "");
 
 /// A sample's bytes: doubles in host byte order for numeric ports, msgpack bytes for Value ports.
 using Bytes = std::span<const std::byte>;
@@ -90,6 +101,7 @@ bool pop(Input& in, double& x);
 bool write(Output& out, double v);
 bool write(Output& out, const double* v, std::size_t n);
 bool write_bytes(Output& out, const char* data, std::size_t n);
+Read read_bytes(Input& in, Bytes& x);  ///< the newest sample's bytes, valid until the input's next delivery
 }  // namespace port_detail
 
 /// How a C++ type travels on a port (the table in the header comment).
@@ -116,6 +128,19 @@ struct PortTraits<PortValue> {
   static constexpr PortType type = PortType::Value;
   static constexpr std::uint32_t size = 0;
 };
+template <msgs::Message M>
+struct PortTraits<M> {
+  static constexpr PortType type = PortType::Message;
+  static constexpr std::uint32_t size = 0;
+  static constexpr std::string_view message = M::ros_name;
+};
+
+/// The ROS 2 type a port of T carries ("" but for messages).
+template <class T>
+std::string port_message() {
+  if constexpr (PortTraits<T>::type == PortType::Message) return std::string(PortTraits<T>::message);
+  else return {};
+}
 
 /// An input's declaration, listed in the manifest and bound in the constructor: port(kIn) gives its In<T>.
 template <class T>
@@ -125,7 +150,7 @@ struct InSpec {
   std::string device = {};  ///< a device port: the robot signal it is wired to
   bool trigger = false;     ///< its samples run MainCalc (a plain or event-driven controller)
   operator PortSpec() const {  // NOLINT(google-explicit-constructor): a manifest lists specs
-    return {name, PortTraits<T>::type, PortTraits<T>::size, units, device, trigger, false};
+    return {name, PortTraits<T>::type, PortTraits<T>::size, units, device, trigger, false, port_message<T>()};
   }
 };
 
@@ -137,7 +162,7 @@ struct OutSpec {
   std::string device = {};  ///< a device port: the robot signal it is wired to
   bool actuator = false;    ///< halt() writes zero to it after on_halt(): left safe whatever the hooks do
   operator PortSpec() const {  // NOLINT(google-explicit-constructor): a manifest lists specs
-    return {name, PortTraits<T>::type, PortTraits<T>::size, units, device, false, actuator};
+    return {name, PortTraits<T>::type, PortTraits<T>::size, units, device, false, actuator, port_message<T>()};
   }
 };
 
@@ -169,8 +194,16 @@ class In {
  public:
   /// Takes the newest sample into `x` (see Read). Real-time safe for scalar and fixed-size ports.
   Read read(T& x) {
-    if constexpr (PortTraits<T>::type == PortType::Vector) return port_detail::read(*in_, x.data(), x.size());
-    else return port_detail::read(*in_, x);
+    if constexpr (PortTraits<T>::type == PortType::Vector) {
+      return port_detail::read(*in_, x.data(), x.size());
+    } else if constexpr (PortTraits<T>::type == PortType::Message) {
+      Bytes b;
+      const Read r = port_detail::read_bytes(*in_, b);
+      if (r == Read::None || !msgs::cdr_decode(b, x)) return Read::None;  // the node checked it: never refused
+      return r;
+    } else {
+      return port_detail::read(*in_, x);
+    }
   }
   /// Takes the oldest queued sample into `x`: false when none is queued. Scalar ports only.
   bool pop(T& x) {
@@ -200,6 +233,14 @@ class Out {
     requires(PortTraits<T>::type == PortType::Vector || PortTraits<T>::type == PortType::VectorX)
   {
     return port_detail::write(*out_, v.data(), static_cast<std::size_t>(v.size()));
+  }
+  /// Writes a message as its CDR (no allocation: encoded on the stack). False when the node refuses it.
+  bool write(const T& m)
+    requires(PortTraits<T>::type == PortType::Message)
+  {
+    std::array<std::byte, msgs::cdr_max_size<T>> buf;
+    const std::size_t n = msgs::cdr_encode(m, buf);
+    return port_detail::write_bytes(*out_, reinterpret_cast<const char*>(buf.data()), n);
   }
   /// Writes any msgpack-packable value (allocates).
   template <class V>

@@ -65,7 +65,56 @@ Doubler::Doubler(const dca::ControllerContext& ctx)
 
 DCA_REGISTER_CONTROLLER(Doubler);
 
+// Message ports (dca/msgs.h): Cmd.linear.x = the first joint's position, Cmd.angular.z = the number of joints.
+const dca::InSpec<dca::msgs::JointState> kJoints{.name = "Joints"};
+const dca::OutSpec<dca::msgs::Twist> kCmd{.name = "Cmd", .actuator = true};
+
+class JointsToTwist final : public dca::PeriodicController {
+  DCA_CONTROLLER(JointsToTwist)
+  void MainCalc() override {
+    if (joints_.read(js_) == dca::Read::None || js_.position.empty()) return;
+    dca::msgs::Twist t;
+    t.linear.x = js_.position[0];
+    t.angular.z = static_cast<double>(js_.name.size());
+    cmd_.write(t);
+  }
+  dca::In<dca::msgs::JointState> joints_;
+  dca::Out<dca::msgs::Twist> cmd_;
+  dca::msgs::JointState js_;  // a member: read() fills it in place
+};
+
+dca::Manifest JointsToTwist::Describe() {
+  return {.type = "FixtureJointsToTwist", .inputs = {kJoints}, .outputs = {kCmd}, .params = {PeriodParam(0.01)}};
+}
+
+JointsToTwist::JointsToTwist(const dca::ControllerContext& ctx)
+    : PeriodicController(ctx), joints_(port(kJoints)), cmd_(port(kCmd)) {}
+
+DCA_REGISTER_CONTROLLER(JointsToTwist);
+
 using dca::testing::ControllerUnderTest;
+
+TEST(ControllerUnderTest, MessagesGoInAndComeOutAndHaltWritesTheDefaultMessage) {
+  ControllerUnderTest c("FixtureJointsToTwist");
+  c.start();
+  dca::msgs::JointState js;
+  for (const char* n : {"a", "b"}) {
+    dca::msgs::Name name;
+    ASSERT_TRUE(name.assign(n));
+    ASSERT_TRUE(js.name.push_back(name));
+    ASSERT_TRUE(js.position.push_back(static_cast<double>(js.position.size()) + 0.5));
+  }
+  c.set_message("Joints", js);
+  c.step();
+  const auto t = c.get_message<dca::msgs::Twist>("Cmd");
+  EXPECT_EQ(t.linear.x, 0.5);
+  EXPECT_EQ(t.angular.z, 2.0);
+  EXPECT_THROW(c.set_message("Joints", t), std::invalid_argument);  // a Twist at a JointState input
+  EXPECT_THROW((void)c.get_message<dca::msgs::Wrench>("Cmd"), std::invalid_argument);
+  c.halt();
+  EXPECT_EQ(c.get_message<dca::msgs::Twist>("Cmd"), dca::msgs::Twist{});  // an actuator: zeros
+  EXPECT_EQ(c.writes("Cmd"), 2u);
+}
 
 TEST(ControllerUnderTest, StepRunsOneMainCalcPerPeriodOnSimulatedTime) {
   ControllerUnderTest c("FixtureDoubler", {"3"});

@@ -7,6 +7,7 @@ local ports = require "dca.lang.ports"
 local suite = T.suite("ports")
 
 local function port(name, ty, size, device) return { name = name, type = ty, size = size or 0, device = device } end
+local function msg(name, message) return { name = name, type = "message", size = 0, message = message } end
 local function number(name, variadic) return { name = name, type = "number", required = not variadic, variadic = variadic } end
 
 local registry = {
@@ -19,6 +20,9 @@ local registry = {
   Single = { inputs = { port("In", "vector", 1) }, outputs = { port("Out", "vector", 1) }, params = {} },
   Any = { inputs = { port("In", "vectorx") }, outputs = { port("Out", "vectorx") }, params = {}, package = "lab" },
   Note = { inputs = { port("In", "value") }, outputs = { port("Msg", "value") }, params = {} },
+  Teleop = { inputs = {}, outputs = { msg("Cmd", "geometry_msgs/msg/Twist") }, params = {} },
+  Base = { inputs = { msg("CmdVel", "geometry_msgs/msg/Twist"), msg("Push", "geometry_msgs/msg/Wrench") },
+           outputs = {}, params = {} },
   Drive = { inputs = { port("Odom", "vector", 2, "base.pose") }, outputs = { port("Cmd", "vector", 3, "base.cmd_vel"),
             port("Grip", "vector", 1, "gripper.cmd") }, params = {} },
   Probe = { inputs = { port("Q", "vector", 6, "arm.qq") }, outputs = {}, params = {} },
@@ -109,6 +113,29 @@ suite:case("every_mismatch_names_both_ends_and_both_types_at_the_connection", fu
     "12:35: main.c.Out (vectorx of size 3) cannot feed main.note.In (value)",
     "13:49: main.g.Out (vectorx of size 3) cannot feed main.o.In (vector[1])",
     "14:58: main.loop.Out (vectorx) cannot feed main.l.In (scalar): dca check cannot tell how many values it writes",
+  })
+end)
+
+suite:case("a_message_feeds_only_a_message_of_its_own_type", function()
+  local twist = { kind = "message", message = "geometry_msgs/msg/Twist" }
+  local wrench = { kind = "message", message = "geometry_msgs/msg/Wrench" }
+  T.eq(ports.shape(msg("Cmd", "geometry_msgs/msg/Twist")), twist)
+  T.eq(ports.fits(twist, twist), true)
+  T.eq(ports.fits(twist, wrench), false)
+  T.eq(ports.fits(twist, { kind = "value" }), false)
+  T.eq(ports.fits({ kind = "vectorx" }, twist), false)
+  T.eq(errors_of([[
+  instantiated_processes { t instof Teleop("h"); b instof Base("h"); l instof Level("h"); note instof Note("h"); }
+  internal_connections(b, x) {
+    t, Cmd -> b, CmdVel;
+    t, Cmd -> b, Push;
+    note, Msg -> b, CmdVel;
+  }
+  internal_connections(l, x) { t, Cmd -> l, In; }
+  internal_event_actions { b[x], t, l[x], note }]]), {
+    "5:5: main.t.Cmd (geometry_msgs/msg/Twist) cannot feed main.b.Push (geometry_msgs/msg/Wrench)",
+    "6:5: main.note.Msg (value) cannot feed main.b.CmdVel (geometry_msgs/msg/Twist)",
+    "8:32: main.t.Cmd (geometry_msgs/msg/Twist) cannot feed main.l.In (scalar)",
   })
 end)
 

@@ -94,6 +94,14 @@ class ControllerUnderTest {
     set_bytes(input, sb.data(), sb.size());
   }
 
+  /// A message at a message input (its CDR). Throws std::invalid_argument for an unknown input or another type.
+  template <msgs::Message M>
+  void set_message(std::string_view input, const M& m) {
+    std::vector<std::byte> b(msgs::cdr_max_size<M>);
+    b.resize(msgs::cdr_encode(m, b));
+    set_message_bytes(input, M::ros_name, b);
+  }
+
   // --- outputs: the latest sample written ---
   /// A scalar output's latest sample (0 before the first). Throws std::invalid_argument for an unknown output
   /// or another type.
@@ -102,6 +110,14 @@ class ControllerUnderTest {
   Eigen::VectorXd get_vector(std::string_view output) const;
   /// A value output's latest sample (nil before the first).
   msgpack::object_handle get_value(std::string_view output) const;
+  /// A message output's latest message (M{} before the first). Throws std::invalid_argument for an unknown
+  /// output or another type.
+  template <msgs::Message M>
+  M get_message(std::string_view output) const {
+    M m{};
+    (void)msgs::cdr_decode(message_bytes(output, M::ros_name), m);
+    return m;
+  }
   /// How many samples the output has written.
   std::uint64_t writes(std::string_view output) const;
 
@@ -122,6 +138,8 @@ class ControllerUnderTest {
  private:
   void start_bytes(const char* data, std::size_t n);
   void set_bytes(std::string_view input, const char* data, std::size_t n);
+  void set_message_bytes(std::string_view input, std::string_view type, std::span<const std::byte> cdr);
+  std::span<const std::byte> message_bytes(std::string_view output, std::string_view type) const;
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
