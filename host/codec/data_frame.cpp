@@ -84,6 +84,7 @@ std::string encode_hello(const Hello& h) {
                      .set("type", to_string(h.out.type))
                      .set("size", static_cast<std::int64_t>(h.out.size));
   if (r.stamped) v.set("stamped", true);
+  if (h.out.type == PortType::Message) v.set("message", h.out.message);  // its type's ROS name
   std::string out;
   wire::encode_value(v, out);
   return out;
@@ -100,6 +101,7 @@ std::string* string_field(const std::string& key, Hello& h, std::string& mode, s
   if (key == "set") return &h.request.set;
   if (key == "mode") return &mode;
   if (key == "type") return &type;
+  if (key == "message") return &h.out.message;
   return nullptr;
 }
 

@@ -87,7 +87,7 @@ inline constexpr std::size_t kMaxName = 256;            ///< a component, port o
 /// The Hello's fields.
 struct Hello {
   ConnectRequest request;
-  PortSpec out;  ///< the source output's spec (name = request.out)
+  PortSpec out;  ///< the source output's spec (name = request.out; type, size and a message port's message)
 };
 
 /// Packs a Hello body (msgpack map).

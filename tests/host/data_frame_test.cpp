@@ -76,6 +76,14 @@ TEST(DataFrameTest, HelloRoundTripsAndRejectsGarbage) {
   const std::string junk = "\x93\x01\x02";
   EXPECT_FALSE(df::decode_hello({reinterpret_cast<const std::byte*>(junk.data()), junk.size()}, back, &err));
   EXPECT_FALSE(err.empty());
+  // a message port's type travels with it, so the destination holds it to its input's (compatibility_error)
+  const df::Hello m{{"/a", "Cmd", "/b", "CmdVel", "s"}, dca::message_port("Cmd", "geometry_msgs/msg/Twist")};
+  const auto mb = df::encode_hello(m);
+  df::Hello mback;
+  ASSERT_TRUE(df::decode_hello({reinterpret_cast<const std::byte*>(mb.data()), mb.size()}, mback, &err)) << err;
+  EXPECT_EQ(mback.out.type, dca::PortType::Message);
+  EXPECT_EQ(mback.out.message, "geometry_msgs/msg/Twist");
+  EXPECT_EQ(dca::compatibility_error(mback.out, dca::message_port("CmdVel", "geometry_msgs/msg/Twist")), "");
 }
 
 // Regression: a hello with queue = 4294967295 made the destination allocate the queue and die of bad_alloc.

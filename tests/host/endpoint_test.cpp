@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <optional>
 #include <string>
@@ -13,6 +14,7 @@
 
 #include <boost/asio/io_context.hpp>
 
+#include <dca/msgs_cdr.h>
 #include "host/codec/data_frame.h"
 #include "tests/support/raw_data_client.h"
 #include "tests/support/run_until.h"
@@ -266,6 +268,27 @@ TEST_P(EndpointSocketTest, PushSamplesFlowOnlyWhileActiveAndSwitchingNeverReconn
   EXPECT_EQ(dst_ep->accepted(), 1u);  // one socket throughout
   EXPECT_TRUE(src_events.empty());
   EXPECT_TRUE(dst_events.empty());
+}
+
+// A message port's samples (its type's CDR, docs/data-plane.md "Typed messages") cross the socket as they are,
+// and its type with them: another message type is refused at connect.
+TEST_P(EndpointSocketTest, MessageSamplesCrossTheSocketAndOnlyToTheirType) {
+  auto& cmd = src.add_output(dca::message_port("Cmd", "geometry_msgs/msg/Twist"));
+  auto& vel = dst.add_input(dca::message_port("CmdVel", "geometry_msgs/msg/Twist"));
+  dst.add_input(dca::message_port("Push", "geometry_msgs/msg/Wrench"));
+  EXPECT_EQ(connect(*src_ep, req("/src", "Cmd", "/dst", "Push", "m"), dst_ep->location()),
+            "output 'Cmd' is geometry_msgs/msg/Twist but input 'Push' is geometry_msgs/msg/Wrench");
+  ASSERT_EQ(connect(*src_ep, req("/src", "Cmd", "/dst", "CmdVel", "m"), dst_ep->location()), "");
+  src_ep->activate("m");
+  const dca::msgs::Twist t{{0.25, 0, 0}, {0, 0, -1}};
+  std::array<std::byte, dca::msgs::cdr_max_size<dca::msgs::Twist>> buf{};
+  ASSERT_TRUE(cmd.write_bytes({buf.data(), dca::msgs::cdr_encode(t, buf)}));
+  ASSERT_TRUE(run_until(io, [&] { return vel.queued() == 1; }));
+  dca::Bytes got;
+  ASSERT_EQ(dca::port_detail::read_bytes(vel, got), dca::Read::New);
+  dca::msgs::Twist arrived;
+  ASSERT_TRUE(dca::msgs::cdr_decode(got, arrived));
+  EXPECT_EQ(arrived, t);
 }
 
 TEST_P(EndpointSocketTest, PullAnswersWithTheLatestSample) {
