@@ -74,7 +74,8 @@ PortSpec value_port(std::string name, std::string units = "");
 /// A message port spec: `message` is a dca::msgs type's ros_name.
 PortSpec message_port(std::string name, std::string message, std::string units = "");
 
-/// A sample's bytes: doubles in host byte order for numeric ports, msgpack bytes for Value ports.
+/// A sample's bytes: doubles in host byte order for numeric ports, msgpack bytes for Value ports, the message's
+/// CDR (dca/msgs_cdr.h) for Message ports.
 using Bytes = std::span<const std::byte>;
 
 /// A msgpack value read from a Value port.
@@ -192,7 +193,7 @@ class Controller;
 template <class T>
 class In {
  public:
-  /// Takes the newest sample into `x` (see Read). Real-time safe for scalar and fixed-size ports.
+  /// Takes the newest sample into `x` (see Read). Real-time safe for scalar, fixed-size and message ports.
   Read read(T& x) {
     if constexpr (PortTraits<T>::type == PortType::Vector) {
       return port_detail::read(*in_, x.data(), x.size());
