@@ -99,7 +99,7 @@ std::string RtThread::start() {
   std::promise<std::string> ready;
   auto told = ready.get_future();
   thread_ = std::thread([this, &ready] {
-    ready.set_value(setup_thread(config_));
+    ready.set_value(warning(config_, setup_thread(config_)));
     run();
   });
   return told.get();

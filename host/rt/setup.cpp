@@ -40,7 +40,7 @@ std::string setup_process(const RtConfig& c) {
   if (c.priority == 0 || !c.lock_memory) return "";
   std::string warning;
   if (mlockall(MCL_CURRENT | MCL_FUTURE) != 0)
-    warning = "real time: " + who(c) + ": memory not locked (mlockall: " + std::strerror(errno) +
+    warning = std::string("memory not locked (mlockall: ") + std::strerror(errno) +
               "; needs CAP_IPC_LOCK or a larger RLIMIT_MEMLOCK): page faults may delay its real-time thread";
   // the heap reserve: freed memory stays in the process (no trimming, no mmap'd chunks to unmap)
   mallopt(M_TRIM_THRESHOLD, -1);
@@ -73,7 +73,12 @@ std::string setup_thread(const RtConfig& c) {
                  "default scheduler";
   }
   prefault_stack(c.stack_prefault);
-  return warning.empty() ? "" : "real time: " + who(c) + ": " + warning;
+  return warning;
+}
+
+std::string warning(const RtConfig& c, const std::string& a, const std::string& b) {
+  if (a.empty() && b.empty()) return "";
+  return "real time: " + who(c) + ": " + a + (a.empty() || b.empty() ? "" : "; ") + b;
 }
 
 }  // namespace dca::rt

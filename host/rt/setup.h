@@ -24,9 +24,11 @@ struct RtConfig {
 
 /// "" when `c` is valid, else why ("rt priority must be 1..99, got 120").
 std::string check(const RtConfig& c);
-/// The process's part (memory), on any thread, once: "" or one warning line.
+/// The process's part (memory), on any thread, once: "" or what was refused.
 std::string setup_process(const RtConfig& c);
-/// The calling thread's part (scheduler, CPU, stack): "" or one warning line.
+/// The calling thread's part (scheduler, CPU, stack): "" or what was refused.
 std::string setup_thread(const RtConfig& c);
+/// The one warning line for what was refused: "real time: WHO: a; b", or "" when nothing was.
+std::string warning(const RtConfig& c, const std::string& a, const std::string& b = "");
 
 }  // namespace dca::rt
