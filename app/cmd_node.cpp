@@ -14,12 +14,14 @@
 #include "host/loop.h"
 #include "host/paths.h"
 #include "host/node.h"
+#include "host/rt/setup.h"
 
 namespace {
 
 constexpr const char* kUsage =
     "usage: dca node --type T --name PATH --daemon ADDR [--key FILE] [--host NAME] [--clock wall|sim]\n"
-    "                [--world NAME|none] [--timeout MS] [--package NAME]... [--system-dir DIR] [-- ARG...]\n"
+    "                [--world NAME|none] [--timeout MS] [--package NAME]... [--system-dir DIR]\n"
+    "                [--rt-priority P] [--rt-cpu C] [-- ARG...]\n"
     "       dca node --shared NAME --daemon ADDR [--key FILE] [--host NAME] [--clock wall|sim] ...\n"
     "\n"
     "Hosts one controller of type T (see `dca types`) named PATH: registers it with the daemon at ADDR, then\n"
@@ -37,6 +39,9 @@ constexpr const char* kUsage =
     "  --timeout MS   deadline of each start-up step and look-up (default 5000)\n"
     "  --package NAME load the controller package NAME first (repeatable): NAME.dca.so from $DCA_CONTROLLER_PATH,\n"
     "                 <prefix>/lib/dca/controllers, or DIR/packages with --system-dir DIR (the .dca file's folder)\n"
+    "  --rt-priority P, --rt-cpu C  wall clock only: the node's thread runs SCHED_FIFO P (1..99), pinned to CPU C,\n"
+    "                 memory locked (docs/time.md, \"Real time\"); without the privilege, one warning and the\n"
+    "                 default scheduler. Ignored on simulated time.\n"
     "Prints `dca node: PATH ready` on stdout once registered. Exits 0 on `exit` or SIGTERM, 1 when start-up\n"
     "fails or the daemon goes away.";
 
@@ -53,8 +58,22 @@ bool load_packages(const std::vector<std::string>& names, const std::string& sys
   return true;
 }
 
+// Real time on the wall clock (host/rt/setup.h) for the calling thread, the node's one thread: its controllers'
+// timers and MainCalc run there. "" when applied, else why not (a warning, never a failure); nothing on simulated
+// time, where runs stay trace-identical.
+std::string apply_rt(const dca::NodeOptions& o, dca::rt::RtConfig rt) {
+  if (o.clock != dca::ClockKind::Wall || (rt.priority == 0 && rt.cpu < 0)) return "";
+  char host[256] = {};
+  gethostname(host, sizeof host - 1);
+  rt.who = o.name + " on host " + (o.host.empty() ? std::string(host) : o.host);
+  if (auto e = dca::rt::check(rt); !e.empty()) return dca::rt::warning(rt, e + ": not applied");
+  const std::string memory = dca::rt::setup_process(rt);
+  return dca::rt::warning(rt, memory, dca::rt::setup_thread(rt));
+}
+
 int cmd_node(std::span<char* const> args) {
   dca::NodeOptions o;
+  dca::rt::RtConfig rt;
   std::vector<std::string> packages;
   std::string system_dir;
   for (std::size_t i = 0; i < args.size(); ++i) {
@@ -80,6 +99,8 @@ int cmd_node(std::span<char* const> args) {
     else if (a == "--timeout") o.timeout_ms = std::atoi(v.c_str());
     else if (a == "--package") packages.push_back(v);
     else if (a == "--system-dir") system_dir = v;
+    else if (a == "--rt-priority") rt.priority = std::atoi(v.c_str());
+    else if (a == "--rt-cpu") rt.cpu = std::atoi(v.c_str());
     else if (a == "--clock" && (v == "wall" || v == "sim")) o.clock = v == "sim" ? dca::ClockKind::Simulated : dca::ClockKind::Wall;
     else {
       std::fprintf(stderr, "dca node: unknown argument '%s %s'\n%s\n", a.c_str(), v.c_str(), kUsage);
@@ -92,6 +113,7 @@ int cmd_node(std::span<char* const> args) {
   }
   if (o.timeout_ms <= 0) o.timeout_ms = 5000;
   if (!load_packages(packages, system_dir)) return 1;
+  if (const auto w = apply_rt(o, rt); !w.empty()) std::fprintf(stderr, "dca node: %s\n", w.c_str());
   o.load_package = [](const std::string& name, const std::string& dir, std::string* error) {
     return dca::load_package(name, dca::controller_dirs(dir), error) != nullptr;
   };
