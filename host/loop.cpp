@@ -66,6 +66,27 @@ void Loop::on_signals(std::initializer_list<int> signals, std::function<void(int
   wait_signal();
 }
 
+void Loop::on_signal(int signal, std::function<void()> fn) {
+  auto& e = extra_[signal];
+  if (e.first) {
+    boost::system::error_code ec;
+    e.first->cancel(ec);
+  }
+  e.first = std::make_unique<boost::asio::signal_set>(io_, signal);
+  e.second = std::move(fn);
+  wait_extra(e.first.get(), signal);
+}
+
+void Loop::wait_extra(boost::asio::signal_set* set, int signal) {
+  set->async_wait([this, set, signal](const boost::system::error_code& ec, int) {
+    auto it = extra_.find(signal);
+    if (ec || it == extra_.end() || it->second.first.get() != set) return;  // cancelled or replaced
+    if (it->second.second) it->second.second();
+    it = extra_.find(signal);
+    if (it != extra_.end() && it->second.first.get() == set) wait_extra(set, signal);
+  });
+}
+
 void Loop::wait_signal() {
   signals_->async_wait([this, set = signals_.get()](const boost::system::error_code& ec, int sig) {
     if (ec || set != signals_.get()) return;  // cancelled or replaced

@@ -15,6 +15,7 @@
 #include <chrono>
 #include <functional>
 #include <initializer_list>
+#include <map>
 #include <memory>
 
 namespace dca {
@@ -50,9 +51,14 @@ class Loop {
   /// Calls `fn(signal)` from the loop each time one of `signals` (e.g. SIGTERM, SIGINT) arrives. Replaces any
   /// earlier handler. The signals are handled only while the Loop lives.
   void on_signals(std::initializer_list<int> signals, std::function<void(int)> fn);
+  /// Calls `fn()` from the loop each time `signal` arrives (e.g. SIGUSR2), besides on_signals' handler; replaces
+  /// an earlier one for that signal. The signal is handled only while the Loop lives.
+  void on_signal(int signal, std::function<void()> fn);
 
  private:
   void wait_signal();
+  void wait_extra(boost::asio::signal_set* set, int signal);
+  std::map<int, std::pair<std::unique_ptr<boost::asio::signal_set>, std::function<void()>>> extra_;
   boost::asio::io_context io_{1};
   std::unique_ptr<boost::asio::signal_set> signals_;
   std::function<void(int)> on_signal_;

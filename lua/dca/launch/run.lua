@@ -379,6 +379,17 @@ function Run:prepare()
   return true
 end
 
+-- The black box's trigger on demand (SIGUSR2, docs/recording.md "Black box"): the world's `blackbox {why}`,
+-- said with its tick.
+function Run:blackbox(why)
+  local s = self.ctx.sim
+  if not (s and s.world:connected()) then self:say("black box: no world to trigger it in yet (" .. why .. ")") return end
+  s.world:request({ type = "blackbox", why = why }, 10, function(r, err)
+    if r and r.t then self:say(sformat("black box triggered (%s) at %.3f s", why, r.t))
+    else self:say("black box: " .. why .. ": " .. tostring(err)) end
+  end)
+end
+
 --- Runs the system of `spec` with options `o`, talking through `out` (see the header). --> exit code
 function M.main(spec, o, out)
   local r = setmetatable({ o = o, spec = spec, out = out, followers = {}, t0 = core.now(), trace_lines = {} }, Run)
@@ -390,6 +401,7 @@ function M.main(spec, o, out)
   r.sup = start.tree(r.ctx, spec.host)
   local function interrupted(sig) r:say("interrupted (SIG" .. tostring(sig) .. "): stopping") r:stop_all(130) end
   core.on_signal(interrupted)
+  if o.blackbox then core.on_usr2(function() r:blackbox("SIGUSR2") end) end
   -- one that came between the last start step and on_signal: held since main (bindings/stop_signals.h)
   if core.pending_signal() then core.after(0, function() interrupted(core.pending_signal()) end) end
   r:listen()

@@ -36,6 +36,7 @@ deactivate(path, label)
 read(path, port)              a leaf's port: its latest sample and how many samples it has seen
 stats(path)                   a leaf's timers: ticks, the period achieved (p50/p99/max, on its clock and on the
                                 wall clock), how late ticks started, and overruns (periods skipped)
+blackbox(why)                 trigger the black box of `dca run --blackbox` now (its file names why)
 reload()                      re-read the system file (and reload("modules") the supervisor's Lua)
 config.get(key)               the configuration repository of this supervisor's host (replicated to all):
 config.set(key, value)          a value; write one key (or config.set{ key = value, ... }: one transaction)
@@ -184,6 +185,13 @@ local function action_commands(env, c, reload)
     local path = path_of(p)
     local ok, err = await(function(k) sup:switch(path, label, what, k) end)
     return done(ok, err, sformat("%s[%s]: %sd", path, tostring(label), what))
+  end
+  function env.blackbox(why)
+    if not (sup.rt and sup.rt.world) then error("blackbox: this supervisor reaches no world", 0) end
+    local msg = { type = "blackbox", why = "REPL: " .. tostring(why or "on demand") }
+    local r, err = await(function(k) sup.rt.world(msg, sup.timeouts.request, k) end)
+    if not (r and r.t) then error("blackbox: " .. tostring(err or (r and r.reason)), 0) end
+    return sformat("black box triggered (%s) at %.3f s", msg.why, r.t)
   end
   function env.activate(p, label) return set(p, label, "activate") end
   function env.deactivate(p, label) return set(p, label, "deactivate") end
