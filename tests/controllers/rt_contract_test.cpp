@@ -212,7 +212,9 @@ TEST_F(RtContract, RT_CONTRACT_TEST) {
 TEST_F(RtContract, NamesTheControllerThatAllocates) {
   ASSERT_TRUE(contract::hooked());
   const std::string why = measure(*Registry::global().manifest("AllocatesEachTick"));
-  EXPECT_EQ(why.rfind("AllocatesEachTick: 100 allocations, 0 locks, 0 page faults", 0), 0u) << why;
+  // (its page faults are left out: they follow from its allocations, and under ASan, whose quarantine hands out
+  // fresh memory, there are some)
+  EXPECT_EQ(why.rfind("AllocatesEachTick: 100 allocations, 0 locks, ", 0), 0u) << why;
 }
 #endif
 
