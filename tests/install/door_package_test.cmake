@@ -23,7 +23,7 @@ run("dca types --package door" ${env} DCA_CONTROLLER_PATH=${WORK_DIR}/build ${WO
     --package door)
 string(FIND "${out}" "PressHandle(host, speed=0.03, force=30, travel=0.02, compliance=0.002, period=0.01)    (package door)" at)
 if(at EQUAL -1)
-  message(FATAL_ERROR "dca types --package door does not list PressHandle from the package built here:\n${out}")
+  fail("dca types --package door does not list PressHandle from the package built here:\n${out}")
 endif()
 run("the door system on the installed dca" ${env} DCA_CONTROLLER_PATH=${WORK_DIR}/build ${WORK_DIR}/prefix/bin/dca
     run ${system} --sim door --seed 0 --trace ${WORK_DIR}/installed.trace)
@@ -32,7 +32,7 @@ run("the door system on the build tree" ${BUILD_DIR}/bin/dca run ${system} --sim
 run("dca trace diff" ${BUILD_DIR}/bin/dca trace diff ${WORK_DIR}/tree.trace ${WORK_DIR}/installed.trace)
 string(FIND "${out}" "identical" at)
 if(at EQUAL -1)
-  message(FATAL_ERROR "the door run with the package built here differs from the build tree's:\n${out}")
+  fail("the door run with the package built here differs from the build tree's:\n${out}")
 endif()
 message(STATUS "the door package built against the installed dca runs the door system identically")
 file(REMOVE_RECURSE ${WORK_DIR})

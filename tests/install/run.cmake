@@ -1,8 +1,17 @@
+# fail(MESSAGE): fails the test, first removing its folder WORK_DIR (made in /tmp by the test that includes this):
+# a failed run leaves nothing behind either; MESSAGE carries the output that shows why.
+function(fail msg)
+  if(WORK_DIR)
+    file(REMOVE_RECURSE ${WORK_DIR})
+  endif()
+  message(FATAL_ERROR "${msg}")
+endfunction()
+
 # run(WHAT COMMAND...): runs a command, failing the test with its output when it fails; its output in `out`.
 function(run what)
   execute_process(COMMAND ${ARGN} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
   if(NOT rc EQUAL 0)
-    message(FATAL_ERROR "${what} failed (${rc}):\n${out}${err}")
+    fail("${what} failed (${rc}):\n${out}${err}")
   endif()
   set(out "${out}${err}" PARENT_SCOPE)
 endfunction()
@@ -17,7 +26,7 @@ function(build_outside what src build)
   foreach(tree ${SOURCE_DIR} ${BUILD_DIR})
     string(FIND "${ninja}" "${tree}" at)
     if(NOT at EQUAL -1)
-      message(FATAL_ERROR "${what}'s build refers to ${tree}: it must use the installed dca only")
+      fail("${what}'s build refers to ${tree}: it must use the installed dca only")
     endif()
   endforeach()
 endfunction()
