@@ -342,10 +342,42 @@ function System:pid(path)
   return ep and ep.shared and ep.pid or nil
 end
 
+-- Whether process `pid` has ended: gone, or a zombie its parent has not reaped yet (its descriptors are closed).
+local function ended(pid)
+  local f = io.open("/proc/" .. pid .. "/stat")
+  if not f then return true end
+  local stat = f:read("a") or ""
+  f:close()
+  local state = stat:match("%) (%a)")
+  return state == nil or state == "Z" or state == "X"
+end
+
+-- The signals that end a node (its handlers stop it on TERM and INT).
+local ending = { KILL = true, SEGV = true, ABRT = true, BUS = true, FPE = true, ILL = true, TERM = true, INT = true,
+                 QUIT = true }
+
+-- Sends `sig` (default KILL) to the process of `path`; a signal that ends it returns once it has ended. A signal
+-- is delivered asynchronously: without the wait, time released right after a kill can meet the process still
+-- answering the next advance in one run and gone in another, and the traces differ (scenario_repeat.sh).
 function System:kill(path, sig)
   local pid = self:pid(path)
   if not pid then error("no live process " .. path, 2) end
-  assert(core.kill(pid, sig or "KILL"))
+  sig = sig or "KILL"
+  assert(core.kill(pid, sig))
+  local name = sig:gsub("^SIG", "")
+  if not ending[name] then return end
+  self:_until_ended(pid, path, "SIG" .. name)
+end
+
+-- Returns once process `pid` (`what`, for the error) has ended, within 10 s (wall clock) of `cause`.
+function System:_until_ended(pid, what, cause)
+  local deadline = now() + 10
+  while not ended(pid) do
+    if now() > deadline then
+      error(sformat("%s (pid %d) has not ended 10 s (wall clock) after %s", what, pid, cause), 3)
+    end
+    self:settle(0.001)
+  end
 end
 
 function System:freeze(path)
@@ -371,6 +403,8 @@ function System:lose_host(host)
   for _, p in ipairs(children) do core.kill(p, "STOP") end
   assert(core.kill(pid, "KILL"))
   for _, p in ipairs(children) do core.kill(p, "KILL") end
+  self:_until_ended(pid, "the daemon of host " .. host, "SIGKILL")
+  for _, p in ipairs(children) do self:_until_ended(p, "a process of host " .. host, "SIGKILL") end
 end
 
 -- Processes started by the daemon of `host` (from /proc: their parent is the daemon).
