@@ -1,18 +1,8 @@
 # dca_runtime: every target of the build except the GoogleTest executables (dca_add_gtest lists them in the global
 # property DCA_GTEST_TARGETS): what the tests that are no GoogleTest case need (dca, its nodes, the packages, the
 # test packages). scripts/test builds it first under the sanitizers, then runs those tests while the GoogleTest
-# executables still compile (docs/build.md, "The test command").
-function(dca_collect_targets dir out)
-  get_property(targets DIRECTORY ${dir} PROPERTY BUILDSYSTEM_TARGETS)
-  get_property(subdirs DIRECTORY ${dir} PROPERTY SUBDIRECTORIES)
-  foreach(sub IN LISTS subdirs)
-    dca_collect_targets(${sub} below)
-    list(APPEND targets ${below})
-  endforeach()
-  set(${out} ${targets} PARENT_SCOPE)
-endfunction()
-
-dca_collect_targets(${PROJECT_SOURCE_DIR} dca_all_targets)
+# executables still compile (docs/build.md, "Scripts").
+dca_property_below(${PROJECT_SOURCE_DIR} BUILDSYSTEM_TARGETS dca_all_targets)
 get_property(dca_gtests GLOBAL PROPERTY DCA_GTEST_TARGETS)
 add_custom_target(dca_runtime)
 foreach(t IN LISTS dca_all_targets)
