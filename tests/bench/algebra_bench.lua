@@ -4,7 +4,12 @@
 -- does nothing: what one event costs before the engine does anything). Per-event times come from batches of
 -- BATCH events (os.clock has microsecond resolution).
 --   dca lua tests/bench/algebra_bench.lua [events]
+--   DCA_BENCH_BEFORE=FILE: also FILE, another version of lua/dca/algebra.lua (e.g. `git show
+--   main:lua/dca/algebra.lua > /tmp/algebra_before.lua`), after each measurement of this one (variants suffixed
+--   _before), so that a change is measured before and after in one run
 local algebra = require "dca.algebra"
+local before_file = os.getenv("DCA_BENCH_BEFORE")
+local before = before_file and assert(loadfile(before_file))()
 
 local N = tonumber((...)) or 400000
 local BATCH = 100
@@ -56,9 +61,9 @@ end
 -------------------------------------------------------------------------------- door
 local DOOR = "MotionControl , ((VisualServoing[lbl1] # DistDetector); ((OpenGripper, Approach[lbl1]) # HitDetector); " ..
              "CloseGripper ; PressHandle[lbl1] ; DoorOpen[lbl1])"
-local function door_setup()
+local function door_setup(engine)
   local noop = function() end
-  local run = assert(algebra.new(DOOR, { start = noop, abort = noop, activate = noop, deactivate = noop }))
+  local run = assert((engine or algebra).new(DOOR, { start = noop, abort = noop, activate = noop, deactivate = noop }))
   local script = { "DistDetector", "OpenGripper", "HitDetector", "CloseGripper", "PressHandle", "DoorOpen",
                    "MotionControl" }
   local i = 0
@@ -93,10 +98,10 @@ local function gen(first, count, rnd)
 end
 local BIG = (gen(1, 1000, math.random))
 
-local function big_setup()
+local function big_setup(engine)
   -- the driver answers each started leaf with DONE, in start order (a FIFO of started names)
   local running, queue, head, tail = {}, {}, 1, 0
-  local run = assert(algebra.new(BIG, {
+  local run = assert((engine or algebra).new(BIG, {
     start = function(n) running[n] = true; tail = tail + 1; queue[tail] = n end,
     abort = function(n) running[n] = nil end,
   }))
@@ -128,7 +133,15 @@ for round = 1, 2 do
   result("lua_raw_call", "door_events", raw_call(N), " round=" .. round)
   local run, nx = door_setup()
   result("algebra_events", "door", measure(run, nx, N), " round=" .. round)
+  if before then
+    run, nx = door_setup(before)
+    result("algebra_events", "door_before", measure(run, nx, N), " round=" .. round)
+  end
   result("lua_empty_loop", "n" .. N, empty_loop(N))
   run, nx = big_setup()
   result("algebra_events", "generated_1000_leaves", measure(run, nx, N), " round=" .. round)
+  if before then
+    run, nx = big_setup(before)
+    result("algebra_events", "generated_1000_leaves_before", measure(run, nx, N), " round=" .. round)
+  end
 end
