@@ -43,7 +43,8 @@ local sbyte, ssub, sfind, sformat = string.byte, string.sub, string.find, string
 local concat = table.concat
 
 -- Operator codes of the compiled form.
-local LEAF, PAR, SEQ, DIS, COND, REC = 0, 1, 2, 3, 4, 5
+-- (<const>: compiled into the instructions that use them, no upvalue read.)
+local LEAF <const>, PAR <const>, SEQ <const>, DIS <const>, COND <const>, REC <const> = 0, 1, 2, 3, 4, 5
 local OPCODE = { leaf = LEAF, [","] = PAR, [";"] = SEQ, ["#"] = DIS, [":"] = COND, [":;"] = REC }
 -- Binding strength for printing: smaller binds tighter.
 local LEVEL = { leaf = 0, [":"] = 1, [":;"] = 1, ["#"] = 2, [";"] = 3, [","] = 4 }
@@ -355,142 +356,196 @@ local Run = {}
 Run.__index = Run
 
 local function noop() end
-local function never() return false end
 
-local LOG_SIZE = 256
-
--- One entry of the ring buffer of the latest commands and events (Run:log() renders them).
-local function log(self, kind, a, b)
+-- The log: a ring of the latest LOG_SIZE commands and events (Run:log() renders them). self.logi counts the
+-- entries ever written; entry i sits at slot i & LOG_MASK of logc, as one integer: id * 16 + one of the
+-- codes below (id: the leaf's node id); logv holds the entry's value for the codes that have one (a start's
+-- binding, an ignored event's name). The hot paths write their entries inline; the others call log().
+local LOG_SIZE <const> = 256
+local LOG_MASK <const> = LOG_SIZE - 1
+local L_START <const>, L_ABORT <const>, L_CONFLICT <const>, L_ABORT_ALL <const> = 1, 3, 4, 5
+local L_EVENT = { done = 8, aborted = 9, error = 10 }       -- "event A done"
+local L_IGNORED = { done = 11, aborted = 12, error = 13 }   -- "ignored A done" (logv: the name)
+local function log(self, code, v)
   local i = self.logi + 1
-  if i > LOG_SIZE then i, self.logfull = 1, true end
   self.logi = i
-  local k = i * 3
-  local buf = self.logbuf
-  buf[k - 2], buf[k - 1], buf[k] = kind, a, b
+  i = i & LOG_MASK
+  self.logc[i], self.logv[i] = code, v
 end
 
-local function unlink(self, id)
-  local p, nx = self.rprev[id], self.rnext[id]
-  if p ~= 0 then self.rnext[p] = nx else self.rhead = nx end
-  if nx ~= 0 then self.rprev[nx] = p else self.rtail = p end
-  self.byname[self.c.name[id]] = nil
-end
+-- A run's engine is a set of closures made once per run (M.new): the compiled arrays of its expression and
+-- the run's state tables are their upvalues, so that an event costs no table lookup to reach them. The state
+-- tables live as long as the run (Run:restore fills them in place):
+--   rprev, rnext   the running leaves in start order: a circular doubly linked list through sentinel 0
+--                  (rnext[0] the first started, rprev[0] the last)
+--   byname         process name -> the running leaf's id
+--   bind           SEQ, COND, REC node -> the binding it started with
+--   cnt, vals      PAR node -> operands still running, values so far { n = operands }
 
--- Starts node `id` with binding `b` (SEMANTICS.md §3 start order). Returns true when the node is
--- running afterwards, false when it ended ABORTED at once (a leaf whose process was already running); in
--- that case nothing of the subtree is left running.
-local start_node
--- Aborts every running leaf in the subtree of `id`, most recently started first (SEMANTICS.md §6).
-local function abort_range(self, id)
-  local c = self.c
-  local hi, names, labels, rprev = c.last[id], c.name, c.label, self.rprev
-  local l = self.rtail
-  while l ~= 0 do
-    local before = rprev[l]
-    if l >= id and l <= hi then
-      unlink(self, l)
-      local nm = names[l]
-      self.cmd_abort(nm)
-      log(self, "abort", l)  -- and, for a labelled leaf, "-A[l]" (rendered by Run:log)
-      local lb = labels[l]
-      if lb then self.cmd_deactivate(nm, lb) end
+-- Aborts every running leaf in the subtree of a node, most recently started first (SEMANTICS.md §6).
+local function make_abort(self, c, rprev, rnext, byname, cmd)
+  local last, names, labels, logc = c.last, c.name, c.label, self.logc
+  local cmd_abort, cmd_deactivate = cmd.abort or noop, cmd.deactivate or noop
+  return function(id)
+    local hi = last[id]
+    local l = rprev[0]
+    while l ~= 0 do
+      local before = rprev[l]
+      if l >= id and l <= hi then
+        local nx = rnext[l]
+        rnext[before], rprev[nx] = nx, before
+        local nm = names[l]
+        byname[nm] = nil
+        cmd_abort(nm)
+        local i = self.logi + 1  -- log: "abort A", and "-A[l]" for a labelled leaf (rendered by Run:log)
+        self.logi = i
+        logc[i & LOG_MASK] = l * 16 + L_ABORT
+        local lb = labels[l]
+        if lb then cmd_deactivate(nm, lb) end
+      end
+      l = before
     end
-    l = before
   end
 end
 
-start_node = function(self, id, b)
-  local c = self.c
-  local o = c.op[id]
-  if o == LEAF then
-    local nm = c.name[id]
-    local is_running = self.cmd_is_running
-    if self.byname[nm] or (is_running ~= never and is_running(nm)) then
-      log(self, "conflict", id)
-      self.cmd_log("process " .. nm .. " already running: occurrence aborted")
+-- Starts node `id` with binding `b` (SEMANTICS.md §3 start order). Returns true when the node is running
+-- afterwards, false when it ended ABORTED at once (a leaf whose process was already running); in that case
+-- nothing of the subtree is left running.
+local function make_start(self, c, st, cmd, abort_range)
+  local op, parent, names, labels, kids, nk = c.op, c.parent, c.name, c.label, c.kids, c.nk
+  local rprev, rnext, byname, bind, cnt, vals = st.rprev, st.rnext, st.byname, st.bind, st.cnt, st.vals
+  local cmd_start, cmd_activate, cmd_log = cmd.start or noop, cmd.activate or noop, cmd.log or noop
+  local is_running, logc, logv = cmd.is_running, self.logc, self.logv
+  local pending = {}  -- the operands of ',' and '#' still to start, the next on top (no command re-enters)
+  return function(root, b)
+    local id, sp = root, 0
+    while true do
+      local o = op[id]
+      if o == LEAF then
+        local nm = names[id]
+        if byname[nm] or (is_running and is_running(nm)) then
+          log(self, id * 16 + L_CONFLICT)
+          cmd_log("process " .. nm .. " already running: occurrence aborted")
+          while id ~= root do  -- each ',' and '#' on the way up aborts what it started, innermost first
+            id = parent[id]
+            o = op[id]
+            if o == PAR or o == DIS then abort_range(id) vals[id] = nil end
+          end
+          return false
+        end
+        local lb = labels[id]
+        if lb then cmd_activate(nm, lb) end  -- logged as "+A[l]" with the start
+        local t = rprev[0]  -- appended to the running leaves (start order)
+        rprev[id] = t
+        rnext[id] = 0
+        rnext[t] = id
+        rprev[0] = id
+        byname[nm] = id
+        cmd_start(nm, b)
+        local i = self.logi + 1  -- log: "start A" (or "start A init=b"), after "+A[l]" for a labelled leaf
+        self.logi = i
+        i = i & LOG_MASK
+        logc[i] = id * 16 + L_START
+        logv[i] = b
+        if sp == 0 then return true end
+        id, sp = pending[sp], sp - 1
+      elseif o == PAR or o == DIS then  -- every operand, left to right
+        local ks = kids[id]
+        if o == PAR then
+          local n = nk[id]
+          cnt[id], vals[id] = n, { n = n }
+        end
+        for k = #ks, 2, -1 do
+          sp = sp + 1
+          pending[sp] = ks[k]
+        end
+        id = ks[1]
+      else  -- SEQ, COND, REC start their first operand only
+        bind[id] = b
+        id = kids[id][1]
+      end
+    end
+  end
+end
+
+-- Run:event, made once per run: an event of the leaf process `name`; taken (true) when that leaf runs, else
+-- ignored (false) as stale, or queued (nil) while the run is busy. A taken event ends the leaf with outcome
+-- ok/v; then its ancestors react, upward, until one keeps running or the root ends (iterative: recurrence
+-- never grows the stack).
+local function make_event(self, c, st, cmd, start_node, abort_range)
+  local parent, op, cidx, kids, nk, labels = c.parent, c.op, c.cidx, c.kids, c.nk, c.label
+  local rprev, rnext, byname, bind, cnt, vals, logc = st.rprev, st.rnext, st.byname, st.bind, st.cnt, st.vals,
+    self.logc
+  local queue, cmd_deactivate = st.queue, cmd.deactivate or noop
+  return function(_, name, kind, v)
+    local code = L_EVENT[kind]
+    if not code then error("algebra: unknown event kind '" .. tostring(kind) .. "'", 2) end
+    if self.busy then
+      queue[#queue + 1] = { name, kind, v }
+      return nil
+    end
+    local id = byname[name]
+    if not id then
+      log(self, L_IGNORED[kind], name)
       return false
     end
-    local lb = c.label[id]
-    if lb then self.cmd_activate(nm, lb) end  -- logged as "+A[l]" with the start
-    -- append to the running list (start order)
-    local t = self.rtail
-    self.rprev[id], self.rnext[id] = t, 0
-    if t ~= 0 then self.rnext[t] = id else self.rhead = id end
-    self.rtail = id
-    self.byname[nm] = id
-    self.cmd_start(nm, b)
-    log(self, "start", id, b)
-    return true
-  elseif o == PAR or o == DIS then
-    local ks = c.kids[id]
-    if o == PAR then
-      local nk = c.nk[id]
-      self.cnt[id] = nk
-      self.vals[id] = { n = nk }
-    end
-    for i = 1, #ks do
-      if not start_node(self, ks[i], b) then
-        abort_range(self, id)
-        self.vals[id] = nil
-        return false
-      end
-    end
-    return true
-  else  -- SEQ, COND, REC start their first operand only
-    self.bind[id] = b
-    return start_node(self, c.kids[id][1], b)
-  end
-end
-
--- Node `id` terminated by itself with outcome ok/v: let the ancestors react, upward, until one keeps
--- running or the root ends. Iterative: recurrence never grows the stack.
-local function propagate(self, id, ok, v)
-  local c = self.c
-  local parent, op, cidx, kids, nk = c.parent, c.op, c.cidx, c.kids, c.nk
-  while true do
-    local p = parent[id]
-    if p == 0 then
-      if ok then self.st, self.value = "done", v else self.st, self.value = "aborted", nil end
-      return
-    end
-    local o = op[p]
-    if o == SEQ then
-      if ok then
-        local i = cidx[id]
-        if i < nk[p] then
-          if start_node(self, kids[p][i + 1], self.bind[p]) then return end
-          ok, v = false, nil
-        end
-      end
-    elseif o == PAR then
-      if ok then
-        local t = self.vals[p]
-        t[cidx[id]] = v
-        local left = self.cnt[p] - 1
-        self.cnt[p] = left
-        if left > 0 then return end
-        v = t
-      else
-        abort_range(self, p)
-      end
-      self.vals[p] = nil
-    elseif o == DIS then
-      abort_range(self, p)
-    elseif o == COND then
-      if ok and cidx[id] == 1 then
-        if start_node(self, kids[p][2], v) then return end
-        ok, v = false, nil
-      end
-    else  -- REC: P done -> Q bound to P's value; Q done -> a new iteration of P with the outer binding
-      if ok then
-        local ks = kids[p]
-        if cidx[id] == 1 then ok = start_node(self, ks[2], v) else ok = start_node(self, ks[1], self.bind[p]) end
-        if ok then return end
-      end
-      v = nil
-    end
+    self.busy = true
+    local p, nx = rprev[id], rnext[id]
+    rnext[p], rprev[nx] = nx, p
+    byname[name] = nil
+    local i = self.logi + 1  -- log: "event A done", and "-A[l]" for a labelled leaf
+    self.logi = i
+    logc[i & LOG_MASK] = id * 16 + code
+    local lb = labels[id]
+    if lb then cmd_deactivate(name, lb) end
+    local ok = kind == "done"
     if not ok then v = nil end
-    id = p
+    while true do
+      p = parent[id]
+      if p == 0 then
+        if ok then self.st, self.value = "done", v else self.st, self.value = "aborted", nil end
+        break
+      end
+      local o = op[p]
+      if o == SEQ then
+        i = cidx[id]
+        if ok and i < nk[p] then
+          if start_node(kids[p][i + 1], bind[p]) then break end
+          ok = false
+        end
+      elseif o == PAR then
+        if ok then
+          local t = vals[p]
+          t[cidx[id]] = v
+          local left = cnt[p] - 1
+          cnt[p] = left
+          if left > 0 then break end
+          v = t
+        else
+          abort_range(p)
+        end
+        vals[p] = nil
+      elseif o == DIS then
+        abort_range(p)
+      elseif o == COND then
+        if ok and cidx[id] == 1 then
+          if start_node(kids[p][2], v) then break end
+          ok = false
+        end
+      else  -- REC: P done -> Q bound to P's value; Q done -> a new iteration of P with the outer binding
+        if ok then
+          local ks = kids[p]
+          if cidx[id] == 1 then ok = start_node(ks[2], v) else ok = start_node(ks[1], bind[p]) end
+          if ok then break end
+        end
+        v = nil
+      end
+      if not ok then v = nil end
+      id = p
+    end
+    self.busy = false
+    if queue[1] then self:_drain() end
+    return true
   end
 end
 
@@ -503,17 +558,17 @@ function M.new(expr, commands)
   end
   if type(expr) ~= "table" or not expr.c then error("algebra.new: expected an expression from algebra.parse", 2) end
   commands = commands or {}
-  return setmetatable({
-    expr = expr, c = expr.c,
-    cmd_start = commands.start or noop, cmd_abort = commands.abort or noop,
-    cmd_activate = commands.activate or noop, cmd_deactivate = commands.deactivate or noop,
-    cmd_is_running = commands.is_running or never, cmd_log = commands.log or noop,
-    st = "idle", value = nil,
-    bind = {}, cnt = {}, vals = {},
-    rprev = {}, rnext = {}, rhead = 0, rtail = 0, byname = {},
-    busy = false, queue = {},
-    logi = 0, logfull = false, logbuf = {},
+  local c = expr.c
+  local self = setmetatable({
+    expr = expr, c = c, st = "idle", value = nil,
+    bind = {}, cnt = {}, vals = {}, rprev = { [0] = 0 }, rnext = { [0] = 0 }, byname = {},
+    busy = false, draining = false, queue = {}, logi = 0, logc = {}, logv = {},
   }, Run)
+  local abort_range = make_abort(self, c, self.rprev, self.rnext, self.byname, commands)
+  local start_node = make_start(self, c, self, commands, abort_range)
+  self._start, self._abort = start_node, abort_range
+  self.event = make_event(self, c, self, commands, start_node, abort_range)
+  return self
 end
 
 --- Starts the expression (SEMANTICS.md §3). `init` (optional) is the value bound for the whole expression:
@@ -523,7 +578,7 @@ function Run:start(init)
   if self.st == "running" then error("algebra: run:start() while the expression is running", 2) end
   self.st, self.value = "running", nil
   self.busy = true
-  if not start_node(self, 1, init) then
+  if not self._start(1, init) then
     self.st = "aborted"
   end
   self.busy = false
@@ -531,53 +586,31 @@ function Run:start(init)
   return self.st == "running"
 end
 
-local KINDS = { done = true, aborted = true, error = true }
-
-local function take(self, name, kind, value)
-  local id = self.byname[name]
-  if not id then
-    log(self, "ignored", name, kind)
-    return false
-  end
-  unlink(self, id)
-  log(self, "event", id, kind)  -- and "-A[l]" for a labelled leaf
-  local lb = self.c.label[id]
-  if lb then self.cmd_deactivate(name, lb) end
-  if kind == "done" then propagate(self, id, true, value) else propagate(self, id, false, nil) end
-  return true
-end
-
+-- The queued events and aborts, in order (each through Run:event or the abort itself); nothing if already
+-- draining further up the stack.
 function Run:_drain()
+  if self.draining then return end
+  self.draining = true
   local q = self.queue
   while q[1] and not self.busy do
     local e = table.remove(q, 1)
-    self.busy = true
     if e[1] == "*" then
       if self.st == "running" then
-        abort_range(self, 1)
+        self.busy = true
+        self._abort(1)
         self.st, self.value = "aborted", nil
+        self.busy = false
       end
     else
-      take(self, e[1], e[2], e[3])
+      self:event(e[1], e[2], e[3])
     end
-    self.busy = false
   end
+  self.draining = false
 end
 
---- Delivers an event of leaf `name`: kind "done" (with a value), "aborted" or "error" (with a reason).
---- Returns true if taken, false if stale (ignored and logged), nil if queued (re-entrant call).
-function Run:event(name, kind, value)
-  if not KINDS[kind] then error("algebra: unknown event kind '" .. tostring(kind) .. "'", 2) end
-  if self.busy then
-    self.queue[#self.queue + 1] = { name, kind, value }
-    return nil
-  end
-  self.busy = true
-  local taken = take(self, name, kind, value)
-  self.busy = false
-  if self.queue[1] then self:_drain() end
-  return taken
-end
+--- Run:event(name, kind, value) delivers an event of leaf `name`: kind "done" (with a value), "aborted" or
+--- "error" (with a reason). Returns true if taken, false if stale (ignored and logged), nil if queued
+--- (re-entrant call). Each run has its own (make_event).
 
 --- Aborts the whole expression from outside. Returns true if it was running.
 function Run:abort()
@@ -587,17 +620,20 @@ function Run:abort()
   end
   if self.st ~= "running" then return false end
   self.busy = true
-  log(self, "abort_all")
-  abort_range(self, 1)
+  log(self, L_ABORT_ALL)
+  self._abort(1)
   self.st, self.value = "aborted", nil
   self.busy = false
   if self.queue[1] then self:_drain() end
   return true
 end
 
--- Copies of the ',' values so far (each list copied), the ',' counters and the bindings of `s`.
-local function copy_state(s)
-  local vals, cnt, bind = {}, {}, {}
+-- Copies into the tables vals, cnt, bind (emptied first) the ',' values so far (each list copied), the ','
+-- counters and the bindings of `s`.
+local function copy_state(s, vals, cnt, bind)
+  for id in pairs(vals) do vals[id] = nil end
+  for id in pairs(cnt) do cnt[id] = nil end
+  for id in pairs(bind) do bind[id] = nil end
   for id, t in pairs(s.vals) do
     local cp = { n = t.n }
     for i = 1, t.n do cp[i] = t[i] end
@@ -605,7 +641,6 @@ local function copy_state(s)
   end
   for id, k in pairs(s.cnt) do cnt[id] = k end
   for id, b in pairs(s.bind) do bind[id] = b end
-  return vals, cnt, bind
 end
 
 --- A copy of the run's state, for dca.verify's exploration: { st =, value =, running = { leaf ids in start
@@ -613,29 +648,29 @@ end
 --- The log is not part of it. Not while an event is being processed.
 function Run:snapshot()
   local running, rnext = {}, self.rnext
-  local l, n = self.rhead, 0
+  local l, n = rnext[0], 0
   while l ~= 0 do
     n = n + 1
     running[n] = l
     l = rnext[l]
   end
-  local vals, cnt, bind = copy_state(self)
-  return { st = self.st, value = self.value, running = running, vals = vals, cnt = cnt, bind = bind }
+  local s = { st = self.st, value = self.value, running = running, vals = {}, cnt = {}, bind = {} }
+  copy_state(self, s.vals, s.cnt, s.bind)
+  return s
 end
 
 --- Puts back a state taken by snapshot() (of a run of the same expression). The snapshot stays usable.
 function Run:restore(s)
-  local c, rprev, rnext, byname = self.c, {}, {}, {}
+  local names, rprev, rnext, byname = self.c.name, self.rprev, self.rnext, self.byname
+  for nm in pairs(byname) do byname[nm] = nil end
   local prev = 0
   for _, l in ipairs(s.running) do
-    rprev[l], rnext[l] = prev, 0
-    if prev ~= 0 then rnext[prev] = l end
-    byname[c.name[l]] = l
+    rprev[l], rnext[prev] = prev, l
+    byname[names[l]] = l
     prev = l
   end
-  self.rprev, self.rnext, self.byname = rprev, rnext, byname
-  self.rhead, self.rtail = s.running[1] or 0, prev
-  self.vals, self.cnt, self.bind = copy_state(s)
+  rnext[prev], rprev[0] = 0, prev
+  copy_state(s, self.vals, self.cnt, self.bind)
   self.st, self.value = s.st, s.value
 end
 
@@ -652,10 +687,11 @@ end
 --- The leaves running now, in start order ("Name" or "Name[label]").
 function Run:running()
   local out, c = {}, self.c
-  local l = self.rhead
+  local rnext = self.rnext
+  local l = rnext[0]
   while l ~= 0 do
     out[#out + 1] = leaf_text(c, l)
-    l = self.rnext[l]
+    l = rnext[l]
   end
   return out
 end
@@ -688,15 +724,17 @@ end
 
 -- The text of one log entry, with the label switch it implies for a labelled leaf ("+A[l]" before its start,
 -- "-A[l]" after its abort or its event): appended to out.
-local function log_lines(out, c, k, a, b)
-  if k == "start" then
+local KIND_OF = { [8] = "done", [9] = "aborted", [10] = "error", [11] = "done", [12] = "aborted", [13] = "error" }
+local function log_lines(out, c, code, v)
+  local k, a = code & 15, code >> 4
+  if k == L_START then
     if c.label[a] then out[#out + 1] = "+" .. leaf_text(c, a) end
-    out[#out + 1] = "start " .. leaf_text(c, a) .. (b ~= nil and (" init=" .. show(b)) or "")
-  elseif k == "abort" or k == "event" then
-    out[#out + 1] = k == "abort" and ("abort " .. c.name[a]) or ("event " .. c.name[a] .. " " .. b)
+    out[#out + 1] = "start " .. leaf_text(c, a) .. (v ~= nil and (" init=" .. show(v)) or "")
+  elseif k == L_ABORT or L_EVENT[KIND_OF[k]] == k then
+    out[#out + 1] = k == L_ABORT and ("abort " .. c.name[a]) or ("event " .. c.name[a] .. " " .. KIND_OF[k])
     if c.label[a] then out[#out + 1] = "-" .. leaf_text(c, a) end
-  elseif k == "ignored" then out[#out + 1] = "ignored " .. tostring(a) .. " " .. b
-  elseif k == "conflict" then out[#out + 1] = "conflict " .. c.name[a] .. " (already running)"
+  elseif KIND_OF[k] then out[#out + 1] = "ignored " .. tostring(v) .. " " .. KIND_OF[k]
+  elseif k == L_CONFLICT then out[#out + 1] = "conflict " .. c.name[a] .. " (already running)"
   else out[#out + 1] = "abort (external)" end
 end
 
@@ -704,12 +742,10 @@ end
 --- "start A", "start A[l] init=5", "abort A", "+A[l]", "-A[l]", "event A done", "ignored A done",
 --- "conflict A (already running)", "abort (external)".
 function Run:log()
-  local lines, c, buf = {}, self.c, self.logbuf
-  local count = self.logfull and LOG_SIZE or self.logi
-  local i = (self.logi - count) % LOG_SIZE
-  for _ = 1, count do
-    i = i % LOG_SIZE + 1
-    log_lines(lines, c, buf[i * 3 - 2], buf[i * 3 - 1], buf[i * 3])
+  local lines, c, logc, logv = {}, self.c, self.logc, self.logv
+  local n = self.logi
+  for i = math.max(1, n - LOG_SIZE + 1), n do
+    log_lines(lines, c, logc[i & LOG_MASK], logv[i & LOG_MASK])
   end
   -- an entry may give two lines: the latest 256
   local out, first = {}, math.max(1, #lines - LOG_SIZE + 1)
