@@ -291,6 +291,75 @@ suite:case("reentrant_events_are_queued_run_to_completion", function()
   T.eq(run:running(), { "C" })
 end)
 
+suite:case("queued_events_drain_at_one_stack_depth", function()
+  -- Each start reports its DONE at once (queued): 300 steps run one after the other, none inside another.
+  local names = {}
+  for i = 1, 300 do names[i] = "A" .. i end
+  local run
+  local depths = {}
+  local function depth()
+    local d = 1
+    while debug.getinfo(d + 1, "l") do d = d + 1 end
+    return d
+  end
+  run = assert(algebra.new(table.concat(names, " ; "), {
+    start = function(n)
+      depths[#depths + 1] = depth()
+      run:event(n, "done", n)
+    end,
+  }))
+  T.eq(run:start(), false, "the whole sequence ran within start()")
+  T.eq({ run:status() }, { "done", "A300" })
+  T.eq(#depths, 300)
+  T.eq(depths[300], depths[2], "the 300th start at the depth of the 2nd")
+end)
+
+suite:case("snapshot_and_restore_give_back_values_bindings_and_the_start_order", function()
+  local run, log = recorder("(P , Q , R[l]) ; S : T")
+  run:start("x")
+  run:event("P", "done", 1)
+  local s = run:snapshot()
+  T.eq(s.running, { 4, 5 })  -- Q, R in start order (node ids: 1 the ;, 2 the , 3 P)
+  T.eq(s.cnt[2], 2)
+  T.eq(s.vals[2], { n = 3, 1 })
+  local function finish()
+    run:event("R", "done", 3)
+    run:event("Q", "done", 2)
+    run:event("S", "done", "s")
+    return { run:status() }, run:running()
+  end
+  T.eq({ finish() }, { { "running" }, { "T" } })
+  local first = #log
+  for _ = 1, 2 do  -- the snapshot stays usable
+    run:restore(s)
+    T.eq(run:running(), { "Q", "R[l]" })
+    T.ok(run:is_running("R") and not run:is_running("T") and not run:is_running("P"))
+    T.eq(run:render(), "(P , *Q* , *R[l]*) ; S : T")
+    T.eq({ finish() }, { { "running" }, { "T" } })
+  end
+  T.eq(log[first], "start T")
+  T.eq(log[#log], "start T")
+  run:event("T", "done", "t")
+  T.eq({ run:status() }, { "done", "t" })
+  T.eq(s.vals[2], { n = 3, 1 }, "the snapshot's values are a copy")
+end)
+
+suite:case("the_log_renders_every_kind_of_entry", function()
+  local run = assert(algebra.new("A[l] , B , C", { is_running = function(n) return n == "C" end }))
+  T.eq(run:start(5), false)
+  run:event("A", "error", "crash")
+  local other = assert(algebra.new("D : E"))
+  other:start()
+  other:event("D", "aborted", "why")
+  other:event("D", "done")
+  other:start()
+  other:abort()
+  T.eq(run:log(), { "+A[l]", "start A[l] init=5", "start B init=5", "conflict C (already running)", "abort B",
+                    "abort A", "-A[l]", "ignored A error" })
+  T.eq(other:log(), { "start D", "event D aborted", "ignored D done", "start D", "abort (external)",
+                      "abort D" })
+end)
+
 suite:case("unknown_event_kind_is_a_programming_error", function()
   local run = assert(algebra.new("A"))
   run:start()
