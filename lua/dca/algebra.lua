@@ -43,8 +43,14 @@ local sbyte, ssub, sfind, sformat = string.byte, string.sub, string.find, string
 local concat = table.concat
 
 -- Operator codes of the compiled form.
--- (<const>: compiled into the instructions that use them, no upvalue read.)
-local LEAF <const>, PAR <const>, SEQ <const>, DIS <const>, COND <const>, REC <const> = 0, 1, 2, 3, 4, 5
+-- (<const>, one a line: compiled into the instructions that use them, no upvalue read; Lua folds only the
+-- last name of a multiple declaration.)
+local LEAF <const> = 0
+local PAR <const> = 1
+local SEQ <const> = 2
+local DIS <const> = 3
+local COND <const> = 4
+local REC <const> = 5
 local OPCODE = { leaf = LEAF, [","] = PAR, [";"] = SEQ, ["#"] = DIS, [":"] = COND, [":;"] = REC }
 -- Binding strength for printing: smaller binds tighter.
 local LEVEL = { leaf = 0, [":"] = 1, [":;"] = 1, ["#"] = 2, [";"] = 3, [","] = 4 }
@@ -363,7 +369,10 @@ local function noop() end
 -- binding, an ignored event's name). The hot paths write their entries inline; the others call log().
 local LOG_SIZE <const> = 256
 local LOG_MASK <const> = LOG_SIZE - 1
-local L_START <const>, L_ABORT <const>, L_CONFLICT <const>, L_ABORT_ALL <const> = 1, 3, 4, 5
+local L_START <const> = 1
+local L_ABORT <const> = 3
+local L_CONFLICT <const> = 4
+local L_ABORT_ALL <const> = 5
 local L_EVENT = { done = 8, aborted = 9, error = 10 }       -- "event A done"
 local L_IGNORED = { done = 11, aborted = 12, error = 13 }   -- "ignored A done" (logv: the name)
 local function log(self, code, v)
