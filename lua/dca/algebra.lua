@@ -417,9 +417,9 @@ local function make_abort(self, c, rprev, rnext, byname, cmd)
   end
 end
 
--- Starts node `id` with binding `b` (SEMANTICS.md §3 start order). Returns true when the node is running
--- afterwards, false when it ended ABORTED at once (a leaf whose process was already running); in that case
--- nothing of the subtree is left running.
+-- start_node(root, b) starts node `root` with binding `b` (SEMANTICS.md §3 start order), its whole subtree in
+-- one call. Returns true when the node is running afterwards, false when it ended ABORTED at once (a leaf
+-- whose process was already running); in that case nothing of the subtree is left running.
 local function make_start(self, c, st, cmd, abort_range)
   local op, parent, names, labels, kids, nk = c.op, c.parent, c.name, c.label, c.kids, c.nk
   local rprev, rnext, byname, bind, cnt, vals = st.rprev, st.rnext, st.byname, st.bind, st.cnt, st.vals
