@@ -7,6 +7,10 @@
 --   DCA_BENCH_BEFORE=FILE: also FILE, another version of lua/dca/algebra.lua (e.g. `git show
 --   main:lua/dca/algebra.lua > /tmp/algebra_before.lua`), after each measurement of this one (variants suffixed
 --   _before), so that a change is measured before and after in one run
+-- Then the VM instructions an event costs (a count hook: independent of the machine's load; the driver's own
+-- included, as in the raw call), for each expression and version measured.
+--   DCA_BENCH_PROFILE=N: also where they go, on stderr: the N source lines of the door run with the most
+--   instructions (a Lua 5.4 count hook every instruction: LuaJIT is not there to profile with).
 local algebra = require "dca.algebra"
 local before_file = os.getenv("DCA_BENCH_BEFORE")
 local before = before_file and assert(loadfile(before_file))()
@@ -143,5 +147,44 @@ for round = 1, 2 do
   if before then
     run, nx = big_setup(before)
     result("algebra_events", "generated_1000_leaves_before", measure(run, nx, N), " round=" .. round)
+  end
+end
+
+-- VM instructions an event (and, with `lines`, per source line) over n events of a driver.
+local function instructions(run, next_event, n, lines)
+  local count, where, getinfo = 0, {}, debug.getinfo
+  run:start()
+  debug.sethook(function()
+    count = count + 1
+    if lines then
+      local info = getinfo(2, "Sl")
+      local k = info.short_src .. ":" .. (info.currentline or 0)
+      where[k] = (where[k] or 0) + 1
+    end
+  end, "", 1)
+  for _ = 1, n do
+    local name, kind, v = next_event()
+    run:event(name, kind, v)
+    if run.st ~= "running" then run:start() end
+  end
+  debug.sethook()
+  return count / n, where
+end
+
+local profile = tonumber(os.getenv("DCA_BENCH_PROFILE"))
+for _, v in ipairs({ { "door", door_setup }, { "generated_1000_leaves", big_setup } }) do
+  for _, engine in ipairs({ algebra, before }) do
+    local run, nx = v[2](engine)
+    local per, where = instructions(run, nx, 7000, profile and engine == algebra and v[1] == "door")
+    io.write(string.format("RESULT bench=algebra_vm_instructions variant=%s%s per_event=%.1f\n", v[1],
+                           engine == algebra and "" or "_before", per))
+    if profile and next(where) then
+      local rows, total = {}, 0
+      for k, c in pairs(where) do rows[#rows + 1] = { k, c }; total = total + c end
+      table.sort(rows, function(a, b) return a[2] > b[2] end)
+      for i = 1, math.min(profile, #rows) do
+        io.stderr:write(string.format("%5.1f%% %s\n", rows[i][2] * 100 / total, rows[i][1]))
+      end
+    end
   end
 end
