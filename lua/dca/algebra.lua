@@ -363,10 +363,13 @@ Run.__index = Run
 
 local function noop() end
 
--- The log: a ring of the latest LOG_SIZE commands and events (Run:log() renders them). self.logi counts the
--- entries ever written; entry i sits at slot i & LOG_MASK of logc, as one integer: id * 16 + one of the
--- codes below (id: the leaf's node id); logv holds the entry's value for the codes that have one (a start's
--- binding, an ignored event's name). The hot paths write their entries inline; the others call log().
+-- The log: a ring of the latest LOG_SIZE commands and events (Run:log() renders them). Entry i sits at slot
+-- i & LOG_MASK of logc, as one integer: id * 16 + one of the codes below (id: the leaf's node id); logv holds
+-- the entry's value for the codes that have one (a start's binding, an ignored event's name).
+-- self.logi is the count of entries written, and says whether the run is busy (processing an event, a start or
+-- an abort): then it is -1 - the count at the beginning, and the walk carries the count (`at`: start_node and
+-- abort_range take it and give it back) until it is written back at the end. One field read and two writes
+-- an event for both.
 local LOG_SIZE <const> = 256
 local LOG_MASK <const> = LOG_SIZE - 1
 local L_START <const> = 1
@@ -391,11 +394,12 @@ end
 --   bind           SEQ, COND, REC node -> the binding it started with
 --   cnt, vals      PAR node -> operands still running, values so far { n = operands }
 
--- Aborts every running leaf in the subtree of a node, most recently started first (SEMANTICS.md §6).
+-- abort_range(id, at) aborts every running leaf in the subtree of node `id`, most recently started first
+-- (SEMANTICS.md §6), and gives back the log's count `at`.
 local function make_abort(self, c, rprev, rnext, byname, cmd)
   local last, names, labels, logc = c.last, c.name, c.label, self.logc
   local cmd_abort, cmd_deactivate = cmd.abort or noop, cmd.deactivate or noop
-  return function(id)
+  return function(id, at)
     local hi = last[id]
     local l = rprev[0]
     while l ~= 0 do
@@ -406,41 +410,43 @@ local function make_abort(self, c, rprev, rnext, byname, cmd)
         local nm = names[l]
         byname[nm] = nil
         cmd_abort(nm)
-        local i = self.logi + 1  -- log: "abort A", and "-A[l]" for a labelled leaf (rendered by Run:log)
-        self.logi = i
-        logc[i & LOG_MASK] = l * 16 + L_ABORT
+        at = at + 1  -- log: "abort A", and "-A[l]" for a labelled leaf (rendered by Run:log)
+        logc[at & LOG_MASK] = l * 16 + L_ABORT
         local lb = labels[l]
         if lb then cmd_deactivate(nm, lb) end
       end
       l = before
     end
+    return at
   end
 end
 
--- start_node(root, b) starts node `root` with binding `b` (SEMANTICS.md §3 start order), its whole subtree in
--- one call. Returns true when the node is running afterwards, false when it ended ABORTED at once (a leaf
--- whose process was already running); in that case nothing of the subtree is left running.
+-- start_node(root, b, at) starts node `root` with binding `b` (SEMANTICS.md §3 start order), its whole subtree
+-- in one call (`at`: the log's count, given back second). Returns true when the node is running afterwards,
+-- false when it ended ABORTED at once (a leaf whose process was already running); in that case nothing of the
+-- subtree is left running.
 local function make_start(self, c, st, cmd, abort_range)
   local op, parent, names, labels, kids, nk = c.op, c.parent, c.name, c.label, c.kids, c.nk
   local rprev, rnext, byname, bind, cnt, vals = st.rprev, st.rnext, st.byname, st.bind, st.cnt, st.vals
   local cmd_start, cmd_activate, cmd_log = cmd.start or noop, cmd.activate or noop, cmd.log or noop
   local is_running, logc, logv = cmd.is_running, self.logc, self.logv
   local pending = {}  -- the operands of ',' and '#' still to start, the next on top (no command re-enters)
-  return function(root, b)
+  return function(root, b, at)
     local id, sp = root, 0
     while true do
       local o = op[id]
       if o == LEAF then
         local nm = names[id]
         if byname[nm] or (is_running and is_running(nm)) then
-          log(self, id * 16 + L_CONFLICT)
+          at = at + 1
+          logc[at & LOG_MASK], logv[at & LOG_MASK] = id * 16 + L_CONFLICT, nil
           cmd_log("process " .. nm .. " already running: occurrence aborted")
           while id ~= root do  -- each ',' and '#' on the way up aborts what it started, innermost first
             id = parent[id]
             o = op[id]
-            if o == PAR or o == DIS then abort_range(id) vals[id] = nil end
+            if o == PAR or o == DIS then at = abort_range(id, at) vals[id] = nil end
           end
-          return false
+          return false, at
         end
         local lb = labels[id]
         if lb then cmd_activate(nm, lb) end  -- logged as "+A[l]" with the start
@@ -451,18 +457,18 @@ local function make_start(self, c, st, cmd, abort_range)
         rprev[0] = id
         byname[nm] = id
         cmd_start(nm, b)
-        local i = self.logi + 1  -- log: "start A" (or "start A init=b"), after "+A[l]" for a labelled leaf
-        self.logi = i
-        i = i & LOG_MASK
-        logc[i] = id * 16 + L_START
-        logv[i] = b
-        if sp == 0 then return true end
+        at = at + 1  -- log: "start A" (or "start A init=b"), after "+A[l]" for a labelled leaf
+        local k = at & LOG_MASK
+        logc[k] = id * 16 + L_START
+        logv[k] = b
+        if sp == 0 then return true, at end
         id, sp = pending[sp], sp - 1
       elseif o == PAR or o == DIS then  -- every operand, left to right
         local ks = kids[id]
-        if o == PAR then
-          local n = nk[id]
-          cnt[id], vals[id] = n, { n = n }
+        if o == PAR then  -- its values so far: a new list, or its own again if it never handed it up
+          local n, t = nk[id], vals[id]
+          cnt[id] = n
+          if t then for k = 1, n do t[k] = nil end else vals[id] = { n = n } end
         end
         for k = #ks, 2, -1 do
           sp = sp + 1
@@ -489,7 +495,8 @@ local function make_event(self, c, st, cmd, start_node, abort_range)
   return function(_, name, kind, v)
     local code = L_EVENT[kind]
     if not code then error("algebra: unknown event kind '" .. tostring(kind) .. "'", 2) end
-    if self.busy then
+    local at = self.logi
+    if at < 0 then  -- busy
       queue[#queue + 1] = { name, kind, v }
       return nil
     end
@@ -498,13 +505,12 @@ local function make_event(self, c, st, cmd, start_node, abort_range)
       log(self, L_IGNORED[kind], name)
       return false
     end
-    self.busy = true
+    self.logi = -1 - at  -- busy
     local p, nx = rprev[id], rnext[id]
     rnext[p], rprev[nx] = nx, p
     byname[name] = nil
-    local i = self.logi + 1  -- log: "event A done", and "-A[l]" for a labelled leaf
-    self.logi = i
-    logc[i & LOG_MASK] = id * 16 + code
+    at = at + 1  -- log: "event A done", and "-A[l]" for a labelled leaf
+    logc[at & LOG_MASK] = id * 16 + code
     local lb = labels[id]
     if lb then cmd_deactivate(name, lb) end
     local ok = kind == "done"
@@ -517,10 +523,10 @@ local function make_event(self, c, st, cmd, start_node, abort_range)
       end
       local o = op[p]
       if o == SEQ then
-        i = cidx[id]
+        local i = cidx[id]
         if ok and i < nk[p] then
-          if start_node(kids[p][i + 1], bind[p]) then break end
-          ok = false
+          ok, at = start_node(kids[p][i + 1], bind[p], at)
+          if ok then break end
         end
       elseif o == PAR then
         if ok then
@@ -529,22 +535,21 @@ local function make_event(self, c, st, cmd, start_node, abort_range)
           local left = cnt[p] - 1
           cnt[p] = left
           if left > 0 then break end
-          v = t
+          v, vals[p] = t, nil  -- handed up: the next start makes a new list
         else
-          abort_range(p)
+          at = abort_range(p, at)
         end
-        vals[p] = nil
       elseif o == DIS then
-        abort_range(p)
+        at = abort_range(p, at)
       elseif o == COND then
         if ok and cidx[id] == 1 then
-          if start_node(kids[p][2], v) then break end
-          ok = false
+          ok, at = start_node(kids[p][2], v, at)
+          if ok then break end
         end
       else  -- REC: P done -> Q bound to P's value; Q done -> a new iteration of P with the outer binding
         if ok then
           local ks = kids[p]
-          if cidx[id] == 1 then ok = start_node(ks[2], v) else ok = start_node(ks[1], bind[p]) end
+          if cidx[id] == 1 then ok, at = start_node(ks[2], v, at) else ok, at = start_node(ks[1], bind[p], at) end
           if ok then break end
         end
         v = nil
@@ -552,7 +557,7 @@ local function make_event(self, c, st, cmd, start_node, abort_range)
       if not ok then v = nil end
       id = p
     end
-    self.busy = false
+    self.logi = at
     if queue[1] then self:_drain() end
     return true
   end
@@ -571,7 +576,7 @@ function M.new(expr, commands)
   local self = setmetatable({
     expr = expr, c = c, st = "idle", value = nil,
     bind = {}, cnt = {}, vals = {}, rprev = { [0] = 0 }, rnext = { [0] = 0 }, byname = {},
-    busy = false, draining = false, queue = {}, logi = 0, logc = {}, logv = {},
+    draining = false, queue = {}, logi = 0, logc = {}, logv = {},
   }, Run)
   local abort_range = make_abort(self, c, self.rprev, self.rnext, self.byname, commands)
   local start_node = make_start(self, c, self, commands, abort_range)
@@ -586,30 +591,34 @@ end
 function Run:start(init)
   if self.st == "running" then error("algebra: run:start() while the expression is running", 2) end
   self.st, self.value = "running", nil
-  self.busy = true
-  if not self._start(1, init) then
-    self.st = "aborted"
-  end
-  self.busy = false
+  local ok, at = self.logi, nil
+  self.logi = -1 - ok  -- busy
+  ok, at = self._start(1, init, ok)
+  self.logi = at
+  if not ok then self.st = "aborted" end
   self:_drain()
   return self.st == "running"
 end
 
--- The queued events and aborts, in order (each through Run:event or the abort itself); nothing if already
--- draining further up the stack.
+-- Aborts every running leaf of a running, idle run: it ends ABORTED.
+local function abort_all(self)
+  local at = self.logi
+  self.logi = -1 - at  -- busy
+  at = self._abort(1, at)
+  self.st, self.value = "aborted", nil
+  self.logi = at
+end
+
+-- The queued events and aborts, in order (each through Run:event or abort_all); nothing if already draining
+-- further up the stack.
 function Run:_drain()
   if self.draining then return end
   self.draining = true
   local q = self.queue
-  while q[1] and not self.busy do
+  while q[1] and self.logi >= 0 do
     local e = table.remove(q, 1)
     if e[1] == "*" then
-      if self.st == "running" then
-        self.busy = true
-        self._abort(1)
-        self.st, self.value = "aborted", nil
-        self.busy = false
-      end
+      if self.st == "running" then abort_all(self) end
     else
       self:event(e[1], e[2], e[3])
     end
@@ -623,16 +632,13 @@ end
 
 --- Aborts the whole expression from outside. Returns true if it was running.
 function Run:abort()
-  if self.busy then
+  if self.logi < 0 then  -- busy
     self.queue[#self.queue + 1] = { "*" }
     return nil
   end
   if self.st ~= "running" then return false end
-  self.busy = true
   log(self, L_ABORT_ALL)
-  self._abort(1)
-  self.st, self.value = "aborted", nil
-  self.busy = false
+  abort_all(self)
   if self.queue[1] then self:_drain() end
   return true
 end
@@ -753,6 +759,7 @@ end
 function Run:log()
   local lines, c, logc, logv = {}, self.c, self.logc, self.logv
   local n = self.logi
+  if n < 0 then n = -1 - n end  -- called by a command: the entries before its event
   for i = math.max(1, n - LOG_SIZE + 1), n do
     log_lines(lines, c, logc[i & LOG_MASK], logv[i & LOG_MASK])
   end
