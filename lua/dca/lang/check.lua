@@ -359,6 +359,23 @@ local function supervision(ctx, p, sc)
   for _, cl in ipairs(p.supervision.clauses) do SUPERVISION_CLAUSE[cl.kw](ctx, p, sc, cl) end
 end
 
+-- ---------------------------------------------------------------------------------------- the rt section
+-- rt { priority N; cpu N; } (docs/time.md, "Real time"): SCHED_FIFO 1..99 and a CPU number, each given once.
+local RT_RANGE = { priority = { 1, 99, "1..99 (SCHED_FIFO)" }, cpu = { 0, 1023, "a CPU number, 0..1023" } }
+
+local function rt_section(ctx, p, sc)
+  if not p.rt then return end
+  each_repeat(p.rt.clauses, function(cl) return cl.kw end, function(cl, first)
+    err(ctx, sc.base, cl.line, cl.col, "'%s' is given twice in rt (first at line %d)", cl.kw, first.line)
+  end)
+  for _, cl in ipairs(p.rt.clauses) do
+    local r, v = RT_RANGE[cl.kw], cl.value
+    if math.type(v) ~= "integer" or v < r[1] or v > r[2] then
+      err(ctx, sc.base, cl.value_line, cl.value_col, "rt %s must be %s, got %s", cl.kw, r[3], tostring(v))
+    end
+  end
+end
+
 local function instances(ctx, p, sc)
   for _, inst in ipairs(p.instances) do
     local path = sc.base .. "." .. inst.name
@@ -663,7 +680,7 @@ M.passes = {
   known_types, instance_paths, duplicate_definitions, scopes, uses,        -- the context, the packages
   each(parameters), each(process_host), each(instances), each(leaves),     -- each process definition
   each(external_io), each(connection_sets), each(connections), each(actions), each(usable_strings),
-  each(supervision),                                                       -- its supervision policy
+  each(supervision), each(rt_section),                                     -- its supervision policy, real time
   each(verify_section),                                                    -- its properties' names
   recursion,                                                               -- between process types
 }

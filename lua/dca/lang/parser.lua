@@ -41,6 +41,8 @@
 --       -- dca.lang.check, resolved by dca.lang.model): clause = { kw = "strategy" | "intensity" | "restart" |
 --       -- "standby", line, col, name (strategy), count, count_line/col, within, unit, unit_line/col (intensity),
 --       -- kinds = { { name, line, col }, ... } (restart), instance, instance_line/col, hosts = { arg, ... } (standby) }
+--     rt = { line, col, clauses = { { kw = "priority" | "cpu", value, line, col, value_line/col }, ... } } | nil,
+--       -- real time for its leaves' nodes, as written (checked by dca.lang.check; docs/time.md, "Real time")
 --     instances = { inst, ...; [name] = inst ... },      -- list in order, and by name (first wins)
 --     external_io = { x, ...; [alias] = x ... },         -- x = { alias, instance, port, line, col,
 --                                                        --   instance_line/col, port_line/col }
@@ -74,7 +76,7 @@ local sformat, ssub, sfind, smatch = string.format, string.sub, string.find, str
 
 --- The section keywords of a process body.
 M.sections = { "host", "instantiated_processes", "external_io", "internal_connections", "internal_event_actions",
-               "verify", "supervision" }
+               "verify", "supervision", "rt" }
 local SECTION = {}
 for _, s in ipairs(M.sections) do SECTION[s] = true end
 
@@ -113,7 +115,7 @@ local string_lit = Cmt(Cp() * P'"' * Cs((escape + (1 - S'"\\\n'))^0) * (C(P'"') 
 -- "internal connections": used to tell "missing '}'" from other errors in a list. A keyword counts only
 -- when a brace or parenthesis follows, so that `host instof T(h);` still declares an instance "host".
 local section_start = (kw"host" + kw"instantiated_processes" + kw"external_io" + kw"internal_event_actions" +
-                       kw"verify" + kw"supervision") * S"{(" +
+                       kw"verify" + kw"supervision" + kw"rt") * S"{(" +
                       kw"internal_connections" * P"(" + kw"process" * ident * ws * P"(" +
                       (P"external" + P"internal") * -idchar
 
@@ -173,6 +175,13 @@ local supervision_section = section("supervision",
   expect(tok"{", "section_open", "section") * Cg(Ct(sup_clause^0), "items") *
   expect(tok"}", "sup_close", "open_supervision"))
 
+-- rt { priority N; cpu N; } (docs/time.md, "Real time")
+local rt_clause = Ct(pos() * -section_start * Cg(C"priority" + C"cpu", "kw") * -idchar * ws *
+                     pos("value_pos") * Cg(expect(number, "rt_value", "kw"), "value") * expect(tok";", "rt_semi"))
+local rt_section = section("rt",
+  expect(tok"{", "section_open", "section") * Cg(Ct(rt_clause^0), "items") *
+  expect(tok"}", "rt_close", "open_rt"))
+
 local instances_section = section("instantiated_processes",
   expect(tok"{", "section_open", "section") * Cg(Ct(instance^0), "items") *
   expect(tok"}", "section_close", "section", "open_instantiated_processes"))
@@ -206,7 +215,7 @@ local verify_section = section("verify",
   expect(tok"}", "verify_close", "open_verify"))
 
 local any_section = host_section + instances_section + xio_section + ic_section + actions_section + verify_section +
-                    supervision_section
+                    supervision_section + rt_section
 
 local param = Ct(pos() * Cg(NAME, "name"))
 local process = Ct(pos() * pos("open_process") * kw"process" * Cg(expect(NAME, "process_name"), "name") *
@@ -333,6 +342,8 @@ sup_instance      expected an instance name after 'standby' (write 'standby inst
 sup_standby_on    expected 'on' after the instance (write 'standby inst on host2;'), found $f
 sup_host          expected a host (a parameter name or a string) in 'standby ... on', found $f
 sup_semi          expected ';' to end the supervision clause, found $f
+rt_value          expected a whole number after '$1' (write 'rt { priority 80; cpu 1; }'), found $f
+rt_semi           expected ';' after the value (write 'rt { priority 80; cpu 1; }'), found $f
 section_open      expected '{' after '$1', found $f
 instof            expected 'instof' after the instance name '$1', found $f
 type_name         expected a process type after '$1 instof', found $f
@@ -375,6 +386,13 @@ function MESSAGES.sup_close(e, f, s, p, idx)
                    guess and sformat(": did you mean '%s'?", guess) or "")
   end
   return section_close("supervision", e[1], f, s, p, idx)
+end
+function MESSAGES.rt_close(e, f, s, p, idx)
+  local w = smatch(s, "^[%a_][%w_]*", p)
+  if w and not SECTION[w] and w ~= "process" then
+    return sformat("unknown rt clause '%s' (clauses: priority, cpu; write 'rt { priority 80; cpu 1; }')", w)
+  end
+  return section_close("rt", e[1], f, s, p, idx)
 end
 function MESSAGES.host_open(_, f, s, p)
   if ssub(s, p, p) ~= "(" then return "expected '{' after 'host', found " .. f end
@@ -425,6 +443,16 @@ function BUILD.supervision(proc, sec, idx)
     sup.clauses[i] = cl
   end
   proc.supervision = sup
+end
+
+function BUILD.rt(proc, sec, idx)
+  local rt = { clauses = {} }
+  idx.set(rt, sec.pos)
+  for i, cl in ipairs(sec.items) do
+    locate(idx, cl, "pos", "value_pos")
+    rt.clauses[i] = cl
+  end
+  proc.rt = rt
 end
 
 -- Appends item to list, reachable by name too (the first of a name wins).

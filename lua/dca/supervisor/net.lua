@@ -97,6 +97,11 @@ local function child_argv(child, addr, key)
     argv[#argv + 1] = "--package" argv[#argv + 1] = child.package
     if child.system_dir then argv[#argv + 1] = "--system-dir" argv[#argv + 1] = child.system_dir end
   end
+  if child.kind == "leaf" and child.rt then
+    -- real time on the wall clock; a node on simulated time ignores it (docs/time.md, "Real time")
+    if child.rt.priority then argv[#argv + 1] = "--rt-priority" argv[#argv + 1] = argstr(child.rt.priority) end
+    if child.rt.cpu then argv[#argv + 1] = "--rt-cpu" argv[#argv + 1] = argstr(child.rt.cpu) end
+  end
   if child.kind == "leaf" then
     argv[#argv + 1] = "--"
     for _, a in ipairs(child.args or {}) do argv[#argv + 1] = argstr(a) end

@@ -16,8 +16,10 @@
 --                      live = true } },                              --   live: changes while it runs
 --         package = "door", system_dir = "/abs/dir",                -- a package's type: its package, and the
 --                                                                   -- .dca file's folder (dca.load.spec)
---         standby = { "h1b" } },                                    -- its standby hosts in order (the group's
+--         standby = { "h1b" },                                      -- its standby hosts in order (the group's
 --                                                                   --   `standby hit on h1b;`), nil: none
+--         rt = { priority = 80, cpu = 1 } },                        -- its group's rt { } (or an ancestor's), nil:
+--                                                                   --   none (docs/time.md, "Real time")
 --       { name = "mc", path = "main.door.mc", kind = "group", type = "MotionControl", host = "h3",
 --         spec = <the child's group spec> },
 --     },
@@ -153,14 +155,24 @@ local function copy(v)
 end
 M.copy = copy
 
+-- A group's rt { } as {priority, cpu}, else its parent's (`inherited`; docs/time.md, "Real time").
+local function rt_of(proc, inherited)
+  if not proc.rt then return inherited end
+  local rt = {}
+  for _, cl in ipairs(proc.rt.clauses) do rt[cl.kw] = cl.value end
+  return rt
+end
+
 --- The spec of a dca.lang.model tree (checked, arguments bound, hosts resolved). `file` names the source for
---- messages. A group without a host (the root of a file without host { }) gets `default_host`.
-function M.from_model(node, file, default_host)
+--- messages. A group without a host (the root of a file without host { }) gets `default_host`; one without
+--- rt { } gets its parent's (`parent_rt`).
+function M.from_model(node, file, default_host, parent_rt)
   local proc = node.process or {}
   local host = node.host or default_host
   local spec = {
     path = node.path, type = node.type, host = host, file = file, line = proc.line, col = proc.col,
     children = {}, external_io = {}, sets = {}, hosts = { host }, supervision = copy(node.supervision),
+    rt = copy(rt_of(proc, parent_rt)),
   }
   for i = 2, #(node.hosts or {}) do spec.hosts[i] = node.hosts[i] end
   local actions = proc.actions
@@ -172,7 +184,7 @@ function M.from_model(node, file, default_host)
   end
   for _, c in ipairs(node.children or {}) do
     if c.kind == "group" then
-      local cs = M.from_model(c, file, host)
+      local cs = M.from_model(c, file, host, spec.rt)
       spec.children[#spec.children + 1] = { name = c.name, path = c.path, kind = "group", type = c.type,
                                             host = cs.host, spec = cs }
     else
@@ -191,7 +203,7 @@ function M.from_model(node, file, default_host)
       spec.children[#spec.children + 1] = { name = c.name, path = c.path, kind = "leaf", type = c.type,
                                             host = c.host, args = args, params = info,
                                             package = c.manifest and c.manifest.package or nil,
-                                            standby = copy(c.standby) }
+                                            standby = copy(c.standby), rt = copy(spec.rt) }
     end
   end
   for _, x in ipairs(proc.external_io or {}) do
