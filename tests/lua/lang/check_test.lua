@@ -126,4 +126,21 @@ suite:case("paper_systems_pass", function()
   end
 end)
 
+suite:case("rt_section_errors_at_their_clauses", function()
+  local ast, err = parser.parse([[process main() {
+  rt { priority 120; cpu -1; priority 5; }
+  instantiated_processes { t instof Timer("h", 1); }
+  internal_event_actions { t } }]], "t.dca")
+  T.ok(ast, err)
+  local got = {}
+  for _, e in ipairs(check.check(ast, { types = {} })) do got[#got + 1] = sformat("%d:%d %s", e.line, e.col, e.msg) end
+  T.eq(got, { "2:17 rt priority must be 1..99 (SCHED_FIFO), got 120",
+              "2:26 rt cpu must be a CPU number, 0..1023, got -1",
+              "2:30 'priority' is given twice in rt (first at line 2)" })
+  local _, perr = parser.parse("process main() { rt { period 5; } internal_event_actions { } }", "t.dca")
+  T.ok(perr and perr:find("unknown rt clause 'period'", 1, true), perr)
+  _, perr = parser.parse("process main() { rt { priority high; } internal_event_actions { } }", "t.dca")
+  T.ok(perr and perr:find("expected a whole number after 'priority'", 1, true), perr)
+end)
+
 return suite:run(...)

@@ -140,4 +140,43 @@ process main() {
   T.eq(spec.hosts, { spec.host }, "a root without host { } gets its host in hosts too")
 end)
 
+suite:case("rt_section_reaches_each_leaf_and_its_node_argv_inherited_by_groups_without_one", function()
+  local ast = assert(parser.parse([[
+process Arm(h) {
+  host { h }
+  rt { priority 80; cpu 1; }
+  instantiated_processes { servo instof Timer(h, 1); }
+  internal_event_actions { servo }
+}
+process Inner(h) { host { h } instantiated_processes { t instof Timer(h, 2); } internal_event_actions { t } }
+process Fast(h) {
+  host { h }
+  rt { priority 90; }
+  instantiated_processes { i instof Inner(h); }
+  internal_event_actions { i }
+}
+process main() {
+  instantiated_processes { a instof Arm("h1"); f instof Fast("h2"); slow instof Timer("h3", 3); }
+  internal_event_actions { a , f , slow }
+}
+]], "rt.dca"))
+  local cl = ast.by_name.Arm.rt.clauses
+  T.eq({ ast.by_name.Arm.rt.line, ast.by_name.Arm.rt.col, #cl }, { 3, 3, 2 })
+  T.eq({ cl[1].kw, cl[1].value, cl[1].value_line, cl[1].value_col, cl[2].kw, cl[2].value }, { "priority", 80, 3, 17, "cpu", 1 })
+  T.eq(require("dca.lang.check").check(ast, { types = {} }), {})
+  local spec = require("dca.supervisor.spec").from_model(assert(model.build(ast)), "rt.dca")
+  local arm, fast, slow = spec.children[1].spec, spec.children[2].spec, spec.children[3]
+  T.eq({ spec.rt, arm.rt, arm.children[1].rt }, { nil, { priority = 80, cpu = 1 }, { priority = 80, cpu = 1 } })
+  -- Inner declares none: it takes Fast's, down to its leaf
+  local inner = fast.children[1].spec
+  T.eq({ fast.rt, inner.rt, inner.children[1].rt }, { { priority = 90 }, { priority = 90 }, { priority = 90 } })
+  T.eq(slow.rt, nil)
+  local net = require "dca.supervisor.net"
+  local argv = net.child_argv(arm.children[1], "127.0.0.1:1")
+  T.eq({ table.concat(argv, " ", 9) }, { "--rt-priority 80 --rt-cpu 1 -- 1" })
+  argv = net.child_argv(inner.children[1], "127.0.0.1:1")
+  T.eq({ table.concat(argv, " ", 9) }, { "--rt-priority 90 -- 2" })
+  T.eq({ table.concat(net.child_argv(slow, "127.0.0.1:1"), " ", 9) }, { "-- 3" })
+end)
+
 return suite:run(...)
