@@ -39,9 +39,10 @@ constexpr const char* kUsage =
     "  --timeout MS   deadline of each start-up step and look-up (default 5000)\n"
     "  --package NAME load the controller package NAME first (repeatable): NAME.dca.so from $DCA_CONTROLLER_PATH,\n"
     "                 <prefix>/lib/dca/controllers, or DIR/packages with --system-dir DIR (the .dca file's folder)\n"
-    "  --rt-priority P, --rt-cpu C  wall clock only: the node's thread runs SCHED_FIFO P (1..99), pinned to CPU C,\n"
-    "                 memory locked (docs/time.md, \"Real time\"); without the privilege, one warning and the\n"
-    "                 default scheduler. Ignored on simulated time.\n"
+    "  --rt-priority P, --rt-cpu C  wall clock only: the leaves run on a real-time thread of the node's, SCHED_FIFO\n"
+    "                 P (1..99), pinned to CPU C, memory locked; sockets and requests stay on its I/O thread\n"
+    "                 (docs/time.md, \"Real time\"); without the privilege, one warning and the default\n"
+    "                 scheduler, on that thread still. Ignored on simulated time.\n"
     "Prints `dca node: PATH ready` on stdout once registered. Exits 0 on `exit` or SIGTERM, 1 when start-up\n"
     "fails or the daemon goes away.";
 
@@ -58,17 +59,17 @@ bool load_packages(const std::vector<std::string>& names, const std::string& sys
   return true;
 }
 
-// Real time on the wall clock (host/rt/setup.h) for the calling thread, the node's one thread: its controllers'
-// timers and MainCalc run there. "" when applied, else why not (a warning, never a failure); nothing on simulated
-// time, where runs stay trace-identical.
-std::string apply_rt(const dca::NodeOptions& o, dca::rt::RtConfig rt) {
+// Real time on the wall clock: a valid setting goes to the node, whose leaves then run on a real-time thread
+// (host/node_rt.h, which sets it up and warns once when refused); an invalid one is a warning and not applied.
+// Nothing on simulated time, where runs stay trace-identical.
+std::string take_rt(dca::NodeOptions& o, dca::rt::RtConfig rt) {
   if (o.clock != dca::ClockKind::Wall || (rt.priority == 0 && rt.cpu < 0)) return "";
   char host[256] = {};
   gethostname(host, sizeof host - 1);
   rt.who = o.name + " on host " + (o.host.empty() ? std::string(host) : o.host);
   if (auto e = dca::rt::check(rt); !e.empty()) return dca::rt::warning(rt, e + ": not applied");
-  const std::string memory = dca::rt::setup_process(rt);
-  return dca::rt::warning(rt, memory, dca::rt::setup_thread(rt));
+  o.rt = rt;
+  return "";
 }
 
 int cmd_node(std::span<char* const> args) {
@@ -113,7 +114,7 @@ int cmd_node(std::span<char* const> args) {
   }
   if (o.timeout_ms <= 0) o.timeout_ms = 5000;
   if (!load_packages(packages, system_dir)) return 1;
-  if (const auto w = apply_rt(o, rt); !w.empty()) std::fprintf(stderr, "dca node: %s\n", w.c_str());
+  if (const auto w = take_rt(o, rt); !w.empty()) std::fprintf(stderr, "dca node: %s\n", w.c_str());
   o.load_package = [](const std::string& name, const std::string& dir, std::string* error) {
     return dca::load_package(name, dca::controller_dirs(dir), error) != nullptr;
   };

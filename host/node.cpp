@@ -17,6 +17,7 @@
 #include "host/net/auth.h"
 #include "host/net/channel.h"
 #include "host/net/endpoint.h"
+#include "host/node_rt.h"
 #include "host/paths.h"
 
 namespace dca {
@@ -121,6 +122,9 @@ struct Leaf {
   std::string package, system_dir;  // a shared node's leaf of a package's type: what its `add` named
   std::uint64_t instance = 0;  // this process's count of leaves added, at its add (Location::instance)
   std::unique_ptr<Component> component;
+  PortSet* ports = nullptr;  // what the endpoint and the control plane see: the component's, or its mirror (on_rt)
+  bool on_rt = false;        // its component runs on the node's real-time thread (host/node_rt.h)
+  std::unique_ptr<PortSet> mirror;  // its mirror once the thread let it go (RtHost::forget), for the endpoint
   Listener::Ptr control;
   std::shared_ptr<std::set<Channel::Ptr>> supervisors = std::make_shared<std::set<Channel::Ptr>>();
 
@@ -141,6 +145,7 @@ struct Node::Impl {
   ComponentFactory factory;
   ChannelOptions chopts;
   std::unique_ptr<TimerServer> timers;
+  std::unique_ptr<RtHost> rt;  // the real-time thread (NodeOptions::rt, wall clock), before the leaves: outlives them
   std::unique_ptr<Endpoint> endpoint;
   std::map<std::string, std::shared_ptr<Leaf>, std::less<>> leaves;
   Channel::Ptr daemon;
@@ -192,6 +197,9 @@ struct Node::Impl {
   void connect(Leaf& leaf, const Channel::Ptr& ch, const Message& m);
   void pull(Leaf& leaf, const Channel::Ptr& ch, const Message& m);
   void set_param(Leaf& leaf, const Channel::Ptr& ch, const Message& m);
+  bool rt_control(Leaf& leaf, const Channel::Ptr& ch, const Message& m);
+  void start_rt();
+  Value rt_stats(const Leaf& leaf) const;
   std::string take_expected(const Value& expect);
   Value sent_changes();
   Value digests();
@@ -314,10 +322,17 @@ void Node::Impl::open_ports(const Done& done_fn) {
     return fail_start(done_fn, e.what());
   }
   endpoint->on_event([this](const CommsEvent& e) { forward(e); });
+  if (opts.clock == ClockKind::Wall && (opts.rt.priority > 0 || opts.rt.cpu >= 0)) {
+    auto c = opts.rt;
+    c.who = opts.name + " on host " + host;
+    rt = std::make_unique<RtHost>(loop.io(), c);
+  }
   if (!opts.shared) {
     if (!add_leaf(opts.type, opts.name, opts.args, &error)) return fail_start(done_fn, error);
+    start_rt();
     return enlist(done_fn);
   }
+  start_rt();
   open_crash_note();
   clear_note_on_external_signals();
   timers->on_enter = note_leaf;
@@ -366,24 +381,29 @@ Leaf* Node::Impl::add_leaf(const std::string& type, const std::string& name, con
   leaf->type = type;
   leaf->name = name;
   leaf->instance = ++instances;
+  Leaf* l = leaf.get();
   try {
-    leaf->component = factory(type, name, host, args, *timers);
-    endpoint->add_component(name, leaf->component->ports());
+    leaf->component = factory(type, name, host, args, rt ? rt->timers() : *timers);
+    leaf->ports = &leaf->component->ports();
+    if (rt) leaf->ports = &rt->adopt(*leaf->component, [this, l](const ComponentEvent& e) { forward(*l, e); });
+    leaf->on_rt = rt != nullptr;
+    endpoint->add_component(name, *leaf->ports);
   } catch (const std::exception& e) {
+    if (rt && leaf->component) leaf->mirror = rt->forget(*leaf->component);
     *error = e.what();
     return nullptr;
   }
-  Leaf* l = leaf.get();
   std::weak_ptr<Leaf> wl = leaf;
   l->control = listen(l->supervisors, [this, wl](const Channel::Ptr& ch, const Message& m) {
     if (auto x = wl.lock()) handle(*x, ch, m);
   }, error);
   if (!l->control) {
+    if (l->on_rt) l->mirror = rt->forget(*l->component);
     endpoint->remove_component(name);
     *error = "cannot listen for control channels: " + *error;
     return nullptr;
   }
-  l->component->on_event = [this, l](const ComponentEvent& e) { forward(*l, e); };
+  if (!l->on_rt) l->component->on_event = [this, l](const ComponentEvent& e) { forward(*l, e); };
   leaves.emplace(name, leaf);
   tell_leaves();
   return l;
@@ -397,7 +417,8 @@ void Node::Impl::remove_leaf(const std::string& name) {
   std::shared_ptr<Leaf> leaf = it->second;
   leaves.erase(it);
   tell_leaves();
-  leaf->component->halt();
+  if (leaf->on_rt) leaf->mirror = rt->forget(*leaf->component);  // halted, the thread paused
+  else leaf->component->halt();
   if (endpoint) endpoint->remove_component(name);  // null once shut down (shutdown removed every leaf's)
   leaf->control->close();
   for (auto ch : std::set<Channel::Ptr>(*leaf->supervisors)) ch->close("leaf " + name + " removed");
@@ -459,7 +480,11 @@ void Node::shutdown(const std::string& why) {
   auto& I = *impl_;
   if (I.done) return;
   I.done = true;
-  for (auto& [name, leaf] : I.leaves) leaf->component->halt();
+  if (I.rt) I.rt->stop();
+  for (auto& [name, leaf] : I.leaves) {
+    if (leaf->on_rt) leaf->mirror = I.rt->forget(*leaf->component);
+    else leaf->component->halt();
+  }
   for (auto& [name, leaf] : I.leaves) {
     if (I.endpoint) I.endpoint->remove_component(name);
     leaf->control->close();
@@ -556,13 +581,13 @@ Value Node::Impl::code_of(const Leaf& leaf) const {
 
 Value Node::Impl::ports(const Leaf& leaf) const {
   Value ins = Value::array(), outs = Value::array(), links = Value::array();
-  for (const auto& p : leaf.component->ports().inputs()) {
+  for (const auto& p : leaf.ports->inputs()) {
     auto v = spec_value(p->spec());
     v.set("samples", p->stats().samples).set("dropped", p->stats().dropped).set("rejected", p->stats().rejected);
     v.set("queued", static_cast<std::uint64_t>(p->queued())).set("capacity", static_cast<std::uint64_t>(p->capacity()));
     ins.array_ref().push_back(std::move(v));
   }
-  for (const auto& p : leaf.component->ports().outputs()) {
+  for (const auto& p : leaf.ports->outputs()) {
     auto v = spec_value(p->spec());
     v.set("samples", p->stats().samples).set("rejected", p->stats().rejected);
     outs.array_ref().push_back(std::move(v));
@@ -583,6 +608,12 @@ Value Node::Impl::ports(const Leaf& leaf) const {
                                     .set("tx_dropped", l.tx_dropped)
                                     .set("bytes", l.bytes));
   }
+  for (const auto& l : leaf.on_rt ? rt->links(*leaf.component) : std::vector<RtHost::LinkInfo>{})
+    links.array_ref().push_back(Value::map().set("out", l.out).set("to", l.to).set("in", l.in).set("set", l.set)
+                                    .set("mode", "push").set("transport", "inprocess").set("active", l.active)
+                                    .set("broken", false).set("sent", l.sent).set("skipped", l.skipped)
+                                    .set("tx_dropped", std::int64_t{0}).set("bytes", std::int64_t{0})
+                                    .set("rt", true));
   return Value::map().set("inputs", ins).set("outputs", outs).set("links", links)
       .set("accepted", static_cast<std::uint64_t>(endpoint->accepted()))
       .set("bytes_received", endpoint->bytes_received())
@@ -622,7 +653,63 @@ Value Node::Impl::stats(const Leaf& leaf) const {
                                    .set("period_s", to_seconds(s.period))
                                    .set("clock", summary(s.clock))
                                    .set("wall", summary(s.wall)));
-  return Value::map().set("timers", ts).set("intervals", iv).set("clock", to_string(timers->kind()));
+  Value r = Value::map().set("timers", ts).set("intervals", iv).set("clock", to_string(timers->kind()));
+  if (leaf.on_rt) r.set("rt", rt_stats(leaf));
+  return r;
+}
+
+// ------------------------------------------------------------------------------ the real-time thread ---
+
+// Starts the real-time thread (NodeOptions::rt); its set-up's warning, if any, once on stderr, which reaches
+// `dca run`'s output.
+void Node::Impl::start_rt() {
+  if (!rt) return;
+  if (const auto w = rt->start(); !w.empty()) std::fprintf(stderr, "dca node: %s\n", w.c_str());
+}
+
+// A leaf on the real-time thread: its figures there (host/node_rt.h), read without a lock.
+Value Node::Impl::rt_stats(const Leaf& leaf) const {
+  const auto st = rt->stats(*leaf.component).value_or(RtLeafStats{});
+  auto summary = [](const rt::RtSummary& x) {
+    return Value::map().set("n", x.n).set("p50_us", x.p50_us).set("p99_us", x.p99_us).set("p999_us", x.p999_us)
+        .set("max_us", x.max_us);
+  };
+  const auto c = rt->contract();
+  return Value::map()
+      .set("thread", static_cast<std::int64_t>(rt->thread_id()))
+      .set("runs", st.runs)
+      .set("overruns", st.overruns)
+      .set("missed", st.missed)
+      .set("period_s", to_seconds(st.period))
+      .set("wake", summary(st.wake))
+      .set("exec", summary(st.exec))
+      .set("dropped", rt->dropped())
+      .set("contract", Value::map().set("allocations", c.allocations).set("locks", c.locks)
+                           .set("page_faults", c.page_faults));
+}
+
+// init, run, stop and set_param of a leaf on the real-time thread: done there between two ticks, answered here.
+bool Node::Impl::rt_control(Leaf& leaf, const Channel::Ptr& ch, const Message& m) {
+  const auto& t = m.type;
+  RtHost::Op op{};
+  std::string a, b;
+  if (t == "init") {
+    op = RtHost::Op::Configure;
+  } else if (t == "run") {
+    op = RtHost::Op::Start;
+    if (m.payload.find("init")) a = msgpack_from_value(m.payload["init"]);
+  } else if (t == "stop") {
+    op = RtHost::Op::Halt;
+  } else {
+    return false;  // set_param (there too: set_param), and the requests of the I/O thread
+  }
+  std::weak_ptr<Leaf> wl = leaves.at(leaf.name);
+  rt->request(*leaf.component, op, std::move(a), std::move(b), [this, wl, ch, m](const std::string& error) {
+    if (done || wl.expired()) return;
+    if (!error.empty()) ch->reply_error(m, error);
+    else ch->reply(m);
+  });
+  return true;
 }
 
 void Node::Impl::connect(Leaf& leaf, const Channel::Ptr& ch, const Message& m) {
@@ -653,6 +740,11 @@ void Node::Impl::connect(Leaf& leaf, const Channel::Ptr& ch, const Message& m) {
         t = std::string(to_string(l.transport));
     ch->reply(m, Value::map().set("transport", t));
   };
+  if (const Leaf* to = find(r.to); to && to->on_rt && leaf.on_rt && r.mode == Mode::Push && !r.stamped) {
+    std::string err;  // both on the real-time thread: the link stays there (host/node_rt.h)
+    if (!rt->link(*leaf.component, r.out, *to->component, r.in, r.set, r.queue, &err)) return finish(err);
+    return void(ch->reply(m, Value::map().set("transport", "inprocess")));
+  }
   if (endpoint->component(r.to)) return endpoint->connect(r, {}, finish, timeout);
   daemon->request({"lookup", 0, Value::map().set("name", r.to).set("wait_ms", static_cast<std::int64_t>(timeout))},
                   std::chrono::milliseconds(timeout + 1000), [this, r, finish, timeout](Response resp) {
@@ -670,8 +762,8 @@ void Node::Impl::connect(Leaf& leaf, const Channel::Ptr& ch, const Message& m) {
 // when it arrives (checked every millisecond), or an error at the deadline.
 void Node::Impl::pull(Leaf& leaf, const Channel::Ptr& ch, const Message& m) {
   const auto& name = m.payload["port"].as_string();
-  Input* in = leaf.component->ports().find_input(name);
-  if (!in) return void(ch->reply_error(m, leaf.component->ports().no_such_input(leaf.name, name)));
+  Input* in = leaf.ports->find_input(name);
+  if (!in) return void(ch->reply_error(m, leaf.ports->no_such_input(leaf.name, name)));
   const std::uint64_t before = in->stats().samples;
   const auto deadline = std::chrono::steady_clock::now() +
                         std::chrono::milliseconds(m.payload["timeout_ms"].as_int(opts.timeout_ms));
@@ -700,7 +792,7 @@ void Node::Impl::pull(Leaf& leaf, const Channel::Ptr& ch, const Message& m) {
 // read {port}: the latest sample of any port of the leaf.
 void Node::Impl::read(Leaf& leaf, const Channel::Ptr& ch, const Message& m) {
   const auto& name = m.payload["port"].as_string();
-  auto& ps = leaf.component->ports();
+  auto& ps = *leaf.ports;
   const Port* port = ps.find_output(name);
   if (!port) port = ps.find_input(name);
   if (!port) {
@@ -716,6 +808,7 @@ void Node::Impl::read(Leaf& leaf, const Channel::Ptr& ch, const Message& m) {
 // The life-cycle and data requests of one leaf; false for any other.
 bool Node::Impl::handle_control(Leaf& leaf, const Channel::Ptr& ch, const Message& m) {
   const CrashScope scope(leaf.name);
+  if (leaf.on_rt && rt_control(leaf, ch, m)) return true;
   const auto& t = m.type;
   const auto& p = m.payload;
   auto& c = *leaf.component;
@@ -734,12 +827,14 @@ bool Node::Impl::handle_control(Leaf& leaf, const Channel::Ptr& ch, const Messag
     connect(leaf, ch, m);
   } else if (t == "disconnect") {
     endpoint->disconnect_set(p["set"].as_string());
+    if (rt) rt->unlink(p["set"].as_string());
     ch->reply(m);
   } else if (t == "activate" || t == "deactivate") {
     const auto& set = p["set"].as_string();
     if (set.empty()) return ch->reply_error(m, t + " needs a set"), true;
     if (t == "activate") endpoint->activate(set, leaf.name);  // this leaf's links only (host/net/endpoint.h)
     else endpoint->deactivate(set, leaf.name);
+    if (leaf.on_rt) rt->activate(set, *leaf.component, t == "activate");
     if (set.rfind("tap:", 0) != 0) {  // a tap only looks: no part of the run's trace (host/net/tap.h)
       switches.push_back(leaf.name + " " + (t == "activate" ? "+" : "-") + set);
       if (switches.size() > 1000) switches.erase(switches.begin());
@@ -785,11 +880,17 @@ void Node::Impl::set_param(Leaf& leaf, const Channel::Ptr& ch, const Message& m)
   const auto text = argument_text(m.payload["value"]);
   if (name.empty() || !text)
     return void(ch->reply_error(m, "set_param needs a name and a value (a number, a string or a boolean)"));
+  auto took = [this, ch, m, leaf_name = leaf.name, name, value = *text](const std::string& err) {
+    if (done) return;
+    if (!err.empty()) return void(ch->reply_error(m, err));
+    params.push_back(leaf_name + " " + name + "=" + value);
+    if (params.size() > 1000) params.erase(params.begin());
+    ch->reply(m, Value::map().set("value", value));
+  };
+  if (leaf.on_rt) return rt->request(*leaf.component, RtHost::Op::SetParameter, name, *text, took);  // there
   std::string err;
-  if (!leaf.component->set_parameter(name, *text, &err)) return void(ch->reply_error(m, err));
-  params.push_back(leaf.name + " " + name + "=" + *text);
-  if (params.size() > 1000) params.erase(params.begin());
-  ch->reply(m, Value::map().set("value", *text));
+  if (!leaf.component->set_parameter(name, *text, &err)) return took(err.empty() ? "refused" : err);
+  took("");
 }
 
 // A request on a leaf's own control channel: its own requests, then the process's (advance; exit ends the
@@ -936,7 +1037,7 @@ Value Node::Impl::sent_changes() {
 Value Node::Impl::digests() {
   Value d = Value::array();
   for (const auto& [name, leaf] : leaves)
-    for (const auto& o : leaf->component->ports().outputs())
+    for (const auto& o : leaf->ports->outputs())
       d.array_ref().push_back(Value(Value::Array{Value(name + "." + o->name()), Value(o->stats().samples),
                                                  Value(std::to_string(o->digest())), latest_value(*o)}));
   Value sw = Value::array();

@@ -44,7 +44,12 @@
 //                                                clock = {n, p50_us, p99_us, p999_us, max_us, min_us, mean_us},
 //                                                wall = {...}}] (the periods achieved: time between
 //                                                consecutive MainCalc calls of each periodic timer, on the
-//                                                node's clock and on the wall clock; host/timers.h), clock
+//                                                node's clock and on the wall clock; host/timers.h), clock,
+//                                                and for a leaf on the real-time thread (NodeOptions::rt) rt =
+//                                                {thread, runs, overruns, missed, period_s, wake = {n, p50_us,
+//                                                p99_us, p999_us, max_us}, exec = {...}, dropped, contract =
+//                                                {allocations, locks, page_faults}} (host/node_rt.h; thread: its
+//                                                kernel id; contract: counted on the thread since it started)
 //   advance {t, expect, trace}  (--clock sim) -> ok {now, next, ev, evs, leaves, sent, dig}  t in ns;
 //                                                lock-step (docs/time.md): expect = {link key = n}
 //                                                the samples of each link into this node its writer had sent
@@ -108,6 +113,7 @@
 
 #include "host/port.h"
 #include "host/loop.h"
+#include "host/rt/setup.h"
 #include "host/timers.h"
 #include "host/codec/wire.h"
 
@@ -128,6 +134,10 @@ struct NodeOptions {
   std::vector<std::string> args;    ///< the .dca arguments after the host
   int timeout_ms = 5000;            ///< for start-up steps and look-ups (and a late sample in lock-step)
   bool gated = false;               ///< lock-step delivery without a clock master of its own (the world)
+  /// Real time (`--rt-priority`, `--rt-cpu`): with a priority > 0 or a CPU >= 0, on the wall clock, the leaves run
+  /// on a real-time thread of the node's (host/node_rt.h); its set-up's one warning goes to stderr. Ignored on
+  /// simulated time.
+  rt::RtConfig rt;
   /// The time a tap's link stamps on each sample (host/net/tap.h); unset: the node's clock (its timers' now).
   std::function<std::int64_t()> stamp_clock;
   /// A shared node: loads the controller package an `add` names (package, system_dir) before creating its

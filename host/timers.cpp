@@ -163,6 +163,7 @@ struct TimerServer::Impl {
   Id next_id = 1;
   Nanos sim_now = 0;
   Nanos armed = -1;  // the deadline the timerfd is set for (-1: disarmed)
+  bool driven = false;  // set_driven: a thread of the owner's calls run_due(), the timerfd stays disarmed
   bool waiting = false;
   int firing = 0;    // > 0 while callbacks run: no cleanup then
   Nanos current = -1;  // the deadline of the callback running now
@@ -234,6 +235,7 @@ struct TimerServer::Impl {
     if (fn) fn();
     else e.fn();
     if (ts.on_enter) ts.on_enter(nullptr);
+    if (ts.on_ran) ts.on_ran(e.name, deadline, e.period, wall, monotonic_now());
     current = outer;
     --firing;
     if (ts.on_fire) ts.on_fire(e.name, deadline);
@@ -243,6 +245,7 @@ struct TimerServer::Impl {
 };
 
 void TimerServer::Impl::arm(TimerServer& ts) {
+  if (driven) return;
   const auto n = next();
   const Nanos want = n && *n != kNever ? *n : -1;  // due never: nothing to arm
   if (want != armed) {
@@ -333,6 +336,27 @@ bool TimerServer::cancel(Id id) {
 }
 
 Nanos TimerServer::current_deadline() const { return impl_->current; }
+
+void TimerServer::set_driven() {
+  if (kind_ != ClockKind::Wall) throw std::logic_error("set_driven: a simulated clock is advanced, not driven");
+  impl_->driven = true;
+  itimerspec off{};
+  ::timerfd_settime(impl_->fd.native_handle(), TFD_TIMER_ABSTIME, &off, nullptr);
+  impl_->armed = -1;
+}
+
+std::size_t TimerServer::run_due() {
+  std::size_t n = 0;
+  for (;;) {
+    const Nanos now = monotonic_now();
+    Entry* e = impl_->due(now);
+    if (!e) break;
+    impl_->fire(*e, now, now, *this);
+    ++n;
+  }
+  impl_->cleanup();
+  return n;
+}
 
 Nanos TimerServer::now() const { return kind_ == ClockKind::Wall ? monotonic_now() : impl_->sim_now; }
 

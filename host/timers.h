@@ -183,6 +183,13 @@ class TimerServer {
   void set_aligned(bool aligned) { aligned_ = aligned; }
   /// Inside a timer callback: the deadline it was due at (its tick time); -1 outside callbacks.
   Nanos current_deadline() const;
+  /// Wall clock only: the timers are run by a thread of the caller's (a node's real-time thread: host/node_rt.h)
+  /// calling run_due(), never by the timerfd. Call before the first timer; from then on only that thread (or
+  /// any, while it is stopped) uses this server.
+  void set_driven();
+  /// Driven: runs every timer due by the wall clock now, as the timerfd would (late periods skipped and counted,
+  /// never bunched). Returns the number of callbacks run.
+  std::size_t run_due();
 
 
   /// Statistics of every timer still known (active ones, and the last finished ones).
@@ -208,6 +215,9 @@ class TimerServer {
   std::function<void(const std::string* name)> on_enter;
   /// Called after every timer callback with (timer name, deadline): a trace for tests and the simulator.
   std::function<void(const std::string& name, Nanos deadline)> on_fire;
+  /// Driven servers: called after every callback of a timer with its name, deadline, period (0: one-shot) and
+  /// the wall-clock times it started and ended (the real-time thread's statistics: host/node_rt.h).
+  std::function<void(const std::string& name, Nanos deadline, Nanos period, Nanos start, Nanos end)> on_ran;
 
   struct Impl;
 

@@ -6,6 +6,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
@@ -14,6 +15,7 @@
 
 #include "host/net/auth.h"
 #include "host/net/channel.h"
+#include "host/rt/contract.h"
 
 namespace {
 
@@ -65,6 +67,53 @@ class TestComponent final : public dca::Component {
  private:
   std::string name_;
   dca::PortSet ports_;
+};
+
+// A periodic link of a chain for the real-time thread (host/node_rt.h): each tick notes the thread it runs on,
+// takes In's newest sample and writes Out = that sample + 1 (its tick count before any); a negative sample
+// aborts its run. Read from the test's thread while it runs: atomics.
+class ChainComponent final : public dca::Component {
+ public:
+  ChainComponent(std::string name, dca::TimerServer& ts) : name_(std::move(name)), timers_(ts) {
+    out_ = &ports_.add_output(dca::scalar_port("Out"));
+    in_ = &ports_.add_input(dca::scalar_port("In"));
+  }
+  const std::string& name() const override { return name_; }
+  dca::PortSet& ports() override { return ports_; }
+  bool configure(std::string*) override { return true; }
+  bool start(dca::Bytes, std::string*) override {
+    running = true;
+    timer_ = timers_.every(1'000'000, [this] { tick(); }, name_);
+    return true;
+  }
+  void halt() override {
+    running = false;
+    if (timer_) timers_.cancel(timer_);
+    timer_ = 0;
+  }
+  std::atomic<long> tid{0};
+  std::atomic<int> ticks{0};
+  std::atomic<bool> running{false};
+
+ private:
+  void tick() {
+    tid.store(static_cast<long>(::gettid()));
+    const int n = ticks.load() + 1;
+    ticks.store(n);
+    if (in_->take_latest()) last_ = in_->scalar();
+    if (last_ < 0) {
+      halt();
+      return on_event({dca::ComponentEvent::Kind::Aborted, "", "negative"});
+    }
+    out_->write(last_ > 0 ? last_ + 1 : n);
+  }
+  std::string name_;
+  dca::TimerServer& timers_;
+  dca::PortSet ports_;
+  dca::Output* out_ = nullptr;
+  dca::Input* in_ = nullptr;
+  double last_ = 0;
+  dca::TimerServer::Id timer_ = 0;
 };
 
 class NodeTest : public ::testing::Test {
@@ -542,6 +591,92 @@ TEST_F(NodeTest, OneAdvanceRunsTheTimersOfEveryLeafOfASharedNode) {
   const auto r = call(sa, "stats");  // a leaf's own timers only
   ASSERT_EQ(r.message.payload["timers"].as_array().size(), 1u);
   EXPECT_EQ(r.message.payload["timers"].as_array()[0]["name"].as_string(), "/g/a");
+}
+
+// A node with an rt setting runs its leaves on a real-time thread of its own (host/node_rt.h): here a shared node
+// with a chain a -> b (linked in process: on that thread), fed from another node's output over a socket. Without the privilege (CI) it warns and runs
+// the thread under the default scheduler: the same thread still, apart from the I/O thread (this one).
+TEST_F(NodeTest, RtSettingRunsTheLeavesOnARealTimeThreadSamplesCrossBothWays) {
+  ASSERT_TRUE(dca::rt::contract::hooked());  // tests/support/rt_hooks.cpp is linked in
+  auto* x = start_node("/x");
+  dca::NodeOptions o = node_options("rt@h", false);
+  o.shared = true;
+  o.rt.priority = 80;
+  o.rt.lock_memory = false;  // (mlockall would stay for the rest of this test executable)
+  std::map<std::string, ChainComponent*> made;
+  nodes.push_back(std::make_unique<dca::Node>(loop, o, [&made](const std::string&, const std::string& n,
+                                                                const std::string&, const std::vector<std::string>&,
+                                                                dca::TimerServer& ts) {
+    auto c = std::make_unique<ChainComponent>(n, ts);
+    made[n] = c.get();
+    return c;
+  }));
+  std::optional<std::string> started;
+  nodes.back()->start([&](const std::string& e) { started = e; });
+  ASSERT_TRUE(run_until([&] { return started.has_value(); }));
+  ASSERT_EQ(*started, "");
+  auto proc = supervise("rt@h#" + std::to_string(::getpid()));
+  for (const char* n : {"/g/a", "/g/b"})
+    ASSERT_TRUE(call(proc, "add", Value::map().set("controller", "Chain").set("name", n).set("args", Value::array())).ok());
+  auto sa = supervise("/g/a"), sb = supervise("/g/b"), sx = supervise("/x");
+  auto link = [&](const dca::Channel::Ptr& ch, const std::string& to, const std::string& set, const char* transport) {
+    auto r = call(ch, "connect", Value::map().set("out", "Out").set("to", to).set("in", "In").set("set", set));
+    ASSERT_TRUE(r.ok()) << r.error;
+    EXPECT_EQ(r.message.payload["transport"].as_string(), transport);
+    ASSERT_TRUE(call(ch, "activate", Value::map().set("set", set)).ok());
+  };
+  link(sa, "/g/b", "g:a[l]", "inprocess");
+  link(sx, "/g/a", "g:x[l]", "unix");
+  ASSERT_TRUE(call(sa, "run").ok());
+  ASSERT_TRUE(call(sb, "run").ok());
+  auto* a = made["/g/a"];
+  auto* b = made["/g/b"];
+  ASSERT_TRUE(run_until([&] { return a->ticks > 20 && b->ticks > 20; }));
+  const long io = static_cast<long>(::gettid());
+  EXPECT_NE(a->tid.load(), io);
+  EXPECT_EQ(a->tid.load(), b->tid.load());  // one real-time thread for the node's leaves
+  // into the thread (x's sample over the socket, to a's mirror, then its ring) and out of it (b's Out, read here)
+  x->out->write(41.0);
+  const auto read_b = [&] { return call(sb, "read", Value::map().set("port", "Out")).message.payload["value"].as_float(); };
+  ASSERT_TRUE(run_until([&] { return read_b() == 43.0; }));
+  // steady state: nothing allocated or locked on the thread while samples cross both ways
+  const auto contract = [&] { return call(sa, "stats").message.payload["rt"]["contract"]; };
+  const auto before = contract();
+  const int until = a->ticks + 100;
+  for (double v = 100; a->ticks < until; v += 1) {
+    x->out->write(v);
+    const double want = v + 2;
+    ASSERT_TRUE(run_until([&] { return read_b() == want; }));
+  }
+  const auto after = contract();
+  EXPECT_EQ(after["allocations"].as_int(), before["allocations"].as_int());
+  EXPECT_EQ(after["locks"].as_int(), before["locks"].as_int());
+  // a -> b stayed on the thread: the link counts its samples there, none went through b's mirror
+  const auto links = call(sa, "ports").message.payload["links"].as_array();
+  ASSERT_EQ(links.size(), 1u);
+  EXPECT_TRUE(links[0]["rt"].as_bool());
+  EXPECT_GE(links[0]["sent"].as_int(), 100);
+  EXPECT_EQ(call(sb, "ports").message.payload["inputs"].as_array()[0]["samples"].as_int(), 0);
+  const auto st = call(sa, "stats").message.payload["rt"];
+  EXPECT_EQ(st["thread"].as_int(), a->tid.load());
+  EXPECT_GE(st["runs"].as_int(), 100);
+  EXPECT_DOUBLE_EQ(st["period_s"].as_float(), 0.001);
+  EXPECT_GE(st["wake"]["n"].as_int(), 100);
+  EXPECT_LE(st["exec"]["p50_us"].as_float(), st["exec"]["max_us"].as_float());
+  // the control plane: stop and run again, through the thread's command ring
+  ASSERT_TRUE(call(sa, "stop").ok());
+  EXPECT_FALSE(a->running);
+  const int stopped_at = a->ticks;
+  ASSERT_TRUE(call(sa, "run").ok());
+  EXPECT_TRUE(a->running);
+  ASSERT_TRUE(run_until([&] { return a->ticks > stopped_at + 10; }));
+  // an end of run on the thread reaches the supervisor
+  x->out->write(-1.0);
+  ASSERT_TRUE(run_until([&] {
+    return std::any_of(events.begin(), events.end(), [](const Message& m) { return m.type == "aborted"; });
+  }));
+  EXPECT_FALSE(a->running);
+  EXPECT_TRUE(b->running);
 }
 
 TEST_F(NodeTest, ValuesConvertBetweenMsgpackAndWire) {

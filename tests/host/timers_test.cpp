@@ -181,6 +181,36 @@ TEST_F(TimersTest, WallPeriodicTimerFiresAndRecordsLateness) {
   EXPECT_EQ(n, stopped_at);  // cancelled: no more ticks
 }
 
+// Driven (a node's real-time thread, host/node_rt.h): the timerfd stays disarmed; run_due() runs what is due by
+// the wall clock, a late timer once (the periods that went by skipped and counted, not run in a burst), and
+// on_ran tells each run's deadline, period and wall-clock start and end.
+TEST_F(TimersTest, DrivenServerRunsOnlyInRunDueAndSkipsLatePeriods) {
+  dca::TimerServer ts(io, dca::ClockKind::Wall);
+  ts.set_driven();
+  int n = 0;
+  std::vector<std::pair<dca::Nanos, dca::Nanos>> ran;  // (deadline, start)
+  ts.on_ran = [&](const std::string& name, dca::Nanos deadline, dca::Nanos period, dca::Nanos start, dca::Nanos end) {
+    EXPECT_EQ(name, "tick");
+    EXPECT_EQ(period, kMs);
+    EXPECT_LE(start, end);
+    ran.emplace_back(deadline, start);
+  };
+  const auto id = ts.every(kMs, [&] { ++n; }, "tick");
+  const auto first = *ts.next_deadline();
+  while (dca::monotonic_now() < first + kMs / 2) io.poll();  // (the clock, not a sleep: due, and the fd silent)
+  EXPECT_EQ(n, 0);
+  EXPECT_EQ(ts.run_due(), 1u);
+  ASSERT_EQ(ran.size(), 1u);
+  EXPECT_EQ(ran[0].first, first);
+  EXPECT_GE(ran[0].second, first);
+  while (dca::monotonic_now() < first + 4 * kMs + kMs / 2) io.poll();  // 3 more deadlines went by
+  EXPECT_EQ(ts.run_due(), 1u);  // once, not three times
+  EXPECT_EQ(n, 2);
+  EXPECT_GE(ts.stats(id)->missed, 2u);
+  EXPECT_GT(*ts.next_deadline(), first + 4 * kMs);  // the first deadline still ahead
+  EXPECT_THROW(dca::TimerServer(io, dca::ClockKind::Simulated).set_driven(), std::logic_error);
+}
+
 TEST_F(TimersTest, WallOneShotFiresOnceNotBeforeItsDelay) {
   dca::TimerServer ts(io, dca::ClockKind::Wall);
   dca::Nanos at = 0;

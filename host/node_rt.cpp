@@ -1,0 +1,482 @@
+#include "host/node_rt.h"
+
+#include <sys/eventfd.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cerrno>
+#include <cstring>
+#include <future>
+#include <map>
+#include <thread>
+#include <vector>
+
+#include "host/rt/spsc_ring.h"
+
+namespace dca {
+
+namespace asio = boost::asio;
+
+namespace {
+
+// A sample between a port and its mirror.
+struct Sample {
+  std::uint16_t slot = 0, port = 0;
+  std::uint32_t size = 0;
+  std::byte data[RtHost::kMaxSample];
+};
+
+// A life-cycle operation for the thread; its strings live in the I/O thread's pending entry until the answer.
+struct Command {
+  std::uint64_t seq = 0;
+  RtHost::Op op = RtHost::Op::Halt;
+  std::uint16_t slot = 0;
+  const std::string* a = nullptr;
+  const std::string* b = nullptr;
+  std::string* error = nullptr;
+};
+
+struct Answer {
+  std::uint64_t seq = 0;
+  bool ok = false;
+};
+
+struct Event {
+  std::uint16_t slot = 0;
+  ComponentEvent* event = nullptr;  // made on the thread, deleted on the I/O thread
+};
+
+void sleep_until(Nanos t) {
+  timespec ts{};
+  ts.tv_sec = static_cast<time_t>(t / 1'000'000'000);
+  ts.tv_nsec = static_cast<long>(t % 1'000'000'000);
+  while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
+  }
+}
+
+template <class T>
+void add(std::atomic<T>& a, T n) {
+  a.store(a.load(std::memory_order_relaxed) + n, std::memory_order_relaxed);
+}
+
+}  // namespace
+
+// One adopted leaf.
+struct RtSlot;
+
+// A link from a leaf's output (on the thread) to its mirror (on the I/O thread).
+struct RingLink final : Link {
+  RtHost::Impl* host = nullptr;
+  std::uint16_t slot = 0, port = 0;
+  void on_write(Bytes b) override;
+  void close() override {}
+};
+
+// An in-process link between two leaves on the thread (RtHost::link).
+struct RouteLink final : Link {
+  std::uint16_t from = 0, to = 0;
+  Output* out = nullptr;
+  Input* in = nullptr;
+  RtHost::LinkInfo info;  // names and set (the counters below are the live ones)
+  std::atomic<bool> active{false};
+  std::atomic<std::uint64_t> sent{0}, skipped{0};
+  void on_write(Bytes b) override {
+    if (!active.load(std::memory_order_relaxed)) return add(skipped, std::uint64_t{1});
+    add(sent, std::uint64_t{1});
+    in->deliver(b);
+  }
+  void close() override {}
+};
+
+struct RtSlot {
+  Component* c = nullptr;
+  std::unique_ptr<PortSet> mirror;
+  std::vector<std::unique_ptr<RingLink>> links;  // one per output of c
+  std::function<void(const ComponentEvent&)> on_event;
+  rt::RtHistogram wake, exec;
+  std::atomic<std::uint64_t> runs{0}, overruns{0}, missed{0};
+  std::atomic<Nanos> period{0};
+};
+
+struct RtHost::Impl {
+  Impl(asio::io_context& io, rt::RtConfig c) : config(std::move(c)), timers(io, ClockKind::Wall), efd(io) {
+    timers.set_driven();
+    const int fd = ::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
+    if (fd < 0) throw std::system_error(errno, std::generic_category(), "eventfd");
+    efd.assign(fd);
+  }
+  rt::RtConfig config;
+  TimerServer timers;
+  asio::posix::stream_descriptor efd;  // the thread tells the I/O thread that its rings hold something
+  std::vector<std::unique_ptr<RtSlot>> slots;  // changed only while the thread is stopped; nullptr: forgotten
+  std::vector<std::unique_ptr<RouteLink>> routes;  // the same
+  rt::SpscRing<Sample, 64> in;                  // I/O -> thread: samples for the leaves' inputs
+  rt::SpscRing<Sample, 128> out;                // thread -> I/O: samples the leaves wrote
+  rt::SpscRing<Command, 16> commands;
+  rt::SpscRing<Answer, 16> answers;
+  rt::SpscRing<Event, 16> events;
+  struct Pending {
+    std::string a, b, error;
+    Reply done;
+  };
+  std::map<std::uint64_t, std::unique_ptr<Pending>> pending;  // the I/O thread's
+  std::uint64_t seq = 0;
+  std::atomic<bool> stop{false};
+  std::thread thread;
+  std::atomic<long> tid{0};
+  bool started_once = false;
+  bool pushed = false;  // the thread's: something went to the I/O thread since the last notify
+  bool waiting = false;
+  std::atomic<std::uint64_t> dropped{0};
+  std::atomic<std::uint64_t> allocations{0}, locks{0}, faults{0};
+  std::shared_ptr<bool> alive = std::make_shared<bool>(true);
+
+  void run();
+  void take_commands();
+  void take_samples();
+  void publish_counts();
+  void on_ran(const std::string& name, Nanos deadline, Nanos period, Nanos start, Nanos end);
+  void notify() {
+    if (!pushed) return;
+    pushed = false;
+    const std::uint64_t one = 1;
+    [[maybe_unused]] const auto n = ::write(efd.native_handle(), &one, sizeof one);
+  }
+  void wait();
+  void drain();
+  static bool to_sample(std::uint16_t slot, std::uint16_t port, Bytes b, Sample& s) {
+    if (b.size() > kMaxSample) return false;
+    s.slot = slot;
+    s.port = port;
+    s.size = static_cast<std::uint32_t>(b.size());
+    std::memcpy(s.data, b.data(), b.size());
+    return true;
+  }
+  void push_out(std::uint16_t slot, std::uint16_t port, Bytes b) {
+    Sample s;
+    if (!to_sample(slot, port, b, s) || !out.push(s)) return add(dropped, std::uint64_t{1});
+    pushed = true;
+  }
+  RtSlot* slot_of(const Component& c) const {
+    for (const auto& s : slots)
+      if (s && s->c == &c) return s.get();
+    return nullptr;
+  }
+  std::uint16_t index_of(const Component& c) const {
+    for (std::size_t i = 0; i < slots.size(); ++i)
+      if (slots[i] && slots[i]->c == &c) return static_cast<std::uint16_t>(i);
+    return 0xffff;
+  }
+};
+
+void RingLink::on_write(Bytes b) { host->push_out(slot, port, b); }
+
+RtHost::RtHost(asio::io_context& io, rt::RtConfig config) : impl_(std::make_unique<Impl>(io, std::move(config))) {
+  impl_->timers.on_ran = [this](const std::string& name, Nanos deadline, Nanos period, Nanos start, Nanos end) {
+    impl_->on_ran(name, deadline, period, start, end);
+  };
+}
+
+RtHost::~RtHost() {
+  stop();
+  *impl_->alive = false;
+  boost::system::error_code ec;
+  impl_->efd.close(ec);
+  for (Event e; impl_->events.pop(e);) delete e.event;
+  // (a leaf's component may be gone by now: its outputs closed our links, which own nothing)
+}
+
+TimerServer& RtHost::timers() { return impl_->timers; }
+bool RtHost::running() const { return impl_->thread.joinable(); }
+long RtHost::thread_id() const { return impl_->tid.load(); }
+std::uint64_t RtHost::dropped() const { return impl_->dropped.load(std::memory_order_relaxed); }
+
+rt::contract::Counts RtHost::contract() const {
+  return {impl_->allocations.load(), impl_->locks.load(), impl_->faults.load()};
+}
+
+// The mirror: the same ports; what is delivered to an input goes to the ring at once (its queue drained).
+PortSet& RtHost::adopt(Component& c, std::function<void(const ComponentEvent&)> on_event) {
+  const bool was = running();
+  stop();
+  auto& I = *impl_;
+  auto s = std::make_unique<RtSlot>();
+  s->c = &c;
+  s->on_event = std::move(on_event);
+  s->mirror = std::make_unique<PortSet>();
+  const auto slot = static_cast<std::uint16_t>(I.slots.size());
+  const auto& ins = c.ports().inputs();
+  for (std::size_t p = 0; p < ins.size(); ++p) {
+    ins[p]->reserve_queue(16);  // a push connection's default queue (docs/data-plane.md)
+    Input& m = s->mirror->add_input(ins[p]->spec());
+    m.on_sample = [&I, &m, slot, port = static_cast<std::uint16_t>(p)] {
+      Sample x;
+      while (m.pop())
+        if (!Impl::to_sample(slot, port, m.current_bytes(), x) || !I.in.push(x)) add(I.dropped, std::uint64_t{1});
+    };
+  }
+  const auto& outs = c.ports().outputs();
+  for (std::size_t p = 0; p < outs.size(); ++p) {
+    s->mirror->add_output(outs[p]->spec());
+    auto l = std::make_unique<RingLink>();
+    l->host = &I;
+    l->slot = slot;
+    l->port = static_cast<std::uint16_t>(p);
+    outs[p]->attach(l.get());
+    s->links.push_back(std::move(l));
+  }
+  c.on_event = [&I, slot](const ComponentEvent& e) {
+    if (!I.events.push({slot, new ComponentEvent(e)})) return;  // 16 ends of runs not yet told: cannot happen
+    I.pushed = true;
+  };
+  PortSet& mirror = *s->mirror;
+  I.slots.push_back(std::move(s));
+  if (was) start();
+  return mirror;
+}
+
+std::unique_ptr<PortSet> RtHost::forget(Component& c) {
+  const bool was = running();
+  stop();
+  auto& I = *impl_;
+  const std::uint16_t i = I.index_of(c);
+  if (i == 0xffff) return nullptr;
+  c.halt();  // its actuators' zeros go to the ring, then to the mirror
+  I.drain();
+  std::erase_if(I.routes, [i](const std::unique_ptr<RouteLink>& r) {
+    if (r->from != i && r->to != i) return false;
+    r->out->detach(r.get());
+    return true;
+  });
+  auto& s = *I.slots[i];
+  const auto& outs = c.ports().outputs();
+  for (std::size_t p = 0; p < outs.size() && p < s.links.size(); ++p) outs[p]->detach(s.links[p].get());
+  for (const auto& in : s.mirror->inputs()) in->on_sample = nullptr;
+  c.on_event = nullptr;
+  auto mirror = std::move(s.mirror);
+  I.slots[i].reset();
+  if (was) start();
+  return mirror;
+}
+
+bool RtHost::link(Component& from, const std::string& out, Component& to, const std::string& in,
+                  const std::string& set, std::uint32_t queue, std::string* error) {
+  auto& I = *impl_;
+  const std::uint16_t f = I.index_of(from), t = I.index_of(to);
+  Output* o = from.ports().find_output(out);
+  Input* n = to.ports().find_input(in);
+  if (f == 0xffff || t == 0xffff) return *error = "not both on the real-time thread", false;
+  if (!o) return *error = from.ports().no_such_output(from.name(), out), false;
+  if (!n) return *error = to.ports().no_such_input(to.name(), in), false;
+  if (auto why = compatibility_error(o->spec(), n->spec()); !why.empty()) return *error = why, false;
+  const bool was = running();
+  stop();
+  n->reserve_queue(queue);
+  auto r = std::make_unique<RouteLink>();
+  r->from = f;
+  r->to = t;
+  r->out = o;
+  r->in = n;
+  r->info = {from.name(), out, to.name(), in, set};
+  o->attach(r.get());
+  I.routes.push_back(std::move(r));
+  if (was) start();
+  return true;
+}
+
+std::size_t RtHost::activate(const std::string& set, const Component& from, bool active) {
+  const std::uint16_t f = impl_->index_of(from);
+  std::size_t n = 0;
+  for (const auto& r : impl_->routes)
+    if (r->from == f && r->info.set == set) r->active.store(active, std::memory_order_relaxed), ++n;
+  return n;
+}
+
+void RtHost::unlink(const std::string& set) {
+  auto& I = *impl_;
+  if (std::none_of(I.routes.begin(), I.routes.end(), [&](const auto& r) { return r->info.set == set; })) return;
+  const bool was = running();
+  stop();
+  std::erase_if(I.routes, [&](const std::unique_ptr<RouteLink>& r) {
+    if (r->info.set != set) return false;
+    r->out->detach(r.get());
+    return true;
+  });
+  if (was) start();
+}
+
+std::vector<RtHost::LinkInfo> RtHost::links(const Component& from) const {
+  const std::uint16_t f = impl_->index_of(from);
+  std::vector<LinkInfo> v;
+  for (const auto& r : impl_->routes) {
+    if (r->from != f) continue;
+    v.push_back(r->info);
+    v.back().active = r->active.load(std::memory_order_relaxed);
+    v.back().sent = r->sent.load(std::memory_order_relaxed);
+    v.back().skipped = r->skipped.load(std::memory_order_relaxed);
+  }
+  return v;
+}
+
+void RtHost::request(Component& c, Op op, std::string a, std::string b, Reply done) {
+  auto& I = *impl_;
+  const std::uint16_t slot = I.index_of(c);
+  if (slot == 0xffff) return done(c.name() + " does not run on the real-time thread");
+  auto p = std::make_unique<Impl::Pending>();
+  p->a = std::move(a);
+  p->b = std::move(b);
+  p->done = std::move(done);
+  const Command cmd{++I.seq, op, slot, &p->a, &p->b, &p->error};
+  if (!I.commands.push(cmd)) return p->done(c.name() + ": too many requests waiting for the real-time thread");
+  I.pending.emplace(cmd.seq, std::move(p));  // taken at the thread's next wake (kIdle at the latest)
+  I.wait();
+}
+
+std::string RtHost::start() {
+  auto& I = *impl_;
+  if (running()) return "";
+  std::string memory;
+  if (!I.started_once) memory = rt::setup_process(I.config);
+  I.stop.store(false);
+  std::promise<std::string> ready;
+  auto told = ready.get_future();
+  I.thread = std::thread([&I, &ready] {
+    ready.set_value(rt::setup_thread(I.config));
+    I.run();
+  });
+  const std::string thread = told.get();
+  const bool first = !I.started_once;
+  I.started_once = true;
+  I.wait();
+  return first ? rt::warning(I.config, memory, thread) : "";
+}
+
+void RtHost::stop() {
+  auto& I = *impl_;
+  if (!running()) return;
+  I.stop.store(true, std::memory_order_relaxed);
+  I.thread.join();
+  I.drain();
+}
+
+std::optional<RtLeafStats> RtHost::stats(const Component& c) const {
+  const RtSlot* s = impl_->slot_of(c);
+  if (!s) return std::nullopt;
+  return RtLeafStats{s->runs.load(std::memory_order_relaxed), s->overruns.load(std::memory_order_relaxed),
+                     s->missed.load(std::memory_order_relaxed), s->period.load(std::memory_order_relaxed),
+                     s->wake.summary(), s->exec.summary()};
+}
+
+// ------------------------------------------------------------------------------------- on the thread ---
+
+void RtHost::Impl::run() {
+  tid.store(static_cast<long>(::gettid()));
+  rt::contract::enter();
+  const bool counting = rt::contract::hooked();
+  while (!stop.load(std::memory_order_relaxed)) {
+    const Nanos now = monotonic_now();
+    sleep_until(std::min(timers.next_deadline().value_or(kNever), now + kIdle));
+    if (stop.load(std::memory_order_relaxed)) break;
+    take_commands();
+    take_samples();
+    timers.run_due();
+    if (counting) publish_counts();
+    notify();
+  }
+  rt::contract::leave();
+}
+
+void RtHost::Impl::take_commands() {
+  for (Command c; commands.pop(c);) {
+    RtSlot* s = c.slot < slots.size() ? slots[c.slot].get() : nullptr;
+    bool ok = false;
+    if (s) {
+      switch (c.op) {
+        case Op::Configure: ok = s->c->configure(c.error); break;
+        case Op::Start:
+          ok = s->c->start({reinterpret_cast<const std::byte*>(c.a->data()), c.a->size()}, c.error);
+          break;
+        case Op::Halt: s->c->halt(), ok = true; break;
+        case Op::SetParameter: ok = s->c->set_parameter(*c.a, *c.b, c.error); break;
+      }
+    }
+    answers.push({c.seq, ok});  // never full: as many slots as commands
+    pushed = true;
+  }
+}
+
+void RtHost::Impl::take_samples() {
+  for (Sample s; in.pop(s);) {
+    RtSlot* slot = s.slot < slots.size() ? slots[s.slot].get() : nullptr;
+    if (!slot || s.port >= slot->c->ports().inputs().size()) continue;
+    slot->c->ports().inputs()[s.port]->deliver({s.data, s.size});
+  }
+}
+
+void RtHost::Impl::publish_counts() {
+  const auto c = rt::contract::counts();
+  allocations.store(c.allocations, std::memory_order_relaxed);
+  locks.store(c.locks, std::memory_order_relaxed);
+  faults.store(c.page_faults, std::memory_order_relaxed);
+}
+
+// After each timer callback: the leaf whose timer it was (timers are named by their component's PATH).
+void RtHost::Impl::on_ran(const std::string& name, Nanos deadline, Nanos p, Nanos start, Nanos end) {
+  for (const auto& s : slots) {
+    if (!s || s->c->name() != name) continue;
+    s->wake.record(start - deadline);
+    s->exec.record(end - start);
+    add(s->runs, std::uint64_t{1});
+    s->period.store(p, std::memory_order_relaxed);
+    if (p > 0 && end > deadline + p) {
+      add(s->overruns, std::uint64_t{1});
+      add(s->missed, static_cast<std::uint64_t>((end - deadline - p) / p + 1));
+    }
+    return;
+  }
+}
+
+// ------------------------------------------------------------------------------------ on the I/O thread ---
+
+void RtHost::Impl::wait() {
+  if (waiting || !*alive) return;
+  waiting = true;
+  efd.async_wait(asio::posix::stream_descriptor::wait_read, [this, a = alive](const boost::system::error_code& ec) {
+    if (!*a) return;
+    waiting = false;
+    if (ec) return;
+    std::uint64_t n = 0;
+    [[maybe_unused]] const auto r = ::read(efd.native_handle(), &n, sizeof n);
+    drain();
+    wait();
+  });
+}
+
+// What the thread sent: the answers and ends of runs taken first, then the samples (written before them), then
+// the ends and answers told, in that order.
+void RtHost::Impl::drain() {
+  std::vector<Answer> told;
+  std::vector<Event> ended;
+  for (Answer a; answers.pop(a);) told.push_back(a);
+  for (Event e; events.pop(e);) ended.push_back(e);
+  for (Sample s; out.pop(s);) {
+    RtSlot* slot = s.slot < slots.size() ? slots[s.slot].get() : nullptr;
+    if (slot && s.port < slot->mirror->outputs().size()) slot->mirror->outputs()[s.port]->write_bytes({s.data, s.size});
+  }
+  for (const auto& e : ended) {
+    std::unique_ptr<ComponentEvent> ev(e.event);
+    RtSlot* slot = e.slot < slots.size() ? slots[e.slot].get() : nullptr;
+    if (slot && slot->on_event) slot->on_event(*ev);
+  }
+  for (const auto& a : told) {
+    auto it = pending.find(a.seq);
+    if (it == pending.end()) continue;
+    auto p = std::move(it->second);
+    pending.erase(it);
+    p->done(a.ok ? std::string() : p->error.empty() ? std::string("refused") : p->error);
+  }
+}
+
+}  // namespace dca
