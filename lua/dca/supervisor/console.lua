@@ -35,7 +35,8 @@ activate(path, label)         activate / deactivate a connection set of a proces
 deactivate(path, label)
 read(path, port)              a leaf's port: its latest sample and how many samples it has seen
 stats(path)                   a leaf's timers: ticks, the period achieved (p50/p99/max, on its clock and on the
-                                wall clock), how late ticks started, and overruns (periods skipped)
+                                wall clock), how late ticks started, and overruns (periods skipped); on a
+                                real-time thread its wake latency and execution time (p50/p99/p99.9/max)
 blackbox(why)                 trigger the black box of `dca run --blackbox` now (its file names why)
 reload()                      re-read the system file (and reload("modules") the supervisor's Lua)
 config.get(key)               the configuration repository of this supervisor's host (replicated to all):
@@ -226,6 +227,16 @@ function M.format_stats(path, r)
         us_text(iv.clock.p50_us), us_text(iv.clock.p99_us), us_text(iv.clock.max_us), us_text(iv.wall.p50_us),
         us_text(iv.wall.p99_us), us_text(iv.wall.max_us))
     end
+  end
+  local rt = r.rt
+  if type(rt) == "table" then  -- the leaf runs on its node's real-time thread (docs/time.md, "Real time")
+    local w, x = rt.wake or {}, rt.exec or {}
+    local period = (rt.period_s or 0) > 0 and ("every " .. us_text(rt.period_s * 1e6)) or "no period yet"
+    lines[#lines + 1] = sformat("  real-time thread %s: %d runs %s, overruns %d (periods missed %d)",
+      tostring(rt.thread), rt.runs or 0, period, rt.overruns or 0, rt.missed or 0)
+    lines[#lines + 1] = sformat("    wake latency p50 %s p99 %s p99.9 %s max %s; execution p50 %s p99 %s max %s",
+      us_text(w.p50_us), us_text(w.p99_us), us_text(w.p999_us), us_text(w.max_us), us_text(x.p50_us),
+      us_text(x.p99_us), us_text(x.max_us))
   end
   if #lines == 1 then lines[2] = "  no timers" end
   return concat(lines, "\n")

@@ -205,6 +205,17 @@ suite:case("stats_show_each_timer_with_the_period_it_achieved", function()
   T.eq(console.format_stats("main.x", { clock = "wall" }), "main.x (wall clock):\n  no timers")
 end)
 
+suite:case("stats_of_a_leaf_on_a_real_time_thread_show_its_wake_latency_and_execution_time", function()
+  local console = require "dca.supervisor.console"
+  local text = console.format_stats("main.pid", { clock = "wall", timers = {}, intervals = {},
+    rt = { thread = 4242, runs = 1000, overruns = 1, missed = 3, period_s = 0.001,
+           wake = { n = 1000, p50_us = 27, p99_us = 54, p999_us = 80, max_us = 950 },
+           exec = { n = 1000, p50_us = 2, p99_us = 4, p999_us = 9, max_us = 1200 }, dropped = 0 } })
+  T.eq(text, "main.pid (wall clock):\n" ..
+    "  real-time thread 4242: 1000 runs every 1.000 ms, overruns 1 (periods missed 3)\n" ..
+    "    wake latency p50 27 us p99 54 us p99.9 80 us max 950 us; execution p50 2 us p99 4 us max 1.200 ms")
+end)
+
 suite:case("read_asks_a_leafs_node_and_refuses_a_group", function()
   local c, repl = running_system()
   T.eq(eval(c, repl, 'read("mc", "Out")'), "nil\t(0 samples)")
