@@ -2,10 +2,11 @@
 //   node browser.mjs live DCA_EXE SOURCE_DIR OUT_DIR     a door run in simulated time, watched live
 //   node browser.mjs replay DCA_EXE SOURCE_DIR OUT_DIR   a recorded door run, replayed by `dca monitor FILE.mcap`
 //   node browser.mjs attach DCA_EXE SOURCE_DIR OUT_DIR   `dca monitor PATH --daemon ADDR --key FILE` on a door run
-//   node browser.mjs faults DCA_EXE SOURCE_DIR OUT_DIR   restart counts and faults (test_strategy.dca, wall clock)
+//   node browser.mjs faults DCA_EXE SOURCE_DIR OUT_DIR   restart counts and faults (test_strategy.dca, wall clock),
+//                                                        then a real-time thread's figures (rt { }, wall clock)
 // Every wait is for something the page shows, with a deadline; the screenshots go to OUT_DIR.
 import { spawn } from 'node:child_process';
-import { mkdirSync, rmSync } from 'node:fs';
+import { mkdirSync, rmSync, writeFileSync } from 'node:fs';
 import { join } from 'node:path';
 import puppeteer from 'puppeteer-core';
 import { childEnv, startMonitor, until } from './driver.mjs';
@@ -222,6 +223,40 @@ async function faults(browser) {
     await page.screenshot({ path: join(out, 'monitor_faults.png') });
     const code = await Promise.race([exit, new Promise((r) => setTimeout(() => r('still running'), 20000))]);
     check(code === 1, `the run ends ABORTED (exit ${code})`);
+  } finally {
+    run.p.kill('SIGTERM');
+  }
+  await realTime(browser);
+}
+
+// Leaves on a real-time thread (rt { }, wall clock; without the privilege, the default scheduler): the page's
+// Real time table shows each one's runs, period, wake latency and execution time.
+async function realTime(browser) {
+  const file = join(out, 'rt_line.dca');
+  writeFileSync(file, `process main() {
+  rt { priority 10; }
+  instantiated_processes { src instof Constant("h1", 0.001, 1); gain instof Gain("h1", 2, 0);
+                           count instof Counter("h1", 0.01, 0); }
+  internal_connections(src, run) { src, Out -> gain, In; }
+  internal_event_actions { count # (src[run], gain) }
+}
+`);
+  const run = await start(['run', file, '--monitor']);
+  try {
+    const page = await browser.newPage();
+    await page.setViewport({ width: 1400, height: 800 });
+    await page.goto(run.url);
+    const src = '#rt tr[data-path="main.src"]';
+    const runs = await until(page, (s) => Number(document.querySelector(`${s} .runs`)?.textContent) > 100 &&
+      Number(document.querySelector(`${s} .runs`).textContent), 20, src);
+    check(runs > 100 && await page.evaluate(() => !document.getElementById('rt-pane').hidden),
+      `the Real time table shows src's runs on its real-time thread (${runs})`);
+    const row = await page.evaluate((s) => [...document.querySelectorAll(`${s} td`)].map((td) => td.textContent), src);
+    check(row[2] === '1.000 ms' && /^\d+ us \/ \d+ us \/ [\d.]+ (us|ms)$/.test(row[3]) && /us/.test(row[4]),
+      `with its period, wake latency and execution time (${row.join(' | ')})`);
+    const paths = await page.evaluate(() => [...document.querySelectorAll('#rt tbody tr')].map((r) => r.dataset.path));
+    check(paths.join() === 'main.src,main.gain,main.count', `one row per leaf (${paths.join()})`);
+    await page.screenshot({ path: join(out, 'monitor_real_time.png') });
   } finally {
     run.p.kill('SIGTERM');
   }

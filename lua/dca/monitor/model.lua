@@ -10,6 +10,8 @@
 --   m:tree(tree, t)          -- the tree as Sup:tree gives it (hosts, states, expressions)
 --   m:line(line, t)          -- a run's line ("main.a: running", "main.b: aborted: reason"), at time t (s)
 --   m:set_config(key, text, origin)   -- a configuration value (as text) and where it was written
+--   m:rt_leaves()            --> the paths of the leaves with an rt setting (the tree's `rt`)
+--   m:rt(path, figures)      -- such a leaf's figures on its real-time thread (a node's stats {} rt): node.rt
 --   m:snapshot()             --> { nodes, exprs, events, config, lines, t }
 --   m:take_delta()           --> { nodes, exprs, events, config, lines, t } | nil when nothing changed
 local algebra = require "dca.algebra"
@@ -116,6 +118,10 @@ function Model:tree(tree, t)
       n.kind, n.type, n.host = kind, ty, host
       self:_changed(n)
     end
+    if tn.rt and not n.rt_thread then  -- a leaf with an rt setting: its figures are asked for (rt below)
+      n.rt_thread = true
+      self:_changed(n)
+    end
     if tonumber(tn.restarts) and tonumber(tn.restarts) ~= n.restarts then
       n.restarts = tonumber(tn.restarts)
       self:_changed(n)
@@ -128,6 +134,25 @@ function Model:tree(tree, t)
     for _, c in ipairs(tn.children or {}) do walk(c) end
   end
   walk(tree)
+end
+
+--- The leaves the tree said have an rt setting, in tree order.
+function Model:rt_leaves()
+  local out = {}
+  for _, p in ipairs(self.order) do if self.nodes[p].rt_thread then out[#out + 1] = p end end
+  return out
+end
+
+--- A leaf's figures on its node's real-time thread (its node's stats {} rt: host/node.h), for the page's table.
+function Model:rt(path, r)
+  if type(r) ~= "table" then return end
+  local n = self:_node(path)
+  local w, x = type(r.wake) == "table" and r.wake or {}, type(r.exec) == "table" and r.exec or {}
+  local num = function(v) return tonumber(v) or 0 end
+  n.rt = { runs = num(r.runs), period_s = num(r.period_s), overruns = num(r.overruns), missed = num(r.missed),
+           wake_p50_us = num(w.p50_us), wake_p99_us = num(w.p99_us), wake_max_us = num(w.max_us),
+           exec_p50_us = num(x.p50_us), exec_p99_us = num(x.p99_us), exec_max_us = num(x.max_us) }
+  self:_changed(n)
 end
 
 --- Takes a line of the run at time `t` (seconds): kept, and a transition becomes an event.

@@ -181,6 +181,16 @@ end
 
 -- The tree again (hosts, states, expressions), through the console request: once at the start, then every
 -- TREE_PERIOD while a page is open (the lines keep the states between; the tree catches what no line says).
+-- The figures of every leaf on a real-time thread (docs/time.md, "Real time"), with each tree refresh: one stats
+-- request per such leaf, through the console's path; a leaf on simulated time answers without them.
+function Mon:_ask_rt()
+  for _, path in ipairs(self.model:rt_leaves()) do
+    self.o.request({ type = "stats", leaf = path }, function(r)
+      if r and r.type ~= "error" and type(r.rt) == "table" then self.model:rt(path, r.rt) end
+    end)
+  end
+end
+
 function Mon:_refresh_tree()
   if self.tree_pending or (self.tree_once and not next(self.pages)) then return end
   self.tree_once = true
@@ -188,6 +198,7 @@ function Mon:_refresh_tree()
   self.o.request({ type = "tree" }, function(r)
     self.tree_pending = false
     if r and r.type ~= "error" and type(r.tree) == "table" then self.model:tree(r.tree) end
+    self:_ask_rt()
   end)
 end
 

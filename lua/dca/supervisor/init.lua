@@ -768,7 +768,7 @@ function Sup:tree(cb)
     local ch = self.children[c.name]
     if c.kind == "leaf" then
       node.children[i] = { path = ch.path, kind = "leaf", type = c.type, host = ch.host, state = ch.state,
-                           restarts = ch.restarts }
+                           restarts = ch.restarts, rt = c.rt and true or nil }
     else
       node.children[i] = { path = ch.path, kind = "group", type = c.type, host = ch.host, state = ch.state, children = {},
                            restarts = ch.restarts }

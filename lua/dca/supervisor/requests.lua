@@ -71,6 +71,8 @@ M.HANDLERS = {
   tap = function(sup, msg, reply) taps.request(sup, msg, reply) end,
   ping = function(sup, _, reply) reply({ type = "ok", path = sup.path, state = sup.state }) end,
   stats = function(sup, msg, reply)
+    -- {leaf = PATH}: that leaf's node's stats {} (its timers; on a real-time thread, rt: host/node.h)
+    if type(msg.leaf) == "string" then return sup:to_leaf(msg.leaf, { type = "stats" }, nil, passed_on(reply)) end
     if msg.path and msg.path ~= sup.path then sup:_forward(msg.path, msg, passed_on(reply)) return end
     reply({ type = "ok", stats = sup.stats, path = sup.path })
   end,

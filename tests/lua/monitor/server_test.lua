@@ -49,6 +49,37 @@ suite:case("hello_snapshot_then_coalesced_deltas", function()
   mon:close()
 end)
 
+-- A leaf with an rt setting (the tree's rt): its node's real-time figures asked with each tree refresh (a console
+-- `stats {leaf}`), sent to the page with the leaf; a leaf without one is not asked.
+suite:case("real_time_figures_of_the_leaves_with_an_rt_setting_reach_the_page", function()
+  local mon, asked = monitor(function(msg)
+    if msg.type == "tree" then return { type = "ok", tree = { path = "main", kind = "group", type = "M", host = "h1",
+      state = "running", children = { { path = "main.a", kind = "leaf", type = "A", host = "h1", state = "running",
+                                        rt = true },
+                                      { path = "main.b", kind = "leaf", type = "B", host = "h1", state = "running" } } } }
+    end
+    if msg.type == "stats" then return { type = "ok", clock = "wall", rt = { runs = 500, period_s = 0.001, overruns = 1,
+      missed = 2, wake = { n = 500, p50_us = 20, p99_us = 50, max_us = 90 }, exec = { n = 500, p50_us = 3, p99_us = 5,
+      max_us = 8 } } } end
+    return { type = "ok", output = "" }
+  end)
+  local p = page()
+  mon:_open(p)
+  local stats = {}  -- (the tree is asked at the start and again when a page opens)
+  for _, m in ipairs(asked) do if m.type == "stats" then stats[m.leaf] = (stats[m.leaf] or 0) + 1 end end
+  T.eq({ stats["main.a"] ~= nil, stats["main.b"] }, { true, nil })
+  T.ok(loop:run_until(function()
+    for _, m in ipairs(p.got) do
+      for _, n in ipairs(m.nodes or {}) do if n.path == "main.a" and n.rt then return true end end
+    end
+  end, 5), "a delta with main.a's figures came")
+  local n = mon.model.nodes["main.a"]
+  T.eq(n.rt, { runs = 500, period_s = 0.001, overruns = 1, missed = 2, wake_p50_us = 20, wake_p99_us = 50,
+               wake_max_us = 90, exec_p50_us = 3, exec_p99_us = 5, exec_max_us = 8 })
+  T.eq(mon.model.nodes["main.b"].rt, nil)
+  mon:close()
+end)
+
 -- Commands are console requests; a config value is read as a literal, never evaluated.
 suite:case("commands_are_console_requests_values_literals", function()
   local mon, asked = monitor()

@@ -16,7 +16,8 @@
     mode: 'live', nodes: new Map(), order: [], kids: new Map(), exprs: {}, events: [], config: new Map(),
     lines: [], topics: new Map(), series: new Map(), t: 0, viewT: 0, expanded: new Set(), collapsed: new Set(),
     replayStates: null, plot: { topic: '', fields: [], rows: [], received: 0 }, playing: false, ws: null,
-    nextId: 1, dirty: { tree: true, states: true, exprs: true, timeline: true, plot: true, config: true, lines: true },
+    nextId: 1, dirty: { tree: true, states: true, exprs: true, timeline: true, plot: true, config: true, lines: true,
+      rt: true },
   };
 
   // ------------------------------------------------------------------------------------------ the model
@@ -33,6 +34,7 @@
       S.dirty.tree = true;
     }
     S.nodes.set(n.path, Object.assign(old || {}, n));
+    if (n.rt) S.dirty.rt = true;
   }
 
   function snapshot(m) {
@@ -315,6 +317,24 @@
     }).join('');
   }
 
+  // The leaves on a real-time thread (docs/time.md, "Real time"): their figures as the server last asked them.
+  function us(v) {
+    const x = Number(v) || 0;
+    return x >= 1000 ? `${(x / 1000).toFixed(3)} ms` : `${x.toFixed(0)} us`;
+  }
+  function renderRt() {
+    const rows = S.order.map((p) => S.nodes.get(p)).filter((n) => n && n.rt);
+    $('rt-pane').hidden = rows.length === 0;
+    $('rt').tBodies[0].innerHTML = rows.map((n) => {
+      const r = obj(n.rt);
+      return `<tr data-path="${esc(n.path)}"${r.overruns ? ' class="overrun"' : ''}><td>${esc(n.path)}</td>` +
+        `<td class="runs">${esc(r.runs)}</td><td>${r.period_s ? us(r.period_s * 1e6) : '-'}</td>` +
+        `<td class="wake">${us(r.wake_p50_us)} / ${us(r.wake_p99_us)} / ${us(r.wake_max_us)}</td>` +
+        `<td class="exec">${us(r.exec_p50_us)} / ${us(r.exec_p99_us)} / ${us(r.exec_max_us)}</td>` +
+        `<td class="overruns">${esc(r.overruns)} (${esc(r.missed)})</td></tr>`;
+    }).join('');
+  }
+
   function renderLines() {
     const T = viewTime();
     const lines = S.mode === 'replay' ? S.lines.filter((l) => l.t <= T).slice(-300) : S.lines;
@@ -470,6 +490,7 @@
     if (d.plot) { d.plot = false; renderPlot(); }
     if (d.config) { d.config = false; renderConfig(); }
     if (d.lines) { d.lines = false; renderLines(); }
+    if (d.rt) { d.rt = false; renderRt(); }
     if (d.robot) { d.robot = false; renderRobot(); }
     requestAnimationFrame(frame);
   }
