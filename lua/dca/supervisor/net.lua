@@ -83,6 +83,14 @@ local function argstr(v)
 end
 M.argstr = argstr
 
+-- Appends a node's real-time options for `rt` ({priority, cpu} of an rt { } section, or nil) to argv: on the wall
+-- clock; a node on simulated time ignores them (docs/time.md, "Real time").
+local function rt_argv(argv, rt)
+  if not rt then return end
+  if rt.priority then argv[#argv + 1] = "--rt-priority" argv[#argv + 1] = argstr(rt.priority) end
+  if rt.cpu then argv[#argv + 1] = "--rt-cpu" argv[#argv + 1] = argstr(rt.cpu) end
+end
+
 -- The argv that starts `child` (a spec child) through the daemon at `addr`.
 local function child_argv(child, addr, key)
   local argv
@@ -97,11 +105,7 @@ local function child_argv(child, addr, key)
     argv[#argv + 1] = "--package" argv[#argv + 1] = child.package
     if child.system_dir then argv[#argv + 1] = "--system-dir" argv[#argv + 1] = child.system_dir end
   end
-  if child.kind == "leaf" and child.rt then
-    -- real time on the wall clock; a node on simulated time ignores it (docs/time.md, "Real time")
-    if child.rt.priority then argv[#argv + 1] = "--rt-priority" argv[#argv + 1] = argstr(child.rt.priority) end
-    if child.rt.cpu then argv[#argv + 1] = "--rt-cpu" argv[#argv + 1] = argstr(child.rt.cpu) end
-  end
+  if child.kind == "leaf" then rt_argv(argv, child.rt) end
   if child.kind == "leaf" then
     argv[#argv + 1] = "--"
     for _, a in ipairs(child.args or {}) do argv[#argv + 1] = argstr(a) end
@@ -241,6 +245,7 @@ end
 -- ---------------------------------------------------------------------------------------------------------
 local Shared = {}
 Shared.__index = Shared
+M.Shared = Shared  -- (tests/lua/supervisor/net_test.lua opens one over a fake daemon)
 
 --- The name of the shared node a leaf goes to under `placement`: one per group and host, or one per run and
 --- host (the run named by its root). nil for "process".
@@ -270,6 +275,7 @@ function Shared:open(dc)
   local rt = self.rt
   local argv = { "dca", "node", "--shared", self.name, "--daemon", rt.opts.hosts[self.host] }
   if rt.opts.key then argv[#argv + 1] = "--key" argv[#argv + 1] = rt.opts.key end
+  rt_argv(argv, self.rt_setting)
   dc:spawn(argv, { name = self.name, shared = true, timeout = rt.timeouts.spawn }, clients.result(function(r, err)
     if not r then self:_ready(err) return end
     self.child, self.pid = r.child, r.pid
@@ -518,7 +524,10 @@ function Net:_start(child, dc, cb)
   if sname then
     local sh = self.shared[sname]
     if not sh then
-      sh = setmetatable({ rt = self, dc = dc, name = sname, host = child.host, leaves = {}, waiters = {} }, Shared)
+      -- one group's leaves (placement group) share its rt { }; a node of the whole host's (placement host) takes
+      -- none: the leaves of several groups, whose settings may differ, share it
+      sh = setmetatable({ rt = self, dc = dc, name = sname, host = child.host, leaves = {}, waiters = {},
+                          rt_setting = self.opts.placement == "group" and child.rt or nil }, Shared)
       self.shared[sname] = sh
       sh:open(dc)
     end

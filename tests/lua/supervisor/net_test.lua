@@ -69,4 +69,22 @@ suite:case("a_node_that_lost_its_channel_and_outlives_its_kill_is_told_lost_afte
   T.contains(s.logs[2], "did not exit within 0.02s of SIGKILL")
 end)
 
+-- A shared node of one group's leaves (--placement group) starts with the group's rt { } (the same for all of
+-- them); one of a whole host's (--placement host) with none: leaves of several groups share it.
+suite:case("a_shared_node_of_a_group_takes_its_rt_setting_and_one_of_a_host_none", function()
+  local spawned = {}
+  local dc = { spawn = function(_, argv) spawned[#spawned + 1] = table.concat(argv, " ", 3) end }
+  local function open(placement, child)
+    local rt = net.new({ hosts = { h1 = "127.0.0.1:1" }, placement = placement, log = function() end })
+    rt.sup = { path = "main.g" }
+    rt._start(child, dc, function() end)  -- (its methods are bound: called with a dot)
+  end
+  local leaf = { kind = "leaf", name = "a", path = "main.g.a", type = "Timer", host = "h1",
+                 rt = { priority = 80, cpu = 1 } }
+  open("group", leaf)
+  open("host", leaf)
+  T.eq(spawned, { "--shared leaves:main.g@h1 --daemon 127.0.0.1:1 --rt-priority 80 --rt-cpu 1",
+                  "--shared leaves:main@h1 --daemon 127.0.0.1:1" })
+end)
+
 return suite:run(...)
