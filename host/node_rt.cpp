@@ -21,11 +21,17 @@ namespace asio = boost::asio;
 
 namespace {
 
-// A sample between a port and its mirror.
+// A sample between a port and its mirror (pulled: a pull connection's answer, for Input::deliver_pulled).
 struct Sample {
   std::uint16_t slot = 0, port = 0;
   std::uint32_t size = 0;
+  bool pulled = false;
   std::byte data[RtHost::kMaxSample];
+};
+
+// A leaf's input asking its pull connections (Input::request on the thread), for the mirror's on the I/O thread.
+struct Pull {
+  std::uint16_t slot = 0, port = 0;
 };
 
 // A life-cycle operation for the thread; its strings live in the I/O thread's pending entry until the answer.
@@ -68,8 +74,9 @@ struct RtSlot;
 
 // A link from a leaf's output (on the thread) to its mirror (on the I/O thread).
 struct RingLink final : Link {
-  RtHost::Impl* host = nullptr;
-  std::uint16_t slot = 0, port = 0;
+  RingLink(RtHost::Impl* h, std::uint16_t s, std::uint16_t p) : host(h), slot(s), port(p) {}
+  RtHost::Impl* host;
+  std::uint16_t slot, port;
   void on_write(Bytes b) override;
   void close() override {}
 };
@@ -90,10 +97,19 @@ struct RouteLink final : Link {
   void close() override {}
 };
 
+// The pull source of a leaf's input: its request goes to the mirror's pull connections.
+struct RingPull final : PullSource {
+  RingPull(RtHost::Impl* h, std::uint16_t s, std::uint16_t p) : host(h), slot(s), port(p) {}
+  RtHost::Impl* host;
+  std::uint16_t slot, port;
+  void request() override;
+};
+
 struct RtSlot {
   Component* c = nullptr;
   std::unique_ptr<PortSet> mirror;
   std::vector<std::unique_ptr<RingLink>> links;  // one per output of c
+  std::vector<std::unique_ptr<RingPull>> pulls;  // one per input of c
   std::function<void(const ComponentEvent&)> on_event;
   rt::RtHistogram wake, exec;
   std::atomic<std::uint64_t> runs{0}, overruns{0}, missed{0};
@@ -117,6 +133,7 @@ struct RtHost::Impl {
   rt::SpscRing<Command, 16> commands;
   rt::SpscRing<Answer, 16> answers;
   rt::SpscRing<Event, 16> events;
+  rt::SpscRing<Pull, 64> pulls;                 // thread -> I/O: inputs asking their pull connections
   struct Pending {
     std::string a, b, error;
     Reply done;
@@ -146,10 +163,11 @@ struct RtHost::Impl {
   }
   void wait();
   void drain();
-  static bool to_sample(std::uint16_t slot, std::uint16_t port, Bytes b, Sample& s) {
+  static bool to_sample(std::uint16_t slot, std::uint16_t port, Bytes b, Sample& s, bool pulled = false) {
     if (b.size() > kMaxSample) return false;
     s.slot = slot;
     s.port = port;
+    s.pulled = pulled;
     s.size = static_cast<std::uint32_t>(b.size());
     std::memcpy(s.data, b.data(), b.size());
     return true;
@@ -172,6 +190,11 @@ struct RtHost::Impl {
 };
 
 void RingLink::on_write(Bytes b) { host->push_out(slot, port, b); }
+
+void RingPull::request() {
+  if (!host->pulls.push({slot, port})) return add(host->dropped, std::uint64_t{1});
+  host->pushed = true;
+}
 
 RtHost::RtHost(asio::io_context& io, rt::RtConfig config) : impl_(std::make_unique<Impl>(io, std::move(config))) {
   impl_->timers.on_ran = [this](const std::string& name, Nanos deadline, Nanos period, Nanos start, Nanos end) {
@@ -213,22 +236,27 @@ PortSet& RtHost::adopt(Component& c, std::function<void(const ComponentEvent&)> 
     Input& m = s->mirror->add_input(ins[p]->spec());
     m.on_sample = [&I, &m, slot, port = static_cast<std::uint16_t>(p)] {
       Sample x;
-      while (m.pop())
+      bool queued = false;
+      while (m.pop()) {
+        queued = true;
         if (!Impl::to_sample(slot, port, m.current_bytes(), x) || !I.in.push(x)) add(I.dropped, std::uint64_t{1});
+      }
+      if (!queued && m.has_current() &&  // nothing queued: a pull connection's answer, made current
+          (!Impl::to_sample(slot, port, m.current_bytes(), x, true) || !I.in.push(x)))
+        add(I.dropped, std::uint64_t{1});
     };
+    s->pulls.push_back(std::make_unique<RingPull>(&I, slot, static_cast<std::uint16_t>(p)));
+    ins[p]->add_pull_source(s->pulls.back().get());
   }
   const auto& outs = c.ports().outputs();
   for (std::size_t p = 0; p < outs.size(); ++p) {
     s->mirror->add_output(outs[p]->spec());
-    auto l = std::make_unique<RingLink>();
-    l->host = &I;
-    l->slot = slot;
-    l->port = static_cast<std::uint16_t>(p);
-    outs[p]->attach(l.get());
-    s->links.push_back(std::move(l));
+    s->links.push_back(std::make_unique<RingLink>(&I, slot, static_cast<std::uint16_t>(p)));
+    outs[p]->attach(s->links.back().get());
   }
   c.on_event = [&I, slot](const ComponentEvent& e) {
-    if (!I.events.push({slot, new ComponentEvent(e)})) return;  // 16 ends of runs not yet told: cannot happen
+    auto* ev = new ComponentEvent(e);
+    if (!I.events.push({slot, ev})) return delete ev;  // 16 ends of runs not yet told: cannot happen
     I.pushed = true;
   };
   PortSet& mirror = *s->mirror;
@@ -254,6 +282,8 @@ std::unique_ptr<PortSet> RtHost::forget(Component& c) {
   const auto& outs = c.ports().outputs();
   for (std::size_t p = 0; p < outs.size() && p < s.links.size(); ++p) outs[p]->detach(s.links[p].get());
   for (const auto& in : s.mirror->inputs()) in->on_sample = nullptr;
+  const auto& ins = c.ports().inputs();
+  for (std::size_t p = 0; p < ins.size() && p < s.pulls.size(); ++p) ins[p]->remove_pull_source(s.pulls[p].get());
   c.on_event = nullptr;
   auto mirror = std::move(s.mirror);
   I.slots[i].reset();
@@ -411,7 +441,9 @@ void RtHost::Impl::take_samples() {
   for (Sample s; in.pop(s);) {
     RtSlot* slot = s.slot < slots.size() ? slots[s.slot].get() : nullptr;
     if (!slot || s.port >= slot->c->ports().inputs().size()) continue;
-    slot->c->ports().inputs()[s.port]->deliver({s.data, s.size});
+    Input& input = *slot->c->ports().inputs()[s.port];
+    if (s.pulled) input.deliver_pulled({s.data, s.size});
+    else input.deliver({s.data, s.size});
   }
 }
 
@@ -461,6 +493,10 @@ void RtHost::Impl::drain() {
   std::vector<Event> ended;
   for (Answer a; answers.pop(a);) told.push_back(a);
   for (Event e; events.pop(e);) ended.push_back(e);
+  for (Pull p; pulls.pop(p);) {
+    RtSlot* slot = p.slot < slots.size() ? slots[p.slot].get() : nullptr;
+    if (slot && p.port < slot->mirror->inputs().size()) slot->mirror->inputs()[p.port]->request();
+  }
   for (Sample s; out.pop(s);) {
     RtSlot* slot = s.slot < slots.size() ? slots[s.slot].get() : nullptr;
     if (slot && s.port < slot->mirror->outputs().size()) slot->mirror->outputs()[s.port]->write_bytes({s.data, s.size});

@@ -17,8 +17,8 @@
 // The thread wakes at least every kIdle to take commands and samples. Adding or forgetting a leaf stops the thread
 // and starts it again (between two ticks). Without the privilege the thread runs under the default scheduler, on
 // its own still, with one warning (host/rt/setup.h). Never on simulated time: a lock-stepped node has no RtHost.
-// Pull connections into a leaf's input are not carried to it (push connections are); a sample bigger than
-// kMaxSample bytes is dropped and counted (dropped()).
+// A leaf's Input::request() on the thread asks the mirror's pull connections, whose answer crosses back like a
+// pushed sample. A sample bigger than kMaxSample bytes is dropped and counted (dropped()).
 #include <cstdint>
 #include <functional>
 #include <memory>

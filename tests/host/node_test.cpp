@@ -70,8 +70,9 @@ class TestComponent final : public dca::Component {
 };
 
 // A periodic link of a chain for the real-time thread (host/node_rt.h): each tick notes the thread it runs on,
-// takes In's newest sample and writes Out = that sample + 1 (its tick count before any); a negative sample
-// aborts its run. Read from the test's thread while it runs: atomics.
+// takes In's newest sample (pushed, or a pull connection's answer to the request of its last tick) and writes
+// Out = that sample + 1 (its tick count before any); a negative sample aborts its run. Read from the test's
+// thread while it runs: atomics.
 class ChainComponent final : public dca::Component {
  public:
   ChainComponent(std::string name, dca::TimerServer& ts) : name_(std::move(name)), timers_(ts) {
@@ -100,7 +101,9 @@ class ChainComponent final : public dca::Component {
     tid.store(static_cast<long>(::gettid()));
     const int n = ticks.load() + 1;
     ticks.store(n);
-    if (in_->take_latest()) last_ = in_->scalar();
+    in_->take_latest();
+    if (in_->has_current()) last_ = in_->scalar();
+    in_->request();  // (a pull connection's answer, if any, for the next tick)
     if (last_ < 0) {
       halt();
       return on_event({dca::ComponentEvent::Kind::Aborted, "", "negative"});
@@ -663,6 +666,16 @@ TEST_F(NodeTest, RtSettingRunsTheLeavesOnARealTimeThreadSamplesCrossBothWays) {
   EXPECT_DOUBLE_EQ(st["period_s"].as_float(), 0.001);
   EXPECT_GE(st["wake"]["n"].as_int(), 100);
   EXPECT_LE(st["exec"]["p50_us"].as_float(), st["exec"]["max_us"].as_float());
+  // a pull connection into the thread: c asks each tick, x's latest sample comes back
+  ASSERT_TRUE(call(proc, "add", Value::map().set("controller", "Chain").set("name", "/g/c").set("args", Value::array())).ok());
+  auto sc = supervise("/g/c");
+  auto r = call(sx, "connect", Value::map().set("out", "Out").set("to", "/g/c").set("in", "In").set("set", "g:x[p]")
+                                   .set("mode", "pull"));
+  ASSERT_TRUE(r.ok()) << r.error;
+  ASSERT_TRUE(call(sx, "activate", Value::map().set("set", "g:x[p]")).ok());
+  x->out->write(7.0);
+  ASSERT_TRUE(call(sc, "run").ok());
+  ASSERT_TRUE(run_until([&] { return call(sc, "read", Value::map().set("port", "Out")).message.payload["value"].as_float() == 8.0; }));
   // the control plane: stop and run again, through the thread's command ring
   ASSERT_TRUE(call(sa, "stop").ok());
   EXPECT_FALSE(a->running);
