@@ -1,5 +1,6 @@
-// `dca bench rt [--seconds S] [--priority P] [--cpu C] [--no-load]`: the real-time thread (host/rt) against
-// cyclictest (Debian's rt-tests), in one run, alternately: idle, then under `stress-ng --cpu 2 --vm 1`. Each
+// `dca bench rt [--seconds S] [--priority P] [--cpu C] [--no-load]`: the real-time thread (host/rt), and a node's
+// (host/node_rt.h: a controller's timer on it), against cyclictest (Debian's rt-tests), in one run, alternately:
+// idle, then under `stress-ng --cpu 2 --vm 1`. Each
 // side wakes every 1 ms for S seconds (default 10) at SCHED_FIFO P (default 80; 0: the default scheduler),
 // pinned to CPU C (default: the last), with memory locked. Prints the wake latency's p50/p99/p99.9/max and the
 // overruns (dca: periods missed) side by side (docs/time.md, "Real time"; figures: tests/bench/RESULTS.md).
@@ -17,6 +18,7 @@
 #include <vector>
 
 #include "app/subcommand.h"
+#include "host/node_rt.h"
 #include "host/rt/rt_thread.h"
 #include "host/rt/setup.h"
 
@@ -94,6 +96,47 @@ Row run_dca(const Options& o) {
   return {"dca", s.wake.n, s.wake.p50_us, s.wake.p99_us, s.wake.p999_us, s.wake.max_us, std::to_string(s.missed)};
 }
 
+// A component whose run is a 1 kHz timer doing nothing.
+class Tick final : public dca::Component {
+ public:
+  explicit Tick(dca::TimerServer& ts) : ts_(ts) {}
+  const std::string& name() const override { return name_; }
+  dca::PortSet& ports() override { return ports_; }
+  bool configure(std::string*) override { return true; }
+  bool start(dca::Bytes, std::string*) override {
+    id_ = ts_.every(1'000'000, [] {}, name_);
+    return true;
+  }
+  void halt() override {
+    if (id_) ts_.cancel(id_);
+    id_ = 0;
+  }
+
+ private:
+  dca::TimerServer& ts_;
+  std::string name_ = "1kHz";
+  dca::PortSet ports_;
+  dca::TimerServer::Id id_ = 0;
+};
+
+// A node's real-time thread (host/node_rt.h: what `rt { }` runs a controller on) with one such component for
+// o.seconds: the wake-up path of a MainCalc, its timer driven by the thread, the rings and the I/O thread beside.
+Row run_node(const Options& o) {
+  boost::asio::io_context io;
+  dca::RtHost host(io, config(o));
+  Tick tick(host.timers());
+  auto& mirror = host.adopt(tick, nullptr);
+  (void)mirror;
+  if (const auto w = host.start(); !w.empty()) std::fprintf(stderr, "%s\n", w.c_str());
+  host.request(tick, dca::RtHost::Op::Start, "", "", [](const std::string& e) {
+    if (!e.empty()) std::fprintf(stderr, "dca bench rt: %s\n", e.c_str());
+  });
+  io.run_for(std::chrono::seconds(o.seconds));
+  const auto s = host.stats(tick).value_or(dca::RtLeafStats{});
+  host.forget(tick);
+  return {"dca node", s.wake.n, s.wake.p50_us, s.wake.p99_us, s.wake.p999_us, s.wake.max_us, std::to_string(s.missed)};
+}
+
 pid_t start_load(int seconds) {
   const std::string t = std::to_string(seconds) + "s";
   std::vector<std::string> argv_s = {"stress-ng", "--cpu", "2", "--vm", "1", "--timeout", t, "--quiet"};
@@ -114,6 +157,7 @@ void print(const char* condition, const Row& r) {
 void run_condition(const char* condition, const Options& o, bool cyclictest) {
   if (cyclictest) print(condition, run_cyclictest(o));
   print(condition, run_dca(o));
+  print(condition, run_node(o));
 }
 
 bool parse(std::span<char* const> args, Options& o) {
@@ -154,7 +198,7 @@ int bench_main(std::span<char* const> args) {
     std::fprintf(stderr, "dca bench rt: stress-ng not installed: no run under load\n");
     return 0;
   }
-  const pid_t load = start_load(o.seconds * (ct ? 2 : 1) + 2);
+  const pid_t load = start_load(o.seconds * (ct ? 3 : 2) + 2);
   std::this_thread::sleep_for(std::chrono::milliseconds(500));  // the load's workers are up
   run_condition("load", o, ct);
   if (load > 0) {
