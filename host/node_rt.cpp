@@ -10,6 +10,8 @@
 #include <cstring>
 #include <future>
 #include <map>
+#include <stdexcept>
+#include <system_error>
 #include <thread>
 #include <vector>
 
@@ -222,9 +224,11 @@ rt::contract::Counts RtHost::contract() const {
 
 // The mirror: the same ports; what is delivered to an input goes to the ring at once (its queue drained).
 PortSet& RtHost::adopt(Component& c, std::function<void(const ComponentEvent&)> on_event) {
+  auto& I = *impl_;
+  // (a slot is never used again: a sample on its way to a forgotten leaf must not reach a new one)
+  if (I.slots.size() >= 0xffff) throw std::length_error("RtHost: 65535 leaves adopted in this process");
   const bool was = running();
   stop();
-  auto& I = *impl_;
   auto s = std::make_unique<RtSlot>();
   s->c = &c;
   s->on_event = std::move(on_event);
@@ -270,7 +274,10 @@ std::unique_ptr<PortSet> RtHost::forget(Component& c) {
   stop();
   auto& I = *impl_;
   const std::uint16_t i = I.index_of(c);
-  if (i == 0xffff) return nullptr;
+  if (i == 0xffff) {
+    if (was) start();
+    return nullptr;
+  }
   c.halt();  // its actuators' zeros go to the ring, then to the mirror
   I.drain();
   std::erase_if(I.routes, [i](const std::unique_ptr<RouteLink>& r) {
@@ -301,6 +308,8 @@ bool RtHost::link(Component& from, const std::string& out, Component& to, const 
   if (!o) return *error = from.ports().no_such_output(from.name(), out), false;
   if (!n) return *error = to.ports().no_such_input(to.name(), in), false;
   if (auto why = compatibility_error(o->spec(), n->spec()); !why.empty()) return *error = why, false;
+  for (const auto& r : I.routes)  // connected again: the same link
+    if (r->out == o && r->in == n && r->info.set == set) return true;
   const bool was = running();
   stop();
   n->reserve_queue(queue);
