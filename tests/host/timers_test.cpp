@@ -199,15 +199,19 @@ TEST_F(TimersTest, DrivenServerRunsOnlyInRunDueAndSkipsLatePeriods) {
   const auto first = *ts.next_deadline();
   while (dca::monotonic_now() < first + kMs / 2) io.poll();  // (the clock, not a sleep: due, and the fd silent)
   EXPECT_EQ(n, 0);
-  EXPECT_EQ(ts.run_due(), 1u);
-  ASSERT_EQ(ran.size(), 1u);
+  ASSERT_GE(ts.run_due(), 1u);
   EXPECT_EQ(ran[0].first, first);
   EXPECT_GE(ran[0].second, first);
-  while (dca::monotonic_now() < first + 4 * kMs + kMs / 2) io.poll();  // 3 more deadlines went by
-  EXPECT_EQ(ts.run_due(), 1u);  // once, not three times
-  EXPECT_EQ(n, 2);
-  EXPECT_GE(ts.stats(id)->missed, 2u);
-  EXPECT_GT(*ts.next_deadline(), first + 4 * kMs);  // the first deadline still ahead
+  // ten more deadlines go by: run once (twice if this thread was preempted inside run_due), never ten times
+  const auto next = *ts.next_deadline();
+  const int before = n;
+  while (dca::monotonic_now() < next + 10 * kMs) io.poll();
+  const auto runs = ts.run_due();
+  EXPECT_GE(runs, 1u);
+  EXPECT_LE(runs, 2u);
+  EXPECT_EQ(n, before + static_cast<int>(runs));
+  EXPECT_GE(ts.stats(id)->missed, 8u);
+  EXPECT_GT(*ts.next_deadline(), next + 10 * kMs);  // the next deadline ahead of the last run
   EXPECT_THROW(dca::TimerServer(io, dca::ClockKind::Simulated).set_driven(), std::logic_error);
 }
 
