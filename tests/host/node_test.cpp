@@ -692,6 +692,43 @@ TEST_F(NodeTest, RtSettingRunsTheLeavesOnARealTimeThreadSamplesCrossBothWays) {
   EXPECT_TRUE(b->running);
 }
 
+// A one-leaf node with an rt setting (dca node --type T --rt-priority P): its leaf on the thread from its start;
+// on a simulated clock the setting is ignored (the leaf's timer on the node's own TimerServer, lock-step).
+TEST_F(NodeTest, OneLeafNodeRunsItsLeafOnTheRealTimeThreadAndIgnoresItOnASimulatedClock) {
+  for (const bool sim : {false, true}) {
+    const std::string name = sim ? "/sim" : "/wall";
+    dca::NodeOptions o = node_options(name, sim);
+    o.type = "Chain";
+    o.rt.priority = 80;
+    o.rt.lock_memory = false;
+    ChainComponent* c = nullptr;
+    nodes.push_back(std::make_unique<dca::Node>(loop, o, [&c](const std::string&, const std::string& n,
+        const std::string&, const std::vector<std::string>&, dca::TimerServer& ts) {
+      auto made = std::make_unique<ChainComponent>(n, ts);
+      c = made.get();
+      return made;
+    }));
+    std::optional<std::string> started;
+    nodes.back()->start([&](const std::string& e) { started = e; });
+    ASSERT_TRUE(run_until([&] { return started.has_value(); }));
+    ASSERT_EQ(*started, "");
+    auto sup = supervise(name);
+    ASSERT_TRUE(call(sup, "run").ok());
+    if (sim) ASSERT_TRUE(call(sup, "advance", Value::map().set("t", 3'000'000)).ok());
+    else ASSERT_TRUE(run_until([&] { return c->ticks >= 3; }));
+    const auto st = call(sup, "stats").message.payload;
+    if (sim) {
+      EXPECT_EQ(c->ticks, 3);
+      EXPECT_EQ(c->tid.load(), static_cast<long>(::gettid()));  // on the node's own thread
+      EXPECT_TRUE(st["rt"].is_nil());
+    } else {
+      EXPECT_NE(c->tid.load(), static_cast<long>(::gettid()));
+      EXPECT_EQ(st["rt"]["thread"].as_int(), c->tid.load());
+    }
+    ASSERT_TRUE(call(sup, "stop").ok());
+  }
+}
+
 TEST_F(NodeTest, ValuesConvertBetweenMsgpackAndWire) {
   const Value v = Value::map().set("a", Value::Array{1, 2.5, "x", Value()}).set("b", true);
   const auto bytes = dca::msgpack_from_value(v);
