@@ -299,7 +299,7 @@ local function process_host(ctx, p, sc)
 end
 
 -- ------------------------------------------------------------------------------------ the supervision section
--- supervision { strategy S; intensity N in T s|ms; restart on KIND, ...; standby INST on HOST, ...; }: each
+-- supervision { strategy S; intensity N in T s|ms; restart on KIND, ...; standby INST on HOST, ...; fence T; }: each
 -- clause once (standby once per instance), known names, a whole number of restarts, a period above zero.
 
 M.strategies = { "one_for_one", "one_for_all", "rest_for_one" }
@@ -347,6 +347,28 @@ function SUPERVISION_CLAUSE.standby(ctx, p, sc, cl)
         .. "'host { primary, standby... }'", cl.instance, inst.type)
   end
   for _, a in ipairs(cl.hosts) do host_arg(ctx, p, sc, a, sformat("a standby host of '%s'", cl.instance)) end
+end
+
+-- fence T [UNIT] [margin T [UNIT]]: known units, times within FENCE_RANGE (docs/supervision.md, "Fencing").
+M.FENCE_RANGE = { fence = { 0.2, 3600 }, margin = { 0.05, 3600 } }
+local function fence_time(ctx, sc, what, v, unit, line, col, uline, ucol)
+  if unit and not M.units[unit] then
+    err(ctx, sc.base, uline, ucol, "unknown unit '%s' of the %s (write s or ms)%s", unit, what,
+        guess_text(unit, { "s", "ms" }) or "")
+    return
+  end
+  local s, r = v * M.units[unit or "s"], M.FENCE_RANGE[what]
+  if not (s >= r[1] and s <= r[2]) then
+    err(ctx, sc.base, line, col, "the %s must be from %g s to %g s, not %s%s", what, r[1], r[2], tostring(v),
+        unit and " " .. unit or " s")
+  end
+end
+function SUPERVISION_CLAUSE.fence(ctx, p, sc, cl)
+  fence_time(ctx, sc, "fence", cl.within, cl.unit, cl.within_line, cl.within_col, cl.unit_line, cl.unit_col)
+  if cl.margin then
+    fence_time(ctx, sc, "margin", cl.margin, cl.margin_unit, cl.margin_line, cl.margin_col, cl.margin_unit_line,
+               cl.margin_unit_col)
+  end
 end
 
 local function supervision(ctx, p, sc)

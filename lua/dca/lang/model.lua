@@ -15,6 +15,7 @@
 --     hosts = { "h1", "h1b" },          -- group: its host, then the standby hosts of its host { } (bound)
 --     standby = { "h2b" } | nil,        -- leaf: its standby hosts (its group's `standby` clause, bound)
 --     supervision = policy | nil,       -- group: its supervision section resolved (M.policy), nil without one
+--     fence = { fence = s, margin = s }, -- group: its fencing (M.fence: its `fence` clause, or the defaults)
 --     args = { v1, v2, ... },          -- every argument bound to a value, in order (leaf: host first)
 --     params = { v2, ... },            -- leaf: the arguments after the host (what the controller gets)
 --     bindings = { host1 = "c1..." },  -- group: its parameters by name
@@ -64,6 +65,23 @@ end
 
 --- The defaults of a supervision section's missing clauses (OTP's: one restart in five seconds).
 M.POLICY_DEFAULTS = { strategy = "one_for_one", intensity = 1, within = 5, on = { "crash", "lost" } }
+
+--- Fencing's defaults (docs/supervision.md, "Fencing"): a node whose supervisor has been silent `fence` seconds
+--- stops; a standby starts `fence + margin` after the last renewal. 5 s: the heartbeat's bound of silence.
+M.FENCE_DEFAULTS = { fence = 5, margin = 1 }
+
+--- The fencing of the (checked) process definition `proc`: { fence = s, margin = s }, defaults filled in.
+function M.fence(proc)
+  local d = M.FENCE_DEFAULTS
+  local f = { fence = d.fence, margin = d.margin }
+  for _, cl in ipairs(proc.supervision and proc.supervision.clauses or {}) do
+    if cl.kw == "fence" then
+      f.fence = cl.within * (check.units[cl.unit or "s"] or 1)
+      if cl.margin then f.margin = cl.margin * (check.units[cl.margin_unit or "s"] or 1) end
+    end
+  end
+  return f
+end
 
 --- The supervision policy of the (checked) process definition `proc`, or nil when it declares none.
 function M.policy(proc)
@@ -142,6 +160,7 @@ function M.build(ast, opts)
     local standby = standby_of(def, env, bind_host)
     local node = { path = path, name = name, type = def.name, kind = "group", host = host, hosts = hosts, args = argv,
                    bindings = env, process = def, children = {}, parent = parent, supervision = M.policy(def),
+                   fence = M.fence(def),
                    line = decl and decl.line or def.line, col = decl and decl.col or def.col }
     for _, inst in ipairs(def.instances) do
       local values = {}

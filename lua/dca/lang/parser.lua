@@ -14,6 +14,8 @@
 --       intensity 3 in 10 s;                              --   at most N restarts within T (s | ms), then escalate
 --       restart on crash, lost;                           --   which faults restart: crash | lost | aborted
 --       standby inst on arg, ...;                         --   standby hosts of a leaf instance, in order
+--       fence 1.5 s margin 0.5 s;                         --   fencing: leaves stop after T silent (s | ms, s if
+--                                                         --   left out); a standby starts after T + margin
 --     }
 --     instantiated_processes { inst instof Type(arg, ...); ... }
 --     external_io { Alias = inst, Port; ... }             -- an inner port exported under another name
@@ -39,8 +41,10 @@
 --     standby_hosts = { arg, ... },                      -- the others (standby hosts, in order; often empty)
 --     supervision = { line, col, clauses = { clause, ... } } | nil,   -- the section, as written (checked by
 --       -- dca.lang.check, resolved by dca.lang.model): clause = { kw = "strategy" | "intensity" | "restart" |
---       -- "standby", line, col, name (strategy), count, count_line/col, within, unit, unit_line/col (intensity),
---       -- kinds = { { name, line, col }, ... } (restart), instance, instance_line/col, hosts = { arg, ... } (standby) }
+--       -- "standby" | "fence", line, col, name (strategy), count, count_line/col, within, unit, unit_line/col
+--       -- (intensity), kinds = { { name, line, col }, ... } (restart), instance, instance_line/col, hosts = { arg,
+--       -- ... } (standby), within, within_line/col, unit (nil: s), unit_line/col, margin, margin_line/col,
+--       -- margin_unit, margin_unit_line/col (fence; margin nil when left out) }
 --     rt = { line, col, clauses = { { kw = "priority" | "cpu", value, line, col, value_line/col }, ... } } | nil,
 --       -- real time for its leaves' nodes, as written (checked by dca.lang.check; docs/time.md, "Real time")
 --     instances = { inst, ...; [name] = inst ... },      -- list in order, and by name (first wins)
@@ -169,7 +173,14 @@ local sup_restart = Cg(C"restart", "kw") * -idchar * ws * expect(kw"on", "sup_on
 local sup_standby = Cg(C"standby", "kw") * -idchar * ws *
   pos("instance_pos") * Cg(expect(NAME, "sup_instance"), "instance") * expect(kw"on", "sup_standby_on") *
   Cg(Ct(expect(arg, "sup_host") * (tok"," * expect(arg, "sup_host"))^0), "hosts")
-local sup_clause = Ct(pos() * -section_start * (sup_strategy + sup_intensity + sup_restart + sup_standby) *
+-- fence T [UNIT] [margin T [UNIT]]: the unit may be left out (seconds)
+local fence_unit = -kw"margin" * NAME
+local sup_fence = Cg(C"fence", "kw") * -idchar * ws *
+  pos("within_pos") * Cg(expect(period, "sup_fence"), "within") * pos("unit_pos") * Cg(fence_unit, "unit")^-1 *
+  (kw"margin" * pos("margin_pos") * Cg(expect(period, "sup_margin"), "margin") *
+   pos("margin_unit_pos") * Cg(NAME, "margin_unit")^-1)^-1
+local sup_clause = Ct(pos() * -section_start *
+                      (sup_strategy + sup_intensity + sup_restart + sup_standby + sup_fence) *
                       expect(tok";", "sup_semi"))
 local supervision_section = section("supervision",
   expect(tok"{", "section_open", "section") * Cg(Ct(sup_clause^0), "items") *
@@ -341,6 +352,8 @@ sup_kind          expected a fault (crash, lost or aborted) in 'restart on', fou
 sup_instance      expected an instance name after 'standby' (write 'standby inst on host2;'), found $f
 sup_standby_on    expected 'on' after the instance (write 'standby inst on host2;'), found $f
 sup_host          expected a host (a parameter name or a string) in 'standby ... on', found $f
+sup_fence         expected the time after 'fence' (write 'fence 1.5 s;' or 'fence 1.5 s margin 0.5 s;'), found $f
+sup_margin        expected the time after 'margin' (write 'fence 1.5 s margin 0.5 s;'), found $f
 sup_semi          expected ';' to end the supervision clause, found $f
 rt_value          expected a whole number after '$1' (write 'rt { priority 80; cpu 1; }'), found $f
 rt_semi           expected ';' after the value (write 'rt { priority 80; cpu 1; }'), found $f
@@ -381,8 +394,8 @@ MESSAGES.verify_close = function(e, f, s, p, idx) return section_close("verify",
 function MESSAGES.sup_close(e, f, s, p, idx)
   local w = smatch(s, "^[%a_][%w_]*", p)
   if w and not SECTION[w] and w ~= "process" then
-    local guess = source.closest(w, { "strategy", "intensity", "restart", "standby" })
-    return sformat("unknown supervision clause '%s'%s (clauses: strategy, intensity, restart, standby)", w,
+    local guess = source.closest(w, { "strategy", "intensity", "restart", "standby", "fence" })
+    return sformat("unknown supervision clause '%s'%s (clauses: strategy, intensity, restart, standby, fence)", w,
                    guess and sformat(": did you mean '%s'?", guess) or "")
   end
   return section_close("supervision", e[1], f, s, p, idx)

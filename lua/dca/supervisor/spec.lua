@@ -29,6 +29,8 @@
 --                     intensity = 3, within = 10,                    --   (dca.lang.model.policy: defaults filled
 --                     on = { crash = true, lost = true, aborted = false } } | nil,  -- in); nil: none declared
 --                                                                   --   (today's behaviour: faults go to the algebra)
+--     fence = { fence = 5, margin = 1 },                             -- fencing (seconds; docs/supervision.md,
+--                                                                   --   "Fencing"); nil in hand-made specs: 5, 1
 --     external_io = { { alias = "Vel", instance = "mc", port = "In" }, ... },
 --     sets = { { instance = "forcedata", label = "lbl1",
 --                connections = { { from = "forcedata", out = "Out1", to = "hit", ["in"] = "In1" } } } },
@@ -173,6 +175,7 @@ function M.from_model(node, file, default_host, parent_rt)
     path = node.path, type = node.type, host = host, file = file, line = proc.line, col = proc.col,
     children = {}, external_io = {}, sets = {}, hosts = { host }, supervision = copy(node.supervision),
     rt = copy(rt_of(proc, parent_rt)),
+    fence = copy(node.fence),
   }
   for i = 2, #(node.hosts or {}) do spec.hosts[i] = node.hosts[i] end
   local actions = proc.actions

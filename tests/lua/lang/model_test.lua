@@ -131,6 +131,9 @@ process main() {
   T.eq(tree.supervision, { strategy = "one_for_one", intensity = 1, within = 5,
                            on = { crash = true, lost = true, aborted = false } })
   T.eq({ tree.children.p.supervision, tree.children.p.hosts }, { nil, { "h3" } })
+  -- fencing: the defaults with or without a section
+  T.eq({ tree.fence, v.fence, tree.children.p.fence }, { { fence = 5, margin = 1 }, { fence = 5, margin = 1 },
+                                                         { fence = 5, margin = 1 } })
   local spec = require("dca.supervisor.spec").from_model(tree, "m.dca")
   local vs = spec.children[1].spec
   T.eq({ vs.hosts, vs.supervision.strategy, vs.supervision.within }, { { "vision", "vision2" }, "one_for_all", 0.25 })
@@ -138,6 +141,20 @@ process main() {
   T.ok(vs.children[1].standby ~= v.children.cam.standby, "the spec shares nothing with the model")
   T.eq({ spec.children[2].spec.supervision, spec.children[2].spec.hosts }, { nil, { "h3" } })
   T.eq(spec.hosts, { spec.host }, "a root without host { } gets its host in hosts too")
+  T.eq(vs.fence, { fence = 5, margin = 1 })
+end)
+
+suite:case("fence_clause_reaches_the_spec_in_seconds", function()
+  local ast = assert(parser.parse([[
+process main() {
+  supervision { fence 1500 ms margin 0.25; }
+  instantiated_processes { t instof Timer("h", 1); }
+  internal_event_actions { t }
+}
+]], "f.dca"))
+  local tree = assert(model.build(ast))
+  T.eq(tree.fence, { fence = 1.5, margin = 0.25 })
+  T.eq(require("dca.supervisor.spec").from_model(tree, "f.dca").fence, { fence = 1.5, margin = 0.25 })
 end)
 
 suite:case("rt_section_reaches_each_leaf_and_its_node_argv_inherited_by_groups_without_one", function()

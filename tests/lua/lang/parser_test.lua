@@ -187,6 +187,12 @@ process Vision(h1, h1b) {
   local tight = assert(parser.parse("process m(h) { supervision { intensity 2 in 10s; } }", "t.dca"))
   local ti = tight.by_name.m.supervision.clauses[1]
   T.eq({ ti.count, ti.within, ti.unit, ti.unit_col }, { 2, 10, "s", 47 })
+  -- fence: its time, its unit and its margin, each may be left out
+  local fenced = assert(parser.parse("process m(h) { supervision { fence 1.5; } } process n(h) { supervision { "
+                                     .. "fence 1500 ms margin 0.5 s; } }", "f.dca"))
+  local f1, f2 = fenced.by_name.m.supervision.clauses[1], fenced.by_name.n.supervision.clauses[1]
+  T.eq({ f1.kw, f1.within, f1.unit, f1.margin, f1.within_col }, { "fence", 1.5, nil, nil, 36 })
+  T.eq({ f2.within, f2.unit, f2.margin, f2.margin_unit, f2.margin_col }, { 1500, "ms", 0.5, "s", 95 })
   -- without the section: no policy, no standby hosts
   local plain = assert(parser.parse("process main(h) { host { h } internal_event_actions { } }", "p.dca"))
   T.eq({ plain.by_name.main.supervision, #plain.by_name.main.standby_hosts }, { nil, 0 })
