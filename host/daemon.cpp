@@ -23,7 +23,10 @@ Daemon::Daemon(boost::asio::io_context& io, DaemonOptions options)
     : io_(io),
       options_(std::move(options)),
       exec_(io, options_.allow),
-      names_(io, options_.host, options_.peers, channel_options(options_)) {}
+      leases_(io, exec_, options_.host),
+      names_(io, options_.host, options_.peers, channel_options(options_)) {
+  leases_.on_fenced = [this](Executer::ChildId id, const std::string& why) { reasons_.try_emplace(id, why); };
+}
 
 Daemon::~Daemon() { stop(); }
 
@@ -84,6 +87,7 @@ void Daemon::accepted(const Channel::Ptr& ch) {
   });
   ch->on_close([this, raw = ch.get(), w](const std::string&) {
     names_.channel_closed(raw);
+    leases_.closed(raw);
     std::vector<Executer::ChildId> held;
     for (const auto& [id, sh] : shared_)
       if (sh.holders.count(raw)) held.push_back(id);
@@ -129,6 +133,7 @@ void Daemon::handle(const Channel::Ptr& ch, const wire::Message& m) {
   } else if (names_.handle(ch, m)) {
     // register / unregister / lookup
   } else if (m.type == "ping") {
+    leases_.renew(ch.get());
     ch->reply(m, wire::Value::map()
                     .set("host", options_.host)
                     .set("pid", static_cast<std::int64_t>(::getpid()))
@@ -172,7 +177,12 @@ void Daemon::spawn(const Channel::Ptr& ch, const wire::Message& m) {
   }
   const std::string name = m.payload["name"].as_string();
   const bool shared = m.payload["shared"].is_bool() && m.payload["shared"].as_bool();
-  if (shared && join(ch, m, name)) return;
+  double fence = 0, kill_after = 0;
+  if (!fence_of(ch, m, &fence, &kill_after)) return;
+  if (shared && join(ch, m, name)) {
+    if (fence > 0) leases_.grant(ch.get(), ch->peer(), shared_by_name_.at(name), name, fence, kill_after);
+    return;
+  }
   std::weak_ptr<Channel> requester = ch;
   std::string error;
   const auto child = exec_.spawn(
@@ -184,6 +194,7 @@ void Daemon::spawn(const Channel::Ptr& ch, const wire::Message& m) {
     return;
   }
   child_names_[child->id] = name;
+  if (fence > 0) leases_.grant(ch.get(), ch->peer(), child->id, name, fence, kill_after);
   outputs_[child->id] = Output{requester, name, static_cast<int>(child->pid), kOutputBurst, std::chrono::steady_clock::now(), 0};
   if (shared) {
     auto& sh = shared_[child->id];
@@ -197,6 +208,20 @@ void Daemon::spawn(const Channel::Ptr& ch, const wire::Message& m) {
                    .set("pid", static_cast<std::int64_t>(child->pid))
                    .set("host", options_.host)
                    .set("joined", false));
+}
+
+// A spawn's fencing (host/fence.h): *fence = 0 without one. False, having answered the error, when it is bad.
+bool Daemon::fence_of(const Channel::Ptr& ch, const wire::Message& m, double* fence, double* kill_after) {
+  const wire::Value& f = m.payload["fence"];
+  if (f.is_nil()) return true;
+  const wire::Value& k = m.payload["kill_after"];
+  *fence = f.as_float(-1);
+  *kill_after = k.is_nil() ? *fence / 4 : k.as_float(-1);
+  const auto ok = [](double s) { return s > 0 && s <= 3600; };  // (NaN fails both)
+  if (f.is_number() && ok(*fence) && (k.is_nil() || k.is_number()) && ok(*kill_after)) return true;
+  ch->reply_error(m, "spawn: fence and kill_after must be seconds above 0 and at most 3600, not " + f.str() + " and " +
+                         k.str() + " (daemon on host " + options_.host + ")");
+  return false;
 }
 
 // A child that failed before it was ready says why (host/node.h): the reason, at most 4 KiB, goes to its log
@@ -298,6 +323,7 @@ void Daemon::release(Channel* holder, Executer::ChildId id) {
 void Daemon::exited(Executer::ChildId id, const std::string& name, const std::weak_ptr<Channel>& requester,
                     const ExitStatus& s) {
   child_names_.erase(id);
+  leases_.exited(id);
   wire::Value ev = wire::Value::map()
                        .set("child", static_cast<std::int64_t>(id))
                        .set("pid", static_cast<std::int64_t>(s.pid))

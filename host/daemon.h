@@ -10,6 +10,10 @@
 //                                 the request joins it (joined = true, argv unused) instead of starting another;
 //                                 every holder gets its exit event, with `culprit` = the leaf whose code ran when
 //                                 a fatal signal ended it (the node's crash note, host/node.h), if it noted one
+//   spawn {..., fence = S, kill_after = K} the child is fenced (host/fence.h): it is sent SIGTERM once this
+//                                 channel has been silent S seconds (no ping, no spawn) or has closed, SIGKILL K
+//                                 seconds later (default S / 4) if it lives on; its exit event's reason says so.
+//                                 S and K: positive seconds up to 3600. A shared join takes them the same way
 //   release {child}            -> ok {}            the requester no longer holds a shared child; when nobody
 //                                                   does (releases, or holders' channels closed), it is sent
 //                                                   SIGTERM and a later shared spawn of its name starts anew
@@ -20,7 +24,7 @@
 //   lookup {name, wait_ms?}    -> ok {name, endpoints, host}, or error at the deadline (see host/names.h)
 //   failed {pid, reason}       -> ok {}            a child (`dca node`) that failed before it was ready says why;
 //                                                   its exit event then carries `reason` (host/node.h)
-//   ping {}                    -> ok {host, pid}
+//   ping {}                    -> ok {host, pid}   also renews this channel's lease (spawn's `fence`)
 //   status {}                  -> ok {host, children = [{child, pid, name}], names = [...]}
 //   config_* {...}             the configuration repository (host/config_service.h has the full list): get, set,
 //                                 list, log, watch (config_changed events), status, and config_sync between
@@ -44,6 +48,7 @@
 #include "host/net/channel.h"
 #include "host/config_service.h"
 #include "host/exec.h"
+#include "host/fence.h"
 #include "host/names.h"
 
 namespace dca {
@@ -108,6 +113,7 @@ class Daemon {
   void handle(const Channel::Ptr& ch, const wire::Message& m);
   void spawn(const Channel::Ptr& ch, const wire::Message& m);
   bool join(const Channel::Ptr& ch, const wire::Message& m, const std::string& name);
+  bool fence_of(const Channel::Ptr& ch, const wire::Message& m, double* fence, double* kill_after);
   void release(Channel* holder, Executer::ChildId id);
   void failed(const Channel::Ptr& ch, const wire::Message& m);
   void output(Executer::ChildId id, const std::string& line);
@@ -126,6 +132,7 @@ class Daemon {
   boost::asio::io_context& io_;
   DaemonOptions options_;
   Executer exec_;
+  Leases leases_;
   NameServer names_;
   Listener::Ptr listener_;
   std::set<Channel::Ptr> channels_;

@@ -259,6 +259,52 @@ TEST_F(DaemonTest, SharedSpawnJoinsTheRunningChildAndEndsItWhenNobodyHoldsIt) {
   EXPECT_NE(a->call(req("release", Value::map().set("child", 999))).error.find("no shared child 999"), std::string::npos);
 }
 
+// Fencing (host/fence.h): a child spawned with `fence` is ended once its requester's channel has been silent that
+// long (SIGTERM, then SIGKILL to one deaf to it), its exit saying why; pings renew the lease; a closed channel
+// fences at once; a bad fence is refused.
+TEST_F(DaemonTest, AChildIsFencedWhenItsRequesterIsSilentOrGone) {
+  auto d = make("h1");
+  auto c = connect(loop_, d->address());
+  ASSERT_TRUE(c);
+  const auto fenced = [](const char* script, double fence, double kill_after) {
+    return req("spawn", Value::map()
+                            .set("argv", Value::Array{"/bin/sh", "-c", script})
+                            .set("name", "main.leaf")
+                            .set("fence", fence)
+                            .set("kill_after", kill_after));
+  };
+  ASSERT_TRUE(c->call(fenced("sleep 100", 0.3, 5)).ok());
+  const Message* ev = c->wait_event("exit");
+  ASSERT_NE(ev, nullptr);
+  EXPECT_EQ(ev->payload["signal"].as_string(), "SIGTERM");
+  EXPECT_NE(ev->payload["reason"].as_string().find("fenced on host h1: its supervisor ("), std::string::npos)
+      << ev->payload["reason"].str();
+  EXPECT_NE(ev->payload["reason"].as_string().find("was silent for"), std::string::npos);
+  c->events.clear();
+  ASSERT_TRUE(c->call(fenced("trap '' TERM; sleep 100 & wait", 0.2, 0.2)).ok());
+  ev = c->wait_event("exit");
+  ASSERT_NE(ev, nullptr);
+  EXPECT_EQ(ev->payload["signal"].as_string(), "SIGKILL");  // deaf to SIGTERM
+
+  // renewed by pings (every 0.1 s against a fence of 1 s), then the channel closes: fenced at once
+  c->events.clear();
+  auto r = c->call(fenced("sleep 100", 1, 5));
+  ASSERT_TRUE(r.ok()) << r.error;
+  const auto pid = static_cast<pid_t>(r.message.payload["pid"].as_int());
+  for (int i = 0; i < 15; ++i) {
+    ASSERT_TRUE(c->call(req("ping")).ok());
+    loop_.run_for(100ms);
+  }
+  EXPECT_TRUE(process_exists(pid)) << "1.5 s of pings kept it";
+  c->ch->close("gone");
+  EXPECT_TRUE(loop_.run_until([&] { return !process_exists(pid); }, 20s));
+
+  auto b = connect(loop_, d->address());
+  ASSERT_TRUE(b);
+  EXPECT_NE(b->call(fenced("sleep 1", -1, 1)).error.find("fence and kill_after must be seconds above 0"),
+            std::string::npos);
+}
+
 TEST_F(DaemonTest, RefusesProgramsNotOnTheAllowList) {
   auto d = make("h1");
   auto c = connect(loop_, d->address());

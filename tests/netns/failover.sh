@@ -16,7 +16,7 @@ sys="$work/failover.dca"
 cat > "$sys" <<'DCA'
 process main() {
   host { "base" }
-  supervision { strategy one_for_one; intensity 3 in 10 s; restart on lost; standby count on "base"; }
+  supervision { strategy one_for_one; intensity 3 in 10 s; restart on lost; standby count on "base"; fence 2 s margin 0.25 s; }
   instantiated_processes {
     count instof Counter("manip", 0.01);
     det   instof Threshold("base", 100);

@@ -69,10 +69,12 @@ function M.connect(addr, opts, cb)
 end
 
 --- Starts argv on the daemon's host. opts: name (for reports), on_exit(ev), timeout (s), shared (join the
---- running child spawned shared under `name` instead of starting another; host/daemon.h).
+--- running child spawned shared under `name` instead of starting another; host/daemon.h), fence and kill_after
+--- (seconds: the child is fenced when this channel is silent that long; host/fence.h).
 function Client:spawn(argv, opts, cb)
   opts = opts or {}
-  self:request({ type = "spawn", argv = argv, name = opts.name, shared = opts.shared }, opts.timeout,
+  self:request({ type = "spawn", argv = argv, name = opts.name, shared = opts.shared, fence = opts.fence,
+                 kill_after = opts.kill_after }, opts.timeout,
     function(reply, err, full)
       if reply and reply.child and opts.on_exit then self.exit_handlers[reply.child] = opts.on_exit end
       if cb then cb(reply, err, full) end

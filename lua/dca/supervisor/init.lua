@@ -40,6 +40,8 @@
 --   rt.every(s, fn)           --> periodic timer with cancel() (only with rt.heartbeat)
 --   rt.heartbeat()            --> period, silence (optional: child supervisors are pinged, lost when silent)
 --   rt.reap(group_spec)       -- optional: kills what a lost child supervisor had started (by path)
+--   rt.fenced(host, cb)       -- optional: cb(waited_s | nil) once the leases this group held at `host` lapsed
+--                             --   (fencing: a child moved off a lost host starts after it)
 --   rt.world(msg, timeout_s, cb(reply|nil, err, missing)) -- a request to the robot process `world`
 --                             --   (missing = true when no world is registered)
 --   rt.types()                -- optional: the controller manifests (default: none; the network runtime's

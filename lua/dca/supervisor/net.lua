@@ -276,7 +276,7 @@ function Shared:open(dc)
   local argv = { "dca", "node", "--shared", self.name, "--daemon", rt.opts.hosts[self.host] }
   if rt.opts.key then argv[#argv + 1] = "--key" argv[#argv + 1] = rt.opts.key end
   rt_argv(argv, self.rt_setting)
-  dc:spawn(argv, { name = self.name, shared = true, timeout = rt.timeouts.spawn }, clients.result(function(r, err)
+  dc:spawn(argv, rt._spawn_opts(self.host, { name = self.name, shared = true }), clients.result(function(r, err)
     if not r then self:_ready(err) return end
     self.child, self.pid = r.child, r.pid
     rt.by_child[self.host .. ":" .. tostring(r.child)] = self
@@ -405,10 +405,37 @@ end
 
 --- The heartbeat period and the silence after which a daemon or a child supervisor is lost (seconds):
 --- opts.heartbeat = { period, timeout }, default 1 and 5 (generous: a loaded machine answers late, a stopped
---- process never).
+--- process never). The period is at most a quarter of the fence (a daemon hears three renewals within it), the
+--- silence at most the fence (past it the host's leaves have stopped: waiting longer only delays the failover).
 function Net:heartbeat()
-  local hb = self.opts.heartbeat or {}
-  return hb.period or hb[1] or 1, hb.timeout or hb[2] or 5
+  local hb, fence = self.opts.heartbeat or {}, self.fencing()
+  return math.min(hb.period or hb[1] or 1, fence / 4), math.min(hb.timeout or hb[2] or 5, fence)
+end
+
+--- This group's fencing (docs/supervision.md, "Fencing"): fence, margin (seconds; spec.fence, else 5 and 1).
+function Net:fencing()
+  local f = self.sup and self.sup.spec and self.sup.spec.fence or {}
+  return f.fence or 5, f.margin or 1
+end
+
+-- A renewal of the leases this supervisor holds at `host`'s daemon is sent now (a ping or a fenced spawn): the
+-- time on this host's monotonic clock.
+function Net:_renewing(host) self.renewed[host] = core.now() end
+
+--- Calls cb(waited) once every lease this supervisor held at `host`'s daemon has lapsed: `fence + margin`
+--- after the last renewal sent there (at once when none was; waited = the seconds waited, else nil). A standby
+--- starts after it, so a cut-off host's leaves have stopped by then (they stop `fence` after the last renewal
+--- they heard, and none can be heard later than it was sent).
+--- A daemon that closed its channel itself (its end of it, or its process, gone: a FIN or its error frame, not a
+--- reset) fenced its children at once, or died and took them with it (they die with their parent): then the wait is
+--- only the margin after the close (the SIGKILL of a child deaf to SIGTERM comes at half of it).
+function Net:fenced(host, cb)
+  local fence, margin = self.fencing()
+  local last, closed = self.renewed[host], self.peer_closed[host]
+  local wait = last and last + fence + margin - core.now()
+  if wait and closed and closed >= last then wait = closed + margin - core.now() end
+  if not wait or wait <= 0 then cb(nil) return end
+  core.after(wait, self.busy_while(function() cb(wait) end))
 end
 
 -- A line a process started here wrote to its stderr, or how many of them its daemon left out (docs/processes.md,
@@ -484,6 +511,8 @@ function Net:_watch_daemon(host, d, dc)
     p:gone()
   end)
   dc:on_close(function(reason)
+    local r = tostring(reason)
+    if r:find("^connection closed by the peer") or r:find("^closed by the peer") then self.peer_closed[host] = core.now() end
     if self.daemons[host] == d then self.daemons[host] = nil end
     self._host_lost(host, sformat("host %s lost (daemon gone: %s)", host, tostring(reason)))
   end)
@@ -491,6 +520,7 @@ function Net:_watch_daemon(host, d, dc)
   local beat
   beat = core.every(hb, function()
     if self.closing or d.client ~= dc then beat:cancel() return end
+    self._renewing(host)
     dc:request({ type = "ping" }, hb_timeout, function(r, perr)
       if r or d.client ~= dc or self.closing then return end
       beat:cancel()
@@ -538,13 +568,22 @@ function Net:_start(child, dc, cb)
     return
   end
   local argv = child_argv(child, self.opts.hosts[child.host], self.opts.key)
-  dc:spawn(argv, { name = child.path, timeout = self.timeouts.spawn }, clients.result(function(r, err)
+  dc:spawn(argv, self._spawn_opts(child.host, { name = child.path }), clients.result(function(r, err)
     if not r then cb(nil, err) return end
     local p = setmetatable({ rt = self, daemon = dc, name = child.name, host = child.host, kind = child.kind,
                              child = r.child, pid = r.pid, path = child.path }, Proc)
     self.by_child[child.host .. ":" .. tostring(r.child)] = p  -- child ids are per daemon
     self._reach(p, dc, cb)
   end))
+end
+
+-- The options of a spawn on `host`'s daemon: `o` with the spawn timeout and this group's fencing (its child is
+-- fenced when this supervisor is silent; SIGKILL at half the margin). The spawn renews the lease.
+function Net:_spawn_opts(host, o)
+  local fence, margin = self.fencing()
+  o.timeout, o.fence, o.kill_after = self.timeouts.spawn, fence, margin / 2
+  self._renewing(host)
+  return o
 end
 
 -- Looks the started process up by its path and connects to its control endpoint; a process that cannot be
@@ -692,7 +731,7 @@ end
 --- heartbeat, report(msg), log(line), stop_grace, exit_grace, world_name, world_wait (see the header).
 function M.new(opts)
   local t = opts.timeouts or {}
-  local rt = { opts = opts, daemons = {}, by_child = {}, shared = {}, closing = false,
+  local rt = { opts = opts, daemons = {}, by_child = {}, shared = {}, closing = false, renewed = {}, peer_closed = {},
                ls = { received = 0, sent = 0, pending = 0, waiters = {}, per = {}, exited = {}, queue = {}, ended = {} },
                my_leaves = {},
                timeouts = { spawn = t.spawn or 10, lookup = t.lookup or 10 } }

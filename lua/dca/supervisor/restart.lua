@@ -393,13 +393,23 @@ function M.bring_up(sup, name, was_running, cb)
   local ch = sup.children[name]
   if M.stopping_all(sup, ch) then child.unmark(ch, "replacing") cb(nil, ch.path .. ": stopped while restarting") return end
   local host = sup:restart_host(ch, sup.recovering and sup.recovering.f)
-  if host and host ~= ch.host then
-    sup:say("%s: moves from host %s to host %s", ch.path, tostring(ch.host), tostring(host))
-    ch.spec = setmetatable({ host = host }, { __index = ch.spec })
-    ch.host = host
+  local function go()
+    if ch.kind == "leaf" then M.respawn(sup, name, was_running, cb) return end
+    M.respawn_group(sup, name, was_running, cb)
   end
-  if ch.kind == "leaf" then M.respawn(sup, name, was_running, cb) return end
-  M.respawn_group(sup, name, was_running, cb)
+  if not (host and host ~= ch.host) then go() return end
+  local from = ch.host
+  sup:say("%s: moves from host %s to host %s", ch.path, tostring(from), tostring(host))
+  ch.spec = setmetatable({ host = host }, { __index = ch.spec })
+  ch.host = host
+  if not sup.rt.fenced then go() return end
+  -- fencing (docs/supervision.md): the old host's leases lapse first, so the old instance has stopped
+  sup.rt.fenced(from, function(waited)
+    if waited then sup:say("%s: host %s fenced (waited %.2f s: fence + margin after its last renewal)", ch.path,
+                           tostring(from), waited) end
+    if M.stopping_all(sup, ch) then child.unmark(ch, "replacing") cb(nil, ch.path .. ": stopped while restarting") return end
+    go()
+  end)
 end
 
 -- A fresh supervisor of the sub-group `name`, configured with its spec (its subtree started and wired), then the
