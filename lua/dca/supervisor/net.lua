@@ -130,8 +130,10 @@ function Proc:gone()
 end
 
 -- Marks it exited and tells its supervisor (unless the runtime is closing); closes its channel. `lost`: its host
--- or channel was lost (the policy's `lost` fault; the reason is only shown).
-function Proc:exited_with(rt, reason, _, lost)
+-- or channel was lost (the policy's `lost` fault; the reason is only shown). `host_lost`: its host's daemon was
+-- lost, which the clock master may never count (a fenced node leaves the clock in order): told at once, in
+-- lock-step too (a lost host is outside the exact semantics, docs/time.md).
+function Proc:exited_with(rt, reason, _, lost, host_lost)
   if self.exited then return end
   if self.unreached then
     -- it ended before it was reached (a failed start: its reason came with the exit): its start fails now
@@ -147,7 +149,12 @@ function Proc:exited_with(rt, reason, _, lost)
   -- exit waits for the barrier (Net:_quiesce)
   if self.kind == "leaf" and not self.stopping and rt.ls.joined and not rt.closing then
     rt.ls.exited[self.path] = (rt.ls.exited[self.path] or 0) + 1
-    rt.ls.queue[#rt.ls.queue + 1] = { now = math.huge, name = self.name, exit = reason, lost = lost }
+    if host_lost then
+      rt.ls.received = rt.ls.received + 1
+      if rt.sup then rt.sup:child_exit(self.name, reason, lost) end
+    else
+      rt.ls.queue[#rt.ls.queue + 1] = { now = math.huge, name = self.name, exit = reason, lost = lost }
+    end
     if self.ch and not self.ch_closed then self.ch:close() end
     return
   end
@@ -335,7 +342,7 @@ end
 
 -- The node ended (exit event `msg`, or its host lost): each of its leaves ends with the reason, named per leaf;
 -- the leaf whose code crashed (msg.culprit: the node's crash note, host/node.h) comes first, then path order.
-function Shared:exited_with(rt, reason, msg, lost)
+function Shared:exited_with(rt, reason, msg, lost, host_lost)
   if self.ended then return end
   self.ended = true
   if rt.shared[self.name] == self then rt.shared[self.name] = nil end
@@ -356,10 +363,11 @@ function Shared:exited_with(rt, reason, msg, lost)
     end
   end
   if rt.sup and not rt.closing and #names > 0 then
-    if rt.ls.joined then  -- in lock-step the exits wait for the barrier (Net:_quiesce), one event per leaf
-      for _, p in ipairs(list) do rt.ls.exited[p.path] = (rt.ls.exited[p.path] or 0) + 1 end
+    if rt.ls.joined then for _, p in ipairs(list) do rt.ls.exited[p.path] = (rt.ls.exited[p.path] or 0) + 1 end end
+    if rt.ls.joined and not host_lost then  -- in lock-step the exits wait for the barrier (Net:_quiesce), one per leaf
       rt.ls.queue[#rt.ls.queue + 1] = { now = math.huge, name = names[1], exits = names, exit = why, lost = lost }
     else
+      if rt.ls.joined then rt.ls.received = rt.ls.received + #names end
       rt.sup:children_exit(names, why, lost)
     end
   end
@@ -455,7 +463,7 @@ end
 function Net:_host_lost(host, reason)
   for _, p in pairs(self.by_child) do
     if p.host == host then
-      p:exited_with(self, reason, nil, true)
+      p:exited_with(self, reason, nil, true, true)
       p:gone()
     end
   end
