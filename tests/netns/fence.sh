@@ -45,12 +45,7 @@ DCA
 
 # Stops this round's daemons and undoes the cut.
 round_down() {
-  for p in "${pids[@]}"; do kill -TERM "$p" 2>/dev/null; done
-  for p in "${pids[@]}"; do
-    for _ in $(seq 1 100); do kill -0 "$p" 2>/dev/null || break; sleep 0.02; done
-    kill -KILL "$p" 2>/dev/null
-  done
-  pids=()
+  daemons_down
   ip netns exec "${ns[1]}" nft delete table inet dcafence 2>/dev/null
   ip -n "${ns[1]}" link set "${tag}v1p" up
 }
@@ -117,7 +112,7 @@ for r in $(seq 1 "$repeats"); do
     DCA_KEY_FILE="$key" timeout 120 "$dca" run "$sys" --hosts "$hosts" --sim "mock:$urdf" --realtime \
       --trace "$work/run.trace" > "$work/run.out" 2>&1 &
     run_pid=$!
-    for _ in $(seq 1 1000); do grep -qs "main.ctrl: running" "$work/run.out" && break; sleep 0.01; done
+    for _ in $(seq 1 6000); do grep -qs "main.ctrl: running" "$work/run.out" && break; sleep 0.01; done  # (60 s at most)
     grep -q "main.ctrl: running" "$work/run.out" || { cat "$work/run.out"; fail "the leaf never ran"; }
     sleep 0.5  # (a few ticks of the old writer; nothing below depends on how many)
     partition "$c"

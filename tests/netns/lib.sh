@@ -24,13 +24,19 @@ fail() {
   exit 1
 }
 
-# Stops the daemons (TERM, then KILL after 2 s) and removes the namespaces, the bridge and the work dir.
-cleanup() {
+# Stops the daemons (TERM, then KILL after 2 s); pids is empty after it.
+daemons_down() {
   for p in "${pids[@]}"; do kill -TERM "$p" 2>/dev/null; done
   for p in "${pids[@]}"; do
     for _ in $(seq 1 100); do kill -0 "$p" 2>/dev/null || break; sleep 0.02; done
     kill -KILL "$p" 2>/dev/null
   done
+  pids=()
+}
+
+# Stops the daemons and removes the namespaces, the bridge and the work dir.
+cleanup() {
+  daemons_down
   for n in "${ns[@]}"; do ip netns del "$n" 2>/dev/null; done
   ip link del "$br" 2>/dev/null
   rm -rf "$work"
