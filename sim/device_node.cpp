@@ -111,6 +111,7 @@ struct DeviceNode::Impl {
   long record_every = 1, steps = 0;
   std::map<std::string, std::uint64_t> refused;  // a command input's samples refused from a second writer
   std::vector<std::string> second_writers;       // each (input, writer, holder) once: what was said
+  std::vector<std::weak_ptr<Channel>> supervisors;  // the supervisors on the clock: told of each second writer
   std::vector<std::size_t> replay_next;          // each recorded port's next sample to write
   long clamps_sensor = -1;                       // watch_clamps: the index of "safety.clamps" (size(): none)
   std::deque<std::pair<double, double>> clamp_history;  // (t, clamps so far) over the storm's window
@@ -267,6 +268,7 @@ struct DeviceNode::Impl {
     std::snprintf(at, sizeof at, "%.3f s", to_seconds(clock.now()));
     second_writers.push_back(who + at);
     std::fprintf(stderr, "dca sim: a second writer on %s\n", second_writers.back().c_str());
+    tell_second_writer(input, writer, holder);
     // a black box's trigger: the first refusal of this writer, holder and input
     if (opts.blackbox && taps.recorder())
       taps.recorder()->trigger(world.time(), "a second writer on " + who.substr(0, who.size() - 4));
@@ -360,7 +362,21 @@ struct DeviceNode::Impl {
     return v;
   }
 
+  // The event `second_writer {input, writer, holder, now}` (docs/safety.md) to every supervisor on the clock:
+  // the one that owns the refused writer's leaf says it.
+  void tell_second_writer(const std::string& input, const std::string& writer, const std::string& holder) {
+    const Message ev{"second_writer", 0, Value::map()
+                                             .set("input", "world." + input)
+                                             .set("writer", writer)
+                                             .set("holder", holder)
+                                             .set("now", static_cast<std::int64_t>(clock.now()))};
+    std::erase_if(supervisors, [](const std::weak_ptr<Channel>& w) { return w.expired(); });
+    for (const auto& w : supervisors)
+      if (auto c = w.lock(); c && c->is_open()) c->send(ev);
+  }
+
   bool handle(const std::shared_ptr<Channel>& ch, const Message& m) {
+    if (m.type == "clock" && m.payload["role"].as_string() == "supervisor") supervisors.push_back(ch);
     if (m.type == "status") return ch->reply(m, status()), true;
     if (m.type == "robot_description") return ch->reply(m, description()), true;
     if (taps.handle(ch, m, world.time())) return true;  // tap, record_end, note

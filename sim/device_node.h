@@ -10,8 +10,9 @@
 // world (DeviceWorld::writer_gone). One writer at a time on each command input (docs/safety.md): a second
 // writer's samples within the holder's lease (one of its periods, at most writer_lease) are refused, counted
 // (status `writers_refused` = {input = n}, `second_writers` = ["INPUT: WRITER refused, held by HOLDER at T s",
-// ...]), traced (`T W world.INPUT refused=WRITER holder=HOLDER`) and said on stderr once per writer, holder and
-// input.
+// ...]), traced (`T W world.INPUT refused=WRITER holder=HOLDER`), said on stderr once per writer, holder and
+// input, and told as often to the supervisors on the clock: the event `second_writer {input = "world.INPUT",
+// writer, holder, now}` (each writer "PATH.PORT") on their channels.
 // `status {}` is the clock's status and the world's fields. Taps, `record_end`
 // and `note`: sim/world_taps.h. With `record`, a world with a recording of its own format writes it
 // (DeviceWorld::own_recorder: the door world's signal groups, MCAP or CSV); any other records FILE.mcap: every

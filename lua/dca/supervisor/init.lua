@@ -23,7 +23,8 @@
 -- With spec.supervision, faults of its children are restarted by the policy (section "supervision policy").
 --   sup:handle(msg, reply)    -- a request from the parent (configure/run/abort/shutdown/node/tree/...)
 --   sup:child_message(name, msg)  -- an event from a child (leaf node: done/aborted; child DCAS: done/aborted/log/
---                                 --   restarted {path}: a leaf below was restarted, its connections made again)
+--                                 --   restarted {path}: a leaf below was restarted, its connections made again;
+--                                 --   the world's second_writer {input, writer, holder}: a leaf's samples refused)
 --   sup:output(path, line)    -- a line a child process wrote to its stderr, said as `path: line`
 --   sup:child_exit(name, reason, lost)  -- a child's process exited (Executer) or, `lost` true, its channel,
 --                             --   host or supervisor was lost (the policy's `lost` fault; reason: for display)
@@ -574,7 +575,8 @@ function Sup:child_message(name, msg)
   local pending0 = self.stops_pending or 0
   if t == "done" then self:_child_done(name, ch, msg)
   elseif t == "aborted" then self:_child_aborted(name, ch, msg)
-  elseif t == "broken" or t == "overflow" then self:_data_event(ch, msg) end
+  elseif t == "broken" or t == "overflow" then self:_data_event(ch, msg)
+  elseif t == "second_writer" then self:_second_writer(ch, msg) end
   if pending0 == 0 and (self.stops_pending or 0) > 0 then self.event_t0 = t0 end
   self.event_at = saved_at
 end
@@ -609,6 +611,13 @@ function Sup:_data_event(ch, msg)
     return
   end
   self:say("%s: %s %s%s: %s", ch.path, t, tostring(msg.port), peer, tostring(msg.reason))
+end
+
+-- The world refused samples of leaf `ch` on a device input another writer holds (docs/safety.md): a line with
+-- both paths, and the event in the log. Not an event of the algebra: the leaf runs on, its samples refused.
+function Sup:_second_writer(ch, msg)
+  self:say("%s: second writer refused on %s: %s, held by %s", ch.path, tostring(msg.input), tostring(msg.writer),
+    tostring(msg.holder))
 end
 
 -- A child's ABORTED (a leaf's Abort, a sub-group's outcome): restarted by the group's policy when it covers the

@@ -721,10 +721,19 @@ function Net:_open_world(w, finish)
         c:on_close(function() if self._world == w then self._world = nil end end)
         function c._event(_, msg, id)
           if msg.type == "quiesce" and (id or 0) ~= 0 then self._quiesce(c.channel, id, msg) end
+          if msg.type == "second_writer" and (id or 0) == 0 then self._second_writer(msg) end
         end
         finish(c)
       end)
   end)
+end
+
+-- The world refused a second writer on one of its inputs (`second_writer {input, writer, holder, now}`, each
+-- writer "PATH.PORT"; docs/safety.md): an event of the refused writer's leaf, if this supervisor started it.
+function Net:_second_writer(msg)
+  local path = tostring(msg.writer):match("^(.+)%.[^.]+$")
+  if not (path and self.my_leaves[path] and self.sup) then return end
+  self.sup:child_message(path:match("[^.]+$"), msg)
 end
 
 --- Closes every daemon channel (after shutdown).

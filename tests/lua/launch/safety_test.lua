@@ -5,6 +5,7 @@ local T = require "dca.testing"
 local suite = T.suite("safety")
 
 local dca, src = T.exe, T.src
+local sformat = string.format
 local ur10 = src .. "/worlds/ur10/ur10.urdf"
 
 -- Two JointSetpoint leaves on the elbow, concurrently
@@ -19,6 +20,10 @@ suite:case("a_second_writer_on_a_joint_is_refused_at_its_tick_and_named_with_the
   T.contains(out, "second writer refused on joint.elbow_joint.position_command: ")
   local refused, holder = out:match("joint%.elbow_joint%.position_command: (main%.%w+%.Cmd) refused, held by (main%.%w+%.Cmd) at")
   T.ok(holder and refused and holder ~= refused, "both paths named: " .. out)
+  -- the refused writer's supervisor is told (an event with both paths) and says it, at the refusal's tick
+  local line = out:match("%[sim%s+[%d.]+%] (main%.%w+: second writer refused on world%.joint%.elbow_joint%.position_command: [^\n]*)")
+  T.eq(line, sformat("%s: second writer refused on world.joint.elbow_joint.position_command: %s, held by %s",
+                     refused:match("^(main%.%w+)"), refused, holder), out)
   -- the holder ends first, at its own target; then the refused one takes the joint to its own
   local first = holder:match("^main%.(%w+)")
   local second = refused:match("^main%.(%w+)")
@@ -44,6 +49,50 @@ suite:case("writers_one_after_the_other_are_no_second_writer", function()
   local out, rc = T.sh("timeout 120 " .. dca .. " run " .. dir .. "/seq.dca --sim mock:" .. ur10)
   T.eq(rc, 0, out)
   T.ok(not out:find("second writer", 1, true), "no refusal: " .. out)
+end)
+
+-- A restart never overlaps its old instance on an actuator: a velocity JointSetpoint that aborts every 0.3 s is
+-- restarted by its group's policy three times; every tick of the trace has the commands of one instance at most,
+-- no sample is refused, and the joint is at zero in the step before each new instance's first command.
+local RESTARTS = [[
+process main() {
+  supervision { strategy one_for_one; intensity 5 in 10 s; restart on aborted; }
+  instantiated_processes {
+    ctrl instof JointSetpoint("arm", "elbow_joint", 3.0, 0.01, "velocity", 0.5, 0.3);
+    stop instof Timer("arm", 1.05);
+  }
+  internal_event_actions { ctrl # stop }
+}
+]]
+
+suite:case("a_restart_never_overlaps_its_old_instance_on_an_actuator", function()
+  local dir = T.tmpdir()
+  T.write(dir .. "/restarts.dca", RESTARTS)
+  local trace = dir .. "/run.trace"
+  local out, rc = T.sh("timeout 120 " .. dca .. " run " .. dir .. "/restarts.dca --sim mock:" .. ur10 .. " --trace " .. trace)
+  T.eq(rc, 0, out)
+  T.contains(out, "main.ctrl: restarted 3/5 in 10 s")
+  local ticks, changes, velocity, last_tick, last_n = {}, {}, {}, nil, nil
+  for line in T.read(trace):gmatch("[^\n]+") do
+    T.ok(not line:find(" W world.", 1, true), "no sample refused: " .. line)
+    local t, n = line:match("^(%d+) D main%.ctrl%.Cmd n=(%d+) ")
+    if t then
+      t, n = tonumber(t), tonumber(n)
+      -- a new instance counts from 1 again; one instance may write twice in a tick (its last command, its zero)
+      if last_n and n <= last_n then
+        T.ok(t > last_tick, sformat("two instances wrote at tick %d", t))
+        changes[#changes + 1] = { old = last_tick, new = t }
+      end
+      ticks[#ticks + 1], last_tick, last_n = t, t, n
+    end
+    local vt, v = line:match("^(%d+) D world%.joint%.elbow_joint%.velocity n=%d+ digest=%d+ value=%[(.-)%]")
+    if vt then velocity[tonumber(vt)] = tonumber(v) end
+  end
+  T.eq(#changes, 3, "three restarts in the trace")
+  for _, c in ipairs(changes) do
+    T.eq(velocity[c.new], 0, sformat("the joint at zero before the instance of %d wrote (the old one's last: %d)",
+                                     c.new, c.old))
+  end
 end)
 
 return suite:run(...)
