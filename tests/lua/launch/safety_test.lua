@@ -11,12 +11,18 @@ local ur10 = src .. "/worlds/ur10/ur10.urdf"
 -- Two JointSetpoint leaves on the elbow, concurrently
 local TWO_WRITERS = T.read(src .. "/tests/lua/launch/systems/two_writers.dca")
 
-suite:case("a_second_writer_on_a_joint_is_refused_at_its_tick_and_named_with_the_holder", function()
+-- `dca run` of the system `text` on the mock UR10 with a trace, which must end with code 0: its output, the trace
+local function run_traced(text)
   local dir = T.tmpdir()
-  T.write(dir .. "/two.dca", TWO_WRITERS)
+  T.write(dir .. "/sys.dca", text)
   local trace = dir .. "/run.trace"
-  local out, rc = T.sh("timeout 120 " .. dca .. " run " .. dir .. "/two.dca --sim mock:" .. ur10 .. " --trace " .. trace)
+  local out, rc = T.sh("timeout 120 " .. dca .. " run " .. dir .. "/sys.dca --sim mock:" .. ur10 .. " --trace " .. trace)
   T.eq(rc, 0, out)
+  return out, trace
+end
+
+suite:case("a_second_writer_on_a_joint_is_refused_at_its_tick_and_named_with_the_holder", function()
+  local out, trace = run_traced(TWO_WRITERS)
   T.contains(out, "second writer refused on joint.elbow_joint.position_command: ")
   local refused, holder = out:match("joint%.elbow_joint%.position_command: (main%.%w+%.Cmd) refused, held by (main%.%w+%.Cmd) at")
   T.ok(holder and refused and holder ~= refused, "both paths named: " .. out)
@@ -66,11 +72,7 @@ process main() {
 ]]
 
 suite:case("a_restart_never_overlaps_its_old_instance_on_an_actuator", function()
-  local dir = T.tmpdir()
-  T.write(dir .. "/restarts.dca", RESTARTS)
-  local trace = dir .. "/run.trace"
-  local out, rc = T.sh("timeout 120 " .. dca .. " run " .. dir .. "/restarts.dca --sim mock:" .. ur10 .. " --trace " .. trace)
-  T.eq(rc, 0, out)
+  local out, trace = run_traced(RESTARTS)
   T.contains(out, "main.ctrl: restarted 3/5 in 10 s")
   local ticks, changes, velocity, last_tick, last_n = {}, {}, {}, nil, nil
   for line in T.read(trace):gmatch("[^\n]+") do
