@@ -87,4 +87,27 @@ suite:case("a_shared_node_of_a_group_takes_its_rt_setting_and_one_of_a_host_none
                   "--shared leaves:main@h1 --daemon 127.0.0.1:1" })
 end)
 
+-- Fencing (docs/supervision.md): the heartbeat follows the group's fence; a standby waits fence + margin after
+-- the last renewal sent to the lost host, only the margin after a close the daemon made, nothing without one.
+suite:case("the_standby_waits_for_the_lost_hosts_leases_to_lapse", function()
+  local s = setup()
+  s.rt.sup.spec = { fence = { fence = 0.2, margin = 0.1 } }
+  T.eq({ s.rt.heartbeat() }, { 0.05, 0.2 })
+  s.rt.sup.spec = {}
+  T.eq({ s.rt.heartbeat() }, { 1, 5 }, "the defaults: fence 5 s")
+  s.rt.sup.spec = { fence = { fence = 0.2, margin = 0.1 } }
+  local got = {}
+  s.rt.fenced("h1", function(w) got[#got + 1] = { "h1", w } end)
+  T.eq(got, { { "h1" } }, "nothing sent to h1: at once")
+  s.rt._renewing("h2")
+  s.rt.fenced("h2", function(w) got[#got + 1] = { "h2", w } end)
+  s.rt._renewing("h3")
+  s.rt.peer_closed.h3 = core.now()
+  s.rt.fenced("h3", function(w) got[#got + 1] = { "h3", w } end)
+  T.ok(loop:run_until(function() return #got == 3 end, 10), "both waits end")
+  T.eq({ got[2][1], got[3][1] }, { "h3", "h2" }, "the closed one waits less")
+  T.ok(got[2][2] > 0.05 and got[2][2] <= 0.1, "the margin after the close: " .. tostring(got[2][2]))
+  T.ok(got[3][2] > 0.25 and got[3][2] <= 0.3, "fence + margin after the renewal: " .. tostring(got[3][2]))
+end)
+
 return suite:run(...)
