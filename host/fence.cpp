@@ -65,6 +65,12 @@ void Leases::fence(const void* channel, const std::string& why) {
   Lease& l = node.mapped();
   if (l.timer) l.timer->cancel();
   for (const auto& [id, name] : l.children) {
+    // a shared node another lease still holds (another group's supervisor, heard from) lives on: its end comes
+    // with the last lease that holds it
+    const bool held = std::any_of(leases_.begin(), leases_.end(), [id = id](const auto& e) {
+      return e.second.children.count(id) > 0;
+    });
+    if (held) continue;
     const std::string reason = "fenced on host " + host_ + ": " + why;
     std::fprintf(stderr, "dca daemon %s: %s: %s: SIGTERM, SIGKILL in %g s if it lives on\n", host_.c_str(),
                  name.c_str(), reason.c_str(), l.kill_after);

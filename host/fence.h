@@ -5,7 +5,8 @@
 // host's). When the channel has been silent `fence` seconds, or closes, its children are fenced: SIGTERM (a node
 // halts, which writes zero to its actuator outputs, and exits; a supervisor stops its subtree), then SIGKILL
 // `kill_after` seconds later to one that lives on. Its supervisor waits `fence + margin` from the last renewal it
-// sent before a standby takes over.
+// sent before a standby takes over. A child several leases hold (a shared node joined by several supervisors) is
+// fenced with the last of them.
 #include <chrono>
 #include <functional>
 #include <map>

@@ -303,6 +303,25 @@ TEST_F(DaemonTest, AChildIsFencedWhenItsRequesterIsSilentOrGone) {
   ASSERT_TRUE(b);
   EXPECT_NE(b->call(fenced("sleep 1", -1, 1)).error.find("fence and kill_after must be seconds above 0"),
             std::string::npos);
+
+  // a shared child two requesters hold is fenced with the last lease: a silent one alone does not end it
+  auto a = connect(loop_, d->address());
+  ASSERT_TRUE(a);
+  const auto shared = [](double fence) {
+    return req("spawn", Value::map()
+                            .set("argv", Value::Array{"/bin/sleep", "100"})
+                            .set("name", "leaves@h1")
+                            .set("shared", true)
+                            .set("fence", fence));
+  };
+  r = a->call(shared(0.3));
+  ASSERT_TRUE(r.ok()) << r.error;
+  ASSERT_TRUE(b->call(shared(5)).ok());
+  const auto node = static_cast<pid_t>(r.message.payload["pid"].as_int());
+  loop_.run_for(600ms);  // a's lease lapsed
+  EXPECT_TRUE(process_exists(node)) << "b still holds it";
+  b->ch->close("gone");
+  EXPECT_TRUE(loop_.run_until([&] { return !process_exists(node); }, 20s));
 }
 
 TEST_F(DaemonTest, RefusesProgramsNotOnTheAllowList) {
