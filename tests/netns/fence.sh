@@ -113,7 +113,12 @@ for r in $(seq 1 "$repeats"); do
       --trace "$work/run.trace" > "$work/run.out" 2>&1 &
     run_pid=$!
     for _ in $(seq 1 6000); do grep -qs "main.ctrl: running" "$work/run.out" && break; sleep 0.01; done  # (60 s at most)
-    grep -q "main.ctrl: running" "$work/run.out" || { cat "$work/run.out"; fail "the leaf never ran"; }
+    if ! grep -q "main.ctrl: running" "$work/run.out"; then
+      cat "$work/run.out"
+      ps -o pid,stat,wchan:24,etime,cmd -p "$run_pid" --ppid "$run_pid"
+      ss -tnp 2>/dev/null | grep "pid=$run_pid,"
+      fail "$c round $r: the leaf never ran"
+    fi
     sleep 0.5  # (a few ticks of the old writer; nothing below depends on how many)
     partition "$c"
     wait "$run_pid"
