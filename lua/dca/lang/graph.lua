@@ -3,6 +3,7 @@
 -- its child groups below them, and the connections inside each group as dotted edges labelled with ports and
 -- label set. Invisible edges only order the rows; they carry no meaning.
 local algebra = require "dca.algebra"
+local model = require "dca.lang.model"
 
 local M = {}
 
@@ -58,6 +59,10 @@ local function group_label(n)
     for _, k in ipairs({ "crash", "lost", "aborted" }) do if pol.on[k] then on[#on + 1] = k end end
     head = head .. sformat("\n%s, %d in %g s, on %s", pol.strategy, pol.intensity, pol.within,
                            #on > 0 and concat(on, ", ") or "nothing")
+  end
+  local f, d = n.fence, model.FENCE_DEFAULTS
+  if f and (f.fence ~= d.fence or f.margin ~= d.margin) then
+    head = head .. sformat("\nfence %g s, margin %g s", f.fence, f.margin)
   end
   local act = n.process.actions
   if act and act.expr then head = head .. "\n" .. wrap(algebra.tostring(act.expr), WRAP) end

@@ -41,14 +41,16 @@ suite:case("supervision_policy_and_standby_hosts_shown", function()
   local ast = assert(parser.parse([[
 process V(h, hb) {
   host { h, hb }
-  supervision { strategy rest_for_one; intensity 2 in 10 s; restart on crash, aborted; standby t on hb; }
+  supervision { strategy rest_for_one; intensity 2 in 10 s; restart on crash, aborted; standby t on hb; fence 2; }
   instantiated_processes { t instof Timer(h, 1); }
   internal_event_actions { t }
 }
 process main() { instantiated_processes { v instof V("h1", "h2"); } internal_event_actions { v } }
 ]], "g.dca"))
   local got = graph.dot(assert(model.build(ast)))
-  T.ok(got:find("v : V @h1 (standby h2)\\nrest_for_one, 2 in 10 s, on crash, aborted", 1, true), got)
+  T.ok(got:find("v : V @h1 (standby h2)\\nrest_for_one, 2 in 10 s, on crash, aborted\\nfence 2 s, margin 1 s", 1, true),
+       got)
+  T.ok(not got:find("main : main[^\n]*fence"), "the default fence is not shown")
   T.ok(got:find("@h1 (standby h2)", 1, true))
 end)
 
