@@ -16,7 +16,7 @@
 #     time, docs/safety.md), no tick with D lines of main.ctrl.Cmd from two instances (a new instance counts
 #     from 1 again), and the old instance's last tick comes before the new one's first;
 #   - the joint's velocity went to zero before the standby wrote (the old node's halt, the world's watchdog, or
-#     the world's zeroing of a writer the clock master dropped: the loud case, after the tick timeout: 10 s).
+#     the world's zeroing of a writer the clock master dropped: the loud case, after the tick timeout: 5 s here).
 # Repeats: DCA_FENCE_REPEATS (default 1) times each case. 20 repeats: DCA_FENCE_REPEATS=20.
 # Needs root and nftables; where namespaces cannot be made it says why and exits 77 (skipped).
 #   tests/netns/fence.sh [DCA_EXE]
@@ -110,7 +110,7 @@ for r in $(seq 1 "$repeats"); do
     round=$((round + 1))
     daemons_up $((7420 + round)) --clock sim
     DCA_KEY_FILE="$key" timeout 120 "$dca" run "$sys" --hosts "$hosts" --sim "mock:$urdf" --realtime \
-      --trace "$work/run.trace" > "$work/run.out" 2>&1 &
+      --tick-timeout 5000 --trace "$work/run.trace" > "$work/run.out" 2>&1 &
     run_pid=$!
     for _ in $(seq 1 6000); do grep -qs "main.ctrl: running" "$work/run.out" && break; sleep 0.01; done  # (60 s at most)
     if ! grep -q "main.ctrl: running" "$work/run.out"; then

@@ -13,6 +13,7 @@ M.usage = [=[usage: dca run FILE.dca [--root NAME] [--hosts FILE] [--repl] [--wa
                     [--config FILE | --no-config] [--set KEY=VALUE]... [--state-dir DIR]
                     [--placement process|group|host]
                     [--sim WORLD [--world-opt KEY=VALUE]... [--seed N] [--record FILE.mcap|FILE.csv] [--realtime]
+                    [--tick-timeout MS]
                     [--record-ports all|PATH.PORT,...] [--trace FILE]] [--replay REC.mcap [--replay-ports PATTERN,...]]
                     [--blackbox SECONDS_BEFORE,SECONDS_AFTER[,MIB] [--blackbox-storm CLAMPS,SECONDS]]
                     [--driver 'TYPE(HOST, ARGS...)']
@@ -80,6 +81,8 @@ per group as it comes up and one per process transition, and runs the root expre
                   SECONDS of simulated time (default 10,1), a trigger once per storm
   --realtime      passed to the world: simulated time is paced to the wall clock (the nodes stay in
                   lock-step with it), so the wall-clock periods in the summary are the real control periods
+  --tick-timeout MS  passed to the world: how long a node may take to answer an advance before the clock
+                  drops it (default 10000; under about 2000 the supervisors are dropped too: docs/time.md)
   --trace FILE    write the run's trace (simulated time): every output's samples per tick (count, digest,
                   value), every set switch, event and transition with its tick; `dca trace diff A B` gives
                   the first divergence of two (ARCHITECTURE.md "Time")
@@ -107,7 +110,7 @@ local OPTIONS = {
   ["--placement"] = "value", ["--trace"] = "value", ["--monitor"] = "flag", ["--monitor-wait"] = "flag",
   ["--record-ports"] = "value", ["--driver"] = "value", ["--replay"] = "value",
   ["--blackbox"] = "value", ["--replay-ports"] = "value",
-  ["--blackbox-storm"] = "value",
+  ["--blackbox-storm"] = "value", ["--tick-timeout"] = "number",
 }
 
 -- `--monitor ADDR`: the address, when the argument after --monitor is one (else --monitor alone). --> argv
@@ -146,6 +149,9 @@ local function rule_broken(o)
   if o.driver and o.sim then return "--driver and --sim exclude each other: a driver is the robot" end
   if o.state_dir and o.hosts then return "--state-dir is for the local daemons, not those of --hosts" end
   if o.realtime and not o.sim then return "--realtime goes with --sim WORLD" end
+  if o.tick_timeout and not (o.sim and o.tick_timeout >= 1 and o.tick_timeout <= 3600000) then
+    return "--tick-timeout goes with --sim WORLD and takes milliseconds from 1 to 3600000"
+  end
   if o.monitor_wait and not (o.monitor and o.sim) then return "--monitor-wait goes with --monitor and --sim WORLD" end
   if o.placement and not M.PLACEMENTS[o.placement] then
     return "--placement is process, group or host, not '" .. tostring(o.placement) .. "'"

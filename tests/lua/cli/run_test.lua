@@ -6,7 +6,8 @@ local suite = T.suite("run")
 local dca, src = T.exe, T.src
 
 for _, c in ipairs({ { "world-opt jammed", "--world-opt and --record go with --sim WORLD" },
-                    { "realtime", "--realtime goes with --sim WORLD" } }) do
+                    { "realtime", "--realtime goes with --sim WORLD" },
+                    { "tick-timeout 5000", "--tick-timeout goes with --sim WORLD" } }) do
   suite:case("run_" .. c[1]:gsub("[- ]", "_") .. "_needs_sim", function()
     local out, rc = T.sh(dca .. " run " .. src .. "/worlds/door/systems/door_open.dca --" .. c[1])
     T.eq(rc, 2, "exit code")
