@@ -16,6 +16,7 @@
 #include "host/daemon.h"
 #include "host/loop.h"
 #include "host/paths.h"
+#include "host/systemd.h"
 
 namespace {
 
@@ -137,7 +138,7 @@ bool resolve(Args& p) {
   std::string error;
   const auto key = dca::auth::load_or_create_key(dca::auth::key_file_path(p.key_file), &error);
   if (!key) {
-    std::fprintf(stderr, "dca daemon: %s\n", error.c_str());
+    dca::systemd::log(dca::systemd::Priority::err, "dca daemon: %s", error.c_str());
     return false;
   }
   p.o.key = *key;
@@ -155,8 +156,9 @@ void raise_descriptor_limit(const std::string& host) {
     if (::setrlimit(RLIMIT_NOFILE, &r) != 0) r.rlim_cur = before;
   }
   const auto text = [](rlim_t v) { return v == RLIM_INFINITY ? std::string("unlimited") : std::to_string(v); };
-  std::fprintf(stderr, "dca daemon: host %s descriptors: soft limit %s (was %s, hard limit %s)\n", host.c_str(),
-               text(r.rlim_cur).c_str(), text(before).c_str(), text(r.rlim_max).c_str());
+  dca::systemd::log(dca::systemd::Priority::info,
+                    "dca daemon: host %s descriptors: soft limit %s (was %s, hard limit %s)", host.c_str(),
+                    text(r.rlim_cur).c_str(), text(before).c_str(), text(r.rlim_max).c_str());
 }
 
 // Runs the daemon until SIGTERM, SIGINT or SIGHUP, then stops its children: the exit code.
@@ -164,10 +166,12 @@ int run(const dca::DaemonOptions& o, const std::vector<std::string>& remove_on_e
   const pid_t parent = ::getppid();
   raise_descriptor_limit(o.host);
   dca::Loop loop;
+  // under systemd (Type=notify): takes NOTIFY_SOCKET & co. out of the environment before any child starts
+  dca::systemd::Notifier notifier;
   dca::Daemon daemon(loop.io(), o);
   std::string error;
   if (!daemon.start(&error)) {
-    std::fprintf(stderr, "dca daemon: host %s: %s\n", o.host.c_str(), error.c_str());
+    dca::systemd::log(dca::systemd::Priority::err, "dca daemon: host %s: %s", o.host.c_str(), error.c_str());
     return 1;
   }
   int stop_signal = 0;
@@ -177,14 +181,21 @@ int run(const dca::DaemonOptions& o, const std::vector<std::string>& remove_on_e
   });
   std::signal(SIGPIPE, SIG_IGN);
   if (auto* c = daemon.config(); c != nullptr && c->store() != nullptr) {
-    std::fprintf(stderr, "dca daemon: host %s configuration replica %s (%s)\n", o.host.c_str(), c->path().c_str(),
-                 c->store()->origin().c_str());
+    dca::systemd::log(dca::systemd::Priority::info, "dca daemon: host %s configuration replica %s (%s)", o.host.c_str(),
+                      c->path().c_str(), c->store()->origin().c_str());
   }
   std::printf("dca daemon: host %s listening on %s\n", o.host.c_str(), daemon.address().str().c_str());
   std::fflush(stdout);
+  // READY=1 from the running loop, which accepts connections; WATCHDOG=1 from it (docs/deploy.md)
+  boost::asio::post(loop.io(), [&] {
+    notifier.ready(loop.io(), "host " + o.host + " listening on " + daemon.address().str());
+  });
   loop.run();
-  std::fprintf(stderr, "dca daemon: host %s stopping (%s): %zu children to stop\n", o.host.c_str(),
-               stop_signal ? dca::signal_name(stop_signal).c_str() : "its loop ended", daemon.executer().running());
+  const std::string stopping = "host " + o.host + " stopping (" +
+                               (stop_signal ? dca::signal_name(stop_signal) : std::string("its loop ended")) + "): " +
+                               std::to_string(daemon.executer().running()) + " children to stop";
+  notifier.stopping(stopping);
+  dca::systemd::log(dca::systemd::Priority::notice, "dca daemon: %s", stopping.c_str());
   // orphaned (the process that started us died, e.g. `dca run` by SIGKILL): nobody waits for an orderly stop, and
   // everything of the run must be gone within 2 s, so the children get a short grace
   const bool orphaned = ::getppid() != parent;

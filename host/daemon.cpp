@@ -8,6 +8,7 @@
 #include <fstream>
 
 #include "host/node.h"
+#include "host/systemd.h"
 
 namespace dca {
 
@@ -51,7 +52,7 @@ bool Daemon::start(std::string* error) {
       config_.reset();
       if (r == ConfigService::StartError::kInUse && options_.state_dir_is_default) {
         config_off_ = "no configuration repository on host " + options_.host + ": " + why;
-        std::fprintf(stderr, "dca daemon %s: %s\n", options_.host.c_str(), config_off_.c_str());
+        systemd::log(systemd::Priority::warning, "dca daemon %s: %s", options_.host.c_str(), config_off_.c_str());
       } else {
         if (error != nullptr) *error = why;
         return false;
@@ -64,7 +65,7 @@ bool Daemon::start(std::string* error) {
         if (on_refused_) {
           on_refused_(why);
         } else {
-          std::fprintf(stderr, "dca daemon %s: %s\n", options_.host.c_str(), why.c_str());
+          systemd::log(systemd::Priority::warning, "dca daemon %s: %s", options_.host.c_str(), why.c_str());
         }
       });
   return listener_ != nullptr;
@@ -99,8 +100,8 @@ void Daemon::accepted(const Channel::Ptr& ch) {
 void Daemon::handle(const Channel::Ptr& ch, const wire::Message& m) {
   if (m.id == 0 && m.type != "kill") {
     // Only kill may come as an event (fire and forget); say so rather than drop it silently.
-    std::fprintf(stderr, "dca daemon %s: ignored event '%s' from %s (requests need an id)\n", options_.host.c_str(),
-                 m.type.c_str(), ch->peer().c_str());
+    systemd::log(systemd::Priority::warning, "dca daemon %s: ignored event '%s' from %s (requests need an id)",
+                 options_.host.c_str(), m.type.c_str(), ch->peer().c_str());
     return;
   }
   if (m.type == "spawn") {
@@ -125,8 +126,8 @@ void Daemon::handle(const Channel::Ptr& ch, const wire::Message& m) {
     if (m.id != 0) {
       ch->reply_error(m, error);
     } else {
-      std::fprintf(stderr, "dca daemon %s: kill event from %s: %s\n", options_.host.c_str(), ch->peer().c_str(),
-                   error.c_str());
+      systemd::log(systemd::Priority::warning, "dca daemon %s: kill event from %s: %s", options_.host.c_str(),
+                   ch->peer().c_str(), error.c_str());
     }
   } else if (m.type == "failed") {
     failed(ch, m);
@@ -232,7 +233,7 @@ void Daemon::failed(const Channel::Ptr& ch, const wire::Message& m) {
     if (p != pid) continue;
     std::string reason = m.payload["reason"].is_string() ? m.payload["reason"].as_string() : "(no reason given)";
     if (reason.size() > 4096) reason = reason.substr(0, 4096) + "...";
-    std::fprintf(stderr, "dca daemon %s: %s (pid %d) failed to start: %s\n", options_.host.c_str(),
+    systemd::log(systemd::Priority::err, "dca daemon %s: %s (pid %d) failed to start: %s", options_.host.c_str(),
                  child_names_[id].c_str(), static_cast<int>(pid), reason.c_str());
     reasons_[id] = std::move(reason);
     return void(ch->reply(m));
@@ -269,8 +270,7 @@ void Daemon::tell_dropped(Executer::ChildId id, const Channel::Ptr& to) {
 // A line child `id` wrote to its stderr: into this daemon's log as it is, and to its requester within the
 // budget (header comment); beyond it, counted.
 void Daemon::output(Executer::ChildId id, const std::string& line) {
-  std::fwrite(line.data(), 1, line.size(), stderr);
-  std::fputc('\n', stderr);
+  systemd::log_line(systemd::Priority::info, line);
   auto it = outputs_.find(id);
   if (it == outputs_.end()) return;
   Output& o = it->second;
@@ -315,7 +315,7 @@ void Daemon::release(Channel* holder, Executer::ChildId id) {
   if (by != shared_by_name_.end() && by->second == id) shared_by_name_.erase(by);
   std::string error;
   if (!exec_.kill(id, SIGTERM, &error))
-    std::fprintf(stderr, "dca daemon %s: ending shared child %s: %s\n", options_.host.c_str(),
+    systemd::log(systemd::Priority::warning, "dca daemon %s: ending shared child %s: %s", options_.host.c_str(),
                  it->second.name.c_str(), error.c_str());
 }
 
@@ -375,7 +375,7 @@ void Daemon::exited(Executer::ChildId id, const std::string& name, const std::we
       told = true;
     }
   if (!told && !released)
-    std::fprintf(stderr, "dca daemon %s: child %s (pid %d) ended (%s) after its requester left\n",
+    systemd::log(systemd::Priority::notice, "dca daemon %s: child %s (pid %d) ended (%s) after its requester left",
                  options_.host.c_str(), name.c_str(), static_cast<int>(s.pid), s.str().c_str());
 }
 

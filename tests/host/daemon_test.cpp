@@ -5,16 +5,25 @@
 #include <poll.h>
 #include <signal.h>
 #include <spawn.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/un.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/asio/write.hpp>
+#include <algorithm>
+#include <cstddef>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <optional>
+#include <regex>
 #include <sstream>
 
+#include "host/systemd.h"
 #include "tests/support/channel_pair.h"
 #include "tests/support/temp_dir.h"
 
@@ -446,7 +455,7 @@ TEST_F(DaemonTest, UnknownRequestIsAnError) {
 // A `dca daemon` child process; its listen address is read from the line it prints when ready.
 class DaemonProcess {
  public:
-  DaemonProcess(const std::vector<std::string>& args, const std::string& key_file) {
+  DaemonProcess(const std::vector<std::string>& args, const std::string& key_file, const std::string& err_file = "") {
     int out[2];
     EXPECT_EQ(::pipe2(out, O_CLOEXEC), 0);
     std::vector<std::string> argv = {DCA_TEST_EXE, "daemon", "--key", key_file};
@@ -457,6 +466,7 @@ class DaemonProcess {
     posix_spawn_file_actions_t fa;
     posix_spawn_file_actions_init(&fa);
     posix_spawn_file_actions_adddup2(&fa, out[1], 1);
+    if (!err_file.empty()) posix_spawn_file_actions_addopen(&fa, 2, err_file.c_str(), O_WRONLY | O_APPEND, 0);
     EXPECT_EQ(::posix_spawn(&pid_, DCA_TEST_EXE, &fa, nullptr, cargv.data(), environ), 0);
     posix_spawn_file_actions_destroy(&fa);
     ::close(out[1]);
@@ -601,6 +611,149 @@ TEST_F(DaemonProcessTest, ThreeDaemonsAsThreeHosts) {
   EXPECT_EQ(c.stop(), 0);
   r = on_a->call(req("lookup", Value::map().set("name", "/door/arm")));
   EXPECT_FALSE(r.ok());
+}
+
+// ------------------------------------------------------------------------ under systemd (docs/deploy.md)
+
+// A service manager's end of sd_notify: an abstract Unix datagram socket the test owns, and what came on it.
+class NotifySocket {
+ public:
+  NotifySocket() : name_("@dca_daemon_test_notify_" + std::to_string(::getpid())) {
+    fd_ = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+    sockaddr_un addr{};
+    addr.sun_family = AF_UNIX;
+    std::memcpy(addr.sun_path + 1, name_.data() + 1, name_.size() - 1);
+    const auto len = static_cast<socklen_t>(offsetof(sockaddr_un, sun_path) + name_.size());
+    EXPECT_EQ(::bind(fd_, reinterpret_cast<sockaddr*>(&addr), len), 0) << std::strerror(errno);
+  }
+  ~NotifySocket() { ::close(fd_); }
+  const std::string& name() const { return name_; }
+  /// The next datagram that starts with `prefix` (others are kept in seen()); "" after 20 s without one.
+  std::string wait_for(const std::string& prefix) {
+    for (int waited = 0; waited < 20000;) {
+      pollfd p{fd_, POLLIN, 0};
+      if (::poll(&p, 1, 100) <= 0) {
+        waited += 100;
+        continue;
+      }
+      char buf[4096];
+      const ssize_t n = ::recv(fd_, buf, sizeof buf, 0);
+      if (n <= 0) continue;
+      seen_.emplace_back(buf, static_cast<std::size_t>(n));
+      if (seen_.back().rfind(prefix, 0) == 0) return seen_.back();
+    }
+    return "";
+  }
+  const std::vector<std::string>& seen() const { return seen_; }
+
+ private:
+  std::string name_;
+  int fd_ = -1;
+  std::vector<std::string> seen_;
+};
+
+// Sets environment variables for the processes a test starts, and unsets them when it ends.
+struct ScopedEnv {
+  explicit ScopedEnv(std::vector<std::pair<std::string, std::string>> vars) : vars_(std::move(vars)) {
+    for (const auto& [k, v] : vars_) ::setenv(k.c_str(), v.c_str(), 1);
+  }
+  ~ScopedEnv() {
+    for (const auto& [k, v] : vars_) ::unsetenv(k.c_str());
+  }
+  std::vector<std::pair<std::string, std::string>> vars_;
+};
+
+// Type=notify: READY=1 once it serves (a client is served right after), WATCHDOG=1 from its loop at half of
+// WATCHDOG_USEC, STOPPING=1 at SIGTERM; the children it spawns inherit none of the service manager's variables.
+TEST_F(DaemonProcessTest, UnderSystemdItNotifiesReadyWatchdogAndStopping) {
+  NotifySocket manager;
+  std::optional<DaemonProcess> d;
+  {
+    ScopedEnv env({{"NOTIFY_SOCKET", manager.name()}, {"WATCHDOG_USEC", "100000"}});
+    d.emplace(std::vector<std::string>{"--host", "h1", "--allow", "/bin/sh", "--state-dir", "none"}, key_file_);
+  }
+  const std::string ready = manager.wait_for("READY=1");
+  EXPECT_EQ(ready, "READY=1\nSTATUS=host h1 listening on " + d->address().str());
+  auto c = connect(loop_, d->address(), key_);
+  ASSERT_TRUE(c);
+  EXPECT_TRUE(c->call(req("ping")).ok());
+  EXPECT_EQ(manager.wait_for("WATCHDOG=1"), "WATCHDOG=1");
+  EXPECT_EQ(manager.wait_for("WATCHDOG=1"), "WATCHDOG=1");
+  const char* script = "echo \"[${NOTIFY_SOCKET-}${WATCHDOG_USEC-}]\" >&2";
+  auto r = c->call(req("spawn", Value::map().set("argv", Value::Array{"/bin/sh", "-c", script})));
+  ASSERT_TRUE(r.ok()) << r.error;
+  const Message* line = c->wait_event("output");
+  ASSERT_NE(line, nullptr);
+  EXPECT_EQ(line->payload["line"].as_string(), "[]");
+  EXPECT_EQ(d->stop(), 0);
+  EXPECT_EQ(manager.wait_for("STOPPING=1"), "STOPPING=1\nSTATUS=host h1 stopping (SIGTERM): 0 children to stop");
+  EXPECT_EQ(manager.seen().front(), ready) << "READY=1 came first";
+}
+
+// A NOTIFY_SOCKET nobody listens on is said once on stderr; without one, nothing is sent and nothing said.
+TEST(SystemdNotifier, WithoutAManagerNothingIsSent) {
+  dca::systemd::Notifier none;
+  EXPECT_FALSE(none.enabled());
+  EXPECT_FALSE(none.notify("READY=1"));
+  ::setenv("NOTIFY_SOCKET", "@dca_daemon_test_nobody_listens", 1);
+  ::setenv("WATCHDOG_USEC", "5000000", 1);
+  ::setenv("WATCHDOG_PID", "1", 1);  // another process's watchdog: not ours to feed
+  dca::systemd::Notifier lost;
+  EXPECT_EQ(std::getenv("NOTIFY_SOCKET"), nullptr);
+  EXPECT_EQ(std::getenv("WATCHDOG_USEC"), nullptr);
+  EXPECT_TRUE(lost.enabled());
+  EXPECT_EQ(lost.watchdog_period().count(), 0);
+  std::string error;
+  EXPECT_FALSE(lost.notify("READY=1", &error));
+  EXPECT_NE(error.find("sd_notify to @dca_daemon_test_nobody_listens: "), std::string::npos) << error;
+}
+
+// Under journald (JOURNAL_STREAM names its stderr) every line of the daemon's log starts with its syslog priority,
+// its children's lines too, and none carries a time stamp; with another stderr, no prefix.
+TEST_F(DaemonProcessTest, UnderJournaldItsLinesCarryPriorities) {
+  const std::string log = dir_ + "/journal";
+  std::ofstream(log).close();
+  struct stat st {};
+  ASSERT_EQ(::stat(log.c_str(), &st), 0);
+  std::optional<DaemonProcess> d;
+  {
+    ScopedEnv env({{"JOURNAL_STREAM", std::to_string(st.st_dev) + ":" + std::to_string(st.st_ino)}});
+    d.emplace(std::vector<std::string>{"--host", "h1", "--allow", "/bin/sh", "--state-dir", "none"}, key_file_, log);
+  }
+  auto c = connect(loop_, d->address(), key_);
+  ASSERT_TRUE(c);
+  auto r = c->call(req("spawn", Value::map().set("argv", Value::Array{"/bin/sh", "-c", "echo from the child >&2"})));
+  ASSERT_TRUE(r.ok()) << r.error;
+  ASSERT_NE(c->wait_event("exit"), nullptr);
+  EXPECT_FALSE(connect(loop_, d->address(), "the wrong key, 32 bytes long...."));
+  EXPECT_EQ(d->stop(), 0);
+  std::ifstream in(log);
+  std::vector<std::string> lines;
+  for (std::string l; std::getline(in, l);) lines.push_back(l);
+  ASSERT_GE(lines.size(), 4u);
+  const std::regex prefixed("^<[3-7]>dca daemon|^<6>from the child$"), stamp("[0-9]{2}:[0-9]{2}:[0-9]{2}");
+  for (const auto& l : lines) {
+    EXPECT_TRUE(std::regex_search(l, prefixed)) << l;
+    EXPECT_FALSE(std::regex_search(l, stamp)) << l;
+  }
+  const auto has = [&](const std::string& text) {
+    return std::find(lines.begin(), lines.end(), text) != lines.end();
+  };
+  EXPECT_TRUE(has("<6>from the child"));
+  EXPECT_TRUE(has("<5>dca daemon: host h1 stopping (SIGTERM): 0 children to stop"));
+  EXPECT_TRUE(std::any_of(lines.begin(), lines.end(), [](const std::string& l) { return l.rfind("<4>", 0) == 0; }))
+      << "the refused connection is a warning";
+
+  // Another stderr than the journal's: plain lines.
+  const std::string plain = dir_ + "/plain";
+  std::ofstream(plain).close();
+  {
+    ScopedEnv env({{"JOURNAL_STREAM", std::to_string(st.st_dev) + ":" + std::to_string(st.st_ino)}});
+    d.emplace(std::vector<std::string>{"--host", "h2", "--state-dir", "none"}, key_file_, plain);
+  }
+  EXPECT_EQ(d->stop(), 0);
+  std::ifstream in2(plain);
+  for (std::string l; std::getline(in2, l);) EXPECT_EQ(l.rfind("dca daemon", 0), 0u) << l;
 }
 
 }  // namespace
