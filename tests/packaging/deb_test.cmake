@@ -53,6 +53,20 @@ contains("the package's files" "${files}" " ./usr/bin/dca\n" " ./usr/bin/dca-nod
          " ./lib/systemd/system/dca-daemon.service\n" " ./etc/dca/hosts\n" " ./etc/default/dca-daemon\n"
          " ./usr/share/doc/dca/copyright\n" " ./usr/share/doc/dca/changelog.gz\n"
          " ./usr/share/man/man1/dca.1.gz\n" " ./usr/share/man/man1/dca-node.1.gz\n")
+# the monitor's page and every module of its 3D view that its server serves (VENDOR in lua/dca/monitor/server.lua)
+file(READ ${SOURCE_DIR}/lua/dca/monitor/server.lua server)
+string(REGEX MATCH "local VENDOR = {[^}]*}" vendor "${server}")
+string(REGEX MATCHALL "\"[^\"]+\"" vendor "${vendor}")
+if(NOT vendor)
+  fail("no VENDOR list found in lua/dca/monitor/server.lua")
+endif()
+set(page " ./usr/share/dca/lua/dca/monitor/page/")
+contains("the package's files" "${files}" "${page}index.html\n" "${page}monitor.js\n" "${page}robot3d.js\n"
+         "${page}3d/node_modules/three/LICENSE\n")
+foreach(v ${vendor})
+  string(REPLACE "\"" "" v "${v}")
+  contains("the package's files (VENDOR of lua/dca/monitor/server.lua)" "${files}" "${page}3d/node_modules/${v}\n")
+endforeach()
 foreach(bad "./usr/local" "${BUILD_DIR}" "${SOURCE_DIR}" "./etc/dca/key" "fuzz_" "_test\n")
   string(FIND "${files}" "${bad}" at)
   if(NOT at EQUAL -1)
