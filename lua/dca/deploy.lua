@@ -43,6 +43,8 @@ RuntimeDirectoryMode=0700
 # the nodes' Unix sockets
 Environment=XDG_RUNTIME_DIR=%t/dca
 Environment=HOME=%S/dca
+# the nodes and supervisors it starts authenticate with its key
+Environment=DCA_KEY_FILE=/etc/dca/key
 Restart=on-failure
 RestartSec=2s
 # the daemon stops its children itself (SIGTERM, then SIGKILL after --grace); what is left then is killed

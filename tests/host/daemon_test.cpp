@@ -690,7 +690,8 @@ TEST_F(DaemonProcessTest, UnderSystemdItNotifiesReadyWatchdogAndStopping) {
   EXPECT_EQ(manager.seen().front(), ready) << "READY=1 came first";
 }
 
-// A NOTIFY_SOCKET nobody listens on is said once on stderr; without one, nothing is sent and nothing said.
+// A NOTIFY_SOCKET nobody listens on is an error; without one, nothing is sent. The watchdog is this process's only
+// when WATCHDOG_PID is unset or names it.
 TEST(SystemdNotifier, WithoutAManagerNothingIsSent) {
   dca::systemd::Notifier none;
   EXPECT_FALSE(none.enabled());
@@ -706,6 +707,11 @@ TEST(SystemdNotifier, WithoutAManagerNothingIsSent) {
   std::string error;
   EXPECT_FALSE(lost.notify("READY=1", &error));
   EXPECT_NE(error.find("sd_notify to @dca_daemon_test_nobody_listens: "), std::string::npos) << error;
+  ::setenv("NOTIFY_SOCKET", "@dca_daemon_test_nobody_listens", 1);
+  ::setenv("WATCHDOG_USEC", "5000000", 1);
+  ::setenv("WATCHDOG_PID", std::to_string(::getpid()).c_str(), 1);  // ours: fed at half of it
+  dca::systemd::Notifier ours;
+  EXPECT_EQ(ours.watchdog_period(), std::chrono::seconds(5));
 }
 
 // Under journald (JOURNAL_STREAM names its stderr) every line of the daemon's log starts with its syslog priority,
