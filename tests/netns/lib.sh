@@ -78,6 +78,12 @@ daemons_up() {
       --key "$key" "${args[@]}" >"$work/${names[$i]}.log" 2>&1 &
     pids+=($!)
   done
+  wait_listening
+}
+
+# Returns when each daemon (its log $work/NAME.log) has said it listens, at most 5 s each; else fails.
+wait_listening() {
+  local n
   for n in "${names[@]}"; do
     for _ in $(seq 1 500); do grep -q "listening on" "$work/$n.log" && break; sleep 0.01; done
     grep -q "listening on" "$work/$n.log" || fail "daemon $n did not start"
