@@ -138,10 +138,12 @@ function M.daemon_args(list, h)
 end
 
 --- The Ansible play (docs/deploy.md): on every host of the inventory, the package, the cluster key, the hosts
---- file and the host's unit, then the daemon enabled and started (restarted when one of them changed).
+--- file and the host's unit, then the daemon enabled and started (restarted when one of them changed); one host
+--- first (the canary: a daemon that does not become ready there stops the play), then the others.
 M.play = [[
 - hosts: dca
   become: true
+  serial: [1, "100%"]
   vars: { dca_deb: dca.deb, dca_key: "{{ lookup('env', 'HOME') }}/.config/dca/key" }
   tasks:
     - ansible.builtin.copy: { src: "{{ dca_deb }}", dest: /var/cache/dca.deb }
