@@ -94,13 +94,14 @@ contains("the unit" "${unit}" "Type=notify" "WatchdogSec=" "NoNewPrivileges=yes"
 # systemd-analyze verify: every key known, every value valid; it wants ExecStart's program where the unit says, so
 # it reads a copy that names the unpacked one
 find_program(analyze systemd-analyze)
-if(analyze)
-  string(REPLACE "ExecStart=/usr/bin/dca " "ExecStart=${WORK_DIR}/root/usr/bin/dca " copy "${unit}")
-  file(WRITE ${WORK_DIR}/verify/dca-daemon.service "${copy}")
-  run("systemd-analyze verify" ${analyze} verify ${WORK_DIR}/verify/dca-daemon.service)
-  if(NOT out STREQUAL "")
-    fail("systemd-analyze verify has something to say about the unit:\n${out}")
-  endif()
+if(NOT analyze)
+  fail("systemd-analyze is not installed (scripts/setup installs systemd)")
+endif()
+string(REPLACE "ExecStart=/usr/bin/dca " "ExecStart=${WORK_DIR}/root/usr/bin/dca " copy "${unit}")
+file(WRITE ${WORK_DIR}/verify/dca-daemon.service "${copy}")
+run("systemd-analyze verify" ${analyze} verify ${WORK_DIR}/verify/dca-daemon.service)
+if(NOT out STREQUAL "")
+  fail("systemd-analyze verify has something to say about the unit:\n${out}")
 endif()
 string(TIMESTAMP t2 "%s")
 
