@@ -685,6 +685,7 @@ TEST_F(DaemonProcessTest, UnderSystemdItNotifiesReadyWatchdogAndStopping) {
   const Message* line = c->wait_event("output");
   ASSERT_NE(line, nullptr);
   EXPECT_EQ(line->payload["line"].as_string(), "[]");
+  ASSERT_NE(c->wait_event("exit"), nullptr);  // so that it has no child left to stop
   EXPECT_EQ(d->stop(), 0);
   EXPECT_EQ(manager.wait_for("STOPPING=1"), "STOPPING=1\nSTATUS=host h1 stopping (SIGTERM): 0 children to stop");
   EXPECT_EQ(manager.seen().front(), ready) << "READY=1 came first";
