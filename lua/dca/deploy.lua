@@ -103,12 +103,16 @@ function M.unit(args, what)
   return concat(lines)
 end
 
---- The host part of a TCP address ("10.0.0.2:7000" -> "10.0.0.2", "[fd00::2]:7000" -> "fd00::2"); nil for
---- anything else (a Unix socket cannot reach another machine).
+--- The host part of a TCP address as a daemon takes it (host/net/framed_socket.h: a numeric IP, or localhost;
+--- "tcp:" before it allowed): "10.0.0.2:7000" -> "10.0.0.2", "[fd00::2]:7000" -> "fd00::2"; nil for anything else
+--- (a Unix socket cannot reach another machine; a name is not resolved).
 function M.tcp_host(addr)
+  addr = addr:gsub("^tcp:", "")
   local v6 = addr:match("^%[([%x:.]+)%]:%d+$")
   if v6 then return v6 end
-  return addr:match("^([^:/%[%]]+):%d+$")
+  local v4 = addr:match("^(%d+%.%d+%.%d+%.%d+):%d+$")
+  if v4 then return v4 end
+  return addr:match("^(localhost):%d+$")
 end
 
 -- The hosts `names` with their addresses in `hosts`, sorted by name: { {name=, addr=, ip=} } | nil, err
@@ -119,8 +123,8 @@ local function fleet(names, hosts, hosts_file)
     if not addr then return nil, sformat("no address for host '%s' in %s", name, hosts_file) end
     local ip = M.tcp_host(addr)
     if not ip then
-      return nil, sformat("host '%s' in %s: '%s' is not a TCP address (ADDRESS:PORT): a fleet's daemons listen on TCP",
-        name, hosts_file, addr)
+      return nil, sformat("host '%s' in %s: '%s' is not a TCP address (IP:PORT, [IPv6]:PORT): a fleet's daemons " ..
+        "listen on TCP", name, hosts_file, addr)
     end
     list[#list + 1] = { name = name, addr = addr, ip = ip }
   end

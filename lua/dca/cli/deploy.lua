@@ -15,7 +15,7 @@ systemd (docs/deploy.md):
   hosts                           the system's hosts file (/etc/dca/hosts on every machine)
   deploy.yml                      the Ansible play: on every host the package, the cluster key, the hosts file
                                   and the host's unit, then the daemon enabled and started
-HOSTS is a hosts file ("name address" per line, ADDRESS:PORT on TCP) that names every host of the system (its
+HOSTS is a hosts file ("name address" per line, IP:PORT or [IPv6]:PORT) that names every host of the system (its
 standby hosts too). The file is checked as by `dca check` first. Then:
   ansible-playbook -i DIR/inventory.ini DIR/deploy.yml -e dca_deb=$PWD/dca_VERSION_ARCH.deb]]
 
