@@ -168,7 +168,8 @@ function M.files(names, hosts, o)
   local list, err = fleet(names, hosts, o.hosts_file)
   if not list then return nil, err end
   local what = sformat("written by `dca deploy %s --hosts %s`", o.system, o.hosts_file)
-  local files = { ["deploy.yml"] = "# " .. what .. " (docs/deploy.md): ansible-playbook -i inventory.ini deploy.yml\n" .. M.play }
+  local run = " (docs/deploy.md): ansible-playbook -i inventory.ini deploy.yml\n"
+  local files = { ["deploy.yml"] = "# " .. what .. run .. M.play }
   local inv, hf = { "# " .. what .. ": the system's hosts for Ansible", "[dca]" }, { "# " .. what }
   for _, h in ipairs(list) do
     files["units/" .. h.name .. "/dca-daemon.service"] = M.unit(M.daemon_args(list, h), what)

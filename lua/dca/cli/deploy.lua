@@ -47,7 +47,9 @@ end
 function M.main(argv)
   local o, err = args.parse(argv, "dca deploy", { ["--hosts"] = "value", ["-o"] = "value:out", ["--root"] = "value" })
   if not o then return args.usage_error(err, M.usage) end
-  if not o[1] or not o.hosts then return args.usage_error("dca deploy: FILE.dca and --hosts HOSTS are needed", M.usage) end
+  if not o[1] or not o.hosts then
+    return args.usage_error("dca deploy: FILE.dca and --hosts HOSTS are needed", M.usage)
+  end
   local spec, serr = require("dca.load").spec(o[1], { root = o.root })
   if not spec then io.stderr:write(serr, "\n") return 1 end
   local hosts, herr = require("dca.launch.hosts").read_file(o.hosts)
