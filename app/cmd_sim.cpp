@@ -295,6 +295,7 @@ bool world_signals(const std::string& spec, const std::vector<std::string>& opti
   }
   for (const auto& x : sensors) out->outputs.push_back(dca::vector_port(x.name, x.size, x.units));
   for (const auto& x : commands) out->inputs.push_back(dca::vector_port(x.name, x.size, x.units));
+  out->inputs.push_back(dca::vector_port(dca::sim::kEstopInput, 1, ""));  // every world's (sim/device_node.h)
   return true;
 }
 

@@ -6,6 +6,7 @@
 
 #include "app/world_ports.h"
 #include "host/port.h"
+#include "sim/device_node.h"
 #include "sim/urdf/joint_world.h"
 #include "sim/world_plugin.h"
 
@@ -67,6 +68,7 @@ int print_world_ports(const std::string& spec) {
     const std::vector<std::string> lines = p->about ? p->about(setup) : std::vector<std::string>{p->summary};
     std::printf("world %s: %s\n", spec.c_str(), lines.empty() ? "" : lines[0].c_str());
     for (const auto& x : commands) std::printf("    in     %-40s vector[%u] %s\n", x.name.c_str(), x.size, x.units.c_str());
+    std::printf("    in     %-40s vector[1] (above 0.5: the emergency stop)\n", sim::kEstopInput);
     for (const auto& x : sensors) std::printf("    out    %-40s vector[%u] %s\n", x.name.c_str(), x.size, x.units.c_str());
     for (std::size_t i = 1; i < lines.size(); ++i) std::printf("    %s\n", lines[i].c_str());
     return 0;

@@ -31,6 +31,7 @@ class DeviceComponent final : public Component {
     for (const auto& s : w.sensors()) outputs.push_back(&ports_.add_output(vector_port(s.name, s.size, s.units)));
     for (const auto& s : w.commands()) inputs.push_back(&ports_.add_input(vector_port(s.name, s.size, s.units), 16));
     for (const auto& p : w.recorded_ports()) replayed.push_back(&ports_.add_output(vector_port("replay:" + p.path, p.size)));
+    estop = &ports_.add_input(vector_port(kEstopInput, 1, ""), 4);
   }
   const std::string& name() const override { return name_; }
   PortSet& ports() override { return ports_; }
@@ -40,6 +41,7 @@ class DeviceComponent final : public Component {
   std::vector<Output*> outputs;  // DeviceWorld::sensors() order
   std::vector<Input*> inputs;    // DeviceWorld::commands() order
   std::vector<Output*> replayed; // DeviceWorld::recorded_ports() order: "replay:PATH"
+  Input* estop = nullptr;        // kEstopInput: a sample above 0.5 presses the emergency stop
 
  private:
   std::string name_;
@@ -117,6 +119,16 @@ struct DeviceNode::Impl {
   std::deque<std::pair<double, double>> clamp_history;  // (t, clamps so far) over the storm's window
   bool in_storm = false;
   std::uint64_t replay_written = 0;
+  // The emergency stop (docs/safety.md, "Emergency stop").
+  struct Estop {
+    bool latched = false;
+    double t = 0;                        // s: the last press or release
+    std::string source;                  // who pressed it last
+    std::uint64_t presses = 0, held = 0; // held: command samples that came while latched, not applied
+    std::vector<std::uint64_t> seen;     // each command input's samples so far
+    std::vector<std::string> log;        // "pressed at T s by SOURCE", "released at ..." (bounded)
+    std::vector<std::weak_ptr<Channel>> watchers;  // told each press and release (`estop_watch`)
+  } estop;
 
   // The recording of `path` ("" none): the world's own format, else the generic MCAP.
   static std::unique_ptr<Recorder> make_recorder(const std::string& path, DeviceWorld& w, bool* own) {
@@ -305,14 +317,75 @@ struct DeviceNode::Impl {
     in_storm = storm;
   }
 
-  void step() {
-    taps.record_taps();
+  // A source's name as said in lines: bounded, printable.
+  static std::string source_name(const std::string& s) {
+    std::string out = s.empty() ? "request" : s.substr(0, 64);
+    for (char& c : out)
+      if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) c = '?';
+    return out;
+  }
+
+  // Each press and release: traced, said on stderr, logged for the summary, told to the watchers.
+  void estop_changed(const char* what) {
+    char line[160];
+    std::snprintf(line, sizeof line, "%s at %.3f s by %s", what, estop.t, estop.source.c_str());
+    if (estop.log.size() < 64) estop.log.emplace_back(line);
+    clock.note(std::string("E world.") + kEstopInput + " " + what + " by=" + estop.source);
+    std::fprintf(stderr, "dca sim: emergency stop %s\n", line);
+    const Value ev = Value::map().set("latched", estop.latched).set("t", estop.t).set("source", estop.source);
+    std::erase_if(estop.watchers, [&](const std::weak_ptr<Channel>& w) {
+      const auto ch = w.lock();
+      return !ch || !ch->send(Message{"estop", 0, ev});
+    });
+  }
+
+  // Pressed (latched): from this tick on no command sample reaches the world, which holds every actuator
+  // stopped. False when it was latched already.
+  bool press(const std::string& source) {
+    if (estop.latched) return false;
+    estop.latched = true;
+    world.estop(true);
+    ++estop.presses;
+    estop.t = to_seconds(clock.now());
+    estop.source = source_name(source);
+    estop_changed("pressed");
+    if (opts.blackbox && taps.recorder()) taps.recorder()->trigger(estop.t, "emergency stop by " + estop.source);
+    return true;
+  }
+
+  // Released by a command that names it: "" or why not.
+  std::string release(const std::string& source) {
+    if (!estop.latched) return "the emergency stop is not pressed";
+    Input* in = component ? component->estop : nullptr;
+    if (in && in->has_current() && in->vector().size() == 1 && in->vector()[0] > 0.5)
+      return std::string("the emergency stop's input world.") + kEstopInput + " still reads pressed";
+    estop.latched = false;
+    world.estop(false);
+    estop.t = to_seconds(clock.now());
+    estop.source = source_name(source);
+    estop_changed("released");
+    return "";
+  }
+
+  // The command samples taken in before a step: to the world, or while latched kept from it (counted).
+  void take_commands() {
+    Input* button = component->estop;
+    if (button->take_latest() && button->vector().size() == 1 && button->vector()[0] > 0.5) press("input");
+    estop.seen.resize(component->inputs.size(), 0);
     for (std::size_t i = 0; i < component->inputs.size(); ++i) {
       Input& in = *component->inputs[i];
-      if (!in.take_latest()) continue;
+      const std::uint64_t n = in.stats().samples;
+      if (estop.latched) estop.held += n - estop.seen[i];
+      estop.seen[i] = n;
+      if (!in.take_latest() || estop.latched) continue;
       const auto v = in.vector();
       world.command(i, v.data(), static_cast<std::size_t>(v.size()));
     }
+  }
+
+  void step() {
+    taps.record_taps();
+    take_commands();
     world.step();
     ++steps;
     watch_clamps();
@@ -359,6 +432,10 @@ struct DeviceNode::Impl {
       v.set("writers_refused", std::move(m));
       sink.texts("second_writers", second_writers);
     }
+    v.set("estop", Value::map().set("latched", estop.latched).set("t", estop.t).set("source", estop.source)
+                       .set("presses", static_cast<std::int64_t>(estop.presses))
+                       .set("held_samples", static_cast<std::int64_t>(estop.held)));
+    if (!estop.log.empty()) sink.texts("estop_log", estop.log);
     return v;
   }
 
@@ -375,10 +452,33 @@ struct DeviceNode::Impl {
       if (auto c = w.lock(); c && c->is_open()) c->send(ev);
   }
 
+  // estop {source}: pressed now, answers {t, latched, already, source}; release {what = "estop", source}:
+  // answers {t}, or an error; estop_watch {}: this channel is told each press and release (event estop
+  // {latched, t, source}), answers the state now.
+  bool handle_estop(const std::shared_ptr<Channel>& ch, const Message& m) {
+    const std::string source = m.payload["source"].as_string();
+    if (m.type == "estop") {
+      const bool already = !press(source);
+      return ch->reply(m, Value::map().set("t", estop.t).set("latched", true).set("already", already)
+                              .set("source", estop.source)), true;
+    }
+    if (m.type == "release") {
+      if (m.payload["what"].as_string() != kEstopInput)
+        return ch->reply_error(m, "release: name what to release: release {what = \"estop\"}"), true;
+      const std::string error = release(source);
+      if (!error.empty()) return ch->reply_error(m, "release: " + error), true;
+      return ch->reply(m, Value::map().set("t", estop.t)), true;
+    }
+    if (m.type != "estop_watch") return false;
+    estop.watchers.push_back(ch);
+    return ch->reply(m, Value::map().set("latched", estop.latched).set("t", estop.t).set("source", estop.source)), true;
+  }
+
   bool handle(const std::shared_ptr<Channel>& ch, const Message& m) {
     if (m.type == "clock" && m.payload["role"].as_string() == "supervisor") supervisors.push_back(ch);
     if (m.type == "status") return ch->reply(m, status()), true;
     if (m.type == "robot_description") return ch->reply(m, description()), true;
+    if (handle_estop(ch, m)) return true;
     if (taps.handle(ch, m, world.time())) return true;  // tap, record_end, note
     return clock.handle(ch, m);
   }

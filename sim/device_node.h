@@ -20,6 +20,14 @@
 // link frames, DeviceWorld::frames, as foxglove.FrameTransforms), the URDF once on /robot_description,
 // beside the tapped ports and the run's lines (docs/recording.md). `robot_description {}` answers {urdf, frames =
 // [[parent, child], ...], port = "links.frames"}: what a viewer draws the robot from.
+//
+// The emergency stop (docs/safety.md, "Emergency stop"): pressed by `estop {source}`, or by a sample above 0.5
+// on the world component's input `estop` (kEstopInput; source "input"); released only by `release {what =
+// "estop", source}`, refused while that input still reads pressed. While latched no command sample reaches the
+// world (they still arrive, are counted for the clock and in status `estop.held_samples`), and the world holds
+// every actuator stopped (DeviceWorld::estop) from the tick it was pressed at. Each press and release is traced
+// (`T E world.estop pressed by=SOURCE`), said on stderr, kept for the summary (status `estop`, `estop_log`)
+// and told to the channels that sent `estop_watch {}` (event `estop {latched, t, source}`).
 #include <functional>
 #include <memory>
 #include <string>
@@ -35,6 +43,9 @@ class Channel;
 }
 
 namespace dca::sim {
+
+/// The world component's input that presses the emergency stop (a sample above 0.5), beside the commands.
+inline constexpr const char* kEstopInput = "estop";
 
 /// How the world process runs.
 struct DeviceNodeOptions {

@@ -60,6 +60,15 @@ class DeviceWorld {
   /// The writer of command `i` is gone (lost, or replaced by a new instance): its safe value applies until a new
   /// sample comes.
   virtual void writer_gone(std::size_t i) = 0;
+  /// The emergency stop (docs/safety.md, "Emergency stop"), latched (true) or released (false). While latched
+  /// the world gets no command sample (sim/device_node.h keeps them) and holds every actuator stopped: a
+  /// velocity or an effort zero, a position where the joint is. After the release each command keeps that safe
+  /// value until its next sample. By default: writer_gone() of every command input at the press (its safe
+  /// value), nothing at the release.
+  virtual void estop(bool latched) {
+    if (!latched) return;
+    for (std::size_t i = 0; i < commands().size(); ++i) writer_gone(i);
+  }
   /// Advances one period.
   virtual void step() = 0;
   /// Sensor `i`'s current value: sensors()[i].size values into `out`.

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "sim/urdf/frames.h"
 #include "sim/urdf/sensors.h"
@@ -132,7 +133,33 @@ double JointInterfaces::clamp(const Input& in, double v, const JointState& s) co
   return std::clamp(v, lo, hi);
 }
 
+void JointInterfaces::estop(bool latched) {
+  if (latched == estop_) return;
+  estop_ = latched;
+  if (latched) return held_.assign(joints_.size(), std::numeric_limits<double>::quiet_NaN());
+  for (auto& in : inputs_) {  // released: each keeps its safe value until its next sample
+    const double q = held_[in.joint];
+    if (in.spec->kind != JointInterface::position) in.raw = 0;
+    else if (!std::isnan(q)) in.raw = q;
+    in.stale = in.gone = in.counted = false;
+    in.age = 0;
+  }
+}
+
+void JointInterfaces::estop_step(const std::vector<JointState>& state) {
+  for (std::size_t j = 0; j < joints_.size(); ++j) {
+    JointDrive& d = drives_[j];
+    d.commanded = active_[j] != SIZE_MAX;
+    if (!d.commanded) continue;
+    if (std::isnan(held_[j])) held_[j] = state[j].position;
+    d.input = active_[j];
+    d.kind = inputs_[d.input].spec->kind;
+    d.value = d.kind == JointInterface::position ? held_[j] : 0.0;
+  }
+}
+
 void JointInterfaces::begin_step(const std::vector<JointState>& state, long tick) {
+  if (estop_) return estop_step(state);
   for (std::size_t j = 0; j < joints_.size(); ++j) {
     JointDrive& d = drives_[j];
     d.commanded = active_[j] != SIZE_MAX;

@@ -58,6 +58,12 @@ class JointInterfaces {
   void command(std::size_t i, double value);
   /// Input `i` lost its writer: stale at once, until the next sample.
   void writer_gone(std::size_t i);
+  /// The emergency stop latched (true) or released (docs/safety.md, "Emergency stop"): while latched every
+  /// commanded joint is driven to rest whatever its commands (velocity and effort 0, a position held where the
+  /// joint was at the press, no limit applied); at the release each input keeps that safe value until its next
+  /// sample.
+  void estop(bool latched);
+  bool estopped() const { return estop_; }
   /// Before step `tick`: applies the watchdogs and the limits against the joints' state; the drives follow.
   void begin_step(const std::vector<JointState>& state, long tick);
   const JointDrive& drive(std::size_t joint) const { return drives_[joint]; }
@@ -81,11 +87,14 @@ class JointInterfaces {
   double clamp(const Input& in, double v, const JointState& s) const;
   void velocity_bounds(const JointLimitSpec& l, const CommandSpec& c, double q, double* lo, double* hi) const;
   double initial_value(const Input& in) const;
+  void estop_step(const std::vector<JointState>& state);
 
   std::vector<JointSpec> joints_;
   std::vector<Input> inputs_;
   std::vector<std::size_t> active_;  // per joint: the input in force (inputs() when none)
   std::vector<JointDrive> drives_;
+  bool estop_ = false;
+  std::vector<double> held_;  // estop: per joint, the position at the press (NaN until its first step)
 };
 
 }  // namespace dca::sim

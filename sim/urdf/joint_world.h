@@ -44,6 +44,7 @@ class JointWorld : public DeviceWorld {
   const std::vector<DeviceSignal>& commands() const override { return commands_; }
   void command(std::size_t i, const double* v, std::size_t n) override;
   void writer_gone(std::size_t i) override { interfaces_.writer_gone(i); }
+  void estop(bool latched) override { interfaces_.estop(latched); }
   void step() override;
   void sensor(std::size_t i, double* out) const override;
   void status(StatusSink& sink) const override;

@@ -148,6 +148,34 @@ TEST(RobotWorldTest, ALostWriterMakesItsCommandStaleAtOnce) {
   EXPECT_EQ(w->interfaces().counts(input(*w, "joint.wrist_1_joint.velocity_command")).stale, 1u);
 }
 
+// The emergency stop (docs/safety.md): from the step after the press every actuator is at rest whatever was
+// commanded (velocity zero, a position held where it was), and after the release each command keeps that safe
+// value until its next sample.
+TEST(RobotWorldTest, AnEmergencyStopHoldsEveryActuatorStoppedUntilItsRelease) {
+  auto w = dca::sim::make_robot_world("mock:" + kUr10, 1e-3);
+  send(*w, "joint.wrist_1_joint.velocity_command", 1.0);
+  send(*w, "joint.elbow_joint.position_command", 0.5);
+  steps(*w, 3);
+  EXPECT_EQ(read(*w, "joint.wrist_1_joint.velocity"), 1.0);
+  const double q_wrist = read(*w, "joint.wrist_1_joint.position");
+  w->estop(true);
+  w->step();
+  EXPECT_EQ(read(*w, "joint.wrist_1_joint.velocity"), 0.0);
+  EXPECT_EQ(read(*w, "joint.wrist_1_joint.position"), q_wrist);
+  EXPECT_EQ(read(*w, "joint.elbow_joint.position"), 0.5);
+  EXPECT_EQ(read(*w, "joint.elbow_joint.velocity"), 0.0);
+  steps(*w, 10);
+  EXPECT_EQ(read(*w, "joint.wrist_1_joint.position"), q_wrist);
+  w->estop(false);
+  w->step();  // released: still at rest, until a new sample
+  EXPECT_EQ(read(*w, "joint.wrist_1_joint.velocity"), 0.0);
+  EXPECT_EQ(read(*w, "joint.elbow_joint.position"), 0.5);
+  send(*w, "joint.wrist_1_joint.velocity_command", -1.0);
+  w->step();
+  EXPECT_EQ(read(*w, "joint.wrist_1_joint.velocity"), -1.0);
+  EXPECT_EQ(w->interfaces().counts(input(*w, "joint.wrist_1_joint.velocity_command")).stale, 0u);
+}
+
 TEST(RobotWorldTest, MockMirrorsCommandsThroughItsLagAndIgnoresDeadDrives) {
   auto w = dca::sim::make_robot_world("mock:" + kUr10, 1e-3);
   send(*w, "joint.wrist_2_joint.position_command", 0.3);

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <functional>
 #include <optional>
 
 #include "host/timers.h"
@@ -67,7 +68,9 @@ class WorldNodeTest : public ::testing::Test {
   };
 
   // One run: daemon, world (duration `seconds`), driver node wired both ways, `go`, until the world holds.
-  Run run_once(double seconds, bool with_stalled_subscriber = false) {
+  // `midway`: called with time held at half the duration (then it flows on).
+  using Midway = std::function<void(dca::test::SimWorld&, const dca::Channel::Ptr& to_world)>;
+  Run run_once(double seconds, bool with_stalled_subscriber = false, const Midway& midway = {}) {
     dca::Loop loop;
     dca::DaemonOptions dopts;
     dopts.host = "h";
@@ -92,6 +95,14 @@ class WorldNodeTest : public ::testing::Test {
       stalled = open(sim, sim.control_of("world"));
       stalled->on_message([](const Message&) {});  // takes the advances and never answers
       stalled->request({"clock", 0, Value::map().set("name", "/stalled")}, 5s, [](dca::Response) {});
+    }
+    if (midway) {
+      const auto half = static_cast<std::int64_t>(seconds * 5e8);
+      call(sim, to_world, "hold", Value::map().set("at", half));
+      call(sim, to_world, "go");
+      EXPECT_TRUE(loop.run_until([&] { return sim.world_node.now() >= half; }, 60s));
+      EXPECT_EQ(call(sim, to_world, "hold")["now"].as_int(), half);
+      midway(sim, to_world);
     }
     call(sim, to_world, "go");
     EXPECT_TRUE(loop.run_until([&] { return sim.held; }, 60s)) << "the world did not reach its duration";
@@ -248,3 +259,31 @@ TEST_F(WorldNodeTest, DevicePortsRefuseHellosWithoutTheClusterKey) {
 }
 
 }  // namespace
+
+// The emergency stop (docs/safety.md): pressed at 0.5 s, the base's command in force is zero from the next step
+// whatever the driver writes, its samples still counted; the release names it, and a second press is no new one.
+TEST_F(WorldNodeTest, AnEmergencyStopZeroesTheCommandsFromTheNextStep) {
+  Value pressed, again, bad;
+  const auto r = run_once(1.0, false, [&](dca::test::SimWorld& sim, const dca::Channel::Ptr& to_world) {
+    EXPECT_EQ(call(sim, to_world, "status")["base_cmd"].as_array()[0].as_float(), 0.2);
+    pressed = call(sim, to_world, "estop", Value::map().set("source", "test"));
+    again = call(sim, to_world, "estop", Value::map().set("source", "test again"));
+    const auto wrong = sim.call(to_world, "release", Value::map().set("what", "brakes"));
+    bad = Value(wrong.error);
+  });
+  EXPECT_EQ(pressed["t"].as_float(), 0.5);
+  EXPECT_FALSE(pressed["already"].as_bool());
+  EXPECT_TRUE(again["already"].as_bool());
+  EXPECT_EQ(again["source"].as_string(), "test");
+  EXPECT_NE(bad.as_string().find("name what to release"), std::string::npos) << bad.as_string();
+  ASSERT_EQ(r.ticks, 100);  // the driver ran on, writing
+  for (const auto& v : r.status["base_cmd"].as_array()) EXPECT_EQ(v.as_float(), 0.0);
+  EXPECT_NEAR(r.x, 0.2 * 0.49, 0.03);  // it stopped at the press (not 0.2 * 0.99)
+  const Value& e = r.status["estop"];
+  EXPECT_TRUE(e["latched"].as_bool());
+  EXPECT_EQ(e["source"].as_string(), "test");
+  EXPECT_EQ(e["presses"].as_int(), 1);
+  EXPECT_EQ(e["held_samples"].as_int(), 50);  // every sample of 0.5 s at 10 ms, kept from the world
+  ASSERT_EQ(r.status["estop_log"].as_array().size(), 1u);
+  EXPECT_EQ(r.status["estop_log"].as_array()[0].as_string(), "pressed at 0.500 s by test");
+}
