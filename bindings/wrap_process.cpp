@@ -6,6 +6,8 @@
 //   core.on_signal(fn | nil) -- fn("INT" | "TERM" | "HUP") from the loop when SIGINT, SIGTERM or SIGHUP
 //                               arrives (Ctrl-C, kill, the terminal closed);
 //                               replaces any earlier handler; nil restores nothing (the handler stays inert)
+//   core.on_usr1(fn)         -- fn() from the loop each time SIGUSR1 arrives (dca run: the emergency stop);
+//                               replaces any earlier handler
 //   core.on_usr2(fn)         -- fn() from the loop each time SIGUSR2 arrives (dca run: the black box's trigger);
 //                               replaces any earlier handler
 //   core.pending_signal()    --> "INT" | "TERM" | "HUP" | nil: the first stop signal that arrived since
@@ -98,13 +100,17 @@ int l_on_signal(lua_State* L) {
   return 0;
 }
 
-int l_on_usr2(lua_State* L) {
+// fn (argument 1) from the loop each time `sig` arrives.
+int on_extra_signal(lua_State* L, int sig) {
   auto& ls = dca::lua::loop_state(L);
   luaL_checktype(L, 1, LUA_TFUNCTION);
   auto fn = std::make_shared<dca::lua::LuaRef>(L, 1, ls);
-  ls.loop.on_signal(SIGUSR2, [fn] { dca::lua::invoke(*fn, [](lua_State*) { return 0; }); });
+  ls.loop.on_signal(sig, [fn] { dca::lua::invoke(*fn, [](lua_State*) { return 0; }); });
   return 0;
 }
+
+int l_on_usr1(lua_State* L) { return on_extra_signal(L, SIGUSR1); }
+int l_on_usr2(lua_State* L) { return on_extra_signal(L, SIGUSR2); }
 
 volatile std::sig_atomic_t g_pending_signal = 0;
 
@@ -285,6 +291,7 @@ void open_process(lua_State* L) {
                                  {"pid", l_pid},
                                  {"exe_path", l_exe_path},
                                  {"on_signal", l_on_signal},
+                                 {"on_usr1", l_on_usr1},
                                  {"on_usr2", l_on_usr2},
                                  {"pending_signal", l_pending_signal},
                                  {"spawn", l_spawn},

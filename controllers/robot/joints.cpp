@@ -64,4 +64,31 @@ void JointSetpoint::on_halt() {
 
 DCA_REGISTER_CONTROLLER(JointSetpoint);
 
+namespace {
+const OutSpec<Vec1> kPress{.name = "Press", .units = "1: pressed", .device = "estop"};
+const Param<double> kAt{.name = "at", .doc = "s after its start: the press", .min = 0};
+const Param<double> kHold{.name = "hold", .doc = "s it stays pressed (at least one tick)", .def = 0, .min = 0};
+}  // namespace
+
+Manifest EStopButton::Describe() {
+  return {.type = "EStopButton", .doc = "presses the robot's emergency stop at a time; DONE(time) once let go",
+          .inputs = {}, .outputs = {kPress}, .params = {kAt, kHold, PeriodParam()}, .ends = Ending::Done()};
+}
+
+EStopButton::EStopButton(const ControllerContext& ctx)
+    : PeriodicController(ctx), press_(port(kPress)), at_(param(kAt)), hold_(param(kHold)) {}
+
+void EStopButton::on_configure() { pressed_at_ = -1; }
+
+void EStopButton::MainCalc() {
+  const double t = to_seconds(now() - started());
+  const bool first = pressed_at_ < 0 && t >= at_ - 1e-9;
+  if (first) pressed_at_ = t;
+  const bool held = first || (pressed_at_ >= 0 && t < pressed_at_ + hold_ - 1e-9);
+  press_.write(Vec1::Constant(held ? 1.0 : 0.0));
+  if (pressed_at_ >= 0 && !held) Done(pressed_at_);
+}
+
+DCA_REGISTER_CONTROLLER(EStopButton);
+
 }  // namespace dca::robot

@@ -30,4 +30,20 @@ class JointSetpoint final : public PeriodicController {
   Vec1 q_ = Vec1::Zero(), qd_ = Vec1::Zero(), cmd_value_ = Vec1::Zero();
 };
 
+/// EStopButton(host, at, hold=0, period=0.01): the robot's emergency stop pressed by a leaf (docs/safety.md,
+/// "Emergency stop"), as a button wired to the robot would: writes 0 on Press every tick before `at` s after its
+/// start, 1 from then on for `hold` s (at least one tick), then 0 (the button let go: a release may follow) and
+/// ends DONE with the press's time (s after its start).
+///   out Press vector[1] device estop
+class EStopButton final : public PeriodicController {
+  DCA_CONTROLLER(EStopButton)
+  using Vec1 = Eigen::Matrix<double, 1, 1>;
+  void on_configure() override;
+  void MainCalc() override;
+
+  Out<Vec1> press_;
+  double at_, hold_;
+  double pressed_at_ = -1;
+};
+
 }  // namespace dca::robot

@@ -125,6 +125,19 @@ function M.exists(path)
   return f ~= nil
 end
 
+--- Waits (bounded: `timeout` s of wall-clock time) until the file at `path` holds the Lua pattern `pattern` (the
+--- output of a process a test started in the background). --> its text, or nil at the deadline
+function M.wait_for(path, pattern, timeout)
+  local deadline = os.time() + timeout
+  repeat
+    local f = io.open(path)
+    local text = f and f:read("a") or ""
+    if f then f:close() end
+    if text:find(pattern) then return text end
+    os.execute("sleep 0.05")
+  until os.time() > deadline
+end
+
 --- The folder of the file that calls it (a test's own folder, for the files beside it).
 function M.here()
   return debug.getinfo(2, "S").source:match("^@(.*)/[^/]*$") or "."

@@ -11,6 +11,8 @@
 --   w:go(cb)  w:hold(cb)               -- time flows / stops after the current tick
 --   w:stop(cb)                         -- `exit` to the world, then waits for its exit (SIGKILL after a grace)
 --   w.on_lost = function(reason) end   -- the world exited by itself (every node on its clock stops)
+--   w:watch_estop(fn, cb)              -- fn(event {latched, t, source}) at each press and release of the
+--                                      -- emergency stop (docs/safety.md); cb(state now) | cb(nil, err)
 --   o.world_opts: the world's own options (`--world-opt`, docs/worlds.md); o.realtime: simulated time paced to the wall clock;
 --   o.tick_timeout: ms a node may take to answer an advance before it is dropped from the clock
 --   Another robot process (a driver: dca.launch.driver): o.argv its argv, o.what its name in messages, o.said
@@ -60,6 +62,12 @@ end
 
 function M.new(o)
   return setmetatable({ o = o }, W)
+end
+
+-- The world's channel: its events (`estop`) go to the W that owns it.
+local Events = clients.class({})
+function Events:_event(msg)
+  if msg.type == "estop" and self.owner and self.owner.on_estop then self.owner.on_estop(msg) end
 end
 
 -- The world's exit event: remembered, and told to whoever waits (a start not finished fails with it).
@@ -112,7 +120,7 @@ end
 -- Waits until the world has registered (o.wait seconds, default 60) and connects to it.
 function W:_connect(dc, finish)
   local wait = self.o.wait or 60
-  local class = self.o.class or clients.Plain
+  local class = self.o.class or Events
   clients.open(dc, "world", wait, clients.key_opts(self.o.key), class, function(c, err, missing)
     if not c then
       finish(nil, missing and sformat("the world did not register within %gs: %s", wait, tostring(err)) or
@@ -120,6 +128,7 @@ function W:_connect(dc, finish)
       return
     end
     self.client = c
+    c.owner = self
     finish(true)
   end)
 end
@@ -131,6 +140,12 @@ function W:connected() return self.client ~= nil end
 function W:request(msg, timeout, cb)
   if not self.client then cb(nil, "the world is not connected") return end
   self.client:request(msg, timeout or 10, clients.result(cb))
+end
+
+--- Each press and release of the emergency stop told: fn(event). cb(state now) | cb(nil, err)
+function W:watch_estop(fn, cb)
+  self.on_estop = fn
+  self:request({ type = "estop_watch" }, 10, cb or function() end)
 end
 
 function W:go(cb) self:request({ type = "go" }, 10, cb or function() end) end

@@ -11,6 +11,10 @@
 --   driver.start(ctx, cb)                   -- with ctx.o.driver (a read driver): ctx.driver, a dca.clients.world
 --                                           -- client on it, once it runs. cb(true) | cb(nil, err)
 --   driver.stop(ctx, cb)                    -- stop, then exit (bounded); cb() once it is gone
+--   driver.estop(ctx, req, t, cb)            -- the emergency stop (docs/safety.md): req {type = "estop" |
+--                                           -- "release", source}: the driver stopped (its on_halt leaves the
+--                                           -- robot safe) or run again; cb(reply {t, already, source}, event)
+--                                           -- | cb(nil, err)
 local world_client = require "dca.clients.world"
 
 local M = {}
@@ -116,6 +120,37 @@ function M.say_counts(ctx, k)
       next()
     end)
   end, k)
+end
+
+--- The emergency stop on the driver's robot at `t` (s since the run's start): pressed, its controller stopped
+--- (halt: the base zeroes its actuator outputs, its on_halt leaves the robot safe, rule 12); released, it is
+--- initialised and run again. cb(reply, event | nil) | cb(nil, err)
+function M.estop(ctx, req, t, cb)
+  local w = ctx.driver
+  if not (w and w:connected()) then cb(nil, "no robot to stop: the driver is not connected") return end
+  local st = ctx.driver_estop or { latched = false }
+  ctx.driver_estop = st
+  if req.type == "estop" and st.latched then cb({ t = st.t, already = true, source = st.source }) return end
+  if req.type == "release" and not st.latched then cb(nil, "release: the emergency stop is not pressed") return end
+  local function changed(latched)
+    st.latched, st.t, st.source = latched, t, tostring(req.source)
+    cb({ t = t, source = st.source }, { latched = latched, t = t, source = st.source })
+  end
+  if req.type == "estop" then
+    st.latched = true  -- at once: a second press while the stop is on its way is no new one
+    w.client:stop(function(r, err)
+      if not r then ctx.say("driver: emergency stop: its stop failed: " .. tostring(err)) end
+      changed(true)
+    end)
+    return
+  end
+  w.client:init(function(r, err)
+    if not r then cb(nil, "release: the driver's init: " .. tostring(err)) return end
+    w.client:run(nil, function(r2, rerr)
+      if not r2 then cb(nil, "release: the driver's run: " .. tostring(rerr)) return end
+      changed(false)
+    end)
+  end)
 end
 
 --- The driver's counts said, the driver stopped (its on_halt leaves the robot safe), then its process ended

@@ -356,6 +356,7 @@ function Run:start_world()
       end
     end
     if self.stopping then return end
+    if ctx.sim then ctx.sim.world:watch_estop(function(ev) self:estop_event(ev) end) end
     self:bring_up()
   end)
 end
@@ -390,6 +391,26 @@ function Run:blackbox(why)
   end)
 end
 
+-- The emergency stop (docs/safety.md, "Emergency stop") pressed or released: req {type = "estop" | "release",
+-- source} to the world (with --sim: it tells each change as an event, Run:estop_event), or to the driver
+-- (--driver). cb(reply {t, already, source}) | cb(nil, err)
+function Run:estop_request(req, cb)
+  local s = self.ctx.sim
+  if s and s.world:connected() then s.world:request(req, 10, cb) return end
+  if not self.ctx.driver then cb(nil, req.type .. ": no robot yet") return end
+  require("dca.launch.driver").estop(self.ctx, req, core.now() - self.t0, function(r, x)
+    if not r then cb(nil, x) return end
+    if x then self:estop_event(x) end
+    cb(r)
+  end)
+end
+
+-- A press or release of the emergency stop: the root supervisor's event (it says the line, and tells the
+-- groups below).
+function Run:estop_event(ev)
+  require("dca.supervisor.requests").estop_event(self.sup, ev, true)
+end
+
 --- Runs the system of `spec` with options `o`, talking through `out` (see the header). --> exit code
 function M.main(spec, o, out)
   local r = setmetatable({ o = o, spec = spec, out = out, followers = {}, t0 = core.now(), trace_lines = {} }, Run)
@@ -402,6 +423,12 @@ function M.main(spec, o, out)
   local function interrupted(sig) r:say("interrupted (SIG" .. tostring(sig) .. "): stopping") r:stop_all(130) end
   core.on_signal(interrupted)
   if o.blackbox then core.on_usr2(function() r:blackbox("SIGUSR2") end) end
+  core.on_usr1(function()
+    r:estop_request({ type = "estop", source = "SIGUSR1" }, function(res, err)
+      if not res then r:say("emergency stop (SIGUSR1): " .. tostring(err)) end
+    end)
+  end)
+  r.sup.estop_hook = function(req, cb) r:estop_request(req, cb) end
   -- one that came between the last start step and on_signal: held since main (bindings/stop_signals.h)
   if core.pending_signal() then core.after(0, function() interrupted(core.pending_signal()) end) end
   r:listen()

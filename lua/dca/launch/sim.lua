@@ -108,6 +108,7 @@ function S:_figures(r, wall, lines)
     lines[#lines + 1] = sformat("second writer refused on %s: %d samples", input, tonumber(r.writers_refused[input]) or 0)
   end
   for _, w in ipairs(r.second_writers or {}) do lines[#lines + 1] = "  " .. tostring(w) end
+  M.estop_lines(r, lines)
   if #self.order == 0 then return end
   lines[#lines + 1] = "steps (simulated time, s):"
   for _, path in ipairs(self.order) do
@@ -115,6 +116,16 @@ function S:_figures(r, wall, lines)
     lines[#lines + 1] = sformat("  %8.3f - %s  %s%s", s.start, s.stop and sformat("%8.3f", s.stop) or "     ...",
       path, s.how and ("  " .. s.how) or "")
   end
+end
+
+--- The emergency stop's lines of the summary (docs/safety.md) from the world's status `r`, added to `lines`.
+function M.estop_lines(r, lines)
+  local e = type(r.estop) == "table" and r.estop or {}
+  if (tonumber(e.presses) or 0) == 0 then return end
+  lines[#lines + 1] = sformat("emergency stop: pressed %d time%s, %d command samples kept from the robot while "
+    .. "latched%s", e.presses, e.presses == 1 and "" or "s", tonumber(e.held_samples) or 0,
+    e.latched and sformat("; still latched (by %s)", tostring(e.source)) or "")
+  for _, l in ipairs(r.estop_log or {}) do lines[#lines + 1] = "  " .. tostring(l) end
 end
 
 --- The end-of-run summary, from the world's status. cb({ lines }, status)

@@ -20,7 +20,8 @@
 -- group's supervision policy; it stops early when the group gives up). Supervision (every wait on a
 -- transition line, from line `from`, default: the lines so far): sys:wait_line(what, pattern, t, from),
 -- sys:wait_restart(path, t, from), sys:wait_escalation(group, t, from); sys:lines_matching(pattern, from). Conditions: sys:wait(what, pred, t),
--- sys:wait_state(path, state, t), sys:wait_read(path, port, pred, t), sys:wait_outcome(t); sys:host(path).
+-- sys:wait_state(path, state, t), sys:wait_read(path, port, pred, t), sys:wait_outcome(t); sys:host(path);
+-- sys:repl(line): a line typed in the root's console (the REPL's commands), its answer.
 -- In the real backend (wall clock) a timeout only bounds a hang (it is stretched, see dca.scenario.real.bound) and
 -- wait_state is met when the process has been in the state since the last run() (from the transition
 -- lines, so a short state is never missed).
@@ -146,6 +147,15 @@ function Shared:host(path)
   local host
   spec_mod.walk(self.spec, function(n) if n.path == path then host = n.host end end)
   return host
+end
+
+--- A line typed in the root supervisor's console (the REPL's commands, dca.supervisor.console). --> its answer
+function Shared:repl(line)
+  self.console = self.console or require("dca.supervisor.console").new(self.sup)
+  local out
+  self.console:eval(line, function(o) out = o end)
+  self:wait("the console's answer to " .. line, function() return out ~= nil end, 30)
+  return out
 end
 
 --- The transition lines after line number `from` (default 0) that match the Lua pattern `pattern`.

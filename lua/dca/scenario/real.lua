@@ -137,6 +137,11 @@ function System:try_up(timeout)
   end
   self.sup = start.tree(ctx, self.world_host)
   self.rt = ctx.rt
+  -- the emergency stop's presses and releases: the root's events (docs/safety.md), as in `dca run`
+  if self.world then
+    local requests = require "dca.supervisor.requests"
+    self.world:watch_estop(function(ev) requests.estop_event(self.sup, ev, true) end)
+  end
   local res = self:_ask(function(k) self.sup:configure(function(ok, cerr) k({ ok, cerr }) end) end, bound(timeout),
     "the start")
   if not res[1] then

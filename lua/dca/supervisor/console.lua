@@ -38,6 +38,8 @@ stats(path)                   a leaf's timers: ticks, the period achieved (p50/p
                                 wall clock), how late ticks started, and overruns (periods skipped); on a
                                 real-time thread its wake latency and execution time (p50/p99/p99.9/max)
 blackbox(why)                 trigger the black box of `dca run --blackbox` now (its file names why)
+estop()                       the emergency stop: every actuator held stopped from the next tick (docs/safety.md)
+release("estop")              release it (it must be named); the commands take effect again from their next sample
 reload()                      re-read the system file (and reload("modules") the supervisor's Lua)
 config.get(key)               the configuration repository of this supervisor's host (replicated to all):
 config.set(key, value)          a value; write one key (or config.set{ key = value, ... }: one transaction)
@@ -194,6 +196,14 @@ local function action_commands(env, c, reload)
     if not (r and r.t) then error("blackbox: " .. tostring(err or (r and r.reason)), 0) end
     return sformat("black box triggered (%s) at %.3f s", msg.why, r.t)
   end
+  -- the emergency stop, through the supervisor's request (the root's hook in `dca run`)
+  local function estop(what, name)
+    local r = await(function(k) sup:handle({ type = what, what = name, source = "REPL" }, k) end)
+    if not r or r.type == "error" then error(tostring(r and r.reason or "no answer"), 0) end
+    return r.text
+  end
+  function env.estop() return estop("estop") end
+  function env.release(name) return estop("release", name) end
   function env.activate(p, label) return set(p, label, "activate") end
   function env.deactivate(p, label) return set(p, label, "deactivate") end
   function env.reload(what)

@@ -95,6 +95,12 @@ M.HANDLERS = {
       end)
     end)
   end,
+  -- the emergency stop (docs/safety.md): pressed or released by a console (the REPL, the monitor) through the
+  -- root's hook (`dca run`: the world, or the driver), else its runtime's world; ok {t, text}
+  estop = function(sup, msg, reply) M.estop(sup, "estop", msg, reply) end,
+  release = function(sup, msg, reply) M.estop(sup, "release", msg, reply) end,
+  -- a press or release, from the parent: remembered, passed on to the child groups
+  estop_event = function(sup, msg, reply) M.estop_event(sup, msg, false) reply({ type = "ok" }) end,
   repl = function(sup, msg, reply)
     local repl = console_of(sup, reply)
     if repl then repl:eval(msg.line or "", function(out, more) reply({ type = "ok", output = out, more = more }) end) end
@@ -104,6 +110,44 @@ M.HANDLERS = {
     if repl then reply({ type = "ok", candidates = repl:complete(msg.prefix or "") }) end
   end,
 }
+
+--- The emergency stop pressed (`what` "estop") or released ("release", msg.what naming "estop") from msg.source.
+function M.estop(sup, what, msg, reply)
+  local req = { type = what, source = tostring(msg.source or "console"), what = msg.what }
+  if what == "release" and req.what ~= "estop" then
+    reply({ type = "error", reason = "release: name what to release: release(\"estop\")" }) return
+  end
+  local function answer(r, err)
+    if not r then reply({ type = "error", reason = tostring(err) }) return end
+    local text = what == "estop" and (r.already and "already pressed by " .. tostring(r.source) or "pressed") or "released"
+    reply({ type = "ok", t = r.t, text = sformat("emergency stop %s at %.3f s", text, tonumber(r.t) or 0) })
+  end
+  if sup.estop_hook then sup.estop_hook(req, answer) return end
+  if not sup.rt.world then reply({ type = "error", reason = what .. ": " .. sup.path .. " reaches no robot" }) return end
+  sup.rt.world(req, sup.timeouts.request, function(r, err) answer(async.outcome(r, err)) end)
+end
+
+--- A press or release of the emergency stop (ev {latched, t, source}): this supervisor's `estop` state, a line
+--- (said at the press's time with `say`: the root; logged by the others), and the same to every child group.
+function M.estop_event(sup, ev, say)
+  sup.estop = { latched = ev.latched and true or false, t = tonumber(ev.t) or 0, source = tostring(ev.source) }
+  local line = sformat("%s: emergency stop %s by %s at %.3f s", sup.path, ev.latched and "pressed" or "released",
+    sup.estop.source, sup.estop.t)
+  if say then
+    sup.event_at = sup.estop.t  -- the line carries the press's time (so it is in the trace too)
+    sup:say(line)
+    sup.event_at = nil
+  else
+    sup:log(line)
+  end
+  for _, c in ipairs(sup.spec.children) do
+    local ch = sup.children[c.name]
+    if c.kind == "group" and ch and ch.handle then
+      ch.handle.request({ type = "estop_event", latched = sup.estop.latched, t = sup.estop.t, source = sup.estop.source },
+        sup.timeouts.request, function() end)
+    end
+  end
+end
 
 --- A request from the parent (or the REPL/`dca run` on the root). reply(msg) answers it.
 function M.handle(sup, msg, reply)

@@ -83,17 +83,7 @@ suite:case("supervise_and_repl_need_their_arguments", function()
   T.ok(rc == 2 or rc == 3)
 end)
 
--- Waits (bounded) until the file at `path` holds `pattern`. --> its text, or nil at the deadline
-local function wait_for(path, pattern, timeout)
-  local deadline = os.time() + timeout
-  repeat
-    local f = io.open(path)
-    local text = f and f:read("a") or ""
-    if f then f:close() end
-    if text:find(pattern) then return text end
-    os.execute("sleep 0.05")
-  until os.time() > deadline
-end
+local wait_for = T.wait_for
 
 suite:case("a_console_opens_on_a_sub_supervisor_and_on_the_root_while_the_system_runs", function()
   local path = tmpfile([[

@@ -37,14 +37,7 @@ local S = require "dca.scenario"
 S.backends = { "real" }
 local DIR, VARIANTS = %q, %q
 local sys = S.system(DIR .. "/live.dca")
-local repl
-local function say(line)
-  repl = repl or require("dca.supervisor.console").new(sys.sup)
-  local out
-  repl:eval(line, function(o) out = o end)
-  sys:wait("the console's answer to " .. line, function() return out ~= nil end, 30)
-  return out
-end
+local function say(line) return sys:repl(line) end
 local function replace(variant)
   local f = assert(io.popen("cp " .. VARIANTS .. "/" .. variant .. "/pkg_ok.dca.so " .. DIR .. "/packages/pkg_ok.dca.so 2>&1"))
   local out = f:read("a")

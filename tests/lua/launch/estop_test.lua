@@ -1,0 +1,128 @@
+-- The emergency stop (docs/safety.md, "Emergency stop"): pressed mid-run at a fixed tick of simulated time by a
+-- button leaf (the world's `estop` input), every actuator reads zero from the next tick; the supervisors see the
+-- press with its source; a release that does not name it is refused, release("estop") in the REPL resumes the
+-- run to DONE; and the trace of two runs is the same, byte for byte. SIGUSR1 to `dca run` presses it too, the
+-- REPL of `dca repl` releases it, and the run's summary says both.
+local T = require "dca.testing"
+local suite = T.suite("estop")
+
+local dca, src = T.exe, T.src
+local WORLD = "mock:" .. src .. "/worlds/ur10/ur10.urdf"
+local SYSTEM = src .. "/tests/lua/launch/systems/estop.dca"
+local JOINTS = { "shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint",
+                 "wrist_3_joint" }
+
+local SCENARIO = [[
+local S = require "dca.scenario"
+S.backends = { "real" }
+local SYSTEM, WORLD, JOINTS = %q, %q, { %s }
+local sys = S.system(SYSTEM, { sim = WORLD, seed = 7 })
+local function say(line) return sys:repl(line) end
+S.step("up and running; time held at 2 s", function()
+  sys:up()
+  sys:world_hold_when(2.0)
+  sys:run()
+  sys:world_wait_held(2.0)
+end)
+S.step("the button latched the stop; every joint is at rest; the root saw it with its source", function()
+  local st = sys:world_status()
+  S.eq(st.estop.latched, true)
+  S.eq(st.estop.source, "input")
+  S.ok(st.estop.held_samples > 0, "the leaves' samples still came: " .. tostring(st.estop.held_samples))
+  for _, j in ipairs(JOINTS) do S.eq(sys:world_read("joint." .. j .. ".velocity")[1], 0, j) end
+  S.eq(#sys:lines_matching("^main: emergency stop pressed by input at 1%%.0%%d%%d s$"), 1)
+  S.eq(sys:state("main.wrist"), "running")
+end)
+S.step("a release must name it; release('estop') in the REPL resumes: both joints reach their targets", function()
+  S.contains(say("release('brakes')"), "name what to release")
+  S.contains(say("release()"), "name what to release")
+  S.contains(say("release('estop')"), "emergency stop released at 2.000 s")
+  S.contains(say("release('estop')"), "not pressed")
+  sys:world_go()
+  local out = sys:wait_outcome(60)
+  S.eq(out.type, "done")
+  S.eq(#sys:lines_matching("^main: emergency stop released by REPL at 2%%.000 s$"), 1)
+end)
+return S.finish()
+]]
+
+-- Runs the scenario with its trace to `trace`. --> output, rc
+local function run(dir, trace)
+  local quoted = {}
+  for i, j in ipairs(JOINTS) do quoted[i] = string.format("%q", j) end
+  local file = T.write(dir .. "/estop.lua", string.format(SCENARIO, SYSTEM, WORLD, table.concat(quoted, ", ")))
+  local out, rc = T.sh("timeout 200 " .. dca .. " scenario --backend real --trace " .. trace .. " " .. file)
+  T.kept_logs(out)
+  return out, rc
+end
+
+suite:case("pressed_at_a_fixed_tick_every_actuator_reads_zero_at_the_next_and_the_trace_repeats", function()
+  local dir = T.tmpdir()
+  local out, rc = run(dir, dir .. "/a.trace")
+  T.eq(rc, 0, "the scenario passes\n" .. out)
+  local trace = T.read(dir .. "/a.trace")
+  local pressed = trace:match("\n(%d+) E world%.estop pressed by=input\n")
+  T.ok(pressed, "the press is in the trace at its tick")
+  T.ok(trace:find("\n2000000000 E world.estop released by=REPL\n", 1, true), "the release at 2 s")
+  -- the world's outputs at the ticks after the press: every joint's velocity 0 from the first
+  local after, seen = nil, {}
+  for tick, line in trace:gmatch("\n(%d+) ([^\n]*)") do
+    local n = tonumber(tick)
+    if n > tonumber(pressed) and n < 2000000000 then
+      after = after or n
+      local j, v = line:match("^D world%.joint%.([%w_]+)%.velocity n=%d+ digest=%d+ value=%[([^%]]+)%]$")
+      if j and n == after then seen[j] = tonumber(v) end
+      if j then T.eq(tonumber(v), 0, line) end
+    end
+  end
+  for _, j in ipairs(JOINTS) do T.eq(seen[j], 0, j .. " at the first tick after the press") end
+  local _, rc2 = run(dir, dir .. "/b.trace")
+  T.eq(rc2, 0)
+  local diff = T.sh(dca .. " trace diff " .. dir .. "/a.trace " .. dir .. "/b.trace")
+  T.ok(T.read(dir .. "/b.trace") == trace, "the trace of a second run is the same:\n" .. diff)
+end)
+
+local wait_for = T.wait_for
+
+-- A joint moving slowly until the REPL ends the run (time paced to the wall clock).
+local SLOW = [[
+process main() {
+  instantiated_processes {
+    wrist instof JointSetpoint("arm", "wrist_1_joint", 0.5, 0.01, "velocity", 0.05, 600);
+    limit instof Timer("arm", 600);
+  }
+  internal_event_actions { wrist # limit }
+}
+]]
+
+suite:case("sigusr1_to_dca_run_presses_it_the_repl_releases_it_and_the_summary_says_both", function()
+  local dir = T.tmpdir()
+  local file, log = T.write(dir .. "/slow.dca", SLOW), dir .. "/run.log"
+  local p = assert(io.popen(dca .. " run " .. file .. " --sim " .. WORLD .. " --realtime > " .. log .. " 2>&1 & echo $!"))
+  local pid = tonumber(p:read("a"):match("%d+"))
+  p:close()
+  local text = wait_for(log, "whole tree is configured", 60)
+  T.ok(text, "dca run came up")
+  local root, key = text:match("console: dca repl main %-%-daemon (%S+) %-%-key (%S+)")
+  T.ok(root and key, text)
+  os.execute("kill -USR1 " .. pid)
+  T.ok(wait_for(log, "main: emergency stop pressed by SIGUSR1 at", 30), "the root says the press and its source")
+  local repl = string.format("%s repl main --daemon %s --key %s", dca, root, key)
+  local out, rc = T.sh("printf '%s\n' 'estop()' 'release(\"estop\")' | " .. repl)
+  T.eq(rc, 0, out)
+  T.contains(out, "emergency stop already pressed by SIGUSR1")
+  T.contains(out, "emergency stop released at")
+  T.ok(wait_for(log, "main: emergency stop released by REPL at", 30), "the root says the release and its source")
+  out, rc = T.sh("printf '%s\n' 'event(\"limit\", \"done\", 1)' | " .. repl)
+  T.eq(rc, 0, out)
+  text = wait_for(log, "emergency stop: pressed 1 time", 60)
+  T.ok(text, "the summary says the stop: " .. tostring(text))
+  local deadline = os.time() + 60
+  while os.execute("kill -0 " .. pid .. " 2>/dev/null") and os.time() <= deadline do os.execute("sleep 0.05") end
+  text = T.read(log)
+  T.ok(text:find("\n  pressed at [%d.]+ s by SIGUSR1\n  released at [%d.]+ s by REPL\n"), text)
+  if os.getenv("ESTOP_SHOW") then print(text) end
+  T.contains(text, "main: DONE")
+end)
+
+return suite:run(...)
