@@ -130,6 +130,22 @@ async function configFromThePage(page) {
   check(shown, 'a configuration value set from the page is written and shown as it changes');
 }
 
+// The robot's emergency stop from the page's buttons (docs/safety.md): pressed, the root's line names the monitor
+// as its source and a second press is no new one; released, the root says so.
+async function estopFromThePage(page) {
+  const said = (re) => until(page, (r) => new RegExp(r).test(document.getElementById('lines').textContent), 20, re);
+  await page.click('#estop');
+  check(await said('main: emergency stop pressed by monitor at [0-9.]+ s'),
+    'the page\'s emergency stop presses the robot\'s stop: the root says it with its source');
+  check(await until(page, () => /^ok: emergency stop pressed at/.test(document.getElementById('reply').textContent), 10),
+    'the page shows the answer');
+  await page.click('#estop');
+  check(await until(page, () => /^ok: emergency stop already pressed by monitor/.test(
+    document.getElementById('reply').textContent), 10), 'a second press is no new one');
+  await page.click('#estop-release');
+  check(await said('main: emergency stop released by monitor at [0-9.]+ s'), 'the page releases it (by its name)');
+}
+
 // `dca monitor PATH --daemon ADDR --key FILE` attached to a running system through its root's console.
 async function attach(browser) {
   const run = spawn(exe, ['run', door, '--sim', 'door', '--realtime'], { stdio: ['ignore', 'pipe', 'pipe'], env: childEnv });
@@ -163,6 +179,7 @@ async function attach(browser) {
       Number(document.getElementById('plot').dataset.samples), 20);
     check(k >= 20, `the attached monitor plots the port ${port} live (${k} samples)`);
     await configFromThePage(page);
+    await estopFromThePage(page);
     await page.screenshot({ path: join(out, 'monitor_attach.png') });
     const exit = new Promise((resolve) => run.on('exit', resolve));
     await page.click('#abort-all');

@@ -28,7 +28,7 @@
 -- coalesced every 50 ms; {type = "samples", topic, name, rows} (host/web); {type = "reply", id, ok, text};
 -- {type = "robot", urdf, frames, topic} (a URDF world's, at open or when known).
 -- Page -> server: {type = "subscribe", topic, rate}, {type = "command", id, cmd = "abort" | "restart" |
--- "event" | "config_set", path, kind, value, key}. A message that is not JSON, or not one of these, is answered
+-- "event" | "config_set" | "estop" | "release", path, kind, value, key, what}. A message that is not JSON, or not one of these, is answered
 -- {type = "error", reason} and counted; the page's connection stays. The token allows these commands and no
 -- more: nothing a page sends is evaluated as code (Lua evaluation needs the cluster key: dca repl).
 local core = require "dca.core"
@@ -274,6 +274,9 @@ local function command_request(m)
     return { type = "inject", path = path, msg = msg }
   end
   if m.cmd == "config_set" and m.key then return config_set(m.key, m.value) end
+  -- the robot's emergency stop (docs/safety.md): the console's requests, the monitor as their source
+  if m.cmd == "estop" then return { type = "estop", source = "monitor" } end
+  if m.cmd == "release" then return { type = "release", what = m.what ~= nil and tostring(m.what) or nil, source = "monitor" } end
   return nil, "unknown command " .. tostring(m.cmd)
 end
 

@@ -357,6 +357,10 @@
     }
   });
 
+  // The robot's emergency stop (docs/safety.md): pressed, or released (a command that names it).
+  $('estop').addEventListener('click', () => command({ cmd: 'estop' }));
+  $('estop-release').addEventListener('click', () => command({ cmd: 'release', what: 'estop' }));
+
   // ------------------------------------------------------------------------------------------ robot (3D)
 
   // A URDF world's robot: its URDF and frames; its link frames subscribed to (live: samples; replay: the rows).
