@@ -34,6 +34,14 @@ inline void result(std::string_view bench, std::string_view variant, std::vector
   std::fflush(stdout);
 }
 
+/// result() for per-call samples of nanoseconds' size: 4 decimals, and the median in ns (" p50_ns=37.4").
+inline void result_ns(std::string_view bench, std::string_view variant, std::vector<double>& us) {
+  std::sort(us.begin(), us.end());
+  char extra[48];
+  std::snprintf(extra, sizeof extra, " p50_ns=%.1f", quantile(us, 0.5) * 1000);
+  result(bench, variant, us, extra, 4);
+}
+
 /// A path in $TMPDIR (else /tmp) that is this process's own: <temp>/<stem>-<pid>. The benchmark removes it.
 inline std::string temp_path(std::string_view stem) {
   const char* tmp = std::getenv("TMPDIR");

@@ -72,13 +72,6 @@ double batch(dca::Controller& c, bool fresh) {
   return std::chrono::duration<double, std::micro>(t1 - t0).count() / kCalls;
 }
 
-void print(const char* variant, std::vector<double>& us) {
-  std::sort(us.begin(), us.end());
-  char extra[48];
-  std::snprintf(extra, sizeof extra, " p50_ns=%.1f", dca::bench::quantile(us, 0.5) * 1000);
-  dca::bench::result("port_read", variant, us, extra, 4);
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -92,8 +85,8 @@ int main(int argc, char** argv) {
       a.push_back(batch(*now, fresh));
       b.push_back(batch(*old, fresh));
     }
-    print(fresh ? "new_fresh" : "new_stale", a);
-    print(fresh ? "old_fresh" : "old_stale", b);
+    dca::bench::result_ns("port_read", fresh ? "new_fresh" : "new_stale", a);
+    dca::bench::result_ns("port_read", fresh ? "old_fresh" : "old_stale", b);
   }
   return 0;
 }

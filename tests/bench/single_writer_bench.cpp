@@ -63,13 +63,6 @@ double batch(Setup& s, bool two) {
   return std::chrono::duration<double, std::micro>(t1 - t0).count() / kTicks;
 }
 
-void print(const char* variant, std::vector<double>& us) {
-  std::sort(us.begin(), us.end());
-  char extra[48];
-  std::snprintf(extra, sizeof extra, " p50_ns=%.1f", dca::bench::quantile(us, 0.5) * 1000);
-  dca::bench::result("single_writer", variant, us, extra, 4);
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -81,9 +74,9 @@ int main(int argc, char** argv) {
     b.push_back(batch(exclusive, false));
     c.push_back(batch(refusing, true));
   }
-  print("open", a);
-  print("exclusive", b);
-  print("exclusive_refused", c);
+  dca::bench::result_ns("single_writer", "open", a);
+  dca::bench::result_ns("single_writer", "exclusive", b);
+  dca::bench::result_ns("single_writer", "exclusive_refused", c);
   std::fprintf(stderr, "refused %llu samples (expected %llu); checksum %.3f\n",
                static_cast<unsigned long long>(refusing.refused),
                static_cast<unsigned long long>(batches) * kTicks, open.sum + exclusive.sum + refusing.sum);
