@@ -125,4 +125,38 @@ suite:case("sigusr1_to_dca_run_presses_it_the_repl_releases_it_and_the_summary_s
   T.contains(text, "main: DONE")
 end)
 
+-- On a driver (--driver, wall clock): the press stops the driver's controller (its halt leaves the robot safe),
+-- the release runs it again; the root says both with their sources.
+suite:case("on_a_driver_the_press_stops_it_and_the_release_runs_it_again", function()
+  local dir = T.tmpdir()
+  local file = T.write(dir .. "/wait.dca", [[
+process main() {
+  instantiated_processes { limit instof Timer("h1", 600); }
+  internal_event_actions { limit }
+}
+]])
+  local log = dir .. "/run.log"
+  local p = assert(io.popen(dca .. " run " .. file .. " --driver 'Counter(\"h1\", 0.01)' > " .. log .. " 2>&1 & echo $!"))
+  local pid = tonumber(p:read("a"):match("%d+"))
+  p:close()
+  local text = wait_for(log, "whole tree is configured", 60)
+  T.ok(text, "dca run came up")
+  local root, key = text:match("console: dca repl main %-%-daemon (%S+) %-%-key (%S+)")
+  os.execute("kill -USR1 " .. pid)
+  T.ok(wait_for(log, "main: emergency stop pressed by SIGUSR1 at", 30), "the root says the press")
+  local repl = string.format("%s repl main --daemon %s --key %s", dca, root, key)
+  local out, rc = T.sh("printf '%s\n' 'estop()' 'release(\"estop\")' 'release(\"estop\")' | " .. repl)
+  T.eq(rc, 0, out)
+  T.contains(out, "emergency stop already pressed by SIGUSR1")
+  T.contains(out, "emergency stop released at")
+  T.contains(out, "not pressed")
+  T.ok(wait_for(log, "main: emergency stop released by REPL at", 30), "the root says the release")
+  T.sh("printf '%s\n' 'event(\"limit\", \"done\", 1)' | " .. repl)
+  local deadline = os.time() + 60
+  while os.execute("kill -0 " .. pid .. " 2>/dev/null") and os.time() <= deadline do os.execute("sleep 0.05") end
+  text = T.read(log)
+  T.contains(text, "main: DONE")
+  T.ok(not text:find("the robot process was lost", 1, true), text)
+end)
+
 return suite:run(...)
