@@ -138,6 +138,21 @@ function M.wait_for(path, pattern, timeout)
   until os.time() > deadline
 end
 
+--- Starts the shell command `cmd` in the background, its output (both streams) to the file `log`. --> its pid
+function M.background(cmd, log)
+  local p = assert(io.popen(cmd .. " > " .. log .. " 2>&1 & echo $!"))
+  local pid = tonumber(p:read("a"):match("%d+"))
+  p:close()
+  return pid
+end
+
+--- Waits (bounded: `timeout` s of wall-clock time) until the process `pid` has exited. --> whether it has
+function M.wait_exit(pid, timeout)
+  local deadline = os.time() + timeout
+  while os.execute("kill -0 " .. pid .. " 2>/dev/null") and os.time() <= deadline do os.execute("sleep 0.05") end
+  return not os.execute("kill -0 " .. pid .. " 2>/dev/null")
+end
+
 --- The folder of the file that calls it (a test's own folder, for the files beside it).
 function M.here()
   return debug.getinfo(2, "S").source:match("^@(.*)/[^/]*$") or "."

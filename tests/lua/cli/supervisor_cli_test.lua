@@ -98,9 +98,7 @@ process main() {
 }
 ]])
   local log = path .. ".log"
-  local p = assert(io.popen(dca .. " run " .. path .. " > " .. log .. " 2>&1 & echo $!"))
-  local pid = tonumber(p:read("a"):match("%d+"))
-  p:close()
+  local pid = T.background(dca .. " run " .. path, log)
   local text = wait_for(log, "whole tree is configured", 60)
   T.ok(text, "dca run came up")
   local h2 = text:match("host h2: daemon at (%S+)")
@@ -138,9 +136,7 @@ process main() {
   T.contains(out, "Timer@h1")
   os.execute("kill -INT " .. pid)
   T.ok(wait_for(log, "interrupted", 10), "dca run stops on SIGINT")
-  local deadline = os.time() + 60
-  while os.execute("kill -0 " .. pid .. " 2>/dev/null") and os.time() <= deadline do os.execute("sleep 0.05") end
-  T.ok(not os.execute("kill -0 " .. pid .. " 2>/dev/null"), "dca run exited")
+  T.ok(T.wait_exit(pid, 60), "dca run exited")
   os.remove(path) os.remove(log)
 end)
 

@@ -84,6 +84,19 @@ end)
 
 local wait_for = T.wait_for
 
+-- `dca run ARGS` in the background (its output to `log`), up, then SIGUSR1 to it and its press said by the
+-- root. --> its pid, the command of a console on its root (`dca repl main ...`)
+local function pressed(args, log)
+  local pid = T.background(dca .. " run " .. args, log)
+  local text = wait_for(log, "whole tree is configured", 60)
+  T.ok(text, "dca run came up")
+  local root, key = text:match("console: dca repl main %-%-daemon (%S+) %-%-key (%S+)")
+  T.ok(root and key, text)
+  os.execute("kill -USR1 " .. pid)
+  T.ok(wait_for(log, "main: emergency stop pressed by SIGUSR1 at", 30), "the root says the press and its source")
+  return pid, string.format("%s repl main --daemon %s --key %s", dca, root, key)
+end
+
 -- A joint moving slowly until the REPL ends the run (time paced to the wall clock).
 local SLOW = [[
 process main() {
@@ -97,17 +110,8 @@ process main() {
 
 suite:case("sigusr1_to_dca_run_presses_it_the_repl_releases_it_and_the_summary_says_both", function()
   local dir = T.tmpdir()
-  local file, log = T.write(dir .. "/slow.dca", SLOW), dir .. "/run.log"
-  local p = assert(io.popen(dca .. " run " .. file .. " --sim " .. WORLD .. " --realtime > " .. log .. " 2>&1 & echo $!"))
-  local pid = tonumber(p:read("a"):match("%d+"))
-  p:close()
-  local text = wait_for(log, "whole tree is configured", 60)
-  T.ok(text, "dca run came up")
-  local root, key = text:match("console: dca repl main %-%-daemon (%S+) %-%-key (%S+)")
-  T.ok(root and key, text)
-  os.execute("kill -USR1 " .. pid)
-  T.ok(wait_for(log, "main: emergency stop pressed by SIGUSR1 at", 30), "the root says the press and its source")
-  local repl = string.format("%s repl main --daemon %s --key %s", dca, root, key)
+  local log = dir .. "/run.log"
+  local pid, repl = pressed(T.write(dir .. "/slow.dca", SLOW) .. " --sim " .. WORLD .. " --realtime", log)
   local out, rc = T.sh("printf '%s\n' 'estop()' 'release(\"estop\")' | " .. repl)
   T.eq(rc, 0, out)
   T.contains(out, "emergency stop already pressed by SIGUSR1")
@@ -115,13 +119,10 @@ suite:case("sigusr1_to_dca_run_presses_it_the_repl_releases_it_and_the_summary_s
   T.ok(wait_for(log, "main: emergency stop released by REPL at", 30), "the root says the release and its source")
   out, rc = T.sh("printf '%s\n' 'event(\"limit\", \"done\", 1)' | " .. repl)
   T.eq(rc, 0, out)
-  text = wait_for(log, "emergency stop: pressed 1 time", 60)
-  T.ok(text, "the summary says the stop: " .. tostring(text))
-  local deadline = os.time() + 60
-  while os.execute("kill -0 " .. pid .. " 2>/dev/null") and os.time() <= deadline do os.execute("sleep 0.05") end
-  text = T.read(log)
-  T.ok(text:find("\n  pressed at [%d.]+ s by SIGUSR1\n  released at [%d.]+ s by REPL\n"), text)
-  if os.getenv("ESTOP_SHOW") then print(text) end
+  T.ok(T.wait_exit(pid, 60), "dca run ended")
+  local text = T.read(log)
+  T.ok(text:find("\nemergency stop: pressed 1 time, %d+ command samples kept from the robot while latched\n"
+    .. "  pressed at [%d.]+ s by SIGUSR1\n  released at [%d.]+ s by REPL\n"), text)
   T.contains(text, "main: DONE")
 end)
 
@@ -136,15 +137,7 @@ process main() {
 }
 ]])
   local log = dir .. "/run.log"
-  local p = assert(io.popen(dca .. " run " .. file .. " --driver 'Counter(\"h1\", 0.01)' > " .. log .. " 2>&1 & echo $!"))
-  local pid = tonumber(p:read("a"):match("%d+"))
-  p:close()
-  local text = wait_for(log, "whole tree is configured", 60)
-  T.ok(text, "dca run came up")
-  local root, key = text:match("console: dca repl main %-%-daemon (%S+) %-%-key (%S+)")
-  os.execute("kill -USR1 " .. pid)
-  T.ok(wait_for(log, "main: emergency stop pressed by SIGUSR1 at", 30), "the root says the press")
-  local repl = string.format("%s repl main --daemon %s --key %s", dca, root, key)
+  local pid, repl = pressed(file .. " --driver 'Counter(\"h1\", 0.01)'", log)
   local out, rc = T.sh("printf '%s\n' 'estop()' 'release(\"estop\")' 'release(\"estop\")' | " .. repl)
   T.eq(rc, 0, out)
   T.contains(out, "emergency stop already pressed by SIGUSR1")
@@ -152,9 +145,8 @@ process main() {
   T.contains(out, "not pressed")
   T.ok(wait_for(log, "main: emergency stop released by REPL at", 30), "the root says the release")
   T.sh("printf '%s\n' 'event(\"limit\", \"done\", 1)' | " .. repl)
-  local deadline = os.time() + 60
-  while os.execute("kill -0 " .. pid .. " 2>/dev/null") and os.time() <= deadline do os.execute("sleep 0.05") end
-  text = T.read(log)
+  T.ok(T.wait_exit(pid, 60), "dca run ended")
+  local text = T.read(log)
   T.contains(text, "main: DONE")
   T.ok(not text:find("the robot process was lost", 1, true), text)
 end)
