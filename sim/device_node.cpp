@@ -470,7 +470,9 @@ struct DeviceNode::Impl {
       return ch->reply(m, Value::map().set("t", estop.t)), true;
     }
     if (m.type != "estop_watch") return false;
-    estop.watchers.push_back(ch);
+    const bool known = std::any_of(estop.watchers.begin(), estop.watchers.end(),
+                                   [&](const std::weak_ptr<Channel>& w) { return w.lock() == ch; });
+    if (!known) estop.watchers.push_back(ch);  // once per channel
     return ch->reply(m, Value::map().set("latched", estop.latched).set("t", estop.t).set("source", estop.source)), true;
   }
 

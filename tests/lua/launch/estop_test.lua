@@ -1,8 +1,9 @@
 -- The emergency stop (docs/safety.md, "Emergency stop"): pressed mid-run at a fixed tick of simulated time by a
 -- button leaf (the world's `estop` input), every actuator reads zero from the next tick; the supervisors see the
--- press with its source; a release that does not name it is refused, release("estop") in the REPL resumes the
--- run to DONE; and the trace of two runs is the same, byte for byte. SIGUSR1 to `dca run` presses it too, the
--- REPL of `dca repl` releases it, and the run's summary says both.
+-- press with its source; a release that does not name it is refused, and so is one while the button is held;
+-- release("estop") in the REPL then resumes the run to DONE; and the trace of two runs is the same, byte for
+-- byte. SIGUSR1 to `dca run` presses it too, the REPL of `dca repl` releases it, and the run's summary says
+-- both; on a driver, the press stops the driver and the release runs it again.
 local T = require "dca.testing"
 local suite = T.suite("estop")
 
@@ -33,15 +34,20 @@ S.step("the button latched the stop; every joint is at rest; the root saw it wit
   S.eq(#sys:lines_matching("^main: emergency stop pressed by input at 1%%.0%%d%%d s$"), 1)
   S.eq(sys:state("main.wrist"), "running")
 end)
-S.step("a release must name it; release('estop') in the REPL resumes: both joints reach their targets", function()
+S.step("a release must name it, and is refused while the button is still held", function()
   S.contains(say("release('brakes')"), "name what to release")
   S.contains(say("release()"), "name what to release")
-  S.contains(say("release('estop')"), "emergency stop released at 2.000 s")
+  S.contains(say("release('estop')"), "the emergency stop's input world.estop still reads pressed")
+  S.eq(sys:world_status().estop.latched, true)
+end)
+S.step("the button let go: release('estop') in the REPL at 3 s resumes, both joints reach their targets", function()
+  sys:world_hold_at(3.0)
+  S.contains(say("release('estop')"), "emergency stop released at 3.000 s")
   S.contains(say("release('estop')"), "not pressed")
   sys:world_go()
   local out = sys:wait_outcome(60)
   S.eq(out.type, "done")
-  S.eq(#sys:lines_matching("^main: emergency stop released by REPL at 2%%.000 s$"), 1)
+  S.eq(#sys:lines_matching("^main: emergency stop released by REPL at 3%%.000 s$"), 1)
 end)
 return S.finish()
 ]]
@@ -63,12 +69,12 @@ suite:case("pressed_at_a_fixed_tick_every_actuator_reads_zero_at_the_next_and_th
   local trace = T.read(dir .. "/a.trace")
   local pressed = trace:match("\n(%d+) E world%.estop pressed by=input\n")
   T.ok(pressed, "the press is in the trace at its tick")
-  T.ok(trace:find("\n2000000000 E world.estop released by=REPL\n", 1, true), "the release at 2 s")
+  T.ok(trace:find("\n3000000000 E world.estop released by=REPL\n", 1, true), "the release at 3 s")
   -- the world's outputs at the ticks after the press: every joint's velocity 0 from the first
   local after, seen = nil, {}
   for tick, line in trace:gmatch("\n(%d+) ([^\n]*)") do
     local n = tonumber(tick)
-    if n > tonumber(pressed) and n < 2000000000 then
+    if n > tonumber(pressed) and n < 3000000000 then
       after = after or n
       local j, v = line:match("^D world%.joint%.([%w_]+)%.velocity n=%d+ digest=%d+ value=%[([^%]]+)%]$")
       if j and n == after then seen[j] = tonumber(v) end
