@@ -630,4 +630,26 @@ suite:case("an_unknown_request_is_refused_naming_the_requests_there_are", functi
   T.eq(r, { type = "ok", path = "main", state = "new" })
 end)
 
+-- The emergency stop (docs/safety.md): the root's event is kept and said with its source, and reaches every group
+-- below; a console's press with no robot to reach, or a release that does not name it, is refused.
+suite:case("an_emergency_stop_reaches_every_group_below_the_root_with_its_source", function()
+  local c = running(door())
+  local requests = require "dca.supervisor.requests"
+  requests.estop_event(c.root_sup, { latched = true, t = 1.5, source = "SIGUSR1" }, true)
+  c:settle()
+  for _, path in ipairs({ "main", "main.door", "main.door.mc", "main.door.hitg" }) do
+    T.eq(c.sups[path].estop, { latched = true, t = 1.5, source = "SIGUSR1" }, path)
+  end
+  T.eq(index_of(c.lines, "main: emergency stop pressed by SIGUSR1 at 1.500 s") ~= nil, true, "said by the root")
+  T.eq(index_of(c.sups["main.door"]:recent(5), "main.door: emergency stop pressed by SIGUSR1") ~= nil, true,
+    "in the group's log")
+  local r
+  c.root_sup:handle({ type = "estop", source = "REPL" }, function(m) r = m end)
+  c:settle()
+  T.eq(r.type, "error")
+  T.contains(r.reason, "no process is registered as `world`")
+  c.root_sup:handle({ type = "release", what = "brakes" }, function(m) r = m end)
+  T.eq(r, { type = "error", reason = 'release: name what to release: release("estop")' })
+end)
+
 return suite:run(...)
