@@ -397,7 +397,8 @@ end
 function Run:estop_request(req, cb)
   local s = self.ctx.sim
   if s and s.world:connected() then s.world:request(req, 10, cb) return end
-  if not self.ctx.driver then cb(nil, req.type .. ": no robot yet") return end
+  if not (self.o.sim or self.o.driver) then cb(nil, req.type .. ": this run has no robot (neither --sim nor --driver)") return end
+  if not self.ctx.driver then cb(nil, req.type .. ": the robot is not up yet") return end
   require("dca.launch.driver").estop(self.ctx, req, core.now() - self.t0, function(r, x)
     if not r then cb(nil, x) return end
     if x then self:estop_event(x) end
