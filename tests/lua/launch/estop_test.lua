@@ -2,8 +2,8 @@
 -- button leaf (the world's `estop` input), every actuator reads zero from the next tick; the supervisors see the
 -- press with its source; a release that does not name it is refused, and so is one while the button is held;
 -- release("estop") in the REPL then resumes the run to DONE; and the trace of two runs is the same, byte for
--- byte. SIGUSR1 to `dca run` presses it too, the REPL of `dca repl` releases it, and the run's summary says
--- both; on a driver, the press stops the driver and the release runs it again.
+-- byte. SIGUSR1 to `dca run` presses it too (and triggers the black box), the REPL of `dca repl` releases it,
+-- and the run's summary says both; on a driver, the press stops the driver and the release runs it again.
 local T = require "dca.testing"
 local suite = T.suite("estop")
 
@@ -117,7 +117,8 @@ process main() {
 suite:case("sigusr1_to_dca_run_presses_it_the_repl_releases_it_and_the_summary_says_both", function()
   local dir = T.tmpdir()
   local log = dir .. "/run.log"
-  local pid, repl = pressed(T.write(dir .. "/slow.dca", SLOW) .. " --sim " .. WORLD .. " --realtime", log)
+  local pid, repl = pressed(T.write(dir .. "/slow.dca", SLOW) .. " --sim " .. WORLD .. " --realtime --record " .. dir
+    .. "/box.mcap --blackbox 1,0.5", log)
   local out, rc = T.sh("printf '%s\n' 'estop()' 'release(\"estop\")' | " .. repl)
   T.eq(rc, 0, out)
   T.contains(out, "emergency stop already pressed by SIGUSR1")
@@ -130,6 +131,7 @@ suite:case("sigusr1_to_dca_run_presses_it_the_repl_releases_it_and_the_summary_s
   T.ok(text:find("\nemergency stop: pressed 1 time, %d+ command samples kept from the robot while latched\n"
     .. "  pressed at [%d.]+ s by SIGUSR1\n  released at [%d.]+ s by REPL\n"), text)
   T.contains(text, "main: DONE")
+  T.ok(text:find("box%-1%.mcap: emergency stop by SIGUSR1 at [%d.]+ s"), "the press triggered the black box: " .. text)
 end)
 
 -- On a driver (--driver, wall clock): the press stops the driver's controller (its halt leaves the robot safe),
