@@ -176,6 +176,26 @@ TEST(RobotWorldTest, AnEmergencyStopHoldsEveryActuatorStoppedUntilItsRelease) {
   EXPECT_EQ(w->interfaces().counts(input(*w, "joint.wrist_1_joint.velocity_command")).stale, 0u);
 }
 
+// The same in the Simbody world: from the step after the press its servos' commands in force are the stopped
+// ones (velocity zero, the position where the joint was), whatever was commanded; the wrist comes to rest.
+TEST(RobotWorldTest, AnEmergencyStopDrivesTheSimbodyServosToRest) {
+  auto w = dca::sim::make_robot_world(kUr10, 1e-3);
+  send(*w, "joint.wrist_1_joint.velocity_command", 1.0);
+  send(*w, "joint.elbow_joint.position_command", 1.0);
+  steps(*w, 50);
+  const std::size_t wrist = 3, elbow = 2;  // the UR10's joints in URDF order
+  ASSERT_EQ(w->description().joints[wrist].name, "wrist_1_joint");
+  ASSERT_EQ(w->description().joints[elbow].name, "elbow_joint");
+  const double q_elbow = read(*w, "joint.elbow_joint.position");
+  EXPECT_GT(read(*w, "joint.wrist_1_joint.velocity"), 0.3);  // moving at the press
+  w->estop(true);
+  w->step();
+  EXPECT_EQ(w->interfaces().drive(wrist).value, 0.0);
+  EXPECT_EQ(w->interfaces().drive(elbow).value, q_elbow);
+  steps(*w, 300);
+  EXPECT_LT(std::abs(read(*w, "joint.wrist_1_joint.velocity")), 0.01);  // at rest within 0.3 s
+}
+
 TEST(RobotWorldTest, MockMirrorsCommandsThroughItsLagAndIgnoresDeadDrives) {
   auto w = dca::sim::make_robot_world("mock:" + kUr10, 1e-3);
   send(*w, "joint.wrist_2_joint.position_command", 0.3);
