@@ -139,11 +139,16 @@ async function estopFromThePage(page) {
     'the page\'s emergency stop presses the robot\'s stop: the root says it with its source');
   check(await until(page, () => /^ok: emergency stop pressed at/.test(document.getElementById('reply').textContent), 10),
     'the page shows the answer');
+  check(await until(page, () => !document.getElementById('estop-state').hidden &&
+    /^EMERGENCY STOP \(monitor, [0-9.]+ s\)$/.test(document.getElementById('estop-state').textContent), 10),
+    'the header shows the stop latched, with its source');
   await page.click('#estop');
   check(await until(page, () => /^ok: emergency stop already pressed by monitor/.test(
     document.getElementById('reply').textContent), 10), 'a second press is no new one');
   await page.click('#estop-release');
   check(await said('main: emergency stop released by monitor at [0-9.]+ s'), 'the page releases it (by its name)');
+  check(await until(page, () => document.getElementById('estop-state').hidden &&
+    document.body.dataset.estop === 'released', 10), 'the header no longer shows it');
 }
 
 // `dca monitor PATH --daemon ADDR --key FILE` attached to a running system through its root's console.

@@ -16,7 +16,8 @@
     mode: 'live', nodes: new Map(), order: [], kids: new Map(), exprs: {}, events: [], config: new Map(),
     lines: [], topics: new Map(), series: new Map(), t: 0, viewT: 0, expanded: new Set(), collapsed: new Set(),
     replayStates: null, plot: { topic: '', fields: [], rows: [], received: 0 }, playing: false, ws: null,
-    nextId: 1, dirty: { tree: true, states: true, exprs: true, timeline: true, plot: true, config: true, lines: true,
+    nextId: 1, estop: null,
+    dirty: { tree: true, states: true, exprs: true, timeline: true, plot: true, config: true, lines: true,
       rt: true },
   };
 
@@ -44,6 +45,7 @@
     S.events = arr(m.events);
     arr(m.config).forEach((c) => S.config.set(c.key, c));
     S.lines = arr(m.lines);
+    S.estop = estopOf(S.lines, null);
     setTopics(arr(m.topics));
     S.t = m.t || 0;
     if (S.mode === 'replay') replayRange();
@@ -58,6 +60,7 @@
     evs.forEach((e) => S.events.push(e));
     arr(m.config).forEach((c) => { S.config.set(c.key, Object.assign({ changed: Date.now() }, c)); });
     arr(m.lines).forEach((l) => S.lines.push(l));
+    S.estop = estopOf(arr(m.lines), S.estop);  // (kept apart: the lines are cut to the last 300)
     if (S.lines.length > 300) S.lines.splice(0, S.lines.length - 300);
     if (m.topics) setTopics(arr(m.topics));
     S.t = Math.max(S.t, m.t || 0);
@@ -335,9 +338,27 @@
     }).join('');
   }
 
+  // The robot's emergency stop as the root said it last (docs/safety.md): `main: emergency stop pressed by SOURCE
+  // at T s` (or released), among `lines`; the last state before them when none is there.
+  function estopOf(lines, before) {
+    let e = before;
+    for (const l of lines) {
+      const m = /^([^ .:]+): emergency stop (pressed|released) by (.*) at ([0-9.]+) s$/.exec(String(l.line));
+      if (m) e = { latched: m[2] === 'pressed', source: m[3], t: m[4] };
+    }
+    return e;
+  }
+
+  function renderEstop(e) {
+    $('estop-state').hidden = !(e && e.latched);
+    $('estop-state').textContent = e && e.latched ? `EMERGENCY STOP (${e.source}, ${e.t} s)` : '';
+    document.body.dataset.estop = e && e.latched ? 'latched' : 'released';
+  }
+
   function renderLines() {
     const T = viewTime();
     const lines = S.mode === 'replay' ? S.lines.filter((l) => l.t <= T).slice(-300) : S.lines;
+    renderEstop(S.mode === 'replay' ? estopOf(S.lines.filter((l) => l.t <= T), null) : S.estop);
     const pre = $('lines');
     pre.textContent = lines.map((l) => `[${Number(l.t).toFixed(3)}] ${l.line}`).join('\n');
     pre.scrollTop = pre.scrollHeight;
