@@ -19,7 +19,8 @@ local traceback = debug.traceback
 
 local HELP = [[
 tree()                        the whole tree: each process with its state and host, how often it was
-                              restarted, and each policy's budget ([strategy: used/intensity in T s used])
+                              restarted, and each policy's budget ([strategy: used/intensity in T s used]);
+                              the robot's emergency stop while latched
 status(path)                  one process: kind, type, host, state
 expr(path)                    a group's expression, running operands marked *X*
 log(n)                        the last n events and commands of this supervisor (default 20)
@@ -75,6 +76,8 @@ local function render_tree(node, out, depth)
     extra = extra .. sformat("  [%s: %d/%d in %g s used, %d restarts%s]", pol.strategy, pol.used, pol.intensity,
       pol.within, pol.total, pol.escalated and ", escalated" or "")
   end
+  local e = depth == 0 and node.estop
+  if e and e.latched then extra = extra .. sformat("  [EMERGENCY STOP by %s at %.3f s]", e.source, e.t) end
   out[#out + 1] = sformat("%-30s %-6s %-28s %s%s", name, node.kind, node.type .. "@" .. tostring(node.host),
     tostring(node.state), extra)
   for _, c in ipairs(node.children or {}) do render_tree(c, out, depth + 1) end

@@ -770,10 +770,12 @@ function Sup:policy_status()
            total = self.restarts_total or 0, escalated = self.escalated or false }
 end
 
---- The tree below this group: { path, kind, type, host, state, children = {...}, expr = rendered }. Async.
+--- The tree below this group: { path, kind, type, host, state, children = {...}, expr = rendered, estop =
+--- {latched, t, source} (the emergency stop as this group last heard of it: dca.supervisor.requests) }. Async.
 function Sup:tree(cb)
   local node = { path = self.path, kind = "group", type = self.spec.type, host = self.spec.host, state = self.state,
-                 expr = self.run and self.run:render() or self.spec.expr, children = {}, policy = self:policy_status() }
+                 expr = self.run and self.run:render() or self.spec.expr, children = {}, policy = self:policy_status(),
+                 estop = self.estop }
   local j = async.join(function() cb(node) end)
   for i, c in ipairs(self.spec.children) do
     local ch = self.children[c.name]

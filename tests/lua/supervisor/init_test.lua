@@ -643,6 +643,10 @@ suite:case("an_emergency_stop_reaches_every_group_below_the_root_with_its_source
   T.eq(index_of(c.lines, "main: emergency stop pressed by SIGUSR1 at 1.500 s") ~= nil, true, "said by the root")
   T.eq(index_of(c.sups["main.door"]:recent(5), "main.door: emergency stop pressed by SIGUSR1") ~= nil, true,
     "in the group's log")
+  local tree
+  c.sups["main.door"]:tree(function(t) tree = t end)
+  c:settle()
+  T.contains(require("dca.supervisor.console").render_tree(tree, {})[1], "[EMERGENCY STOP by SIGUSR1 at 1.500 s]")
   local r
   c.root_sup:handle({ type = "estop", source = "REPL" }, function(m) r = m end)
   c:settle()
