@@ -44,6 +44,7 @@ const std::map<std::string, std::vector<std::string>>& arguments() {
       {"GripperControl", {"close"}},
       {"Pid", {"1.0", "2.0"}},
       {"JointSetpoint", {"a", "1.0"}},
+      {"EStopButton", {"100"}},
       {"JointPD", {"a b", "100", "10", "effort", "0.01", "1.0", "-1.0"}},
       {"JointTrajectory", {"a b", "0.01", "position", "2", "20", "0.01", "1.0", "0.5", "0.5", "2.0", "1.0", "1.0"}},
   };
