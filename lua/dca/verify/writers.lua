@@ -30,6 +30,9 @@ local function runs(leaf) return { group = leaf.parent, name = leaf.name } end
 -- The condition under which connection c's set is active: its owner runs with its label.
 local function active(c) return { group = c.group, name = c.owner .. "[" .. c.label .. "]" } end
 
+-- The robot's emergency stop (docs/safety.md): an input, not an actuator; any number of buttons may press it.
+local ESTOP = "estop"
+
 -- The device command inputs: signal -> { writers }, each { who = "PATH.PORT", leaf, conds }.
 local function device_writers(tree, inputs, order)
   model.walk(tree, function(n)
@@ -37,7 +40,7 @@ local function device_writers(tree, inputs, order)
     for _, p in ipairs(n.manifest.outputs or {}) do
       if p.device and p.device ~= "" then
         local signal = ports.device_signal(p.device, n.manifest.params, n.params)
-        if signal then
+        if signal and signal ~= ESTOP then
           local key = "world." .. signal
           if not inputs[key] then inputs[key] = { name = key, writers = {}, device = true } order[#order + 1] = key end
           local list = inputs[key].writers

@@ -117,6 +117,18 @@ suite:case("the_door_system_and_the_ur10_example_have_one_writer_per_actuator", 
   T.ok(dca and text)
 end)
 
+-- (c never runs: the laser never ends; a dead button is no dead actuator either)
+suite:case("emergency_stop_buttons_are_no_writers_of_an_actuator", function()
+  local _, out = verified([[
+process main() {
+  instantiated_processes { a instof EStopButton("arm", 1.0); b instof EStopButton("arm", 2.0);
+                           c instof EStopButton("arm", 3.0); laser instof LaserSensor("arm"); }
+  internal_event_actions { (a , b) ; (laser ; c) }
+}
+]])
+  T.ok(not out:find("two writers", 1, true) and not out:find("dead actuator", 1, true), out)
+end)
+
 suite:case("dead_command_paths_and_dead_actuators_are_reported", function()
   local _, out = verified(T.read(golden .. "writers_dead.dca"), "writers_dead.dca")
   T.contains(out, "FINDING dead command path: main.src.Out -> main.drive.Vel (set main:src[lbl1]) never reaches " ..
