@@ -1,0 +1,364 @@
+// The package ros2 (docs/ros2.md): ros2_bridge alone (dca/testing/controller.h) against DDS peers on loopback:
+// the table, samples both ways, the graph (ros_discovery_info), and the discovery traffic as tshark reads it.
+// Each test uses a domain id of its own process (the port numbers follow from it), so parallel runs do not meet.
+#include <dca/testing/controller.h>
+
+#include <gtest/gtest.h>
+
+#include <dds/dds.h>
+
+#include <arpa/inet.h>
+#include <fcntl.h>
+#include <netinet/in.h>
+#include <poll.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdlib>
+#include <stdexcept>
+#include <string>
+#include <thread>
+
+#include "bridge.h"
+#include "dds.h"
+#include "graph.h"
+
+namespace {
+
+using dca::msgs::JointState;
+using dca::msgs::Twist;
+using dca::ros2::Endpoint;
+using dca::ros2::Participant;
+using dca::ros2::Ros2Bridge;
+using dca::testing::ControllerUnderTest;
+using Clock = std::chrono::steady_clock;
+
+constexpr auto kPatience = std::chrono::seconds(20);  // a deadline against a hang, never a timing assertion
+
+std::string test_domain() { return std::to_string(100 + getpid() % 100); }
+
+dca::ros2::ParticipantOptions loopback() {
+  return {.domain = static_cast<std::uint32_t>(std::stoi(test_domain())), .interface = "lo", .peers = "127.0.0.1"};
+}
+
+// Waits (with a deadline) until `entity` (a writer or a reader) has matched a peer.
+bool matched(dds_entity_t entity, bool writer) {
+  const auto deadline = Clock::now() + kPatience;
+  while (Clock::now() < deadline) {
+    std::int32_t count = 0;
+    if (writer) {
+      dds_publication_matched_status_t st;
+      if (dds_get_publication_matched_status(entity, &st) == DDS_RETCODE_OK) count = static_cast<std::int32_t>(st.current_count);
+    } else {
+      dds_subscription_matched_status_t st;
+      if (dds_get_subscription_matched_status(entity, &st) == DDS_RETCODE_OK) count = static_cast<std::int32_t>(st.current_count);
+    }
+    if (count > 0) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  return false;
+}
+
+// Takes one sample of `reader` into `m` (with a deadline).
+template <class M>
+bool take_one(const Endpoint& reader, M& m) {
+  const auto deadline = Clock::now() + kPatience;
+  bool got = false;
+  while (!got && Clock::now() < deadline) {
+    dca::ros2::take(reader, [&](std::span<const std::byte> cdr) { got = got || dca::msgs::cdr_decode(cdr, m); });
+    if (!got) std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  return got;
+}
+
+// A program this test started: its stdin and its stdout and stderr (merged) on pipes; killed and reaped when
+// destroyed.
+class Child {
+ public:
+  explicit Child(std::vector<std::string> argv, std::vector<std::string> env = {}) {
+    int in[2], out[2];
+    if (pipe(in) != 0 || pipe(out) != 0) throw std::runtime_error("pipe");
+    posix_spawn_file_actions_t fa;
+    posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_adddup2(&fa, in[0], 0);
+    posix_spawn_file_actions_adddup2(&fa, out[1], 1);
+    posix_spawn_file_actions_adddup2(&fa, out[1], 2);
+    for (int fd : {in[0], in[1], out[0], out[1]}) posix_spawn_file_actions_addclose(&fa, fd);
+    std::vector<char*> args, envp;
+    for (auto& a : argv) args.push_back(a.data());
+    args.push_back(nullptr);
+    for (char** e = environ; *e != nullptr; ++e) envp.push_back(*e);
+    for (auto& e : env) envp.push_back(e.data());
+    envp.push_back(nullptr);
+    const int rc = posix_spawnp(&pid_, argv[0].c_str(), &fa, nullptr, args.data(), envp.data());
+    posix_spawn_file_actions_destroy(&fa);
+    close(in[0]);
+    close(out[1]);
+    stdin_ = in[1];
+    out_ = out[0];
+    if (rc != 0) pid_ = -1;
+  }
+  ~Child() {
+    close(stdin_);
+    if (pid_ > 0) {
+      kill(pid_, SIGTERM);
+      waitpid(pid_, nullptr, 0);
+    }
+    close(out_);
+  }
+  bool started() const { return pid_ > 0; }
+  /// The next line that contains `what` (within `patience`), or "" at the deadline or the end of the output.
+  std::string line_with(std::string_view what, std::chrono::milliseconds patience = kPatience) {
+    const auto deadline = Clock::now() + patience;
+    for (;;) {
+      for (std::size_t nl; (nl = buf_.find('\n')) != std::string::npos;) {
+        std::string line = buf_.substr(0, nl);
+        buf_.erase(0, nl + 1);
+        if (line.find(what) != std::string::npos) return line;
+      }
+      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()).count();
+      pollfd p{out_, POLLIN, 0};
+      if (left <= 0 || poll(&p, 1, static_cast<int>(left)) <= 0) return "";
+      char chunk[4096];
+      const ssize_t n = read(out_, chunk, sizeof chunk);
+      if (n <= 0) return "";
+      buf_.append(chunk, static_cast<std::size_t>(n));
+    }
+  }
+
+ private:
+  pid_t pid_ = -1;
+  int stdin_ = -1, out_ = -1;
+  std::string buf_;
+};
+
+std::string cyclone_loopback_uri() {
+  return "CYCLONEDDS_URI=<CycloneDDS><Domain id=\"any\"><General><Interfaces><NetworkInterface name=\"lo\"/>"
+         "</Interfaces></General><Discovery><ParticipantIndex>auto</ParticipantIndex><Peers><Peer "
+         "address=\"127.0.0.1\"/></Peers></Discovery></Domain></CycloneDDS>";
+}
+
+std::string hex(std::string_view s) {
+  static const char* digits = "0123456789abcdef";
+  std::string h;
+  for (const unsigned char c : s) h += {digits[c >> 4], digits[c & 15]};
+  return h;
+}
+
+void send_probe(int port) {
+  const int fd = socket(AF_INET, SOCK_DGRAM, 0);
+  sockaddr_in to{};
+  to.sin_family = AF_INET;
+  to.sin_port = htons(static_cast<std::uint16_t>(port));
+  to.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  sendto(fd, "probe", 5, 0, reinterpret_cast<const sockaddr*>(&to), sizeof to);
+  close(fd);
+}
+
+std::vector<std::string> split(const std::string& s, char sep) {
+  std::vector<std::string> out;
+  std::size_t at = 0;
+  for (std::size_t end; (end = s.find(sep, at)) != std::string::npos; at = end + 1) out.push_back(s.substr(at, end - at));
+  out.push_back(s.substr(at));
+  return out;
+}
+
+std::vector<std::string> bridge_args(const std::string& table) {
+  return {table, "dca_bridge", test_domain(), "lo", "127.0.0.1"};
+}
+
+Ros2Bridge& bridge_of(ControllerUnderTest& c) { return dynamic_cast<Ros2Bridge&>(c.controller()); }
+
+TEST(Ros2Table, RowsNameTheirPortsTopicsAndProfiles) {
+  const auto rows = dca::ros2::parse_table(
+      "/joint_states sensor_msgs/msg/JointState pub; /cmd_vel geometry_msgs/msg/Twist sub sensor_data;"
+      "/arm/joint_states sensor_msgs/msg/JointState pub; /tf_static tf2_msgs/msg/TFMessage pub");
+  ASSERT_EQ(rows.size(), 4u);
+  EXPECT_EQ(rows[0].port, "PubJointState0");
+  EXPECT_EQ(rows[1].port, "SubTwist0");
+  EXPECT_EQ(rows[1].profile, "sensor_data");
+  EXPECT_EQ(rows[2].port, "PubJointState1");
+  EXPECT_EQ(rows[3].profile, "tf_static") << "/tf_static is TRANSIENT_LOCAL by default";
+  EXPECT_EQ(dca::ros2::dds_topic("/arm/joint_states", nullptr), "rt/arm/joint_states");
+}
+
+TEST(Ros2Table, ABadRowIsRefusedNamingIt) {
+  auto why = [](const char* table) {
+    try {
+      dca::ros2::parse_table(table);
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  EXPECT_EQ(why("joint_states sensor_msgs/msg/JointState pub"),
+            "row 1 ('joint_states'): a ROS 2 topic starts with '/' and names something");
+  EXPECT_NE(why("/a sensor_msgs/msg/Imu pub").find("type 'sensor_msgs/msg/Imu' is not bridged"), std::string::npos);
+  EXPECT_EQ(why("/a geometry_msgs/msg/Twist both"), "row 1 ('/a'): direction 'both' is not pub or sub");
+  EXPECT_NE(why("/a geometry_msgs/msg/Twist sub fast").find("QoS profile 'fast'"), std::string::npos);
+  EXPECT_NE(why("/a//b geometry_msgs/msg/Twist sub").find("'//'"), std::string::npos);
+  EXPECT_NE(why("/a geometry_msgs/msg/Twist sub; /b geometry_msgs/msg/Twist sub; /c geometry_msgs/msg/Twist sub")
+                .find("row 3 ('/c'): more than 2 sub rows"),
+            std::string::npos);
+  EXPECT_THROW(ControllerUnderTest("ros2_bridge", {"/a geometry_msgs/msg/Twist sub", "9node"}), std::invalid_argument);
+}
+
+TEST(Ros2Bridge, PublishesAnInputsSamplesAndWritesWhatItSubscribesTo) {
+  ControllerUnderTest c("ros2_bridge", bridge_args("/joint_states sensor_msgs/msg/JointState pub;"
+                                                   "/cmd_vel geometry_msgs/msg/Twist sub"));
+  c.start();  // configure(): the participant and its endpoints
+  Participant peer(loopback());
+  const auto qos = *dca::ros2::qos_profile("default");
+  Endpoint js_reader = peer.reader("rt/joint_states", JointState::dds_name, JointState::type_hash, qos);
+  Endpoint twist_writer = peer.writer("rt/cmd_vel", Twist::dds_name, Twist::type_hash, qos);
+  ASSERT_TRUE(matched(bridge_of(c).endpoint(0).handle, true));
+  ASSERT_TRUE(matched(twist_writer.handle, true));
+
+  JointState js;
+  js.header.frame_id.assign("base_link");
+  js.header.stamp.sec = 12;
+  for (const char* n : {"shoulder", "elbow"}) {
+    dca::msgs::Name name;
+    name.assign(n);
+    js.name.push_back(name);
+  }
+  js.position.push_back(0.5);
+  js.position.push_back(-1.25);
+  c.set_message("PubJointState0", js);
+  c.step();
+  JointState got;
+  ASSERT_TRUE(take_one(js_reader, got));
+  EXPECT_EQ(got, js);
+
+  Twist t;
+  t.linear.x = 0.3;
+  t.angular.z = -0.7;
+  std::array<std::byte, dca::msgs::cdr_max_size<Twist>> buf;
+  const std::size_t n = dca::msgs::cdr_encode(t, buf);
+  ASSERT_TRUE(dca::ros2::write(twist_writer, std::span(buf).first(n)));
+  const auto deadline = Clock::now() + kPatience;
+  while (c.writes("SubTwist0") == 0 && Clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    c.step();
+  }
+  ASSERT_EQ(c.writes("SubTwist0"), 1u);
+  EXPECT_EQ(c.get_message<Twist>("SubTwist0"), t);
+  EXPECT_EQ(bridge_of(c).refused(), 0u);
+  c.halt();
+}
+
+TEST(Ros2Bridge, ItsGraphSampleNamesTheNodeAndItsEndpoints) {
+  ControllerUnderTest c("ros2_bridge", {"/joint_states sensor_msgs/msg/JointState pub; /cmd_vel "
+                                        "geometry_msgs/msg/Twist sub; /odom nav_msgs/msg/Odometry pub",
+                                        "arm_bridge", test_domain(), "lo", "127.0.0.1"});
+  c.configure();
+  Participant peer(loopback());
+  Endpoint graph = peer.reader(std::string(dca::ros2::kDiscoveryTopic), dca::ros2::ParticipantEntitiesInfo::dds_name,
+                               "", {.reliable = true, .transient_local = true, .depth = 1});
+  auto info = std::make_unique<dca::ros2::ParticipantEntitiesInfo>();
+  ASSERT_TRUE(take_one(graph, *info)) << "TRANSIENT_LOCAL: a late reader has it";
+  const Ros2Bridge& b = bridge_of(c);
+  EXPECT_EQ(info->gid.data, b.participant()->gid());
+  ASSERT_EQ(info->node_entities_info_seq.size(), 1u);
+  const auto& node = info->node_entities_info_seq[0];
+  EXPECT_EQ(node.node_name.view(), "arm_bridge");
+  EXPECT_EQ(node.node_namespace.view(), "/");
+  ASSERT_EQ(node.writer_gid_seq.size(), 2u);
+  ASSERT_EQ(node.reader_gid_seq.size(), 1u);
+  EXPECT_EQ(node.writer_gid_seq[0].data, b.endpoint(0).gid);
+  EXPECT_EQ(node.reader_gid_seq[0].data, b.endpoint(1).gid);
+  EXPECT_EQ(node.writer_gid_seq[1].data, b.endpoint(2).gid);
+  // a GID is the entity's GUID: its first 12 bytes are the participant's prefix
+  const dca::ros2::Gid participant = b.participant()->gid();
+  EXPECT_TRUE(std::equal(participant.begin(), participant.begin() + 12, node.writer_gid_seq[0].data.begin()));
+}
+
+// The discovery traffic of the bridge on loopback, as Wireshark's RTPS dissector reads it (tshark): the SEDP
+// publication of rt/joint_states names ROS 2's DDS type, ROS 2's QoS, XCDR1 and the type hash in USER_DATA. The
+// peer that makes the bridge send it is Cyclone's ddsperf, in another process.
+TEST(Ros2Bridge, TsharkSeesItsTopicTypeQosAndTypeHashInSedp) {
+  const int probe_port = 7300 + std::stoi(test_domain());  // below every DDS port of the domain
+  std::vector<std::string> argv = {"tshark", "-i", "lo", "-l", "-n", "-f", "udp", "-T", "fields", "-E", "separator=|",
+                                   "-Y", "rtps.param.topicName == \"rt/joint_states\" || udp.dstport == " +
+                                             std::to_string(probe_port)};
+  for (const char* f : {"rtps.param.topicName", "rtps.param.typeName", "rtps.param.userData",
+                        "rtps.param.data_representation", "rtps.history_depth", "rtps.reliability_kind",
+                        "rtps.durability", "udp.dstport"})
+    argv.insert(argv.end(), {"-e", f});
+  Child tshark(argv);
+  if (!tshark.started()) GTEST_SKIP() << "tshark is not installed (Debian's tshark)";
+  if (tshark.line_with("Capturing on").empty()) GTEST_SKIP() << "tshark cannot capture on lo here (CAP_NET_RAW?)";
+  // The capture has begun when tshark shows a probe datagram: send one until it does.
+  bool capturing = false;
+  for (const auto deadline = Clock::now() + kPatience; !capturing && Clock::now() < deadline;) {
+    send_probe(probe_port);
+    capturing = !tshark.line_with("|" + std::to_string(probe_port), std::chrono::milliseconds(100)).empty();
+  }
+  ASSERT_TRUE(capturing) << "tshark never showed the probe";
+  ControllerUnderTest c("ros2_bridge", bridge_args("/joint_states sensor_msgs/msg/JointState pub sensor_data"));
+  c.configure();
+  Child peer({"ddsperf", "-i", test_domain(), "-D", "20", "sub"}, {cyclone_loopback_uri()});
+  ASSERT_TRUE(peer.started()) << "ddsperf (Debian's cyclonedds-tools) is needed";
+  const std::string line = tshark.line_with("rt/joint_states");
+  ASSERT_FALSE(line.empty()) << "no SEDP of rt/joint_states seen";
+  // fields separated by '|'; in each the values of every endpoint the packet announces, separated by ','
+  std::vector<std::vector<std::string>> f;
+  for (const std::string& field : split(line, '|')) f.push_back(split(field, ','));
+  ASSERT_EQ(f.size(), 8u) << line;
+  const auto at = std::find(f[0].begin(), f[0].end(), "rt/joint_states") - f[0].begin();
+  auto value = [&](std::size_t i) { return static_cast<std::size_t>(at) < f[i].size() ? f[i][at] : "(none)"; };
+  EXPECT_EQ(value(1), "sensor_msgs::msg::dds_::JointState_") << line;
+  std::string user_data = f[2].empty() ? "" : f[2][0];  // the only endpoint with USER_DATA
+  std::erase(user_data, ':');
+  EXPECT_EQ(user_data, hex("typehash=" + std::string(JointState::type_hash) + ";")) << line;
+  EXPECT_EQ(value(3), "0") << "XCDR1 (DataRepresentationId 0): " << line;
+  EXPECT_EQ(value(4), "5") << "sensor_data: KEEP_LAST 5: " << line;
+  EXPECT_EQ(value(5), "0x00000001") << "sensor_data: BEST_EFFORT (1): " << line;
+  EXPECT_EQ(value(6), "0x00000000") << "VOLATILE (0): " << line;
+}
+
+// Another vendor: a Fast DDS program (fastdds_peer.cpp: its own type support, ROS 2's default QoS) in another
+// process gets the bridge's JointState and answers with a Twist that reaches the bridge's output.
+TEST(Ros2Bridge, ExchangesMessagesWithFastDdsBothWays) {
+#ifndef DCA_FASTDDS_PEER
+  GTEST_SKIP() << "Fast DDS (Debian's libfastrtps-dev) was not found when this was built";
+#else
+  ControllerUnderTest c("ros2_bridge", bridge_args("/joint_states sensor_msgs/msg/JointState pub;"
+                                                   "/cmd_vel geometry_msgs/msg/Twist sub"));
+  c.start();
+  Child peer({DCA_FASTDDS_PEER, test_domain(), "30"});
+  ASSERT_TRUE(peer.started());
+  ASSERT_FALSE(peer.line_with("ready").empty());
+  ASSERT_TRUE(matched(bridge_of(c).endpoint(0).handle, true)) << "Fast DDS's reader never matched";
+  ASSERT_TRUE(matched(bridge_of(c).endpoint(1).handle, false)) << "Fast DDS's writer never matched";
+  JointState js;
+  js.header.frame_id.assign("base_link");
+  dca::msgs::Name name;
+  name.assign("shoulder_pan_joint");
+  js.name.push_back(name);
+  name.assign("elbow_joint");
+  js.name.push_back(name);
+  js.position.push_back(0.25);
+  js.position.push_back(-0.5);
+  c.set_message("PubJointState0", js);
+  c.step();
+  EXPECT_EQ(peer.line_with("got "), "got base_link shoulder_pan_joint 2") << "Fast DDS decoded dca's JointState";
+  const auto deadline = Clock::now() + kPatience;
+  while (c.writes("SubTwist0") == 0 && Clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    c.step();
+  }
+  ASSERT_GE(c.writes("SubTwist0"), 1u) << "no Twist from Fast DDS";
+  const Twist t = c.get_message<Twist>("SubTwist0");
+  EXPECT_EQ(t.linear.x, 0.25);
+  EXPECT_EQ(t.angular.z, -0.5);
+  EXPECT_EQ(bridge_of(c).refused(), 0u);
+#endif
+}
+
+}  // namespace
