@@ -20,6 +20,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdlib>
+#include <fstream>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <thread>
@@ -27,6 +29,7 @@
 #include "bridge.h"
 #include "dds.h"
 #include "graph.h"
+#include "tests/support/temp_dir.h"
 
 namespace {
 
@@ -40,7 +43,12 @@ using Clock = std::chrono::steady_clock;
 
 constexpr auto kPatience = std::chrono::seconds(20);  // a deadline against a hang, never a timing assertion
 
-std::string test_domain() { return std::to_string(100 + getpid() % 100); }
+std::string test_domain() { return std::to_string(1 + getpid() % 230); }
+/// The UDP ports RTPS uses in the test's domain (7400 + 250 domain + 0..249).
+std::string domain_ports() {
+  const int base = 7400 + 250 * std::stoi(test_domain());
+  return std::to_string(base) + "-" + std::to_string(base + 249);
+}
 
 dca::ros2::ParticipantOptions loopback() {
   return {.domain = static_cast<std::uint32_t>(std::stoi(test_domain())), .interface = "lo", .peers = "127.0.0.1"};
@@ -282,8 +290,9 @@ TEST(Ros2Bridge, ItsGraphSampleNamesTheNodeAndItsEndpoints) {
 // publication of rt/joint_states names ROS 2's DDS type, ROS 2's QoS, XCDR1 and the type hash in USER_DATA. The
 // peer that makes the bridge send it is Cyclone's ddsperf, in another process.
 TEST(Ros2Bridge, TsharkSeesItsTopicTypeQosAndTypeHashInSedp) {
-  const int probe_port = 7300 + std::stoi(test_domain());  // below every DDS port of the domain
-  std::vector<std::string> argv = {"tshark", "-i", "lo", "-l", "-n", "-f", "udp", "-T", "fields", "-E", "separator=|",
+  const int probe_port = 7400 + 250 * std::stoi(test_domain()) + 200;  // the domain's, used by nothing
+  std::vector<std::string> argv = {"tshark", "-i", "lo", "-l", "-n", "-f", "udp portrange " + domain_ports(),
+                                   "-T", "fields", "-E", "separator=|",
                                    "-Y", "rtps.param.topicName == \"rt/joint_states\" || udp.dstport == " +
                                              std::to_string(probe_port)};
   for (const char* f : {"rtps.param.topicName", "rtps.param.typeName", "rtps.param.userData",
@@ -358,6 +367,59 @@ TEST(Ros2Bridge, ExchangesMessagesWithFastDdsBothWays) {
   EXPECT_EQ(t.linear.x, 0.25);
   EXPECT_EQ(t.angular.z, -0.5);
   EXPECT_EQ(bridge_of(c).refused(), 0u);
+#endif
+}
+
+TEST(JointStates, NamesTheJointsAndStampsTheirPositionsAndVelocities) {
+  ControllerUnderTest c("JointStates", {"shoulder, elbow", "base_link", "0.02"});
+  c.start();
+  c.set("Q1", Eigen::VectorXd::Constant(1, 0.5));
+  c.step();
+  EXPECT_EQ(c.writes("JointState"), 0u) << "not before every joint's position has a sample";
+  c.set("Q2", Eigen::VectorXd::Constant(1, -1.5));
+  c.set("Qd2", Eigen::VectorXd::Constant(1, 0.25));
+  c.step();
+  ASSERT_EQ(c.writes("JointState"), 1u);
+  const JointState js = c.get_message<JointState>("JointState");
+  ASSERT_EQ(js.name.size(), 2u);
+  EXPECT_EQ(js.name[0].view(), "shoulder");
+  EXPECT_EQ(js.name[1].view(), "elbow");
+  EXPECT_EQ(js.header.frame_id.view(), "base_link");
+  ASSERT_EQ(js.position.size(), 2u);
+  EXPECT_EQ(js.position[0], 0.5);
+  EXPECT_EQ(js.position[1], -1.5);
+  EXPECT_EQ(js.velocity[1], 0.25);
+  EXPECT_TRUE(js.effort.empty());
+  const auto t = static_cast<std::int64_t>(js.header.stamp.sec) * 1'000'000'000 + js.header.stamp.nanosec;
+  EXPECT_EQ(t, static_cast<std::int64_t>(c.now() * 1e9 + 0.5)) << "stamped with the clock's time";
+  EXPECT_THROW(ControllerUnderTest("JointStates", {"a a"}), std::invalid_argument);
+}
+
+// The example (examples/ros2/ur10_ros2.dca), run by dca on the mock UR10 in wall-clock time with its Deadline cut
+// to 2 s and its bridge on loopback: the Fast DDS program gets the six joints on /joint_states.
+TEST(Ros2Example, TheUr10sJointStatesReachAnotherVendor) {
+#ifndef DCA_FASTDDS_PEER
+  GTEST_SKIP() << "Fast DDS (Debian's libfastrtps-dev) was not found when this was built";
+#else
+  std::ifstream in(DCA_SOURCE_DIR "/examples/ros2/ur10_ros2.dca");
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string dca = text.str();
+  auto replace = [&dca](const std::string& from, const std::string& to) {
+    const std::size_t at = dca.find(from);
+    ASSERT_NE(at, std::string::npos) << from;
+    dca.replace(at, from.size(), to);
+  };
+  replace("\"dca_ur10\", 0, \"\", \"\"", "\"dca_ur10\", " + test_domain() + ", \"lo\", \"127.0.0.1\"");
+  replace("Deadline(\"arm\", 60)", "Deadline(\"arm\", 2)");
+  dca::test::TempDir dir("ros2_example");
+  const std::string file = dir.path() + "/ur10_ros2.dca";
+  std::ofstream(file) << dca;
+  Child peer({DCA_FASTDDS_PEER, test_domain(), "30"});
+  ASSERT_FALSE(peer.line_with("ready").empty());
+  Child run({DCA_TEST_EXE, "run", file, "--sim", "mock:" DCA_SOURCE_DIR "/worlds/ur10/ur10.urdf", "--realtime"});
+  EXPECT_EQ(peer.line_with("got "), "got  shoulder_pan_joint 6");
+  EXPECT_FALSE(run.line_with("main.bridge  stopped").empty()) << "the run ends by its Deadline";
 #endif
 }
 
