@@ -21,8 +21,7 @@ using Bridged = std::tuple<msgs::JointState, msgs::TFMessage, msgs::Odometry, ms
 
 template <class F>
 void for_each_bridged(F&& f) {
-  std::apply([&f](const auto&... m) { (f.template operator()<std::remove_cvref_t<decltype(m)>>(), ...); },
-             Bridged{});
+  std::apply([&f](const auto&... m) { (f.template operator()<std::remove_cvref_t<decltype(m)>>(), ...); }, Bridged{});
 }
 
 /// "JointState" of "sensor_msgs/msg/JointState".
@@ -35,12 +34,12 @@ std::string port_name(std::string_view ros_name, bool pub, int k) {
 const Param<std::string> kTopics{.name = "topics",
                                  .doc = "the table: 'TOPIC TYPE pub|sub [PROFILE]' rows, ';' between (docs/ros2.md)"};
 const Param<std::string> kNode{.name = "node", .doc = "the ROS 2 node's name", .def = "dca_bridge"};
-const Param<std::int64_t> kDomain{.name = "domain", .doc = "the DDS domain id (ROS_DOMAIN_ID)", .def = 0, .min = 0,
-                                  .max = 232};
-const Param<std::string> kInterface{.name = "interface", .doc = "the network interface ('' : Cyclone's choice)",
-                                    .def = ""};
-const Param<std::string> kPeers{.name = "peers", .doc = "unicast peers' addresses, spaces between ('' : none)",
-                                .def = ""};
+const Param<std::int64_t> kDomain{
+    .name = "domain", .doc = "the DDS domain id (ROS_DOMAIN_ID)", .def = 0, .min = 0, .max = 232};
+const Param<std::string> kInterface{
+    .name = "interface", .doc = "the network interface ('' : Cyclone's choice)", .def = ""};
+const Param<std::string> kPeers{
+    .name = "peers", .doc = "unicast peers' addresses, spaces between ('' : none)", .def = ""};
 
 /// A single-producer single-consumer queue of messages (the DDS thread -> the node's loop), bounded.
 template <class M>
@@ -219,8 +218,8 @@ Ros2Bridge::Ros2Bridge(const ControllerContext& ctx) : PeriodicController(ctx), 
   }
   if (!valid_node_name(node_))
     throw bad_param("parameter 'node': '" + node_ + "' is not a ROS 2 node name (letters, digits, '_')");
-  options_ = {.domain = static_cast<std::uint32_t>(param(kDomain)), .interface = param(kInterface),
-              .peers = param(kPeers)};
+  options_ = {
+      .domain = static_cast<std::uint32_t>(param(kDomain)), .interface = param(kInterface), .peers = param(kPeers)};
   for (const Row& r : rows_) {
     for_each_bridged([&]<class M>() {
       if (r.type != M::ros_name) return;
@@ -229,8 +228,8 @@ Ros2Bridge::Ros2Bridge(const ControllerContext& ctx) : PeriodicController(ctx), 
         links_.push_back(std::make_unique<PubLink<M>>(port(InSpec<M>{.name = port_name(M::ros_name, true, k)})));
       } else {
         const auto depth = static_cast<std::size_t>(qos_profile(r.profile)->depth);
-        links_.push_back(std::make_unique<SubLink<M>>(port(OutSpec<M>{.name = port_name(M::ros_name, false, k)}),
-                                                      depth));
+        links_.push_back(
+            std::make_unique<SubLink<M>>(port(OutSpec<M>{.name = port_name(M::ros_name, false, k)}), depth));
       }
       links_.back()->pub = r.pub;
     });
@@ -275,8 +274,8 @@ void Ros2Bridge::open() {
       if (r.type != M::ros_name) return;
       const std::string topic = dds_topic(r.topic, nullptr);
       const QosProfile q = *qos_profile(r.profile);
-      links_[i]->endpoint = r.pub ? p->writer(topic, M::dds_name, M::type_hash, q)
-                                  : p->reader(topic, M::dds_name, M::type_hash, q);
+      links_[i]->endpoint =
+          r.pub ? p->writer(topic, M::dds_name, M::type_hash, q) : p->reader(topic, M::dds_name, M::type_hash, q);
       if (!r.pub) ws->add(links_[i]->endpoint);
     });
   }

@@ -72,9 +72,7 @@ ddsi_serdata* sd_from_ser_iov(const ddsi_sertype* type, ddsi_serdata_kind kind, 
   return d;
 }
 
-ddsi_serdata* sd_from_keyhash(const ddsi_sertype* type, const ddsi_keyhash*) {
-  return make_serdata(type, SDK_KEY, 0);
-}
+ddsi_serdata* sd_from_keyhash(const ddsi_sertype* type, const ddsi_keyhash*) { return make_serdata(type, SDK_KEY, 0); }
 
 // A typed sample of the raw sertype is a ddsi_sertype_cdr_data_t: its size and malloc'd bytes.
 ddsi_serdata* sd_from_sample(const ddsi_sertype* type, ddsi_serdata_kind kind, const void* sample) {
@@ -214,8 +212,9 @@ std::string domain_config(const ParticipantOptions& o) {
   xml += "<CycloneDDS><Domain id=\"any\">";
   if (!o.interface.empty())
     xml += "<General><Interfaces><NetworkInterface name=\"" + o.interface + "\"/></Interfaces></General>";
-  xml += "<Compatibility><ExplicitlyPublishQosSetToDefault>true</ExplicitlyPublishQosSetToDefault></Compatibility>"
-         "<Discovery>";
+  xml +=
+      "<Compatibility><ExplicitlyPublishQosSetToDefault>true</ExplicitlyPublishQosSetToDefault></Compatibility>"
+      "<Discovery>";
   if (!o.peers.empty()) {
     xml += "<ParticipantIndex>auto</ParticipantIndex><MaxAutoParticipantIndex>20</MaxAutoParticipantIndex><Peers>";
     std::size_t at = 0;
@@ -333,8 +332,8 @@ Endpoint Participant::reader(const std::string& topic, std::string_view type, st
   return endpoint(false, topic, type, type_hash, qos);
 }
 
-Endpoint Participant::endpoint(bool writer, const std::string& topic, std::string_view type,
-                               std::string_view type_hash, QosProfile qos) {
+Endpoint Participant::endpoint(bool writer, const std::string& topic, std::string_view type, std::string_view type_hash,
+                               QosProfile qos) {
   ddsi_sertype* st = raw_sertype(type);
   Endpoint e;
   e.topic = dds_create_topic_sertype(participant_, topic.c_str(), &st, nullptr, nullptr, nullptr);

@@ -56,10 +56,10 @@ struct Endpoint {
 
 /// How a participant reaches its peers.
 struct ParticipantOptions {
-  std::uint32_t domain = 0;     ///< the DDS domain id (ROS_DOMAIN_ID)
-  std::string interface = {};   ///< a network interface's name or address ("" lets Cyclone choose)
-  std::string peers = {};       ///< unicast peers' addresses, spaces between ("" : multicast discovery only)
-  std::string enclave = "/";    ///< the participant's USER_DATA "enclave=...;" (ROS 2's security enclave)
+  std::uint32_t domain = 0;    ///< the DDS domain id (ROS_DOMAIN_ID)
+  std::string interface = {};  ///< a network interface's name or address ("" lets Cyclone choose)
+  std::string peers = {};      ///< unicast peers' addresses, spaces between ("" : multicast discovery only)
+  std::string enclave = "/";   ///< the participant's USER_DATA "enclave=...;" (ROS 2's security enclave)
 };
 
 /// One DDS participant: its domain (created with the options' configuration, shared by every participant of the

@@ -7,8 +7,8 @@
 namespace dca::ros2 {
 namespace {
 
-const Param<std::string> kJoints{.name = "joints",
-                                 .doc = "the joints' names in the URDF, in order, between spaces or commas (at most 8)"};
+const Param<std::string> kJoints{
+    .name = "joints", .doc = "the joints' names in the URDF, in order, between spaces or commas (at most 8)"};
 const Param<std::string> kFrame{.name = "frame", .doc = "header.frame_id of the message", .def = ""};
 const OutSpec<msgs::JointState> kOut{.name = "JointState"};
 
@@ -50,7 +50,9 @@ std::vector<std::string> joint_names(const std::string& text) {
 Manifest JointStates::Describe() {
   Manifest m{.type = "JointStates",
              .doc = "a URDF world's joints as one sensor_msgs/msg/JointState (for /joint_states: docs/ros2.md)",
-             .outputs = {kOut}, .params = {kJoints, kFrame, PeriodParam(0.02)}, .ends = Ending::Never()};
+             .outputs = {kOut},
+             .params = {kJoints, kFrame, PeriodParam(0.02)},
+             .ends = Ending::Never()};
   m.inputs.insert(m.inputs.end(), state_ports().q.begin(), state_ports().q.end());
   m.inputs.insert(m.inputs.end(), state_ports().qd.begin(), state_ports().qd.end());
   return m;

@@ -61,10 +61,12 @@ bool matched(dds_entity_t entity, bool writer) {
     std::int32_t count = 0;
     if (writer) {
       dds_publication_matched_status_t st;
-      if (dds_get_publication_matched_status(entity, &st) == DDS_RETCODE_OK) count = static_cast<std::int32_t>(st.current_count);
+      if (dds_get_publication_matched_status(entity, &st) == DDS_RETCODE_OK)
+        count = static_cast<std::int32_t>(st.current_count);
     } else {
       dds_subscription_matched_status_t st;
-      if (dds_get_subscription_matched_status(entity, &st) == DDS_RETCODE_OK) count = static_cast<std::int32_t>(st.current_count);
+      if (dds_get_subscription_matched_status(entity, &st) == DDS_RETCODE_OK)
+        count = static_cast<std::int32_t>(st.current_count);
     }
     if (count > 0) return true;
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
@@ -171,7 +173,8 @@ void send_probe(int port) {
 std::vector<std::string> split(const std::string& s, char sep) {
   std::vector<std::string> out;
   std::size_t at = 0;
-  for (std::size_t end; (end = s.find(sep, at)) != std::string::npos; at = end + 1) out.push_back(s.substr(at, end - at));
+  for (std::size_t end; (end = s.find(sep, at)) != std::string::npos; at = end + 1)
+    out.push_back(s.substr(at, end - at));
   out.push_back(s.substr(at));
   return out;
 }
@@ -260,6 +263,24 @@ TEST(Ros2Bridge, PublishesAnInputsSamplesAndWritesWhatItSubscribesTo) {
   c.halt();
 }
 
+TEST(Ros2Bridge, ASampleThatDoesNotDecodeIsRefusedAndCounted) {
+  ControllerUnderTest c("ros2_bridge", bridge_args("/cmd_vel geometry_msgs/msg/Twist sub"));
+  c.start();
+  Participant peer(loopback());
+  Endpoint w = peer.writer("rt/cmd_vel", Twist::dds_name, Twist::type_hash, *dca::ros2::qos_profile("default"));
+  ASSERT_TRUE(matched(w.handle, true));
+  const std::byte bad[] = {std::byte{0}, std::byte{1}, std::byte{0}, std::byte{0}, std::byte{7}};  // 1 of 48 bytes
+  ASSERT_TRUE(dca::ros2::write(w, bad));
+  const std::byte xcdr2[8] = {std::byte{0}, std::byte{7}};  // not CDR: refused, never read as one
+  ASSERT_TRUE(dca::ros2::write(w, xcdr2));
+  const auto deadline = Clock::now() + kPatience;
+  while (bridge_of(c).refused() < 2 && Clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  EXPECT_EQ(bridge_of(c).refused(), 2u);
+  c.step();
+  EXPECT_EQ(c.writes("SubTwist0"), 0u);
+}
+
 TEST(Ros2Bridge, ItsGraphSampleNamesTheNodeAndItsEndpoints) {
   ControllerUnderTest c("ros2_bridge", {"/joint_states sensor_msgs/msg/JointState pub; /cmd_vel "
                                         "geometry_msgs/msg/Twist sub; /odom nav_msgs/msg/Odometry pub",
@@ -291,13 +312,23 @@ TEST(Ros2Bridge, ItsGraphSampleNamesTheNodeAndItsEndpoints) {
 // peer that makes the bridge send it is Cyclone's ddsperf, in another process.
 TEST(Ros2Bridge, TsharkSeesItsTopicTypeQosAndTypeHashInSedp) {
   const int probe_port = 7400 + 250 * std::stoi(test_domain()) + 200;  // the domain's, used by nothing
-  std::vector<std::string> argv = {"tshark", "-i", "lo", "-l", "-n", "-f", "udp portrange " + domain_ports(),
-                                   "-T", "fields", "-E", "separator=|",
-                                   "-Y", "rtps.param.topicName == \"rt/joint_states\" || udp.dstport == " +
-                                             std::to_string(probe_port)};
-  for (const char* f : {"rtps.param.topicName", "rtps.param.typeName", "rtps.param.userData",
-                        "rtps.param.data_representation", "rtps.history_depth", "rtps.reliability_kind",
-                        "rtps.durability", "udp.dstport"})
+  std::vector<std::string> argv = {
+      "tshark",
+      "-i",
+      "lo",
+      "-l",
+      "-n",
+      "-f",
+      "udp portrange " + domain_ports(),
+      "-T",
+      "fields",
+      "-E",
+      "separator=|",
+      "-Y",
+      "rtps.param.topicName == \"rt/joint_states\" || udp.dstport == " + std::to_string(probe_port)};
+  for (const char* f :
+       {"rtps.param.topicName", "rtps.param.typeName", "rtps.param.userData", "rtps.param.data_representation",
+        "rtps.history_depth", "rtps.reliability_kind", "rtps.durability", "udp.dstport"})
     argv.insert(argv.end(), {"-e", f});
   Child tshark(argv);
   if (!tshark.started()) GTEST_SKIP() << "tshark is not installed (Debian's tshark)";
