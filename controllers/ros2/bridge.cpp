@@ -38,6 +38,8 @@ const Param<std::int64_t> kDomain{
     .name = "domain", .doc = "the DDS domain id (ROS_DOMAIN_ID)", .def = 0, .min = 0, .max = 232};
 const Param<std::string> kInterface{
     .name = "interface", .doc = "the network interface ('' : Cyclone's choice)", .def = ""};
+const Param<std::string> kSecurity{
+    .name = "security", .doc = "an SROS2 enclave's directory: DDS Security ('' : none; docs/ros2.md)", .def = ""};
 const Param<std::string> kPeers{
     .name = "peers", .doc = "unicast peers' addresses, spaces between ('' : none)", .def = ""};
 
@@ -199,7 +201,7 @@ std::vector<Row> parse_table(std::string_view table) {
 Manifest Ros2Bridge::Describe() {
   Manifest m{.type = "ros2_bridge",
              .doc = "ROS 2 topics as ports, on Cyclone DDS: a node that ROS 2 sees (docs/ros2.md)",
-             .params = {kTopics, kNode, kDomain, kInterface, kPeers, PeriodParam()},
+             .params = {kTopics, kNode, kDomain, kInterface, kPeers, kSecurity, PeriodParam()},
              .ends = Ending::Never()};
   for_each_bridged([&m]<class M>() {
     for (int k = 0; k < kSlots; ++k) {
@@ -218,8 +220,10 @@ Ros2Bridge::Ros2Bridge(const ControllerContext& ctx) : PeriodicController(ctx), 
   }
   if (!valid_node_name(node_))
     throw bad_param("parameter 'node': '" + node_ + "' is not a ROS 2 node name (letters, digits, '_')");
-  options_ = {
-      .domain = static_cast<std::uint32_t>(param(kDomain)), .interface = param(kInterface), .peers = param(kPeers)};
+  options_ = {.domain = static_cast<std::uint32_t>(param(kDomain)),
+              .interface = param(kInterface),
+              .peers = param(kPeers),
+              .security = param(kSecurity)};
   for (const Row& r : rows_) {
     for_each_bridged([&]<class M>() {
       if (r.type != M::ros_name) return;

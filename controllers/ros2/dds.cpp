@@ -3,8 +3,11 @@
 // every key operation is trivial.
 #include "dds.h"
 
+#include <dlfcn.h>
+
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <map>
 #include <mutex>
 #include <new>
@@ -263,12 +266,58 @@ void release_domain(std::uint32_t id) {
   domains.erase(it);
 }
 
+// Cyclone's security plugins: beside libddsc (Debian puts them in libddsc0debian/ there), else by name.
+std::string plugin(const char* name) {
+  Dl_info info{};
+  if (dladdr(reinterpret_cast<void*>(&dds_create_participant), &info) != 0 && info.dli_fname != nullptr) {
+    const std::filesystem::path dir = std::filesystem::path(info.dli_fname).parent_path();
+    for (const auto& p :
+         {dir / "libddsc0debian" / (std::string("lib") + name + ".so"), dir / (std::string("lib") + name + ".so")})
+      if (std::filesystem::exists(p)) return p.string();
+  }
+  return name;
+}
+
+// The DDS Security properties of an SROS2 enclave directory (as rmw_cyclonedds sets them).
+void security_qos(dds_qos_t* q, const std::string& dir) {
+  static const char* files[] = {"identity_ca.cert.pem",    "cert.pem",       "key.pem",
+                                "permissions_ca.cert.pem", "governance.p7s", "permissions.p7s"};
+  for (const char* f : files)
+    if (!std::filesystem::exists(std::filesystem::path(dir) / f))
+      throw std::runtime_error("security: the enclave " + dir + " has no " + f);
+  const std::string at = "file:" + std::filesystem::absolute(dir).string() + "/";
+  const std::pair<const char*, std::string> props[] = {
+      {"dds.sec.auth.library.path", plugin("dds_security_auth")},
+      {"dds.sec.auth.library.init", "init_authentication"},
+      {"dds.sec.auth.library.finalize", "finalize_authentication"},
+      {"dds.sec.crypto.library.path", plugin("dds_security_crypto")},
+      {"dds.sec.crypto.library.init", "init_crypto"},
+      {"dds.sec.crypto.library.finalize", "finalize_crypto"},
+      {"dds.sec.access.library.path", plugin("dds_security_ac")},
+      {"dds.sec.access.library.init", "init_access_control"},
+      {"dds.sec.access.library.finalize", "finalize_access_control"},
+      {"dds.sec.auth.identity_ca", at + "identity_ca.cert.pem"},
+      {"dds.sec.auth.identity_certificate", at + "cert.pem"},
+      {"dds.sec.auth.private_key", at + "key.pem"},
+      {"dds.sec.access.permissions_ca", at + "permissions_ca.cert.pem"},
+      {"dds.sec.access.governance", at + "governance.p7s"},
+      {"dds.sec.access.permissions", at + "permissions.p7s"},
+  };
+  for (const auto& [name, value] : props) dds_qset_prop(q, name, value.c_str());
+}
+
 std::string user_data_qos(dds_qos_t* q, const std::string& text) {
   dds_qset_userdata(q, text.data(), text.size());
   return text;
 }
 
 }  // namespace
+
+std::string enclave_of(std::string_view dir) {
+  while (dir.size() > 1 && dir.back() == '/') dir.remove_suffix(1);
+  const std::size_t at = dir.rfind("/enclaves/");
+  return at == std::string_view::npos ? "/" : std::string(dir.substr(at + 9));
+}
 
 std::optional<QosProfile> qos_profile(std::string_view name) {
   if (name == "default") return QosProfile{true, false, 10};
@@ -305,13 +354,24 @@ std::string dds_topic(std::string_view ros, std::string* why) {
 Participant::Participant(const ParticipantOptions& options) : domain_(options.domain) {
   acquire_domain(options);
   dds_qos_t* q = dds_create_qos();
-  user_data_qos(q, "enclave=" + options.enclave + ";");
+  const std::string enclave = options.security.empty() ? options.enclave : enclave_of(options.security);
+  user_data_qos(q, "enclave=" + enclave + ";");
+  try {
+    if (!options.security.empty()) security_qos(q, options.security);
+  } catch (...) {
+    dds_delete_qos(q);
+    release_domain(domain_);
+    throw;
+  }
   participant_ = dds_create_participant(options.domain, q, nullptr);
   dds_delete_qos(q);
   if (participant_ < 0) {
     const std::string why = dds_strretcode(participant_);
     release_domain(domain_);
-    throw std::runtime_error("DDS participant in domain " + std::to_string(options.domain) + ": " + why);
+    throw std::runtime_error("DDS participant in domain " + std::to_string(options.domain) + ": " + why +
+                             (options.security.empty() ? std::string()
+                                                       : " (security enclave " + options.security +
+                                                             ": Cyclone's reason is in the lines above)"));
   }
 }
 

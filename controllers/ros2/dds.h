@@ -60,7 +60,13 @@ struct ParticipantOptions {
   std::string interface = {};  ///< a network interface's name or address ("" lets Cyclone choose)
   std::string peers = {};      ///< unicast peers' addresses, spaces between ("" : multicast discovery only)
   std::string enclave = "/";   ///< the participant's USER_DATA "enclave=...;" (ROS 2's security enclave)
+  /// An SROS2 enclave's directory (identity_ca.cert.pem, cert.pem, key.pem, permissions_ca.cert.pem,
+  /// governance.p7s, permissions.p7s): DDS Security through Cyclone's plugins; "" for none.
+  std::string security = {};
 };
+
+/// The enclave an SROS2 enclave directory stands for: "/a/b" of ".../enclaves/a/b", "/" of any other.
+std::string enclave_of(std::string_view dir);
 
 /// One DDS participant: its domain (created with the options' configuration, shared by every participant of the
 /// same domain id in this process, which must give the same options), writers and readers of raw CDR.

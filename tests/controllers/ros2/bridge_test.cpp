@@ -20,6 +20,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
@@ -401,6 +402,78 @@ TEST(Ros2Bridge, ExchangesMessagesWithFastDdsBothWays) {
 #endif
 }
 
+// An SROS2-like enclave made with openssl in `dir` (as `ros2 security create_enclave` makes one): one CA for
+// identities and permissions, the participant's certificate (CN=dca_bridge), governance (everything encrypted, no
+// unauthenticated participants) and permissions (every topic), both signed by the CA. False when openssl fails.
+bool make_enclave(const std::string& dir) {
+  const std::string domains = "<domains><id_range><min>0</min><max>230</max></id_range></domains>";
+  std::ofstream(dir + "/governance.xml")
+      << "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<dds xmlns:xsi=\"http://www.w3.org/2001/XMLSchema-instance\">"
+         "<domain_access_rules><domain_rule>"
+      << domains
+      << "<allow_unauthenticated_participants>false</allow_unauthenticated_participants>"
+         "<enable_join_access_control>true</enable_join_access_control>"
+         "<discovery_protection_kind>ENCRYPT</discovery_protection_kind>"
+         "<liveliness_protection_kind>ENCRYPT</liveliness_protection_kind>"
+         "<rtps_protection_kind>SIGN</rtps_protection_kind><topic_access_rules><topic_rule>"
+         "<topic_expression>*</topic_expression><enable_discovery_protection>true</enable_discovery_protection>"
+         "<enable_liveliness_protection>true</enable_liveliness_protection>"
+         "<enable_read_access_control>true</enable_read_access_control>"
+         "<enable_write_access_control>true</enable_write_access_control>"
+         "<metadata_protection_kind>ENCRYPT</metadata_protection_kind>"
+         "<data_protection_kind>ENCRYPT</data_protection_kind></topic_rule></topic_access_rules></domain_rule>"
+         "</domain_access_rules></dds>\n";
+  std::ofstream(dir + "/permissions.xml")
+      << "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<dds xmlns:xsi=\"http://www.w3.org/2001/XMLSchema-instance\">"
+         "<permissions><grant name=\"dca_bridge\">"
+         "<subject_name>CN=dca_bridge</subject_name><validity><not_before>2020-01-01T00:00:00</not_before>"
+         "<not_after>2100-01-01T00:00:00</not_after></validity><allow_rule>"
+      << domains
+      << "<publish><topics><topic>*</topic></topics></publish><subscribe><topics><topic>*</topic></topics>"
+         "</subscribe></allow_rule><default>DENY</default></grant></permissions></dds>\n";
+  const std::string cmd =
+      "cd '" + dir +
+      "' && exec >/dev/null 2>&1 && "
+      "openssl ecparam -name prime256v1 -genkey -noout -out ca.key.pem && "
+      "openssl req -x509 -new -key ca.key.pem -out identity_ca.cert.pem -days 3650 -subj /CN=dca_test_ca && "
+      "cp identity_ca.cert.pem permissions_ca.cert.pem && "
+      "openssl ecparam -name prime256v1 -genkey -noout -out key.pem && "
+      "openssl req -new -key key.pem -out cert.csr -subj /CN=dca_bridge && "
+      "openssl x509 -req -in cert.csr -CA identity_ca.cert.pem -CAkey ca.key.pem -CAcreateserial -out cert.pem "
+      "-days 3650 && "
+      "openssl smime -sign -in governance.xml -text -out governance.p7s -signer identity_ca.cert.pem "
+      "-inkey ca.key.pem && "
+      "openssl smime -sign -in permissions.xml -text -out permissions.p7s -signer identity_ca.cert.pem "
+      "-inkey ca.key.pem";
+  return std::system(cmd.c_str()) == 0;
+}
+
+// SROS2: the bridge in a secured domain (its `security` option: an enclave's directory) exchanges samples with a
+// participant of the same enclave.
+TEST(Ros2Bridge, InASecuredDomainItTalksToASecuredPeer) {
+  dca::test::TempDir dir("ros2_security");
+  const std::string enclave = dir.path() + "/keystore/enclaves/dca/bridge";
+  std::filesystem::create_directories(enclave);
+  if (!make_enclave(enclave)) GTEST_SKIP() << "openssl could not make the enclave";
+  EXPECT_EQ(dca::ros2::enclave_of(enclave), "/dca/bridge");
+  ControllerUnderTest c("ros2_bridge", {"/joint_states sensor_msgs/msg/JointState pub", "dca_bridge", test_domain(),
+                                        "lo", "127.0.0.1", enclave});
+  c.start();
+  auto options = loopback();
+  options.security = enclave;
+  Participant peer(options);
+  Endpoint reader =
+      peer.reader("rt/joint_states", JointState::dds_name, JointState::type_hash, *dca::ros2::qos_profile("default"));
+  ASSERT_TRUE(matched(bridge_of(c).endpoint(0).handle, true));
+  JointState js;
+  js.header.frame_id.assign("secret");
+  c.set_message("PubJointState0", js);
+  c.step();
+  JointState got;
+  ASSERT_TRUE(take_one(reader, got));
+  EXPECT_EQ(got.header.frame_id.view(), "secret");
+}
+
 TEST(JointStates, NamesTheJointsAndStampsTheirPositionsAndVelocities) {
   ControllerUnderTest c("JointStates", {"shoulder, elbow", "base_link", "0.02"});
   c.start();
@@ -441,7 +514,7 @@ TEST(Ros2Example, TheUr10sJointStatesReachAnotherVendor) {
     ASSERT_NE(at, std::string::npos) << from;
     dca.replace(at, from.size(), to);
   };
-  replace("\"dca_ur10\", 0, \"\", \"\"", "\"dca_ur10\", " + test_domain() + ", \"lo\", \"127.0.0.1\"");
+  replace("\"dca_ur10\", 0, \"\", \"\",", "\"dca_ur10\", " + test_domain() + ", \"lo\", \"127.0.0.1\",");
   replace("Deadline(\"arm\", 60)", "Deadline(\"arm\", 2)");
   dca::test::TempDir dir("ros2_example");
   const std::string file = dir.path() + "/ur10_ros2.dca";
