@@ -197,6 +197,12 @@ suite:case("the_joint_control_package_includes_only_the_sdk_and_its_own", functi
     "the joint_control package (controllers/joint_control)")
 end)
 
+suite:case("the_ros2_package_includes_only_the_sdk_cyclone_and_its_own", function()
+  package_includes_only({ "controllers/ros2" },
+    { "^bridge%.h$", "^dds%.h$", "^graph%.h$", "^joint_states%.h$", "^dca/", "^Eigen/", "^dds/", "^dlfcn%.h$" },
+    "the ros2 package (controllers/ros2: the SDK, Cyclone DDS's dds/ and its own)")
+end)
+
 suite:case("host_layer_headers_state_their_rule", function()
   local bad = {}
   for _, layer in ipairs({ "codec", "net", "web" }) do
