@@ -18,6 +18,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cmath>
 #include <chrono>
 #include <cstdlib>
 #include <filesystem>
@@ -499,32 +500,107 @@ TEST(JointStates, NamesTheJointsAndStampsTheirPositionsAndVelocities) {
   EXPECT_THROW(ControllerUnderTest("JointStates", {"a a"}), std::invalid_argument);
 }
 
+// A copy of examples/ros2/NAME in `dir` with its bridge in the test's domain on loopback (its `0, "", "",` after
+// the node's name) and each of `changes` made: its path, or "" when a text to change is not there.
+std::string example_copy(const std::string& name, const std::string& dir,
+                         const std::vector<std::pair<std::string, std::string>>& changes) {
+  std::ifstream in(DCA_SOURCE_DIR "/examples/ros2/" + name);
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string dca = text.str();
+  auto all = changes;
+  all.emplace_back(", 0, \"\", \"\",", ", " + test_domain() + ", \"lo\", \"127.0.0.1\",");
+  for (const auto& [from, to] : all) {
+    const std::size_t at = dca.find(from);
+    if (at == std::string::npos) return "";
+    dca.replace(at, from.size(), to);
+  }
+  const std::string file = dir + "/" + name;
+  std::ofstream(file) << dca;
+  return file;
+}
+
+TEST(BaseTwist, ATwistDrivesTheBaseUntilItsDeadmanThenZero) {
+  ControllerUnderTest c("BaseTwist", {"0.05", "0.01"});
+  c.start();
+  Twist t;
+  t.linear.x = 0.2;
+  t.linear.y = -0.1;
+  t.angular.z = 0.5;
+  c.set_message("Twist", t);
+  c.step();
+  EXPECT_EQ(c.get_vector("Vel"), Eigen::Vector3d(0.2, -0.1, 0.5));
+  c.step(4);
+  EXPECT_EQ(c.get_vector("Vel"), Eigen::Vector3d(0.2, -0.1, 0.5)) << "obeyed for 0.05 s";
+  c.step(2);
+  EXPECT_EQ(c.get_vector("Vel"), Eigen::Vector3d::Zero()) << "then zero: the deadman";
+}
+
+TEST(BaseOdometry, ThePoseAndTheTwistInTheBasesFrame) {
+  ControllerUnderTest c("BaseOdometry", {"odom", "base_link", "0.1"});
+  c.start();
+  c.set("Pose", Eigen::Vector3d(1, 2, M_PI / 2));
+  c.step();
+  c.set("Pose", Eigen::Vector3d(1, 2.05, M_PI / 2));  // 0.5 m/s along the world's y: the base's x
+  c.step();
+  const auto o = std::make_unique<dca::msgs::Odometry>(c.get_message<dca::msgs::Odometry>("Odometry"));
+  EXPECT_EQ(o->header.frame_id.view(), "odom");
+  EXPECT_EQ(o->child_frame_id.view(), "base_link");
+  EXPECT_NEAR(o->pose.pose.position.y, 2.05, 1e-12);
+  EXPECT_NEAR(o->pose.pose.orientation.z, std::sqrt(0.5), 1e-12);
+  EXPECT_NEAR(o->pose.pose.orientation.w, std::sqrt(0.5), 1e-12);
+  EXPECT_NEAR(o->twist.twist.linear.x, 0.5, 1e-9);
+  EXPECT_NEAR(o->twist.twist.linear.y, 0, 1e-9);
+}
+
 // The example (examples/ros2/ur10_ros2.dca), run by dca on the mock UR10 in wall-clock time with its Deadline cut
 // to 2 s and its bridge on loopback: the Fast DDS program gets the six joints on /joint_states.
 TEST(Ros2Example, TheUr10sJointStatesReachAnotherVendor) {
 #ifndef DCA_FASTDDS_PEER
   GTEST_SKIP() << "Fast DDS (Debian's libfastrtps-dev) was not found when this was built";
 #else
-  std::ifstream in(DCA_SOURCE_DIR "/examples/ros2/ur10_ros2.dca");
-  std::stringstream text;
-  text << in.rdbuf();
-  std::string dca = text.str();
-  auto replace = [&dca](const std::string& from, const std::string& to) {
-    const std::size_t at = dca.find(from);
-    ASSERT_NE(at, std::string::npos) << from;
-    dca.replace(at, from.size(), to);
-  };
-  replace("\"dca_ur10\", 0, \"\", \"\",", "\"dca_ur10\", " + test_domain() + ", \"lo\", \"127.0.0.1\",");
-  replace("Deadline(\"arm\", 60)", "Deadline(\"arm\", 2)");
   dca::test::TempDir dir("ros2_example");
-  const std::string file = dir.path() + "/ur10_ros2.dca";
-  std::ofstream(file) << dca;
+  const std::string file =
+      example_copy("ur10_ros2.dca", dir.path(), {{"Deadline(\"arm\", 60)", "Deadline(\"arm\", 2)"}});
+  ASSERT_FALSE(file.empty());
   Child peer({DCA_FASTDDS_PEER, test_domain(), "30"});
   ASSERT_FALSE(peer.line_with("ready").empty());
   Child run({DCA_TEST_EXE, "run", file, "--sim", "mock:" DCA_SOURCE_DIR "/worlds/ur10/ur10.urdf", "--realtime"});
   EXPECT_EQ(peer.line_with("got "), "got  shoulder_pan_joint 6");
   EXPECT_FALSE(run.line_with("main.bridge  stopped").empty()) << "the run ends by its Deadline";
 #endif
+}
+
+// The base example (examples/ros2/xr4000_ros2.dca), run by dca in the door world in wall-clock time for 3 s on
+// loopback: a Cyclone participant of this process publishes /cmd_vel and reads /odom; the base moves forward.
+TEST(Ros2Example, TheBaseObeysCmdVelAndPublishesOdom) {
+  dca::test::TempDir dir("ros2_base");
+  const std::string file = example_copy("xr4000_ros2.dca", dir.path(), {{"Timer(\"base\", 60)", "Timer(\"base\", 3)"}});
+  ASSERT_FALSE(file.empty());
+  Participant peer(loopback());
+  const auto qos = *dca::ros2::qos_profile("default");
+  Endpoint cmd = peer.writer("rt/cmd_vel", Twist::dds_name, Twist::type_hash, qos);
+  Endpoint odom = peer.reader("rt/odom", dca::msgs::Odometry::dds_name, dca::msgs::Odometry::type_hash, qos);
+  Child run({DCA_TEST_EXE, "run", file, "--sim", "door", "--realtime"});
+  Twist t;
+  t.linear.x = 0.3;
+  std::array<std::byte, dca::msgs::cdr_max_size<Twist>> buf;
+  const std::size_t n = dca::msgs::cdr_encode(t, buf);
+  double fastest = 0;
+  std::string frame;
+  for (const auto deadline = Clock::now() + kPatience; fastest < 0.1 && Clock::now() < deadline;) {
+    dca::ros2::write(cmd, std::span(buf).first(n));  // 20 Hz, as a teleop would (BaseTwist's deadman is 0.5 s)
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    dca::ros2::take(odom, [&](std::span<const std::byte> cdr) {
+      auto o = std::make_unique<dca::msgs::Odometry>();
+      if (!dca::msgs::cdr_decode(cdr, *o)) return;
+      fastest = std::max(fastest, o->twist.twist.linear.x);
+      frame = std::string(o->header.frame_id.view()) + " " + std::string(o->child_frame_id.view());
+    });
+  }
+  EXPECT_GE(fastest, 0.1) << "the base never moved forward at /cmd_vel's 0.3 m/s";
+  EXPECT_EQ(frame, "odom base_link");
+  EXPECT_FALSE(run.line_with("main.bridge  stopped").empty()) << "the run ends by its Timer";
 }
 
 }  // namespace
