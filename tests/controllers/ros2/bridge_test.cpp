@@ -1,6 +1,7 @@
 // The package ros2 (docs/ros2.md): ros2_bridge alone (dca/testing/controller.h) against DDS peers on loopback:
 // the table, samples both ways, the graph (ros_discovery_info), and the discovery traffic as tshark reads it.
-// Each test uses a domain id of its own process (the port numbers follow from it), so parallel runs do not meet.
+// Each test process claims a DDS domain id of its own (the port numbers follow from it), so parallel runs do not
+// meet.
 #include <dca/testing/controller.h>
 
 #include <gtest/gtest.h>
@@ -14,13 +15,16 @@
 #include <signal.h>
 #include <spawn.h>
 #include <sys/socket.h>
+#include <sys/un.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
 #include <chrono>
+#include <cstddef>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -45,7 +49,27 @@ using Clock = std::chrono::steady_clock;
 
 constexpr auto kPatience = std::chrono::seconds(20);  // a deadline against a hang, never a timing assertion
 
-std::string test_domain() { return std::to_string(1 + getpid() % 230); }
+// A DDS domain id no other test process uses while this one runs: claimed by binding the abstract Unix socket
+// "dca-ros2-test-domain-N" (the kernel frees it when the process ends; no file is left).
+int claim_domain() {
+  for (int i = 0; i < 230; ++i) {
+    const int n = 1 + (getpid() + i) % 230;
+    const std::string name = "dca-ros2-test-domain-" + std::to_string(n);
+    const int fd = socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+    sockaddr_un a{};
+    a.sun_family = AF_UNIX;
+    std::memcpy(a.sun_path + 1, name.data(), name.size());  // sun_path[0] == 0: the abstract namespace
+    const auto len = static_cast<socklen_t>(offsetof(sockaddr_un, sun_path) + 1 + name.size());
+    if (bind(fd, reinterpret_cast<const sockaddr*>(&a), len) == 0) return n;  // held open until the process ends
+    close(fd);
+  }
+  return 1 + getpid() % 230;
+}
+
+std::string test_domain() {
+  static const int domain = claim_domain();
+  return std::to_string(domain);
+}
 /// The UDP ports RTPS uses in the test's domain (7400 + 250 domain + 0..249).
 std::string domain_ports() {
   const int base = 7400 + 250 * std::stoi(test_domain());
