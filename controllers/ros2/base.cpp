@@ -13,6 +13,7 @@ const Param<double> kTimeout{
     .name = "timeout", .doc = "seconds a Twist is obeyed for, then zero (a deadman)", .def = 0.5, .above = 0};
 const InSpec<Eigen::Vector3d> kPose{.name = "Pose", .units = "m, m, rad"};
 const OutSpec<msgs::Odometry> kOdometry{.name = "Odometry"};
+const OutSpec<msgs::TFMessage> kTf{.name = "Tf"};
 const Param<std::string> kFrame{.name = "frame", .doc = "header.frame_id: the odometry's frame", .def = "odom"};
 const Param<std::string> kChild{.name = "child", .doc = "child_frame_id: the base's frame", .def = "base_link"};
 
@@ -50,15 +51,18 @@ Manifest BaseOdometry::Describe() {
   return {.type = "BaseOdometry",
           .doc = "a base's pose (x, y, yaw) as nav_msgs/msg/Odometry (ROS 2's /odom)",
           .inputs = {kPose},
-          .outputs = {kOdometry},
+          .outputs = {kOdometry, kTf},
           .params = {kFrame, kChild, PeriodParam(0.02)},
           .ends = Ending::Never()};
 }
 
 BaseOdometry::BaseOdometry(const ControllerContext& ctx)
-    : PeriodicController(ctx), in_(port(kPose)), out_(port(kOdometry)) {
+    : PeriodicController(ctx), in_(port(kPose)), out_(port(kOdometry)), tf_out_(port(kTf)) {
   if (!msg_.header.frame_id.assign(param(kFrame))) throw bad_param("parameter 'frame' is longer than 63 bytes");
   if (!msg_.child_frame_id.assign(param(kChild))) throw bad_param("parameter 'child' is longer than 63 bytes");
+  tf_.transforms.resize(1);
+  tf_.transforms[0].header.frame_id = msg_.header.frame_id;
+  tf_.transforms[0].child_frame_id = msg_.child_frame_id;
 }
 
 void BaseOdometry::on_start(const msgpack::object&) { have_ = false; }
@@ -80,6 +84,12 @@ void BaseOdometry::MainCalc() {
   msg_.pose.pose.orientation.z = std::sin(pose_(2) / 2);
   msg_.pose.pose.orientation.w = std::cos(pose_(2) / 2);
   out_.write(msg_);
+  msgs::TransformStamped& tr = tf_.transforms[0];
+  tr.header.stamp = msg_.header.stamp;
+  tr.transform.translation.x = pose_(0);
+  tr.transform.translation.y = pose_(1);
+  tr.transform.rotation = msg_.pose.pose.orientation;
+  tf_out_.write(tf_);
   last_pose_ = pose_;
   last_time_ = t;
   have_ = true;

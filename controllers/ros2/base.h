@@ -9,6 +9,7 @@
 //     in  Pose      vector[3] (x, y in m, yaw in rad: XR4000Odometry's Pose)
 //     out Odometry  nav_msgs/msg/Odometry: the pose (yaw as a quaternion about z) and the twist in the base's
 //                   frame from the last two poses, stamped with the clock's time
+//     out Tf        tf2_msgs/msg/TFMessage: the same pose as the one transform frame -> child (for /tf)
 #include <Eigen/Core>
 
 #include <dca/controller.h>
@@ -40,7 +41,9 @@ class BaseOdometry final : public PeriodicController {
 
   In<Eigen::Vector3d> in_;
   Out<msgs::Odometry> out_;
+  Out<msgs::TFMessage> tf_out_;
   msgs::Odometry msg_;
+  msgs::TFMessage tf_;
   Eigen::Vector3d pose_ = Eigen::Vector3d::Zero(), last_pose_ = Eigen::Vector3d::Zero();
   Nanos last_time_ = 0;
   bool have_ = false;

@@ -575,6 +575,13 @@ TEST(BaseOdometry, ThePoseAndTheTwistInTheBasesFrame) {
   EXPECT_NEAR(o->pose.pose.orientation.w, std::sqrt(0.5), 1e-12);
   EXPECT_NEAR(o->twist.twist.linear.x, 0.5, 1e-9);
   EXPECT_NEAR(o->twist.twist.linear.y, 0, 1e-9);
+  const auto tf = std::make_unique<dca::msgs::TFMessage>(c.get_message<dca::msgs::TFMessage>("Tf"));
+  ASSERT_EQ(tf->transforms.size(), 1u);
+  EXPECT_EQ(tf->transforms[0].header.frame_id.view(), "odom");
+  EXPECT_EQ(tf->transforms[0].child_frame_id.view(), "base_link");
+  EXPECT_EQ(tf->transforms[0].header.stamp, o->header.stamp);
+  EXPECT_EQ(tf->transforms[0].transform.translation.y, 2.05);
+  EXPECT_EQ(tf->transforms[0].transform.rotation, o->pose.pose.orientation);
 }
 
 // The example (examples/ros2/ur10_ros2.dca), run by dca on the mock UR10 in wall-clock time with its Deadline cut
@@ -596,7 +603,8 @@ TEST(Ros2Example, TheUr10sJointStatesReachAnotherVendor) {
 }
 
 // The base example (examples/ros2/xr4000_ros2.dca), run by dca in the door world in wall-clock time for 3 s on
-// loopback: a Cyclone participant of this process publishes /cmd_vel and reads /odom; the base moves forward.
+// loopback: a Cyclone participant of this process publishes /cmd_vel and reads /odom and /tf; the base moves
+// forward.
 TEST(Ros2Example, TheBaseObeysCmdVelAndPublishesOdom) {
   dca::test::TempDir dir("ros2_base");
   const std::string file = example_copy("xr4000_ros2.dca", dir.path(), {{"Timer(\"base\", 60)", "Timer(\"base\", 3)"}});
@@ -605,6 +613,7 @@ TEST(Ros2Example, TheBaseObeysCmdVelAndPublishesOdom) {
   const auto qos = *dca::ros2::qos_profile("default");
   Endpoint cmd = peer.writer("rt/cmd_vel", Twist::dds_name, Twist::type_hash, qos);
   Endpoint odom = peer.reader("rt/odom", dca::msgs::Odometry::dds_name, dca::msgs::Odometry::type_hash, qos);
+  Endpoint tf = peer.reader("rt/tf", dca::msgs::TFMessage::dds_name, dca::msgs::TFMessage::type_hash, qos);
   Child run({DCA_TEST_EXE, "run", file, "--sim", "door", "--realtime"});
   Twist t;
   t.linear.x = 0.3;
@@ -622,7 +631,15 @@ TEST(Ros2Example, TheBaseObeysCmdVelAndPublishesOdom) {
       frame = std::string(o->header.frame_id.view()) + " " + std::string(o->child_frame_id.view());
     });
   }
+  std::string tf_frames;
+  dca::ros2::take(tf, [&](std::span<const std::byte> cdr) {
+    auto m = std::make_unique<dca::msgs::TFMessage>();
+    if (dca::msgs::cdr_decode(cdr, *m) && m->transforms.size() == 1)
+      tf_frames = std::string(m->transforms[0].header.frame_id.view()) + " " +
+                  std::string(m->transforms[0].child_frame_id.view());
+  });
   EXPECT_GE(fastest, 0.1) << "the base never moved forward at /cmd_vel's 0.3 m/s";
+  EXPECT_EQ(tf_frames, "odom base_link") << "/tf: odom -> base_link";
   EXPECT_EQ(frame, "odom base_link");
   EXPECT_FALSE(run.line_with("main.bridge  stopped").empty()) << "the run ends by its Timer";
 }
