@@ -89,15 +89,32 @@ Sup.__index = Sup
 
 local LOG_KEEP = 500
 
+-- A value as the run's lines and trace show it, the same in every run: a `,` list ({ n = k, ... } in text order)
+-- item by item with its holes as nil, any other table by its keys in order (pairs' order is not the same from run
+-- to run: integer keys set in completion order, and string keys hashed with a per-process seed).
+local SHOW_MAX = 8
+local function key_order(a, b)
+  local ta, tb = type(a), type(b)
+  if ta ~= tb then return ta < tb end
+  if ta == "number" or ta == "string" then return a < b end
+  return tostring(a) < tostring(b)
+end
 local function show(v)
   if v == nil then return "nil" end
   if type(v) == "string" then return sformat("%q", v) end
   if type(v) ~= "table" then return tostring(v) end
-  local parts, n = {}, 0
-  for k, x in pairs(v) do
-    n = n + 1
-    if n > 8 then parts[#parts + 1] = "..." break end
-    if k ~= "n" then parts[#parts + 1] = (type(k) == "number" and "" or tostring(k) .. "=") .. show(x) end
+  local parts = {}
+  if math.type(v.n) == "integer" then
+    for i = 1, math.min(v.n, SHOW_MAX) do parts[i] = show(v[i]) end
+    if v.n > SHOW_MAX then parts[#parts + 1] = "..." end
+    return "{" .. concat(parts, ", ") .. "}"
+  end
+  local keys = {}
+  for k in pairs(v) do keys[#keys + 1] = k end
+  table.sort(keys, key_order)
+  for i, k in ipairs(keys) do
+    if i > SHOW_MAX then parts[#parts + 1] = "..." break end
+    parts[i] = (math.type(k) == "integer" and "" or tostring(k) .. "=") .. show(v[k])
   end
   return "{" .. concat(parts, ", ") .. "}"
 end

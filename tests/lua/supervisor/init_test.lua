@@ -656,4 +656,18 @@ suite:case("an_emergency_stop_reaches_every_group_below_the_root_with_its_source
   T.eq(r, { type = "error", reason = 'release: name what to release: release("estop")' })
 end)
 
+-- The values in the run's lines and trace are shown the same in every run: a `,` list item by item in text order,
+-- whatever order its items were set in (their completion order) and with its holes as nil; other tables by key.
+suite:case("values_are_shown_in_text_order_whatever_the_order_their_items_came_in", function()
+  local show = require("dca.supervisor").show
+  local early, late = { n = 4 }, { n = 4 }
+  for _, i in ipairs({ 4, 2, 1 }) do early[i] = i * 1.5 end
+  for _, i in ipairs({ 1, 2, 4 }) do late[i] = i * 1.5 end
+  T.eq(show(early), "{1.5, 3.0, nil, 6.0}")
+  T.eq(show(late), show(early))
+  T.eq(show({ n = 10, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10 }), "{1, 2, 3, 4, 5, 6, 7, 8, ...}")
+  T.eq(show({ z = 1, a = "x", [2] = true, [1] = false }), '{false, true, a="x", z=1}')
+  T.eq(show({ n = 2, { n = 1, "in" }, "out" }), '{{"in"}, "out"}')
+end)
+
 return suite:run(...)
