@@ -10,7 +10,12 @@
 --     channel open (spawn, registration, lookup, connect: what any (re)start pays before Init)
 --   RESULT bench=leaf_restart variant=failover_host_lost n=.. ...
 --     the leaf's host lost (its daemon and processes killed, as tests/scenarios/host_lost.lua): the leaf
---     restarts on its standby host (a fresh system per sample: the lost host stays lost)
+--     restarts on its standby host (a fresh system per sample: the lost host stays lost). The group fences
+--     (`fence 0.4 s margin 0.2 s`, docs/supervision.md "Fencing"): a channel its daemon closed costs the margin
+--   RESULT bench=leaf_restart variant=failover_host_silent n=.. ...
+--     the leaf's host silent (its daemon and processes held with SIGSTOP: a cut-off host as its supervisor sees
+--     it): lost after `fence` without a heartbeat's answer, restarted on the standby host fence + margin after
+--     the last renewal sent to it; `fenced_excess` is the same less fence + margin (what fencing adds no wait to)
 -- "Running again" is the answer to a `read` sent to the new process as soon as its supervisor says
 -- "restarted": it comes after the node has handled Init and Run (one channel, in order).
 -- Usage: dca lua tests/bench/restart_bench.lua [N]   (N samples of each same-host variant, default 30; a third
@@ -26,7 +31,9 @@ local N = tonumber(arg and arg[1]) or 30
 local SYSTEM = [[
 process P(h, hs, hb) {
   host { hs }
-  supervision { strategy one_for_one; intensity 1000 in 1 s; restart on crash, lost; standby mid on hb; }
+  supervision {
+    strategy one_for_one; intensity 1000 in 1 s; restart on crash, lost; standby mid on hb; fence 0.4 s margin 0.2 s;
+  }
   instantiated_processes {
     src  instof Constant(hs, 0.01, 1);
     mid  instof Gain(h, 1.0, 0);
@@ -119,11 +126,25 @@ for _, sig in ipairs({ "KILL", "SEGV" }) do
 end
 sys:stop()
 
-local fs = {}
+-- Host "a" silent: its daemon and its children held, none of them closing a channel.
+local function silence(s)
+  for _, p in ipairs(s:_host_pids("a")) do core.kill(p, "STOP") end
+  core.kill(s.daemons.pids.a, "STOP")
+end
+
+local FENCE_AND_MARGIN = 0.6
+local lost, silent, excess = {}, {}, {}
 for _ = 1, math.max(3, N // 3) do
   local s = up()
-  fs[#fs + 1] = restart_sample(s, function() s:lose_host("a") end)
+  lost[#lost + 1] = restart_sample(s, function() s:lose_host("a") end)
+  s:stop()
+  s = up()
+  local dt = restart_sample(s, function() silence(s) end)
+  silent[#silent + 1], excess[#excess + 1] = dt, dt - FENCE_AND_MARGIN
+  s:lose_host("a")  -- (the held processes end)
   s:stop()
 end
-result("leaf_restart", "failover_host_lost", fs)
+result("leaf_restart", "failover_host_lost", lost)
+result("leaf_restart", "failover_host_silent", silent)
+result("leaf_restart", "fenced_excess", excess)
 T.cleanup()
