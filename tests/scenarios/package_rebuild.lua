@@ -45,6 +45,23 @@ local function sh(cmd)
 end
 
 local sys
+
+-- `cmd` run while the supervisors' loop goes on: a call that blocks it would silence the root supervisor for
+-- longer than the fence, and the daemons would stop its leaves (docs/supervision.md, "Fencing").
+local function sh_live(cmd)
+  local log, status = root .. "/sh.log", root .. "/sh.status"
+  os.remove(status)
+  T.background("{ (" .. cmd .. "); echo $? > " .. status .. "; }", log)
+  local function rc()
+    local f = io.open(status)
+    local text = f and f:read("a") or ""
+    if f then f:close() end
+    return tonumber(text:match("%d+"))
+  end
+  sys:wait(cmd, function() return rc() ~= nil end, 300)
+  if rc() ~= 0 then error(cmd .. " failed (" .. rc() .. "):\n" .. T.read(log), 0) end
+end
+
 local PROCESSES = { "main.src", "main.sc", "main.sink", "main.other" }
 local function pids()
   local t = {}
@@ -92,7 +109,7 @@ end)
 S.step("rebuilt with factor 3, restart('sc'): the new factor, the others never stopped", function()
   local before = pids()
   source(3)
-  sh("cmake --build " .. root .. "/build")
+  sh_live("cmake --build " .. root .. "/build")
   local repl = require("dca.supervisor.console").new(sys.sup)
   local out
   repl:eval("restart('sc')", function(o) out = o end)
