@@ -6,9 +6,13 @@ namespace dca {
 
 Loop::Loop() = default;
 
+// The signal sets go before the io_context whose service they are registered with.
 Loop::~Loop() {
+  boost::system::error_code ec;
+  for (auto& [signal, extra] : extra_)
+    if (extra.first) extra.first->cancel(ec);
+  extra_.clear();
   if (signals_) {
-    boost::system::error_code ec;
     signals_->cancel(ec);
     signals_.reset();
   }

@@ -58,8 +58,8 @@ class Loop {
  private:
   void wait_signal();
   void wait_extra(boost::asio::signal_set* set, int signal);
-  std::map<int, std::pair<std::unique_ptr<boost::asio::signal_set>, std::function<void()>>> extra_;
   boost::asio::io_context io_{1};
+  std::map<int, std::pair<std::unique_ptr<boost::asio::signal_set>, std::function<void()>>> extra_;
   std::unique_ptr<boost::asio::signal_set> signals_;
   std::function<void(int)> on_signal_;
 };
