@@ -13,6 +13,7 @@
 #include <stdexcept>
 #include <system_error>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include "host/rt/spsc_ring.h"
@@ -116,6 +117,7 @@ struct RtSlot {
   rt::RtHistogram wake, exec;
   std::atomic<std::uint64_t> runs{0}, overruns{0}, missed{0};
   std::atomic<Nanos> period{0};
+  ComponentEvent* unsent = nullptr;  // the thread's: an end of run the events ring had no room for, sent later
 };
 
 struct RtHost::Impl {
@@ -132,8 +134,9 @@ struct RtHost::Impl {
   std::vector<std::unique_ptr<RouteLink>> routes;  // the same
   rt::SpscRing<Sample, 64> in;                  // I/O -> thread: samples for the leaves' inputs
   rt::SpscRing<Sample, 128> out;                // thread -> I/O: samples the leaves wrote
+  static constexpr std::size_t kAnswers = 16;
   rt::SpscRing<Command, 16> commands;
-  rt::SpscRing<Answer, 16> answers;
+  rt::SpscRing<Answer, kAnswers> answers;
   rt::SpscRing<Event, 16> events;
   rt::SpscRing<Pull, 64> pulls;                 // thread -> I/O: inputs asking their pull connections
   struct Pending {
@@ -157,6 +160,13 @@ struct RtHost::Impl {
   void take_samples();
   void publish_counts();
   void on_ran(const std::string& name, Nanos deadline, Nanos period, Nanos start, Nanos end);
+  void send_unsent() {
+    for (auto& s : slots)
+      if (s && s->unsent && events.push({static_cast<std::uint16_t>(&s - slots.data()), s->unsent})) {
+        s->unsent = nullptr;
+        pushed = true;
+      }
+  }
   void notify() {
     if (!pushed) return;
     pushed = false;
@@ -210,6 +220,8 @@ RtHost::~RtHost() {
   boost::system::error_code ec;
   impl_->efd.close(ec);
   for (Event e; impl_->events.pop(e);) delete e.event;
+  for (auto& slot : impl_->slots)
+    if (slot) delete std::exchange(slot->unsent, nullptr);
   // (a leaf's component may be gone by now: its outputs closed our links, which own nothing)
 }
 
@@ -260,7 +272,10 @@ PortSet& RtHost::adopt(Component& c, std::function<void(const ComponentEvent&)> 
   }
   c.on_event = [&I, slot](const ComponentEvent& e) {
     auto* ev = new ComponentEvent(e);
-    if (!I.events.push({slot, ev})) return delete ev;  // 16 ends of runs not yet told: cannot happen
+    RtSlot& me = *I.slots[slot];
+    // more ends of runs than the ring holds before the I/O thread drains it (a shared node of many leaves):
+    // kept and sent at the next wake (a leaf's run ends once; a second end replaces the first)
+    if (!I.events.push({slot, ev})) return delete me.unsent, void(me.unsent = ev);
     I.pushed = true;
   };
   PortSet& mirror = *s->mirror;
@@ -279,6 +294,9 @@ std::unique_ptr<PortSet> RtHost::forget(Component& c) {
     return nullptr;
   }
   c.halt();  // its actuators' zeros go to the ring, then to the mirror
+  I.send_unsent();  // (the thread is stopped: this thread may fill its rings)
+  I.drain();
+  I.send_unsent();
   I.drain();
   std::erase_if(I.routes, [i](const std::unique_ptr<RouteLink>& r) {
     if (r->from != i && r->to != i) return false;
@@ -368,7 +386,8 @@ void RtHost::request(Component& c, Op op, std::string a, std::string b, Reply do
   p->b = std::move(b);
   p->done = std::move(done);
   const Command cmd{++I.seq, op, slot, &p->a, &p->b, &p->error};
-  if (!I.commands.push(cmd)) return p->done(c.name() + ": too many requests waiting for the real-time thread");
+  // at most as many requests unanswered as the answers ring holds: the thread's answer always finds room
+  if (I.pending.size() >= Impl::kAnswers || !I.commands.push(cmd)) return p->done(c.name() + ": too many requests waiting for the real-time thread");
   I.pending.emplace(cmd.seq, std::move(p));  // taken at the thread's next wake (kIdle at the latest)
   I.wait();
 }
@@ -418,6 +437,7 @@ void RtHost::Impl::run() {
     const Nanos now = monotonic_now();
     sleep_until(std::min(timers.next_deadline().value_or(kNever), now + kIdle));
     if (stop.load(std::memory_order_relaxed)) break;
+    send_unsent();
     take_commands();
     take_samples();
     timers.run_due();
@@ -441,7 +461,7 @@ void RtHost::Impl::take_commands() {
         case Op::SetParameter: ok = s->c->set_parameter(*c.a, *c.b, c.error); break;
       }
     }
-    answers.push({c.seq, ok});  // never full: as many slots as commands
+    answers.push({c.seq, ok});  // never full: request() keeps at most kAnswers unanswered
     pushed = true;
   }
 }

@@ -345,10 +345,13 @@ void TimerServer::set_driven() {
   impl_->armed = -1;
 }
 
+// Each entry due at the call runs once: a callback that overruns its period leaves its next deadline behind the
+// clock, and reading the clock again here would run it again at once, for ever. The caller's next wake finds it
+// late, and fire() skips and counts the periods it missed.
 std::size_t TimerServer::run_due() {
   std::size_t n = 0;
+  const Nanos now = monotonic_now();
   for (;;) {
-    const Nanos now = monotonic_now();
     Entry* e = impl_->due(now);
     if (!e) break;
     impl_->fire(*e, now, now, *this);
