@@ -518,21 +518,23 @@ function Net:_watch_daemon(host, d, dc)
     p:exited_with(self, reason, msg)
     p:gone()
   end)
+  local beat, closed
   dc:on_close(function(reason)
+    closed = true  -- (its heartbeat ends here: a ping failing on this closed channel is no second loss)
+    if beat then beat:cancel() end
     local r = tostring(reason)
     if r:find("^connection closed by the peer") or r:find("^closed by the peer") then self.peer_closed[host] = core.now() end
     if self.daemons[host] == d then self.daemons[host] = nil end
     self._host_lost(host, sformat("host %s lost (daemon gone: %s)", host, tostring(reason)))
   end)
   local hb, hb_timeout = self.heartbeat()
-  local beat
   beat = core.every(hb, function()
-    if self.closing or d.client ~= dc then beat:cancel() return end
+    if self.closing or closed or d.client ~= dc then beat:cancel() return end
     self._renewing(host)
     dc:request({ type = "ping" }, hb_timeout, function(r, perr)
-      if r or d.client ~= dc or self.closing then return end
+      if r or closed or d.client ~= dc or self.closing then return end
       beat:cancel()
-      self.daemons[host] = nil
+      if self.daemons[host] == d then self.daemons[host] = nil end
       self._host_lost(host, sformat("host %s lost (its daemon did not answer for %gs: %s)", host, hb_timeout,
         tostring(perr)))
       dc:close()
