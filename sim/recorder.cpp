@@ -56,14 +56,20 @@ struct Recorder::Box {
   uint64_t t_trigger = 0;
   std::string why;
   uint64_t dropped = 0;         // messages dropped by the size bound
+  uint64_t gone = 0;            // the latest time of a message dropped
+  bool any_gone = false;
   std::vector<std::string> files;  // what each trigger wrote
 
-  // Drops what no trigger can need any more, then the oldest past the size bound.
+  // Drops what no trigger can need any more, then the oldest past the size bound. Without a trigger pending, a
+  // trigger may still come for a tick up to kLateTrigger behind the latest message (a fault's line travels from
+  // the tree while time runs on), so that much more is kept.
   void evict() {
-    const uint64_t keep = pending ? t_trigger : latest;
+    const uint64_t keep = pending ? t_trigger : (latest > Recorder::kLateTrigger ? latest - Recorder::kLateTrigger : 0);
     const uint64_t from = keep > before_ns ? keep - before_ns : 0;
     while (!held.empty() && (held.front().t < from || bytes > o.max_bytes)) {
       if (held.front().t >= from) ++dropped;
+      gone = std::max(gone, held.front().t);
+      any_gone = true;
       bytes -= held.front().json.size() + sizeof(Held);
       held.pop_front();
     }
@@ -89,10 +95,17 @@ struct Recorder::Box {
       if (m.t >= from && m.t <= to) w.write(m.channel, m.t, m.json);
     const bool bad = !w.finish() || std::ferror(f) != 0;
     if (std::fclose(f) != 0 || bad) return file + ": error writing the black box";
-    char window[96];
+    char window[160];
     std::snprintf(window, sizeof window, " at %.3f s, [%.3f, %.3f] s, ", static_cast<double>(t_trigger) / 1e9,
                   static_cast<double>(from) / 1e9, static_cast<double>(to) / 1e9);
-    return file + ": " + why + window + std::to_string(w.stats().messages - 1) + " messages";
+    std::string cut;
+    if (any_gone && gone >= from) {  // came too late, or past the size bound: say what it lacks
+      char held_from[96];
+      std::snprintf(held_from, sizeof held_from, " (messages up to %.3f s were no longer held)",
+                    static_cast<double>(gone) / 1e9);
+      cut = held_from;
+    }
+    return file + ": " + why + window + std::to_string(w.stats().messages - 1) + " messages" + cut;
   }
 };
 

@@ -28,6 +28,9 @@ class Recorder {
   /// MCAP when `path` ends in ".mcap"; else a CSV whose first line is `csv_header` (a world without a CSV export
   /// passes none: then any name but FILE.mcap is refused).
   explicit Recorder(const std::string& path, const std::string& csv_header = "");
+  /// A black box keeps this much simulated time (ns) beyond `before`: a trigger's tick may lie that far behind
+  /// the latest message when it arrives (a fault's line reaches the world while time runs on).
+  static constexpr uint64_t kLateTrigger = 2'000'000'000;
   ~Recorder();
   Recorder(const Recorder&) = delete;
   Recorder& operator=(const Recorder&) = delete;
