@@ -169,17 +169,40 @@ struct TimerServer::Impl {
   Nanos current = -1;  // the deadline of the callback running now
   std::shared_ptr<bool> alive = std::make_shared<bool>(true);
 
+  // The active timers by (deadline, id), a binary min-heap with lazy removal: an item whose entry was cancelled
+  // or has moved on to a later deadline is dropped when it reaches the top. A round costs O(log n) per timer it
+  // fires, not a scan of every timer per fire (1,000 leaves in one node: the scan was 24 % of its CPU).
+  struct Due {
+    Nanos deadline;
+    Id id;
+    Entry* entry;
+  };
+  static bool later_first(const Due& a, const Due& b) {  // std::*_heap keep the largest first: invert
+    return a.deadline != b.deadline ? a.deadline > b.deadline : a.id > b.id;
+  }
+  mutable std::vector<Due> heap;
+  void push(Entry& e) {
+    heap.push_back({e.deadline, e.id, &e});
+    std::push_heap(heap.begin(), heap.end(), later_first);
+  }
+  // The top item, stale ones dropped first; nullptr when no timer is active.
+  const Due* top() const {
+    while (!heap.empty()) {
+      const Due& d = heap.front();
+      if (d.entry->active && d.entry->deadline == d.deadline) return &d;
+      std::pop_heap(heap.begin(), heap.end(), later_first);
+      heap.pop_back();
+    }
+    return nullptr;
+  }
+  // The timer to run next if it is due by `t`: the earliest deadline, ties in creation order (by id).
   Entry* due(Nanos t) {
-    Entry* best = nullptr;
-    for (auto& e : entries)
-      if (e->active && e->deadline <= t && (!best || e->deadline < best->deadline)) best = e.get();
-    return best;  // ties: the first in the vector, i.e. the oldest (creation order)
+    const Due* d = top();
+    return d && d->deadline <= t ? d->entry : nullptr;
   }
   std::optional<Nanos> next() const {
-    std::optional<Nanos> n;
-    for (const auto& e : entries)
-      if (e->active && (!n || e->deadline < *n)) n = e->deadline;
-    return n;
+    const Due* d = top();
+    return d ? std::optional<Nanos>(d->deadline) : std::nullopt;
   }
   void cleanup() {
     if (firing) return;
@@ -194,6 +217,10 @@ struct TimerServer::Impl {
       }
       return false;
     });
+    // items of erased entries would dangle: the heap again from the active ones
+    heap.clear();
+    for (const auto& e : entries)
+      if (e->active) push(*e);
   }
   Intervals* intervals_for(const std::string& name, Nanos period) {
     for (auto& i : intervals)
@@ -223,6 +250,7 @@ struct TimerServer::Impl {
         e.deadline += k * e.period;
         e.missed += static_cast<std::uint64_t>(k);
       }
+      push(e);
     } else {
       e.active = false;
     }
@@ -304,6 +332,7 @@ TimerServer::Id TimerServer::every(Nanos period, std::function<void()> fn, std::
   e->fn = std::move(fn);
   e->intervals = impl_->intervals_for(e->name, period);
   const Id id = e->id;
+  impl_->push(*e);
   impl_->entries.push_back(std::move(e));
   if (kind_ == ClockKind::Wall && !impl_->firing) impl_->arm(*this);
   return id;
@@ -316,6 +345,7 @@ TimerServer::Id TimerServer::after(Nanos delay, std::function<void()> fn, std::s
   e->deadline = later(now(), std::max<Nanos>(delay, 0));
   e->fn = std::move(fn);
   const Id id = e->id;
+  impl_->push(*e);
   impl_->entries.push_back(std::move(e));
   if (kind_ == ClockKind::Wall && !impl_->firing) impl_->arm(*this);
   return id;

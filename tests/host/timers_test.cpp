@@ -3,7 +3,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cstdint>
 #include <functional>
 #include <limits>
 #include <string>
@@ -372,4 +374,79 @@ TEST_F(TimersTest, AlignedPeriodicTimersStartOnMultiplesOfTheirPeriod) {
   EXPECT_EQ(al.next_deadline(), 30 * kMs);
   EXPECT_EQ(a, 2);
   EXPECT_EQ(b, 2);
+}
+
+// The heap of due timers against a model that scans every timer (the order of docs/time.md: deadline, then
+// creation): random periodic and one-shot timers, cancelled from outside and from callbacks, timers added by
+// callbacks, over 1,500 random advances, with more than the 256 finished timers the server keeps (its clean-up
+// rebuilds the heap). The sequence of (name, deadline) fired is the model's.
+TEST_F(TimersTest, TheHeapFiresInTheOrderOfAScanOfEveryTimer) {
+  struct Model {
+    struct T {
+      std::string name;
+      dca::Nanos deadline, period;
+      bool active = true;
+    };
+    std::vector<T> ts;
+  };
+  dca::TimerServer s(io, dca::ClockKind::Simulated);
+  Model m;
+  std::vector<std::string> got, want;
+  std::vector<dca::TimerServer::Id> ids;  // the server's id of the model's timer i
+  std::uint64_t x = 88172645463325252ull;  // xorshift64: the same sequence every run
+  auto rnd = [&](std::uint64_t n) {
+    x ^= x << 13, x ^= x >> 7, x ^= x << 17;
+    return x % n;
+  };
+  s.on_fire = [&](const std::string& name, dca::Nanos t) { got.push_back(name + "@" + std::to_string(t)); };
+  dca::Nanos now = 0;
+  // callbacks: timer i, when it fires, cancels timer (i * 7) % count every third time (model: the same)
+  std::function<void(std::size_t)> add = [&](std::size_t unused) {
+    (void)unused;
+    const std::size_t i = m.ts.size();
+    const bool periodic = rnd(3) != 0;
+    const dca::Nanos d = static_cast<dca::Nanos>(1 + rnd(20)) * kMs;
+    const std::string name = "t" + std::to_string(i);
+    m.ts.push_back({name, now + d, periodic ? d : 0});
+    auto fn = [&, i] {
+      if (i % 3 == 0 && !m.ts.empty()) {
+        const std::size_t j = (i * 7) % m.ts.size();
+        s.cancel(ids[j]);
+      }
+    };
+    ids.push_back(periodic ? s.every(d, fn, name) : s.after(d, fn, name));
+  };
+  auto model_advance = [&](dca::Nanos t) {
+    for (;;) {
+      std::size_t best = m.ts.size();
+      for (std::size_t i = 0; i < m.ts.size(); ++i)
+        if (m.ts[i].active && m.ts[i].deadline <= t && (best == m.ts.size() || m.ts[i].deadline < m.ts[best].deadline))
+          best = i;
+      if (best == m.ts.size()) break;
+      auto& e = m.ts[best];
+      want.push_back(e.name + "@" + std::to_string(e.deadline));
+      if (e.period) e.deadline += e.period;
+      else e.active = false;
+      if (best % 3 == 0) m.ts[(best * 7) % m.ts.size()].active = false;
+    }
+  };
+  for (int round = 0; round < 1500; ++round) {
+    const auto op = rnd(10);
+    if (op < 4) add(0);
+    else if (op < 5 && !m.ts.empty()) {
+      const std::size_t j = rnd(m.ts.size());
+      m.ts[j].active = false;
+      s.cancel(ids[j]);
+    }
+    const dca::Nanos t = now + static_cast<dca::Nanos>(rnd(15)) * kMs;
+    model_advance(t);
+    s.advance_to(t);
+    now = t;
+    ASSERT_EQ(got, want) << "round " << round;
+    ASSERT_EQ(s.next_deadline().has_value(), std::any_of(m.ts.begin(), m.ts.end(), [](auto& e) { return e.active; }));
+  }
+  EXPECT_GT(want.size(), 2000u);
+  std::size_t finished = 0;
+  for (const auto& e : m.ts) finished += !e.active;
+  EXPECT_GT(finished, 256u) << "past what the server keeps: its clean-up ran";
 }
