@@ -15,3 +15,17 @@ endforeach()
 if(TARGET dca_test_packages)  # (not in `all` by itself: the package tests depend on it)
   add_dependencies(dca_runtime dca_test_packages)
 endif()
+
+# dca_product: what dca runs with, nothing of tests/ (scripts/setup demo builds only this): the targets of the
+# core's, the Lua side's, the controllers', the worlds' and the executables' folders.
+add_custom_target(dca_product)
+foreach(dir host bindings controllers sim worlds app packaging)
+  dca_property_below(${PROJECT_SOURCE_DIR}/${dir} BUILDSYSTEM_TARGETS dca_dir_targets)
+  foreach(t IN LISTS dca_dir_targets)
+    get_target_property(type ${t} TYPE)
+    get_target_property(excluded ${t} EXCLUDE_FROM_ALL)
+    if(NOT type STREQUAL "INTERFACE_LIBRARY" AND NOT excluded)
+      add_dependencies(dca_product ${t})
+    endif()
+  endforeach()
+endforeach()
