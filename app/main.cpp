@@ -1,15 +1,18 @@
 // The `dca` executable: subcommands dispatched like git's. C++ subcommands register with DCA_SUBCOMMAND;
 // any other word names a Lua subcommand, the module dca.cli.<word> (lua/dca/cli/<word>.lua).
+#include <algorithm>
 #include <cstdio>
 #include <cstring>
 #include <exception>
 #include <filesystem>
 #include <span>
 #include <string>
+#include <vector>
 
 #include "bindings/lua_runtime.h"
 #include "bindings/stop_signals.h"
 #include "app/subcommand.h"
+#include "host/config_store.h"
 #include "host/paths.h"
 #include "host/spawn.h"
 #include "host/version.h"
@@ -33,21 +36,49 @@ void print_list(FILE* out) {
     if (dca::cli::find(name) == nullptr) std::fprintf(out, "  %-10s %s\n", name.c_str(), summary.c_str());
 }
 
+// Every command's name: the C++ ones and the Lua ones.
+std::vector<std::string> command_names() {
+  std::vector<std::string> names{"help"};
+  for (const auto& s : dca::cli::all()) names.emplace_back(s.name);
+  dca::lua::Runtime rt;
+  for (const auto& [name, summary] : dca::lua::lua_subcommands(rt)) names.push_back(name);
+  return names;
+}
+
+// An unknown command: one line naming it, the closest commands (or those it begins), and where the list is. --> 2
+int not_a_command(const std::string& name) {
+  const auto names = command_names();
+  auto close = dca::config::suggest(name, names);  // the closest, as for the configuration's keys
+  for (const auto& c : names)
+    if (name.size() >= 2 && c.rfind(name, 0) == 0 && std::find(close.begin(), close.end(), c) == close.end())
+      close.push_back(c);
+  std::string said;
+  for (const auto& c : close) said += (said.empty() ? "" : " or ") + ("'" + c + "'");
+  std::fprintf(stderr, "dca: '%s' is not a dca command%s%s%s\n", name.c_str(), said.empty() ? "" : " (did you mean ",
+               said.c_str(), said.empty() ? "" : "?)");
+  std::fprintf(stderr, "`dca help` lists the commands.\n");
+  return 2;
+}
+
+bool is_lua_command(const std::string& name) {
+  if (!lua_subcommand_exists(name)) return false;
+  dca::lua::Runtime rt;
+  return !rt.module_field("dca.cli." + name, "summary").empty();
+}
+
 int print_usage(const std::string& name) {
   if (const auto* s = dca::cli::find(name)) {
     std::printf("%s\n", s->usage);
     return 0;
   }
-  if (lua_subcommand_exists(name)) {
+  if (is_lua_command(name)) {
     dca::lua::Runtime rt;
     std::string usage = rt.module_field("dca.cli." + name, "usage");
     if (usage.empty()) usage = "usage: dca " + name + " [args]";
     std::printf("%s\n", usage.c_str());
     return 0;
   }
-  std::fprintf(stderr, "dca: '%s' is not a dca command.\n\n", name.c_str());
-  print_list(stderr);
-  return 2;
+  return not_a_command(name);
 }
 
 int dispatch(int argc, char** argv) {
@@ -70,13 +101,11 @@ int dispatch(int argc, char** argv) {
   const std::span<char* const> args(argv + 2, static_cast<size_t>(argc - 2));
   if (!args.empty() && is_help(args[0])) return print_usage(sub);
   if (const auto* s = dca::cli::find(sub)) return s->main(args);
-  if (lua_subcommand_exists(sub)) {
+  if (is_lua_command(sub)) {
     dca::lua::Runtime rt;
     return rt.run_module_main("dca.cli." + sub, args);
   }
-  std::fprintf(stderr, "dca: '%s' is not a dca command.\n\n", sub.c_str());
-  print_list(stderr);
-  return 2;
+  return not_a_command(sub);
 }
 
 }  // namespace

@@ -133,7 +133,9 @@ std::vector<std::pair<std::string, std::string>> lua_subcommands(Runtime& rt) {
   for (const auto& e : fs::directory_iterator(fs::path(dca::lua_dir()) / "dca" / "cli", ec)) {
     if (e.path().extension() != ".lua") continue;
     const std::string name = e.path().stem().string();
-    out.emplace_back(name, rt.module_field("dca.cli." + name, "summary"));
+    // a module without a summary is a helper of the others (dca.cli.args), not a command
+    if (auto summary = rt.module_field("dca.cli." + name, "summary"); !summary.empty())
+      out.emplace_back(name, std::move(summary));
   }
   std::sort(out.begin(), out.end());
   return out;

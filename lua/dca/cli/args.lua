@@ -11,7 +11,10 @@
 -- (the next argument as a number) or list (the next argument, appended each time the option is given);
 -- key defaults to the spelling without leading dashes, '-' turned into '_'. The positional arguments are
 -- at most `max` (default 1). Anything else starting with '-' is an error, as is an option missing its
--- value: nil, "dca graph: --root needs a value" / "dca graph: unexpected argument '--x'".
+-- value: nil, "dca graph: --root needs a value" / "dca graph: unknown option '--rot' (did you mean --root?)" /
+-- "dca graph: unexpected argument 'x'" (one positional too many).
+local distance = require("dca.lang.source").distance
+
 local M = {}
 
 local function key_of(spelling, kind)
@@ -40,7 +43,9 @@ function M.parse(argv, name, options, max)
         end
         if kind == "list" then o[key] = o[key] or {}; table.insert(o[key], v) else o[key] = v end
       end
-    elseif a:sub(1, 1) == "-" or o.n >= max then
+    elseif a:sub(1, 1) == "-" then
+      return nil, name .. ": unknown option '" .. a .. "'" .. M.did_you_mean(a, options)
+    elseif o.n >= max then
       return nil, name .. ": unexpected argument '" .. a .. "'"
     else
       o.n = o.n + 1
@@ -51,9 +56,28 @@ function M.parse(argv, name, options, max)
   return o
 end
 
---- Writes err and the usage to stderr. --> 2 (the exit code of bad usage)
+--- " (did you mean --x?)" for `word` among the keys of `names` (at most two edits away, or a key it begins),
+--- or "". Exported for the subcommands' own checks.
+function M.did_you_mean(word, names)
+  local close = {}
+  for n in pairs(names) do
+    if distance(word, n) <= math.min(2, math.max(1, #n // 3)) or (#word >= 3 and n:sub(1, #word) == word) then
+      close[#close + 1] = n
+    end
+  end
+  if #close == 0 then return "" end
+  table.sort(close)
+  return " (did you mean " .. table.concat(close, " or ") .. "?)"
+end
+
+--- Writes err and the usage's first line to stderr, and where the rest is. --> 2 (the exit code of bad usage)
 function M.usage_error(err, usage)
-  io.stderr:write(err, "\n", usage, "\n")
+  usage = tostring(usage or "")
+  local first = usage:match("^[^\n]*") or ""
+  local cmd = first:match("^usage: (dca %S+)")
+  local more = usage:find("\n", 1, true) and " ..." or ""
+  io.stderr:write(err, "\n", first, more, "\n")
+  if cmd then io.stderr:write("(`", cmd, " --help`: the whole usage)\n") end
   return 2
 end
 

@@ -40,7 +40,7 @@ end)
 suite:case("usage_errors_exit_2", function()
   T.dca("graph", 2, "usage: dca graph FILE.dca")
   T.dca("graph -o", 2, "dca graph: -o needs a value")
-  T.dca("graph --frob x.dca", 2, "dca graph: unexpected argument '--frob'")
+  T.dca("graph --frob x.dca", 2, "dca graph: unknown option '--frob'")
 end)
 
 return suite:run(...)

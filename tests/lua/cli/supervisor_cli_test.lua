@@ -38,7 +38,7 @@ process main() {
 end)
 
 suite:case("run_without_a_file_prints_usage_and_exits_2", function()
-  for args, says in pairs({ [""] = "usage: dca run FILE.dca", [" x.dca --frob"] = "unexpected argument '--frob'" }) do
+  for args, says in pairs({ [""] = "usage: dca run FILE.dca", [" x.dca --frob"] = "unknown option '--frob'" }) do
     local out, rc = T.sh(dca .. " run" .. args)
     T.eq(rc, 2, "dca run" .. args)
     T.contains(out, says)
