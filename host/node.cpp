@@ -123,7 +123,8 @@ struct Leaf {
   std::uint64_t instance = 0;  // this process's count of leaves added, at its add (Location::instance)
   std::unique_ptr<Component> component;
   PortSet* ports = nullptr;  // what the endpoint and the control plane see: the component's, or its mirror (on_rt)
-  bool on_rt = false;        // its component runs on the node's real-time thread (host/node_rt.h)
+  bool on_rt = false;        // its component runs on one of the node's real-time threads (host/node_rt.h)
+  RtHost* rt = nullptr;      // that thread (on_rt)
   std::unique_ptr<PortSet> mirror;  // its mirror once the thread let it go (RtHost::forget), for the endpoint
   Listener::Ptr control;
   std::shared_ptr<std::set<Channel::Ptr>> supervisors = std::make_shared<std::set<Channel::Ptr>>();
@@ -145,7 +146,11 @@ struct Node::Impl {
   ComponentFactory factory;
   ChannelOptions chopts;
   std::unique_ptr<TimerServer> timers;
-  std::unique_ptr<RtHost> rt;  // the real-time thread (NodeOptions::rt, wall clock), before the leaves: outlives them
+  // The real-time threads (wall clock), before the leaves: they outlive them. One per distinct setting: the
+  // node's own (NodeOptions::rt), and in a shared node those its `add` requests name ({priority, cpu}).
+  std::map<std::pair<int, int>, std::unique_ptr<RtHost>> rts;
+  RtHost* rt = nullptr;  // the node's own (NodeOptions::rt), or none
+  RtHost* rt_for(rt::RtConfig c);
   std::unique_ptr<Endpoint> endpoint;
   std::map<std::string, std::shared_ptr<Leaf>, std::less<>> leaves;
   Channel::Ptr daemon;
@@ -179,7 +184,7 @@ struct Node::Impl {
   Listener::Ptr listen(const Set& set, std::function<void(const Channel::Ptr&, const Message&)> on,
                        std::string* error);
   Leaf* add_leaf(const std::string& type, const std::string& name, const std::vector<std::string>& args,
-                 std::string* error);
+                 RtHost* on, std::string* error);
   void remove_leaf(const std::string& name);
   Value endpoints(const Leaf* leaf) const;
   void forward(Leaf& leaf, const ComponentEvent& e);
@@ -198,7 +203,7 @@ struct Node::Impl {
   void pull(Leaf& leaf, const Channel::Ptr& ch, const Message& m);
   void set_param(Leaf& leaf, const Channel::Ptr& ch, const Message& m);
   bool rt_control(Leaf& leaf, const Channel::Ptr& ch, const Message& m);
-  void start_rt();
+  void start_rt(RtHost& h);
   Value rt_stats(const Leaf& leaf) const;
   std::string take_expected(const Value& expect);
   Value sent_changes();
@@ -325,14 +330,14 @@ void Node::Impl::open_ports(const Done& done_fn) {
   if (opts.clock == ClockKind::Wall && (opts.rt.priority > 0 || opts.rt.cpu >= 0)) {
     auto c = opts.rt;
     c.who = opts.name + " on host " + host;
-    rt = std::make_unique<RtHost>(loop.io(), c);
+    rt = rt_for(c);
   }
   if (!opts.shared) {
-    if (!add_leaf(opts.type, opts.name, opts.args, &error)) return fail_start(done_fn, error);
-    start_rt();
+    if (!add_leaf(opts.type, opts.name, opts.args, rt, &error)) return fail_start(done_fn, error);
+    if (rt) start_rt(*rt);
     return enlist(done_fn);
   }
-  start_rt();
+  if (rt) start_rt(*rt);
   open_crash_note();
   clear_note_on_external_signals();
   timers->on_enter = note_leaf;
@@ -372,7 +377,7 @@ Listener::Ptr Node::Impl::listen(const Set& set, std::function<void(const Channe
 // Creates a leaf: its component (on the process's timers), its ports in the process's endpoint and its own
 // control listener. nullptr, with *error, when the factory refuses or the listener fails.
 Leaf* Node::Impl::add_leaf(const std::string& type, const std::string& name, const std::vector<std::string>& args,
-                           std::string* error) {
+                           RtHost* on, std::string* error) {
   if (find(name)) {
     *error = name + " is already hosted by this node";
     return nullptr;
@@ -383,13 +388,14 @@ Leaf* Node::Impl::add_leaf(const std::string& type, const std::string& name, con
   leaf->instance = ++instances;
   Leaf* l = leaf.get();
   try {
-    leaf->component = factory(type, name, host, args, rt ? rt->timers() : *timers);
+    leaf->component = factory(type, name, host, args, on ? on->timers() : *timers);
     leaf->ports = &leaf->component->ports();
-    if (rt) leaf->ports = &rt->adopt(*leaf->component, [this, l](const ComponentEvent& e) { forward(*l, e); });
-    leaf->on_rt = rt != nullptr;
+    if (on) leaf->ports = &on->adopt(*leaf->component, [this, l](const ComponentEvent& e) { forward(*l, e); });
+    leaf->on_rt = on != nullptr;
+    leaf->rt = on;
     endpoint->add_component(name, *leaf->ports);
   } catch (const std::exception& e) {
-    if (rt && leaf->component) leaf->mirror = rt->forget(*leaf->component);
+    if (on && leaf->component) leaf->mirror = on->forget(*leaf->component);
     *error = e.what();
     return nullptr;
   }
@@ -398,7 +404,7 @@ Leaf* Node::Impl::add_leaf(const std::string& type, const std::string& name, con
     if (auto x = wl.lock()) handle(*x, ch, m);
   }, error);
   if (!l->control) {
-    if (l->on_rt) l->mirror = rt->forget(*l->component);
+    if (l->on_rt) l->mirror = l->rt->forget(*l->component);
     endpoint->remove_component(name);
     *error = "cannot listen for control channels: " + *error;
     return nullptr;
@@ -417,7 +423,7 @@ void Node::Impl::remove_leaf(const std::string& name) {
   std::shared_ptr<Leaf> leaf = it->second;
   leaves.erase(it);
   tell_leaves();
-  if (leaf->on_rt) leaf->mirror = rt->forget(*leaf->component);  // halted, the thread paused
+  if (leaf->on_rt) leaf->mirror = leaf->rt->forget(*leaf->component);  // halted, the thread paused
   else leaf->component->halt();
   if (endpoint) endpoint->remove_component(name);  // null once shut down (shutdown removed every leaf's)
   leaf->control->close();
@@ -480,9 +486,9 @@ void Node::shutdown(const std::string& why) {
   auto& I = *impl_;
   if (I.done) return;
   I.done = true;
-  if (I.rt) I.rt->stop();
+  for (auto& kv : I.rts) kv.second->stop();
   for (auto& [name, leaf] : I.leaves) {
-    if (leaf->on_rt) leaf->mirror = I.rt->forget(*leaf->component);
+    if (leaf->on_rt) leaf->mirror = leaf->rt->forget(*leaf->component);
     else leaf->component->halt();
   }
   for (auto& [name, leaf] : I.leaves) {
@@ -608,7 +614,7 @@ Value Node::Impl::ports(const Leaf& leaf) const {
                                     .set("tx_dropped", l.tx_dropped)
                                     .set("bytes", l.bytes));
   }
-  for (const auto& l : leaf.on_rt ? rt->links(*leaf.component) : std::vector<RtHost::LinkInfo>{})
+  for (const auto& l : leaf.on_rt ? leaf.rt->links(*leaf.component) : std::vector<RtHost::LinkInfo>{})
     links.array_ref().push_back(Value::map().set("out", l.out).set("to", l.to).set("in", l.in).set("set", l.set)
                                     .set("mode", "push").set("transport", "inprocess").set("active", l.active)
                                     .set("broken", false).set("sent", l.sent).set("skipped", l.skipped)
@@ -660,30 +666,36 @@ Value Node::Impl::stats(const Leaf& leaf) const {
 
 // ------------------------------------------------------------------------------ the real-time thread ---
 
-// Starts the real-time thread (NodeOptions::rt); its set-up's warning, if any, once on stderr, which reaches
-// `dca run`'s output.
-void Node::Impl::start_rt() {
-  if (!rt) return;
-  if (const auto w = rt->start(); !w.empty()) std::fprintf(stderr, "dca node: %s\n", w.c_str());
+// Starts a real-time thread; its set-up's warning, if any, once on stderr, which reaches `dca run`'s output.
+void Node::Impl::start_rt(RtHost& h) {
+  if (const auto w = h.start(); !w.empty()) std::fprintf(stderr, "dca node: %s\n", w.c_str());
+}
+
+// The real-time thread of setting `c` (its priority and CPU), made on the first ask (not started).
+RtHost* Node::Impl::rt_for(rt::RtConfig c) {
+  auto& h = rts[{c.priority, c.cpu}];
+  if (!h) h = std::make_unique<RtHost>(loop.io(), std::move(c));
+  return h.get();
 }
 
 // A leaf on the real-time thread: its figures there (host/node_rt.h), read without a lock.
 Value Node::Impl::rt_stats(const Leaf& leaf) const {
-  const auto st = rt->stats(*leaf.component).value_or(RtLeafStats{});
+  const RtHost& h = *leaf.rt;
+  const auto st = h.stats(*leaf.component).value_or(RtLeafStats{});
   auto summary = [](const rt::RtSummary& x) {
     return Value::map().set("n", x.n).set("p50_us", x.p50_us).set("p99_us", x.p99_us).set("p999_us", x.p999_us)
         .set("max_us", x.max_us);
   };
-  const auto c = rt->contract();
+  const auto c = h.contract();
   return Value::map()
-      .set("thread", static_cast<std::int64_t>(rt->thread_id()))
+      .set("thread", static_cast<std::int64_t>(h.thread_id()))
       .set("runs", st.runs)
       .set("overruns", st.overruns)
       .set("missed", st.missed)
       .set("period_s", to_seconds(st.period))
       .set("wake", summary(st.wake))
       .set("exec", summary(st.exec))
-      .set("dropped", rt->dropped())
+      .set("dropped", h.dropped())
       .set("contract", Value::map().set("allocations", c.allocations).set("locks", c.locks)
                            .set("page_faults", c.page_faults));
 }
@@ -704,7 +716,7 @@ bool Node::Impl::rt_control(Leaf& leaf, const Channel::Ptr& ch, const Message& m
     return false;  // set_param (there too: set_param), and the requests of the I/O thread
   }
   std::weak_ptr<Leaf> wl = leaves.at(leaf.name);
-  rt->request(*leaf.component, op, std::move(a), std::move(b), [this, wl, ch, m](const std::string& error) {
+  leaf.rt->request(*leaf.component, op, std::move(a), std::move(b), [this, wl, ch, m](const std::string& error) {
     if (done || wl.expired()) return;
     if (!error.empty()) ch->reply_error(m, error);
     else ch->reply(m);
@@ -740,9 +752,10 @@ void Node::Impl::connect(Leaf& leaf, const Channel::Ptr& ch, const Message& m) {
         t = std::string(to_string(l.transport));
     ch->reply(m, Value::map().set("transport", t));
   };
-  if (const Leaf* to = find(r.to); to && to->on_rt && leaf.on_rt && r.mode == Mode::Push && !r.stamped) {
+  if (const Leaf* to = find(r.to); to && to->on_rt && leaf.on_rt && to->rt == leaf.rt && r.mode == Mode::Push &&
+                                   !r.stamped) {
     std::string err;  // both on the real-time thread: the link stays there (host/node_rt.h)
-    if (!rt->link(*leaf.component, r.out, *to->component, r.in, r.set, r.queue, &err)) return finish(err);
+    if (!leaf.rt->link(*leaf.component, r.out, *to->component, r.in, r.set, r.queue, &err)) return finish(err);
     return void(ch->reply(m, Value::map().set("transport", "inprocess")));
   }
   if (endpoint->component(r.to)) return endpoint->connect(r, {}, finish, timeout);
@@ -827,14 +840,14 @@ bool Node::Impl::handle_control(Leaf& leaf, const Channel::Ptr& ch, const Messag
     connect(leaf, ch, m);
   } else if (t == "disconnect") {
     endpoint->disconnect_set(p["set"].as_string());
-    if (rt) rt->unlink(p["set"].as_string());
+    for (auto& kv : rts) kv.second->unlink(p["set"].as_string());
     ch->reply(m);
   } else if (t == "activate" || t == "deactivate") {
     const auto& set = p["set"].as_string();
     if (set.empty()) return ch->reply_error(m, t + " needs a set"), true;
     if (t == "activate") endpoint->activate(set, leaf.name);  // this leaf's links only (host/net/endpoint.h)
     else endpoint->deactivate(set, leaf.name);
-    if (leaf.on_rt) rt->activate(set, *leaf.component, t == "activate");
+    if (leaf.on_rt) leaf.rt->activate(set, *leaf.component, t == "activate");
     if (set.rfind("tap:", 0) != 0) {  // a tap only looks: no part of the run's trace (host/net/tap.h)
       switches.push_back(leaf.name + " " + (t == "activate" ? "+" : "-") + set);
       if (switches.size() > 1000) switches.erase(switches.begin());
@@ -887,7 +900,7 @@ void Node::Impl::set_param(Leaf& leaf, const Channel::Ptr& ch, const Message& m)
     if (params.size() > 1000) params.erase(params.begin());
     ch->reply(m, Value::map().set("value", value));
   };
-  if (leaf.on_rt) return rt->request(*leaf.component, RtHost::Op::SetParameter, name, *text, took);  // there
+  if (leaf.on_rt) return leaf.rt->request(*leaf.component, RtHost::Op::SetParameter, name, *text, took);  // there
   std::string err;
   if (!leaf.component->set_parameter(name, *text, &err)) return took(err.empty() ? "refused" : err);
   took("");
@@ -934,7 +947,25 @@ void Node::Impl::add(const Channel::Ptr& ch, const Message& m) {
     if (!opts.load_package) return void(ch->reply_error(m, "add: this node cannot load package '" + pkg + "'"));
     if (!opts.load_package(pkg, p["system_dir"].as_string(), &err)) return void(ch->reply_error(m, err));
   }
-  Leaf* leaf = add_leaf(type, name, args, &err);
+  // its group's rt { } ({priority, cpu}, on the wall clock): the real-time thread of that setting, shared with the
+  // other leaves of the same setting (a whole host's shared node: docs/placement.md); else the node's own, if any
+  RtHost* on = rt;
+  if (const Value& r = p["rt"]; r.is_map() && opts.clock == ClockKind::Wall) {
+    rt::RtConfig c = opts.rt;
+    const auto bounded = [](std::int64_t x) { return static_cast<int>(std::clamp<std::int64_t>(x, -2, 100000)); };
+    c.priority = bounded(r["priority"].as_int(0));
+    c.cpu = bounded(r["cpu"].as_int(-1));
+    c.who = name + " on host " + host;
+    // an invalid setting (a CPU this host lacks) is one warning and not applied, as `dca node --rt-cpu` is
+    if (const auto e = rt::check(c); !e.empty()) {
+      std::fprintf(stderr, "dca node: %s\n", rt::warning(c, e + ": not applied").c_str());
+    } else if (c.priority > 0 || c.cpu >= 0) {
+      const bool fresh = rts.find({c.priority, c.cpu}) == rts.end();
+      on = rt_for(c);
+      if (fresh) start_rt(*on);
+    }
+  }
+  Leaf* leaf = add_leaf(type, name, args, on, &err);
   if (!leaf) return void(ch->reply_error(m, err));
   leaf->package = p["package"].as_string();
   leaf->system_dir = p["system_dir"].as_string();

@@ -203,6 +203,24 @@ class NodeTest : public ::testing::Test {
     return made;
   }
 
+  // Starts a node with options `o` whose leaves are ChainComponents (each kept in *made by its PATH, if given);
+  // returns the last one made (a one-leaf node's).
+  ChainComponent* start_chain(const dca::NodeOptions& o, std::map<std::string, ChainComponent*>* made = nullptr) {
+    ChainComponent* last = nullptr;
+    nodes.push_back(std::make_unique<dca::Node>(loop, o, [&last, made](const std::string&, const std::string& n,
+        const std::string&, const std::vector<std::string>&, dca::TimerServer& ts) {
+      auto c = std::make_unique<ChainComponent>(n, ts);
+      last = c.get();
+      if (made) (*made)[n] = c.get();
+      return c;
+    }));
+    std::optional<std::string> started;
+    nodes.back()->start([&](const std::string& e) { started = e; });
+    EXPECT_TRUE(run_until([&] { return started.has_value(); }));
+    EXPECT_EQ(started.value_or("timeout"), "");
+    return last;
+  }
+
   // Starts a shared node named `name` (registered as name#PID) whose leaves are TestComponents kept in `made`
   // (the latest instance of each PATH; `created` counts them); type "Bad" is refused as an unknown type.
   void start_shared(const std::string& name, dca::Nanos period = 0, bool sim = false) {
@@ -607,17 +625,7 @@ TEST_F(NodeTest, RtSettingRunsTheLeavesOnARealTimeThreadSamplesCrossBothWays) {
   o.rt.priority = 80;
   o.rt.lock_memory = false;  // (mlockall would stay for the rest of this test executable)
   std::map<std::string, ChainComponent*> made;
-  nodes.push_back(std::make_unique<dca::Node>(loop, o, [&made](const std::string&, const std::string& n,
-                                                                const std::string&, const std::vector<std::string>&,
-                                                                dca::TimerServer& ts) {
-    auto c = std::make_unique<ChainComponent>(n, ts);
-    made[n] = c.get();
-    return c;
-  }));
-  std::optional<std::string> started;
-  nodes.back()->start([&](const std::string& e) { started = e; });
-  ASSERT_TRUE(run_until([&] { return started.has_value(); }));
-  ASSERT_EQ(*started, "");
+  start_chain(o, &made);
   auto proc = supervise("rt@h#" + std::to_string(::getpid()));
   for (const char* n : {"/g/a", "/g/b"})
     ASSERT_TRUE(call(proc, "add", Value::map().set("controller", "Chain").set("name", n).set("args", Value::array())).ok());
@@ -692,6 +700,58 @@ TEST_F(NodeTest, RtSettingRunsTheLeavesOnARealTimeThreadSamplesCrossBothWays) {
   EXPECT_TRUE(b->running);
 }
 
+// A host's shared node (--placement host) has no rt setting of its own: each `add` names its leaf's group's
+// ({priority, cpu}), and the node runs one real-time thread per distinct setting (made at its first leaf). Leaves
+// of one setting share its thread and link there; a sample crosses between two threads through the I/O thread;
+// a leaf without rt runs on the I/O thread.
+TEST_F(NodeTest, SharedNodeRunsEachLeafOnTheRealTimeThreadOfItsAddsSetting) {
+  dca::NodeOptions o = node_options("host@h", false);
+  o.shared = true;
+  o.rt.lock_memory = false;  // (the base of each setting: mlockall would stay for the rest of this executable)
+  std::map<std::string, ChainComponent*> made;
+  start_chain(o, &made);
+  auto proc = supervise("host@h#" + std::to_string(::getpid()));
+  const auto cpu0 = Value::map().set("cpu", 0);
+  const auto fifo = Value::map().set("priority", 80).set("cpu", 0);
+  for (const auto& [n, rt] : std::vector<std::pair<std::string, Value>>{
+           {"/a/x", cpu0}, {"/a/y", cpu0}, {"/b/z", fifo}, {"/c/w", Value()}}) {
+    auto add = Value::map().set("controller", "Chain").set("name", n).set("args", Value::array());
+    if (!rt.is_nil()) add.set("rt", rt);
+    ASSERT_TRUE(call(proc, "add", add).ok()) << n;
+  }
+  auto sx = supervise("/a/x"), sy = supervise("/a/y"), sz = supervise("/b/z"), sw = supervise("/c/w");
+  auto link = [&](const dca::Channel::Ptr& ch, const std::string& to, const std::string& set) {
+    auto r = call(ch, "connect", Value::map().set("out", "Out").set("to", to).set("in", "In").set("set", set));
+    ASSERT_TRUE(r.ok()) << r.error;
+    ASSERT_TRUE(call(ch, "activate", Value::map().set("set", set)).ok());
+  };
+  link(sx, "/a/y", "a:x[l]");  // one thread: linked there
+  link(sy, "/b/z", "a:y[l]");  // from one thread to another
+  for (const auto& ch : {sx, sy, sz, sw}) ASSERT_TRUE(call(ch, "run").ok());
+  ASSERT_TRUE(run_until([&] {
+    return std::all_of(made.begin(), made.end(), [](const auto& m) { return m.second->ticks > 5; });
+  }));
+  const long io = static_cast<long>(::gettid());
+  const auto thread = [&](const dca::Channel::Ptr& ch) { return call(ch, "stats").message.payload["rt"]["thread"]; };
+  EXPECT_NE(made["/a/x"]->tid.load(), io);
+  EXPECT_EQ(made["/a/x"]->tid.load(), made["/a/y"]->tid.load());  // one setting, one thread
+  EXPECT_NE(made["/b/z"]->tid.load(), io);
+  EXPECT_NE(made["/b/z"]->tid.load(), made["/a/x"]->tid.load());  // another setting, another thread
+  EXPECT_EQ(made["/c/w"]->tid.load(), io);                        // no setting: the I/O thread
+  EXPECT_EQ(thread(sx).as_int(), made["/a/x"]->tid.load());
+  EXPECT_EQ(thread(sz).as_int(), made["/b/z"]->tid.load());
+  EXPECT_TRUE(thread(sw).is_nil());
+  const auto links = call(sx, "ports").message.payload["links"].as_array();
+  ASSERT_EQ(links.size(), 1u);
+  EXPECT_TRUE(links[0]["rt"].as_bool());  // x -> y on their thread
+  // y's Out (x's + 1) reaches z on the other thread, which writes it + 1: once x stops, both stay put
+  ASSERT_TRUE(call(sx, "stop").ok());
+  const auto read = [&](const dca::Channel::Ptr& ch) {
+    return call(ch, "read", Value::map().set("port", "Out")).message.payload["value"].as_float();
+  };
+  ASSERT_TRUE(run_until([&] { return read(sz) > 0 && read(sz) == read(sy) + 1; }));
+}
+
 // A one-leaf node with an rt setting (dca node --type T --rt-priority P): its leaf on the thread from its start;
 // on a simulated clock the setting is ignored (the leaf's timer on the node's own TimerServer, lock-step).
 TEST_F(NodeTest, OneLeafNodeRunsItsLeafOnTheRealTimeThreadAndIgnoresItOnASimulatedClock) {
@@ -701,17 +761,8 @@ TEST_F(NodeTest, OneLeafNodeRunsItsLeafOnTheRealTimeThreadAndIgnoresItOnASimulat
     o.type = "Chain";
     o.rt.priority = 80;
     o.rt.lock_memory = false;
-    ChainComponent* c = nullptr;
-    nodes.push_back(std::make_unique<dca::Node>(loop, o, [&c](const std::string&, const std::string& n,
-        const std::string&, const std::vector<std::string>&, dca::TimerServer& ts) {
-      auto made = std::make_unique<ChainComponent>(n, ts);
-      c = made.get();
-      return made;
-    }));
-    std::optional<std::string> started;
-    nodes.back()->start([&](const std::string& e) { started = e; });
-    ASSERT_TRUE(run_until([&] { return started.has_value(); }));
-    ASSERT_EQ(*started, "");
+    ChainComponent* c = start_chain(o);
+    ASSERT_NE(c, nullptr);
     auto sup = supervise(name);
     ASSERT_TRUE(call(sup, "run").ok());
     if (sim) ASSERT_TRUE(call(sup, "advance", Value::map().set("t", 3'000'000)).ok());

@@ -302,9 +302,10 @@ function Shared:add(child, cb)
   local rt = self.rt
   local args = {}
   for i, a in ipairs(child.args or {}) do args[i] = M.argstr(a) end
-  -- (the node loads the type's package by name, as a one-leaf node does with --package)
+  -- (the node loads the type's package by name, as a one-leaf node does with --package; on the wall clock it runs
+  -- the leaf on the real-time thread of its group's rt { }, one thread per distinct setting: host/node.h)
   self.ch:request({ type = "add", controller = child.type, name = child.path, args = args, package = child.package,
-                    system_dir = child.package and child.system_dir or nil }, rt.timeouts.spawn,
+                    system_dir = child.package and child.system_dir or nil, rt = child.rt }, rt.timeouts.spawn,
     clients.result(function(r, err)
       if not r then cb(nil, err) return end
       local p = setmetatable({ rt = rt, daemon = self.dc, name = child.name, host = child.host, kind = "leaf",
@@ -565,7 +566,7 @@ function Net:_start(child, dc, cb)
     local sh = self.shared[sname]
     if not sh then
       -- one group's leaves (placement group) share its rt { }; a node of the whole host's (placement host) takes
-      -- none: the leaves of several groups, whose settings may differ, share it
+      -- none of its own: each leaf's `add` names its group's, and the node runs one real-time thread per setting
       sh = setmetatable({ rt = self, dc = dc, name = sname, host = child.host, leaves = {}, waiters = {},
                           rt_setting = self.opts.placement == "group" and child.rt or nil }, Shared)
       self.shared[sname] = sh
