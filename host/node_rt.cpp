@@ -491,10 +491,11 @@ void RtHost::Impl::on_ran(const std::string& name, Nanos deadline, Nanos p, Nano
     s->exec.record(end - start);
     add(s->runs, std::uint64_t{1});
     s->period.store(p, std::memory_order_relaxed);
-    if (p > 0 && end > deadline + p) {
-      add(s->overruns, std::uint64_t{1});
-      add(s->missed, static_cast<std::uint64_t>((end - deadline - p) / p + 1));
-    }
+    // an overrun: the run ended after its next deadline. Missed: the deadlines already gone by when it started,
+    // which its TimerServer skipped (TimerServer::set_driven); those its run went past are counted when the next
+    // run starts, so a period is never counted twice
+    if (p > 0 && end > deadline + p) add(s->overruns, std::uint64_t{1});
+    if (p > 0 && start >= deadline + p) add(s->missed, static_cast<std::uint64_t>((start - deadline - p) / p + 1));
     return;
   }
 }

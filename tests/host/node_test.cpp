@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 #include <sys/stat.h>
+#include <time.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -71,8 +72,8 @@ class TestComponent final : public dca::Component {
 
 // A periodic link of a chain for the real-time thread (host/node_rt.h): each tick notes the thread it runs on,
 // takes In's newest sample (pushed, or a pull connection's answer to the request of its last tick) and writes
-// Out = that sample + 1 (its tick count before any); a negative sample aborts its run. Read from the test's
-// thread while it runs: atomics.
+// Out = that sample + 1 (its tick count before any); a negative sample aborts its run. One named /slow... runs
+// 5.5 periods long at its first tick. Read from the test's thread while it runs: atomics.
 class ChainComponent final : public dca::Component {
  public:
   ChainComponent(std::string name, dca::TimerServer& ts) : name_(std::move(name)), timers_(ts) {
@@ -101,6 +102,10 @@ class ChainComponent final : public dca::Component {
     tid.store(static_cast<long>(::gettid()));
     const int n = ticks.load() + 1;
     ticks.store(n);
+    if (n == 1 && name_.rfind("/slow", 0) == 0) {
+      const timespec ts{0, 5'500'000};
+      nanosleep(&ts, nullptr);
+    }
     in_->take_latest();
     if (in_->has_current()) last_ = in_->scalar();
     in_->request();  // (a pull connection's answer, if any, for the next tick)
@@ -778,6 +783,29 @@ TEST_F(NodeTest, OneLeafNodeRunsItsLeafOnTheRealTimeThreadAndIgnoresItOnASimulat
     }
     ASSERT_TRUE(call(sup, "stop").ok());
   }
+}
+
+// A run of 5.5 periods on the real-time thread: the deadlines it went past are skipped and counted missed once
+// each (when the next run starts, as its TimerServer skips them), never also from the long run's end. So runs
+// and missed periods together never exceed the deadlines gone by (counted from before the start: a bound that
+// holds however late the thread wakes; counted twice, they would exceed it by about 4).
+TEST_F(NodeTest, RealTimeMissedPeriodsAreCountedOncePerDeadline) {
+  dca::NodeOptions o = node_options("/slow", false);
+  o.type = "Chain";
+  o.rt.cpu = 0;
+  o.rt.lock_memory = false;
+  ChainComponent* c = start_chain(o);
+  ASSERT_NE(c, nullptr);
+  auto sup = supervise("/slow");
+  const dca::Nanos before = dca::monotonic_now();
+  ASSERT_TRUE(call(sup, "run").ok());
+  ASSERT_TRUE(run_until([&] { return c->ticks >= 3; }));
+  const auto st = call(sup, "stats").message.payload["rt"];
+  const dca::Nanos gone = (dca::monotonic_now() - before) / 1'000'000 + 1;  // deadlines since the start, at most
+  EXPECT_GE(st["overruns"].as_int(), 1);
+  EXPECT_GE(st["missed"].as_int(), 4);  // deadlines 2..5 went by during the first run
+  EXPECT_LE(st["runs"].as_int() + st["missed"].as_int(), gone);
+  ASSERT_TRUE(call(sup, "stop").ok());
 }
 
 TEST_F(NodeTest, ValuesConvertBetweenMsgpackAndWire) {
