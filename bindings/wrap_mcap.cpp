@@ -5,11 +5,24 @@
 //   rec.channels[id] = { topic = "/world/door", schema = "/world/door", encoding = "json" }
 //   rec.messages[i]  = { channel = id, t = log time in ns (integer), data = "{...}" }   -- in file order
 // A file that is not a well-formed MCAP file this reader understands: nil and the reason ("offset N: ...").
+//
+// core.mcap_writer: an MCAP recording written from Lua (host/codec/mcap.h's Writer on a file), for the recordings
+// of wall-clock runs (dca.launch.wall_record):
+//   local w, err = core.mcap_writer("run.mcap")    -- the file created (truncated) | nil, reason
+//   local id = w:channel(topic, schema_name, schema)  -- a channel of JSON messages described by a JSON Schema
+//   w:write(id, json [, t_ns])      -- one message; log time t_ns (integer), by default now on CLOCK_REALTIME
+//   local st, err = w:finish()      -- the summary written and the file closed: st = {messages, chunks,
+//                                   -- channels = {{topic, n}, ...} by id} | nil, reason (a failed write)
+// A writer dropped without finish() closes its file as it stands (not a valid recording). Nothing is written
+// after finish(), nor after a failed write (write() is then a no-op; finish() says why).
 #include <lua.hpp>
+
+#include <time.h>
 
 #include <cstdio>
 #include <fstream>
 #include <memory>
+#include <optional>
 
 #include "bindings/lua_support.h"
 #include "host/codec/mcap.h"
@@ -96,12 +109,129 @@ int l_mcap_read(lua_State* L) {
   return 1;
 }
 
+// ------------------------------------------------------------------------------------------- the writer ---
+
+constexpr const char* kWriterMeta = "dca.McapWriter";
+
+struct LuaWriter {
+  std::FILE* file = nullptr;
+  std::optional<mcap::Writer> writer;
+  std::string path;
+  bool finished = false;
+  void close() {
+    if (file) std::fclose(file);
+    file = nullptr;
+  }
+};
+
+LuaWriter* check_writer(lua_State* L) { return static_cast<LuaWriter*>(luaL_checkudata(L, 1, kWriterMeta)); }
+
+// The writer still open: else a Lua error.
+mcap::Writer& open_writer(lua_State* L) {
+  auto* w = check_writer(L);
+  if (w->finished || !w->writer) luaL_error(L, "mcap writer %s: already finished", w->path.c_str());
+  return *w->writer;
+}
+
+int writer_gc(lua_State* L) {
+  auto* w = check_writer(L);
+  w->writer.reset();
+  w->close();
+  w->~LuaWriter();
+  return 0;
+}
+
+int l_mcap_writer(lua_State* L) {
+  const char* path = luaL_checkstring(L, 1);
+  auto* w = static_cast<LuaWriter*>(lua_newuserdatauv(L, sizeof(LuaWriter), 0));
+  new (w) LuaWriter();
+  luaL_setmetatable(L, kWriterMeta);
+  w->path = path;
+  w->file = std::fopen(path, "wb");
+  if (!w->file) {
+    lua_pushnil(L);
+    lua_pushfstring(L, "%s: cannot create the recording", path);
+    return 2;
+  }
+  std::FILE* f = w->file;
+  w->writer.emplace([f](std::string_view bytes) {
+    return std::fwrite(bytes.data(), 1, bytes.size(), f) == bytes.size();
+  });
+  return 1;
+}
+
+int writer_channel(lua_State* L) {
+  auto& w = open_writer(L);
+  const char* topic = luaL_checkstring(L, 2);
+  const char* name = luaL_checkstring(L, 3);
+  const char* schema = luaL_checkstring(L, 4);
+  if (w.channels() >= 60000) return luaL_error(L, "mcap writer: too many channels");
+  lua_pushinteger(L, w.add_channel(topic, name, schema));
+  return 1;
+}
+
+int writer_write(lua_State* L) {
+  auto& w = open_writer(L);
+  const lua_Integer id = luaL_checkinteger(L, 2);
+  size_t n = 0;
+  const char* json = luaL_checklstring(L, 3, &n);
+  if (id < 1 || static_cast<size_t>(id) > w.channels())
+    return luaL_error(L, "mcap writer: no channel %d", static_cast<int>(id));
+  std::uint64_t t = 0;
+  if (lua_isnoneornil(L, 4)) {
+    timespec ts{};
+    ::clock_gettime(CLOCK_REALTIME, &ts);
+    t = static_cast<std::uint64_t>(ts.tv_sec) * 1'000'000'000ULL + static_cast<std::uint64_t>(ts.tv_nsec);
+  } else {
+    const lua_Integer x = luaL_checkinteger(L, 4);
+    t = x < 0 ? 0 : static_cast<std::uint64_t>(x);
+  }
+  if (w.ok()) w.write(static_cast<std::uint16_t>(id), t, std::string_view(json, n));
+  return 0;
+}
+
+int writer_finish(lua_State* L) {
+  auto* lw = check_writer(L);
+  auto& w = open_writer(L);
+  const bool ok = w.finish();
+  lw->finished = true;
+  const bool closed = std::fclose(lw->file) == 0;
+  lw->file = nullptr;
+  if (!(ok && closed)) {
+    lua_pushnil(L);
+    lua_pushfstring(L, "%s: error writing the recording", lw->path.c_str());
+    return 2;
+  }
+  const auto& st = w.stats();
+  lua_createtable(L, 0, 3);
+  lua_pushinteger(L, static_cast<lua_Integer>(st.messages));
+  lua_setfield(L, -2, "messages");
+  lua_pushinteger(L, static_cast<lua_Integer>(st.chunks));
+  lua_setfield(L, -2, "chunks");
+  lua_createtable(L, static_cast<int>(w.channels()), 0);
+  for (size_t c = 1; c <= w.channels(); ++c) {
+    const auto id = static_cast<std::uint16_t>(c);
+    const auto it = st.per_channel.find(id);
+    lua_createtable(L, 2, 0);
+    lua_pushstring(L, w.topic(id).c_str());
+    lua_rawseti(L, -2, 1);
+    lua_pushinteger(L, static_cast<lua_Integer>(it == st.per_channel.end() ? 0 : it->second));
+    lua_rawseti(L, -2, 2);
+    lua_rawseti(L, -2, static_cast<lua_Integer>(c));
+  }
+  lua_setfield(L, -2, "channels");
+  return 1;
+}
+
 }  // namespace
 
 void open_mcap(lua_State* L) {
   static const luaL_Reg none[] = {{nullptr, nullptr}};
   lua::register_type(L, kContentsMeta, none, {contents_gc, nullptr, nullptr});
-  static const luaL_Reg functions[] = {{"mcap_read", l_mcap_read}, {nullptr, nullptr}};
+  static const luaL_Reg writer[] = {
+      {"channel", writer_channel}, {"write", writer_write}, {"finish", writer_finish}, {nullptr, nullptr}};
+  lua::register_type(L, kWriterMeta, writer, {writer_gc, nullptr, nullptr});
+  static const luaL_Reg functions[] = {{"mcap_read", l_mcap_read}, {"mcap_writer", l_mcap_writer}, {nullptr, nullptr}};
   luaL_setfuncs(L, functions, 0);
 }
 

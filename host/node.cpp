@@ -682,9 +682,13 @@ RtHost* Node::Impl::rt_for(rt::RtConfig c) {
 Value Node::Impl::rt_stats(const Leaf& leaf) const {
   const RtHost& h = *leaf.rt;
   const auto st = h.stats(*leaf.component).value_or(RtLeafStats{});
-  auto summary = [](const rt::RtSummary& x) {
+  // its quantiles, and the histogram's buckets that hold runs: [[upper edge in us, count], ...]
+  auto summary = [](const rt::RtSummary& x, const std::vector<std::pair<std::int64_t, std::uint64_t>>& b) {
+    Value buckets = Value::array();
+    for (const auto& [upper, n] : b)
+      buckets.array_ref().push_back(Value(Value::Array{Value(static_cast<double>(upper) / 1e3), Value(n)}));
     return Value::map().set("n", x.n).set("p50_us", x.p50_us).set("p99_us", x.p99_us).set("p999_us", x.p999_us)
-        .set("max_us", x.max_us);
+        .set("max_us", x.max_us).set("buckets", std::move(buckets));
   };
   const auto c = h.contract();
   return Value::map()
@@ -693,8 +697,8 @@ Value Node::Impl::rt_stats(const Leaf& leaf) const {
       .set("overruns", st.overruns)
       .set("missed", st.missed)
       .set("period_s", to_seconds(st.period))
-      .set("wake", summary(st.wake))
-      .set("exec", summary(st.exec))
+      .set("wake", summary(st.wake, st.wake_buckets))
+      .set("exec", summary(st.exec, st.exec_buckets))
       .set("dropped", h.dropped())
       .set("contract", Value::map().set("allocations", c.allocations).set("locks", c.locks)
                            .set("page_faults", c.page_faults));

@@ -424,7 +424,7 @@ std::optional<RtLeafStats> RtHost::stats(const Component& c) const {
   if (!s) return std::nullopt;
   return RtLeafStats{s->runs.load(std::memory_order_relaxed), s->overruns.load(std::memory_order_relaxed),
                      s->missed.load(std::memory_order_relaxed), s->period.load(std::memory_order_relaxed),
-                     s->wake.summary(), s->exec.summary()};
+                     s->wake.summary(), s->exec.summary(), s->wake.buckets(), s->exec.buckets()};
 }
 
 // ------------------------------------------------------------------------------------- on the thread ---

@@ -43,6 +43,8 @@ struct RtLeafStats {
   Nanos period = 0;    ///< of its last run (0: a one-shot or none yet)
   rt::RtSummary wake;  ///< how late each run started after its deadline
   rt::RtSummary exec;  ///< how long each run took
+  /// Their histograms' buckets that hold runs: (upper edge in ns, count), in order (RtHistogram::buckets).
+  std::vector<std::pair<std::int64_t, std::uint64_t>> wake_buckets, exec_buckets;
 };
 
 class RtHost {

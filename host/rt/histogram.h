@@ -6,6 +6,8 @@
 // atomics: a reader sees every bucket's own count exactly, the totals possibly one record apart.
 #include <atomic>
 #include <cstdint>
+#include <utility>
+#include <vector>
 
 namespace dca::rt {
 
@@ -31,6 +33,8 @@ class RtHistogram {
   std::int64_t quantile(double q) const;
   /// p50, p99, p99.9 and max.
   RtSummary summary() const;
+  /// The buckets that hold records, in order: (upper edge in ns, count). Allocates: not on the writer thread.
+  std::vector<std::pair<std::int64_t, std::uint64_t>> buckets() const;
 
  private:
   static constexpr int kFine = 1000;   // 1 µs buckets, [0, 1 ms)

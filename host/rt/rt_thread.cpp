@@ -48,6 +48,13 @@ RtSummary RtHistogram::summary() const {
           static_cast<double>(quantile(0.999)) / 1e3, static_cast<double>(max()) / 1e3};
 }
 
+std::vector<std::pair<std::int64_t, std::uint64_t>> RtHistogram::buckets() const {
+  std::vector<std::pair<std::int64_t, std::uint64_t>> out;
+  for (int i = 0; i < kBuckets; ++i)
+    if (const auto n = buckets_[i].load(std::memory_order_relaxed); n > 0) out.emplace_back(upper(i), n);
+  return out;
+}
+
 struct RtThread::Task {
   std::string name;
   std::int64_t period = 0;

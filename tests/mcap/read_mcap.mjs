@@ -6,6 +6,9 @@
 //       each port's channel /main/... holds, at every tick of the trace, as many messages up to that tick as the
 //       trace counts for the port then (so every sample is at the tick its leaf wrote it), and its last message
 //       is the trace's last value; every message fits its channel's JSON Schema)
+//   node read_mcap.mjs FILE.mcap "<recorded line>" --rt PATH   (a wall-clock run's recording: the leaf PATH's
+//       figures on its real-time thread on /dca/rt/<PATH, dots as slashes>, each field declared by the channel's
+//       JSON Schema with its type, runs never going back, the last one's runs > 0, log times on the wall clock)
 // Opens FILE with the indexed reader (which needs the summary: footer, summary offsets, chunk indexes,
 // channels and schemas), checks that every channel has a JSON Schema and JSON messages, that the statistics
 // and the messages read through the chunk indexes match the counts dca printed, then reads the file again
@@ -16,6 +19,7 @@ import { McapIndexedReader, McapStreamReader } from "@mcap/core";
 
 const [file, recorded] = process.argv.slice(2);
 const traceFile = process.argv[4] === "--trace" ? process.argv[5] : undefined;
+const rtPath = process.argv[4] === "--rt" ? process.argv[5] : undefined;
 if (!file || !recorded) {
   console.error("usage: node read_mcap.mjs FILE.mcap RECORDED_LINE");
   process.exit(2);
@@ -73,6 +77,7 @@ if (want) check(stats?.messageCount === want.total, `statistics: ${stats?.messag
 const counts = new Map();
 const events = [];
 const portMessages = new Map();  // topic -> [{t, value}] in log-time order
+const rtMessages = [];  // with --rt: the leaf's /dca/rt messages, {t, value, schema}
 let last = -1n;
 for await (const msg of reader.readMessages({ validateCrcs: true })) {
   const topic = reader.channelsById.get(msg.channelId).topic;
@@ -81,6 +86,10 @@ for await (const msg of reader.readMessages({ validateCrcs: true })) {
   last = msg.logTime;
   const value = JSON.parse(new TextDecoder().decode(msg.data));
   if (topic === "/dca/events") events.push({ t: Number(msg.logTime) / 1e9, ...value });
+  if (rtPath && topic === "/dca/rt/" + rtPath.replaceAll(".", "/")) {
+    const schema = JSON.parse(new TextDecoder().decode(reader.schemasById.get(reader.channelsById.get(msg.channelId).schemaId).data));
+    rtMessages.push({ t: msg.logTime, value, schema });
+  }
   if (topic.startsWith("/main/")) {
     if (!portMessages.has(topic)) portMessages.set(topic, []);
     portMessages.get(topic).push({ t: msg.logTime, value: value.value });
@@ -143,6 +152,36 @@ if (traceFile) {
   for (const path of trace.keys())  // every leaf's output (the world's signals are on /world/... channels)
     if (!path.startsWith("world.")) check(portMessages.has("/" + path.replaceAll(".", "/")), `${path}: in the trace, not recorded`);
   console.log(`trace ${traceFile}: ${ports} ports recorded at their ticks (${ticks} trace points checked)`);
+}
+
+// With --rt: the leaf's real-time figures.
+if (rtPath) {
+  check(rtMessages.length > 0, `no /dca/rt messages of ${rtPath}`);
+  const fits = (v, s, at) => {  // the value's fields are the schema's, of its types
+    if (s.type === "object") {
+      check(typeof v === "object" && v !== null && !Array.isArray(v), `${at}: not an object`);
+      for (const [k, x] of Object.entries(v ?? {})) {
+        check(s.properties?.[k] !== undefined, `${at}.${k}: not in the schema`);
+        if (s.properties?.[k]) fits(x, s.properties[k], `${at}.${k}`);
+      }
+    } else if (s.type === "array") {
+      check(Array.isArray(v), `${at}: not an array`);
+      for (const x of v ?? []) fits(x, s.items, `${at}[]`);
+    } else if (s.type === "integer") check(Number.isInteger(v), `${at}: ${v} is not an integer`);
+    else if (s.type === "number") check(typeof v === "number", `${at}: ${v} is not a number`);
+    else if (s.type === "string") check(typeof v === "string", `${at}: not a string`);
+  };
+  let runs = -1;
+  const wall = BigInt(Date.now()) * 1000000n;
+  for (const m of rtMessages) {
+    fits(m.value, m.schema, "rt");
+    check(m.value.path === rtPath, `rt.path ${m.value.path}`);
+    check(m.value.runs >= runs, `runs went back: ${m.value.runs} after ${runs}`);
+    runs = m.value.runs;
+    check(m.t > wall - 3600n * 1000000000n && m.t <= wall, `log time ${m.t} is not on the wall clock`);
+  }
+  check(runs > 0, `the last figures of ${rtPath} count no runs`);
+  console.log(`/dca/rt: ${rtMessages.length} messages of ${rtPath}, each fits its schema; runs ${runs} at the end`);
 }
 
 // Front to back, every record.

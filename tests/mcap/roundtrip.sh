@@ -14,6 +14,9 @@
 #   roundtrip.sh urdf DCA SOURCE_DIR WORK_DIR   the UR10 system on the URDF world (`dca run ur10_setpoint.dca
 #       --sim worlds/ur10/ur10.urdf --record --record-ports all`): the checks of `sim`, then read_robot.mjs: the
 #       URDF on /robot_description, a foxglove.FrameTransforms of every link per tick, agreeing with the joints
+#   roundtrip.sh wall DCA SOURCE_DIR WORK_DIR   a wall-clock run against a driver with a leaf on a real-time thread
+#       (tests/lua/launch/systems/rt_loop.dca --driver 'Gain("h1", 2)' --record): the checks of `sim`, then the
+#       leaf's figures on /dca/rt/main/loop/n, each fitting its channel's JSON Schema (read_mcap.mjs --rt)
 set -eu
 mode=$1
 dca=$2
@@ -37,6 +40,19 @@ if [ "$mode" = urdf ]; then
   grep '^recorded ' "$work/ur10.log" | cut -c1-200
   node "$here/read_mcap.mjs" "$work/ur10.mcap" "$(grep '^recorded ' "$work/ur10.log" | sed 's/^recorded //')"
   exec node "$here/read_robot.mjs" "$work/ur10.mcap" "$src/worlds/ur10/ur10.urdf"
+fi
+if [ "$mode" = wall ]; then
+  if ! "$dca" run "$src/tests/lua/launch/systems/rt_loop.dca" --driver 'Gain("h1", 2)' --record "$work/door.mcap" \
+      >"$work/door.log" 2>&1; then
+    tail -40 "$work/door.log"
+    echo "FAIL: the wall-clock run with --record did not end DONE" >&2
+    exit 1
+  fi
+  grep '^recorded ' "$work/door.log" | cut -c1-200
+  node "$here/read_mcap.mjs" "$work/door.mcap" "$(grep '^recorded ' "$work/door.log" | sed 's/^recorded //')" \
+    --rt main.loop.n
+  rm -f "$work/door.mcap" "$work/door.log"
+  exit 0
 fi
 if [ "$mode" = ports ]; then
   system="$src/worlds/door/systems/door_open.dca"

@@ -16,7 +16,7 @@ M.usage = [=[usage: dca run FILE.dca [--root NAME] [--hosts FILE] [--repl] [--wa
                     [--tick-timeout MS]
                     [--record-ports all|PATH.PORT,...] [--trace FILE]] [--replay REC.mcap [--replay-ports PATTERN,...]]
                     [--blackbox SECONDS_BEFORE,SECONDS_AFTER[,MIB] [--blackbox-storm CLAMPS,SECONDS]]
-                    [--driver 'TYPE(HOST, ARGS...)']
+                    [--driver 'TYPE(HOST, ARGS...)'] [--record FILE.mcap]
                     [--monitor [ADDR] [--monitor-wait]]
 
 Checks FILE.dca (errors stop here, nothing is started), starts one local daemon per host name on 127.0.0.1
@@ -46,6 +46,9 @@ per group as it comes up and one per process transition, and runs the root expre
   --world-opt KEY=VALUE  one of the world's own options, checked before anything starts (repeatable; a
                   flag alone: --world-opt KEY), e.g. --world-opt door_width=0.9 --world-opt jammed
   --seed N, --record FILE.mcap|FILE.csv   passed to the world (see `dca sim --help`)
+  --record FILE.mcap  without --sim (a --driver run, or daemons without a simulator): written by the run
+                  on the wall clock: its lines (/dca/events, /dca/log) and, for each leaf on a real-time
+                  thread, its figures there every second and at the end (/dca/rt/PATH; docs/recording.md)
   --driver 'TYPE(HOST, ARGS...)'
                   run against a robot's driver in wall-clock time instead of a simulated world: the controller
                   TYPE (written and checked as an instance in a .dca file: pkg.Type for a package's) started in
@@ -132,9 +135,16 @@ end
 -- The options that exclude each other or need another: the first broken rule. --> error text | nil
 local function rule_broken(o)
   if not o.file then return "which .dca file?" end
-  if (o.seed or o.world_opts or o.record) and not o.sim then
-    return "--seed, --world-opt and --record go with --sim WORLD"
+  if (o.seed or o.world_opts) and not o.sim then return "--seed and --world-opt go with --sim WORLD" end
+  if o.record and not o.sim and not o.record:match("%.mcap$") then
+    return "--record FILE.csv goes with --sim WORLD (on the wall clock a recording is FILE.mcap)"
   end
+  -- on the wall clock the run writes the recording itself: no world to tap ports into in lock-step
+  if o.record_ports and not o.sim then
+    return "--record-ports goes with --sim WORLD: on the wall clock (--driver, or no --sim) a recording holds " ..
+      "the run's lines and the real-time figures only (docs/recording.md)"
+  end
+  if o.blackbox and not o.sim then return "--blackbox goes with --sim WORLD" end
   if o.trace and not o.sim then return "--trace goes with --sim WORLD"
   end
   if o.record_ports and not (o.record and o.record:match("%.mcap$")) then

@@ -51,6 +51,7 @@ function Run:say(line, at, output, private)
     end, at, output, private)
   else
     if mon then mon:line(line, core.now() - self.t0) end
+    if self.wall_rec and not private then self.wall_rec:line(line, output) end
     if not self.o.quiet then self:emit(sformat("[%7.3f] %s", core.now() - self.t0, line)) end
   end
 end
@@ -63,7 +64,10 @@ function Run:say_aborted(msg)
   end
   local s = self.ctx.sim
   if s and s.world:connected() then s:stamp(text, function(t) out(sformat("[sim %8.3f] %s", t, text)) end)
-  else out(text) end
+  else
+    if self.wall_rec then self.wall_rec:line(text) end
+    out(text)
+  end
 end
 
 -- What the root reports: its lines and its outcome (which ends the run unless a console holds it).
@@ -81,14 +85,40 @@ function Run:report(msg)
   end
 end
 
--- The tree, then the recording closed and the world stopped, then the loop.
+-- The tree, then the recording closed and the world stopped, then the loop. On the wall clock with --record:
+-- the real-time figures once more before the tree stops, the recording closed after the driver.
 function Run:down()
   local s = self.ctx.sim
-  self.sup:shutdown(function()
-    if not s then require("dca.launch.driver").stop(self.ctx, function() self.loop:stop() end) return end
-    self:live_summary()
-    self:end_recording(function() s.world:stop(function() self:write_trace() self.loop:stop() end) end)
-  end)
+  local function shutdown()
+    self.sup:shutdown(function()
+      if not s then
+        require("dca.launch.driver").stop(self.ctx, function() self:end_wall_recording() self.loop:stop() end)
+        return
+      end
+      self:live_summary()
+      self:end_recording(function() s.world:stop(function() self:write_trace() self.loop:stop() end) end)
+    end)
+  end
+  local rec = self.wall_rec
+  if not (rec and not rec.finished and not self.last_polled) then shutdown() return end
+  self.last_polled = true
+  rec:poll(shutdown)
+end
+
+-- With --record FILE.mcap on the wall clock (dca.launch.wall_record): the recording closed and what it holds
+-- said, as a world says it ("recorded FILE: N messages on K channels (...), C chunks").
+function Run:end_wall_recording()
+  local rec = self.wall_rec
+  if not rec or rec.finished then return end
+  local summary, err = rec:finish()
+  if summary then self:emit("recorded " .. summary) else err_line(self, "--record: ", tostring(err)) end
+end
+
+-- A console request of the root's own (srt.console: the requests and checks of `dca repl`), answered to cb(reply).
+function Run:console_request(msg, cb)
+  local ch = { reply = function(_, _, p) p.type = p.type or "ok" cb(p) return true end,
+               reply_error = function(_, _, reason) cb({ type = "error", reason = reason }) return true end }
+  srt.console(ch, 1, msg, self.sup, {})
 end
 
 -- With --monitor: what the live taps took in and dropped (a busy root drops the oldest, counted).
@@ -191,11 +221,7 @@ end
 -- --monitor: the web monitor on the root's loop (dca.monitor.server). Its commands are console requests,
 -- answered as the root's console answers `dca repl` (srt.console: the same requests, the same checks). --> ok | nil, err
 function Run:start_monitor()
-  local function request(msg, cb)
-    local ch = { reply = function(_, _, p) p.type = p.type or "ok" cb(p) return true end,
-                 reply_error = function(_, _, reason) cb({ type = "error", reason = reason }) return true end }
-    srt.console(ch, 1, msg, self.sup, {})
-  end
+  local function request(msg, cb) self:console_request(msg, cb) end
   -- the world (with --sim) once it is started
   local world = self.o.sim and function(msg, cb)
     local s = self.ctx.sim
@@ -285,6 +311,7 @@ end
 -- with --monitor-wait once a monitor page is connected.
 function Run:run_root()
   self:say(self.spec.path .. ": the whole tree is configured: run")
+  if self.wall_rec then self.wall_rec:start_polling() end
   self.sup:run_expr(nil, function()
     local s = self.ctx.sim
     if not s then return end
@@ -417,8 +444,18 @@ function M.main(spec, o, out)
   local r = setmetatable({ o = o, spec = spec, out = out, followers = {}, t0 = core.now(), trace_lines = {} }, Run)
   r.ctx = start.context(spec, o, { say = function(line) r:say(line) end, report = function(msg) r:report(msg) end,
                                    log = function(line, at) r:say(line, at) end })
+  if o.record and not o.sim then
+    -- on the wall clock (--driver, or no simulator) the run writes the recording itself
+    local rec, rerr = require("dca.launch.wall_record").open(o.record, spec,
+      function(msg, cb) r:console_request(msg, cb) end)
+    if not rec then err_line(r, "--record: ", tostring(rerr)) return 2 end
+    r.wall_rec = rec
+  end
   local pok, code = r:prepare()
-  if not pok then return code end
+  if not pok then
+    if r.wall_rec then r.wall_rec:finish() end
+    return code
+  end
   r.loop = core.loop()
   r.sup = start.tree(r.ctx, spec.host)
   local function interrupted(sig) r:say("interrupted (SIG" .. tostring(sig) .. "): stopping") r:stop_all(130) end
@@ -441,6 +478,7 @@ function M.main(spec, o, out)
   if o.watch then r:watch() end
   r:start_world()
   r.loop:run()
+  r:end_wall_recording()  -- (when the loop was stopped before the tree was down)
   if r.live then r.live:close() end
   if r.monitor then r.monitor:close(r.loop) end  -- the run's end reaches the pages
   local code = r.code or 1

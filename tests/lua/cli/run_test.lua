@@ -5,10 +5,13 @@ local suite = T.suite("run")
 
 local dca, src = T.exe, T.src
 
-for _, c in ipairs({ { "world-opt jammed", "--world-opt and --record go with --sim WORLD" },
+for _, c in ipairs({ { "world-opt jammed", "--seed and --world-opt go with --sim WORLD" },
+                    { "record x.csv", "--record FILE.csv goes with --sim WORLD" },
+                    { "record x.mcap --record-ports all", "--record-ports goes with --sim WORLD: on the wall clock" },
+                    { "record x.mcap --blackbox 1,1", "--blackbox goes with --sim WORLD" },
                     { "realtime", "--realtime goes with --sim WORLD" },
                     { "tick-timeout 5000", "--tick-timeout goes with --sim WORLD" } }) do
-  suite:case("run_" .. c[1]:gsub("[- ]", "_") .. "_needs_sim", function()
+  suite:case("run_" .. c[1]:gsub("[^%w]+", "_") .. "_needs_sim", function()
     local out, rc = T.sh(dca .. " run " .. src .. "/worlds/door/systems/door_open.dca --" .. c[1])
     T.eq(rc, 2, "exit code")
     T.contains(out, c[2])
