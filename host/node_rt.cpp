@@ -432,7 +432,6 @@ std::optional<RtLeafStats> RtHost::stats(const Component& c) const {
 void RtHost::Impl::run() {
   tid.store(static_cast<long>(::gettid()));
   rt::contract::enter();
-  const bool counting = rt::contract::hooked();
   while (!stop.load(std::memory_order_relaxed)) {
     const Nanos now = monotonic_now();
     sleep_until(std::min(timers.next_deadline().value_or(kNever), now + kIdle));
@@ -441,8 +440,10 @@ void RtHost::Impl::run() {
     take_commands();
     take_samples();
     timers.run_due();
-    if (counting) publish_counts();
     notify();
+    // page faults are counted with the hooks or without them (getrusage: one system call, after the wake's
+    // work and its notification); allocations and locks only where the hooks are linked
+    publish_counts();
   }
   rt::contract::leave();
 }
