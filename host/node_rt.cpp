@@ -250,7 +250,15 @@ PortSet& RtHost::adopt(Component& c, std::function<void(const ComponentEvent&)> 
   for (std::size_t p = 0; p < ins.size(); ++p) {
     ins[p]->reserve_queue(16);  // a push connection's default queue (docs/data-plane.md)
     Input& m = s->mirror->add_input(ins[p]->spec());
-    m.on_sample = [&I, &m, slot, port = static_cast<std::uint16_t>(p)] {
+    m.on_sample = [this, &I, &m, in = &*ins[p], slot, port = static_cast<std::uint16_t>(p)] {
+      // a push connection asked for a longer queue than the leaf's input has (its connect's queue, over 16):
+      // the input grows to it with the thread paused, at the first sample, so the thread never allocates
+      if (m.capacity() > in->capacity()) {
+        const bool going = running();
+        stop();
+        in->reserve_queue(m.capacity());
+        if (going) start();
+      }
       Sample x;
       bool queued = false;
       while (m.pop()) {

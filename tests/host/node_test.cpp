@@ -95,6 +95,7 @@ class ChainComponent final : public dca::Component {
   }
   std::atomic<long> tid{0};
   std::atomic<int> ticks{0};
+  std::atomic<int> first_queued{-1};  // the samples queued on In at its first tick
   std::atomic<bool> running{false};
 
  private:
@@ -102,6 +103,7 @@ class ChainComponent final : public dca::Component {
     tid.store(static_cast<long>(::gettid()));
     const int n = ticks.load() + 1;
     ticks.store(n);
+    if (n == 1) first_queued.store(static_cast<int>(in_->queued()));
     if (n == 1 && name_.rfind("/slow", 0) == 0) {
       const timespec ts{0, 5'500'000};
       nanosleep(&ts, nullptr);
@@ -806,6 +808,31 @@ TEST_F(NodeTest, RealTimeMissedPeriodsAreCountedOncePerDeadline) {
   EXPECT_GE(st["missed"].as_int(), 4);  // deadlines 2..5 went by during the first run
   EXPECT_LE(st["runs"].as_int() + st["missed"].as_int(), gone);
   ASSERT_TRUE(call(sup, "stop").ok());
+}
+
+// A connection with a queue over 16 into a leaf on the real-time thread: the leaf's own input grows to it (with
+// the thread paused, at the first sample), not only its mirror's. 40 samples sent before the leaf runs are all
+// queued on its input at its first tick (16, the oldest dropped, when only the mirror grew).
+TEST_F(NodeTest, RealTimeLeafsInputTakesTheQueueItsConnectionAsks) {
+  auto* x = start_node("/x");
+  dca::NodeOptions o = node_options("/q", false);
+  o.type = "Chain";
+  o.rt.cpu = 0;
+  o.rt.lock_memory = false;
+  ChainComponent* c = start_chain(o);
+  ASSERT_NE(c, nullptr);
+  auto sx = supervise("/x"), sq = supervise("/q");
+  auto r = call(sx, "connect", Value::map().set("out", "Out").set("to", "/q").set("in", "In").set("set", "g:x[q]")
+                                   .set("queue", 64));
+  ASSERT_TRUE(r.ok()) << r.error;
+  ASSERT_TRUE(call(sx, "activate", Value::map().set("set", "g:x[q]")).ok());
+  for (int i = 1; i <= 40; ++i) x->out->write(static_cast<double>(i));
+  const auto mirrored = [&] { return call(sq, "ports").message.payload["inputs"].as_array()[0]["samples"].as_int(); };
+  ASSERT_TRUE(run_until([&] { return mirrored() == 40; }));
+  ASSERT_TRUE(call(sq, "run").ok());
+  ASSERT_TRUE(run_until([&] { return c->ticks >= 1; }));
+  EXPECT_EQ(c->first_queued.load(), 40);
+  ASSERT_TRUE(call(sq, "stop").ok());
 }
 
 TEST_F(NodeTest, ValuesConvertBetweenMsgpackAndWire) {
