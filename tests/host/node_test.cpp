@@ -228,6 +228,16 @@ class NodeTest : public ::testing::Test {
     return last;
   }
 
+  // Starts a one-leaf node `name` on the wall clock whose ChainComponent runs on a real-time thread (pinned to CPU
+  // 0, the default scheduler, memory not locked).
+  ChainComponent* start_rt_chain(const std::string& name) {
+    dca::NodeOptions o = node_options(name, false);
+    o.type = "Chain";
+    o.rt.cpu = 0;
+    o.rt.lock_memory = false;
+    return start_chain(o);
+  }
+
   // Starts a shared node named `name` (registered as name#PID) whose leaves are TestComponents kept in `made`
   // (the latest instance of each PATH; `created` counts them); type "Bad" is refused as an unknown type.
   void start_shared(const std::string& name, dca::Nanos period = 0, bool sim = false) {
@@ -792,11 +802,7 @@ TEST_F(NodeTest, OneLeafNodeRunsItsLeafOnTheRealTimeThreadAndIgnoresItOnASimulat
 // and missed periods together never exceed the deadlines gone by (counted from before the start: a bound that
 // holds however late the thread wakes; counted twice, they would exceed it by about 4).
 TEST_F(NodeTest, RealTimeMissedPeriodsAreCountedOncePerDeadline) {
-  dca::NodeOptions o = node_options("/slow", false);
-  o.type = "Chain";
-  o.rt.cpu = 0;
-  o.rt.lock_memory = false;
-  ChainComponent* c = start_chain(o);
+  ChainComponent* c = start_rt_chain("/slow");
   ASSERT_NE(c, nullptr);
   auto sup = supervise("/slow");
   const dca::Nanos before = dca::monotonic_now();
@@ -815,11 +821,7 @@ TEST_F(NodeTest, RealTimeMissedPeriodsAreCountedOncePerDeadline) {
 // queued on its input at its first tick (16, the oldest dropped, when only the mirror grew).
 TEST_F(NodeTest, RealTimeLeafsInputTakesTheQueueItsConnectionAsks) {
   auto* x = start_node("/x");
-  dca::NodeOptions o = node_options("/q", false);
-  o.type = "Chain";
-  o.rt.cpu = 0;
-  o.rt.lock_memory = false;
-  ChainComponent* c = start_chain(o);
+  ChainComponent* c = start_rt_chain("/q");
   ASSERT_NE(c, nullptr);
   auto sx = supervise("/x"), sq = supervise("/q");
   auto r = call(sx, "connect", Value::map().set("out", "Out").set("to", "/q").set("in", "In").set("set", "g:x[q]")
