@@ -38,7 +38,10 @@ constexpr const char* kUsage =
     "  --duration S      simulated seconds to run (default: the world's); served, time holds after S\n"
     "  --record FILE     record the world's signals every --record-period seconds (default 0.01): FILE.mcap as\n"
     "                    MCAP (log time = simulated time; Foxglove, Lichtblick and PlotJuggler open it); a world\n"
-    "                    with a CSV export of its own takes any other name as CSV\n\n"
+    "                    with a CSV export of its own takes any other name as CSV\n"
+    "  --record-compression zstd|lz4|none   an MCAP recording's chunks (default zstd: docs/recording.md)\n"
+    "  --record-split SIZE|DURATION        FILE-000.mcap, FILE-001.mcap, ... each of at most about SIZE (100MB,\n"
+    "                    1GiB) or DURATION of simulated time (60s, 10min, 1h), each with every channel\n\n"
     "--serve: the world as a process (sim/device_node.h): registers NAME (default `world`) with the daemon at\n"
     "ADDR, its ports are the world's signals (`dca types --world WORLD`), and it is the clock master of every\n"
     "node on simulated time (`dca node --clock sim`): time starts at 0 on `go` (or at once with --go) and\n"
@@ -61,6 +64,7 @@ struct Options {
   std::vector<std::string> world_opts;
   bool serve = false, go = false, realtime = false, list = false, record_outputs = false, blackbox = false;
   dca::sim::BlackboxOptions box;
+  dca::sim::RecordOptions recording;
   std::string daemon, name = "world", key, host, trace, record;
   std::uint64_t seed = 0;
   double duration = -1, period = 1e-3, record_period = 0.01, sync_period = 0.01;
@@ -130,6 +134,12 @@ std::string set_value(const std::string& a, const char* v, Options& o) {
     return positive(v, o.period) && o.period <= 0.01 ? "" : "--period needs seconds in (0, 0.01]";
   if (a == "--record-period") return positive(v, o.record_period) ? "" : "--record-period needs positive seconds";
   if (a == "--blackbox") return blackbox(v, o);
+  if (a == "--record-compression")
+    return v && dca::mcap::parse_compression(v, &o.recording.compression) && *v ? ""
+           : "--record-compression needs zstd, lz4 or none";
+  if (a == "--record-split")
+    return v && dca::sim::parse_split(v, &o.recording) ? ""
+           : "--record-split needs a size (100MB, 1GiB: at least 4096 bytes) or a duration (60s, 10min, 1h)";
   if (a == "--blackbox-storm") return storm(v, o);
   if (a == "--sync") return positive(v, o.sync_period) ? "" : "--sync needs positive seconds";
   if (a == "--tick-timeout") {
@@ -152,7 +162,7 @@ std::string set_value(const std::string& a, const char* v, Options& o) {
 int parse(std::span<char* const> args, Options& o) {
   static const std::string kValued =
       " --world --world-opt --seed --duration --period --record-period --record --trace --daemon --name --key"
-      " --host --sync --tick-timeout --blackbox --blackbox-storm ";
+      " --host --sync --tick-timeout --blackbox --blackbox-storm --record-compression --record-split ";
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string a = args[i];
     if (set_flag(a, o)) continue;
@@ -186,7 +196,7 @@ int serve(const Options& o, dca::sim::DeviceWorld& world) {
   dno.duration = o.duration;
   dno.trace = o.trace;
   dno.record = o.record, dno.record_period = o.record_period, dno.record_outputs = o.record_outputs;
-  dno.blackbox = o.blackbox, dno.box = o.box;
+  dno.blackbox = o.blackbox, dno.box = o.box, dno.recording = o.recording;
   dca::sim::DeviceNode dn(loop, world, dno);
   dca::NodeOptions no;
   no.name = o.name;
@@ -259,7 +269,7 @@ int cmd_sim(std::span<char* const> args) {
   if (o.serve && o.daemon.empty()) return usage_error("--serve needs --daemon ADDR");
   try {
     if (!o.serve && plugin->run_local) {
-      dca::sim::LocalRun local{o.duration, o.realtime, o.record, o.record_period};
+      dca::sim::LocalRun local{o.duration, o.realtime, o.record, o.record_period, o.recording};
       return plugin->run_local(setup, local);
     }
     if (!o.serve && !o.record.empty()) return usage_error("--record with this world goes with --serve (dca run --sim WORLD --record)");

@@ -92,6 +92,7 @@ struct DeviceNode::Impl {
     buffer.resize(64);
     if (opts.blackbox && !(taps.recorder() && taps.recorder()->blackbox(opts.box)))
       throw std::runtime_error(opts.record + ": a black box records MCAP only (FILE.mcap)");
+    if (taps.recorder()) taps.recorder()->configure(opts.recording);
     if (taps.recorder()) start_recording();
   }
   ~Impl() {

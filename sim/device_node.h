@@ -66,6 +66,7 @@ struct DeviceNodeOptions {
   /// (`blackbox {why}`), by the first refusal of a second writer, and by a storm of limit clamps (box.storm_*).
   bool blackbox = false;
   BlackboxOptions box;
+  RecordOptions recording;        ///< an MCAP `record`'s compression and split (a black box: compression only)
 };
 
 class DeviceNode {

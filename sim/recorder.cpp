@@ -19,11 +19,45 @@ bool is_mcap(const std::string& path) {
   return path.size() > 5 && path.compare(path.size() - 5, 5, ".mcap") == 0;
 }
 
+namespace {
+
+// A writer of 64 KiB chunks into f.
+std::unique_ptr<dca::mcap::Writer> file_writer(std::FILE* f, dca::mcap::Compression c) {
+  return std::make_unique<dca::mcap::Writer>(
+      [f](std::string_view b) { return std::fwrite(b.data(), 1, b.size(), f) == b.size(); }, "dca sim", 64 * 1024, c);
+}
+
+// Adds what `s` counted to *total.
+void add_stats(dca::mcap::Stats* total, const dca::mcap::Stats& s) {
+  total->messages += s.messages;
+  total->chunks += s.chunks;
+  total->bytes += s.bytes;
+  total->chunk_bytes += s.chunk_bytes;
+  for (const auto& [c, n] : s.per_channel) total->per_channel[c] += n;
+}
+
+}  // namespace
+
+bool parse_split(const std::string& text, RecordOptions* o) {
+  char* end = nullptr;
+  const double v = std::strtod(text.c_str(), &end);
+  if (end == text.c_str() || !(v > 0) || v > 1e15) return false;
+  const std::string unit = end;
+  static const std::pair<const char*, double> sizes[] = {{"", 1}, {"B", 1}, {"KB", 1e3}, {"MB", 1e6}, {"GB", 1e9},
+                                                         {"KiB", 1024}, {"MiB", 1048576}, {"GiB", 1073741824}};
+  static const std::pair<const char*, double> times[] = {{"s", 1}, {"min", 60}, {"h", 3600}};
+  for (const auto& [u, k] : sizes)
+    if (unit == u && v * k >= 4096) return o->split_bytes = static_cast<uint64_t>(v * k), o->split_ns = 0, true;
+  for (const auto& [u, k] : times)
+    if (unit == u && v * k >= 0.001) return o->split_ns = static_cast<uint64_t>(std::llround(v * k * 1e9)), o->split_bytes = 0, true;
+  return false;
+}
+
 struct Recorder::Mcap {
-  explicit Mcap(std::FILE* f)
-      : writer([f](std::string_view b) { return std::fwrite(b.data(), 1, b.size(), f) == b.size(); }, "dca sim",
-               64 * 1024) {}
-  dca::mcap::Writer writer;
+  Mcap(std::FILE* f, dca::mcap::Compression c) : writer(file_writer(f, c)) {}
+  std::unique_ptr<dca::mcap::Writer> writer;
+  dca::mcap::Stats done;  // a split recording's files before the open one
+  std::string failed;     // a file of a split that could not be written
   uint16_t events = 0;  // the channel /dca/events, once there is a note
   uint16_t log = 0;     // the channel /dca/log, once there is a line
   struct Added {
@@ -47,6 +81,7 @@ struct Recorder::Box {
     std::string json;
   };
   BlackboxOptions o;
+  dca::mcap::Compression compression = dca::mcap::Compression::none;
   uint64_t before_ns = 0, after_ns = 0;
   std::vector<Channel> channels;  // channel id - 1
   std::deque<Held> held;
@@ -79,8 +114,8 @@ struct Recorder::Box {
   std::string write(const std::string& file) const {
     std::FILE* f = std::fopen(file.c_str(), "w");
     if (!f) return file + ": cannot write the black box: " + std::strerror(errno);
-    dca::mcap::Writer w([f](std::string_view b) { return std::fwrite(b.data(), 1, b.size(), f) == b.size(); },
-                        "dca sim", 64 * 1024);
+    const auto writer = file_writer(f, compression);
+    dca::mcap::Writer& w = *writer;
     for (const auto& c : channels) w.add_channel(c.topic, c.schema_name, c.schema);
     const uint16_t box = w.add_channel("/dca/blackbox", "dca/blackbox",
                                        R"({"type":"object","title":"/dca/blackbox","properties":{"trigger":)"
@@ -138,13 +173,14 @@ uint16_t Recorder::channel(const std::string& topic, const std::string& schema_n
   }
   if (!f_ || !mcap_) return 0;
   mcap_->added.push_back({topic, schema_name, schema});
-  return mcap_->writer.add_channel(topic, schema_name, schema);
+  return mcap_->writer->add_channel(topic, schema_name, schema);
 }
 
 void Recorder::put(uint16_t channel, uint64_t t_ns, std::string json) {
   if (channel == 0) return;
   if (!box_) {
-    if (f_ && mcap_) mcap_->writer.write(channel, t_ns, json);
+    if (f_ && mcap_) rotate_if_due(t_ns);
+    if (f_ && mcap_) mcap_->writer->write(channel, t_ns, json);
     return;
   }
   Box& b = *box_;
@@ -209,6 +245,48 @@ void Recorder::trigger(double t, const std::string& why) {
   box_->why = why;
 }
 
+void Recorder::configure(const RecordOptions& o) {
+  options_ = o;
+  if (box_) box_->compression = o.compression;
+  if (!mcap_ || !f_) return;
+  mcap_->writer->set_compression(o.compression);
+  if (o.split_bytes == 0 && o.split_ns == 0) return;
+  std::fclose(f_);  // (only the magic, the header and the channels were written: the split's files are the record)
+  f_ = nullptr;
+  std::remove(path_.c_str());
+  split_at_ = o.split_ns;
+  next_file();
+}
+
+void Recorder::next_file() {
+  if (f_) {
+    const bool bad = !mcap_->writer->finish() || std::ferror(f_) != 0;
+    if ((std::fclose(f_) != 0 || bad) && mcap_->failed.empty()) mcap_->failed = files_.back() + ": error writing the recording";
+    f_ = nullptr;
+    add_stats(&mcap_->done, mcap_->writer->stats());
+  }
+  char n[32];
+  std::snprintf(n, sizeof n, "-%03zu.mcap", files_.size());
+  files_.push_back(path_.substr(0, path_.size() - 5) + n);
+  f_ = std::fopen(files_.back().c_str(), "w");
+  if (!f_) {
+    if (mcap_->failed.empty()) mcap_->failed = files_.back() + ": cannot write the recording: " + std::strerror(errno);
+    return;
+  }
+  mcap_->writer = file_writer(f_, options_.compression);
+  for (const auto& c : mcap_->added) mcap_->writer->add_channel(c.topic, c.schema_name, c.schema);
+}
+
+void Recorder::rotate_if_due(uint64_t t_ns) {
+  if (files_.empty()) return;
+  const dca::mcap::Writer& w = *mcap_->writer;
+  const bool by_size = options_.split_bytes && w.stats().bytes + w.pending_bytes() >= options_.split_bytes &&
+                       w.stats().messages + w.pending_bytes() > 0;
+  const bool by_time = options_.split_ns && t_ns >= split_at_;
+  if (by_time) split_at_ = (t_ns / options_.split_ns + 1) * options_.split_ns;
+  if (by_size || by_time) next_file();
+}
+
 std::size_t Recorder::held_bytes() const { return box_ ? box_->bytes : 0; }
 
 Recorder::Recorder(const std::string& path, const std::string& csv_header) : path_(path) {
@@ -217,7 +295,7 @@ Recorder::Recorder(const std::string& path, const std::string& csv_header) : pat
   f_ = std::fopen(path.c_str(), "w");
   if (!f_) throw std::runtime_error(path + ": cannot write the recording: " + std::strerror(errno));
   if (is_mcap(path)) {
-    mcap_ = std::make_unique<Mcap>(f_);
+    mcap_ = std::make_unique<Mcap>(f_, dca::mcap::Compression::none);
   } else {
     std::fprintf(f_, "%s\n", csv_header.c_str());
   }
@@ -240,12 +318,14 @@ bool Recorder::close(std::string* error) {
         box_->write(path_.substr(0, path_.size() - 5) + "-" + std::to_string(box_->files.size() + 1) + ".mcap"));
     box_->pending = false;
   }
-  if (!f_) return true;
+  const bool failed = mcap_ && !mcap_->failed.empty();
+  if (failed) *error = mcap_->failed;
+  if (!f_) return !failed;
   std::FILE* f = f_;
   f_ = nullptr;
-  const bool bad = (mcap_ && !mcap_->writer.finish()) || std::ferror(f) != 0;
-  if (std::fclose(f) == 0 && !bad) return true;
-  *error = path_ + ": error writing the recording";
+  const bool bad = (mcap_ && !mcap_->writer->finish()) || std::ferror(f) != 0;
+  if (std::fclose(f) == 0 && !bad) return !failed;
+  *error = (files_.empty() ? path_ : files_.back()) + ": error writing the recording";
   return false;
 }
 
@@ -257,16 +337,25 @@ std::string Recorder::summary() const {
     return s;
   }
   if (!mcap_) return path_ + ": " + std::to_string(rows_) + " rows";
-  const dca::mcap::Stats& st = mcap_->writer.stats();
-  const size_t channels = mcap_->writer.channels();
+  dca::mcap::Stats st = mcap_->done;
+  add_stats(&st, mcap_->writer->stats());
+  const size_t channels = mcap_->writer->channels();
   std::string s = path_ + ": " + std::to_string(st.messages) + " messages on " + std::to_string(channels) +
                   " channels (";
   for (size_t c = 1; c <= channels; ++c) {
     auto n = st.per_channel.find(static_cast<uint16_t>(c));
-    s += (c > 1 ? ", " : "") + mcap_->writer.topic(static_cast<uint16_t>(c)) + " " +
+    s += (c > 1 ? ", " : "") + mcap_->writer->topic(static_cast<uint16_t>(c)) + " " +
          std::to_string(n == st.per_channel.end() ? 0 : n->second);
   }
   s += "), " + std::to_string(st.chunks) + " chunks";
+  if (options_.compression != dca::mcap::Compression::none && st.chunk_bytes > 0) {
+    char ratio[96];
+    std::snprintf(ratio, sizeof ratio, ", %s %.1fx", dca::mcap::compression_name(options_.compression),
+                  static_cast<double>(st.chunk_bytes) / static_cast<double>(std::max<uint64_t>(1, st.bytes)));
+    s += ratio;
+  }
+  if (files_.size() == 1) s += ", in 1 file " + files_[0];
+  if (files_.size() > 1) s += ", in " + std::to_string(files_.size()) + " files " + files_.front() + " .. " + files_.back();
   return dropped_ ? s + ", " + std::to_string(dropped_) + " tap samples dropped" : s;
 }
 

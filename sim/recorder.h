@@ -7,6 +7,9 @@
 #include <cstdio>
 #include <memory>
 #include <string>
+#include <vector>
+
+#include "host/codec/mcap.h"
 
 namespace dca::sim {
 
@@ -22,6 +25,21 @@ struct BlackboxOptions {
   double storm_window = 1;
 };
 
+/// How an MCAP recording is written (docs/recording.md, "Compression and split"): `dca run --record-compression`,
+/// `--record-split`.
+struct RecordOptions {
+  /// Each chunk's. zstd by default: the recordings are JSON text of numbers, which zstd shrinks more than lz4
+  /// (the door world's signals: 2.6 times against 2.0) at a write cost that is a small part of a run's
+  /// (tests/bench/RESULTS.md, "Recording"), and it is what the MCAP tools write by default.
+  dca::mcap::Compression compression = dca::mcap::Compression::zstd;
+  std::uint64_t split_bytes = 0;  ///< a new file once this many bytes are written (0: never)
+  std::uint64_t split_ns = 0;     ///< a new file every this much simulated time (0: never)
+};
+
+/// Parses --record-split's value: SIZE (`100MB`, `1.5GB`, `512KB`, bytes) or DURATION (`60s`, `10min`, `1h`).
+/// False when it is neither (or zero).
+bool parse_split(const std::string& text, RecordOptions* o);
+
 /// A recording file. The constructor throws std::runtime_error("FILE: reason") if the file cannot be written.
 class Recorder {
  public:
@@ -34,6 +52,10 @@ class Recorder {
   ~Recorder();
   Recorder(const Recorder&) = delete;
   Recorder& operator=(const Recorder&) = delete;
+  /// MCAP only, before any message is written (a CSV ignores it): compression and split. With a split, PATH
+  /// itself is not written: the files are PATH without ".mcap" + "-000.mcap", "-001.mcap", ..., each with every
+  /// channel. A black box takes the compression only.
+  void configure(const RecordOptions& o);
   /// Whether this is an MCAP recording (else CSV).
   bool mcap() const { return mcap_ != nullptr; }
   /// CSV only: one row (its text, without the newline).
@@ -82,6 +104,11 @@ class Recorder {
   void put(uint16_t channel, uint64_t t_ns, std::string json);
   long rows_ = 0;
   uint64_t dropped_ = 0;
+  RecordOptions options_;
+  std::vector<std::string> files_;  // a split recording's files, the open one last
+  uint64_t split_at_ = 0;           // the next split's log time (split_ns)
+  void next_file();
+  void rotate_if_due(uint64_t t_ns);
 };
 
 /// Whether `path` names an MCAP file (ends in ".mcap").

@@ -56,6 +56,7 @@ struct LocalRun {
   bool realtime = false;
   std::string record;            ///< a file to record to ("" none)
   double record_period = 0.01;
+  RecordOptions recording;       ///< an MCAP recording's compression and split
 };
 
 /// A world plug-in.

@@ -1,7 +1,11 @@
 #include "host/codec/mcap.h"
 
+#include <lz4frame.h>
+#include <zstd.h>
+
 #include <algorithm>
 #include <array>
+#include <memory>
 #include <utility>
 
 namespace dca::mcap {
@@ -55,7 +59,43 @@ std::array<uint32_t, 256> crc_table() {
   return t;
 }
 
+// zstd's own default level: on the door's JSON, 1 would cost less time and give larger chunks (tests/bench).
+constexpr int kZstdLevel = 3;
+
+// `in` compressed as `c` says into *out: false when the library failed (the chunk is then written uncompressed).
+bool compress(Compression c, std::string_view in, std::string* out) {
+  if (c == Compression::zstd) {
+    out->resize(ZSTD_compressBound(in.size()));
+    const size_t n = ZSTD_compress(out->data(), out->size(), in.data(), in.size(), kZstdLevel);
+    if (ZSTD_isError(n)) return false;
+    out->resize(n);
+    return true;
+  }
+  if (c == Compression::lz4) {
+    LZ4F_preferences_t prefs{};
+    prefs.frameInfo.contentSize = in.size();  // a reader may size its buffer by it
+    out->resize(LZ4F_compressFrameBound(in.size(), &prefs));
+    const size_t n = LZ4F_compressFrame(out->data(), out->size(), in.data(), in.size(), &prefs);
+    if (LZ4F_isError(n)) return false;
+    out->resize(n);
+    return true;
+  }
+  return false;
+}
+
 }  // namespace
+
+const char* compression_name(Compression c) {
+  return c == Compression::zstd ? "zstd" : c == Compression::lz4 ? "lz4" : "";
+}
+
+bool parse_compression(std::string_view name, Compression* out) {
+  if (name == "none" || name.empty()) *out = Compression::none;
+  else if (name == "zstd") *out = Compression::zstd;
+  else if (name == "lz4") *out = Compression::lz4;
+  else return false;
+  return true;
+}
 
 uint32_t crc32(std::string_view bytes, uint32_t crc) {
   static const std::array<uint32_t, 256> table = crc_table();
@@ -64,8 +104,8 @@ uint32_t crc32(std::string_view bytes, uint32_t crc) {
   return ~crc;
 }
 
-Writer::Writer(Sink sink, std::string library, size_t chunk_bytes)
-    : sink_(std::move(sink)), chunk_bytes_(chunk_bytes) {
+Writer::Writer(Sink sink, std::string library, size_t chunk_bytes, Compression compression)
+    : sink_(std::move(sink)), chunk_bytes_(chunk_bytes), compression_(compression) {
   std::string header;
   str(header, "");  // profile: none of the well-known ones (JSON messages)
   str(header, library);
@@ -77,6 +117,7 @@ void Writer::emit(std::string_view bytes) {
   if (!ok_) return;
   ok_ = sink_(bytes);
   offset_ += bytes.size();
+  stats_.bytes = offset_;
 }
 
 std::string Writer::schema_record(uint16_t id) const {
@@ -131,15 +172,19 @@ void Writer::write(uint16_t channel, uint64_t log_time_ns, std::string_view json
 
 void Writer::flush_chunk() {
   if (chunk_.empty()) return;
+  std::string packed;
+  const Compression how = compress(compression_, chunk_, &packed) ? compression_ : Compression::none;
+  const std::string_view records = how == Compression::none ? std::string_view(chunk_) : std::string_view(packed);
   std::string c;
   u64(c, chunk_start_);
   u64(c, chunk_end_);
   u64(c, chunk_.size());
-  u32(c, crc32(chunk_));
-  str(c, "");  // no compression
-  u64(c, chunk_.size());
-  c += chunk_;
-  ChunkIndex ci{chunk_start_, chunk_end_, offset_, 0, 0, chunk_.size(), {}};
+  u32(c, crc32(chunk_));  // of the records before compression
+  str(c, compression_name(how));
+  u64(c, records.size());
+  c += records;
+  ChunkIndex ci{chunk_start_, chunk_end_, offset_, 0, 0, chunk_.size(), records.size(), {}};
+  ci.compression = how;
   const std::string chunk = record(kChunk, c);
   ci.length = chunk.size();
   emit(chunk);
@@ -157,6 +202,7 @@ void Writer::flush_chunk() {
   }
   ci.index_length = offset_ - indexes_start;
   chunk_indexes_.push_back(std::move(ci));
+  stats_.chunk_bytes += chunk_.size();
   chunk_.clear();
   chunk_index_.clear();
   ++stats_.chunks;
@@ -210,8 +256,8 @@ bool Writer::finish() {
     u64(s, ci.length);
     map16_64(s, ci.index_offsets);
     u64(s, ci.index_length);
-    str(s, "");
-    u64(s, ci.size);
+    str(s, compression_name(ci.compression));
+    u64(s, ci.compressed);
     u64(s, ci.size);
     indexes += record(kChunkIndex, s);
   }
@@ -278,9 +324,39 @@ bool fail(std::string* error, uint64_t at, const std::string& what) {
   return false;
 }
 
+// `src` decompressed as `compression` says into *out, which must come to exactly `size` bytes (it is never let
+// grow past them): "" or what is wrong.
+std::string decompress(const std::string& compression, std::string_view src, uint64_t size, std::string* out) {
+  out->resize(size);
+  if (compression == "zstd") {
+    const size_t n = ZSTD_decompress(out->data(), size, src.data(), src.size());
+    if (ZSTD_isError(n)) return std::string("corrupt zstd chunk (") + ZSTD_getErrorName(n) + ")";
+    if (n != size) return "zstd chunk of " + std::to_string(n) + " bytes, not the " + std::to_string(size) + " it states";
+    return "";
+  }
+  if (compression != "lz4") return "chunk compressed as '" + compression + "' (zstd, lz4 or none are read)";
+  LZ4F_dctx* raw = nullptr;
+  if (LZ4F_isError(LZ4F_createDecompressionContext(&raw, LZ4F_VERSION))) return "no lz4 decompression context";
+  const std::unique_ptr<LZ4F_dctx, size_t (*)(LZ4F_dctx*)> d(raw, LZ4F_freeDecompressionContext);
+  size_t in = 0, done = 0, more = 1;
+  while (more != 0) {
+    size_t dst = size - done, n = src.size() - in;
+    more = LZ4F_decompress(d.get(), out->data() + done, &dst, src.data() + in, &n, nullptr);
+    if (LZ4F_isError(more)) return std::string("corrupt lz4 chunk (") + LZ4F_getErrorName(more) + ")";
+    in += n, done += dst;
+    if (more != 0 && n == 0 && dst == 0)
+      return in == src.size() ? "lz4 chunk ends inside its frame" : "lz4 chunk larger than the " + std::to_string(size) + " bytes it states";
+  }
+  if (in != src.size()) return "bytes after the lz4 chunk's frame";
+  if (done != size) return "lz4 chunk of " + std::to_string(done) + " bytes, not the " + std::to_string(size) + " it states";
+  return "";
+}
+
 struct Parser {
   Contents* out;
   std::string* error;
+  Limits limits;
+  uint64_t total = 0;  // bytes decompressed so far
   std::map<uint16_t, std::pair<std::string, std::string>> schemas;  // id -> name, encoding
 
   bool schema(Cursor c) {
@@ -320,9 +396,21 @@ struct Parser {
     if (!c.u(8, &start) || !c.u(8, &end) || !c.u(8, &size) || !c.u(4, &crc) || !c.str(&compression) ||
         !c.u(8, &length))
       return fail(error, c.offset(), "truncated chunk");
-    if (!compression.empty()) return fail(error, c.offset(), "compressed chunk ('" + compression + "')");
     const uint64_t at = c.offset();
-    if (!c.bytes(length, &records) || length != size) return fail(error, at, "chunk records do not fit");
+    if (!c.bytes(length, &records)) return fail(error, at, "chunk records do not fit");
+    std::string plain;
+    if (compression.empty()) {
+      if (length != size) return fail(error, at, "chunk records do not fit");
+    } else {
+      if (size > limits.max_chunk || size > limits.max_total - std::min(total, limits.max_total))
+        return fail(error, at, "chunk of " + std::to_string(size) + " bytes decompressed: over the limit of " +
+                                   std::to_string(size > limits.max_chunk ? limits.max_chunk : limits.max_total) +
+                                   (size > limits.max_chunk ? " per chunk" : " per file"));
+      if (const std::string why = decompress(compression, records, size, &plain); !why.empty())
+        return fail(error, at, why);
+      total += size;
+      records = plain;
+    }
     if (crc != 0 && crc32(records) != crc) return fail(error, at, "chunk CRC mismatch");
     ++out->chunks;
     return records_of(Cursor(records, at), true);
@@ -351,7 +439,7 @@ struct Parser {
 
 }  // namespace
 
-bool read(std::string_view file, Contents* out, std::string* error) {
+bool read(std::string_view file, Contents* out, std::string* error, const Limits& limits) {
   *out = Contents{};
   const size_t footer = 1 + 8 + 20;
   if (file.size() < 2 * kMagic.size() + footer || file.substr(0, kMagic.size()) != kMagic ||
@@ -362,8 +450,99 @@ bool read(std::string_view file, Contents* out, std::string* error) {
   if (!f.u(1, &op) || !f.u(8, &length) || !f.u(8, &summary_start) || op != kFooter || length != 20)
     return fail(error, f.offset(), "no footer before the closing magic");
   out->summary = summary_start != 0;
-  Parser p{out, error, {}};
+  Parser p{out, error, limits, 0, {}};
   return p.records_of(Cursor(file.substr(kMagic.size(), file.size() - 2 * kMagic.size()), kMagic.size()), false);
+}
+
+namespace {
+
+// A map<uint16, uint64> of the summary: its keys (the values are not needed here).
+bool map_keys(Cursor& c, std::vector<uint16_t>* keys, std::map<uint16_t, uint64_t>* pairs = nullptr) {
+  uint64_t bytes;
+  std::string_view m;
+  if (!c.u(4, &bytes) || bytes % 10 != 0 || !c.bytes(bytes, &m)) return false;
+  Cursor e(m, 0);
+  for (uint64_t i = 0; i < bytes / 10; ++i) {
+    uint64_t k = 0, v = 0;
+    e.u(2, &k), e.u(8, &v);  // (within m: its size is a multiple of 10)
+    if (keys) keys->push_back(static_cast<uint16_t>(k));
+    if (pairs) (*pairs)[static_cast<uint16_t>(k)] = v;
+  }
+  return true;
+}
+
+bool chunk_index(Cursor c, Summary::ChunkIndex* ci) {
+  uint64_t index_length;
+  return c.u(8, &ci->start_time) && c.u(8, &ci->end_time) && c.u(8, &ci->offset) && c.u(8, &ci->length) &&
+         map_keys(c, &ci->channels) && c.u(8, &index_length) && c.str(&ci->compression) &&
+         c.u(8, &ci->compressed) && c.u(8, &ci->uncompressed);
+}
+
+bool statistics(Cursor c, Summary* s) {
+  uint64_t skip;
+  return c.u(8, &s->messages) && c.u(2, &skip) && c.u(4, &skip) && c.u(4, &skip) && c.u(4, &skip) &&
+         c.u(4, &skip) && c.u(8, &s->start_time) && c.u(8, &s->end_time) && map_keys(c, nullptr, &s->per_channel);
+}
+
+// The summary's largest size read (its chunk indexes: about 70 bytes per chunk).
+constexpr uint64_t kMaxSummary = uint64_t{256} << 20;
+
+}  // namespace
+
+bool read_summary(const Fetch& fetch, uint64_t size, Summary* out, std::string* error) {
+  *out = Summary{};
+  const uint64_t tail = 1 + 8 + 20 + kMagic.size();
+  std::string head, end, bytes;
+  if (size < kMagic.size() + tail || !fetch(0, kMagic.size(), &head) || !fetch(size - tail, tail, &end) ||
+      head != kMagic || std::string_view(end).substr(29) != kMagic)
+    return fail(error, 0, "not an MCAP file (no magic at both ends)");
+  Cursor f(end, size - tail);
+  uint64_t op, length, summary_start;
+  if (!f.u(1, &op) || !f.u(8, &length) || !f.u(8, &summary_start) || op != kFooter || length != 20)
+    return fail(error, size - tail, "no footer before the closing magic");
+  if (summary_start == 0) return fail(error, size - tail, "no summary section");
+  if (summary_start < kMagic.size() || summary_start > size - tail || size - tail - summary_start > kMaxSummary ||
+      !fetch(summary_start, size - tail - summary_start, &bytes))
+    return fail(error, size - tail, "the footer's summary start is out of the file");
+  Contents channels;
+  Parser p{&channels, error, {}, 0, {}};
+  for (Cursor c(bytes, summary_start); !c.done();) {
+    std::string_view content;
+    const uint64_t at = c.offset();
+    if (!c.u(1, &op) || !c.u(8, &length) || !c.bytes(length, &content)) return fail(error, at, "truncated record");
+    const Cursor r(content, at + 9);
+    bool ok = true;
+    if (op == kSchema) {
+      ok = p.schema(r);
+    } else if (op == kChannel) {
+      ok = p.channel(r);
+    } else if (op == kChunkIndex) {
+      out->chunks.emplace_back();
+      ok = chunk_index(r, &out->chunks.back()) || fail(error, at, "truncated chunk index");
+    } else if (op == kStatistics) {
+      ok = (out->statistics = statistics(r, out)) || fail(error, at, "truncated statistics");
+    }
+    if (!ok) return false;
+  }
+  out->channels = std::move(channels.channels);
+  return true;
+}
+
+bool read_chunk(const Fetch& fetch, const Summary& s, const Summary::ChunkIndex& ci,
+                std::vector<Contents::Message>* out, std::string* error, const Limits& limits) {
+  std::string bytes;
+  uint64_t op, length;
+  if (ci.length < 9 || ci.length > limits.max_chunk + 4096 || !fetch(ci.offset, ci.length, &bytes))
+    return fail(error, ci.offset, "the chunk index points out of the file");
+  Cursor c(bytes, ci.offset);
+  if (!c.u(1, &op) || !c.u(8, &length) || op != kChunk || length != ci.length - 9)
+    return fail(error, ci.offset, "the chunk index points at no chunk");
+  Contents contents;
+  contents.channels = s.channels;
+  Parser p{&contents, error, limits, 0, {}};
+  if (!p.chunk(Cursor(c.rest(), ci.offset + 9))) return false;
+  for (auto& m : contents.messages) out->push_back(std::move(m));
+  return true;
 }
 
 }  // namespace dca::mcap

@@ -2,10 +2,13 @@
 // host/codec: pure encoders and decoders. No Asio, no Beast, no socket, nothing of host/net or host/web.
 // MCAP (https://mcap.dev/spec), the recording format of Foxglove, Lichtblick, PlotJuggler and rosbag2: a small
 // writer of chunked, indexed files with a summary section, and a reader of what such files hold. Pure of I/O
-// policy: the writer hands its bytes to a sink, the reader parses bytes in memory. Channels carry JSON messages
-// described by a JSON Schema (one schema per channel). Chunks are uncompressed (no compression library is
-// needed to read them); every chunk is followed by its message indexes, and the summary holds the schemas,
-// channels, chunk indexes and statistics, with a summary offset record per group.
+// policy: the writer hands its bytes to a sink, the reader parses bytes in memory (or fetches ranges through a
+// callback: read_summary / read_chunk). Channels carry JSON messages described by a JSON Schema (one schema per
+// channel). Chunks are compressed with zstd or lz4 (an LZ4 frame), or not; every chunk is followed by its message
+// indexes, and the summary holds the schemas, channels, chunk indexes and statistics, with a summary offset
+// record per group. Decompression is bounded: a chunk that says it holds more than Limits::max_chunk bytes, a
+// file whose chunks hold more than Limits::max_total, or a chunk that does not decompress to its stated size is
+// an error, never a crash.
 #include <cstdint>
 #include <functional>
 #include <map>
@@ -18,18 +21,28 @@ namespace dca::mcap {
 /// Takes the next bytes of the file; false when it could not (the writer then stops writing).
 using Sink = std::function<bool(std::string_view bytes)>;
 
+/// A chunk's compression ("zstd", "lz4" or "" in the file).
+enum class Compression { none, zstd, lz4 };
+/// Its name as the file says it: "", "zstd", "lz4".
+const char* compression_name(Compression c);
+/// "none" (or ""), "zstd", "lz4": false for any other name.
+bool parse_compression(std::string_view name, Compression* out);
+
 /// What a writer wrote so far.
 struct Stats {
   uint64_t messages = 0;
   uint32_t chunks = 0;
   uint64_t start_time = 0, end_time = 0;  // the earliest and latest log time (ns), 0 without messages
   std::map<uint16_t, uint64_t> per_channel;  // message count by channel id
+  uint64_t bytes = 0;                         // the file's bytes handed to the sink
+  uint64_t chunk_bytes = 0;                   // the chunks' records before compression
 };
 
 class Writer {
  public:
   /// Writes the magic and the header at once. A chunk is closed when its records reach `chunk_bytes`.
-  explicit Writer(Sink sink, std::string library = "dca", size_t chunk_bytes = 256 * 1024);
+  explicit Writer(Sink sink, std::string library = "dca", size_t chunk_bytes = 256 * 1024,
+                  Compression compression = Compression::none);
   Writer(const Writer&) = delete;
   Writer& operator=(const Writer&) = delete;
   /// A channel of JSON messages on `topic`, described by the JSON Schema `schema` (named `schema_name`).
@@ -43,6 +56,10 @@ class Writer {
   bool ok() const { return ok_; }
   const Stats& stats() const { return stats_; }
   const std::string& topic(uint16_t channel) const { return channels_.at(channel - 1).topic; }
+  /// The compression of the chunks closed from now on.
+  void set_compression(Compression c) { compression_ = c; }
+  /// The open chunk's records (not yet handed to the sink).
+  size_t pending_bytes() const { return chunk_.size(); }
   /// Channels added so far (their ids are 1..channels()).
   size_t channels() const { return channels_.size(); }
 
@@ -51,8 +68,9 @@ class Writer {
     std::string topic, schema_name, schema;
   };
   struct ChunkIndex {
-    uint64_t start_time, end_time, offset, length, index_length, size;
+    uint64_t start_time, end_time, offset, length, index_length, size, compressed;
     std::map<uint16_t, uint64_t> index_offsets;
+    Compression compression = Compression::none;
   };
   void emit(std::string_view bytes);
   void flush_chunk();
@@ -62,6 +80,7 @@ class Writer {
 
   Sink sink_;
   size_t chunk_bytes_;
+  Compression compression_;
   bool ok_ = true, finished_ = false;
   uint64_t offset_ = 0;  // bytes written so far
   std::vector<Channel> channels_;
@@ -92,8 +111,42 @@ struct Contents {
   bool statistics = false, summary = false;
 };
 
+/// What a reader decompresses at most.
+struct Limits {
+  uint64_t max_chunk = uint64_t{256} << 20;  ///< one chunk's records
+  uint64_t max_total = uint64_t{4} << 30;    ///< all the chunks of a file read whole
+};
+
 /// Parses a whole file. False with *error ("offset N: what") when it is not a well-formed MCAP file this reader
-/// understands (compressed chunks are refused). Never crashes on malformed input.
-bool read(std::string_view file, Contents* out, std::string* error);
+/// understands (chunks uncompressed, zstd or lz4). Never crashes on malformed input.
+bool read(std::string_view file, Contents* out, std::string* error, const Limits& limits = {});
+
+/// Reads `length` bytes at `offset` of a file into *out: false when it cannot (past the end, an I/O error).
+using Fetch = std::function<bool(uint64_t offset, uint64_t length, std::string* out)>;
+
+/// A file's summary section, read without its data section (read_summary).
+struct Summary {
+  struct ChunkIndex {
+    uint64_t start_time = 0, end_time = 0;  ///< its messages' log times (ns)
+    uint64_t offset = 0, length = 0;        ///< the chunk record in the file
+    std::string compression;
+    uint64_t compressed = 0, uncompressed = 0;
+    std::vector<uint16_t> channels;         ///< the channels with messages in it (its message indexes)
+  };
+  std::map<uint16_t, Contents::Channel> channels;
+  std::vector<ChunkIndex> chunks;              ///< in file order
+  uint64_t messages = 0, start_time = 0, end_time = 0;  ///< the statistics (0 without)
+  std::map<uint16_t, uint64_t> per_channel;    ///< message count by channel id (statistics)
+  bool statistics = false;
+};
+
+/// Reads the footer and the summary section of a file of `size` bytes through `fetch`: a few small reads at its
+/// end. False with *error when the file has no summary (footer's summary start 0) or it is malformed.
+bool read_summary(const Fetch& fetch, uint64_t size, Summary* out, std::string* error);
+
+/// Reads the chunk `c` of the summary through `fetch` and appends its messages (on the summary's channels) to *out,
+/// in chunk order. False with *error when it is malformed, its CRC wrong, or larger than `limits.max_chunk`.
+bool read_chunk(const Fetch& fetch, const Summary& s, const Summary::ChunkIndex& c,
+                std::vector<Contents::Message>* out, std::string* error, const Limits& limits = {});
 
 }  // namespace dca::mcap

@@ -110,6 +110,14 @@ function M.read(path)
   return text
 end
 
+--- The messages of an MCAP recording (compressed or not), read by dca's reader: their data, one a line.
+function M.mcap_text(path)
+  local rec = assert(require("dca.core").mcap_read(path))
+  local out = {}
+  for i, m in ipairs(rec.messages) do out[i] = m.data end
+  return table.concat(out, "\n")
+end
+
 --- Writes text to the file at path (it must write). --> path
 function M.write(path, text)
   local f = assert(io.open(path, "w"))

@@ -2,6 +2,8 @@
 //   node read_mcap.mjs FILE.mcap "<the 'recorded FILE: N messages on K channels (/topic n, ...), C chunks' line>"
 //   node read_mcap.mjs FILE.mcap --lines LINES   (a recording of `dca run --sim`: LINES holds the run's
 //                                                 "[sim T] text" lines, which /dca/events must hold, in order)
+//   node read_mcap.mjs FILE.mcap --compression zstd|lz4|none   (any recording, e.g. a black box's file: every
+//       chunk compressed so, and the messages read as many as its statistics count)
 //   node read_mcap.mjs FILE.mcap "<recorded line>" --trace TRACE   (a recording with --record-ports and --trace:
 //       each port's channel /main/... holds, at every tick of the trace, as many messages up to that tick as the
 //       trace counts for the port then (so every sample is at the tick its leaf wrote it), and its last message
@@ -16,6 +18,7 @@
 // mismatch.
 import { open } from "node:fs/promises";
 import { McapIndexedReader, McapStreamReader } from "@mcap/core";
+import { decompressHandlers } from "./decompress.mjs";
 
 const [file, recorded] = process.argv.slice(2);
 const traceFile = process.argv[4] === "--trace" ? process.argv[5] : undefined;
@@ -28,8 +31,10 @@ const failures = [];
 const check = (ok, what) => { if (!ok) failures.push(what); };
 
 // What dca printed: total, per topic, chunks; or, with --lines, the run's stamped lines.
-let want, lines;
-if (recorded === "--lines") {
+let want, lines, compression;
+if (recorded === "--compression") {
+  compression = process.argv[4] === "none" ? "" : process.argv[4];
+} else if (recorded === "--lines") {
   const { readFile } = await import("node:fs/promises");
   lines = (await readFile(process.argv[4], "utf8")).split("\n").filter((l) => l.startsWith("[sim "))
     .map((l) => ({ t: Number(l.slice(5, l.indexOf("]"))), text: l.slice(l.indexOf("]") + 2) }));
@@ -37,6 +42,7 @@ if (recorded === "--lines") {
   const m = recorded.match(/: (\d+) messages on (\d+) channels \((.*)\), (\d+) chunks/);
   if (!m) { console.error(`cannot parse dca's line: ${recorded}`); process.exit(2); }
   want = { total: BigInt(m[1]), channels: Number(m[2]), chunks: Number(m[4]), topics: new Map() };
+  compression = recorded.match(/ chunks, (zstd|lz4) [\d.]+x/)?.[1] ?? "";
   for (const part of m[3].split(", ")) {
     const [topic, n] = part.split(" ");
     want.topics.set(topic, BigInt(n));
@@ -53,12 +59,15 @@ const readable = {
     return buf;
   },
 };
-const reader = await McapIndexedReader.Initialize({ readable });
+const reader = await McapIndexedReader.Initialize({ readable, decompressHandlers });
 
 check(reader.footer.summaryStart > 0n, "footer: no summary section");
 check(reader.footer.summaryOffsetStart > 0n, "footer: no summary offset section");
 for (const op of [0x03, 0x04, 0x08, 0x0b]) check(reader.summaryOffsetsByOpcode.has(op), `no summary offset for op ${op}`);
 check(reader.chunkIndexes.length > 0, "no chunk indexes");
+if (compression !== undefined) {
+  for (const ci of reader.chunkIndexes) check(ci.compression === compression, `a chunk compressed '${ci.compression}', not '${compression}'`);
+}
 if (want) {
   check(reader.chunkIndexes.length === want.chunks, `chunk indexes: ${reader.chunkIndexes.length}, dca: ${want.chunks}`);
   check(reader.channelsById.size === want.channels, `channels: ${reader.channelsById.size}, dca: ${want.channels}`);
@@ -100,9 +109,11 @@ for await (const msg of reader.readMessages({ validateCrcs: true })) {
     if (v?.type === "number") check(typeof value.value === "number" || value.value === null, `${topic}: not a number`);
   }
 }
-if (lines) {
+if (lines || !want) {
   const total = [...counts.values()].reduce((a, b) => a + b, 0n);
   check(stats?.messageCount === total, `statistics: ${stats?.messageCount} messages, read ${total}`);
+}
+if (lines) {
   for (const topic of ["/world/arm", "/world/door"]) check((counts.get(topic) ?? 0n) > 0n, `no ${topic} messages`);
   check(events.length === lines.length, `/dca/events: ${events.length} messages, the run printed ${lines.length} lines`);
   // in the order of their times (the indexed reader sorts by log time; equal times keep the run's order)
@@ -185,7 +196,7 @@ if (rtPath) {
 }
 
 // Front to back, every record.
-const stream = new McapStreamReader({ validateCrcs: true });
+const stream = new McapStreamReader({ validateCrcs: true, decompressHandlers });
 stream.append(new Uint8Array(await handle.readFile()));
 let records = 0, streamed = 0n;
 for (let r; (r = stream.nextRecord()); ) {
@@ -197,7 +208,7 @@ check(streamed === stats?.messageCount, `streaming reader: ${streamed} messages,
 await handle.close();
 
 console.log(`@mcap/core: ${reader.channelsById.size} channels with schemas, ${reader.chunkIndexes.length} chunk indexes, ` +
-  `${stats?.messageCount} messages (${[...counts].map(([t, n]) => `${t} ${n}`).join(", ")}), ${records} records streamed` +
+  `${stats?.messageCount} messages${compression ? ` in ${compression} chunks` : ""} (${[...counts].map(([t, n]) => `${t} ${n}`).join(", ")}), ${records} records streamed` +
   (lines ? `; /dca/events holds the run's ${lines.length} lines` : ""));
 if (failures.length) {
   for (const f of failures) console.error(`FAIL ${f}`);

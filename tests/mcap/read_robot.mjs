@@ -6,8 +6,8 @@
 // quaternions, each transform's timestamp its message's log time. The joints' channels (/world/joint/J/position)
 // agree with the frames: a revolute joint's child link turns, relative to its parent, by the joint's position.
 // Exit 1 on a failure.
-import { open, readFile } from "node:fs/promises";
-import { McapIndexedReader } from "@mcap/core";
+import { readFile } from "node:fs/promises";
+import { openIndexed } from "./decompress.mjs";
 
 const [file, urdfFile] = process.argv.slice(2);
 const failures = [];
@@ -17,16 +17,7 @@ const links = [...urdf.matchAll(/<link name="([^"]+)"/g)].map((m) => m[1]);
 const parentOf = new Map([...urdf.matchAll(/<joint name="([^"]+)"[\s\S]*?<parent link="([^"]+)"\/>\s*<child link="([^"]+)"\/>/g)]
   .map((m) => [m[3], { joint: m[1], parent: m[2] }]));
 
-const handle = await open(file, "r");
-const size = BigInt((await handle.stat()).size);
-const reader = await McapIndexedReader.Initialize({ readable: {
-  size: async () => size,
-  read: async (offset, length) => {
-    const buf = new Uint8Array(Number(length));
-    await handle.read(buf, 0, Number(length), Number(offset));
-    return buf;
-  },
-} });
+const { reader, handle } = await openIndexed(file);
 const byTopic = new Map([...reader.channelsById.values()].map((c) => [c.topic, c]));
 const schemaOf = (topic) => reader.schemasById.get(byTopic.get(topic)?.schemaId);
 check(schemaOf("/world/links/frames")?.name === "foxglove.FrameTransforms", "/world/links/frames: not foxglove.FrameTransforms");

@@ -17,6 +17,10 @@
 #   roundtrip.sh wall DCA SOURCE_DIR WORK_DIR   a wall-clock run against a driver with a leaf on a real-time thread
 #       (tests/lua/launch/systems/rt_loop.dca --driver 'Gain("h1", 2)' --record): the checks of `sim`, then the
 #       leaf's figures on /dca/rt/main/loop/n, each fitting its channel's JSON Schema (read_mcap.mjs --rt)
+#   roundtrip.sh compressed DCA SOURCE_DIR WORK_DIR   `dca sim --record` with --record-compression lz4 and none
+#       (zstd is the default, read in every other mode): the checks of `sim`, each chunk compressed so, decompressed
+#       by fzstd and lz4js; then --record-split 1s: FILE-000.mcap ... each a whole recording with every channel,
+#       holding its second of messages (read_split.mjs)
 set -eu
 mode=$1
 dca=$2
@@ -53,6 +57,20 @@ if [ "$mode" = wall ]; then
     --rt main.loop.n
   rm -f "$work/door.mcap" "$work/door.log"
   exit 0
+fi
+if [ "$mode" = compressed ]; then
+  for c in lz4 none; do
+    rm -f "$work/door-$c.mcap"
+    "$dca" sim --duration 3 --record "$work/door-$c.mcap" --record-compression "$c" >"$work/door-$c.log"
+    grep '^recorded ' "$work/door-$c.log" | cut -c1-200
+    node "$here/read_mcap.mjs" "$work/door-$c.mcap" "$(grep '^recorded ' "$work/door-$c.log")"
+    node "$here/read_mcap.mjs" "$work/door-$c.mcap" --compression "$c"
+  done
+  rm -f "$work"/split*.mcap
+  "$dca" sim --duration 3 --record "$work/split.mcap" --record-split 1s >"$work/split.log"
+  grep '^recorded ' "$work/split.log" | cut -c1-200
+  if [ -e "$work/split.mcap" ]; then echo "FAIL: split.mcap itself was written" >&2; exit 1; fi
+  exec node "$here/read_split.mjs" 1 "$(grep '^recorded ' "$work/split.log")" "$work"/split-0*.mcap
 fi
 if [ "$mode" = ports ]; then
   system="$src/worlds/door/systems/door_open.dca"

@@ -53,7 +53,10 @@ class DoorRun {
   DoorRun(const WorldSetup& setup, const LocalRun& o, std::optional<Script> script)
       : setup_(setup), o_(o), config_(config_of(setup)), script_(std::move(script)), world_(config_) {
     if (setup.options.flag("visualize")) start_visualizer(world_);
-    if (!o.record.empty()) recording_.emplace(o.record);
+    if (!o.record.empty()) {
+      recording_.emplace(o.record);
+      recording_->recorder().configure(o.recording);
+    }
   }
 
   // Runs until the end time (or half a second after the door opening ends) and prints the summary: the exit code.

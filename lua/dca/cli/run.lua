@@ -14,7 +14,8 @@ M.usage = [=[usage: dca run FILE.dca [--root NAME] [--hosts FILE] [--repl] [--wa
                     [--placement process|group|host]
                     [--sim WORLD [--world-opt KEY=VALUE]... [--seed N] [--record FILE.mcap|FILE.csv] [--realtime]
                     [--tick-timeout MS]
-                    [--record-ports all|PATH.PORT,...] [--trace FILE]] [--replay REC.mcap [--replay-ports PATTERN,...]]
+                    [--record-ports all|PATH.PORT,...] [--record-compression zstd|lz4|none]
+                    [--record-split SIZE|DURATION] [--trace FILE]] [--replay REC.mcap [--replay-ports PATTERN,...]]
                     [--blackbox SECONDS_BEFORE,SECONDS_AFTER[,MIB] [--blackbox-storm CLAMPS,SECONDS]]
                     [--driver 'TYPE(HOST, ARGS...)'] [--record FILE.mcap]
                     [--monitor [ADDR] [--monitor-wait]]
@@ -61,6 +62,13 @@ per group as it comes up and one per process transition, and runs the root expre
                   (/main/.../Vel, JSON with its JSON Schema), each sample at the tick its leaf wrote it: taps
                   into the world, which is in lock-step, so the recording is exact and the run unchanged
                   (the world's outputs too, as published: what --replay serves again)
+  --record-compression zstd|lz4|none
+                  with --record FILE.mcap: how its chunks are compressed (default zstd: about 5 to 10 times
+                  smaller at a small cost, tests/bench/RESULTS.md "Recording"; lz4 writes faster, shrinks less)
+  --record-split SIZE|DURATION
+                  with --record FILE.mcap: FILE-000.mcap, FILE-001.mcap, ... instead, a new file once one holds
+                  about SIZE (100MB, 1GiB) or every DURATION of simulated time (60s, 10min, 1h); each file is a
+                  whole MCAP recording with every channel
   --replay REC.mcap
                   run against a recording instead of a simulator (--sim replay:REC.mcap, no physics): the
                   world's outputs recorded by `--record REC.mcap --record-ports ...` served at their recorded
@@ -114,6 +122,7 @@ local OPTIONS = {
   ["--record-ports"] = "value", ["--driver"] = "value", ["--replay"] = "value",
   ["--blackbox"] = "value", ["--replay-ports"] = "value",
   ["--blackbox-storm"] = "value", ["--tick-timeout"] = "number",
+  ["--record-compression"] = "value", ["--record-split"] = "value",
 }
 
 -- `--monitor ADDR`: the address, when the argument after --monitor is one (else --monitor alone). --> argv
@@ -155,6 +164,18 @@ local function rule_broken(o)
     return "--blackbox goes with --record FILE.mcap"
   end
   if o.blackbox_storm and not o.blackbox then return "--blackbox-storm goes with --blackbox" end
+  if (o.record_compression or o.record_split) and not (o.record and o.record:match("%.mcap$")) then
+    return "--record-compression and --record-split go with --record FILE.mcap"
+  end
+  if o.record_compression and not ({ zstd = true, lz4 = true, none = true })[o.record_compression] then
+    return "--record-compression is zstd, lz4 or none, not '" .. tostring(o.record_compression) .. "'"
+  end
+  if o.record_split and o.blackbox then return "--record-split and --blackbox exclude each other" end
+  local split_units = { [""] = true, B = true, KB = true, MB = true, GB = true, KiB = true, MiB = true, GiB = true,
+                        s = true, min = true, h = true }
+  if o.record_split and not split_units[o.record_split:match("^%d+%.?%d*(%a*)$") or "?"] then
+    return "--record-split needs a size (100MB, 1GiB) or a duration (60s, 10min, 1h), not '" .. o.record_split .. "'"
+  end
   if o.config and o.no_config then return "--config and --no-config exclude each other" end
   if o.driver and o.sim then return "--driver and --sim exclude each other: a driver is the robot" end
   if o.state_dir and o.hosts then return "--state-dir is for the local daemons, not those of --hosts" end

@@ -38,7 +38,7 @@ suite:case("the_monitor_token_is_said_on_the_terminal_and_never_recorded", funct
   local token = out:match("monitor: http://%S+%?token=(%x+)")
   T.ok(token, "the monitor's line with its token:\n" .. out)
   T.contains(out, "foxglove: ws://")
-  local bytes = T.read(mcap)
+  local bytes = T.mcap_text(mcap)
   T.contains(bytes, "main: DONE", "the run's lines are recorded")
   T.ok(not bytes:find(token, 1, true), "the token is not in the recording")
   T.ok(not bytes:find("?token=", 1, true), "no URL with a token in the recording")
