@@ -1,6 +1,7 @@
 // The cost of recording a run: the scripted door opening at 1 kHz for 10 simulated seconds,
 // recorded every 10 ms (dca sim's default --record-period) to MCAP and to CSV, beside the same run without
-// recording, measured in the same run and alternated (A B C A B C). RESULT lines on stdout (BENCHMARKS.md):
+// recording, measured in the same run and alternated (A B C A B C); MCAP with chunks uncompressed, zstd (the
+// default) and lz4 (--record-compression). RESULT lines on stdout (BENCHMARKS.md):
 // per-step latencies in microseconds (the recording included), rtf = simulated / wall time of the steps,
 // mb_per_sim_min = the file's size per simulated minute, record_us_p50 = the median cost of one record()
 // call (all the run's signals: 7 MCAP messages or one CSV row).
@@ -27,11 +28,17 @@ constexpr int kSteps = 10000;      // 10 simulated seconds at 1 kHz
 constexpr int kRecordEvery = 10;   // every 10 ms
 
 // One run: the scripted opening, recorded to `path` ("" = not recorded). Prints its RESULT line.
-void run(const std::string& variant, const std::string& path) {
+void run(const std::string& variant, const std::string& path,
+         dca::mcap::Compression how = dca::mcap::Compression::none) {
   dca::sim::World w(dca::sim::door_world());
   dca::sim::ScriptedDoorOpening script;
   std::optional<dca::sim::DoorRecording> rec;
-  if (!path.empty()) rec.emplace(path);
+  if (!path.empty()) {
+    rec.emplace(path);
+    dca::sim::RecordOptions o;
+    o.compression = how;
+    rec->recorder().configure(o);
+  }
   std::vector<double> us;
   us.reserve(kSteps);
   std::vector<double> record_us;
@@ -72,6 +79,8 @@ int main() {
     std::fprintf(stderr, "round %d\n", round + 1);
     run("door_1kHz_no_recording", "");
     run("door_1kHz_mcap_every_10ms", base + ".mcap");
+    run("door_1kHz_mcap_zstd_every_10ms", base + ".mcap", dca::mcap::Compression::zstd);
+    run("door_1kHz_mcap_lz4_every_10ms", base + ".mcap", dca::mcap::Compression::lz4);
     run("door_1kHz_csv_every_10ms", base + ".csv");
   }
   return 0;
