@@ -134,6 +134,37 @@ suite:case("sigusr1_to_dca_run_presses_it_the_repl_releases_it_and_the_summary_s
   T.ok(text:find("box%-1%.mcap: emergency stop by SIGUSR1 at [%d.]+ s"), "the press triggered the black box: " .. text)
 end)
 
+-- `blackbox(why)` in the REPL (docs/recording.md, "Black box"): the world's trigger at the tick it arrives; the
+-- file names `REPL: why` on /dca/blackbox and in the run's summary.
+suite:case("blackbox_in_the_repl_writes_a_file_that_names_its_why", function()
+  local dir = T.tmpdir()
+  local log = dir .. "/run.log"
+  local pid = T.background(dca .. " run " .. T.write(dir .. "/slow.dca", SLOW) .. " --sim " .. WORLD
+    .. " --realtime --record " .. dir .. "/box.mcap --blackbox 0.5,0.2", log)
+  local text = wait_for(log, "whole tree is configured", 60)
+  T.ok(text, "dca run came up")
+  local root, key = text:match("console: dca repl main %-%-daemon (%S+) %-%-key (%S+)")
+  T.ok(root and key, text)
+  local repl = string.format("%s repl main --daemon %s --key %s", dca, root, key)
+  local out, rc = T.sh("printf '%s\n' 'blackbox(\"the gripper slipped\")' | " .. repl)
+  T.eq(rc, 0, out)
+  local t = out:match("black box triggered %(REPL: the gripper slipped%) at ([%d.]+) s")
+  T.ok(t, "the REPL says the trigger and its tick:\n" .. out)
+  out, rc = T.sh("printf '%s\n' 'event(\"limit\", \"done\", 1)' | " .. repl)
+  T.eq(rc, 0, out)
+  T.ok(T.wait_exit(pid, 60), "dca run ended")
+  text = T.read(log)
+  T.contains(text, "box-1.mcap: REPL: the gripper slipped at " .. t .. " s")
+  local rec = assert(require("dca.core").mcap_read(dir .. "/box-1.mcap"))
+  local trigger
+  for _, m in ipairs(rec.messages) do
+    if rec.channels[m.channel].topic == "/dca/blackbox" then trigger = m end
+  end
+  T.ok(trigger, "the trigger on /dca/blackbox")
+  T.contains(trigger.data, '"trigger":"REPL: the gripper slipped"')
+  T.eq(string.format("%.3f", trigger.t / 1e9), t, "at the tick the REPL said")
+end)
+
 -- On a driver (--driver, wall clock): the press stops the driver's controller (its halt leaves the robot safe),
 -- the release runs it again; the root says both with their sources.
 suite:case("on_a_driver_the_press_stops_it_and_the_release_runs_it_again", function()
