@@ -304,7 +304,10 @@ bool world_signals(const std::string& spec, const std::vector<std::string>& opti
     return false;
   }
   for (const auto& x : sensors) out->outputs.push_back(dca::vector_port(x.name, x.size, x.units));
-  for (const auto& x : commands) out->inputs.push_back(dca::vector_port(x.name, x.size, x.units));
+  for (const auto& x : commands) {
+    out->inputs.push_back(dca::vector_port(x.name, x.size, x.units));
+    if (!x.actuator.empty()) out->actuators.emplace_back(x.name, x.actuator);
+  }
   out->inputs.push_back(dca::vector_port(dca::sim::kEstopInput, 1, ""));  // every world's (sim/device_node.h)
   return true;
 }

@@ -1,6 +1,7 @@
 #pragma once
 // The Lua module `dca.core`: the supervisor's whole view of the C++ core.
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "host/port.h"
@@ -14,6 +15,8 @@ namespace dca::bindings {
 /// `dca run`, which checks the world's options before anything starts. Without a registration it gives nil.
 struct WorldSignals {
   std::vector<PortSpec> outputs, inputs;
+  /// Inputs that drive another input's actuator (a joint's alias beside its drive's vector): {input, actuator}.
+  std::vector<std::pair<std::string, std::string>> actuators;
   std::string world;  ///< the world's spec ("" asked: the default world's name)
 };
 /// The signals of world `spec` ("" : the default world; a world's name, ROBOT.urdf, mock:ROBOT.urdf?...) with

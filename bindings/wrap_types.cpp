@@ -14,7 +14,8 @@
 // The robot process's signals (bindings/core.h), for dca check's device ports, of world SPEC (default: the default
 // world), its options ({"KEY=VALUE", ...}) checked:
 //   core.world_signals([SPEC [, OPTIONS]]) --> { world = SPEC (the default's name when none), outputs = { [signal] =
-//                                              {name=, type=, size=, units=} }, inputs = {...} }
+//                                              {name=, type=, size=, units=} }, inputs = {...},
+//                                              actuators = { [input] = the input whose actuator it drives } }
 //                                | nil, error (a world that cannot be loaded) | nil (no worlds in this executable)
 #include <lua.hpp>
 
@@ -237,6 +238,12 @@ int l_world_signals(lua_State* L) {
   lua_setfield(L, -2, "outputs");
   push_signals(L, s.inputs);
   lua_setfield(L, -2, "inputs");
+  lua_createtable(L, 0, static_cast<int>(s.actuators.size()));
+  for (const auto& [input, actuator] : s.actuators) {
+    lua_pushlstring(L, actuator.data(), actuator.size());
+    lua_setfield(L, -2, input.c_str());
+  }
+  lua_setfield(L, -2, "actuators");
   return 1;
 }
 

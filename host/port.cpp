@@ -178,25 +178,37 @@ Input::~Input() {
 void Input::add_feeder(InputFeeder* f) { feeders_.push_back(f); }
 void Input::remove_feeder(InputFeeder* f) {
   std::erase(feeders_, f);
-  if (holder_ == f) holder_ = nullptr;  // its writer is gone: the next writer may take the input at once
+  if (hold_ && hold_->holder == f) hold_->holder = nullptr;  // its writer is gone: the next may take it at once
+}
+
+void Input::set_exclusive(std::uint32_t max_lease_ticks) {
+  hold_.reset();
+  owns_hold_ = max_lease_ticks > 0;
+  if (owns_hold_) hold_ = std::make_shared<Hold>(Hold{max_lease_ticks});
+}
+
+void Input::share_exclusive(Input& other) {
+  hold_ = other.hold_;
+  owns_hold_ = false;
 }
 
 void Input::deliver_from(InputFeeder* from, Bytes b) {
-  if (lease_ > 0 && from != nullptr) {
+  if (hold_ && from != nullptr) {
     if (std::find(feeders_.begin(), feeders_.end(), from) == feeders_.end()) {
       ++refused_;  // a sample held for a connection that has closed since: its writer is gone
       return;
     }
-    const std::uint64_t lease = std::clamp<std::uint64_t>(interval_, 1, lease_);
-    if (holder_ != nullptr && holder_ != from && ticks_ - held_at_ < lease) {
+    Hold& h = *hold_;
+    const std::uint64_t lease = std::clamp<std::uint64_t>(h.interval, 1, h.max_lease);
+    if (h.holder != nullptr && h.holder != from && h.ticks - h.held_at < lease) {
       ++refused_;
-      if (on_refused) on_refused(from->writer(), holder_->writer());
+      if (on_refused) on_refused(from->writer(), h.holder->writer());
       return;
     }
-    if (holder_ != from) interval_ = 0;
-    else if (ticks_ > held_at_) interval_ = ticks_ - held_at_;
-    holder_ = from;
-    held_at_ = ticks_;
+    if (h.holder != from) h.interval = 0;
+    else if (h.ticks > h.held_at) h.interval = h.ticks - h.held_at;
+    h.holder = from;
+    h.held_at = h.ticks;
   }
   deliver(b);
 }

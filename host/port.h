@@ -158,9 +158,15 @@ class Input final : public Port {
   /// two; one tick before it has two; at most `max_lease_ticks`); a sample of another connection meanwhile is
   /// refused: counted, never delivered, and on_refused(writer, holder) runs. So two writers in the same tick, or
   /// interleaved, are refused, and a writer that follows another after its period takes over. 0: off.
-  void set_exclusive(std::uint32_t max_lease_ticks) { lease_ = max_lease_ticks; }
+  void set_exclusive(std::uint32_t max_lease_ticks);
+  /// One actuator behind several inputs (a joint's alias beside its drive's vector input, docs/worlds.md): this
+  /// input shares exclusive input `other`'s hold, so that a writer on either holds both and another writer on
+  /// either is refused as a second writer. Its own lease is `other`'s; its tick() leaves the hold alone.
+  void share_exclusive(Input& other);
   /// A tick of the clock that drives this input's owner (the world's step): the holder's lease runs down.
-  void tick() { ++ticks_; }
+  void tick() {
+    if (hold_ && owns_hold_) ++hold_->ticks;
+  }
   /// Samples refused from a second writer.
   std::uint64_t refused() const { return refused_; }
   /// Runs at each refused sample with the refused writer and the one holding the input ("PATH.PORT").
@@ -192,9 +198,15 @@ class Input final : public Port {
   std::vector<PullSource*> pull_sources_;
   std::vector<InputFeeder*> feeders_;
   bool warned_drop_ = false;
-  std::uint32_t lease_ = 0;          // set_exclusive
-  InputFeeder* holder_ = nullptr;    // the connection holding an exclusive input
-  std::uint64_t ticks_ = 0, held_at_ = 0, interval_ = 0, refused_ = 0;
+  // set_exclusive: who holds the input (or the actuator it shares with others), since when, for how long
+  struct Hold {
+    std::uint32_t max_lease = 0;
+    const InputFeeder* holder = nullptr;  // the connection holding it
+    std::uint64_t ticks = 0, held_at = 0, interval = 0;
+  };
+  std::shared_ptr<Hold> hold_;
+  bool owns_hold_ = false;  // this input's tick() runs the hold's clock
+  std::uint64_t refused_ = 0;
 };
 
 /// Lock-step delivery of one push connection (docs/time.md): the samples that arrived on it are

@@ -268,6 +268,13 @@ struct DeviceNode::Impl {
         refused_writer(in->name(), writer, holder);
       };
     }
+    // the inputs of one actuator share its hold (DeviceSignal::actuator)
+    const auto& commands = world.commands();
+    for (std::size_t i = 0; i < commands.size() && i < component->inputs.size(); ++i) {
+      std::size_t j = 0;
+      while (j < commands.size() && (commands[i].actuator.empty() || commands[j].name != commands[i].actuator)) ++j;
+      if (j < component->inputs.size() && j != i) component->inputs[i]->share_exclusive(*component->inputs[j]);
+    }
   }
 
   void refused_writer(const std::string& input, const std::string& writer, const std::string& holder) {
@@ -400,6 +407,7 @@ struct DeviceNode::Impl {
   void publish() {
     const auto& sensors = world.sensors();
     for (std::size_t i = 0; i < component->outputs.size(); ++i) {
+      if (sensors[i].alias && component->outputs[i]->links() == 0) continue;  // nobody reads it
       if (buffer.size() < sensors[i].size) buffer.resize(sensors[i].size);
       world.sensor(i, buffer.data());
       component->outputs[i]->write(Eigen::Map<const Eigen::VectorXd>(buffer.data(), sensors[i].size));

@@ -20,6 +20,13 @@ struct DeviceSignal {
   std::string name;
   std::uint32_t size = 1;
   std::string units;
+  /// A joint interface offered beside the world's own signals as another name of the same state or actuator
+  /// (docs/worlds.md, "Joint aliases"): an output is written only while something is connected to it, so that
+  /// a run that does not read it is what it was without it.
+  bool alias = false;
+  /// A command input: the command input whose actuator it drives too ("" when its own). Writers of inputs of
+  /// one actuator are one writer at a time (docs/safety.md): a second one's samples are refused.
+  std::string actuator = {};
 };
 
 /// A controller output as a recording holds it (docs/recording.md, "Replaying ports"): every sample's tick and

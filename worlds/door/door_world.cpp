@@ -1,16 +1,18 @@
 #include "worlds/door/door_world.h"
 
+#include <array>
 #include <cmath>
 #include <cstdio>
+#include <iterator>
+#include <string>
 
 namespace dca::sim {
 namespace {
 
-std::vector<DeviceSignal> signals_of(const Signal* begin, const Signal* end) {
-  std::vector<DeviceSignal> out;
-  for (const Signal* s = begin; s != end; ++s) out.push_back({s->name, s->size, s->units});
-  return out;
-}
+constexpr std::size_t kArm = 6;                                      // joints
+constexpr std::size_t kOwnSensors = std::size(kSensorSignals);       // the aliases' outputs come after these
+constexpr std::size_t kOwnCommands = std::size(kCommandSignals);     // and their inputs after these
+constexpr std::size_t kArmCommand = 1;                               // arm.cmd_qd
 
 template <std::size_t N>
 std::vector<double> vec(const std::array<double, N>& a) {
@@ -19,16 +21,32 @@ std::vector<double> vec(const std::array<double, N>& a) {
 
 }  // namespace
 
+void door_signals(std::vector<DeviceSignal>* sensors, std::vector<DeviceSignal>* commands) {
+  for (const auto& s : kSensorSignals) sensors->push_back({s.name, s.size, s.units});
+  for (const auto& s : kCommandSignals) commands->push_back({s.name, s.size, s.units});
+  static_assert(std::size(kArmJoints) == kArm);
+  for (const char* j : kArmJoints) {
+    const std::string p = std::string("joint.") + j;
+    sensors->push_back({p + ".position", 1, "rad", true});
+    sensors->push_back({p + ".velocity", 1, "rad/s", true});
+    sensors->push_back({p + ".effort", 1, "N m", true});
+    commands->push_back({p + ".velocity_command", 1, "rad/s", true, kCommandSignals[kArmCommand].name});
+  }
+}
+
 DoorDeviceWorld::DoorDeviceWorld(const WorldConfig& config, double command_timeout)
     : world_(config),
       period_ns_(std::llround(config.period * 1e9)),
-      timeout_ns_(std::llround(command_timeout * 1e9)),
-      sensors_(signals_of(std::begin(kSensorSignals), std::end(kSensorSignals))),
-      commands_(signals_of(std::begin(kCommandSignals), std::end(kCommandSignals))) {}
+      timeout_ns_(std::llround(command_timeout * 1e9)) {
+  door_signals(&sensors_, &commands_);
+}
 
 void DoorDeviceWorld::command(std::size_t i, const double* v, std::size_t n) {
   if (i >= commands_.size() || n != commands_[i].size) return;
-  if (i == 0) {
+  if (i >= kOwnCommands) {  // a joint's alias: its element of arm.cmd_qd
+    cmd_.arm_qd[i - kOwnCommands] = v[0];
+    arm_at_ = tick_;
+  } else if (i == 0) {
     for (std::size_t k = 0; k < 3; ++k) cmd_.base_vel[k] = v[k];
     base_at_ = tick_;
   } else if (i == 1) {
@@ -43,7 +61,7 @@ void DoorDeviceWorld::command(std::size_t i, const double* v, std::size_t n) {
 // does on losing its writer, until the new writer's first command. The gripper keeps its position command.
 void DoorDeviceWorld::writer_gone(std::size_t i) {
   if (i == 0) cmd_.base_vel = {}, base_at_ = -1;
-  if (i == 1) cmd_.arm_qd = {}, arm_at_ = -1;
+  if (i == kArmCommand || i >= kOwnCommands) cmd_.arm_qd = {}, arm_at_ = -1;  // the arm's drive, however written
 }
 
 void DoorDeviceWorld::step() {
@@ -65,6 +83,12 @@ void DoorDeviceWorld::sensor(std::size_t i, double* out) const {
                           s.wrench.data(), &s.laser_range,         s.camera_handle.data(), &s.door_angle,
                           &s.handle_angle, &s.gripper_width,       &grip};
   if (i >= sensors_.size()) return;
+  if (i >= kOwnSensors) {  // joint j's position, velocity or effort
+    const std::size_t j = (i - kOwnSensors) / 3;
+    const std::array<double, kArm>* of[] = {&s.arm_q, &s.arm_qd, &s.arm_effort};
+    out[0] = (*of[(i - kOwnSensors) % 3])[j];
+    return;
+  }
   for (std::uint32_t k = 0; k < sensors_[i].size; ++k) out[k] = data[i][k];
 }
 

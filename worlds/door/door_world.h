@@ -3,7 +3,12 @@
 // layer's named vector signals, so that the same world process (sim/device_node.h) serves it as it serves a
 // URDF world. C++17-clean.
 //
-// Signals: worlds/door/world.h's kSensorSignals (outputs) and kCommandSignals (inputs), in that order.
+// Signals: worlds/door/world.h's kSensorSignals (outputs) and kCommandSignals (inputs), in that order; after each,
+// the arm's joints as the generic joint interfaces (sim/urdf/joint_interfaces.h) under their URDF names
+// (kArmJoints), aliases of the same state and drive (docs/worlds.md, "Joint aliases"): per joint the outputs
+// joint.J.position, .velocity (arm.q, arm.qd) and .effort (the drive's torque), and the input
+// joint.J.velocity_command, that joint's element of arm.cmd_qd. The arm is one actuator: a writer of any of its
+// inputs holds them all (a second writer, on the vector or an alias, is refused: docs/safety.md).
 // Commands: base.cmd_vel and arm.cmd_qd not refreshed for `command_timeout` (and those of a writer that is gone,
 // until it writes again) count as zero, as a drive's watchdog would; the gripper keeps its last command. A
 // sample of the wrong size is ignored.
@@ -21,6 +26,13 @@
 #include "worlds/door/world.h"
 
 namespace dca::sim {
+
+/// The arm's joints in the door robot's URDF (worlds/door/models/mobile_manipulator.urdf), in arm.q's order.
+inline constexpr const char* kArmJoints[] = {"arm_joint_1", "arm_joint_2", "arm_joint_3",
+                                             "arm_joint_4", "arm_joint_5", "arm_joint_6"};
+
+/// The door world's signals (see the file comment): outputs, then inputs.
+void door_signals(std::vector<DeviceSignal>* sensors, std::vector<DeviceSignal>* commands);
 
 class DoorDeviceWorld final : public DeviceWorld {
  public:

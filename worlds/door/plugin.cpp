@@ -42,8 +42,7 @@ std::unique_ptr<DeviceWorld> make(const WorldSetup& setup) {
 }
 
 void signals(const WorldSetup&, std::vector<DeviceSignal>* sensors, std::vector<DeviceSignal>* commands) {
-  for (const auto& s : kSensorSignals) sensors->push_back({s.name, s.size, s.units});
-  for (const auto& s : kCommandSignals) commands->push_back({s.name, s.size, s.units});
+  door_signals(sensors, commands);
 }
 
 // The world stepped here, driven by a script or by the scripted door opening.

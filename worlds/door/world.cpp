@@ -90,6 +90,7 @@ struct World::Impl {
   std::array<SimTK::QIndex, kRobotDofs> dof_q{};
   std::array<SimTK::UIndex, kRobotDofs> dof_u{};
   std::array<double, kRobotDofs> effort{};
+  mutable std::array<double, kRobotDofs> applied{};  // the drives' forces at the last force evaluation
   std::vector<SimTK::MobilizedBodyIndex> robot_bodies;
   SimTK::MobilizedBodyIndex hinge_body, handle_body, palm_body, ft_body;
   SimTK::QIndex hinge_q, handle_q;
@@ -270,8 +271,10 @@ void World::Impl::servo_forces(const SimTK::State& s, SimTK::Vector& mobility) c
     gravity_forces[b] = SimTK::SpatialVec(com_G % (mass * g), mass * g);
   }
   matter.calcResidualForceIgnoringConstraints(s, zero_mobility, gravity_forces, a_des, tau);
-  for (int i = 0; i < kRobotDofs; ++i)
-    mobility[dof_u[i]] += std::clamp(static_cast<double>(tau[dof_u[i]]), -effort[i], effort[i]);
+  for (int i = 0; i < kRobotDofs; ++i) {
+    applied[i] = std::clamp(static_cast<double>(tau[dof_u[i]]), -effort[i], effort[i]);
+    mobility[dof_u[i]] += applied[i];
+  }
 }
 
 void World::Impl::door_forces(const SimTK::State& s, SimTK::Vector& mobility) const {
@@ -426,6 +429,7 @@ void World::Impl::compute_sensors() {
   for (int i = 0; i < 6; ++i) {
     o.arm_q[static_cast<size_t>(i)] = q[dof_q[kArm0 + i]];
     o.arm_qd[static_cast<size_t>(i)] = u[dof_u[kArm0 + i]];
+    o.arm_effort[static_cast<size_t>(i)] = applied[kArm0 + i];
   }
   const double yaw = q[dof_q[0]], c = std::cos(yaw), sn = std::sin(yaw);
   o.base_pose = {q[dof_q[1]], q[dof_q[2]], yaw};

@@ -115,6 +115,7 @@ enum class GripperState { open = 0, closed = 1, moving = 2, grasping = 3 };
 struct Sensors {
   double time = 0;
   std::array<double, 6> arm_q{}, arm_qd{};
+  std::array<double, 6> arm_effort{};  ///< N m: the arm drives' torques at this state (not a signal of its own)
   Pose2 base_pose;
   std::array<double, 3> base_vel{};
   std::array<double, 6> wrench{};

@@ -115,11 +115,20 @@ function M.main(argv)
   return 0
 end
 
+--- The command inputs of world `spec` (nil: the default) that drive another input's actuator (a joint's alias
+--- beside its drive's vector, docs/worlds.md): { [input] = actuator input }, empty without the worlds.
+function M.actuators(spec)
+  local ok, core = pcall(require, "dca.core")
+  local s = ok and type(core.world_signals) == "function" and core.world_signals(spec or "") or nil
+  return s and s.actuators or {}
+end
+
 --- `--verify`: the report (or the Promela model), the emitted scenario; 1 when a property is violated, else 3
 --- when a group was explored only in part (docs/verify.md "Exit codes").
 function M.verify(file, ast, tree, o)
   local verify = require "dca.verify"
-  local result, errs = verify.system(tree, { faults = not o.no_faults, ast = ast, max_states = o.max_states })
+  local result, errs = verify.system(tree, { faults = not o.no_faults, ast = ast, max_states = o.max_states,
+                                            actuators = M.actuators(o.sim) })
   if not result then
     io.stderr:write(check.format_all(ast, errs), "\n")
     return 1

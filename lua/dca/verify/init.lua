@@ -428,7 +428,8 @@ local function exclusive_verdicts(plan, ctx)
 end
 
 --- Verifies the tree of a checked system (dca.load.file's second result). opts: { faults = true|false,
---- ast = the AST (for property errors' positions), max_states = N per group }. Returns the result (see the
+--- ast = the AST (for property errors' positions), max_states = N per group, actuators = { [world input] = the
+--- input whose actuator it drives } (its writers are that input's: dca.verify.writers) }. Returns the result (see the
 --- top), or nil and a list of errors { line, col, path, msg } (a property that does not parse).
 function M.system(tree, opts)
   opts = opts or {}
@@ -436,7 +437,7 @@ function M.system(tree, opts)
   local conns = model.connections(tree) or {}
   local ctx = { memo = {}, groups = {}, errors = {}, states = 0, transitions = 0, conns = conns,
                 faults = opts.faults ~= false, ast = opts.ast, max_states = opts.max_states, reduce = opts.reduce }
-  local plan = writers.plan(tree, conns, exclusive_decls(tree, ctx))
+  local plan = writers.plan(tree, conns, exclusive_decls(tree, ctx), opts.actuators)
   plan.decls = plan.decls or {}
   ctx.together = writers.needs(plan)
   local root = group(ctx, tree)

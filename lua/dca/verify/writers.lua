@@ -1,6 +1,7 @@
 -- dca.verify.writers: at most one writer per actuator (docs/verify.md, "One writer per input"). The inputs it
 -- covers: every device command input (a world's input, named by the device output ports of the leaves that
--- write it) and every input a process declares `exclusive INST.PORT` in its verify section. A writer is one
+-- write it; the inputs of one actuator, a joint's alias and its drive's vector, are one: `actuators`) and every
+-- input a process declares `exclusive INST.PORT` in its verify section. A writer is one
 -- route into the input: a leaf's device output, or a connection (through external_io) from a leaf's output.
 -- It writes while its conditions hold together: its leaf runs, and for a connection its set is active (the
 -- set's owner runs with that label in the set's group).
@@ -14,7 +15,7 @@
 -- the states of the tree are exactly these combinations, and the traces together are a run.
 --
 --   local writers = require "dca.verify.writers"
---   local plan = writers.plan(tree, conns, decls)     -- the inputs, their writers, the queries to watch
+--   local plan = writers.plan(tree, conns, decls, actuators) -- the inputs, their writers, the queries to watch
 --   writers.needs(plan)   --> [process name] = { { key, names } ... }: what each group's exploration records
 --   writers.findings(plan, memo) --> per group process name: { writers = {...}, dead_paths = {...}, claims = {...} }
 local ports = require "dca.lang.ports"
@@ -34,14 +35,14 @@ local function active(c) return { group = c.group, name = c.owner .. "[" .. c.la
 local ESTOP = "estop"
 
 -- The device command inputs: signal -> { writers }, each { who = "PATH.PORT", leaf, conds }.
-local function device_writers(tree, inputs, order)
+local function device_writers(tree, inputs, order, actuators)
   model.walk(tree, function(n)
     if n.kind ~= "leaf" or not n.manifest then return end
     for _, p in ipairs(n.manifest.outputs or {}) do
       if p.device and p.device ~= "" then
         local signal = ports.device_signal(p.device, n.manifest.params, n.params)
         if signal and signal ~= ESTOP then
-          local key = "world." .. signal
+          local key = "world." .. (actuators[signal] or signal)
           if not inputs[key] then inputs[key] = { name = key, writers = {}, device = true } order[#order + 1] = key end
           local list = inputs[key].writers
           list[#list + 1] = { who = n.path .. "." .. p.name, leaf = n, conds = { runs(n) } }
@@ -154,10 +155,11 @@ local function command_paths(conns, inputs, order)
 end
 
 --- The inputs, their writers and the queries: { inputs, order, pairs = { { input, a, b, q } }, paths, claims }.
---- decls: the `exclusive` properties { { node, prop } ... }.
-function M.plan(tree, conns, decls)
+--- decls: the `exclusive` properties { { node, prop } ... }; actuators: { [world input] = the input whose
+--- actuator it drives } (nil: none).
+function M.plan(tree, conns, decls, actuators)
   local inputs, order = {}, {}
-  device_writers(tree, inputs, order)
+  device_writers(tree, inputs, order, actuators or {})
   declared_writers(conns, decls, inputs, order)
   local plan = { inputs = inputs, order = order, pairs = {}, claims = {}, decls = decls }
   for _, key in ipairs(order) do
