@@ -5,10 +5,14 @@
 --   return {
 --     report = { leaves = fn(spec), head = fn(status), tail = fn(leaves, daemon, key, cb) },  -- the run's summary
 --     topics = { { topic = "/world/x", fields = { "a", "b" } },            -- live plots from the world's status:
---                { topic = "/world/y", fields = { "x", "y" }, array = "k" } } -- fields a, b; or status.k's items
---   }
+--                { topic = "/world/y", fields = { "x", "y" }, array = "k" }, -- fields a, b; or status.k's items;
+--                { topic = "/world/z", array = "n" } }                       -- or all of status.n's items, as
+--   }                                                                       -- value[0], value[1], ...
 --
--- Both parts are optional. A URDF world (ROBOT.urdf, mock:ROBOT.urdf) has the generic robot report.
+-- Both parts are optional. A URDF world (ROBOT.urdf, mock:ROBOT.urdf) has the generic robot report and, when it
+-- has command inputs, the safety layer's counts per input (in input order, as its outputs safety.clamps and
+-- safety.stale and their recorded channels of the same names: docs/robots.md) as /world/safety/clamps and
+-- /world/safety/stale.
 --
 --   local worlds = require "dca.worlds"
 --   worlds.descriptor(spec)           --> the descriptor of world `spec` (nil: the default world), never nil
@@ -75,7 +79,10 @@ function M.descriptor(spec)
   local key = tostring(spec)
   if cache[key] then return cache[key] end
   local d
-  if M.is_robot(spec) then d = { report = require("dca.launch.robot_report") }
+  if M.is_robot(spec) then
+    d = { report = require("dca.launch.robot_report"),
+          topics = { { topic = "/world/safety/clamps", array = "safety_clamps" },
+                     { topic = "/world/safety/stale", array = "safety_stale" } } }
   else d = load_file(spec) or {} end
   d.report = d.report or NONE_REPORT
   d.topics = d.topics or {}

@@ -117,17 +117,21 @@ void JointWorld::sensor(std::size_t i, double* out) const {
 
 void JointWorld::status(StatusSink& sink) const {
   std::vector<std::pair<std::string, double>> q, clamped, stale, samples;
+  std::vector<double> clamps_vec, stale_vec;  // as the outputs safety.clamps and safety.stale hold them
   for (std::size_t j = 0; j < state_.size(); ++j) q.emplace_back(description_.joints[j].name, state_[j].position);
   for (std::size_t k = 0; k < interfaces_.inputs(); ++k) {
     const InputCounts& c = interfaces_.counts(k);
     samples.emplace_back(interfaces_.input_name(k), static_cast<double>(c.samples));
     clamped.emplace_back(interfaces_.input_name(k), static_cast<double>(c.clamped));
     stale.emplace_back(interfaces_.input_name(k), static_cast<double>(c.stale));
+    clamps_vec.push_back(static_cast<double>(c.clamped));
+    stale_vec.push_back(static_cast<double>(c.stale));
   }
   sink.table("joint_position", q);
   sink.table("command_samples", samples);
   sink.table("clamped", clamped);
   sink.table("stale", stale);
+  if (interfaces_.inputs() > 0) sink.numbers("safety_clamps", clamps_vec), sink.numbers("safety_stale", stale_vec);
   sink.texts("warnings", description_.warnings);
   sink.texts("world_summary", summary());
   more_status(sink);

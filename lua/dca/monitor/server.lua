@@ -225,13 +225,17 @@ function Mon:_poll_world()
     self.world_t = t
     self.world_topics = self.world_topics or {}
     for i, d in ipairs(require("dca.worlds").descriptor(self.o.world_spec).topics) do
-      local values = {}
-      for k, f in ipairs(d.fields) do
+      local values, fields = {}, d.fields
+      if d.array and not fields and type(r[d.array]) == "table" then
+        fields = {}  -- every item, named as a port's {"value": [...]} (and its recorded channel) names them
+        for k = 1, #r[d.array] do fields[k] = "value[" .. (k - 1) .. "]" end
+      end
+      for k, f in ipairs(fields or {}) do
         local v = d.array and type(r[d.array]) == "table" and r[d.array][k] or r[f]
         values[k] = tonumber(v) or 0
       end
-      if not d.array or type(r[d.array]) == "table" then
-        self.world_topics[i] = self.world_topics[i] or srv:topic(d.topic, d.fields)
+      if fields and (not d.array or type(r[d.array]) == "table") then
+        self.world_topics[i] = self.world_topics[i] or srv:topic(d.topic, fields)
         srv:publish(self.world_topics[i], t, values)
       end
     end

@@ -46,12 +46,7 @@ suite:case("the_monitor_token_is_said_on_the_terminal_and_never_recorded", funct
 end)
 
 suite:case("a_target_beyond_the_limit_is_clamped_and_counted_in_the_summary_and_the_trace", function()
-  local file = T.tmpfile([[
-process main() {
-  instantiated_processes { elbow instof JointSetpoint("arm", "elbow_joint", 5.0, 0.01, "position", 2, 0.3); }
-  internal_event_actions { elbow }
-}
-]])
+  local file = src .. "/tests/lua/launch/systems/elbow_beyond_limit.dca"
   local trace = T.tmpname(".trace")
   local out = run(file, "mock:" .. ur10, " --trace " .. trace)
   T.contains(out, "main.elbow: aborted")

@@ -210,4 +210,69 @@ suite:case("page_public_websocket_needs_token", function()
   mon:close()
 end)
 
+-- A URDF world's safety counts (docs/robots.md, "Safety at the port") in the monitor: live, its status's
+-- safety_clamps and safety_stale (per command input, in input order) as the topics /world/safety/clamps and
+-- /world/safety/stale, their fields named as the recorded channels of the same names are in a replay.
+local UR10_INPUTS = 12  -- worlds/ur10/ur10.urdf: position and velocity commands of its six joints
+
+local function safety_fields(n)
+  local f = {}
+  for k = 1, n do f[k] = "value[" .. (k - 1) .. "]" end
+  return f
+end
+
+suite:case("a_urdf_worlds_clamp_and_stale_counts_are_live_world_topics", function()
+  local status = { t = 0.5, safety_clamps = { 0, 0, 0, 0, 29, 0, 0, 0, 0, 0, 0, 0 },
+                   safety_stale = { 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0 } }
+  local mon = T.ok(server.start{ name = "main", root = "main", mode = "live", world_spec = "mock:arm.urdf",
+                                 world = function(_, cb) cb(status) end })
+  local real, published = mon.srv, {}
+  mon.srv = setmetatable({ publish = function(_, id, t, v)
+    published[#published + 1] = { id = id, t = t, v = v }
+    return real:publish(id, t, v)
+  end }, { __index = function(_, k) return function(_, ...) return real[k](real, ...) end end })
+  local p = page()
+  mon:_open(p)
+  mon:_poll_world()
+  local by_name = {}
+  for _, t in ipairs(real:topics()) do by_name[t.name] = t end
+  T.ok(by_name["/world/safety/clamps"] and by_name["/world/safety/stale"], "both topics offered")
+  T.eq(by_name["/world/safety/clamps"].fields, safety_fields(UR10_INPUTS))
+  T.eq(#published, 2)
+  T.eq(published[1].id, by_name["/world/safety/clamps"].id)
+  T.eq(published[1].t, 0.5)
+  T.eq(published[1].v, status.safety_clamps)
+  T.eq(published[2].v, status.safety_stale)
+  -- the page is told of them with its next delta
+  T.ok(loop:run_until(function()
+    for _, m in ipairs(p.got) do
+      for _, t in ipairs(m.topics or {}) do if t.name == "/world/safety/stale" then return true end end
+    end
+  end, 5), "the topics reach the page")
+  mon.srv = real
+  mon:close()
+end)
+
+-- The same counts in a replay: a recorded clamped run of the mock UR10 (its target beyond the elbow's limit)
+-- has /world/safety/clamps with the live topic's fields, the elbow's position command's count at the end.
+suite:case("a_urdf_worlds_clamp_counts_replay_under_the_live_topics_names", function()
+  local file = T.src .. "/tests/lua/launch/systems/elbow_beyond_limit.dca"
+  local mcap = T.tmpname(".mcap")
+  local out = T.sh("timeout 120 " .. T.exe .. " run " .. file .. " --sim 'mock:" .. T.src .. "/worlds/ur10/ur10.urdf'"
+                   .. " --record " .. mcap)
+  T.contains(out, "joint.elbow_joint.position_command: 29 of 29 samples clamped")
+  local rec = T.ok(require("dca.monitor.replay").load(mcap))
+  local clamps, stale
+  for _, s in ipairs(rec.series) do
+    if s.name == "/world/safety/clamps" then clamps = s end
+    if s.name == "/world/safety/stale" then stale = s end
+  end
+  T.ok(clamps and stale, "both recorded")
+  T.eq(clamps.fields, safety_fields(UR10_INPUTS))
+  T.eq(stale.fields, safety_fields(UR10_INPUTS))
+  local last = clamps.rows[#clamps.rows]
+  T.eq(last[1 + 5], 29, "value[4], the elbow's position command (after the row's time)")
+  T.cleanup()
+end)
+
 return suite:run(...)
