@@ -244,4 +244,41 @@ TEST(RobotDescriptionTest, AMeshNotFoundIsAWarningNamingIt) {
   ::unsetenv("ROS_PACKAGE_PATH");
 }
 
+// A description with many joints that nobody here wrote: Rethink Robotics' Baxter as example-robot-data ships it
+// (tests/sim/robots/README.md), meshes not copied. It loads through the generic loader: every moving joint with its
+// state interfaces and the default effort command (no ros2_control tags), each mesh a warning naming it, and
+// Simbody takes the tree.
+TEST(RobotDescriptionTest, BaxterFromExampleRobotDataLoadsWithItsMeshesMissing) {
+  const std::string path = kSource + "/tests/sim/robots/baxter.urdf";
+  ::unsetenv("ROS_PACKAGE_PATH");
+  ::setenv("DCA_PACKAGE_PATH", (temp().path() + "/nowhere").c_str(), 1);
+  const auto d = load_description(path);
+  ::unsetenv("DCA_PACKAGE_PATH");
+  EXPECT_EQ(d.name, "baxter");
+  EXPECT_FALSE(d.declared);
+  ASSERT_EQ(d.joints.size(), 19u);  // head_pan, 2 x 7 arm joints, 2 x 2 gripper fingers
+  std::size_t prismatic = 0;
+  for (const auto& j : d.joints) {
+    prismatic += j.linear;
+    ASSERT_EQ(j.commands.size(), 1u) << j.name;
+    EXPECT_EQ(j.commands[0].kind, JointInterface::effort) << j.name;
+  }
+  EXPECT_EQ(prismatic, 4u);
+  EXPECT_EQ(d.joint("left_e1")->where, path + ":911:3");
+  EXPECT_EQ(d.joint("right_s0")->limits.lower, -1.70167993878);
+  // the state interfaces: position, velocity, effort of every moving joint
+  std::size_t states = 0;
+  for (const auto& s : dca::sim::joint_sensor_signals(d))
+    if (s.name.rfind("joint.", 0) == 0) ++states;
+  EXPECT_EQ(states, 3u * 19u);
+  EXPECT_EQ(dca::sim::joint_command_signals(d).size(), 19u);
+  // every mesh a warning naming it, none fatal
+  EXPECT_EQ(d.warnings.size(), 30u);  // the file's 30 <mesh> elements (visual and collision)
+  for (const auto& w : d.warnings)
+    EXPECT_NE(w.find(": mesh 'package://example-robot-data/robots/baxter_description/meshes/"), std::string::npos) << w;
+  EXPECT_EQ(d.warnings[0].rfind(path + ":", 0), 0u) << d.warnings[0];
+  dca::sim::UrdfBodies bodies(path);
+  EXPECT_EQ(bodies.joints().size(), 19u);
+}
+
 }  // namespace
