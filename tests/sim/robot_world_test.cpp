@@ -138,6 +138,38 @@ TEST(RobotWorldTest, AStaleCommandTripsTheWatchdogAtTheDeclaredTick) {
   EXPECT_EQ(h->interfaces().counts(0).first_stale_tick, 3);
 }
 
+// The UR10's own declaration (worlds/ur10/ur10.urdf: watchdog_ticks 100, velocity commands zero when stale): a
+// velocity command sent once drives steps 0-99, and step 100 trips the watchdog, on the mock hardware and in the
+// Simbody world alike.
+TEST(RobotWorldTest, Ur10VelocityCommandTripsItsWatchdogAtTheDeclaredTick) {
+  for (const std::string& spec : {"mock:" + kUr10, kUr10}) {
+    const bool mock = spec.rfind("mock:", 0) == 0;
+    auto w = dca::sim::make_robot_world(spec, 1e-3);
+    const std::size_t in = input(*w, "joint.wrist_1_joint.velocity_command");
+    ASSERT_LT(in, w->commands().size());
+    const int declared = w->interfaces().spec_of(in).watchdog_ticks;
+    ASSERT_EQ(declared, 100) << "as worlds/ur10/ur10.urdf declares";
+    const std::size_t joint = w->interfaces().joint_of(in);
+    send(*w, "joint.wrist_1_joint.velocity_command", 0.5);
+    for (int k = 0; k < declared; ++k) {
+      w->step();
+      ASSERT_EQ(w->interfaces().counts(in).stale, 0u) << spec << " step " << k;
+      ASSERT_EQ(w->interfaces().drive(joint).value, 0.5) << spec << " step " << k;
+    }
+    if (mock) {
+      EXPECT_NEAR(read(*w, "joint.wrist_1_joint.velocity"), 0.5, 1e-12);
+    }
+    w->step();  // step 100: a hundred steps without a sample
+    EXPECT_EQ(w->interfaces().counts(in).stale, 1u) << spec;
+    EXPECT_EQ(w->interfaces().counts(in).first_stale_tick, declared) << spec;
+    EXPECT_EQ(w->interfaces().drive(joint).value, 0.0) << spec;
+    EXPECT_EQ(read(*w, "safety.stale", in), 1.0) << spec;
+    if (mock) {
+      EXPECT_EQ(read(*w, "joint.wrist_1_joint.velocity"), 0.0);
+    }
+  }
+}
+
 TEST(RobotWorldTest, ALostWriterMakesItsCommandStaleAtOnce) {
   auto w = dca::sim::make_robot_world("mock:" + kUr10, 1e-3);
   send(*w, "joint.wrist_1_joint.velocity_command", 1.0);
