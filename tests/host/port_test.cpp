@@ -236,6 +236,40 @@ TEST(PortTest, AnExclusiveInputRefusesASecondWriterWithinTheHoldersPeriod) {
   in.remove_feeder(&a);
 }
 
+// Two inputs of one actuator (Input::share_exclusive: a joint's alias beside its drive's vector): a writer on
+// either holds both, the other input's writer is refused; the shared hold's clock is the owner's ticks only.
+TEST(PortTest, InputsSharingAnActuatorsHoldTakeOneWriterBetweenThem) {
+  const auto vspec = dca::vector_port("arm.cmd_qd", 1, "rad/s"), aspec = dca::vector_port("joint.j.cmd", 1, "rad/s");
+  dca::Input vector_in(vspec, 4), alias_in(aspec, 4);
+  vector_in.set_exclusive(50);
+  alias_in.set_exclusive(50);
+  alias_in.share_exclusive(vector_in);
+  FakeFeeder a("main.drive.Cmd"), b("main.j.Cmd");
+  vector_in.add_feeder(&a);
+  alias_in.add_feeder(&b);
+  std::vector<std::string> told;
+  alias_in.on_refused = [&](const std::string& w, const std::string& h) { told.push_back(w + " by " + h); };
+  vector_in.deliver_from(&a, vec1(vspec, 1.0));  // a holds the actuator
+  alias_in.deliver_from(&b, vec1(aspec, 2.0));   // the same tick, on the other input: refused
+  EXPECT_EQ(alias_in.refused(), 1u);
+  EXPECT_FALSE(alias_in.take_latest());
+  EXPECT_EQ(told, (std::vector<std::string>{"main.j.Cmd by main.drive.Cmd"}));
+  alias_in.tick();  // not the hold's owner: its clock does not move
+  alias_in.deliver_from(&b, vec1(aspec, 2.0));
+  EXPECT_EQ(alias_in.refused(), 2u);
+  vector_in.tick();  // one tick of the owner: a's lease (one tick before its second sample) is over
+  alias_in.deliver_from(&b, vec1(aspec, 2.5));
+  ASSERT_TRUE(alias_in.take_latest());
+  EXPECT_EQ(alias_in.vector()[0], 2.5);
+  vector_in.deliver_from(&a, vec1(vspec, 1.0));  // now a is the second writer, on its own input
+  EXPECT_EQ(vector_in.refused(), 1u);
+  alias_in.remove_feeder(&b);                    // b's connection gone: a takes the actuator at once
+  vector_in.deliver_from(&a, vec1(vspec, 0.5));
+  ASSERT_TRUE(vector_in.take_latest());
+  EXPECT_EQ(vector_in.vector()[0], 0.5);
+  vector_in.remove_feeder(&a);
+}
+
 // Not exclusive (every other input): many writers, every sample taken.
 TEST(PortTest, AnInputThatIsNotExclusiveTakesEveryWriter) {
   const auto spec = dca::vector_port("in", 1, "");
