@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <memory>
 #include <optional>
 
 #include "host/net/auth.h"
@@ -213,11 +214,12 @@ class NodeTest : public ::testing::Test {
   // Starts a node with options `o` whose leaves are ChainComponents (each kept in *made by its PATH, if given);
   // returns the last one made (a one-leaf node's).
   ChainComponent* start_chain(const dca::NodeOptions& o, std::map<std::string, ChainComponent*>* made = nullptr) {
-    ChainComponent* last = nullptr;
-    nodes.push_back(std::make_unique<dca::Node>(loop, o, [&last, made](const std::string&, const std::string& n,
+    // the node keeps the factory and makes leaves added later with it: what it writes outlives this call
+    auto last = std::make_shared<ChainComponent*>(nullptr);
+    nodes.push_back(std::make_unique<dca::Node>(loop, o, [last, made](const std::string&, const std::string& n,
         const std::string&, const std::vector<std::string>&, dca::TimerServer& ts) {
       auto c = std::make_unique<ChainComponent>(n, ts);
-      last = c.get();
+      *last = c.get();
       if (made) (*made)[n] = c.get();
       return c;
     }));
@@ -225,7 +227,7 @@ class NodeTest : public ::testing::Test {
     nodes.back()->start([&](const std::string& e) { started = e; });
     EXPECT_TRUE(run_until([&] { return started.has_value(); }));
     EXPECT_EQ(started.value_or("timeout"), "");
-    return last;
+    return *last;
   }
 
   // Starts a one-leaf node `name` on the wall clock whose ChainComponent runs on a real-time thread (pinned to CPU
