@@ -254,7 +254,7 @@ suite:case("a_urdf_worlds_clamp_and_stale_counts_are_live_world_topics", functio
 end)
 
 -- The same counts in a replay: a recorded clamped run of the mock UR10 (its target beyond the elbow's limit)
--- has /world/safety/clamps with the live topic's fields, the elbow's position command's count at the end.
+-- has /world/safety/clamps with the live topic's fields, the elbow's position command's count reaching the end's.
 suite:case("a_urdf_worlds_clamp_counts_replay_under_the_live_topics_names", function()
   local file = T.src .. "/tests/lua/launch/systems/elbow_beyond_limit.dca"
   local mcap = T.tmpname(".mcap")
@@ -270,8 +270,15 @@ suite:case("a_urdf_worlds_clamp_counts_replay_under_the_live_topics_names", func
   T.ok(clamps and stale, "both recorded")
   T.eq(clamps.fields, safety_fields(UR10_INPUTS))
   T.eq(stale.fields, safety_fields(UR10_INPUTS))
-  local last = clamps.rows[#clamps.rows]
-  T.eq(last[1 + 5], 29, "value[4], the elbow's position command (after the row's time)")
+  -- value[4], the elbow's position command (after the row's time): counted up, reaching the summary's 29 (rows
+  -- after the run's end depend on the wall clock: time runs on while the tree stops, so the last may count more)
+  local reached, prev = false, 0
+  for _, row in ipairs(clamps.rows) do
+    T.ok(row[1 + 5] >= prev, "the count never goes down")
+    prev = row[1 + 5]
+    reached = reached or prev == 29
+  end
+  T.ok(reached, "a row with the elbow's 29 clamps")
   T.cleanup()
 end)
 
