@@ -235,13 +235,16 @@ async function faults(browser) {
       return r && r.querySelector('.restarts').textContent === '↻2' && r.querySelector('.fault').textContent;
     }, 20, gain);
     check(crashed && /signal|SEGV/i.test(crashed), `the crash is restarted by its policy, counted (↻2), its fault shown (${crashed})`);
+    if (!(crashed && /signal|SEGV/i.test(crashed))) console.log(run.output().split('\n').filter((l) => /gain|ERROR|Sanitizer|SUMMARY/.test(l)).slice(-20).join('\n'));
     const count = '.row[data-path="main.line.count"]';
     await clickIn(page, `${count} button[data-cmd="abort"]`);
     const fault = await until(page, (s) => document.querySelector(`${s} .fault`)?.textContent, 20, count);
     const main = await until(page, () => document.querySelector('.row[data-path="main"]')?.dataset.state === 'aborted', 20);
     check(fault === 'aborted from the monitor' && main,
       `an abort from the page: count's fault shown (${fault}), the run aborted`);
-    if (!fault) console.log(run.output().split('\n').filter((l) => /count|line:|main:/.test(l)).slice(-12).join('\n'));
+    if (!(fault === 'aborted from the monitor' && main)) {
+      console.log(run.output().split('\n').filter((l) => /count|line:|main:|ERROR|Sanitizer/.test(l)).slice(-12).join('\n'));
+    }
     await page.screenshot({ path: join(out, 'monitor_faults.png') });
     const code = await Promise.race([exit, new Promise((r) => setTimeout(() => r('still running'), 20000))]);
     check(code === 1, `the run ends ABORTED (exit ${code})`);

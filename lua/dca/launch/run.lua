@@ -62,9 +62,15 @@ function Run:say_aborted(msg)
   local function out(t)
     if not (self.o.repl and srt.to_followers(self.followers, t) > 0) then self.out.outcome(t) end
   end
-  local s = self.ctx.sim
-  if s and s.world:connected() then s:stamp(text, function(t) out(sformat("[sim %8.3f] %s", t, text)) end)
+  local s, mon = self.ctx.sim, self.monitor
+  -- (the monitor takes the root's outcome as its last event: the pages show the root aborted before they close)
+  if s and s.world:connected() then
+    s:stamp(text, function(t)
+      if mon then mon:line(text, t) end
+      out(sformat("[sim %8.3f] %s", t, text))
+    end)
   else
+    if mon then mon:line(text, core.now() - self.t0) end
     if self.wall_rec then self.wall_rec:line(text) end
     out(text)
   end

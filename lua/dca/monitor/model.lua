@@ -31,8 +31,9 @@ local WORDS = {
   starting = "starting", started = "started", configured = "configured", running = "running",
   aborting = "aborting", stopped = "stopped", done = "done", aborted = "aborted", exited = "exited",
   lost = "lost", restarting = "restarting", restarted = "running",
+  DONE = "done", ABORTED = "aborted",  -- the root's outcome ("main: ABORTED at main.b: reason")
 }
-local FAULTS = { aborted = true, exited = true, lost = true }
+local FAULTS = { aborted = true, exited = true, lost = true, ABORTED = true }
 
 local Model = {}
 Model.__index = Model

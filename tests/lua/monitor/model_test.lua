@@ -53,6 +53,20 @@ suite:case("lines_become_events_faults_restarts", function()
   T.eq(m:take_delta(), nil, "nothing changed since")
 end)
 
+-- The root's outcome line (what `dca run` says last, "main: ABORTED at ...", "main: DONE ...") is the root's own
+-- event: a page sees the root end before the run closes it, whether or not the tree was asked for again.
+suite:case("the_roots_outcome_is_its_last_event", function()
+  local m = model.new("main")
+  m:tree(TREE, 0)
+  m:line("main: ABORTED at main.b: aborted from the monitor", 4)
+  T.eq(m.nodes.main.state, "aborted")
+  T.eq(m.nodes.main.fault, "at main.b: aborted from the monitor")
+  local d = model.new("main")
+  d:tree(TREE, 0)
+  d:line("main: DONE 1", 4)
+  T.eq(d.nodes.main.state, "done")
+end)
+
 -- The configuration and the last lines are kept for a new page.
 suite:case("config_and_last_lines_kept", function()
   local m = model.new("main")
