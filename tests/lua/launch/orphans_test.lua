@@ -180,7 +180,7 @@ end)
 
 suite:case("sigint_at_20_moments_of_start_up_ends_with_130_and_leaves_nothing", function()
   local system = src .. "/worlds/door/systems/door_open.dca"
-  for k = 0, 38, T.sanitized and 6 or 2 do  -- (every sixth line under the sanitizers: 7 moments)
+  for k = 0, 38, T.sanitized and 13 or 2 do  -- (every 13th line under the sanitizers: 3 moments)
     local pid, out = start_run(system, "--sim", "door")
     T.ok(wait_until(function() return lines(out) >= k end, 30), "line " .. k .. " came:\n" .. T.read(out))
     local pids = descendants(pid)
