@@ -356,8 +356,17 @@ local function incomplete(err)
   return err and err:sub(-5) == "<eof>"
 end
 
+-- The commands that only show something: typed bare (`help`, `tree`), they run as if called. The others (abort,
+-- estop, restart, ...) act, so a bare name gets a hint rather than a function's address.
+local BARE = { help = true, tree = true, status = true, expr = true, log = true }
+
 --- Evaluates one line; cb(output, more) once (now, or later when the line waits for other supervisors).
 function Repl:eval(line, cb)
+  local bare = not self.buffer and line:match("^%s*([%a_][%w_]*)%s*$")
+  if bare and type(rawget(self.env, bare)) == "function" then
+    if BARE[bare] then line = bare .. "()"
+    else cb(sformat("%s is a command: type %s(...) (help() lists the commands)", bare, bare), false) return end
+  end
   local chunk = self.buffer and (self.buffer .. "\n" .. line) or line
   local fn, err = load("return " .. chunk, "=stdin", "t", self.env)
   if not fn then

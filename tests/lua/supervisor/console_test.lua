@@ -38,6 +38,18 @@ suite:case("expressions_print_like_the_lua_console_and_statements_run", function
   end
 end)
 
+-- `help` typed without parentheses prints the commands (as `tree`, `log`, ...: the commands that only show); a
+-- command that acts, typed bare, gets a hint and does nothing; a variable of that name is still a variable.
+suite:case("a_bare_help_prints_the_commands_and_a_bare_action_gets_a_hint", function()
+  local c, repl = running_system()
+  T.contains(eval(c, repl, "help"), "help()                        this text")
+  T.contains(eval(c, repl, " tree "), "main")
+  T.eq(eval(c, repl, "abort"), "abort is a command: type abort(...) (help() lists the commands)")
+  T.eq(c.root_sup.state, "running")
+  T.eq(eval(c, repl, "x = 3"), "")
+  T.eq(eval(c, repl, "x"), "3")
+end)
+
 suite:case("an_incomplete_chunk_waits_for_more_lines", function()
   local c, repl = running_system()
   local out, more = eval(c, repl, "function f(a)")
