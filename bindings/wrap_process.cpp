@@ -3,6 +3,7 @@
 //   core.now()               --> seconds on the monotonic clock (for durations and progress stamps)
 //   core.pid()               --> this process's id
 //   core.exe_path()          --> the path of the running executable (/proc/self/exe resolved)
+//   core.isatty(fd)          --> whether descriptor fd (1 stdout, 2 stderr) is a terminal
 //   core.on_signal(fn | nil) -- fn("INT" | "TERM" | "HUP") from the loop when SIGINT, SIGTERM or SIGHUP
 //                               arrives (Ctrl-C, kill, the terminal closed);
 //                               replaces any earlier handler; nil restores nothing (the handler stays inert)
@@ -37,6 +38,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <climits>
 #include <csignal>
 #include <cstring>
 #include <ctime>
@@ -75,6 +77,13 @@ int l_exe_path(lua_State* L) {
     return 2;
   }
   lua_pushlstring(L, s.data(), s.size());
+  return 1;
+}
+
+// isatty(fd): whether the descriptor (1: stdout, 2: stderr) is a terminal (dca.cli.colour)
+int l_isatty(lua_State* L) {
+  const lua_Integer fd = luaL_checkinteger(L, 1);
+  lua_pushboolean(L, fd >= 0 && fd <= INT_MAX && ::isatty(static_cast<int>(fd)) == 1);
   return 1;
 }
 
@@ -290,6 +299,7 @@ void open_process(lua_State* L) {
   static const luaL_Reg fns[] = {{"now", l_now},
                                  {"pid", l_pid},
                                  {"exe_path", l_exe_path},
+                                 {"isatty", l_isatty},
                                  {"on_signal", l_on_signal},
                                  {"on_usr1", l_on_usr1},
                                  {"on_usr2", l_on_usr2},

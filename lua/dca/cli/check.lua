@@ -70,6 +70,12 @@ end
 
 local function plural(n, one) return n == 1 and ("1 " .. one) or (n .. " " .. one .. "s") end
 
+-- Diagnostics to stderr, in colour on a terminal (dca.cli.colour).
+local function diag(text)
+  local colour = require "dca.cli.colour"
+  io.stderr:write(colour.on(2) and colour.diag(text) or text, "\n")
+end
+
 function M.main(argv)
   local o, err = args.parse(argv, "dca check", { ["--root"] = "value", ["--no-registry"] = "flag",
     ["--tree"] = "flag", ["--sim"] = "value", ["--config"] = "value", ["--no-config"] = "flag", ["--verify"] = "flag",
@@ -80,7 +86,7 @@ function M.main(argv)
   if not file then io.stderr:write(M.usage, "\n"); return 2 end
   local ast, tree = load.file(file, { root = root, registry = use_registry, world = o.sim })
   if not ast then
-    io.stderr:write(tree, "\n")
+    diag(tree)
     return 1
   end
   if not tree then
@@ -98,8 +104,7 @@ function M.main(argv)
     local notes = M.config_notes(ast, config_file, use_registry and load.registry() or nil)
     for _, w in ipairs(notes.warnings) do io.stderr:write(w, "\n") end
     if #notes.errors > 0 then
-      io.stderr:write(table.concat(notes.errors, "\n"), "\n")
-      io.stderr:write(string.format("%s: %s\n", file, plural(#notes.errors, "error")))
+      diag(table.concat(notes.errors, "\n") .. "\n" .. string.format("%s: %s", file, plural(#notes.errors, "error")))
       return 1
     end
   end
@@ -130,7 +135,7 @@ function M.verify(file, ast, tree, o)
   local result, errs = verify.system(tree, { faults = not o.no_faults, ast = ast, max_states = o.max_states,
                                             actuators = M.actuators(o.sim) })
   if not result then
-    io.stderr:write(check.format_all(ast, errs), "\n")
+    diag(check.format_all(ast, errs))
     return 1
   end
   if o.promela then

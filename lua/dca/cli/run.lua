@@ -214,10 +214,13 @@ local function parse_args(args)
   return o
 end
 
--- The terminal of a run: stdout for its lines, stderr for its outcome and errors, `dca repl` on /dev/tty.
+-- The terminal of a run: stdout for its lines, stderr for its outcome and errors, `dca repl` on /dev/tty; in
+-- colour on a terminal (dca.cli.colour: NO_COLOR turns it off).
+local colour = require "dca.cli.colour"
+local function painted(fd) if colour.on(fd) then return colour.line end return function(t) return t end end
 local OUT = {
-  line = function(text) io.stdout:write(text, "\n") io.stdout:flush() end,
-  outcome = function(text) io.stderr:write(text, "\n") end,
+  line = function(text) io.stdout:write(painted(1)(text), "\n") io.stdout:flush() end,
+  outcome = function(text) io.stderr:write(painted(2)(text), "\n") end,
   error = function(text) io.stderr:write("dca run: ", text, "\n") end,
 }
 
