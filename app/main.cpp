@@ -16,6 +16,7 @@
 #include "host/paths.h"
 #include "host/spawn.h"
 #include "host/version.h"
+#include "dca_commit.h"
 
 namespace {
 
@@ -90,7 +91,12 @@ int dispatch(int argc, char** argv) {
   // the commands that start a tree stop it in order on these signals, from the first instant (see the header)
   if (sub == "run" || sub == "scenario" || sub == "supervise") dca::bindings::hold_stop_signals();
   if (sub == "--version" || sub == "version") {
-    std::printf("dca %.*s\n", static_cast<int>(dca::version().size()), dca::version().data());
+    // "dca 0.1.0 (commit 1a2b3c4d5e6f)", "(commit ..., modified)" when tracked files differed from it at the build
+    const std::string_view commit = DCA_COMMIT;
+    std::printf("dca %.*s", static_cast<int>(dca::version().size()), dca::version().data());
+    if (!commit.empty())
+      std::printf(" (commit %.*s%s)", static_cast<int>(commit.size()), commit.data(), DCA_COMMIT_MODIFIED ? ", modified" : "");
+    std::printf("\n");
     return 0;
   }
   if (sub == "help" || is_help(argv[1])) {

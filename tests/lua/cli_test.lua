@@ -2,9 +2,19 @@
 local T = require "dca.testing"
 local suite = T.suite("cli")
 
-suite:case("version_prints_the_release", function()
+-- `dca --version`: the release, and in a git checkout the commit it was built from (HEAD or one before it, when
+-- commits came after the build).
+suite:case("version_prints_the_release_and_its_commit", function()
   local out = T.dca("--version", 0)
-  T.ok(out:match("^dca %d+%.%d+%.%d+\n$"), "got: " .. out)
+  local head = T.sh("git -C " .. T.src .. " rev-parse HEAD 2>/dev/null")
+  if not head:match("^%x+%s*$") then
+    T.ok(out:match("^dca %d+%.%d+%.%d+\n$"), "no git: the release alone: " .. out)
+    return
+  end
+  local commit = out:match("^dca %d+%.%d+%.%d+ %(commit (%x+)[,)]")
+  T.ok(commit and #commit == 12, "dca 0.1.0 (commit <12 hex digits>[, modified]): " .. out)
+  T.eq(select(2, T.sh("git -C " .. T.src .. " merge-base --is-ancestor " .. commit .. " HEAD")), 0,
+    "the commit is HEAD or one before it: " .. out)
 end)
 
 -- One case a row: `dca ARGS` exits with the code, its output holding each fragment.
