@@ -52,7 +52,8 @@ contains("the package's files" "${files}" " ./usr/bin/dca\n" " ./usr/bin/dca-nod
          " ./usr/lib/libdca_testing.a\n" " ./usr/lib/dca/controllers/door.dca.so\n"
          " ./lib/systemd/system/dca-daemon.service\n" " ./etc/dca/hosts\n" " ./etc/default/dca-daemon\n"
          " ./usr/share/doc/dca/copyright\n" " ./usr/share/doc/dca/changelog.gz\n"
-         " ./usr/share/man/man1/dca.1.gz\n" " ./usr/share/man/man1/dca-node.1.gz\n")
+         " ./usr/share/man/man1/dca.1.gz\n" " ./usr/share/man/man1/dca-node.1.gz\n"
+         " ./usr/share/bash-completion/completions/dca\n")
 # the monitor's page and every module of its 3D view that its server serves (VENDOR in lua/dca/monitor/server.lua)
 file(READ ${SOURCE_DIR}/lua/dca/monitor/server.lua server)
 string(REGEX MATCH "local VENDOR = {[^}]*}" vendor "${server}")
