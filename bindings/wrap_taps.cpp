@@ -18,7 +18,10 @@
 //                    -- subscriber, unsubscribe(topic) when it loses its last; with both parameter functions the
 //                    -- server has the capability `parameters`: get_parameters({name...}) (empty: every one),
 //                    -- set_parameters({ {name =, value =}... }), each answering once, now or later, with
-//                    -- reply({ {name =, value =}... }) or reply(nil, error)
+//                    -- reply({ {name =, value =}... }) or reply(nil, error); time = true: simulated time (the
+//                    -- capability `time`), watch = fn() when a client subscribes to its first channel
+//                    --> fox: fox:time(t_seconds) (the run's time now), fox:graph(published, subscribed) (each
+//                    --  { {topic, {id...}}... }: the capability connectionGraph), fox:clients() --> how many
 #include <lua.hpp>
 
 #include <unistd.h>
@@ -270,6 +273,68 @@ void serve_parameters(lua_State* L, int index, lua::LoopState& ls, foxglove::Pro
   };
 }
 
+constexpr const char* kFoxMeta = "dca.Foxglove";
+struct FoxUD {
+  std::weak_ptr<foxglove::Protocol> proto;
+};
+
+std::shared_ptr<foxglove::Protocol> check_fox(lua_State* L) {
+  auto* ud = static_cast<FoxUD*>(luaL_checkudata(L, 1, kFoxMeta));
+  return ud->proto.lock();
+}
+
+int fox_gc(lua_State* L) {
+  static_cast<FoxUD*>(luaL_checkudata(L, 1, kFoxMeta))->~FoxUD();
+  return 0;
+}
+
+int fox_time(lua_State* L) {
+  const double t = luaL_checknumber(L, 2);
+  if (auto p = check_fox(L); p && t >= 0 && t < 9e9) p->time(static_cast<std::int64_t>(t * 1e9));
+  return 0;
+}
+
+// { {topic, {id, ...}}, ... } at `index`: entries that are not a string and a list of strings are left out.
+std::vector<std::pair<std::string, std::vector<std::string>>> graph_list(lua_State* L, int index) {
+  std::vector<std::pair<std::string, std::vector<std::string>>> out;
+  if (!lua_istable(L, index)) return out;
+  const lua_Integer n = luaL_len(L, index);
+  for (lua_Integer i = 1; i <= n; ++i) {
+    lua_geti(L, index, i);
+    if (lua_istable(L, -1)) {
+      lua_geti(L, -1, 1);
+      lua_geti(L, -2, 2);
+      if (lua_type(L, -2) == LUA_TSTRING && lua_istable(L, -1)) {
+        std::vector<std::string> ids;
+        const lua_Integer m = luaL_len(L, -1);
+        for (lua_Integer k = 1; k <= m; ++k) {
+          lua_geti(L, -1, k);
+          if (lua_type(L, -1) == LUA_TSTRING) ids.emplace_back(lua_tostring(L, -1));
+          lua_pop(L, 1);
+        }
+        out.emplace_back(lua_tostring(L, -2), std::move(ids));
+      }
+      lua_pop(L, 2);
+    }
+    lua_pop(L, 1);
+  }
+  return out;
+}
+
+int fox_graph(lua_State* L) {
+  auto p = check_fox(L);
+  auto published = graph_list(L, 2);
+  auto subscribed = graph_list(L, 3);
+  if (p) p->set_graph(std::move(published), std::move(subscribed));
+  return 0;
+}
+
+int fox_clients(lua_State* L) {
+  auto p = check_fox(L);
+  lua_pushinteger(L, p ? static_cast<lua_Integer>(p->clients()) : 0);
+  return 1;
+}
+
 int core_foxglove(lua_State* L) {
   auto server = lua::check_web_server(L, 1);
   luaL_checktype(L, 2, LUA_TTABLE);
@@ -293,8 +358,18 @@ int core_foxglove(lua_State* L) {
   proto->on_first_subscribe = call(on_sub);
   proto->on_last_unsubscribe = call(on_unsub);
   serve_parameters(L, 2, ls, *proto);
+  lua_getfield(L, 2, "time");
+  proto->sim_time = lua_toboolean(L, -1) != 0;
+  lua_getfield(L, 2, "watch");
+  if (lua_isfunction(L, -1)) {
+    auto on_watch = std::make_shared<lua::LuaRef>(L, -1, ls);
+    proto->on_watch = [on_watch] { lua::invoke(*on_watch, [](lua_State*) { return 0; }); };
+  }
+  lua_pop(L, 2);
   server->add_protocol(foxglove::kSubprotocol, proto);
-  lua_pushboolean(L, 1);
+  auto* ud = static_cast<FoxUD*>(lua_newuserdatauv(L, sizeof(FoxUD), 0));
+  new (ud) FoxUD{proto};
+  luaL_setmetatable(L, kFoxMeta);
   return 1;
 }
 
@@ -306,6 +381,9 @@ void open_taps(lua_State* L) {
   lua::register_type(L, kMeta, methods, {tp_gc, tp_close, nullptr});
   static const luaL_Reg no_methods[] = {{nullptr, nullptr}};
   lua::register_type(L, kReplyMeta, no_methods, {reply_gc, nullptr, nullptr});
+  static const luaL_Reg fox_methods[] = {{"time", fox_time}, {"graph", fox_graph}, {"clients", fox_clients},
+                                         {nullptr, nullptr}};
+  lua::register_type(L, kFoxMeta, fox_methods, {fox_gc, nullptr, nullptr});
   static const luaL_Reg functions[] = {{"tap_point", core_tap_point}, {"foxglove", core_foxglove}, {nullptr, nullptr}};
   luaL_setfuncs(L, functions, 0);
 }

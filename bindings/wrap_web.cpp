@@ -10,6 +10,9 @@
 //                                    close = function(conn, reason) end })
 //   local id = srv:topic("/world/door", { "door_angle", "handle_angle" })   -- live samples (host/sample_hub)
 //   srv:publish(id, t_seconds, { 0.1, 0.2 })   srv:remove_topic(id)   srv:topics()
+//   local ev = srv:stream_topic("/dca/events", "dca/events", schema)  -- a topic of JSON messages (host/sample_hub)
+//   srv:publish_message(ev, t_seconds, json_text) --> ok  (t < 0: now on the Unix epoch; srv:topics() marks such a
+//                                                          -- topic stream = true)
 //   srv:robot(topic_id, { {parent, child}, ... }, urdf)  -- topic_id carries link frames (foxglove.FrameTransforms),
 //                                  -- and /robot_description the URDF (host/codec/frames.h) --> its id
 //   srv:stats()  srv:close()
@@ -22,10 +25,12 @@
 
 #include <lua.hpp>
 
+#include <chrono>
 #include <cstdint>
 #include <cstdio>
 #include <initializer_list>
 #include <map>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -272,6 +277,31 @@ int srv_publish(lua_State* L) {
   return 1;
 }
 
+int srv_stream_topic(lua_State* L) {
+  web::Server& s = open_server(L);
+  const std::string name = luaL_checkstring(L, 2);
+  const std::string schema_name = luaL_checkstring(L, 3);
+  const std::string schema = luaL_checkstring(L, 4);
+  lua_pushinteger(L, s.samples().add_stream_topic(name, schema_name, schema));
+  return 1;
+}
+
+int srv_publish_message(lua_State* L) {
+  web::Server& s = open_server(L);
+  const lua_Integer id = luaL_checkinteger(L, 2);
+  const double t = luaL_checknumber(L, 3);
+  std::size_t n = 0;
+  const char* json = luaL_checklstring(L, 4, &n);
+  // t < 0: now, on the Unix epoch (a wall-clock run's stamps, as its taps' arrivals)
+  const std::int64_t t_ns =
+      t < 0 ? std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch()).count()
+            : static_cast<std::int64_t>(t * 1e9);
+  const bool ok = id > 0 && t < 9e9 &&
+                  s.samples().publish_message(static_cast<std::uint32_t>(id), t_ns, std::string_view(json, n));
+  lua_pushboolean(L, ok);
+  return 1;
+}
+
 int srv_robot(lua_State* L) {
   web::Server& s = open_server(L);
   const lua_Integer id = luaL_checkinteger(L, 2);
@@ -323,6 +353,7 @@ int srv_topics(lua_State* L) {
       lua_rawseti(L, -2, static_cast<lua_Integer>(k + 1));
     }
     lua_setfield(L, -2, "fields");
+    if (t.stream) lua_pushboolean(L, 1), lua_setfield(L, -2, "stream");
     lua_rawseti(L, -2, i++);
   }
   return 1;
@@ -498,6 +529,7 @@ void register_web(lua_State* L) {
       {"add_key_token", srv_add_key_token},
       {"page", srv_page},       {"protocol", srv_protocol}, {"topic", srv_topic},
       {"publish", srv_publish}, {"remove_topic", srv_remove_topic}, {"topics", srv_topics}, {"robot", srv_robot},
+      {"stream_topic", srv_stream_topic}, {"publish_message", srv_publish_message},
       {"stats", srv_stats},     {"close", srv_close},   {nullptr, nullptr}};
   register_type(L, kServerMeta, srv_methods, {srv_gc, srv_close, srv_tostring});
   static const luaL_Reg conn_methods[] = {

@@ -104,6 +104,8 @@ void Protocol::on_open(const web::Connection::Ptr& c) {
   cl.conn = c;
   Value capabilities = Value::array();
   if (get_parameters && set_parameters) capabilities.array_ref().push_back(Value("parameters"));
+  if (sim_time) capabilities.array_ref().push_back(Value("time"));
+  if (has_graph_) capabilities.array_ref().push_back(Value("connectionGraph"));
   const Value info = Value::map()
                          .set("op", "serverInfo")
                          .set("name", name_)
@@ -114,6 +116,7 @@ void Protocol::on_open(const web::Connection::Ptr& c) {
   if (auto s = server_.lock())
     for (const auto& [id, t] : s->samples().topics()) all.push_back(&t);
   advertise(cl, all);
+  if (sim_time && time_ns_ >= 0) send_time(cl, time_ns_);
 }
 
 void Protocol::advertise(Client& c, const std::vector<const SampleHub::Topic*>& topics) {
@@ -144,6 +147,14 @@ void Protocol::on_message(const web::Connection::Ptr& c, std::string_view data, 
   const std::string op = msg["op"].as_string();
   if (op == "subscribe") return subscribe(cl, msg);
   if (op == "unsubscribe") return unsubscribe(cl, msg);
+  if (op == "subscribeConnectionGraph" && has_graph_) {
+    cl.graph = true;
+    return send_graph(cl, {});
+  }
+  if (op == "unsubscribeConnectionGraph" && has_graph_) {
+    cl.graph = false;
+    return;
+  }
   if (op == "getParameters" && get_parameters) return get_params(cl, msg);
   if (op == "setParameters" && set_parameters) return set_params(cl, msg);
   status(cl, 1, "unsupported operation '" + op + "'");
@@ -223,8 +234,10 @@ void Protocol::subscribe(Client& c, const Value& msg) {
     } else if (std::any_of(c.subs.begin(), c.subs.end(), [&](const auto& e) { return e.second == channel; })) {
       refuse("channel " + std::to_string(channel) + " is subscribed already");
     } else {
+      const bool first = c.subs.empty();
       c.subs[id] = channel;
       count(channel, 1);
+      if (first && on_watch) on_watch();
       if (!t->message.empty()) send_message(c, id, 0, t->message);  // a topic of one message: it, at once
     }
   }
@@ -295,7 +308,81 @@ void Protocol::send_message(Client& c, std::uint32_t sub, std::int64_t t_ns, con
   else ++dropped_;
 }
 
+// Time (opcode 2, the timestamp in ns, little-endian); droppable as samples are.
+void Protocol::send_time(Client& c, std::int64_t t_ns) {
+  std::string frame(1 + 8, '\0');
+  frame[0] = 2;
+  const auto ts = static_cast<std::uint64_t>(t_ns < 0 ? 0 : t_ns);
+  for (int i = 0; i < 8; ++i) frame[1 + i] = static_cast<char>((ts >> (8 * i)) & 0xff);
+  c.conn->send(std::move(frame), true, true);
+}
+
+// The run's time reached t_ns: Time to every client once it advanced 10 ms past the last one sent (or `force`:
+// the world's own time), never backwards.
+void Protocol::advance(std::int64_t t_ns, bool force) {
+  if (!sim_time || t_ns <= time_ns_) return;
+  time_ns_ = t_ns;
+  constexpr std::int64_t kStep = 10'000'000;
+  if (!force && time_sent_ns_ >= 0 && t_ns - time_sent_ns_ < kStep) return;
+  time_sent_ns_ = t_ns;
+  for (auto& [cid, c] : clients_) send_time(c, t_ns);
+}
+
+void Protocol::time(std::int64_t t_ns) { advance(t_ns, true); }
+
+namespace {
+Value graph_entries(const std::vector<std::pair<std::string, std::vector<std::string>>>& g, const char* ids_key) {
+  Value out = Value::array();
+  for (const auto& [name, ids] : g) {
+    Value list = Value::array();
+    for (const auto& id : ids) list.array_ref().push_back(Value(id));
+    out.array_ref().push_back(Value::map().set("name", name).set(ids_key, std::move(list)));
+  }
+  return out;
+}
+}  // namespace
+
+// connectionGraphUpdate: the whole graph (publishers and subscribers of each topic), and the topics gone since.
+void Protocol::send_graph(Client& c, const std::vector<std::string>& removed) {
+  Value gone = Value::array();
+  for (const auto& r : removed) gone.array_ref().push_back(Value(r));
+  c.conn->send(json::encode(Value::map()
+                                .set("op", "connectionGraphUpdate")
+                                .set("publishedTopics", graph_entries(published_, "publisherIds"))
+                                .set("subscribedTopics", graph_entries(subscribed_, "subscriberIds"))
+                                .set("advertisedServices", Value::array())
+                                .set("removedTopics", std::move(gone))
+                                .set("removedServices", Value::array())));
+}
+
+void Protocol::set_graph(Graph published, Graph subscribed) {
+  std::vector<std::string> removed;
+  for (const auto* old : {&published_, &subscribed_})
+    for (const auto& [name, ids] : *old) {
+      const auto has = [&n = name](const Graph& g) {
+        return std::any_of(g.begin(), g.end(), [&](const auto& e) { return e.first == n; });
+      };
+      if (!has(published) && !has(subscribed) && std::find(removed.begin(), removed.end(), name) == removed.end())
+        removed.push_back(name);
+    }
+  published_ = std::move(published);
+  subscribed_ = std::move(subscribed);
+  has_graph_ = true;
+  for (auto& [cid, c] : clients_)
+    if (c.graph) send_graph(c, removed);
+}
+
+void Protocol::on_message_sample(const SampleHub::Topic& t, std::int64_t t_ns, std::string_view json) {
+  advance(t_ns, false);
+  if (!subscribers_.count(t.id)) return;
+  const std::string payload(json);
+  for (auto& [cid, c] : clients_)
+    for (const auto& [sub, channel] : c.subs)
+      if (channel == t.id) send_message(c, sub, t_ns, payload);
+}
+
 void Protocol::on_sample(const SampleHub::Topic& t, std::int64_t t_ns, std::span<const double> values) {
+  advance(t_ns, false);
   if (!subscribers_.count(t.id)) return;
   std::string payload;
   for (auto& [cid, c] : clients_) {

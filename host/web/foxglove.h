@@ -30,12 +30,24 @@
 //
 // When a channel gets its first subscriber (over every connection) on_first_subscribe(topic) runs, and when its
 // last one goes on_last_unsubscribe(topic): the run makes its tap then (a tap costs nothing until someone looks).
+//
+// In simulated time (sim_time set before a client connects) serverInfo says `time`, and the server sends Time
+// (binary, opcode 2, the timestamp in ns) as the run's time advances: from time(t_ns) (the world's time, told by the
+// run) and from the samples' timestamps, at most one per 10 ms of simulated time, never backwards; so Foxglove and
+// Lichtblick plot on the simulated clock. A topic of JSON messages (SampleHub::add_stream_topic: the run's lines on
+// /dca/events, as the recordings have them) sends each message to its subscribers. With a connection graph
+// (set_graph: each topic's publishers and subscribers, the leaves' paths) serverInfo says `connectionGraph`; a
+// client that sends subscribeConnectionGraph gets connectionGraphUpdate at once and on every change, until
+// unsubscribeConnectionGraph. on_watch runs when a client subscribes to its first channel (a viewer watching:
+// dca run --monitor-wait starts time then; a client that only reads or writes parameters does not).
 #include <cstdint>
 #include <functional>
 #include <map>
 #include <memory>
 #include <span>
 #include <string>
+#include <string_view>
+#include <utility>
 #include <vector>
 
 #include "host/codec/wire.h"
@@ -71,7 +83,19 @@ class Protocol final : public web::Protocol, public SampleHub::Observer {
   void on_topic(const SampleHub::Topic& t) override;
   void on_topic_removed(std::uint32_t id) override;
   void on_sample(const SampleHub::Topic& t, std::int64_t t_ns, std::span<const double> values) override;
+  void on_message_sample(const SampleHub::Topic& t, std::int64_t t_ns, std::string_view json) override;
 
+  /// Simulated time: the capability `time` (set before clients connect).
+  bool sim_time = false;
+  /// The run's time now (simulated, ns): a Time message to every client when it advanced (see the header).
+  void time(std::int64_t t_ns);
+  /// The connection graph: {published = {{name, ids}...}, subscribed = {{name, ids}...}} as wire values
+  /// [[topic, [id...]]...]; set before clients connect for serverInfo to say `connectionGraph`, again at any time.
+  void set_graph(std::vector<std::pair<std::string, std::vector<std::string>>> published,
+                 std::vector<std::pair<std::string, std::vector<std::string>>> subscribed);
+  std::function<void()> on_watch;
+  /// The clients connected now.
+  std::size_t clients() const { return clients_.size(); }
   std::function<void(const std::string& topic)> on_first_subscribe, on_last_unsubscribe;
   /// The answer to a parameter request, once, from the loop: params = [{name, value}] (parameterValues to the
   /// connection that asked, while it is open), or error "" -> params, else why not (a status, level 2).
@@ -90,7 +114,12 @@ class Protocol final : public web::Protocol, public SampleHub::Observer {
   struct Client {
     web::Connection::Ptr conn;
     std::map<std::uint32_t, std::uint32_t> subs;  // subscription id -> channel (topic id)
+    bool graph = false;                           // subscribed to the connection graph
   };
+  using Graph = std::vector<std::pair<std::string, std::vector<std::string>>>;
+  void send_graph(Client& c, const std::vector<std::string>& removed);
+  void send_time(Client& c, std::int64_t t_ns);
+  void advance(std::int64_t t_ns, bool force);
   void advertise(Client& c, const std::vector<const SampleHub::Topic*>& topics);
   void status(Client& c, int level, const std::string& message);
   void subscribe(Client& c, const wire::Value& msg);
@@ -110,6 +139,9 @@ class Protocol final : public web::Protocol, public SampleHub::Observer {
   };
   std::map<std::uint32_t, Subscribed> subscribers_;  // by channel
   std::uint64_t sent_ = 0, dropped_ = 0;
+  std::int64_t time_ns_ = -1, time_sent_ns_ = -1;  // the run's latest time; the last one sent
+  bool has_graph_ = false;
+  Graph published_, subscribed_;
 };
 
 }  // namespace dca::foxglove

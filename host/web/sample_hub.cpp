@@ -27,7 +27,7 @@ bool SampleHub::set_frames(std::uint32_t id, std::vector<frames::Frame> frames) 
 }
 
 std::uint32_t SampleHub::add_message_topic(const std::string& name, std::string schema_name, std::string schema,
-                                           std::string message) {
+                                           std::string message, bool stream) {
   auto it = by_name_.find(name);
   const std::uint32_t id = it != by_name_.end() ? it->second : next_id_++;
   Topic& t = topics_[id];
@@ -37,10 +37,24 @@ std::uint32_t SampleHub::add_message_topic(const std::string& name, std::string 
   t.schema_name = std::move(schema_name);
   t.schema = std::move(schema);
   t.message = std::move(message);
+  t.stream = stream;
   by_name_[name] = id;
   const auto observers = observers_;
   for (Observer* o : observers) o->on_topic(t);
   return id;
+}
+
+std::uint32_t SampleHub::add_stream_topic(const std::string& name, std::string schema_name, std::string schema) {
+  return add_message_topic(name, std::move(schema_name), std::move(schema), "", true);
+}
+
+bool SampleHub::publish_message(std::uint32_t id, std::int64_t t_ns, std::string_view json) {
+  auto it = topics_.find(id);
+  if (it == topics_.end() || !it->second.stream) return false;
+  it->second.samples++;
+  const auto observers = observers_;
+  for (Observer* o : observers) o->on_message_sample(it->second, t_ns, json);
+  return true;
 }
 
 void SampleHub::remove_topic(std::uint32_t id) {

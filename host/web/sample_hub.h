@@ -9,10 +9,13 @@
 //   auto id = hub.add_topic("main.door.hit.Force", {"fx", "fy", "fz"});
 //   hub.publish(id, t_ns, values);          // every observer's on_sample, in the order they were added
 //   hub.remove_topic(id);                   // on_topic_removed
+//   auto ev = hub.add_stream_topic("/dca/events", "dca/events", schema);
+//   hub.publish_message(ev, t_ns, json);     // every observer's on_message_sample
 #include <cstdint>
 #include <map>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "host/codec/frames.h"
@@ -32,6 +35,8 @@ class SampleHub {
     /// A topic of one message rather than samples (add_message_topic): the JSON message, its schema's name and
     /// JSON Schema. Observers send it to each new subscriber.
     std::string message, schema_name, schema;
+    /// A stream of JSON messages (add_stream_topic): its schema above, its messages published one by one.
+    bool stream = false;
   };
   /// Told of topics and samples. Called on the hub's thread, from inside add_topic/publish/remove_topic.
   class Observer {
@@ -42,6 +47,8 @@ class SampleHub {
     /// One sample: `t_ns` its time (simulated or wall, ns), `values` one per field (fewer or more are allowed:
     /// a port whose size changes).
     virtual void on_sample(const Topic& topic, std::int64_t t_ns, std::span<const double> values) = 0;
+    /// One message of a stream topic (publish_message): `json` one JSON object.
+    virtual void on_message_sample(const Topic& /*topic*/, std::int64_t /*t_ns*/, std::string_view /*json*/) {}
   };
 
   /// A new topic (or the one of that name, its fields replaced). Returns its id (1, 2, ...), stable per name.
@@ -50,7 +57,12 @@ class SampleHub {
   bool set_frames(std::uint32_t id, std::vector<frames::Frame> frames);
   /// A topic of one fixed JSON message (e.g. the URDF on /robot_description, schema std_msgs/String).
   std::uint32_t add_message_topic(const std::string& name, std::string schema_name, std::string schema,
-                                  std::string message);
+                                  std::string message, bool stream = false);
+  /// A topic of JSON messages published one by one (e.g. /dca/events, the run's lines), its schema's name and JSON
+  /// Schema.
+  std::uint32_t add_stream_topic(const std::string& name, std::string schema_name, std::string schema);
+  /// Publishes one message of a stream topic; false for an unknown topic or one that is no stream.
+  bool publish_message(std::uint32_t id, std::int64_t t_ns, std::string_view json);
   /// Removes a topic (no effect on an unknown id).
   void remove_topic(std::uint32_t id);
   /// Publishes a sample; false for an unknown topic.

@@ -9,11 +9,8 @@
 // 4. Malformed requests (parameters not an array, a parameter without a value, names that are no strings) are
 //    each answered with a status (level 2); the connection stays and answers the next request.
 // 5. The page starts time (--monitor-wait) and the run ends DONE. Exit 1 on a failure.
-import foxglove from "@foxglove/ws-protocol";
-import WebSocket from "ws";
-import { deadline, pageToEnd, startRun } from "./dca_run.mjs";
+import { deadline, foxgloveClient, pageToEnd, startLiveRun } from "./dca_run.mjs";
 
-const { FoxgloveClient } = foxglove;
 const [dca, src] = process.argv.slice(2);
 const failures = [];
 const check = (ok, what) => { if (!ok) failures.push(what); };
@@ -21,17 +18,12 @@ const show = (x) => JSON.stringify(x);
 // parameters as "name=value" lines, sorted (the order of a parameter's fields is JSON's, not the point)
 const lines = (params) => (params ?? []).map((p) => `${p.name}=${JSON.stringify(p.value)}`).sort().join(", ");
 
-const run = startRun(dca, ["run", `${src}/scripts/systems/test_live.dca`, "--sim", `mock:${src}/worlds/ur10/ur10.urdf`,
-                        "--monitor", "--monitor-wait"]);
+const run = startLiveRun(dca, src);
 const { said } = run;
 
 try {
-  const [, url] = await said(/foxglove: (ws:\/\/\S+)/, 60000, "the foxglove line of dca run");
-  const ws = new WebSocket(url, [FoxgloveClient.SUPPORTED_SUBPROTOCOL]);
-  const client = new FoxgloveClient({ ws });
-  client.on("error", (e) => failures.push(`client error: ${e.message}`));
-  const info = await Promise.race([new Promise((resolve) => client.on("serverInfo", resolve)),
-                                   deadline(20000, "serverInfo")]);
+  const { url, ws, client, info: serverInfo } = await foxgloveClient(run, failures);
+  const info = await serverInfo;
   check(info.capabilities.includes("parameters"), `serverInfo's capabilities ${show(info.capabilities)}`);
 
   // the answers by id, the statuses in order

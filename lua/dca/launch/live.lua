@@ -17,6 +17,10 @@
 --   live:tap_topic(topic, cb)  -- the tap of that topic, made once: cb(true) | cb(nil, err)
 --   live:tap_id(id, cb)        -- the same by the topic's id (the monitor's page subscribes by id)
 --   live:retap(below)          -- the taps of the ports below(p) made again (their leaf was restarted)
+--   live:line(line, t, output) -- a line of the run at time t (simulated seconds; nil: now, on the wall clock) to
+--                                 Foxglove's /dca/events (or /dca/log: a process's stderr), as the recordings hold it
+--   live:on_client(fn)         -- fn() once, when a Foxglove client watches (its first subscription: dca run
+--                                 --monitor-wait)
 --   live:stats()               -- { [path] = { taken, dropped, unpublished } }
 --   live.robot                 -- a URDF world's { urdf, frames = { {parent, child}, ... }, topic, id } (else nil)
 --   live:close()
@@ -66,7 +70,8 @@ function M.start(ctx, sup, srv, cb)
   local tp, err = core.tap_point{ name = name, host = spec.host, key_file = ctx.key, tcp = ip .. ":0", server = srv,
                                   stamp = ctx.o.sim and "writer" or "arrival" }
   if not tp then cb(nil, err) return end
-  local self = setmetatable({ tp = tp, name = name, sup = sup, srv = srv, ctx = ctx, by_topic = {}, tapped = {} }, Live)
+  local self = setmetatable({ tp = tp, name = name, sup = sup, srv = srv, ctx = ctx, by_topic = {}, tapped = {},
+                              stamp = ctx.o.sim and "writer" or "arrival" }, Live)
   self.config_set = function(values, k)
     sup:handle({ type = "config_set", key = values }, function(r) k(async.outcome(r)) end)
   end
@@ -84,9 +89,14 @@ end
 -- Serves Foxglove on the server and registers the tap point at `daemon` (whose configuration repository Foxglove's
 -- parameters read). k(true) | k(nil, err)
 function Live:_serve(daemon, key, title, k)
-  core.foxglove(self.srv, { name = title, subscribe = function(topic) self:tap_topic(topic) end,
+  local sim = self.stamp == "writer"
+  self.fox = core.foxglove(self.srv, { name = title, subscribe = function(topic) self:tap_topic(topic) end,
                             get_parameters = function(names, reply) self:_get_parameters(names, reply) end,
-                            set_parameters = function(params, reply) self:_set_parameters(params, reply) end })
+                            set_parameters = function(params, reply) self:_set_parameters(params, reply) end,
+                            time = sim, watch = function() self:_client() end })
+  self:_graph()
+  self:_streams()
+  if self.ctx.sim then self:_follow_time() end
   require("dca.clients.daemon").connect(daemon, clients.key_opts(key), function(d, derr)
     if not d then k(nil, sformat("live taps: the daemon at %s: %s", tostring(daemon), tostring(derr))) return end
     self.daemon = d
@@ -96,6 +106,74 @@ function Live:_serve(daemon, key, title, k)
       k(true)
     end))
   end)
+end
+
+-- The run's lines (/dca/events, /dca/log), as the recordings have them.
+function Live:_streams()
+  local wr = require "dca.launch.wall_record"
+  self.streams = {}
+  for _, c in ipairs({ { "/dca/events", "dca/events", wr.EVENTS_SCHEMA }, { "/dca/log", "dca/log", wr.LOG_SCHEMA } }) do
+    self.streams[c[1]] = self.srv:stream_topic(c[1], c[2], c[3])
+  end
+end
+
+function Live:line(line, t, output)
+  if not self.streams then return end
+  local topic, _, _, text = require("dca.launch.wall_record").line_message(line, output)
+  self.srv:publish_message(self.streams[topic], t or -1, text)
+  if t and self.fox then self.fox:time(t) end
+end
+
+-- A Foxglove client subscribed to its first channel: who waited for a viewer (--monitor-wait) goes on.
+function Live:_client()
+  local waiting = self.client_waiters
+  self.client_waiters, self.had_client = nil, true
+  for _, fn in ipairs(waiting or {}) do fn() end
+end
+
+function Live:on_client(fn)
+  if self.had_client then fn() return end
+  self.client_waiters = self.client_waiters or {}
+  self.client_waiters[#self.client_waiters + 1] = fn
+end
+
+-- In simulated time, Foxglove's clock is the world's: while a client is connected the world's time is asked for
+-- every 0.1 s of wall time (samples and lines move it too).
+function Live:_follow_time()
+  local s, pending = self.ctx.sim, false
+  self.time_timer = core.every(0.1, function()
+    if pending or not (self.fox and self.fox:clients() > 0 and s.world:connected()) then return end
+    pending = true
+    s.world:request({ type = "status" }, 5, function(r)
+      pending = false
+      if r and tonumber(r.t) then self.fox:time(tonumber(r.t)) end
+    end)
+  end)
+end
+
+-- The connection graph Foxglove's Topic Graph panel draws: each output's topic published by its leaf, read by the
+-- leaves its connections reach (every connection set, active or not); the world's signals published by "world".
+function Live:_graph()
+  local spec = self.ctx.spec
+  if not (spec and self.fox) then return end
+  local published, readers, order = {}, {}, {}
+  for topic, p in pairs(self.by_topic) do
+    published[#published + 1] = { topic, { p.leaf == "world" and "world" or p.leaf } }
+  end
+  require("dca.supervisor.spec").walk(spec, function(n)
+    if n.kind ~= "group" then return end
+    for _, w in ipairs(require("dca.supervisor.spec").wiring(n.spec) or {}) do
+      local topic = M.topic_of(w.src .. "." .. w.out)
+      if not readers[topic] then readers[topic] = {} order[#order + 1] = topic end
+      local seen = false
+      for _, id in ipairs(readers[topic]) do if id == w.dst then seen = true end end
+      if not seen then table.insert(readers[topic], w.dst) end
+    end
+  end)
+  local subscribed = {}
+  for _, topic in ipairs(order) do subscribed[#subscribed + 1] = { topic, readers[topic] } end
+  table.sort(published, function(a, b) return a[1] < b[1] end)
+  self.fox:graph(published, subscribed)
 end
 
 -- Foxglove's getParameters: the keys `names` (none: every key) and their values, as the repository of the root's
@@ -148,7 +226,7 @@ function M.attach(o, srv, request, cb)
     local tp, err = core.tap_point{ name = name, host = tostring(r.host), key_file = o.key, tcp = ip .. ":0",
                                     server = srv, stamp = r.sim and "writer" or "arrival" }
     if not tp then cb(nil, err) return end
-    self.tp = tp
+    self.tp, self.stamp = tp, r.sim and "writer" or "arrival"
     self:_topics(r.ports or {})
     self:_serve(o.daemon, o.key, "dca " .. tostring(o.root), cb)
   end)
@@ -167,6 +245,7 @@ function Live:_world_topics(cb)
                           units = o.units or "" }
     end
     self:_topics(list)
+    self:_graph()  -- (again, with the world's signals)
     self:_robot(s.world, cb)
   end)
 end
@@ -239,6 +318,7 @@ end
 function Live:stats() return self.tp and self.tp:stats() or {} end
 
 function Live:close()
+  if self.time_timer then self.time_timer:cancel() self.time_timer = nil end
   if self.daemon then self.daemon:close() self.daemon, self.config = nil, nil end
   if self.tp then self.tp:close() end
 end

@@ -42,15 +42,17 @@ end
 function Run:say(line, at, output, private)
   -- the trace keeps the lines that carry their event's simulated time (dca.trace)
   if self.o.trace_file and at then self.trace_lines[#self.trace_lines + 1] = { math.floor(at * 1e9 + 0.5), line } end
-  local s, mon = self.ctx.sim, self.monitor
-  if private then mon = nil end
+  local s, mon, live = self.ctx.sim, self.monitor, self.live
+  if private then mon, live = nil, nil end
   if s and s.world:connected() then
     s:stamp(line, function(t, l)
       if mon then mon:line(l, t) end
+      if live then live:line(l, t, output) end
       if not self.o.quiet then self:emit(sformat("[sim %8.3f] %s", t, l)) end
     end, at, output, private)
   else
     if mon then mon:line(line, core.now() - self.t0) end
+    if live then live:line(line, nil, output) end
     if self.wall_rec and not private then self.wall_rec:line(line, output) end
     if not self.o.quiet then self:emit(sformat("[%7.3f] %s", core.now() - self.t0, line)) end
   end
@@ -67,10 +69,12 @@ function Run:say_aborted(msg)
   if s and s.world:connected() then
     s:stamp(text, function(t)
       if mon then mon:line(text, t) end
+      if self.live then self.live:line(text, t) end
       out(sformat("[sim %8.3f] %s", t, text))
     end)
   else
     if mon then mon:line(text, core.now() - self.t0) end
+    if self.live then self.live:line(text) end
     if self.wall_rec then self.wall_rec:line(text) end
     out(text)
   end
@@ -327,8 +331,12 @@ function Run:run_root()
       end)
     end
     if self.monitor and self.o.monitor_wait then
-      self:say("monitor: time starts when a page is connected")
-      self.monitor:on_page(go)
+      -- a monitor page that connects or a Foxglove client that subscribes, whichever comes first
+      self:say("monitor: time starts when a page is connected (or a Foxglove client subscribes)")
+      local started = false
+      local function first() if not started then started = true go() end end
+      self.monitor:on_page(first)
+      if self.live then self.live:on_client(first) end
     else
       go()
     end

@@ -25,10 +25,26 @@ local ipairs, tostring, tonumber, type, sformat = ipairs, tostring, tonumber, ty
 --- Seconds between two polls of the real-time figures.
 M.PERIOD = 1
 
+-- The run's lines as the recordings hold them (sim/recorder.cpp writes the same for simulated runs), also what
+-- Foxglove gets live (dca.launch.live).
 local EVENTS_SCHEMA = [[{"type":"object","title":"/dca/events","properties":{"line":{"type":"string"},]] ..
   [["path":{"type":"string"},"state":{"type":"string"}}}]]
 local LOG_SCHEMA = [[{"type":"object","title":"/dca/log","properties":{"path":{"type":"string"},]] ..
   [["line":{"type":"string"}}}]]
+M.EVENTS_SCHEMA, M.LOG_SCHEMA = EVENTS_SCHEMA, LOG_SCHEMA
+
+--- A line of the run as its channel's message: "/dca/events", {line, path, state} (a transition's path and word,
+--- else ""), or, for a line process `output` wrote to its stderr ("PATH: text"), "/dca/log", {path, line}.
+--- --> topic, schema name, schema, JSON text
+function M.line_message(line, output)
+  line = tostring(line)
+  if output then
+    return "/dca/log", "dca/log", LOG_SCHEMA,
+      core.json_encode({ path = tostring(output), line = line:sub(#tostring(output) + 3) })
+  end
+  local path, word = line:match("^(%S+): (%a+)")
+  return "/dca/events", "dca/events", EVENTS_SCHEMA, core.json_encode({ line = line, path = path or "", state = word or "" })
+end
 
 -- The JSON Schema of a /dca/rt/<path> channel.
 local function rt_schema(topic)
@@ -81,15 +97,8 @@ end
 
 function Rec:line(line, output)
   if self.finished then return end
-  line = tostring(line)
-  if output then
-    self.w:write(self:_channel("/dca/log", "dca/log", LOG_SCHEMA),
-      core.json_encode({ path = tostring(output), line = line:sub(#tostring(output) + 3) }))
-    return
-  end
-  local path, word = line:match("^(%S+): (%a+)")
-  self.w:write(self:_channel("/dca/events", "dca/events", EVENTS_SCHEMA),
-    core.json_encode({ line = line, path = path or "", state = word or "" }))
+  local topic, schema_name, schema, text = M.line_message(line, output)
+  self.w:write(self:_channel(topic, schema_name, schema), text)
 end
 
 -- One leaf's figures written (a reply without them, or none, writes nothing).

@@ -117,7 +117,9 @@ end
 -- The live sample topics, for the page.
 function Mon:_topics()
   local out = {}
-  for _, t in ipairs(self.srv:topics()) do out[#out + 1] = { id = t.id, name = t.name, fields = t.fields } end
+  for _, t in ipairs(self.srv:topics()) do  -- (not the streams of messages: the run's lines are the page's own)
+    if not t.stream then out[#out + 1] = { id = t.id, name = t.name, fields = t.fields } end
+  end
   for _, t in ipairs(self.o.series or {}) do out[#out + 1] = { id = t.id, name = t.name, fields = t.fields } end
   return out
 end
