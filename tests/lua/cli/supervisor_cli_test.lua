@@ -168,7 +168,32 @@ suite:case("run_sim_starts_the_world_wires_device_ports_stamps_simulated_time_an
   -- node's event carries its own time), so the Timer's end is never before its 0.5 s of simulated time
   T.eq(tonumber(a), 0)
   T.ok(tonumber(b) >= 0.5 - 1e-9, "0.5 s of simulated time at least: " .. a .. " - " .. b)
-  T.ok(out:find("main%.laser  stopped") or out:find("main%.laser  aborted"), out)
+  T.ok(out:find("main%.laser  stopped"), out)
+  os.remove(path)
+end)
+
+-- A group disabled by `#` while it runs (issue 32): the summary's step says "stopped", not "aborted".
+local GROUP_STOPPED = [[
+process Scan() {
+  instantiated_processes { laser instof LaserSensor("h1"); }
+  internal_event_actions { laser }
+}
+process main() {
+  instantiated_processes {
+    scan instof Scan();
+    stop instof Timer("h2", 0.5);
+  }
+  internal_event_actions { stop # scan }
+}
+]]
+
+suite:case("a_group_disabled_by_hash_is_stopped_in_the_summary", function()
+  local path = tmpfile(GROUP_STOPPED)
+  local out, rc = T.sh(dca .. " run " .. path .. " --sim door --seed 1")
+  T.eq(rc, 0, out)
+  T.ok(out:find("%d+%.%d+  main%.scan  stopped\n"), "main.scan's step is stopped:\n" .. out)
+  T.ok(not out:find("main%.scan: aborted"), "no aborted line for main.scan:\n" .. out)
+  T.ok(out:find("%d+%.%d+  main%.scan%.laser  stopped"), out)
   os.remove(path)
 end)
 
