@@ -13,8 +13,8 @@ Draws a recording made by `dca sim --record FILE` or `dca run ... --record FILE 
 CSV) to a PNG (default: FILE.png) with gnuplot, one panel per topic. A signal is TOPIC.FIELD: the world's
 (/world/door.door_angle, /world/wrench.fx, ...) and the recorded ports' (/main/arm/pd/Out for a scalar,
 /main/arm/pd/Out[0] for a vector's first value); a CSV's are its columns. The ports' and the world's sampled
-signals are drawn as steps (a value holds until the next sample); the run's steps (a process starting, from
-/dca/events) are marked with dashed lines and the process's path.
+signals are drawn as steps (a value holds until the next sample); the run's steps (processes starting, from
+/dca/events) are marked with dashed lines and the processes' names.
 
   --signal PATTERN  draw the signals matching PATTERN (`*` any text; repeatable); default: the door's angles,
                     wrist force and base position when recorded, else every signal
@@ -144,20 +144,32 @@ local function script_of(chosen, steps, data, png, title)
     p[#p + 1] = { index = i - 1, name = e.name }
   end
   local lines = {
-    sformat("set terminal pngcairo size 1200,%d", math.max(400, 300 * #order)),
+    sformat("set terminal pngcairo size 1200,%d noenhanced", math.max(400, 300 * #order)),
     "set output " .. q(png),
     "set grid",
     "set key outside right top",
     "set xlabel 'simulated time (s)'",
     sformat("set multiplot layout %d,1 title %s", #order, q("dca plot: " .. title)),
   }
-  -- the run's steps: a dashed line and the process's path at each start
+  -- the run's steps: a dashed line at each time processes start, labelled with the names of the outermost of
+  -- them (a process whose group starts with it is left out)
+  local times, at = {}, {}
+  for _, st in ipairs(steps) do
+    if not at[st.t] then at[st.t] = {} times[#times + 1] = st.t end
+    local list = at[st.t]
+    list[#list + 1] = st.path
+  end
   local marks = {}
-  for i, st in ipairs(steps) do
+  for i, t in ipairs(times) do
     if i > MAX_MARKS then break end
-    marks[#marks + 1] = sformat("set arrow from %.9g, graph 0 to %.9g, graph 1 nohead dt 2 lc rgb '#888888'", st.t, st.t)
+    local starting, names = {}, {}
+    for _, path in ipairs(at[t]) do starting[path] = true end
+    for _, path in ipairs(at[t]) do
+      if not starting[path:match("^(.*)%.[^.]+$") or ""] then names[#names + 1] = path:match("[^.]+$") end
+    end
+    marks[#marks + 1] = sformat("set arrow from %.9g, graph 0 to %.9g, graph 1 nohead dt 2 lc rgb '#888888'", t, t)
     marks[#marks + 1] = sformat("set label %s at %.9g, graph 0.98 rotate by 90 right font ',7' tc rgb '#666666'",
-                                q(st.path), st.t)
+                                q(concat(names, ", ")), t)
   end
   for _, topic in ipairs(order) do
     lines[#lines + 1] = "set title " .. q(topic)

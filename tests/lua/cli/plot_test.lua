@@ -31,7 +31,10 @@ suite:case("signals_chosen_by_pattern_are_drawn_as_steps_with_the_run_steps_mark
   T.contains(g, "index 1 using 1:2 with steps lw 1.5 title '/world/laser.range'")
   T.contains(g, "set multiplot layout 2,1")  -- a panel per topic
   T.contains(g, "set arrow from 0, graph 0 to 0, graph 1 nohead dt 2")
-  T.contains(g, "set label 'main.laser' at 0, graph 0.98 rotate by 90")
+  -- one mark at 0 for the two processes starting then, named
+  local label = g:match("set label '([%w, ]+)' at 0, graph 0.98 rotate by 90")
+  T.ok(label == "stop, laser" or label == "laser, stop", "the mark at 0: " .. tostring(label) .. "\n" .. g)
+  T.eq(select(2, g:gsub("set arrow from", "")), 2, "one mark in each of the two panels:\n" .. g)
   T.ok(not g:find("/world/arm", 1, true), "only the chosen signals:\n" .. g)
   -- the data: one block per signal, time and value
   T.ok(data:match("^# /main/laser/Distance\n[%d.e%-]+ [%d.e%-]+\n"), data:sub(1, 200))
