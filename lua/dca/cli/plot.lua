@@ -16,15 +16,15 @@ CSV) to a PNG (default: FILE.png) with gnuplot, one panel per topic. A signal is
 signals are drawn as steps (a value holds until the next sample); the run's steps (processes starting, from
 /dca/events) are marked with dashed lines and the processes' names.
 
-  --signal PATTERN  draw the signals matching PATTERN (`*` any text; repeatable); default: the door's angles,
-                    wrist force and base position when recorded, else every signal
+  --signal PATTERN  draw the signals matching PATTERN (`*` any text; repeatable); default: the signals the
+                    default world chooses (its descriptor's `plot`: the door's angles, wrist force and base
+                    position) when recorded, else every signal
   --list            print the recording's signals (with their sample counts) and the steps, draw nothing
   --script FILE     write the gnuplot script to FILE and its data to FILE.dat instead of running gnuplot
 Needs gnuplot (scripts/setup installs gnuplot-nox).]]
 
 local MAX_BYTES = 1 << 30  -- as `dca monitor` reads at most (bindings/wrap_mcap.cpp)
 local MAX_MARKS = 40       -- step marks drawn at most (a run with more marks its first ones)
-local DOOR = { "/world/door.*", "/world/wrench.f*", "/world/base.x", "/world/base.y" }
 
 local function fail(msg) io.stderr:write("dca plot: ", msg, "\n") return 1 end
 
@@ -212,12 +212,15 @@ function M.main(argv)
     for _, st in ipairs(s.steps) do io.stdout:write(sformat("step %.3f s  %s\n", st.t, st.path)) end
     return 0
   end
-  local patterns = o.signal
-  if not patterns then
-    patterns = { default = true }
-    for _, p in ipairs(s.by["/world/door.door_angle"] and DOOR or { "*" }) do patterns[#patterns + 1] = p end
+  local chosen, cerr
+  if o.signal then
+    chosen, cerr = choose(s, o.signal)
+  else
+    -- the default world's choice (its descriptor's `plot`) when the recording has any of it, else everything
+    local ok, d = pcall(function() return require("dca.worlds").descriptor() end)
+    local mine = ok and type(d.plot) == "table" and choose(s, table.move(d.plot, 1, #d.plot, 1, { default = true }))
+    chosen = (mine and #mine > 0) and mine or choose(s, { "*" })
   end
-  local chosen, cerr = choose(s, patterns)
   if not chosen then return fail(cerr) end
   local png = o.out or (file:gsub("%.mcap$", ""):gsub("%.csv$", "") .. ".png")
   local script_path = o.script or (png .. ".gnuplot")
