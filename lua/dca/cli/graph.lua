@@ -13,7 +13,7 @@ inside with host and parameters as written, its child groups below them). Each l
 input (top) and output (bottom), filled with its host's colour (a legend names the hosts); each connection is
 an edge from an output port to an input port, labelled with its label set. The world (with --sim, or when a
 leaf has device ports) is a node with its device signals, wired to the leaves' device ports. --flow: the data
-flow only (the leaves, the world and the connections, left to right, no groups). Output
+flow only (the leaves, the world and the connections, ranked by the data flow, no groups). Output
 as Graphviz DOT to stdout, or to OUT with -o. --svg renders it with `dot -Tsvg`
 (graphviz; scripts/setup installs it). The file is checked as by `dca check` first (--no-registry: without
 the controller registry's manifests; --sim WORLD: its device ports against that world, default door).]]

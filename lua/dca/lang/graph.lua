@@ -5,7 +5,7 @@
 -- external_io, is an edge from an output port to an input port labelled with its label set. The world (with
 -- `world`, or when a leaf has device ports) is a node with a port per device signal the leaves use, wired to
 -- them. Invisible edges only order the rows; they carry no meaning. opts.flow: the data flow only (the leaves
--- and the world, left to right, no clusters).
+-- and the world, ranked by the data flow, no clusters).
 local algebra = require "dca.algebra"
 local model = require "dca.lang.model"
 local ports = require "dca.lang.ports"
@@ -243,7 +243,7 @@ end
 function M.dot(tree, opts)
   opts = opts or {}
   local flow = opts.flow
-  local out = { "digraph dca {", flow and "  rankdir=LR;" or "  rankdir=TB;", "  compound=true;", "  ordering=out;",
+  local out = { "digraph dca {", "  rankdir=TB;", "  compound=true;", "  ordering=out;",
                 "  nodesep=0.5;", flow and "  ranksep=0.8;" or "  ranksep=0.5;",
                 '  node [fontname="Helvetica", fontsize=10, shape=plain];',
                 '  edge [fontname="Helvetica", fontsize=9];' }
