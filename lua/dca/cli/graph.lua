@@ -5,7 +5,7 @@ local load = require "dca.load"
 
 local M = {}
 
-M.summary = "draw a .dca system: the process tree and expressions as Graphviz DOT, or SVG"
+M.summary = "draw a .dca system as Graphviz DOT or SVG: the tree (--flow: the data flow), ports, hosts, the world"
 M.usage = [[usage: dca graph FILE.dca [--root NAME] [--svg] [-o OUT] [--flow] [--no-registry] [--sim WORLD]
 
 Writes the checked system's tree top-down (each group a cluster labelled with its host and expression, its leaves
