@@ -7,7 +7,9 @@
 --     topics = { { topic = "/world/x", fields = { "a", "b" } },            -- live plots from the world's status:
 --                { topic = "/world/y", fields = { "x", "y" }, array = "k" }, -- fields a, b; or status.k's items;
 --                { topic = "/world/z", array = "n" } }                       -- or all of status.n's items, as
---   }                                                                       -- value[0], value[1], ...
+--                                                                           -- value[0], value[1], ...
+--     plot = { "/world/x.*", ... },   -- the signals `dca plot` draws by default (patterns as its --signal's)
+--   }
 --
 -- Both parts are optional. A URDF world (ROBOT.urdf, mock:ROBOT.urdf) has the generic robot report and, when it
 -- has command inputs, the safety layer's counts per input (in input order, as its outputs safety.clamps and

@@ -10,8 +10,6 @@
 #include <map>
 #include <vector>
 
-#include <sys/wait.h>
-
 #include "host/codec/mcap.h"
 
 namespace dca::sim {
@@ -108,22 +106,12 @@ void DoorRecording::record(const Sensors& s, int phase) {
 
 namespace {
 
-std::string quote(const std::string& s) {
-  std::string out = "'";
-  for (char c : s) {
-    if (c == '\'') out += "''";
-    else out += c;
-  }
-  return out + "'";
-}
-
 bool fail(std::string* error, std::string why) {
   *error = std::move(why);
   return false;
 }
 
-// The recording has dca sim's header and at least one row.
-// The bound on what `dca plot` reads, as `dca monitor` has it (bindings/wrap_mcap.cpp): a larger file is refused
+// The bound on what mcap_to_csv reads, as `dca monitor` has it (bindings/wrap_mcap.cpp): a larger file is refused
 // by its size before a byte of it is read.
 constexpr std::uintmax_t kMaxRecording = std::uintmax_t{1} << 30;
 
@@ -132,65 +120,7 @@ bool within_bound(const std::string& path, std::string* error) {
   const auto size = std::filesystem::file_size(path, ec);
   if (ec) return fail(error, path + ": cannot open the recording");
   if (size > kMaxRecording)
-    return fail(error, path + ": " + std::to_string(size) + " bytes: dca plot reads recordings of at most 1 GiB");
-  return true;
-}
-
-bool check_recording(const std::string& csv, std::string* error) {
-  std::ifstream in(csv);
-  if (!in) return fail(error, csv + ": cannot open the recording");
-  std::string header;  // at most one byte past the header: a long first line is no header
-  const std::size_t want = std::strlen(csv_header());
-  for (char c = 0; header.size() <= want && in.get(c) && c != '\n';) header += c;
-  if (header != csv_header()) return fail(error, csv + ":1: not a dca sim recording (unexpected header)");
-  std::string row;
-  if (!std::getline(in, row)) return fail(error, csv + ":2: the recording has no data");
-  return true;
-}
-
-// The gnuplot script that draws `csv` (a recording of `title`) to `png`: four panels (angles, wrist force, base
-// position, base path).
-bool write_script(const std::string& csv, const std::string& title, const std::string& png, const std::string& path,
-                  std::string* error) {
-  std::ofstream g(path);
-  if (!g) return fail(error, path + ": cannot write the gnuplot script");
-  const std::string d = quote(csv);
-  g << "set terminal pngcairo size 1400,1000 font ',10' noenhanced\n"
-    << "set output " << quote(png) << "\n"
-    << "set datafile separator ','\n"
-    << "set key autotitle columnhead\n"
-    << "set grid\n"
-    << "set multiplot layout 2,2 title " << quote("dca sim: " + title) << "\n"
-    << "set title 'door and handle angles'\nset xlabel 'time (s)'\nset ylabel 'degrees'\n"
-    << "plot " << d << " using 1:($17*180/pi) with lines lw 2 title 'door', '' using 1:($18*180/pi) with lines"
-    << " lw 2 title 'handle'\n"
-    << "set title 'wrist force (sensor frame)'\nset ylabel 'N'\n"
-    << "plot " << d << " using 1:11 with lines title 'fx', '' using 1:12 with lines title 'fy', '' using 1:13"
-    << " with lines title 'fz', '' using 1:(sqrt($11**2+$12**2+$13**2)) with lines lw 2 title '|f|'\n"
-    << "set title 'base position'\nset ylabel 'm, rad'\n"
-    << "plot " << d << " using 1:8 with lines title 'x', '' using 1:9 with lines title 'y', '' using 1:10 with"
-    << " lines title 'yaw'\n"
-    << "set title 'base path (world)'\nset xlabel 'x (m)'\nset ylabel 'y (m)'\n"
-    << "plot " << d << " using 8:9 with lines lw 2 title 'base'\n"
-    << "unset multiplot\n";
-  return true;
-}
-
-// Runs gnuplot on `script` (then removes it); true when it made a non-empty `png`.
-bool run_gnuplot(const std::string& script, const std::string& png, std::string* error) {
-  const char* missing = "cannot run gnuplot (is it installed? scripts/setup installs gnuplot-nox)";
-  const std::string command = "gnuplot " + quote(script) + " 2>&1";
-  std::FILE* p = popen(command.c_str(), "r");
-  if (!p) return fail(error, missing);
-  std::string output;
-  char buf[256];
-  while (std::fgets(buf, sizeof buf, p)) output += buf;
-  const int status = pclose(p);
-  std::remove(script.c_str());
-  if (WIFEXITED(status) && WEXITSTATUS(status) == 127) return fail(error, missing);
-  std::ifstream made(png, std::ios::binary);
-  if (status != 0 || !made || made.peek() == std::ifstream::traits_type::eof())
-    return fail(error, png + ": gnuplot failed: " + output);
+    return fail(error, path + ": " + std::to_string(size) + " bytes: dca reads recordings of at most 1 GiB");
   return true;
 }
 
@@ -255,19 +185,6 @@ bool mcap_to_csv(const std::string& mcap, const std::string& csv, std::string* e
   }
   const bool ok = std::fclose(out) == 0;
   return ok || fail(error, csv + ": error writing");
-}
-
-bool plot_csv(const std::string& file, const std::string& png, std::string* error) {
-  if (!within_bound(file, error)) return false;
-  const std::string script = png + ".gnuplot";
-  if (is_mcap(file)) {
-    const std::string csv = png + ".csv";
-    const bool ok = mcap_to_csv(file, csv, error) && write_script(csv, file, png, script, error) &&
-                    run_gnuplot(script, png, error);
-    std::remove(csv.c_str());
-    return ok;
-  }
-  return check_recording(file, error) && write_script(file, file, png, script, error) && run_gnuplot(script, png, error);
 }
 
 }  // namespace dca::sim

@@ -1,6 +1,6 @@
 #pragma once
 // The door world's recording (sim/recorder.h): its signals in groups, as MCAP (one JSON channel per group) or as
-// CSV (any other name), and `dca plot`'s drawing of either with gnuplot. C++17-clean.
+// CSV (any other name); `dca plot` (lua/dca/cli/plot.lua) draws either with gnuplot. C++17-clean.
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -39,11 +39,6 @@ class DoorRecording {
   Recorder* r_;
   std::uint16_t first_ = 0;  // the first group's channel
 };
-
-/// Draws a recording (CSV, or MCAP when `file` ends in ".mcap"): door and handle angles, wrist force, base
-/// position against time, and the base's path, to a PNG (gnuplot's pngcairo terminal). False with *error
-/// (naming the file) when it cannot.
-bool plot_csv(const std::string& file, const std::string& png, std::string* error);
 
 /// Converts an MCAP recording of DoorRecording to its CSV (csv_header()'s columns, one row per log time). False
 /// with *error ("FILE: why") when it is not such a recording.

@@ -92,4 +92,6 @@ return {
     { topic = "/world/door", fields = { "door_angle", "handle_angle" } },
     { topic = "/world/base", fields = { "x", "y", "yaw" }, array = "base_pose" },
   },
+  -- what `dca plot` draws of a recording by default: the door's angles, the wrist force, the base's position
+  plot = { "/world/door.*", "/world/wrench.f*", "/world/base.x", "/world/base.y" },
 }

@@ -561,7 +561,9 @@ function Sup:abort(cb, reason)
   self.abort_ack = nil
   self.state = "aborted"
   self.outcome = { status = "aborted", path = self.path, reason = reason or "aborted by its parent" }
-  self:say("%s: aborted", self.path)
+  -- aborted by a person: "aborted"; stopped by its parent (disabled by `#`, a restart, the shutdown): "stopped",
+  -- as the parent says of a leaf it stops (the run's summary takes the first end word as the step's)
+  self:say(reason and "%s: aborted" or "%s: stopped", self.path)
   if reason then self:_report({ type = "aborted", path = self.path, reason = reason, now = now_ns(self.event_at) }) end
   ack.close()
 end

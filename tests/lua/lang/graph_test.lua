@@ -23,9 +23,9 @@ end)
 
 suite:case("config_parameters_print_as_written", function()
   local got = graph.dot(door_tree())
-  T.ok(got:find('config(\\"door.hit_force\\")', 1, true), "config(\"door.hit_force\") in the DOT")
+  T.ok(got:find('config(&quot;door.hit_force&quot;)', 1, true), "config(\"door.hit_force\") in the DOT")
   T.ok(not got:find("table: 0x", 1, true), "no table address in the DOT")
-  T.ok(got:find('(\\"open\\")', 1, true), "string parameters quoted")
+  T.ok(got:find('(&quot;open&quot;)', 1, true), "string parameters quoted")
 end)
 
 suite:case("one_cluster_per_group_hosts_shown", function()

@@ -75,42 +75,16 @@ TEST(RecorderTest, UnwritableFileIsNamed) {
   }
 }
 
-TEST(RecorderTest, PlotMakesAPng) {
-  const fs::path csv = record_run(), png = temp("run.png");
-  fs::remove(png);
-  std::string error;
-  EXPECT_TRUE(dca::sim::plot_csv(csv.string(), png.string(), &error)) << error;
-  EXPECT_EQ(error, "");
-  std::ifstream in(png, std::ios::binary);
-  char magic[8] = {};
-  in.read(magic, 8);
-  EXPECT_EQ(std::string(magic + 1, 3), "PNG");
-  EXPECT_GT(fs::file_size(png), 10000u);
-  EXPECT_FALSE(fs::exists(png.string() + ".gnuplot"));
-}
-
-TEST(RecorderTest, PlotRejectsWhatIsNotARecording) {
-  const fs::path bad = temp("bad.csv");
-  std::ofstream(bad) << "a,b\n1,2\n";
-  std::string error;
-  EXPECT_FALSE(dca::sim::plot_csv(bad.string(), temp("bad.png").string(), &error));
-  EXPECT_EQ(error, bad.string() + ":1: not a dca sim recording (unexpected header)");
-  EXPECT_FALSE(dca::sim::plot_csv("/nonexistent.csv", temp("x.png").string(), &error));
-  EXPECT_EQ(error, "/nonexistent.csv: cannot open the recording");
-}
-
 // A file over 1 GiB (sparse here: no disk) is refused by its size before a byte is read: a 3 GiB file took 14 s
 // and 4.1 GiB of memory, then a wrong error.
-TEST(RecorderTest, PlotRefusesAFileOverOneGiBByItsSize) {
-  for (const char* name : {"huge.mcap", "huge.csv"}) {
-    const fs::path huge = temp(name);
-    { std::ofstream(huge) << "x"; }
-    fs::resize_file(huge, (std::uintmax_t{3} << 30) + 1);
-    std::string error;
-    EXPECT_FALSE(dca::sim::plot_csv(huge.string(), temp("huge.png").string(), &error));
-    EXPECT_EQ(error, huge.string() + ": 3221225473 bytes: dca plot reads recordings of at most 1 GiB");
-    fs::remove(huge);
-  }
+TEST(RecorderTest, McapToCsvRefusesAFileOverOneGiBByItsSize) {
+  const fs::path huge = temp("huge.mcap");
+  { std::ofstream(huge) << "x"; }
+  fs::resize_file(huge, (std::uintmax_t{3} << 30) + 1);
+  std::string error;
+  EXPECT_FALSE(dca::sim::mcap_to_csv(huge.string(), temp("huge.csv").string(), &error));
+  EXPECT_EQ(error, huge.string() + ": 3221225473 bytes: dca reads recordings of at most 1 GiB");
+  fs::remove(huge);
 }
 
 TEST(RecorderTest, DcaSimRecordsAndDcaPlotDraws) {
