@@ -20,7 +20,8 @@
 //                    -- set_parameters({ {name =, value =}... }), each answering once, now or later, with
 //                    -- reply({ {name =, value =}... }) or reply(nil, error); time = true: simulated time (the
 //                    -- capability `time`), watch = fn() when a client subscribes to its first channel
-//                    --> fox: fox:time(t_seconds) (the run's time now), fox:graph(published, subscribed) (each
+//                    --> fox: fox:time(t_seconds) (the run's time now), fox:end_time(t_seconds) (the run's end:
+//                    --  no Time after it), fox:graph(published, subscribed) (each
 //                    --  { {topic, {id...}}... }: the capability connectionGraph), fox:clients() --> how many
 #include <lua.hpp>
 
@@ -294,6 +295,12 @@ int fox_time(lua_State* L) {
   return 0;
 }
 
+int fox_end_time(lua_State* L) {
+  const double t = luaL_checknumber(L, 2);
+  if (auto p = check_fox(L); p && t >= 0 && t < 9e9) p->end_time(static_cast<std::int64_t>(t * 1e9));
+  return 0;
+}
+
 // { {topic, {id, ...}}, ... } at `index`: entries that are not a string and a list of strings are left out.
 std::vector<std::pair<std::string, std::vector<std::string>>> graph_list(lua_State* L, int index) {
   std::vector<std::pair<std::string, std::vector<std::string>>> out;
@@ -381,7 +388,7 @@ void open_taps(lua_State* L) {
   lua::register_type(L, kMeta, methods, {tp_gc, tp_close, nullptr});
   static const luaL_Reg no_methods[] = {{nullptr, nullptr}};
   lua::register_type(L, kReplyMeta, no_methods, {reply_gc, nullptr, nullptr});
-  static const luaL_Reg fox_methods[] = {{"time", fox_time}, {"graph", fox_graph}, {"clients", fox_clients},
+  static const luaL_Reg fox_methods[] = {{"time", fox_time}, {"end_time", fox_end_time}, {"graph", fox_graph}, {"clients", fox_clients},
                                          {nullptr, nullptr}};
   lua::register_type(L, kFoxMeta, fox_methods, {fox_gc, nullptr, nullptr});
   static const luaL_Reg functions[] = {{"tap_point", core_tap_point}, {"foxglove", core_foxglove}, {nullptr, nullptr}};

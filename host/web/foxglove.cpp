@@ -320,7 +320,7 @@ void Protocol::send_time(Client& c, std::int64_t t_ns) {
 // The run's time reached t_ns: Time to every client once it advanced 10 ms past the last one sent (or `force`:
 // the world's own time), never backwards.
 void Protocol::advance(std::int64_t t_ns, bool force) {
-  if (!sim_time || t_ns <= time_ns_) return;
+  if (!sim_time || time_ended_ || t_ns <= time_ns_) return;
   time_ns_ = t_ns;
   constexpr std::int64_t kStep = 10'000'000;
   if (!force && time_sent_ns_ >= 0 && t_ns - time_sent_ns_ < kStep) return;
@@ -329,6 +329,11 @@ void Protocol::advance(std::int64_t t_ns, bool force) {
 }
 
 void Protocol::time(std::int64_t t_ns) { advance(t_ns, true); }
+
+void Protocol::end_time(std::int64_t t_ns) {
+  advance(t_ns, true);
+  time_ended_ = true;
+}
 
 namespace {
 Value graph_entries(const std::vector<std::pair<std::string, std::vector<std::string>>>& g, const char* ids_key) {

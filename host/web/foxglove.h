@@ -89,6 +89,9 @@ class Protocol final : public web::Protocol, public SampleHub::Observer {
   bool sim_time = false;
   /// The run's time now (simulated, ns): a Time message to every client when it advanced (see the header).
   void time(std::int64_t t_ns);
+  /// The run ended at t_ns: a last Time of t_ns; what comes after (the shutdown, a world that steps on) moves the
+  /// clock no further.
+  void end_time(std::int64_t t_ns);
   /// The connection graph: {published = {{name, ids}...}, subscribed = {{name, ids}...}} as wire values
   /// [[topic, [id...]]...]; set before clients connect for serverInfo to say `connectionGraph`, again at any time.
   void set_graph(std::vector<std::pair<std::string, std::vector<std::string>>> published,
@@ -139,7 +142,8 @@ class Protocol final : public web::Protocol, public SampleHub::Observer {
   };
   std::map<std::uint32_t, Subscribed> subscribers_;  // by channel
   std::uint64_t sent_ = 0, dropped_ = 0;
-  std::int64_t time_ns_ = -1, time_sent_ns_ = -1;  // the run's latest time; the last one sent
+  std::int64_t time_ns_ = -1, time_sent_ns_ = -1;
+  bool time_ended_ = false;  // the run's latest time; the last one sent
   bool has_graph_ = false;
   Graph published_, subscribed_;
 };

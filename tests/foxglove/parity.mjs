@@ -52,6 +52,7 @@ try {
   // no page: the Foxglove client alone started time, and the run ends
   const code = await Promise.race([run.ended, deadline(120000, "the end of the run")]);
   check(code === 0, `dca run ended with ${code}`);
+  check(!/no port has the topic/.test(run.out()), "a subscription to the run's lines is no tap: nothing said");
   check(/time starts when a page is connected \(or a Foxglove client subscribes\)/.test(run.out()), "the run said it waits");
 
   // 3. simulated time, never backwards, up to the end (1 s)

@@ -155,6 +155,40 @@ TEST_F(FoxgloveServer, ARemovedTopicEndsItsSubscriptionsAndTellsTheLastOnce) {
   server->close();
 }
 
+// Time (opcode 2) in simulated time: sent at a client's open, on the run's time (forced) and on a sample 10 ms or
+// more past the last Time; never backwards; after the run's end (end_time) neither a sample of the shutdown nor
+// the world stepping on moves it (a CI run's Foxglove clock showed 38.9 s for a run of 1 s).
+TEST_F(FoxgloveServer, TimeFollowsTheRunAndStopsAtItsEnd) {
+  const auto topic = hub().add_topic("/main/a/Out", {"value"});
+  dca::foxglove::Protocol p(server, "dca main");
+  p.sim_time = true;
+  auto a = std::make_shared<FakeConnection>();
+  p.on_open(a);
+  EXPECT_NE(a->texts.at(0).find("\"time\""), std::string::npos) << a->texts.at(0);
+  const auto times = [&] {
+    std::vector<std::int64_t> out;
+    for (const auto& f : a->frames) {
+      if (f.size() != 9 || f[0] != 2) continue;
+      std::uint64_t t = 0;
+      for (int i = 0; i < 8; ++i) t |= static_cast<std::uint64_t>(static_cast<unsigned char>(f[1 + i])) << (8 * i);
+      out.push_back(static_cast<std::int64_t>(t));
+    }
+    return out;
+  };
+  const double x = 1;
+  p.time(100'000'000);
+  hub().publish(topic, 105'000'000, {&x, 1});  // under 10 ms past: no Time
+  hub().publish(topic, 120'000'000, {&x, 1});
+  p.time(50'000'000);                           // backwards: nothing
+  EXPECT_EQ(times(), (std::vector<std::int64_t>{100'000'000, 120'000'000}));
+  p.end_time(1'000'000'000);
+  p.time(38'899'000'000);
+  hub().publish(topic, 2'000'000'000, {&x, 1});
+  EXPECT_EQ(times(), (std::vector<std::int64_t>{100'000'000, 120'000'000, 1'000'000'000}));
+  p.on_close(a, "bye");
+  server->close();
+}
+
 // One request of 2,000 subscriptions to one channel (59 KB) made the server send every sample 2,000 times and
 // answer nothing: a client now holds one subscription per channel, and the refused rest gets one status.
 TEST_F(FoxgloveServer, OneChannelIsSubscribedOncePerClientAndRefusalsGetOneStatus) {

@@ -23,6 +23,7 @@
 --                                 --monitor-wait)
 --   live:stats()               -- { [path] = { taken, dropped, unpublished } }
 --   live.robot                 -- a URDF world's { urdf, frames = { {parent, child}, ... }, topic, id } (else nil)
+--   live:ended(t)              -- the run's outcome at t (simulated s): Foxglove's Time stops there
 --   live:close()
 local core = require "dca.core"
 local async = require "dca.async"
@@ -122,6 +123,13 @@ function Live:line(line, t, output)
   local topic, _, _, text = require("dca.launch.wall_record").line_message(line, output)
   self.srv:publish_message(self.streams[topic], t or -1, text)
   if t and self.fox then self.fox:time(t) end
+end
+
+-- The run ended at t (simulated s, the root's outcome): Foxglove's clock stops there; the shutdown after it (a
+-- world that steps on while the tree stops) is no part of the run.
+function Live:ended(t)
+  if self.time_timer then self.time_timer:cancel() self.time_timer = nil end
+  if self.fox and t then self.fox:end_time(t) end
 end
 
 -- A Foxglove client subscribed to its first channel: who waited for a viewer (--monitor-wait) goes on.
@@ -276,6 +284,7 @@ end
 
 function Live:tap_topic(topic, cb)
   cb = cb or function(ok, err) if not ok then io.stderr:write("dca run: live tap ", tostring(topic), ": ", tostring(err), "\n") end end
+  if self.streams and self.streams[topic] then cb(true) return end  -- the run's lines: published, never tapped
   local p = self.by_topic[topic]
   if not p then cb(nil, "no port has the topic " .. tostring(topic)) return end
   local state = self.tapped[topic]

@@ -83,7 +83,10 @@ end
 -- What the root reports: its lines and its outcome (which ends the run unless a console holds it).
 function Run:report(msg)
   -- the trace ends at the root's outcome: what follows (the shutdown) is no part of the run
-  if (msg.type == "done" or msg.type == "aborted") and tonumber(msg.now) then self.trace_end = tonumber(msg.now) end
+  if (msg.type == "done" or msg.type == "aborted") and tonumber(msg.now) then
+    self.trace_end = tonumber(msg.now)
+    if self.live and self.ctx.sim then self.live:ended(self.trace_end / 1e9) end
+  end
   if msg.type == "restarted" then self:retap(msg.path) return end
   if msg.type == "log" then self:say(msg.line, msg.at, msg.output)
   elseif msg.type == "done" then
