@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <sys/stat.h>
 
 #include "host/net/auth.h"  // the replica id's random part
@@ -13,6 +14,9 @@ namespace dca::config {
 namespace {
 
 constexpr const char* kFormat = "dca-config 1";
+// The key table is written every kFlushEvery transactions (the header's "Durability"): a crash leaves at most this
+// many for the next open to replay from the log.
+constexpr std::size_t kFlushEvery = 256;
 constexpr std::size_t kMaxValueBytes = 1u << 20;   // one value, encoded
 constexpr std::size_t kMaxKeyBytes = 256;
 
@@ -272,11 +276,20 @@ std::vector<std::string> suggest(std::string_view key, const std::vector<std::st
 struct ConfigStore::Stmts {
   Stmt begin, commit, rollback;
   Stmt get_kv, put_kv, put_txn, put_conflict, list_all, list_prefix, keys, missing_of, recent, conflicts, count;
+  Stmt put_mark, log_after;
 };
 
 ConfigStore::ConfigStore(StoreOptions options) : options_(std::move(options)) {}
 
 ConfigStore::~ConfigStore() {
+  // the key table brought up to the log at a clean close (a crash leaves it to the next open's replay)
+  if (st_ && !pending_.empty()) {
+    Use b(st_->begin);
+    if (b.step() == SQLITE_DONE) {
+      std::string why;
+      commit(0, true, &why);
+    }
+  }
   st_.reset();
   if (db_ != nullptr) sqlite3_close_v2(db_);
 }
@@ -374,7 +387,8 @@ bool ConfigStore::create_schema(std::string* error) {
       "  l_origin TEXT, at_ms INTEGER, UNIQUE(key, l_ms, l_n, l_origin));";
   if (!exec(schema, error)) return false;
   const std::string meta = "INSERT OR IGNORE INTO meta VALUES('format', '" + std::string(kFormat) +
-                           "'), ('replica', '" + options_.host + "/" + auth::random_token(4) + "'); COMMIT;";
+                           "'), ('replica', '" + options_.host + "/" + auth::random_token(4) +
+                           "'), ('kv_arrival', '0'); COMMIT;";
   if (!exec(meta.c_str(), error)) {
     exec("ROLLBACK", nullptr);
     return false;
@@ -404,7 +418,9 @@ bool ConfigStore::prepare_statements(std::string* error) {
       !prep(s.conflicts,
             "SELECT key, winner, w_ms, w_n, w_origin, loser, l_ms, l_n, l_origin, at_ms FROM conflicts"
             " ORDER BY id DESC LIMIT ?1") ||
-      !prep(s.count, "SELECT count(*) FROM txns")) {
+      !prep(s.count, "SELECT count(*) FROM txns") ||
+      !prep(s.put_mark, "INSERT OR REPLACE INTO meta VALUES('kv_arrival', ?1)") ||
+      !prep(s.log_after, "SELECT arrival, origin, seq, ms, n, writes FROM txns WHERE arrival > ?1 ORDER BY arrival")) {
     *error = sqlite3_errmsg(db_);
     return false;
   }
@@ -432,10 +448,59 @@ bool ConfigStore::load_state(std::string* error) {
     Use u(q);
     if (u.step() == SQLITE_ROW) hlc_.observe(u.col_stamp(0));
   }
+  {
+    Stmt q(db_, "SELECT max(arrival) FROM txns");
+    Use u(q);
+    if (u.step() == SQLITE_ROW) last_arrival_ = u.col_i64(0);
+  }
+  // the key table's mark; none: a file written before the mark, whose key table holds the whole log
+  Stmt q(db_, "SELECT v FROM meta WHERE k = 'kv_arrival'");
+  Use u(q);
+  kv_arrival_ = last_arrival_;
+  if (q && u.step() == SQLITE_ROW) {
+    const auto text = u.col_text(0);
+    char* end = nullptr;
+    const long long mark = std::strtoll(text.c_str(), &end, 10);
+    if (text.empty() || end == nullptr || *end != '\0' || mark < 0 || mark > last_arrival_) {
+      *error = "its key table's mark '" + text + "' is not an arrival of its log";
+      return false;
+    }
+    kv_arrival_ = mark;
+  }
+  return replay_log(error);
+}
+
+// The transactions the key table does not hold yet (a crash after them), applied to the pending keys in their
+// order of arrival, as they were when they came (their conflicts are in the file already).
+bool ConfigStore::replay_log(std::string* error) {
+  Use u(st_->log_after);
+  u.i64(1, kv_arrival_);
+  int rc = SQLITE_ROW;
+  while ((rc = u.step()) == SQLITE_ROW) {
+    Txn t;
+    t.origin = u.col_text(1);
+    t.seq = static_cast<std::uint64_t>(u.col_i64(2));
+    t.stamp = Stamp{u.col_i64(3), static_cast<std::uint32_t>(u.col_i64(4)), t.origin};
+    std::string why;
+    if (!writes_from_value(u.col_value(5), &t.writes, &why)) {
+      *error = "transaction " + std::to_string(u.col_i64(0)) + " of its log: " + why;
+      return false;
+    }
+    for (const auto& w : t.writes) stage(t, w, current(w.key));
+    ++unflushed_;
+  }
+  if (rc != SQLITE_DONE) {
+    *error = std::string("reading its log: ") + sqlite3_errmsg(db_);
+    return false;
+  }
+  for (auto& [k, e] : staged_) pending_[k] = std::move(e);
+  staged_.clear();
   return true;
 }
 
 std::optional<Entry> ConfigStore::current(const std::string& key) const {
+  if (auto it = staged_.find(key); it != staged_.end()) return it->second;
+  if (auto it = pending_.find(key); it != pending_.end()) return it->second;
   Use u(st_->get_kv);
   u.text(1, key);
   if (u.step() != SQLITE_ROW) return std::nullopt;
@@ -452,6 +517,7 @@ bool ConfigStore::apply_one(const Txn& t, bool local, std::vector<Entry>* change
     u.text(1, t.origin).i64(2, static_cast<std::int64_t>(t.seq)).i64(3, t.stamp.ms).i64(4, t.stamp.n);
     u.blob(5, encode(writes_value(t.writes)));
     if (u.step() != SQLITE_DONE) return fail("storing a transaction");
+    staged_arrival_ = sqlite3_last_insert_rowid(db_);
   }
   for (const auto& w : t.writes) {
     const auto cur = current(w.key);
@@ -471,12 +537,65 @@ bool ConfigStore::apply_one(const Txn& t, bool local, std::vector<Entry>* change
       }
     }
     if (!wins) continue;
-    Use u(st_->put_kv);
-    u.text(1, w.key).blob(2, encode(w.value)).i64(3, t.stamp.ms).i64(4, t.stamp.n).text(5, t.stamp.origin);
-    if (u.step() != SQLITE_DONE) return fail("storing a value");
+    stage(t, w, cur);
     if (changes != nullptr) changes->push_back(Entry{w.key, w.value, t.stamp});
   }
   return true;
+}
+
+bool ConfigStore::stage(const Txn& t, const Write& w, const std::optional<Entry>& cur) {
+  if (cur && !(t.stamp > cur->stamp)) return false;
+  staged_[w.key] = Entry{w.key, w.value, t.stamp};
+  return true;
+}
+
+bool ConfigStore::commit(std::size_t txns, bool force, std::string* error) {
+  const bool flush = force || unflushed_ + txns >= kFlushEvery;
+  const std::int64_t arrival = std::max(last_arrival_, staged_arrival_);
+  if (flush) {
+    for (const auto* m : {&pending_, &staged_})
+      for (const auto& [k, e] : *m) {
+        if (m == &pending_ && staged_.count(k)) continue;
+        Use u(st_->put_kv);
+        u.text(1, k).blob(2, encode(e.value)).i64(3, e.stamp.ms).i64(4, e.stamp.n).text(5, e.stamp.origin);
+        if (u.step() != SQLITE_DONE) {
+          *error = std::string("storing a value: ") + sqlite3_errmsg(db_);
+          rollback();
+          return false;
+        }
+      }
+    Use u(st_->put_mark);
+    u.text(1, std::to_string(arrival));
+    if (u.step() != SQLITE_DONE) {
+      *error = std::string("storing the key table's mark: ") + sqlite3_errmsg(db_);
+      rollback();
+      return false;
+    }
+  }
+  Use c(st_->commit);
+  if (c.step() != SQLITE_DONE) {
+    *error = std::string("commit failed: ") + sqlite3_errmsg(db_);
+    rollback();
+    return false;
+  }
+  last_arrival_ = arrival;
+  if (flush) {
+    pending_.clear();
+    kv_arrival_ = arrival;
+    unflushed_ = 0;
+  } else {
+    for (auto& [k, e] : staged_) pending_[k] = std::move(e);
+    unflushed_ += txns;
+  }
+  staged_.clear();
+  return true;
+}
+
+void ConfigStore::rollback() {
+  Use r(st_->rollback);
+  r.step();
+  staged_.clear();
+  staged_arrival_ = last_arrival_;
 }
 
 std::optional<Txn> ConfigStore::set(const std::vector<std::pair<std::string, wire::Value>>& values,
@@ -509,17 +628,10 @@ std::optional<Txn> ConfigStore::set(const std::vector<std::pair<std::string, wir
   }
   std::vector<Entry> local;
   if (!apply_one(t, true, &local, &why)) {
-    Use r(st_->rollback);
-    r.step();
+    rollback();
     return failed(why);
   }
-  Use c(st_->commit);
-  if (c.step() != SQLITE_DONE) {
-    why = std::string("commit failed: ") + sqlite3_errmsg(db_);
-    Use r(st_->rollback);
-    r.step();
-    return failed(why);
-  }
+  if (!commit(1, false, &why)) return failed(why);
   vv_[origin()] = t.seq;
   if (changes != nullptr) changes->insert(changes->end(), local.begin(), local.end());
   return t;
@@ -552,16 +664,33 @@ std::vector<Entry> ConfigStore::list(std::string_view prefix) const {
   while (!p.empty() && p.back() == '.') p.pop_back();
   std::vector<Entry> out;
   const Stmt& st = p.empty() ? st_->list_all : st_->list_prefix;
-  Use u(st);
-  if (!p.empty()) u.text(1, p);
-  while (u.step() == SQLITE_ROW) out.push_back(Entry{u.col_text(0), u.col_value(1), u.col_stamp(2)});
+  std::map<std::string, Entry> merged;
+  {
+    Use u(st);
+    if (!p.empty()) u.text(1, p);
+    while (u.step() == SQLITE_ROW) {
+      auto key = u.col_text(0);
+      merged[key] = Entry{key, u.col_value(1), u.col_stamp(2)};
+    }
+  }
+  // with the writes the key table does not hold yet
+  for (const auto* m : {&pending_, &staged_})
+    for (const auto& [k, e] : *m)
+      if (p.empty() || k == p || (k.size() > p.size() && k.compare(0, p.size(), p) == 0 && k[p.size()] == '.'))
+        merged[k] = e;
+  for (auto& [k, e] : merged) out.push_back(std::move(e));
   return out;
 }
 
 std::vector<std::string> ConfigStore::keys() const {
   std::vector<std::string> out;
-  Use u(st_->keys);
-  while (u.step() == SQLITE_ROW) out.push_back(u.col_text(0));
+  {
+    Use u(st_->keys);
+    while (u.step() == SQLITE_ROW) out.push_back(u.col_text(0));
+  }
+  for (const auto* m : {&pending_, &staged_})
+    for (const auto& [k, e] : *m)
+      if (!std::binary_search(out.begin(), out.end(), k)) out.insert(std::upper_bound(out.begin(), out.end(), k), k);
   return out;
 }
 
@@ -630,17 +759,13 @@ std::size_t ConfigStore::apply(const std::vector<Txn>& txns, std::vector<Entry>*
   std::vector<Entry> local;
   for (const Txn* t : todo) {
     if (!apply_one(*t, false, &local, &why)) {
-      Use r(st_->rollback);
-      r.step();
+      rollback();
       if (error != nullptr) *error = why;
       return 0;
     }
   }
-  Use c(st_->commit);
-  if (c.step() != SQLITE_DONE) {
-    if (error != nullptr) *error = std::string("commit failed: ") + sqlite3_errmsg(db_);
-    Use r(st_->rollback);
-    r.step();
+  if (!commit(todo.size(), false, &why)) {
+    if (error != nullptr) *error = why;
     return 0;
   }
   for (const Txn* t : todo) hlc_.observe(t->stamp);

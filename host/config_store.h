@@ -14,7 +14,10 @@
 // writes) is a conflict, and the losing write is kept in the conflict log (the same on every replica).
 //
 // Durability: WAL mode with synchronous=FULL: a write is acknowledged after its commit reached the disk, so it
-// survives kill -9 (and power loss). A file that is not a usable dca configuration database (not SQLite,
+// survives kill -9 (and power loss). A `set` commits one row, the transaction's in the log (txns); the key table
+// (kv) catches up in memory and is written every kFlushEvery transactions, in the commit of the one that reaches
+// it, and at close. After a crash, the open replays the log past the key table's mark (meta 'kv_arrival'): the
+// keys are what every acknowledged transaction made them, nothing is lost. A file that is not a usable dca configuration database (not SQLite,
 // corrupt pages, another program's database) is refused at open with a message naming the file: never
 // silently replaced by an empty replica.
 //
@@ -176,6 +179,13 @@ class ConfigStore {
   bool exec(const char* sql, std::string* error) const;
   std::optional<Entry> current(const std::string& key) const;
   bool apply_one(const Txn& t, bool local, std::vector<Entry>* changes, std::string* error);
+  /// A write `w` of `t` over the current value: whether it wins (the higher stamp), staged if so.
+  bool stage(const Txn& t, const Write& w, const std::optional<Entry>& cur);
+  /// The end of one SQLite transaction: the key table written (and its mark) when due or `force`, committed;
+  /// the staged writes become the pending ones. False, rolled back, with *error.
+  bool commit(std::size_t txns, bool force, std::string* error);
+  void rollback();
+  bool replay_log(std::string* error);
   std::int64_t now_ms() const;
 
   StoreOptions options_;
@@ -183,6 +193,11 @@ class ConfigStore {
   std::unique_ptr<Stmts> st_;
   Hlc hlc_{""};
   VersionVector vv_;
+  // The key table's writes not in kv yet: those committed (pending_) and those of the open SQLite transaction
+  // (staged_); the arrival of the last transaction the kv table holds, and of the last one in the log.
+  std::map<std::string, Entry> pending_, staged_;
+  std::int64_t kv_arrival_ = 0, last_arrival_ = 0, staged_arrival_ = 0;
+  std::size_t unflushed_ = 0;  // transactions committed since kv was last written
 };
 
 }  // namespace dca::config

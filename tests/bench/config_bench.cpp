@@ -3,7 +3,8 @@
 // alternating. Prints RESULT lines (BENCHMARKS.md); progress on stderr.
 //   bench_config [writes_per_block] [blocks] [catchup_writes] [dir]
 //
-//   config_write/store_<sync>    ConfigStore::set of one key: one transaction (stamp, txn log, kv), committed
+//   config_write/store_<sync>    ConfigStore::set of one key: one transaction (its row in the log; the key
+//                                table every 256th), committed
 //   config_write/daemon_full     config_set over an authenticated channel to an in-process daemon, acked after
 //                                commit, one request in flight (a daemon's replica is always synchronous=FULL)
 //   raw_sqlite_insert/<sync>     INSERT OR REPLACE of one (key, blob) row in its own transaction
