@@ -1002,7 +1002,8 @@ void Node::Impl::advance(const Channel::Ptr& ch, const Message& m) {
   if (done) return;
   timers->advance_to(at);
   // what the timers wrote is on its way before the answer (the master moves on at once): socket writes go
-  // straight to the kernel unless a queue is backed up, then the loop flushes it
+  // to the kernel at once for a socket's first frame of this turn; the later ones, and a backed-up socket's,
+  // are queued, and the loop flushes them
   if (endpoint->sending()) loop.settle();
   if (done) return;
   ch->reply(m, advance_reply(p["trace"].as_bool()));

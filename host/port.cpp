@@ -349,7 +349,15 @@ bool Output::write(const Eigen::Ref<const Eigen::VectorXd>& v) {
 bool Output::write_bytes(Bytes b) {
   if (!accepts(b)) return false;
   ++stats_.samples;
-  for (const std::byte c : b) digest_ = (digest_ ^ static_cast<std::uint64_t>(c)) * 1099511628211ull;
+  // FNV-1a over 64-bit words (the tail by bytes): an eighth of the multiplies of a byte-wise FNV
+  constexpr std::uint64_t kPrime = 1099511628211ull;
+  std::size_t at = 0;
+  for (; at + 8 <= b.size(); at += 8) {
+    std::uint64_t w;
+    std::memcpy(&w, b.data() + at, 8);
+    digest_ = (digest_ ^ w) * kPrime;
+  }
+  for (; at < b.size(); ++at) digest_ = (digest_ ^ static_cast<std::uint64_t>(b[at])) * kPrime;
   set_latest(b);
   for (std::size_t i = 0; i < links_.size(); ++i) links_[i]->on_write(b);
   return true;

@@ -272,7 +272,7 @@ class Output final : public Port {
   void detach(Link* l);
   /// Number of connections from this output.
   std::size_t links() const { return links_.size(); }
-  /// A digest of every sample written (FNV-1a over their bytes, chained): what a trace compares.
+  /// A digest of every sample written (FNV-1a over their 64-bit words, chained): what a trace compares.
   std::uint64_t digest() const { return digest_; }
 
  private:

@@ -9,6 +9,7 @@
 
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/asio/local/stream_protocol.hpp>
+#include <boost/asio/post.hpp>
 #include <boost/asio/write.hpp>
 #include <algorithm>
 #include <array>
@@ -230,17 +231,27 @@ void FramedSocket::flush(std::shared_ptr<void> keep) {
                     });
 }
 
+// The first frame of a turn of the loop goes to the kernel at once (a lone sample waits for nothing); the ones
+// after it in the same turn are queued and written together when the turn ends, one write for the burst (a
+// controller's outputs to one peer, a backlog of samples) instead of one each.
 bool FramedSocket::write_now(std::span<const std::string_view> parts, std::shared_ptr<void> keep, error_code& ec) {
   std::size_t total = 0, written = 0;
   for (const auto& p : parts) total += p.size();
-  if (idle()) {
+  if (idle() && !burst_) {
     std::array<asio::const_buffer, 4> bufs;
     std::size_t k = 0;
     for (const auto& p : parts)
       if (k < bufs.size()) bufs[k++] = asio::buffer(p.data(), p.size());
     written = socket_.write_some(std::span(bufs.data(), k), ec);
     bytes_out_ += written;
-    if (!ec && written == total) return true;
+    if (!ec && written == total) {
+      burst_ = true;
+      asio::post(socket_.get_executor(), [this, keep = std::move(keep)]() mutable {
+        burst_ = false;
+        flush(std::move(keep));
+      });
+      return true;
+    }
     if (ec && ec != asio::error::would_block && ec != asio::error::try_again) return false;
     ec.clear();
   }
@@ -249,7 +260,7 @@ bool FramedSocket::write_now(std::span<const std::string_view> parts, std::share
     queue_.append(p.data() + skip, p.size() - skip);
     written -= skip;
   }
-  flush(std::move(keep));
+  if (!burst_) flush(std::move(keep));  // (in a burst: when its turn ends)
   return true;
 }
 

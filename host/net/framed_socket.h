@@ -134,8 +134,10 @@ class FramedSocket {
   bool idle() const { return !writing_ && queue_.empty(); }
   /// Starts writing the queue unless a write is in flight, the queue is empty or the socket is closed.
   void flush(std::shared_ptr<void> keep);
-  /// When idle(): writes `parts` at once, as far as the socket takes them without blocking, and queues the
-  /// rest (flushed). Else queues them. False with `ec` on a socket error (nothing queued).
+  /// When idle() and the first write of this turn of the loop: writes `parts` at once, as far as the socket
+  /// takes them without blocking, and queues the rest (flushed). Else queues them: the frames written after the
+  /// first in one turn go in one write when the turn ends (a posted flush). False with `ec` on a socket error
+  /// (nothing queued).
   bool write_now(std::span<const std::string_view> parts, std::shared_ptr<void> keep, error_code& ec);
   /// Bytes handed to the socket so far.
   std::uint64_t bytes_out() const { return bytes_out_; }
@@ -152,6 +154,7 @@ class FramedSocket {
   std::size_t begin_ = 0, end_ = 0;
   std::string queue_, writing_buf_;
   bool writing_ = false;
+  bool burst_ = false;  // a frame went out at once in this turn: the next ones wait for its end
   std::uint64_t bytes_out_ = 0;
 };
 
