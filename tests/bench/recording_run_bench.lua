@@ -1,10 +1,11 @@
 -- The cost of recording the supervised door run (BENCHMARKS.md format): `dca run door_open.dca --sim
 -- door` without recording (the baseline), recording the world's signals to MCAP (`--record FILE.mcap`), and
 -- recording every port of the tree too (`--record-ports all`: 22 taps into the world, ARCHITECTURE.md "Taps"),
--- alternated A B C A B C, twice per seed. tests/bench/recording_bench.cpp measures the recorder alone (the
+-- that with its chunks in lz4 and uncompressed instead of zstd (`--record-compression`), alternated, twice per
+-- seed. tests/bench/recording_bench.cpp measures the recorder alone (the
 -- scripted door in one process).
 --
---   RESULT bench=door_recording variant=seedN_<none|world_signals|all_ports> n=<lock-step rounds>
+--   RESULT bench=door_recording variant=seedN_<none|world_signals|all_ports[_lz4|_uncompressed]> n=<rounds>
 --          p50_us=.. p99_us=.. p999_us=.. max_us=.. (wall time per lock-step round, one 10 ms control period)
 --          rtf=.. wall_s=.. sim_s=.. vs_none=<rtf over the baseline's just before> mb=<file size>
 --          mb_per_sim_min=.. messages=.. channels=.. msgs_per_sim_s=..
@@ -27,7 +28,9 @@ end
 local VARIANTS = {
   { name = "none", args = "" },
   { name = "world_signals", args = " --record %s" },
-  { name = "all_ports", args = " --record %s --record-ports all" },
+  { name = "all_ports", args = " --record %s --record-ports all" },  -- zstd chunks, the default
+  { name = "all_ports_lz4", args = " --record %s --record-ports all --record-compression lz4" },
+  { name = "all_ports_uncompressed", args = " --record %s --record-ports all --record-compression none" },
 }
 
 -- One run of `v`; prints its RESULT line. `base`: the baseline's rtf in this round. --> its rtf
@@ -59,7 +62,8 @@ for _, a in ipairs(arg or {}) do seeds[#seeds + 1] = math.tointeger(tonumber(a))
 if #seeds == 0 then seeds = { 3 } end
 for round = 1, 2 do
   for _, seed in ipairs(seeds) do
-    io.stderr:write(sformat("recording_run_bench: round %d, seed %d: none, world signals, all ports\n", round, seed))
+    io.stderr:write(sformat("recording_run_bench: round %d, seed %d: none, world signals, all ports (zstd, lz4, none)\n",
+      round, seed))
     local base
     for _, v in ipairs(VARIANTS) do
       local rtf = one(seed, v, base)

@@ -86,6 +86,7 @@ function Run:report(msg)
   if (msg.type == "done" or msg.type == "aborted") and tonumber(msg.now) then
     self.trace_end = tonumber(msg.now)
     if self.live and self.ctx.sim then self.live:ended(self.trace_end / 1e9) end
+    self:hold_at_the_end()
   end
   if msg.type == "restarted" then self:retap(msg.path) return end
   if msg.type == "log" then self:say(msg.line, msg.at, msg.output)
@@ -96,6 +97,41 @@ function Run:report(msg)
     self:say_aborted(msg)
     if not self.o.repl then self.code = self.code or 1 self:wind_up() end
   end
+end
+
+-- In simulated time the run ends at the root's outcome: time holds there while the tree stops (a console that
+-- holds the run on, --repl, keeps it flowing). The root's supervisor is on the world's clock, so the world waits
+-- for its answer of this tick while this hold, sent first, comes in: the recording ends at the outcome's tick,
+-- the same in every run, instead of with however many ticks the shutdown took in wall time.
+function Run:hold_at_the_end()
+  local s = self.ctx.sim
+  if self.o.repl or not (s and s.world:connected()) then return end
+  s.world:request({ type = "hold" }, 10, function() end)
+end
+
+-- With --blackbox: once the tree is down, the world alone (its writers gone: its safe values) runs on for the
+-- black box's AFTER seconds past the end, then holds, so a fault at the end gets its whole window, the same in
+-- every run. k() after (or at once).
+function Run:after_the_end(k)
+  local s, after = self.ctx.sim, tonumber(tostring(self.o.blackbox or ""):match("^[^,]+,([^,]+)"))
+  if not (after and after > 0 and self.trace_end and s and s.world:connected()) or self.o.repl then k() return end
+  local at = self.trace_end + math.floor(after * 1e9 + 0.5)
+  local deadline, done = core.now() + 60, false
+  local function finish()
+    if done then return end
+    done = true
+    k()
+  end
+  local function poll()
+    s.world:request({ type = "status" }, 10, function(r)
+      if not r or (not r.running and r.settled) or core.now() > deadline then finish() return end
+      core.after(0.02, poll)
+    end)
+  end
+  s.world:request({ type = "hold", at = at }, 10, function(r)
+    if not r then finish() return end
+    s.world:request({ type = "go" }, 10, function(g) if g then poll() else finish() end end)
+  end)
 end
 
 -- The tree, then the recording closed and the world stopped, then the loop. On the wall clock with --record:
@@ -109,7 +145,9 @@ function Run:down()
         return
       end
       self:live_summary()
-      self:end_recording(function() s.world:stop(function() self:write_trace() self.loop:stop() end) end)
+      self:after_the_end(function()
+        self:end_recording(function() s.world:stop(function() self:write_trace() self.loop:stop() end) end)
+      end)
     end)
   end
   local rec = self.wall_rec
