@@ -427,6 +427,10 @@ std::string link_key(const ConnectRequest& r) {
 }
 
 void LinkGate::deliver(Input& in, Bytes b, InputFeeder* from) {
+  if (owner_ != nullptr && from != nullptr && from != owner_) {
+    ++stale_;  // the replaced connection's: it goes with its process (docs/time.md, "A restart" 11)
+    return;
+  }
   ++received_;
   from_ = from;
   if (!gated || (held_head_ == held_.size() && delivered_ < allowed_)) {

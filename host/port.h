@@ -228,10 +228,16 @@ class LinkGate {
   std::uint64_t allowed() const { return allowed_; }
   /// Held samples and counts forgotten (a new connection under the same name).
   void reset();
+  /// The connection this gate now belongs to: a sample of any other (the one it replaced, whose last samples
+  /// may still arrive after the new one's hello) is dropped, never counted or delivered as the new one's.
+  void adopt(InputFeeder* feeder) { owner_ = feeder; }
+  /// Samples dropped as a replaced connection's.
+  std::uint64_t stale() const { return stale_; }
   bool gated = false;
 
  private:
-  std::uint64_t received_ = 0, delivered_ = 0, allowed_ = 0;
+  std::uint64_t received_ = 0, delivered_ = 0, allowed_ = 0, stale_ = 0;
+  InputFeeder* owner_ = nullptr;  // adopt() (an identity, compared only: it may be gone)
   InputFeeder* from_ = nullptr;  // the connection whose samples these are (an identity: it may be gone)
   std::vector<std::vector<std::byte>> held_;
   std::size_t held_head_ = 0;

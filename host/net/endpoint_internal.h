@@ -287,6 +287,7 @@ class LocalLink final : public Connection, public PullSource, public InputFeeder
  public:
   LocalLink(ConnectRequest r, Output* out, Input* in, std::shared_ptr<bool> active, LinkGate& gate)
       : Connection(std::move(r), Transport::InProcess, out, std::move(active)), in_(in), gate_(&gate) {
+    gate_->adopt(this);
     in_->add_feeder(this);
     if (info_.request.mode == Mode::Pull) in_->add_pull_source(this);
     else in_->reserve_queue(info_.request.queue);
@@ -376,6 +377,7 @@ class InLink final : public PullSource, public InputFeeder {
  public:
   InLink(Trunk& trunk, std::uint32_t id, ConnectRequest r, Input* in, LinkGate& gate)
       : trunk_(&trunk), id_(id), r_(std::move(r)), in_(in), gate_(&gate) {
+    gate_->adopt(this);
     in_->add_feeder(this);
     if (r_.mode == Mode::Pull) in_->add_pull_source(this);
     else in_->reserve_queue(r_.queue);
