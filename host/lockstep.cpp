@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <limits>
 #include <utility>
 
 #include <boost/asio/post.hpp>
@@ -112,7 +113,9 @@ bool LockstepCore::go() {
 
 // Simulated time `t` as wall time at the current speed (from wall0_).
 Nanos LockstepCore::paced(Nanos t) const {
-  return speed_ > 0 ? static_cast<Nanos>(static_cast<double>(t) / speed_) : t;
+  if (speed_ <= 0) return t;
+  const double w = static_cast<double>(t) / speed_;  // (at 0.1x, past 29 years of simulated time: the last ns)
+  return w < 9.2e18 ? static_cast<Nanos>(w) : std::numeric_limits<Nanos>::max() / 2;
 }
 
 void LockstepCore::set_speed(double speed) {
