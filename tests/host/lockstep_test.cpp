@@ -297,6 +297,19 @@ TEST_F(LockstepTest, ASpeedChangeReanchorsThePacing) {
   EXPECT_EQ(core->now(), 4 * kMs);
 }
 
+// Paused for a while, then resumed: the next tick is one period after the resume, no catching up.
+TEST_F(LockstepTest, AResumedPacedClockDoesNotCatchUp) {
+  make(-1, true);
+  core->go();
+  run_ticks(1);
+  core->hold();
+  run_ticks(1);  // the tick asked for finds time held
+  EXPECT_EQ(core->now(), kMs);
+  wall += 1000 * kMs;  // a second paused
+  core->go();
+  EXPECT_EQ(*wall_due, wall + kMs);
+}
+
 // Unpaced at first (as fast as possible), paced from a `pace` on.
 TEST_F(LockstepTest, AnUnpacedClockCanBePacedLater) {
   make();
