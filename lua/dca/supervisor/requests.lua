@@ -144,7 +144,7 @@ local CLOCK = {
   end,
 }
 
--- The clock's state as a line: "t = 3.250 s, paused" | "t = 3.250 s, running at 2x" | "..., running unpaced".
+-- The clock's state as a line: "t = 3.250 s, paused" | "t = 3.250 s, running at 2x" | "..., running at max speed".
 function M.clock_text(r)
   local speed = tonumber(r.speed) or 0
   local how = not r.running and "paused" or (speed > 0 and sformat("running at %gx", speed) or "running at max speed")
