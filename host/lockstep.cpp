@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <limits>
 #include <utility>
 
 #include <boost/asio/post.hpp>
@@ -22,6 +23,7 @@ LockstepCore::LockstepCore(LockstepOptions options, LockstepHooks hooks)
   sync_ = (sync_ / period_) * period_;  // a multiple of the period, so sync ticks happen
   idle_ = std::max<Nanos>(sync_, (from_seconds(opts_.idle_period) / sync_) * sync_);
   duration_ = opts_.duration >= 0 ? from_seconds(opts_.duration) : -1;
+  speed_ = opts_.realtime ? 1.0 : 0.0;
 }
 
 void LockstepCore::subscribe(const void* origin, std::string name, std::shared_ptr<ClockLink> link, bool supervisor) {
@@ -103,17 +105,40 @@ void LockstepCore::unsubscribe(const void* origin) {
 bool LockstepCore::go() {
   if (running_) return false;
   running_ = true;
-  wall0_ = hooks_.wall_now() - now();
+  wall0_ = hooks_.wall_now() - paced(now());
   if (!first_go_) first_go_ = hooks_.wall_now();
   schedule();
   return true;
+}
+
+// Simulated time `t` as wall time at the current speed (from wall0_).
+Nanos LockstepCore::paced(Nanos t) const {
+  if (speed_ <= 0) return t;
+  const double w = static_cast<double>(t) / speed_;  // (at 0.1x, past 29 years of simulated time: the last ns)
+  return w < 9.2e18 ? static_cast<Nanos>(w) : std::numeric_limits<Nanos>::max() / 2;
+}
+
+void LockstepCore::set_speed(double speed) {
+  speed_ = speed > 0 ? speed : 0;
+  // re-anchored: the next tick is due one period (at the new speed) from now, whatever came before
+  wall0_ = hooks_.wall_now() - paced(now());
+}
+
+void LockstepCore::step(bool to_event) {
+  if (to_event) {
+    hold_at_barrier_ = barriers_;
+  } else {
+    hold_at_barrier_.reset();
+    hold_at_ = now() + period_;
+  }
+  go();
 }
 
 // Asks for the next tick, unless one is asked for already, time is held or a round is open.
 void LockstepCore::schedule() {
   if (scheduled_ || !running_ || waiting_ > 0 || phase_ != Phase::Idle) return;
   scheduled_ = true;
-  hooks_.schedule(opts_.realtime ? std::optional<Nanos>(wall0_ + now() + period_) : std::nullopt);
+  hooks_.schedule(speed_ > 0 ? std::optional<Nanos>(wall0_ + paced(now() + period_)) : std::nullopt);
 }
 
 // The owner's inputs: the samples written to it before this tick, counted by their writers' answers.
@@ -170,7 +195,7 @@ void LockstepCore::tick() {
     // A quiet tick (nobody due: nothing published, nothing written). Unpaced, the next one follows in this
     // handler, up to the next sync tick: the loop's other handlers (a `hold`, a `status`) run at least that
     // often, and a world of 1 ms steps under 10 ms controllers pays one loop pass per control period.
-    if (!opts_.inline_quiet || !running_ || opts_.realtime || (t + period_) % sync_ == 0 || !trace_lines_.empty())
+    if (!opts_.inline_quiet || !running_ || speed_ > 0 || (t + period_) % sync_ == 0 || !trace_lines_.empty())
       return after_tick();
   }
 }
@@ -419,6 +444,10 @@ void LockstepCore::flush_trace() {
 void LockstepCore::after_tick() {
   hooks_.settle();  // take in what the subscribers wrote at this tick
   flush_trace();
+  if (hold_at_barrier_ && barriers_ > *hold_at_barrier_) {  // a step to the next event: this tick had one
+    hold_at_barrier_.reset();
+    running_ = false;
+  }
   if (duration_hit_ && on_duration_pending_) {
     on_duration_pending_ = false;
     if (on_duration) on_duration();
@@ -442,6 +471,8 @@ Value LockstepCore::status() const {
       .set("now", now())
       .set("t", to_seconds(now()))
       .set("running", running_)
+      .set("speed", speed_)
+      .set("stepping", hold_at_barrier_.has_value() || hold_at_.has_value())
       .set("steps", static_cast<std::int64_t>(steps_))
       .set("wall_s", wall_s_)
       .set("step_s", step_s_)
@@ -521,7 +552,7 @@ void Lockstep::schedule(std::optional<Nanos> wall_due) {
 void Lockstep::go() {
   // paced to the wall clock: its ticks wake on time (1 ns timer slack, as dca's wall-clock timers have,
   // instead of the default 50 µs that would add to every control period of the nodes on its clock)
-  if (opts_.realtime && !core_.running()) minimise_timer_slack();
+  if (core_.speed() > 0 && !core_.running()) minimise_timer_slack();
   core_.go();
 }
 
@@ -567,6 +598,17 @@ bool Lockstep::handle(const std::shared_ptr<Channel>& ch, const Message& m) {
   } else if (m.type == "hold") {
     if (m.payload.find("at")) core_.hold_at(m.payload["at"].as_int(0));
     else core_.hold();
+  } else if (m.type == "pace") {
+    const double s = m.payload["speed"].as_float(0);
+    if (s != 0 && !(s >= 0.1 && s <= 10)) return ch->reply_error(m, "pace: speed is 0.1 to 10, or 0 (unpaced)"), true;
+    if (s > 0) minimise_timer_slack();
+    core_.set_speed(s);
+    return ch->reply(m, Value::map().set("now", core_.now()).set("speed", core_.speed())), true;
+  } else if (m.type == "step") {
+    const std::string to = m.payload["to"].is_nil() ? "tick" : m.payload["to"].as_string();
+    if (to != "tick" && to != "event") return ch->reply_error(m, "step: to is \"tick\" or \"event\""), true;
+    if (core_.speed() > 0) minimise_timer_slack();
+    core_.step(to == "event");
   } else if (m.type == "status") {
     return ch->reply(m, core_.status()), true;
   } else {

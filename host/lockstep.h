@@ -25,7 +25,12 @@
 //   leaves {leaves} (event)      the components a (shared) node hosts, sent when they change
 //   go {}           -> ok {now}  time starts (or resumes) flowing
 //   hold {at}       -> ok {now}  time stops after the current tick (at: ns, once it reaches `at`)
-//   status {}       -> ok {now, t, running, steps, wall_s, run_wall_s, subscribers = [names], dropped = [reasons], rounds,
+//   pace {speed}    -> ok {now, speed}  simulated seconds per wall second (0.1 to 10; 0: as fast as the
+//                                subscribers allow), from this tick on: the pacing is re-anchored, time never jumps
+//   step {to}       -> ok {now}  to "tick" (default): one tick, then time holds; "event": time runs to the end of
+//                                the next tick with a barrier (a process sent done or aborted, or was lost: the
+//                                tick at which the supervisors make their transitions), then holds
+//   status {}       -> ok {now, t, running, speed, stepping, steps, wall_s, run_wall_s, subscribers = [names], dropped = [reasons], rounds,
 //                       advances, round_p50_us, round_p99_us, round_max_us, settled, barriers, waves}: a round is one
 //                       tick with subscribers due (advances sent -> last reply), in wall time; settled:
 //                       no round or barrier open; wall_s: wall time the owner spent stepping and publishing
@@ -86,7 +91,7 @@ struct LockstepOptions {
   /// otherwise left alone: this bounds the samples its gates hold and wakes timers made outside a barrier)
   double idle_period = 1.0;
   int tick_timeout_ms = 10000;    ///< how long a subscriber may take to answer an advance
-  bool realtime = false;          ///< pace time to the wall clock (else as fast as the subscribers allow)
+  bool realtime = false;          ///< pace time to the wall clock at 1x from the start (else unpaced; `pace` changes it)
   /// unpaced, a tick with nobody due is followed at once by the next, in the same loop handler, up to the next
   /// sync tick (else each tick is a handler of its own)
   bool inline_quiet = true;
@@ -144,7 +149,18 @@ class LockstepCore {
   /// `go`: time starts (or resumes) flowing. True if it was held.
   bool go();
   /// `hold`: time stops after the current tick.
-  void hold() { running_ = false; }
+  void hold() {
+    running_ = false;
+    hold_at_barrier_.reset();
+  }
+  /// `pace {speed}`: simulated seconds per wall second (<= 0: unpaced, as fast as the subscribers allow).
+  /// The pacing is re-anchored at the current time, so a change never makes time jump or catch up.
+  void set_speed(double speed);
+  /// The pace: simulated seconds per wall second, 0 unpaced (LockstepOptions::realtime starts it at 1).
+  double speed() const { return speed_; }
+  /// `step {to}`: one tick then time holds (to_event false), or time runs to the end of the next tick that
+  /// had a barrier (an event or a lost node: the supervisors' transitions) and holds there.
+  void step(bool to_event);
   /// The tick the schedule hook was asked for is due.
   void tick();
 
@@ -198,6 +214,7 @@ class LockstepCore {
   void flush_trace();
   void after_tick();
   void schedule();
+  Nanos paced(Nanos t) const;
 
   LockstepOptions opts_;
   LockstepHooks hooks_;
@@ -234,6 +251,8 @@ class LockstepCore {
   bool supervisor_lost_ = false;
   std::uint64_t barriers_ = 0, waves_ = 0;
   std::optional<Nanos> hold_at_;
+  double speed_ = 0;  // simulated s per wall s (0: unpaced)
+  std::optional<std::uint64_t> hold_at_barrier_;  // step to the next event: holds once barriers_ passes it
   std::vector<std::string> trace_lines_;  // this tick's, sorted before they are written
   std::map<std::string, std::uint64_t> owner_out_;
   std::shared_ptr<bool> alive_ = std::make_shared<bool>(true);
@@ -248,7 +267,7 @@ class Lockstep {
   Lockstep(const Lockstep&) = delete;
   Lockstep& operator=(const Lockstep&) = delete;
 
-  /// A node's request hook (Node::on_request): clock, go, hold, status. False for any other type.
+  /// A node's request hook (Node::on_request): clock, go, hold, pace, step, status. False for any other type.
   bool handle(const std::shared_ptr<Channel>& ch, const wire::Message& m);
   /// Starts time flowing (as `go`).
   void go();

@@ -10,7 +10,7 @@ import WebSocket from "ws";
 
 const { FoxgloveClient } = foxglove;
 const [dca, system, prefix, ...args] = process.argv.slice(2);
-const run = spawn(dca, ["run", system, "--sim", "door", "--monitor", "--monitor-wait", ...args],
+const run = spawn(dca, ["run", system, "--sim", "door", "--monitor", "--monitor-wait", "--as-fast-as-possible", ...args],
                   { stdio: ["ignore", "pipe", "pipe"] });
 let out = "", started = false, channels = 0, subscribed = 0, messages = 0, bytes = 0, page;
 const taps = () => (out.match(/live: tapped /g) ?? []).length;

@@ -49,7 +49,7 @@ export async function pageToEnd(url, run, failures, ms = 120000) {
 
 export function startLiveRun(dca, src) {
   return startRun(dca, ["run", `${src}/scripts/systems/test_live.dca`, "--sim", `mock:${src}/worlds/ur10/ur10.urdf`,
-                        "--monitor", "--monitor-wait"]);
+                        "--monitor", "--monitor-wait", "--as-fast-as-possible"]);
 }
 
 export async function foxgloveClient(run, failures) {

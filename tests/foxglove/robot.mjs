@@ -17,7 +17,7 @@ const failures = [];
 const check = (ok, what) => { if (!ok) failures.push(what); };
 
 const run = startRun(dca, ["run", `${src}/worlds/ur10/ur10_setpoint.dca`, "--sim", `${src}/worlds/ur10/ur10.urdf`,
-                        "--monitor", "--monitor-wait"]);
+                        "--monitor", "--monitor-wait", "--as-fast-as-possible"]);
 const { said } = run;
 const FRAMES = "/world/links/frames", URDF = "/robot_description";
 

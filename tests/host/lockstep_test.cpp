@@ -273,6 +273,104 @@ TEST_F(LockstepTest, PacedToTheWallClockEachTickIsDueOnePeriodLater) {
   EXPECT_EQ(*wall_due, wall + 2 * kMs);
 }
 
+// The pace (docs/time.md, "Pace"): wall deadline = wall0 + t / speed, re-anchored at each change, so a
+// change makes the next tick due one period at the new speed after it: no jump, no catching up.
+TEST_F(LockstepTest, ASpeedChangeReanchorsThePacing) {
+  make(-1, true);
+  EXPECT_EQ(core->speed(), 1.0);
+  core->go();
+  run_ticks(1);
+  EXPECT_EQ(*wall_due, wall + 2 * kMs);
+  wall += 7 * kMs;  // the wall clock ran ahead of simulated time (a slow subscriber, a paused page...)
+  core->set_speed(0.5);
+  run_ticks(1);     // the tick asked for before the change (2 ms)
+  EXPECT_EQ(core->now(), 2 * kMs);
+  // 1 ms was simulated at the change: 3 ms is two periods at half speed after it, not in the past
+  EXPECT_EQ(*wall_due, wall + 4 * kMs);
+  core->set_speed(10);  // at 2 ms
+  run_ticks(1);
+  EXPECT_EQ(*wall_due, wall + 2 * kMs / 10);  // 4 ms: two periods at 10x after the change
+  EXPECT_EQ(core->status()["speed"].as_float(), 10.0);
+  core->set_speed(0);  // as fast as the subscribers allow: at once
+  run_ticks(1);
+  EXPECT_FALSE(wall_due.has_value());
+  EXPECT_EQ(core->now(), 4 * kMs);
+}
+
+// Paused for a while, then resumed: the next tick is one period after the resume, no catching up.
+TEST_F(LockstepTest, AResumedPacedClockDoesNotCatchUp) {
+  make(-1, true);
+  core->go();
+  run_ticks(1);
+  core->hold();
+  run_ticks(1);  // the tick asked for finds time held
+  EXPECT_EQ(core->now(), kMs);
+  wall += 1000 * kMs;  // a second paused
+  core->go();
+  EXPECT_EQ(*wall_due, wall + kMs);
+}
+
+// Unpaced at first (as fast as possible), paced from a `pace` on.
+TEST_F(LockstepTest, AnUnpacedClockCanBePacedLater) {
+  make();
+  EXPECT_EQ(core->speed(), 0.0);
+  core->go();
+  run_ticks(3);
+  EXPECT_FALSE(wall_due.has_value());
+  core->set_speed(2);  // at 3 ms
+  run_ticks(1);        // 4 ms, asked for unpaced
+  EXPECT_EQ(*wall_due, wall + kMs);  // 5 ms: two periods at 2x after the change
+}
+
+// Pause is hold; a step is one tick, then time holds again: steps and status t move by one period each.
+TEST_F(LockstepTest, AStepIsOneTickThenTimeHolds) {
+  make();
+  core->go();
+  run_ticks(3);
+  core->hold();
+  run_ticks(100);
+  EXPECT_EQ(core->now(), 3 * kMs);
+  for (int i = 1; i <= 3; ++i) {
+    core->step(false);
+    EXPECT_TRUE(core->status()["stepping"].as_bool());
+    EXPECT_EQ(run_ticks(100), 1);
+    EXPECT_EQ(core->now(), (3 + i) * kMs);
+    EXPECT_FALSE(core->running());
+    EXPECT_FALSE(core->status()["stepping"].as_bool());
+  }
+  EXPECT_EQ(steps, 6);
+}
+
+// A step to the next event: time runs through quiet ticks and rounds, and holds at the end of the first tick
+// that had a barrier (the supervisors' transitions done), not before.
+TEST_F(LockstepTest, AStepToTheNextEventHoldsAfterItsBarrier) {
+  make();
+  auto a = subscribe("/a", &origin_a);
+  auto s = subscribe("/sup", &origin_s, true);
+  core->step(true);
+  run_ticks(100);
+  using dca::wire::Value;
+  a->answer(12 * kMs);  // 10 ms: nothing happened
+  run_ticks(100);
+  EXPECT_TRUE(core->running());
+  EXPECT_EQ(core->now(), 12 * kMs);
+  a->answer(std::nullopt, Value::map().set("ev", 1));  // /a ended at 12 ms: the barrier
+  a->answer(std::nullopt, Value::map().set("ev", 1));
+  s->answer(std::nullopt, Value::map().set("received", 1).set("sent", 0));
+  s->answer(std::nullopt, Value::map().set("received", 1).set("sent", 0));
+  a->answer(std::nullopt, Value::map().set("ev", 1));
+  EXPECT_FALSE(core->running());
+  EXPECT_EQ(run_ticks(100), 0);
+  EXPECT_EQ(core->now(), 12 * kMs);
+  EXPECT_FALSE(core->status()["stepping"].as_bool());
+  core->go();  // resumed: no step pending
+  run_ticks(100);
+  a->answer(std::nullopt, Value::map().set("ev", 1));
+  run_ticks(100);
+  EXPECT_TRUE(core->running());
+  EXPECT_GT(core->now(), 20 * kMs);
+}
+
 TEST_F(LockstepTest, RoundsAreTimedOnTheWallClock) {
   make();
   auto a = subscribe("/a", &origin_a);

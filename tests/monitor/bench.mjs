@@ -48,7 +48,7 @@ function run(args, onLine) {
 
 async function doorOnce(browser, variant) {
   const args = ['run', door, '--sim', 'door'];
-  if (variant !== 'no_monitor') args.push('--monitor');
+  if (variant !== 'no_monitor') args.push('--monitor', '--as-fast-as-possible');
   if (variant === 'browser' || variant.startsWith('ws_reader')) args.push('--monitor-wait');
   let t0 = null, t1 = null, url = null, page = null, summary = null;
   const r = run(args, (line, ms) => {

@@ -1,7 +1,11 @@
 // What the browser tests share: dca started with its monitor's address awaited, and waits on the page.
 //   const run = await startMonitor(EXE, ARGS)   run.p, run.url, run.exited (--> exit code), run.output()
 //   await until(page, fn, seconds, ...args)      fn's value in the page once truthy (polled), or null after seconds
+//   check(ok, what)                              prints ok/FAIL and what, counting the failures
+//   await inBrowser(async (browser) => ...)      runs it in headless chromium, then says the count and exits (1 on
+//                                                a failed check or an exception)
 import { spawn } from 'node:child_process';
+import puppeteer from 'puppeteer-core';
 
 // dca's children stop when the process that started them is gone (DCA_PARENT_PID, host/spawn.h): this script's
 // own children must not inherit the variable meant for this script.
@@ -33,4 +37,28 @@ export async function until(page, fn, seconds, ...args) {
   } catch (e) {
     return null;
   }
+}
+
+let failures = 0;
+export function check(ok, what) {
+  console.log(`${ok ? 'ok  ' : 'FAIL'} ${what}`);
+  if (!ok) failures++;
+}
+
+// Debian's chromium ($DCA_CHROMIUM to use another), headless, with no download.
+export async function inBrowser(fn) {
+  const browser = await puppeteer.launch({
+    executablePath: process.env.DCA_CHROMIUM || '/usr/bin/chromium', headless: true,
+    args: ['--no-sandbox', '--disable-gpu', '--disable-dev-shm-usage', '--no-first-run'],
+  });
+  try {
+    await fn(browser);
+  } catch (e) {
+    console.log(`FAIL ${e.stack || e}`);
+    failures++;
+  } finally {
+    await browser.close();
+  }
+  console.log(failures ? `${failures} check(s) failed` : 'all checks passed');
+  process.exit(failures ? 1 : 0);
 }

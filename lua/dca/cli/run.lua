@@ -18,7 +18,7 @@ M.usage = [=[usage: dca run FILE.dca [--root NAME] [--hosts FILE] [--repl] [--wa
                     [--record-split SIZE|DURATION] [--trace FILE]] [--replay REC.mcap [--replay-ports PATTERN,...]]
                     [--blackbox SECONDS_BEFORE,SECONDS_AFTER[,MIB] [--blackbox-storm CLAMPS,SECONDS]]
                     [--driver 'TYPE(HOST, ARGS...)'] [--record FILE.mcap]
-                    [--monitor [ADDR] [--monitor-wait]]
+                    [--monitor [ADDR] [--monitor-wait] [--as-fast-as-possible]]
 
 Checks FILE.dca (errors stop here, nothing is started), starts one local daemon per host name on 127.0.0.1
 (or uses the daemons named in --hosts, lines of "name address"), starts the supervisor tree, shows one line
@@ -103,6 +103,10 @@ per group as it comes up and one per process transition, and runs the root expre
                   port speaks Foxglove's WebSocket protocol (printed: foxglove: ws://ADDR/?token=T): every
                   port and world signal a channel, tapped when first subscribed to
   --monitor-wait  with --sim: simulated time starts only once a monitor page is connected
+  --as-fast-as-possible  with --monitor and --sim: simulated time runs as fast as the nodes allow. Without it,
+                  --monitor paces simulated time to the wall clock (1x), so a run can be followed live; the
+                  page and the REPL pause it, step it (one tick, or to the next event) and set its speed
+                  (0.1x to 10x, or max: unpaced) through the world, the clock master (docs/time.md "Pace")
   --repl          open a console on the root supervisor once the system runs
   --watch         reload the system file when it is saved (inotify)
   --timeout S     stop with an error when the start does not finish within S seconds (default 30)
@@ -119,6 +123,7 @@ local OPTIONS = {
   ["--timeout"] = "number", ["--repl"] = "flag", ["--watch"] = "flag", ["--quiet"] = "flag",
   ["--config"] = "value", ["--no-config"] = "flag", ["--state-dir"] = "value", ["--set"] = "list:sets",
   ["--placement"] = "value", ["--trace"] = "value", ["--monitor"] = "flag", ["--monitor-wait"] = "flag",
+  ["--as-fast-as-possible"] = "flag",
   ["--record-ports"] = "value", ["--driver"] = "value", ["--replay"] = "value",
   ["--blackbox"] = "value", ["--replay-ports"] = "value",
   ["--blackbox-storm"] = "value", ["--tick-timeout"] = "number",
@@ -184,6 +189,10 @@ local function rule_broken(o)
     return "--tick-timeout goes with --sim WORLD and takes milliseconds from 1 to 3600000"
   end
   if o.monitor_wait and not (o.monitor and o.sim) then return "--monitor-wait goes with --monitor and --sim WORLD" end
+  if o.as_fast_as_possible and not (o.monitor and o.sim) then
+    return "--as-fast-as-possible goes with --monitor and --sim WORLD (without --monitor time is unpaced already)"
+  end
+  if o.as_fast_as_possible and o.realtime then return "--as-fast-as-possible and --realtime exclude each other" end
   if o.placement and not M.PLACEMENTS[o.placement] then
     return "--placement is process, group or host, not '" .. tostring(o.placement) .. "'"
   end
@@ -207,6 +216,8 @@ local function parse_args(args)
   local broken = rule_broken(o)
   if broken then return nil, "dca run: " .. broken end
   o.record_outputs = o.record_ports and true or nil
+  -- watched live, simulated time is paced to the wall clock (1x) unless asked otherwise (docs/time.md "Pace")
+  if o.monitor and o.sim and not o.as_fast_as_possible then o.realtime = true end
   for _, k in ipairs({ "record", "trace" }) do
     if o[k] and o[k]:sub(1, 1) ~= "/" then o[k] = (os.getenv("PWD") or ".") .. "/" .. o[k] end
   end

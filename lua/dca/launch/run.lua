@@ -522,6 +522,12 @@ function M.main(spec, o, out)
     end)
   end)
   r.sup.estop_hook = function(req, cb) r:estop_request(req, cb) end
+  -- the simulated clock's commands (pause, step, speed: dca.supervisor.requests.clock) go to the run's world
+  r.sup.clock_hook = function(req, cb)
+    local s = r.ctx.sim
+    if s and s.world:connected() then s.world:request(req, 10, cb) return end
+    cb(nil, r.o.sim and "the world is not up yet" or "this run has no simulated clock (no --sim)")
+  end
   -- one that came between the last start step and on_signal: held since main (bindings/stop_signals.h)
   if core.pending_signal() then core.after(0, function() interrupted(core.pending_signal()) end) end
   r:listen()

@@ -12,8 +12,10 @@
 --   m:set_config(key, text, origin)   -- a configuration value (as text) and where it was written
 --   m:rt_leaves()            --> the paths of the leaves with an rt setting (the tree's `rt`)
 --   m:rt(path, figures)      -- such a leaf's figures on its real-time thread (a node's stats {} rt): node.rt
---   m:snapshot()             --> { nodes, exprs, events, config, lines, t }
---   m:take_delta()           --> { nodes, exprs, events, config, lines, t } | nil when nothing changed
+--   m:clock{t, running, speed, stepping}  -- the world's clock (the clock master's status): t is then the world's
+--                            -- time, not the last line's (a live run with --sim)
+--   m:snapshot()             --> { nodes, exprs, events, config, lines, t, clock }
+--   m:take_delta()           --> { nodes, exprs, events, config, lines, t, clock? } | nil when nothing changed
 local algebra = require "dca.algebra"
 
 local M = {}
@@ -198,10 +200,23 @@ local function values(map, order)
   return out
 end
 
+--- The world's clock: its time (seconds), whether it runs, its speed (simulated s per wall s, 0 unpaced) and
+--- whether a step is under way. Its time is the model's from now on (never back: lines may come later).
+function Model:clock(c)
+  local new = { t = tonumber(c.t) or 0, running = c.running and true or false, speed = tonumber(c.speed) or 0,
+                stepping = c.stepping and true or false }
+  local old = self.clock_state
+  if new.t > self.t then self.t = new.t end
+  if old and old.t == new.t and old.running == new.running and old.speed == new.speed
+     and old.stepping == new.stepping then return end
+  self.clock_state = new
+  self:_delta().clock = new
+end
+
 --- Everything, for a page that just connected.
 function Model:snapshot()
   return { nodes = values(self.nodes, self.order), exprs = self.exprs, events = self.events,
-           config = values(self.config), lines = self.lines, t = self.t }
+           config = values(self.config), lines = self.lines, t = self.t, clock = self.clock_state }
 end
 
 --- What changed since the last take (nil when nothing did).
@@ -210,7 +225,7 @@ function Model:take_delta()
   if not d then return nil end
   self.delta = nil
   return { nodes = values(d.nodes, self.order), exprs = d.exprs, events = d.events, config = values(d.config),
-           lines = d.lines, t = self.t }
+           lines = d.lines, t = self.t, clock = d.clock }
 end
 
 return M

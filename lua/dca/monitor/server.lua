@@ -28,7 +28,8 @@
 -- coalesced every 50 ms; {type = "samples", topic, name, rows} (host/web); {type = "reply", id, ok, text};
 -- {type = "robot", urdf, frames, topic} (a URDF world's, at open or when known).
 -- Page -> server: {type = "subscribe", topic, rate}, {type = "command", id, cmd = "abort" | "restart" |
--- "event" | "config_set" | "estop" | "release", path, kind, value, key, what}. A message that is not JSON, or not one of these, is answered
+-- "event" | "config_set" | "estop" | "release" | "clock", path, kind, value, key, what, speed}. A snapshot or delta
+-- carries `clock` {t, running, speed, stepping}, the world's (polled with the plots' status). A message that is not JSON, or not one of these, is answered
 -- {type = "error", reason} and counted; the page's connection stays. The token allows these commands and no
 -- more: nothing a page sends is evaluated as code (Lua evaluation needs the cluster key: dca repl).
 local core = require "dca.core"
@@ -222,6 +223,7 @@ function Mon:_poll_world()
   self.o.world({ type = "status" }, function(r)
     self.world_pending = false
     if not (r and tonumber(r.t)) then return end
+    self.model:clock(r)  -- the header's clock and the timeline's now: the world's time, paused or not
     local srv, t = self.srv, tonumber(r.t)
     if t == self.world_t then return end
     self.world_t = t
@@ -283,6 +285,11 @@ local function command_request(m)
   -- the robot's emergency stop (docs/safety.md): the console's requests, the monitor as their source
   if m.cmd == "estop" then return { type = "estop", source = "monitor" } end
   if m.cmd == "release" then return { type = "release", what = m.what ~= nil and tostring(m.what) or nil, source = "monitor" } end
+  -- the simulated clock (docs/time.md "Pace"): pause, go, step, step_event, speed (0.1 to 10, "max"), checked by
+  -- the supervisor's clock request as the REPL's are
+  if m.cmd == "clock" then
+    return { type = "clock", what = tostring(m.what), speed = type(m.speed) == "number" and m.speed or tostring(m.speed) }
+  end
   return nil, "unknown command " .. tostring(m.cmd)
 end
 

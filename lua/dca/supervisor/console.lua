@@ -49,6 +49,13 @@ config.log(n)                   losing writes); print each change below prefix, 
 config.watch(prefix)            a console line (config.unwatch(prefix) stops). A running leaf whose live
                                 parameter is config("key") takes a new value of the key at once (a line says
                                 so, or why not); another applies at its next start
+clock()                       the simulated clock: its time, paused or running, and at what speed
+pause()                       simulated time holds after the current tick (the world is the clock master)
+resume()                      simulated time runs again, at the speed set
+step()                        one tick (the world's period), then time holds; step("event"): time runs to the
+                                end of the next tick at which a process ended or was lost (the supervisors'
+                                transitions are made in that tick), then holds
+speed(x)                      simulated seconds per wall second: 0.1 to 10, or "max" (as fast as the nodes allow)
 help()                        this text
 Any other Lua is evaluated here, in the supervisor; `return` is implied for expressions.
 Paths are full (main.door.hit) or any unique suffix (door.hit).]]
@@ -154,6 +161,27 @@ local function view_commands(env, c)
   end
   function env.log(n)
     say(concat(sup:recent(n or 20), "\n"))
+  end
+end
+
+-- The simulated clock's commands (docs/time.md "Pace"): clock, pause, resume, step, speed, as the supervisor's
+-- `clock` request (the monitor's page sends the same).
+local function clock_commands(env, c)
+  local function clock(what, speed)
+    local r = await(function(k) c.sup:handle({ type = "clock", what = what, speed = speed }, k) end)
+    if not r or r.type == "error" then error(tostring(r and r.reason or "no answer"), 0) end
+    return r.text
+  end
+  function env.clock() return clock("status") end
+  function env.pause() return clock("pause") end
+  function env.resume() return clock("go") end
+  function env.step(to)
+    if to ~= nil and to ~= "event" and to ~= "tick" then error("step(): one tick; step(\"event\"): to the next event", 0) end
+    return clock(to == "event" and "step_event" or "step")
+  end
+  function env.speed(x)
+    if x == nil then return clock("status") end
+    return clock("speed", x)
   end
 end
 
@@ -342,6 +370,7 @@ function Repl:_env()
   local env = { print = c.say, sup = sup, config = config_commands(sup) }
   view_commands(env, c)
   action_commands(env, c, repl.opts.reload)
+  clock_commands(env, c)
   data_commands(env, c)
   return setmetatable(env, { __index = _G })
 end
@@ -356,9 +385,11 @@ local function incomplete(err)
   return err and err:sub(-5) == "<eof>"
 end
 
--- The commands that only show something: typed bare (`help`, `tree`), they run as if called. The others (abort,
--- estop, restart, ...) act, so a bare name gets a hint rather than a function's address.
-local BARE = { help = true, tree = true, status = true, expr = true, log = true }
+-- The commands that only show something: typed bare (`help`, `tree`), they run as if called; so do the clock's
+-- (pause, resume, step: as in a debugger, and undone by the next). The others (abort, estop, restart, ...) act
+-- on the system, so a bare name gets a hint rather than a function's address.
+local BARE = { help = true, tree = true, status = true, expr = true, log = true, clock = true, pause = true,
+               resume = true, step = true }
 
 --- Evaluates one line; cb(output, more) once (now, or later when the line waits for other supervisors).
 function Repl:eval(line, cb)

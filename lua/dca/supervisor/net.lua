@@ -41,7 +41,8 @@ end
 
 --- The requests a console (`dca repl`) may send to a supervisor.
 M.CONSOLE = { repl = true, complete = true, tree = true, inject = true, restart = true, switch = true,
-              stats = true, ping = true, ports = true, tap = true, config_set = true, estop = true, release = true }
+              stats = true, ping = true, ports = true, tap = true, config_set = true, estop = true, release = true,
+              clock = true }
 
 --- Answers one request `msg` (number `id`) of a console channel `ch` on supervisor `sup` (nil: not configured
 --- yet). `follow {}` subscribes the channel to the transition lines in `followers` (a set of channels).

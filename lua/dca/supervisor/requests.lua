@@ -101,6 +101,7 @@ M.HANDLERS = {
   release = function(sup, msg, reply) M.estop(sup, "release", msg, reply) end,
   -- a press or release, from the parent: remembered, passed on to the child groups
   estop_event = function(sup, msg, reply) M.estop_event(sup, msg, false) reply({ type = "ok" }) end,
+  clock = function(sup, msg, reply) M.clock(sup, msg, reply) end,
   repl = function(sup, msg, reply)
     local repl = console_of(sup, reply)
     if repl then repl:eval(msg.line or "", function(out, more) reply({ type = "ok", output = out, more = more }) end) end
@@ -125,6 +126,64 @@ function M.estop(sup, what, msg, reply)
   if sup.estop_hook then sup.estop_hook(req, answer) return end
   if not sup.rt.world then reply({ type = "error", reason = what .. ": " .. sup.path .. " reaches no robot" }) return end
   sup.rt.world(req, sup.timeouts.request, function(r, err) answer(async.outcome(r, err)) end)
+end
+
+-- The world's requests for the clock's commands (host/lockstep.h), by `what`.
+local CLOCK = {
+  pause = function() return { type = "hold" } end,
+  go = function() return { type = "go" } end,
+  step = function() return { type = "step", to = "tick" } end,
+  step_event = function() return { type = "step", to = "event" } end,
+  status = function() return { type = "status" } end,
+  speed = function(msg)
+    local s = msg.speed
+    if s == "max" or s == 0 then return { type = "pace", speed = 0 } end
+    s = tonumber(s)
+    if not s or s ~= s or s < 0.1 or s > 10 then return nil, "speed: 0.1 to 10 (times real time), or \"max\"" end
+    return { type = "pace", speed = s }
+  end,
+}
+
+-- The clock's state as a line: "t = 3.250 s, paused" | "t = 3.250 s, running at 2x" | "..., running at max speed".
+function M.clock_text(r)
+  local speed = tonumber(r.speed) or 0
+  local how = not r.running and "paused" or (speed > 0 and sformat("running at %gx", speed) or "running at max speed")
+  if r.running and r.stepping then how = how .. ", stepping" end
+  return sformat("t = %.3f s, %s", tonumber(r.t) or 0, how)
+end
+
+--- The simulated clock, from a console or the monitor (msg.what: pause | go | step | step_event | speed (msg.speed:
+--- 0.1 to 10, or "max") | status), through the world, the clock master (docs/time.md "Pace"). A step is answered
+--- once the step's tick is done (time held again), a step to the next event at once. Answers {type = "ok", t,
+--- running, speed, stepping, text} with the clock's state after it.
+function M.clock(sup, msg, reply)
+  local make = CLOCK[msg.what]
+  if not make then
+    reply({ type = "error", reason = "clock: what is pause, go, step, step_event, speed or status" }) return
+  end
+  local req, err = make(msg)
+  if not req then reply({ type = "error", reason = err }) return end
+  local world = sup.clock_hook or (sup.rt and sup.rt.world and function(m, cb) sup.rt.world(m, sup.timeouts.request, cb) end)
+  if not world then reply({ type = "error", reason = "clock: " .. sup.path .. " reaches no simulated world" }) return end
+  local tries = 0
+  local function state()
+    world({ type = "status" }, function(r0, serr)
+      local r, e = async.outcome(r0, serr)
+      if not r then reply({ type = "error", reason = "clock: " .. e }) return end
+      -- a step: its tick is done once the world says it is no longer stepping (bounded: at 0.1x a tick of a slow
+      -- world takes a while; after that the answer says "stepping")
+      tries = tries + 1
+      if msg.what == "step" and r.stepping and tries < 1000 then state() return end
+      reply({ type = "ok", t = tonumber(r.t), running = r.running and true or false, speed = tonumber(r.speed) or 0,
+             stepping = r.stepping and true or false, text = M.clock_text(r) })
+    end)
+  end
+  if req.type == "status" then state() return end
+  world(req, function(r0, rerr)
+    local r, e = async.outcome(r0, rerr)
+    if not r then reply({ type = "error", reason = "clock: " .. e }) return end
+    state()
+  end)
 end
 
 --- A press or release of the emergency stop (ev {latched, t, source}): this supervisor's `estop` state, a line

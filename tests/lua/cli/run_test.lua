@@ -10,7 +10,8 @@ for _, c in ipairs({ { "world-opt jammed", "--seed and --world-opt go with --sim
                     { "record x.mcap --record-ports all", "--record-ports goes with --sim WORLD: on the wall clock" },
                     { "record x.mcap --blackbox 1,1", "--blackbox goes with --sim WORLD" },
                     { "realtime", "--realtime goes with --sim WORLD" },
-                    { "tick-timeout 5000", "--tick-timeout goes with --sim WORLD" } }) do
+                    { "tick-timeout 5000", "--tick-timeout goes with --sim WORLD" },
+                    { "as-fast-as-possible", "--as-fast-as-possible goes with --monitor and --sim WORLD" } }) do
   suite:case("run_" .. c[1]:gsub("[^%w]+", "_") .. "_needs_sim", function()
     local out, rc = T.sh(dca .. " run " .. src .. "/worlds/door/systems/door_open.dca --" .. c[1])
     T.eq(rc, 2, "exit code")
@@ -77,6 +78,15 @@ suite:case("a_crash_loop_ends_by_escalation_with_counts_and_the_first_cause", fu
   T.contains(out, "main.loop: restart intensity 3 in 60 s exceeded; last: crashy killed by SIGSEGV on host h1")
   T.contains(out, "main: ABORTED at main.loop.crashy: restart intensity 3 in 60 s exceeded; last: crashy killed by "
     .. "SIGSEGV on host h1")
+end)
+
+-- Watched live (--monitor), simulated time is paced to the wall clock unless --as-fast-as-possible: with
+-- --realtime it asks for opposite things.
+suite:case("as_fast_as_possible_and_realtime_exclude_each_other", function()
+  local out, rc = T.sh(dca .. " run " .. src .. "/worlds/door/systems/door_open.dca --sim door --monitor "
+    .. "--as-fast-as-possible --realtime")
+  T.eq(rc, 2, "exit code")
+  T.contains(out, "--as-fast-as-possible and --realtime exclude each other")
 end)
 
 return suite:run(...)

@@ -33,7 +33,7 @@ end)
 -- replay shows, to whoever has the file).
 suite:case("the_monitor_token_is_said_on_the_terminal_and_never_recorded", function()
   local mcap = T.tmpname(".mcap")
-  local out, rc = run(system, ur10, " --monitor 127.0.0.1:0 --record " .. mcap)
+  local out, rc = run(system, ur10, " --monitor 127.0.0.1:0 --as-fast-as-possible --record " .. mcap)
   T.eq(rc, 0, "exit code\n" .. out)
   local token = out:match("monitor: http://%S+%?token=(%x+)")
   T.ok(token, "the monitor's line with its token:\n" .. out)

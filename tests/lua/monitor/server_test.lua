@@ -98,6 +98,46 @@ suite:case("commands_are_console_requests_values_literals", function()
   mon:close()
 end)
 
+-- The simulated clock (docs/time.md "Pace"): the page's clock commands are the supervisor's `clock` request (the
+-- REPL's, with its checks); the world's status reaches the page as `clock`, and its time is the page's time
+-- even when no line came since (paused at 3.25 s, the last line at 1 s).
+suite:case("the_worlds_clock_reaches_the_page_and_its_commands_are_clock_requests", function()
+  local asked = {}
+  local status = { t = 3.25, running = false, speed = 2, stepping = false }
+  local mon = T.ok(server.start{ name = "main", root = "main", mode = "live", world_spec = "door",
+    world = function(_, cb) cb(status) end,
+    request = function(msg, cb) asked[#asked + 1] = msg cb({ type = "ok", text = "t = 3.250 s, paused" }) end })
+  local p = page()
+  mon:line("main.a: running", 1.0)
+  mon:_open(p)
+  for i, c in ipairs({ { what = "pause" }, { what = "step" }, { what = "step_event" }, { what = "speed", speed = 0.5 },
+                       { what = "speed", speed = "max" }, { what = "go" } }) do
+    mon:_message(p, core.json_encode{ type = "command", id = i, cmd = "clock", what = c.what, speed = c.speed })
+    T.eq(asked[#asked].type, "clock")
+    T.eq(asked[#asked].what, c.what)
+    if c.speed then T.eq(asked[#asked].speed, c.speed) end
+    T.eq(p.got[#p.got], { type = "reply", id = i, ok = true, text = "t = 3.250 s, paused" })
+  end
+  mon:_poll_world()
+  mon:_flush()
+  local d = p.got[#p.got]
+  T.eq(d.type, "delta")
+  T.eq(d.clock, { t = 3.25, running = false, speed = 2, stepping = false })
+  T.eq(d.t, 3.25, "the page's time is the world's, not the last line's (1 s)")
+  local n = #p.got
+  mon:_poll_world()
+  mon:_flush()
+  T.eq(#p.got, n, "an unchanged clock sends nothing")
+  status = { t = 3.25, running = true, speed = 0, stepping = false }
+  mon:_poll_world()
+  mon:_flush()
+  T.eq(p.got[#p.got].clock.running, true, "a clock that runs again is told though its time did not move yet")
+  local q = page()
+  mon:_open(q)
+  T.eq(q.got[2].clock, { t = 3.25, running = true, speed = 0, stepping = false }, "a new page's snapshot has it")
+  mon:close()
+end)
+
 -- A refused command is answered not ok, with the supervisor's reason; an accepted config_set with what was written.
 suite:case("a_refused_command_is_not_ok_and_says_why", function()
   local mon = monitor(function(msg)

@@ -50,6 +50,41 @@ suite:case("a_bare_help_prints_the_commands_and_a_bare_action_gets_a_hint", func
   T.eq(eval(c, repl, "x"), "3")
 end)
 
+-- The simulated clock's commands (docs/time.md "Pace") ask the clock master through the supervisor's `clock`
+-- request: here a stand-in for the world's (hold, go, step, pace, status) whose step takes effect at the status
+-- after it, as a tick after the request. Typed bare, clock/pause/resume/step run; a bad speed is refused before
+-- the world is asked.
+suite:case("the_clock_commands_ask_the_clock_master_and_check_the_speed", function()
+  local c, repl = running_system()
+  local w, asked = { t = 2.0, running = true, speed = 1, stepping = false }, {}
+  c.root_sup.clock_hook = function(req, cb)
+    asked[#asked + 1] = req.type .. (req.to and (" " .. req.to) or "") .. (req.speed and (" " .. req.speed) or "")
+    if req.type == "hold" then w.running = false
+    elseif req.type == "go" then w.running = true
+    elseif req.type == "pace" then w.speed = req.speed
+    elseif req.type == "step" then w.running, w.stepping, w.tick = true, true, req.to == "tick"
+    elseif req.type == "status" and w.tick then  -- the step's tick, then time holds
+      w.t, w.stepping, w.running, w.tick = w.t + 0.001, false, false, false
+      cb({ t = w.t, running = true, speed = w.speed, stepping = true }) return
+    end
+    cb({ t = w.t, running = w.running, speed = w.speed, stepping = w.stepping })
+  end
+  T.eq(eval(c, repl, "clock"), "t = 2.000 s, running at 1x")
+  T.eq(eval(c, repl, "pause"), "t = 2.000 s, paused")
+  T.eq(eval(c, repl, "step"), "t = 2.001 s, paused")
+  T.eq(eval(c, repl, "step()"), "t = 2.002 s, paused")
+  T.eq(eval(c, repl, "speed(0.5)"), "t = 2.002 s, paused")
+  T.contains(eval(c, repl, "speed(11)"), "speed: 0.1 to 10 (times real time), or \"max\"")
+  T.contains(eval(c, repl, "step('x')"), "step(): one tick")
+  T.eq(eval(c, repl, "speed('max')"), "t = 2.002 s, paused")
+  T.eq(eval(c, repl, "resume"), "t = 2.002 s, running at max speed")
+  T.eq(eval(c, repl, "step('event')"), "t = 2.002 s, running at max speed, stepping")
+  T.eq(asked, { "status", "hold", "status", "step tick", "status", "status", "step tick", "status", "status",
+                "pace 0.5", "status", "pace 0", "status", "go", "status", "step event", "status" })
+  c.root_sup.clock_hook = nil
+  T.contains(eval(c, repl, "clock()"), "clock: ")  -- (the in-memory cluster has no world: why, said)
+end)
+
 suite:case("an_incomplete_chunk_waits_for_more_lines", function()
   local c, repl = running_system()
   local out, more = eval(c, repl, "function f(a)")

@@ -16,9 +16,9 @@
     mode: 'live', nodes: new Map(), order: [], kids: new Map(), exprs: {}, events: [], config: new Map(),
     lines: [], topics: new Map(), series: new Map(), t: 0, viewT: 0, expanded: new Set(), collapsed: new Set(),
     replayStates: null, plot: { topic: '', fields: [], rows: [], received: 0 }, playing: false, ws: null,
-    nextId: 1, estop: null,
+    nextId: 1, estop: null, clock: null,
     dirty: { tree: true, states: true, exprs: true, timeline: true, plot: true, config: true, lines: true,
-      rt: true },
+      rt: true, pace: true },
   };
 
   // ------------------------------------------------------------------------------------------ the model
@@ -48,6 +48,7 @@
     S.estop = estopOf(S.lines, null);
     setTopics(arr(m.topics));
     S.t = m.t || 0;
+    if (m.clock) paceClock(m.clock);
     if (S.mode === 'replay') replayRange();
     markAll();
   }
@@ -64,6 +65,7 @@
     if (S.lines.length > 300) S.lines.splice(0, S.lines.length - 300);
     if (m.topics) setTopics(arr(m.topics));
     S.t = Math.max(S.t, m.t || 0);
+    if (m.clock) paceClock(m.clock);
     if (evs.length || arr(m.nodes).length) { S.dirty.states = true; S.dirty.timeline = true; }
     if (arr(m.config).length) S.dirty.config = true;
     if (arr(m.lines).length) S.dirty.lines = true;
@@ -443,6 +445,40 @@
     $('play').textContent = S.playing ? 'pause' : 'play';
   });
 
+  // ------------------------------------------------------------------------------------------ pace
+  // The simulated clock of a live run with a world (docs/time.md "Pace"): the world's time, paused or running
+  // at a speed, from the snapshot's and deltas' `clock`; pause/go, one step, a step to the next event and the
+  // speed are `clock` commands, which the root supervisor passes to the world, the clock master.
+
+  function paceClock(c) {
+    S.clock = { t: Number(c.t) || 0, running: !!c.running, speed: Number(c.speed) || 0, stepping: !!c.stepping };
+    S.t = Math.max(S.t, S.clock.t);
+    S.dirty.pace = true; S.dirty.timeline = true;
+  }
+
+  function renderPace() {
+    const c = S.clock;
+    $('pace').hidden = !(c && S.mode === 'live');
+    if (!c) return;
+    const paused = !c.running;
+    $('pace-run').textContent = paused ? 'go' : 'pause';
+    const sel = $('pace-speed');
+    if (document.activeElement !== sel) sel.value = c.speed > 0 ? String(c.speed) : 'max';
+    $('pace-state').textContent = paused ? 'paused' : (c.stepping ? 'stepping' : (c.speed > 0 ? `${c.speed}x` : 'max'));
+    document.body.dataset.clock = paused ? 'paused' : 'running';
+    document.body.dataset.clockT = c.t.toFixed(3);
+    document.body.dataset.clockSpeed = c.speed > 0 ? String(c.speed) : 'max';
+  }
+
+  function paceCommand(what, speed) { command({ cmd: 'clock', what, speed }); }
+  $('pace-run').addEventListener('click', () => paceCommand(S.clock && S.clock.running ? 'pause' : 'go'));
+  $('pace-step').addEventListener('click', () => paceCommand('step'));
+  $('pace-event').addEventListener('click', () => paceCommand('step_event'));
+  $('pace-speed').addEventListener('change', () => {
+    const v = $('pace-speed').value;
+    paceCommand('speed', v === 'max' ? 'max' : Number(v));
+  });
+
   // ------------------------------------------------------------------------------------------ connection
 
   function send(m) { if (S.ws && S.ws.readyState === 1) S.ws.send(JSON.stringify(m)); }
@@ -517,6 +553,7 @@
     if (d.lines) { d.lines = false; renderLines(); }
     if (d.rt) { d.rt = false; renderRt(); }
     if (d.robot) { d.robot = false; renderRobot(); }
+    if (d.pace) { d.pace = false; renderPace(); }
     requestAnimationFrame(frame);
   }
 
