@@ -433,6 +433,7 @@ local function make_start(self, c, st, cmd, abort_range)
   local pending = {}  -- the operands of ',' and '#' still to start, the next on top (no command re-enters)
   return function(root, b, at)
     local id, sp = root, 0
+    local op, names, labels, rprev, rnext, byname, logc, logv = op, names, labels, rprev, rnext, byname, logc, logv  -- registers, not upvalues
     while true do
       local o = op[id]
       if o == LEAF then
@@ -493,13 +494,18 @@ local function make_event(self, c, st, cmd, start_node, abort_range)
     self.logc
   local queue, cmd_deactivate = st.queue, cmd.deactivate or noop
   return function(_, name, kind, v)
-    local code = L_EVENT[kind]
-    if not code then error("algebra: unknown event kind '" .. tostring(kind) .. "'", 2) end
+    local code, ok = 8, true  -- L_EVENT[kind], and kind == "done"
+    if kind ~= "done" then
+      code, ok = L_EVENT[kind], false
+      if not code then error("algebra: unknown event kind '" .. tostring(kind) .. "'", 2) end
+      v = nil
+    end
     local at = self.logi
     if at < 0 then  -- busy
       queue[#queue + 1] = { name, kind, v }
       return nil
     end
+    local byname, rprev, rnext, parent, op = byname, rprev, rnext, parent, op  -- registers, not upvalues
     local id = byname[name]
     if not id then
       log(self, L_IGNORED[kind], name)
@@ -513,8 +519,6 @@ local function make_event(self, c, st, cmd, start_node, abort_range)
     logc[at & LOG_MASK] = id * 16 + code
     local lb = labels[id]
     if lb then cmd_deactivate(name, lb) end
-    local ok = kind == "done"
-    if not ok then v = nil end
     while true do
       p = parent[id]
       if p == 0 then
