@@ -289,8 +289,8 @@ TEST(PortTest, AnInputThatIsNotExclusiveTakesEveryWriter) {
 // in many under load).
 TEST(PortTest, AGateDropsTheSamplesOfTheConnectionItsNewOneReplaced) {
   const auto spec = dca::vector_port("cmd", 1, "m/s");
+  FakeFeeder old_link("main.xr.Cmd"), new_link("main.xr.Cmd");  // (before the input: it tells them it is gone)
   dca::Input in(spec, 4);
-  FakeFeeder old_link("main.xr.Cmd"), new_link("main.xr.Cmd");
   in.add_feeder(&old_link);
   dca::LinkGate gate;
   gate.gated = true;
