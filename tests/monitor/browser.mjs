@@ -8,18 +8,11 @@
 import { spawn } from 'node:child_process';
 import { mkdirSync, rmSync, writeFileSync } from 'node:fs';
 import { join } from 'node:path';
-import puppeteer from 'puppeteer-core';
-import { childEnv, startMonitor, until } from './driver.mjs';
+import { check, childEnv, inChromium, startMonitor, until } from './driver.mjs';
 
 const [mode, exe, src, out] = process.argv.slice(2);
-const CHROMIUM = process.env.DCA_CHROMIUM || '/usr/bin/chromium';
 mkdirSync(out, { recursive: true });
 const door = join(src, 'worlds/door/systems/door_open.dca');
-let failures = 0;
-function check(ok, what) {
-  console.log(`${ok ? 'ok  ' : 'FAIL'} ${what}`);
-  if (!ok) failures++;
-}
 
 // Starts `dca ARGS` and resolves with the process and the monitor's URL once it is printed (within 60 s).
 const start = (args) => startMonitor(exe, args);
@@ -338,20 +331,9 @@ async function replay(browser) {
   }
 }
 
-const browser = await puppeteer.launch({
-  executablePath: CHROMIUM, headless: true,
-  args: ['--no-sandbox', '--disable-gpu', '--disable-dev-shm-usage', '--no-first-run'],
-});
-try {
+process.exit(await inChromium(async (browser) => {
   if (mode === 'replay') await replay(browser);
   else if (mode === 'attach') await attach(browser);
   else if (mode === 'faults') await faults(browser);
   else await live(browser);
-} catch (e) {
-  console.log(`FAIL ${e.stack || e}`);
-  failures++;
-} finally {
-  await browser.close();
-}
-console.log(failures ? `${failures} check(s) failed` : 'all checks passed');
-process.exit(failures ? 1 : 0);
+}));

@@ -1,7 +1,10 @@
 // What the browser tests share: dca started with its monitor's address awaited, and waits on the page.
 //   const run = await startMonitor(EXE, ARGS)   run.p, run.url, run.exited (--> exit code), run.output()
 //   await until(page, fn, seconds, ...args)      fn's value in the page once truthy (polled), or null after seconds
+//   check(ok, what)                              prints ok / FAIL and counts the failures
+//   await inChromium(body, args)                 body(browser) in headless chromium --> exit code: 1 on a failure
 import { spawn } from 'node:child_process';
+import puppeteer from 'puppeteer-core';
 
 // dca's children stop when the process that started them is gone (DCA_PARENT_PID, host/spawn.h): this script's
 // own children must not inherit the variable meant for this script.
@@ -33,4 +36,29 @@ export async function until(page, fn, seconds, ...args) {
   } catch (e) {
     return null;
   }
+}
+
+let failures = 0;
+export function check(ok, what) {
+  console.log(`${ok ? 'ok  ' : 'FAIL'} ${what}`);
+  if (!ok) failures++;
+}
+
+// Runs body(browser) in Debian's chromium (or $DCA_CHROMIUM), headless, with chromium's `args` beside the
+// defaults; a throw is a failure. Then prints the verdict. --> the exit code: 1 if any check failed
+export async function inChromium(body, args = ['--disable-gpu']) {
+  const browser = await puppeteer.launch({
+    executablePath: process.env.DCA_CHROMIUM || '/usr/bin/chromium', headless: true,
+    args: ['--no-sandbox', ...args, '--disable-dev-shm-usage', '--no-first-run'],
+  });
+  try {
+    await body(browser);
+  } catch (e) {
+    console.log(`FAIL ${e.stack || e}`);
+    failures++;
+  } finally {
+    await browser.close();
+  }
+  console.log(failures ? `${failures} check(s) failed` : 'all checks passed');
+  return failures ? 1 : 0;
 }
