@@ -129,6 +129,73 @@ local function whole(file)
            chunks_read = function() return 1 end }
 end
 
+-- A channel's messages in file order (each_of(idx, sum, id)(fn)): its chunks read one at a time.
+local function each_of(idx, sum, id)
+  return function(fn)
+    for i, c in ipairs(sum.chunks) do
+      if c.channels[id] then
+        local msgs, err = idx:chunk(i)
+        if not msgs then  -- (the file changed or is damaged since it was opened: the rows so far)
+          io.stderr:write("dca monitor: ", tostring(err), "\n")
+          return
+        end
+        for _, msg in ipairs(msgs) do
+          if msg.channel == id then fn(msg) end
+        end
+      end
+    end
+  end
+end
+
+-- Reads the chunks an opening needs: those of the lines (`events`, into model m) and the URDF (`desc`), and the
+-- first of every other channel. --> { [channel] = its first message }, urdf | nil, err
+local function opening(idx, sum, events, desc, m)
+  local want, seen = {}, {}
+  for i, c in ipairs(sum.chunks) do
+    if c.channels[events] or (desc and c.channels[desc]) then want[i] = true end
+    for id in pairs(c.channels) do
+      if not seen[id] then seen[id], want[i] = true, true end
+    end
+  end
+  local first, urdf = {}, nil
+  for i = 1, #sum.chunks do
+    local msgs, err = {}, nil
+    if want[i] then msgs, err = idx:chunk(i) end
+    if not msgs then return nil, err end
+    for _, msg in ipairs(msgs) do
+      if msg.channel == events then
+        local v = core.json_decode(msg.data)
+        if type(v) == "table" and v.line then
+          if not m.root and v.path and v.path ~= "" then m.root = v.path:match("^[^.]+") end
+          m:line(v.line, msg.t / 1e9)
+        end
+      elseif msg.channel == desc then
+        urdf = urdf or urdf_of(msg)
+      elseif not first[msg.channel] then
+        first[msg.channel] = msg
+      end
+    end
+  end
+  return first, urdf
+end
+
+-- The series of channel `id` (its fields from its first message); its rows are read at each access of s.rows.
+-- --> the series, its frames (a foxglove.FrameTransforms channel's) or nil
+local function lazy_series(idx, sum, id, first)
+  local ch, n = sum.channels[id], sum.counts[id]
+  local make = ch.schema == "foxglove.FrameTransforms" and frames_series or series
+  local s, frames = make(id, ch.topic, 1, function(fn) fn(first) end)
+  s.rows = nil
+  return setmetatable(s, { __index = function(_, k)
+    if k ~= "rows" then return nil end
+    if not n then  -- no statistics: counted first
+      n = 0
+      each_of(idx, sum, id)(function() n = n + 1 end)
+    end
+    return make(id, ch.topic, n, each_of(idx, sum, id)).rows
+  end }), frames
+end
+
 --- Loads a recording through its summary (core.mcap_index): the chunks that hold the run's lines and
 --- /robot_description, and the first chunk of each other channel (its fields). A series' rows are read when
 --- asked for (s.rows: the channel's chunks, one at a time, each time), so a long recording is never held whole.
@@ -146,70 +213,14 @@ function M.load(file, spec)
   if not events then return nil, file .. ": no /dca/events channel (record with `dca run --sim WORLD --record`)" end
   local m = model_mod.new(spec and spec.path or nil)
   if spec then m:tree(M.spec_tree(spec), 0) end
-  -- the chunks to read now: those of the lines and the URDF, and the first of every other channel
-  local want, first_of = {}, {}
-  for i, c in ipairs(sum.chunks) do
-    if c.channels[events] or (desc and c.channels[desc]) then want[i] = true end
-    for id in pairs(c.channels) do
-      if not first_of[id] then first_of[id], want[i] = i, true end
-    end
-  end
-  local first, urdf = {}, nil
-  for i = 1, #sum.chunks do
-    if want[i] then
-      local msgs, cerr = idx:chunk(i)
-      if not msgs then return nil, cerr end
-      for _, msg in ipairs(msgs) do
-        if msg.channel == events then
-          local v = core.json_decode(msg.data)
-          if type(v) == "table" and v.line then
-            if not m.root and v.path and v.path ~= "" then m.root = v.path:match("^[^.]+") end
-            m:line(v.line, msg.t / 1e9)
-          end
-        elseif msg.channel == desc then
-          urdf = urdf or urdf_of(msg)
-        elseif not first[msg.channel] then
-          first[msg.channel] = msg
-        end
-      end
-    end
-  end
-  -- a channel's messages in file order, its chunks read one at a time
-  local function each_of(id)
-    return function(fn)
-      for i, c in ipairs(sum.chunks) do
-        if c.channels[id] then
-          local msgs, cerr = idx:chunk(i)
-          if not msgs then  -- (the file changed or is damaged since it was opened: the rows so far)
-            io.stderr:write("dca monitor: ", tostring(cerr), "\n")
-            return
-          end
-          for _, msg in ipairs(msgs) do
-            if msg.channel == id then fn(msg) end
-          end
-        end
-      end
-    end
-  end
-  local function one(msg) return function(fn) fn(msg) end end
-  local out, ids = {}, {}
+  local first, urdf = opening(idx, sum, events, desc, m)
+  if not first then return nil, urdf end
+  local out, ids, robot = {}, {}, {}
   for id in pairs(first) do ids[#ids + 1] = id end
   table.sort(ids)
-  local robot = {}
   for _, id in ipairs(ids) do
-    local ch, n = sum.channels[id], sum.counts[id]
-    local make = ch.schema == "foxglove.FrameTransforms" and frames_series or series
-    local s, frames = make(id, ch.topic, 1, one(first[id]))
+    local s, frames = lazy_series(idx, sum, id, first[id])
     if frames then robot.frames, robot.topic = frames, s.id end
-    s.rows = nil
-    setmetatable(s, { __index = function(_, k)
-      if k ~= "rows" then return nil end
-      if not n then  -- no statistics: counted first
-        n = 0
-        each_of(id)(function() n = n + 1 end)
-      end
-      return make(id, ch.topic, n, each_of(id)).rows
-    end })
     out[#out + 1] = s
   end
   robot.urdf = urdf
