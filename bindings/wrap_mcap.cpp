@@ -139,15 +139,17 @@ constexpr const char* kIndexMeta = "dca.McapIndex";
 struct LuaIndex {
   std::FILE* file = nullptr;
   std::string path;
+  uint64_t size = 0;
   mcap::Summary summary;
   lua_Integer chunks_read = 0;
   void close() {
     if (file) std::fclose(file);
     file = nullptr;
   }
-  // Reads `length` bytes at `offset`: false past the end or on an I/O error.
+  // Reads `length` bytes at `offset`: false past the end (nothing allocated) or on an I/O error.
   bool fetch(uint64_t offset, uint64_t length, std::string* out) const {
-    if (!file || length > (uint64_t{1} << 31) || ::fseeko(file, static_cast<off_t>(offset), SEEK_SET) != 0) return false;
+    if (!file || offset > size || length > size - offset || ::fseeko(file, static_cast<off_t>(offset), SEEK_SET) != 0)
+      return false;
     out->resize(static_cast<std::size_t>(length));
     return std::fread(out->data(), 1, out->size(), file) == out->size();
   }
@@ -173,9 +175,10 @@ int l_mcap_index(lua_State* L) {
   bool ok = false;
   if (x->file && std::fseek(x->file, 0, SEEK_END) == 0) {
     const off_t size = ::ftello(x->file);
+    x->size = size >= 0 ? static_cast<uint64_t>(size) : 0;
     try {
       ok = size >= 0 && mcap::read_summary([x](uint64_t o, uint64_t n, std::string* out) { return x->fetch(o, n, out); },
-                                           static_cast<uint64_t>(size), &x->summary, &error);
+                                           x->size, &x->summary, &error);
     } catch (const std::exception& e) {
       error = e.what();
     }

@@ -53,4 +53,21 @@ suite:case("a_file_that_is_no_mcap_is_refused_with_its_name", function()
   T.contains(err, file)
 end)
 
+-- A file damaged in its middle (a chunk's bytes overwritten) opens (its summary and the chunks it needs are
+-- whole); the rows stop at the damaged chunk, said on stderr, and nothing is raised. A file cut short is no
+-- indexed file: it is read whole, and refused with its name.
+suite:case("a_damaged_chunk_ends_the_rows_and_a_cut_file_is_refused", function()
+  local file = recording(20000)
+  local bytes = T.read(file)
+  local mid = #bytes // 2
+  T.write(file, bytes:sub(1, mid) .. ("\255"):rep(64) .. bytes:sub(mid + 65))
+  local rec = T.ok(replay.load(file))
+  local rows = rec.series[1].rows
+  T.ok(#rows > 0 and #rows < replay.MAX_ROWS, "the rows before the damaged chunk: " .. #rows)
+  T.write(file, bytes:sub(1, #bytes - 100))
+  local none, err = replay.load(file)
+  T.eq(none, nil)
+  T.contains(err, file)
+end)
+
 return suite:run(...)
