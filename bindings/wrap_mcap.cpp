@@ -6,6 +6,15 @@
 //   rec.messages[i]  = { channel = id, t = log time in ns (integer), data = "{...}" }   -- in file order
 // A file that is not a well-formed MCAP file this reader understands: nil and the reason ("offset N: ...").
 //
+// core.mcap_index: a recording read through its summary (chunk indexes, statistics), a chunk at a time, so a long
+// recording is never held whole (`dca monitor FILE.mcap`, dca.monitor.replay):
+//   local idx, err = core.mcap_index("run.mcap")   -- its footer and summary read | nil, reason
+//   idx:summary()   --> { channels = { [id] = {topic, schema, encoding} }, counts = { [id] = messages },
+//                   --     chunks = { { start = ns, finish = ns, channels = { [id] = true } }, ... } (file order),
+//                   --     messages, start, finish }
+//   idx:chunk(i)    --> the messages of chunk i, { {channel, t, data}, ... } as core.mcap_read's | nil, reason
+//   idx:chunks_read() --> how many chunks idx:chunk has read so far (for tests: what opening a file costs)
+//
 // core.mcap_writer: an MCAP recording written from Lua (host/codec/mcap.h's Writer on a file), for the recordings
 // of wall-clock runs (dca.launch.wall_record):
 //   local w, err = core.mcap_writer("run.mcap")    -- the file created (truncated) | nil, reason
@@ -17,12 +26,16 @@
 // after finish(), nor after a failed write (write() is then a no-op; finish() says why).
 #include <lua.hpp>
 
+#include <sys/types.h>
 #include <time.h>
 
 #include <cstdio>
 #include <fstream>
+#include <map>
 #include <memory>
 #include <optional>
+#include <string>
+#include <vector>
 
 #include "bindings/lua_support.h"
 #include "host/codec/mcap.h"
@@ -49,11 +62,10 @@ bool slurp(const char* path, std::string* out, std::string* error) {
   return static_cast<bool>(f);
 }
 
-// Pushes the contents as the table described above.
-void push_contents(lua_State* L, const mcap::Contents& c) {
-  lua_createtable(L, 0, 2);
-  lua_createtable(L, 0, static_cast<int>(c.channels.size()));
-  for (const auto& [id, ch] : c.channels) {
+// Pushes channels as { [id] = {topic, schema, encoding} }.
+void push_channels(lua_State* L, const std::map<uint16_t, mcap::Contents::Channel>& channels) {
+  lua_createtable(L, 0, static_cast<int>(channels.size()));
+  for (const auto& [id, ch] : channels) {
     lua_createtable(L, 0, 3);
     lua_pushlstring(L, ch.topic.data(), ch.topic.size());
     lua_setfield(L, -2, "topic");
@@ -63,10 +75,13 @@ void push_contents(lua_State* L, const mcap::Contents& c) {
     lua_setfield(L, -2, "encoding");
     lua_rawseti(L, -2, id);
   }
-  lua_setfield(L, -2, "channels");
-  lua_createtable(L, static_cast<int>(c.messages.size()), 0);
+}
+
+// Pushes messages as { {channel, t, data}, ... }.
+void push_messages(lua_State* L, const std::vector<mcap::Contents::Message>& messages) {
+  lua_createtable(L, static_cast<int>(messages.size()), 0);
   lua_Integer i = 1;
-  for (const auto& m : c.messages) {
+  for (const auto& m : messages) {
     lua_createtable(L, 0, 3);
     lua_pushinteger(L, m.channel);
     lua_setfield(L, -2, "channel");
@@ -76,6 +91,14 @@ void push_contents(lua_State* L, const mcap::Contents& c) {
     lua_setfield(L, -2, "data");
     lua_rawseti(L, -2, i++);
   }
+}
+
+// Pushes the contents as the table described above.
+void push_contents(lua_State* L, const mcap::Contents& c) {
+  lua_createtable(L, 0, 2);
+  push_channels(L, c.channels);
+  lua_setfield(L, -2, "channels");
+  push_messages(L, c.messages);
   lua_setfield(L, -2, "messages");
 }
 
@@ -106,6 +129,135 @@ int l_mcap_read(lua_State* L) {
     return 2;
   }
   push_contents(L, *contents);
+  return 1;
+}
+
+// -------------------------------------------------------------------------------------------- the index ---
+
+constexpr const char* kIndexMeta = "dca.McapIndex";
+
+struct LuaIndex {
+  std::FILE* file = nullptr;
+  std::string path;
+  uint64_t size = 0;
+  mcap::Summary summary;
+  lua_Integer chunks_read = 0;
+  void close() {
+    if (file) std::fclose(file);
+    file = nullptr;
+  }
+  // Reads `length` bytes at `offset`: false past the end (nothing allocated) or on an I/O error.
+  bool fetch(uint64_t offset, uint64_t length, std::string* out) const {
+    if (!file || offset > size || length > size - offset || ::fseeko(file, static_cast<off_t>(offset), SEEK_SET) != 0)
+      return false;
+    out->resize(static_cast<std::size_t>(length));
+    return std::fread(out->data(), 1, out->size(), file) == out->size();
+  }
+};
+
+LuaIndex* check_index(lua_State* L) { return static_cast<LuaIndex*>(luaL_checkudata(L, 1, kIndexMeta)); }
+
+int index_gc(lua_State* L) {
+  auto* x = check_index(L);
+  x->close();
+  x->~LuaIndex();
+  return 0;
+}
+
+int l_mcap_index(lua_State* L) {
+  const char* path = luaL_checkstring(L, 1);
+  auto* x = static_cast<LuaIndex*>(lua_newuserdatauv(L, sizeof(LuaIndex), 0));
+  new (x) LuaIndex();
+  luaL_setmetatable(L, kIndexMeta);
+  x->path = path;
+  x->file = std::fopen(path, "rb");
+  std::string error = "cannot read the recording";
+  bool ok = false;
+  if (x->file && std::fseek(x->file, 0, SEEK_END) == 0) {
+    const off_t size = ::ftello(x->file);
+    x->size = size >= 0 ? static_cast<uint64_t>(size) : 0;
+    try {
+      ok = size >= 0 && mcap::read_summary([x](uint64_t o, uint64_t n, std::string* out) { return x->fetch(o, n, out); },
+                                           x->size, &x->summary, &error);
+    } catch (const std::exception& e) {
+      error = e.what();
+    }
+  }
+  if (!ok) {
+    x->close();
+    lua_pushnil(L);
+    lua_pushfstring(L, "%s: %s", path, error.c_str());
+    return 2;
+  }
+  return 1;
+}
+
+int index_summary(lua_State* L) {
+  const auto& s = check_index(L)->summary;
+  lua_createtable(L, 0, 6);
+  push_channels(L, s.channels);
+  lua_setfield(L, -2, "channels");
+  lua_createtable(L, 0, static_cast<int>(s.per_channel.size()));
+  for (const auto& [id, n] : s.per_channel) {
+    lua_pushinteger(L, static_cast<lua_Integer>(n));
+    lua_rawseti(L, -2, id);
+  }
+  lua_setfield(L, -2, "counts");
+  lua_createtable(L, static_cast<int>(s.chunks.size()), 0);
+  lua_Integer i = 1;
+  for (const auto& c : s.chunks) {
+    lua_createtable(L, 0, 3);
+    lua_pushinteger(L, static_cast<lua_Integer>(c.start_time));
+    lua_setfield(L, -2, "start");
+    lua_pushinteger(L, static_cast<lua_Integer>(c.end_time));
+    lua_setfield(L, -2, "finish");
+    lua_createtable(L, 0, static_cast<int>(c.channels.size()));
+    for (const auto id : c.channels) {
+      lua_pushboolean(L, 1);
+      lua_rawseti(L, -2, id);
+    }
+    lua_setfield(L, -2, "channels");
+    lua_rawseti(L, -2, i++);
+  }
+  lua_setfield(L, -2, "chunks");
+  lua_pushinteger(L, static_cast<lua_Integer>(s.messages));
+  lua_setfield(L, -2, "messages");
+  lua_pushinteger(L, static_cast<lua_Integer>(s.start_time));
+  lua_setfield(L, -2, "start");
+  lua_pushinteger(L, static_cast<lua_Integer>(s.end_time));
+  lua_setfield(L, -2, "finish");
+  return 1;
+}
+
+int index_chunk(lua_State* L) {
+  auto* x = check_index(L);
+  const lua_Integer i = luaL_checkinteger(L, 2);
+  if (i < 1 || static_cast<std::size_t>(i) > x->summary.chunks.size())
+    return luaL_error(L, "%s: no chunk %d", x->path.c_str(), static_cast<int>(i));
+  // the messages live in a userdata (freed by its __gc), so a Lua error while the tables are built leaks nothing
+  auto* contents = static_cast<mcap::Contents*>(lua_newuserdatauv(L, sizeof(mcap::Contents), 0));
+  new (contents) mcap::Contents();
+  luaL_setmetatable(L, kContentsMeta);
+  std::string error;
+  bool ok = false;
+  try {
+    ok = mcap::read_chunk([x](uint64_t o, uint64_t n, std::string* out) { return x->fetch(o, n, out); }, x->summary,
+                          x->summary.chunks[static_cast<std::size_t>(i - 1)], &contents->messages, &error);
+  } catch (const std::exception& e) {
+    error = e.what();
+  }
+  ++x->chunks_read;
+  if (!ok) {
+    lua_pushnil(L);
+    lua_pushfstring(L, "%s: %s", x->path.c_str(), error.c_str());
+    return 2;
+  }
+  push_messages(L, contents->messages);
+  return 1;
+}
+
+int index_chunks_read(lua_State* L) {
+  lua_pushinteger(L, check_index(L)->chunks_read);
   return 1;
 }
 
@@ -231,7 +383,11 @@ void open_mcap(lua_State* L) {
   static const luaL_Reg writer[] = {
       {"channel", writer_channel}, {"write", writer_write}, {"finish", writer_finish}, {nullptr, nullptr}};
   lua::register_type(L, kWriterMeta, writer, {writer_gc, nullptr, nullptr});
-  static const luaL_Reg functions[] = {{"mcap_read", l_mcap_read}, {"mcap_writer", l_mcap_writer}, {nullptr, nullptr}};
+  static const luaL_Reg index[] = {
+      {"summary", index_summary}, {"chunk", index_chunk}, {"chunks_read", index_chunks_read}, {nullptr, nullptr}};
+  lua::register_type(L, kIndexMeta, index, {index_gc, nullptr, nullptr});
+  static const luaL_Reg functions[] = {
+      {"mcap_read", l_mcap_read}, {"mcap_writer", l_mcap_writer}, {"mcap_index", l_mcap_index}, {nullptr, nullptr}};
   luaL_setfuncs(L, functions, 0);
 }
 

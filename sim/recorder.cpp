@@ -90,6 +90,7 @@ struct Recorder::Box {
   bool pending = false;         // a trigger waits for its after-window
   uint64_t t_trigger = 0;
   std::string why;
+  std::vector<std::pair<uint64_t, std::string>> also;  // the triggers counted in the pending one (kMaxAlso)
   uint64_t dropped = 0;         // messages dropped by the size bound
   uint64_t gone = 0;            // the latest time of a message dropped
   bool any_gone = false;
@@ -125,6 +126,11 @@ struct Recorder::Box {
     std::snprintf(numbers, sizeof numbers, ",\"t\":%.9f,\"before\":%.9g,\"after\":%.9g}",
                   static_cast<double>(t_trigger) / 1e9, o.before, o.after);
     w.write(box, t_trigger, "{\"trigger\":" + json_string(why) + numbers);
+    for (const auto& [t, what] : also) {  // the later triggers it holds, each at its own time
+      std::snprintf(numbers, sizeof numbers, ",\"t\":%.9f,\"before\":%.9g,\"after\":%.9g}",
+                    static_cast<double>(t) / 1e9, o.before, o.after);
+      w.write(box, t, "{\"trigger\":" + json_string(what) + numbers);
+    }
     const uint64_t from = t_trigger > before_ns ? t_trigger - before_ns : 0, to = t_trigger + after_ns;
     for (const auto& m : held)
       if (m.t >= from && m.t <= to) w.write(m.channel, m.t, m.json);
@@ -140,7 +146,7 @@ struct Recorder::Box {
                     static_cast<double>(gone) / 1e9);
       cut = held_from;
     }
-    return file + ": " + why + window + std::to_string(w.stats().messages - 1) + " messages" + cut;
+    return file + ": " + why + window + std::to_string(w.stats().messages - 1 - also.size()) + " messages" + cut;
   }
 };
 
@@ -190,6 +196,7 @@ void Recorder::put(uint16_t channel, uint64_t t_ns, std::string json) {
   if (b.pending && b.latest > b.t_trigger + b.after_ns) {
     b.files.push_back(b.write(path_.substr(0, path_.size() - 5) + "-" + std::to_string(b.files.size() + 1) + ".mcap"));
     b.pending = false;
+    b.also.clear();
   }
   b.evict();
 }
@@ -239,7 +246,12 @@ bool Recorder::blackbox(const BlackboxOptions& o) {
 }
 
 void Recorder::trigger(double t, const std::string& why) {
-  if (!box_ || box_->pending) return;
+  if (!box_) return;
+  if (box_->pending) {  // part of the pending one: named in its file too
+    if (box_->also.size() < Recorder::kMaxAlso)
+      box_->also.emplace_back(static_cast<uint64_t>(std::llround(std::max(0.0, t) * 1e9)), why);
+    return;
+  }
   box_->pending = true;
   box_->t_trigger = static_cast<uint64_t>(std::llround(std::max(0.0, t) * 1e9));
   box_->why = why;

@@ -49,6 +49,8 @@ class Recorder {
   /// A black box keeps this much simulated time (ns) beyond `before`: a trigger's tick may lie that far behind
   /// the latest message when it arrives (a fault's line reaches the world while time runs on).
   static constexpr uint64_t kLateTrigger = 2'000'000'000;
+  /// The later triggers a black box's file names beside its own (one /dca/blackbox message each), at most.
+  static constexpr std::size_t kMaxAlso = 16;
   ~Recorder();
   Recorder(const Recorder&) = delete;
   Recorder& operator=(const Recorder&) = delete;
@@ -78,7 +80,8 @@ class Recorder {
   bool blackbox(const BlackboxOptions& o);
   /// A black box's trigger at simulated time `t` (s) for `why`: once time passes t + after (or at close), the file
   /// of the messages in [t - before, t + after] is written, with {"trigger", "t", "before", "after"} on
-  /// /dca/blackbox. A trigger while one is pending is counted in that one. Ignored by a plain recording.
+  /// /dca/blackbox. A trigger while one is pending is counted in that one: its file has one more message on
+  /// /dca/blackbox at the later trigger's time (at most kMaxAlso). Ignored by a plain recording.
   void trigger(double t, const std::string& why);
   /// A black box's messages held now (bytes), and the files it wrote (their summaries).
   std::size_t held_bytes() const;

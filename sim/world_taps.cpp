@@ -38,7 +38,8 @@ bool WorldTaps::handle(const std::shared_ptr<Channel>& ch, const Message& m, dou
   if (m.type != "note") return false;
   const double t = m.payload["t"].as_float(now_s);
   const std::string& state = m.payload["state"].as_string();
-  if (recorder_ && (state == "aborted" || state == "lost"))  // a fault: the black box's trigger
+  // a fault: the black box's trigger (`fault`: a crash or an escalation, dca.launch.sim's M.fault)
+  if (recorder_ && (state == "aborted" || state == "lost" || m.payload["fault"].as_bool()))
     recorder_->trigger(t, m.payload["line"].as_string());
   if (recorder_ && m.payload["channel"].as_string() == "log")  // a process's stderr line (/dca/log)
     recorder_->log(t, m.payload["path"].as_string(), m.payload["line"].as_string());

@@ -1,9 +1,9 @@
 // What the browser tests share: dca started with its monitor's address awaited, and waits on the page.
 //   const run = await startMonitor(EXE, ARGS)   run.p, run.url, run.exited (--> exit code), run.output()
 //   await until(page, fn, seconds, ...args)      fn's value in the page once truthy (polled), or null after seconds
-//   check(ok, what)                              prints ok/FAIL and what, counting the failures
-//   await inBrowser(async (browser) => ...)      runs it in headless chromium, then says the count and exits (1 on
-//                                                a failed check or an exception)
+//   check(ok, what)                              prints ok / FAIL and counts the failures
+//   await inChromium(body, args)                 body(browser) in headless chromium --> exit code: 1 on a failure
+//   await inBrowser(body)                        the same, then exits with that code
 import { spawn } from 'node:child_process';
 import puppeteer from 'puppeteer-core';
 
@@ -45,14 +45,15 @@ export function check(ok, what) {
   if (!ok) failures++;
 }
 
-// Debian's chromium ($DCA_CHROMIUM to use another), headless, with no download.
-export async function inBrowser(fn) {
+// Runs body(browser) in Debian's chromium (or $DCA_CHROMIUM), headless, with chromium's `args` beside the
+// defaults; a throw is a failure. Then prints the verdict. --> the exit code: 1 if any check failed
+export async function inChromium(body, args = ['--disable-gpu']) {
   const browser = await puppeteer.launch({
     executablePath: process.env.DCA_CHROMIUM || '/usr/bin/chromium', headless: true,
-    args: ['--no-sandbox', '--disable-gpu', '--disable-dev-shm-usage', '--no-first-run'],
+    args: ['--no-sandbox', ...args, '--disable-dev-shm-usage', '--no-first-run'],
   });
   try {
-    await fn(browser);
+    await body(browser);
   } catch (e) {
     console.log(`FAIL ${e.stack || e}`);
     failures++;
@@ -60,5 +61,10 @@ export async function inBrowser(fn) {
     await browser.close();
   }
   console.log(failures ? `${failures} check(s) failed` : 'all checks passed');
-  process.exit(failures ? 1 : 0);
+  return failures ? 1 : 0;
+}
+
+// inChromium(body), then the process exits with its code.
+export async function inBrowser(body) {
+  process.exit(await inChromium(body));
 }

@@ -12,21 +12,14 @@
 // Every wait is for something the page shows, with a deadline; the screenshots go to OUT_DIR.
 import { mkdirSync, rmSync } from 'node:fs';
 import { join } from 'node:path';
-import puppeteer from 'puppeteer-core';
-import { startMonitor, until } from './driver.mjs';
+import { check, inChromium, startMonitor, until } from './driver.mjs';
 
 const [exe, src, out] = process.argv.slice(2);
-const CHROMIUM = process.env.DCA_CHROMIUM || '/usr/bin/chromium';
 mkdirSync(out, { recursive: true });
 const system = join(src, 'worlds/ur10/ur10_setpoint.dca');
 const urdf = join(src, 'worlds/ur10/ur10.urdf');
 const rec = join(out, 'ur10.mcap');
 rmSync(rec, { force: true });
-let failures = 0;
-function check(ok, what) {
-  console.log(`${ok ? 'ok  ' : 'FAIL'} ${what}`);
-  if (!ok) failures++;
-}
 
 const start = (args) => startMonitor(exe, args);
 
@@ -111,23 +104,13 @@ async function replay(browser, t) {
   }
 }
 
-const browser = await puppeteer.launch({
-  executablePath: CHROMIUM, headless: true,
-  args: ['--no-sandbox', '--use-angle=swiftshader', '--enable-unsafe-swiftshader', '--disable-dev-shm-usage', '--no-first-run'],
-});
-try {
+const code = await inChromium(async (browser) => {
   const l = await live(browser);
   const r = await replay(browser, l.t);
   const d = differing(l.image, r.image);
   check(d < 0.005, `live and replay at t = ${l.t} s differ in ${(100 * d).toFixed(3)}% of the pixels (under 0.5%)`);
   const moved = differing(r.start, r.image);
   check(moved > 0.01, `the robot moved between t = 0 and ${l.t} (${(100 * moved).toFixed(2)}% of the pixels differ)`);
-} catch (e) {
-  console.log(`FAIL ${e.stack || e}`);
-  failures++;
-} finally {
-  await browser.close();
-  rmSync(rec, { force: true });
-}
-console.log(failures ? `${failures} check(s) failed` : 'all checks passed');
-process.exit(failures ? 1 : 0);
+}, ['--use-angle=swiftshader', '--enable-unsafe-swiftshader']);
+rmSync(rec, { force: true });
+process.exit(code);

@@ -83,10 +83,11 @@ per group as it comes up and one per process transition, and runs the root expre
   --blackbox B,A[,MIB]
                   with --record FILE.mcap: a black box instead of the whole recording: what it would write
                   held for the last B seconds (at most MIB MiB, default 64) and written, with A seconds
-                  after, to FILE-1.mcap, FILE-2.mcap, ... when a process aborts or is lost; the file
-                  names its trigger on /dca/blackbox and holds the run's lines; also triggered by the first
-                  refusal of a second writer on a command input, a storm of limit clamps, `blackbox(WHY)` in
-                  the REPL and SIGUSR2 to dca run
+                  after, to FILE-1.mcap, FILE-2.mcap, ... when a process aborts, crashes or is lost, or
+                  a group exceeds its restart intensity; the file names its trigger on /dca/blackbox and
+                  holds the run's lines; also triggered by the first refusal of a second writer on a
+                  command input, a storm of limit clamps, `blackbox(WHY)` in the REPL, the monitor's
+                  "black box" button and SIGUSR2 to dca run
   --blackbox-storm CLAMPS,SECONDS
                   with --blackbox: a storm is CLAMPS command samples clamped to the robot's limits within
                   SECONDS of simulated time (default 10,1), a trigger once per storm

@@ -281,7 +281,8 @@ function Run:start_monitor()
   local mon, err = require("dca.monitor.server").start{
     addr = self.o.monitor ~= true and self.o.monitor or nil, name = self.spec.path, root = self.spec.path,
     mode = "live",
-    request = request, world = world, world_spec = self.o.sim }
+    request = request, world = world, world_spec = self.o.sim,
+    blackbox = self.o.blackbox and function(why, cb) self:blackbox(why, cb) end or nil }
   if not mon then return nil, err end
   mon.srv:add_key_token(self.ctx.key)  -- a key holder's token too (`dca monitor --token --key FILE`)
   self.monitor = mon
@@ -463,13 +464,18 @@ function Run:prepare()
 end
 
 -- The black box's trigger on demand (SIGUSR2, docs/recording.md "Black box"): the world's `blackbox {why}`,
--- said with its tick.
-function Run:blackbox(why)
+-- said with its tick; cb(reply {t} | nil, err) if given (the monitor's page).
+function Run:blackbox(why, cb)
   local s = self.ctx.sim
-  if not (s and s.world:connected()) then self:say("black box: no world to trigger it in yet (" .. why .. ")") return end
+  if not (s and s.world:connected()) then
+    self:say("black box: no world to trigger it in yet (" .. why .. ")")
+    if cb then cb(nil, "no world to trigger it in yet") end
+    return
+  end
   s.world:request({ type = "blackbox", why = why }, 10, function(r, err)
     if r and r.t then self:say(sformat("black box triggered (%s) at %.3f s", why, r.t))
     else self:say("black box: " .. why .. ": " .. tostring(err)) end
+    if cb then cb(r and r.t and r or nil, err or (r and r.reason)) end
   end)
 end
 

@@ -53,8 +53,20 @@ function S:_note(line, t, output)
     return
   end
   local path, word = transition(line)
-  self.world:request({ type = "note", t = t, line = tostring(line), path = path or "", state = word or "" }, 10,
-                     function() end)
+  self.world:request({ type = "note", t = t, line = tostring(line), path = path or "", state = word or "",
+                       fault = M.fault(line) }, 10, function() end)
+end
+
+--- Whether a line is a fault that triggers a black box besides a transition to `aborted` or `lost` (the world
+--- takes those by their state): a leaf's crash ("P: exited: killed by SIGSEGV ...", "exited with code 3 ...")
+--- and an escalation ("P: restart intensity 2 in 10 s exceeded; last: ...", dca.supervisor.policy).
+function M.fault(line)
+  line = tostring(line)
+  local reason = line:match("^%S+: exited: (.*)")
+  if reason then
+    return reason:find("killed by SIG", 1, true) ~= nil or reason:find("exited with code [1-9]") ~= nil
+  end
+  return line:find("^%S+: restart intensity .- exceeded") ~= nil
 end
 
 -- Calls back the stamped lines in order, as far as they have their time.

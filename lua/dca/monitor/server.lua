@@ -14,6 +14,8 @@
 --     series = { {id, name, fields, rows} },  -- optional: recorded signals, offered as topics; a page that
 --                                      -- subscribes to one gets its rows whole ({type = "series", ...})
 --     robot = { urdf, frames, topic },  -- optional: a URDF world's robot (mon:robot)
+--     blackbox = function(why, cb) end, -- optional (dca run --blackbox): triggers the black box, cb(reply {t} | nil,
+--                                      -- err); the page shows its button, {type = "command", cmd = "blackbox", why}
 --   }
 --   mon:url()                 --> "http://127.0.0.1:PORT/?token=..."
 --   mon:line(line, t)         -- a line of the run at time t (seconds)
@@ -28,8 +30,9 @@
 -- coalesced every 50 ms; {type = "samples", topic, name, rows} (host/web); {type = "reply", id, ok, text};
 -- {type = "robot", urdf, frames, topic} (a URDF world's, at open or when known).
 -- Page -> server: {type = "subscribe", topic, rate}, {type = "command", id, cmd = "abort" | "restart" |
--- "event" | "config_set" | "estop" | "release" | "clock", path, kind, value, key, what, speed}. A snapshot or delta
--- carries `clock` {t, running, speed, stepping}, the world's (polled with the plots' status). A message that is not JSON, or not one of these, is answered
+-- "event" | "config_set" | "estop" | "release" | "clock" | "blackbox", path, kind, value, key, what, speed, why}. A
+-- snapshot or delta carries `clock` {t, running, speed, stepping}, the world's (polled with the plots' status). A
+-- message that is not JSON, or not one of these, is answered
 -- {type = "error", reason} and counted; the page's connection stays. The token allows these commands and no
 -- more: nothing a page sends is evaluated as code (Lua evaluation needs the cluster key: dca repl).
 local core = require "dca.core"
@@ -128,7 +131,8 @@ end
 function Mon:_open(c)
   self:_flush()  -- what is pending goes to the pages already open: the snapshot holds it for this one
   self.pages[c] = true
-  send(c, { type = "hello", mode = self.o.mode or "live", name = self.o.name or "", version = 1 })
+  send(c, { type = "hello", mode = self.o.mode or "live", name = self.o.name or "", version = 1,
+            blackbox = self.o.blackbox ~= nil or nil })
   local snap = self.model:snapshot()
   snap.type, snap.topics = "snapshot", self:_topics()
   send(c, snap)
@@ -293,8 +297,23 @@ local function command_request(m)
   return nil, "unknown command " .. tostring(m.cmd)
 end
 
+-- The page's black box button (docs/recording.md, "Black box"): the file names `monitor: WHY` (default "page").
+function Mon:_blackbox(c, id, m)
+  if not self.o.blackbox then
+    send(c, { type = "reply", id = id, ok = false, text = "this run has no black box (dca run --blackbox)" })
+    return
+  end
+  self.commands = self.commands + 1
+  local why = "monitor: " .. (m.why ~= nil and tostring(m.why):sub(1, 200) or "page")
+  self.o.blackbox(why, function(r, err)
+    local text = r and r.t and sformat("black box triggered (%s) at %.3f s", why, r.t) or tostring(err or "no answer")
+    if c:is_open() then send(c, { type = "reply", id = id, ok = (r and r.t) ~= nil, text = text }) end
+  end)
+end
+
 function Mon:_command(c, m)
   local id = tonumber(m.id) or 0
+  if m.cmd == "blackbox" then return self:_blackbox(c, id, m) end
   local req, err = self.o.request and command_request(m)
   if not self.o.request then err = "this monitor replays a recording: nothing to change" end
   if not req then send(c, { type = "reply", id = id, ok = false, text = tostring(err) }) return end

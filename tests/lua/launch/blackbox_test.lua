@@ -55,7 +55,7 @@ suite:case("a_fault_writes_the_window_of_the_full_recording_around_it", function
   T.ok(t_fault, "an aborted line in the full recording")
   local trigger
   for _, m in ipairs(b.messages) do
-    if b.channels[m.channel].topic == "/dca/blackbox" then trigger = m end
+    if b.channels[m.channel].topic == "/dca/blackbox" then trigger = trigger or m end
   end
   T.ok(trigger, "the trigger on /dca/blackbox")
   T.eq(trigger.t, t_fault, "the trigger's tick")
@@ -101,7 +101,7 @@ local function trigger_and_end(rec)
   local trigger, t_end
   for _, m in ipairs(rec.messages) do
     local topic = rec.channels[m.channel].topic
-    if topic == "/dca/blackbox" then trigger = m end
+    if topic == "/dca/blackbox" then trigger = trigger or m end
     if topic == "/dca/events" and not t_end and m.data:find('"state":"[A-Z]+"') then t_end = m.t end
   end
   return trigger, t_end
@@ -163,6 +163,51 @@ suite:case("a_storm_of_limit_clamps_triggers_the_black_box_once", function()
   local out = robot_run(dir .. "/far.dca", "--record " .. dir .. "/again.mcap --blackbox 0.5,0.2 --blackbox-storm 10,0.05")
   T.contains(out, "black box, 1 written")
   T.ok(not T.mcap_text(dir .. "/again-1.mcap"):find("storm", 1, true), "no storm:\n" .. out)
+end)
+
+-- A crash and an escalation are faults (docs/recording.md, "Black box" 7): a leaf that dies by SIGSEGV every
+-- 0.5 s of simulated time, under `intensity 1 in 10 s`, is restarted once, then its group gives up. The first
+-- crash writes box-1.mcap. The second crash, the escalation it causes and the group's ABORTED all come at 1 s:
+-- one file or several (a line that reaches the world after its file was written starts a new one: time runs on
+-- while the tree stops), each trigger named on /dca/blackbox at its line's tick, in a file of [0.7, 1.2] s.
+local ESCALATES = [[
+process main() {
+  supervision { strategy one_for_one; intensity 1 in 10 s; }
+  instantiated_processes {
+    crashy instof Crash("arm", 50, "segv", 0.01);
+    stop instof Timer("arm", 5);
+  }
+  internal_event_actions { crashy # stop }
+}
+]]
+
+suite:case("a_crash_and_an_escalation_trigger_the_black_box", function()
+  local dir = T.tmpdir()
+  local out, rc = robot_run(T.write(dir .. "/esc.dca", ESCALATES), "--record " .. dir .. "/box.mcap --blackbox 0.3,0.2")
+  T.eq(rc, 1, "the run ends ABORTED:\n" .. out)
+  T.contains(out, "box-1.mcap: main.crashy: exited: killed by SIGSEGV on host arm at 0.500 s, [0.200, 0.700] s")
+  T.contains(out, "main.crashy: exited: killed by SIGSEGV on host arm at 1.000 s, [0.700, 1.200] s")
+  local exceeded = "restart intensity 1 in 10 s exceeded; last: crashy killed by SIGSEGV on host arm"
+  -- every trigger of every file, with its tick, and the tick of the line it names in that file
+  local named = {}
+  for n = 1, 8 do
+    local b = core.mcap_read(dir .. "/box-" .. n .. ".mcap")
+    if not b then break end
+    local lines = {}
+    for _, m in ipairs(b.messages) do
+      if b.channels[m.channel].topic == "/dca/events" then lines[core.json_decode(m.data).line] = m.t end
+    end
+    for _, m in ipairs(b.messages) do
+      if b.channels[m.channel].topic == "/dca/blackbox" then
+        local v = core.json_decode(m.data)
+        T.eq(m.t, lines[v.trigger], "the trigger at its line's tick: " .. v.trigger)
+        named[v.trigger] = m.t
+      end
+    end
+  end
+  T.eq(named["main: " .. exceeded], 1000000000, "the escalation named, at 1 s")
+  T.eq(named["main.crashy: exited: killed by SIGSEGV on host arm"] ~= nil, true)
+  T.eq(named["main: aborted (main.crashy: " .. exceeded .. ")"], 1000000000)
 end)
 
 -- --record-compression and --record-split are checked before anything starts.

@@ -158,7 +158,7 @@ suite:case("blackbox_in_the_repl_writes_a_file_that_names_its_why", function()
   local rec = assert(require("dca.core").mcap_read(dir .. "/box-1.mcap"))
   local trigger
   for _, m in ipairs(rec.messages) do
-    if rec.channels[m.channel].topic == "/dca/blackbox" then trigger = m end
+    if rec.channels[m.channel].topic == "/dca/blackbox" then trigger = trigger or m end
   end
   T.ok(trigger, "the trigger on /dca/blackbox")
   T.contains(trigger.data, '"trigger":"REPL: the gripper slipped"')

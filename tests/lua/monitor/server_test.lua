@@ -166,6 +166,31 @@ suite:case("a_refused_command_is_not_ok_and_says_why", function()
   mon:close()
 end)
 
+-- The black box button's command: refused without --blackbox; with it, the trigger's `why` is `monitor: WHY`
+-- (default "page"), never a console request, and the reply says its tick.
+suite:case("the_black_box_command_names_the_monitor_and_needs_a_black_box", function()
+  local mon = monitor()
+  local p = page()
+  mon:_message(p, core.json_encode{ type = "command", id = 1, cmd = "blackbox" })
+  T.eq(p.got[#p.got], { type = "reply", id = 1, ok = false, text = "this run has no black box (dca run --blackbox)" })
+  mon:close()
+  local whys, asked = {}, {}
+  mon = T.ok(server.start{ name = "main", root = "main", mode = "live",
+    request = function(msg, cb) asked[#asked + 1] = msg.type cb({ type = "ok" }) end,
+    blackbox = function(why, cb) whys[#whys + 1] = why cb({ t = 1.25 }) end })
+  mon:_open(p)
+  local hello
+  for _, m in ipairs(p.got) do if m.type == "hello" then hello = m end end
+  T.eq(hello.blackbox, true, "hello says the run has one")
+  local before = #asked
+  mon:_message(p, core.json_encode{ type = "command", id = 2, cmd = "blackbox" })
+  T.eq(p.got[#p.got], { type = "reply", id = 2, ok = true, text = "black box triggered (monitor: page) at 1.250 s" })
+  mon:_message(p, core.json_encode{ type = "command", id = 3, cmd = "blackbox", why = "the gripper slipped" })
+  T.eq(whys, { "monitor: page", "monitor: the gripper slipped" })
+  T.eq(#asked, before, "no console request")
+  mon:close()
+end)
+
 -- The token is a viewer's credential: no command evaluates code, and one that tries reaches no console.
 suite:case("no_code_evaluation", function()
   local mon, asked = monitor()

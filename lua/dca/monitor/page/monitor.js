@@ -500,6 +500,14 @@
     document.body.dataset.connected = 'yes';
     document.body.dataset.mode = S.mode;
     $('status').textContent = S.mode === 'replay' ? 'replay' : 'live';
+    blackboxButton(S.mode === 'live' && m.blackbox === true);
+  }
+
+  // The black box button, shown when the run has one (dca run --blackbox): its file names `monitor: page`.
+  function blackboxButton(shown) {
+    const b = $('blackbox');
+    b.hidden = !shown;
+    b.onclick = shown ? () => command({ cmd: 'blackbox' }) : null;
   }
 
   function handle(m) {
