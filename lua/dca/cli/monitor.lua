@@ -111,6 +111,7 @@ local function attach(o)
     mon.srv, request, function(ok, lerr)
       if not ok then io.stderr:write("dca monitor: ", tostring(lerr), " (no port plots)\n") return end
       mon.on_subscribe = function(id) live:tap_id(id) end
+      mon.topic_units = function(name) return live:units(name) end
     end)
   client:on_close(function(reason)
     io.stderr:write("dca monitor: the supervisor's console closed: ", tostring(reason), "\n")
