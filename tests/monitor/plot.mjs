@@ -125,10 +125,18 @@ async function live(browser) {
     check(Math.abs(d.x0 - before[0]) < 1e-3 && Math.abs(d.x1 - before[1]) < 1e-3, `reset zoom: ${d.x0}..${d.x1} s`);
 
     // the filter: only the topics whose name has it
-    await page.type('#plot-filter', 'scale');
+    await page.type('#plot-filter', 'scale');  // (then cleared: every topic again)
     await frames(page);
     const listed = await page.evaluate(() => [...document.querySelectorAll('#plot-topics .ptopic')].map((r) => r.dataset.name));
     check(listed.length === 1 && listed[0] === '/main/scale/Out', `the filter leaves /main/scale/Out alone (${listed})`);
+    await page.evaluate(() => { const f = document.getElementById('plot-filter'); f.value = ''; f.dispatchEvent(new Event('input')); });
+
+    // a port's unit from its manifest, beside its name
+    await page.click('#plot-clear');
+    await choose(page, '/world/joint/shoulder_pan_joint/velocity');
+    await frames(page);
+    d = await plotData(page);
+    check(d.legend === 'shoulder_pan_joint.velocity[0] rad/s', `the unit from the manifest beside the name (${d.legend})`);
 
     // a topic with no samples: a reason, not an empty box
     await page.click('#plot-clear');
