@@ -313,7 +313,8 @@ async function replay(browser) {
     await pick(page, port);
     const k = await until(page, () => Number(document.getElementById('plot').dataset.samples) > 100 &&
       document.getElementById('legend').textContent, 10);
-    check(k && k.includes('redundancy.BaseVel[0]'), `the recorded port ${port} is plotted with its fields (${k})`);
+    check(k && k.includes('redundancy.BaseVel[0] m/s') && k.includes('redundancy.BaseVel[2] rad/s'),
+      `the recorded port ${port} is plotted with its fields and their units from the manifest (${k})`);
     await page.click('#play');
     const moved = await until(page, () => Number(document.getElementById('clock').textContent) > 15.2, 10);
     check(moved, 'play advances the time');

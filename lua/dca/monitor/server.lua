@@ -140,7 +140,11 @@ function Mon:_topics()
                         units = units and M.field_units(units, #(t.fields or {})) or nil }
     end
   end
-  for _, t in ipairs(self.o.series or {}) do out[#out + 1] = { id = t.id, name = t.name, fields = t.fields } end
+  for _, t in ipairs(self.o.series or {}) do
+    local units = self.topic_units and self.topic_units(t.name)
+    out[#out + 1] = { id = t.id, name = t.name, fields = t.fields,
+                      units = units and M.field_units(units, #(t.fields or {})) or nil }
+  end
   return out
 end
 
