@@ -119,6 +119,15 @@ async function live(browser) {
     check(d.x0 > zoomed[0] && Math.abs((d.x1 - d.x0) - (zoomed[1] - zoomed[0])) < 1e-3,
       `a drag pans: x ${zoomed.join('..')} -> ${d.x0}..${d.x1} s`);
     await page.screenshot({ path: join(out, 'plot_zoomed.png') });
+    // a click on the legend hides a series (its values out of the readout), another shows it again
+    await page.click('#legend .pseries[data-key$=":1"]:last-child');
+    await page.mouse.move(box[0] + box[2] * 0.6, box[1] + box[3] / 2);
+    await frames(page);
+    d = await plotData(page);
+    check(d.series === 1 && !/scale\.Out/.test(d.readout), `a click on scale.Out[0] in the legend hides it (${d.series} series: ${d.readout})`);
+    await page.click('#legend .pseries[data-key$=":1"]:last-child');
+    await frames(page);
+    check((await plotData(page)).series === 2, 'another click shows it again');
     await page.click('#plot-reset');
     await frames(page);
     d = await plotData(page);

@@ -3,7 +3,7 @@
 //   api = { send(msg), mode() ('live' | 'replay'), viewTime(), endTime(), ended() (the server is gone), cursor(t),
 //           dirty() (draw again at the next frame) }
 // Several series from several topics (a topic tree with a filter: a click adds a topic, another removes it), each
-// field named from its port (BaseVel[0]) with its unit from the manifest; grid, zoom (wheel), pan (drag), hover
+// field named from its port (BaseVel[0]) with its unit from the manifest, hidden or shown by a click on the legend; grid, zoom (wheel), pan (drag), hover
 // readout, a cursor shared with the timeline (api.cursor, plot.cursorAt); every topic's rows from the first sample
 // it got (the server's history where it keeps one), bounded by even decimation; a reason in place of an empty
 // plot. Replay: the whole run, the slider's time a playhead.
@@ -19,6 +19,7 @@ window.dcaPlot = (api) => {
     x: null,            // [t0, t1] once zoomed or panned; null: the whole history (live: following)
     cursor: null,       // the shared cursor's time (this plot's hover, or the timeline's)
     filter: '', collapsed: new Set(), dirtyTree: true,
+    hidden: new Set(),  // series hidden by a click on the legend: "topic id:value index"
   };
 
   const esc = (s) => String(s === undefined || s === null ? '' : s).replace(/[&<>"']/g,
@@ -166,6 +167,12 @@ window.dcaPlot = (api) => {
     api.dirty();
   });
   $('plot-filter').addEventListener('input', () => { P.filter = $('plot-filter').value; P.dirtyTree = true; api.dirty(); });
+  $('legend').addEventListener('click', (ev) => {
+    const k = ev.target.closest('.pseries')?.dataset.key;
+    if (!k) return;
+    if (P.hidden.has(k)) P.hidden.delete(k); else P.hidden.add(k);
+    api.dirty();
+  });
   $('plot-reset').addEventListener('click', () => { P.x = null; api.dirty(); });
   $('plot-clear').addEventListener('click', () => { clear(); api.dirty(); });
 
@@ -180,7 +187,7 @@ window.dcaPlot = (api) => {
       // (a port of varying size has no fields: its rows say how many values it has)
       const fields = t.fields.length ? t.fields
         : Array.from({ length: t.rows.length ? t.rows[0].length - 1 : 0 }, (_, i) => `value[${i}]`);
-      fields.forEach((f, i) => out.push({ t, k: i + 1, name: label(t, f), field: f,
+      fields.forEach((f, i) => out.push({ t, k: i + 1, key: `${t.id}:${i + 1}`, name: label(t, f), field: f,
         unit: (t.units.length === fields.length ? t.units[i] : t.units[0]) || '', color: COLORS[out.length % COLORS.length] }));
     }
     return out;
@@ -236,7 +243,7 @@ window.dcaPlot = (api) => {
   function render() {
     if (P.dirtyTree) renderTree();
     const c = $('plot');
-    const list = seriesList();
+    const all = seriesList(), list = all.filter((s) => !P.hidden.has(s.key));
     const w = c.clientWidth || 400, h = c.clientHeight || 220;
     c.width = w; c.height = h;
     const g = c.getContext('2d');
@@ -248,8 +255,9 @@ window.dcaPlot = (api) => {
     const why = reason(list);
     $('plot-reason').textContent = why;
     $('plot-reason').hidden = !why;
-    $('legend').innerHTML = list.map((s) => `<span class="pseries" style="color:${s.color}" title="${esc(s.t.name)} ` +
-      `${esc(s.field)}">${esc(s.name)}${s.unit ? ` <small>${esc(s.unit)}</small>` : ''}</span>`).join('');
+    $('legend').innerHTML = all.map((s) => `<span class="pseries${P.hidden.has(s.key) ? ' off' : ''}" ` +
+      `data-key="${esc(s.key)}" style="color:${s.color}" title="${esc(s.t.name)} ${esc(s.field)} (a click hides or ` +
+      `shows it)">${esc(s.name)}${s.unit ? ` <small>${esc(s.unit)}</small>` : ''}</span>`).join('');
     const [t0, t1] = xRange(list);
     c.dataset.x0 = t0.toFixed(3); c.dataset.x1 = t1.toFixed(3);
     let lo = Infinity, hi = -Infinity;
