@@ -191,6 +191,15 @@ async function replay(browser) {
     check(scale.labels.length === 6 && scale.labels[0] === '0.0 s' && scale.labels[5] === `${end.toFixed(1)} s`,
       `the slider is labelled with times (${scale.labels.join(', ')})`);
     check(scale.marks.join() === '0%,100%', `the slider marks the run's transitions: the start, the end (${scale.marks})`);
+    // a click on the plot moves the slider there
+    const box = await page.$eval('#plot', (c) => { const r = c.getBoundingClientRect(); return [r.x, r.y, r.width, r.height]; });
+    const [x0, x1] = await page.$eval('#plot', (c) => [Number(c.dataset.x0), Number(c.dataset.x1)]);
+    await page.mouse.click(box[0] + 56 + (box[2] - 66) * 0.25, box[1] + box[3] / 2);  // (the frame's margins: 56, 10)
+    await frames(page);
+    const c = await plotData(page);
+    const slider = await page.$eval('#slider', (e) => Number(e.value));
+    check(Math.abs(Number(c.playhead) - (x0 + (x1 - x0) * 0.25)) < 0.1 && Math.abs(slider - Number(c.playhead)) < 1e-3,
+      `a click a quarter into the plot moves the slider and the playhead there (${c.playhead} s, slider ${slider})`);
     await page.screenshot({ path: join(out, 'plot_replay.png') });
     console.log(`screenshots: ${out}`);
   } finally {

@@ -278,6 +278,7 @@
   const plot = window.dcaPlot({
     send: (m) => send(m), mode: () => S.mode, viewTime: () => viewTime(), endTime: () => S.t,
     ended: () => S.ended, cursor: (t) => { S.cursor = t; S.dirty.timeline = true; }, dirty: () => { S.dirty.plot = true; },
+    seek: (t) => { S.playing = false; $('play').textContent = 'play'; seek(t); },
   });
   window.dcaPlotPanel = plot;  // for tests and the curious
   function setTopics(list) { plot.setTopics(list); S.dirty.plot = true; }

@@ -1,7 +1,7 @@
 // The monitor's plot panel (docs/monitor.md, "The plot"): no dependencies, one canvas. monitor.js makes it with
 // window.dcaPlot(api) and hands it the topics, samples, history and series it gets; it draws when told to.
 //   api = { send(msg), mode() ('live' | 'replay'), viewTime(), endTime(), ended() (the server is gone), cursor(t),
-//           dirty() (draw again at the next frame) }
+//           dirty() (draw again at the next frame), seek(t) (replay: the slider to t) }
 // Several series from several topics (a topic tree with a filter: a click adds a topic, another removes it), each
 // field named from its port (BaseVel[0]) with its unit from the manifest, hidden or shown by a click on the legend; grid, zoom (wheel), pan (drag), hover
 // readout, a cursor shared with the timeline (api.cursor, plot.cursorAt); every topic's rows from the first sample
@@ -240,6 +240,26 @@ window.dcaPlot = (api) => {
       `${document.body.dataset.clock === 'paused' ? '; time is paused' : ''})`;
   }
 
+  // One series' line from t0 to t1 (and one row either side). Past two rows a pixel column, each column is drawn
+  // as its first value, its lowest, its highest and its last: the same envelope for a fraction of the lines.
+  function trace(g, s, t0, t1, X, Y) {
+    const r = s.t.rows, from = Math.max(0, lower(r, t0) - 1), to = Math.min(r.length, lower(r, t1) + 1);
+    const dense = to - from > 2 * (X(t1) - X(t0));
+    let first = true, col = null, lo = 0, hi = 0, last = 0;
+    const flush = () => { if (col !== null) { g.lineTo(col, Y(lo)); g.lineTo(col, Y(hi)); g.lineTo(col, Y(last)); } };
+    for (let i = from; i < to; i++) {
+      const v = r[i][s.k];
+      if (typeof v !== 'number') continue;
+      const x = X(r[i][0]);
+      if (first) { g.moveTo(x, Y(v)); first = false; continue; }
+      if (!dense) { g.lineTo(x, Y(v)); continue; }
+      const cx = Math.round(x);
+      if (cx !== col) { flush(); col = cx; lo = hi = v; g.lineTo(cx, Y(v)); } else { lo = Math.min(lo, v); hi = Math.max(hi, v); }
+      last = v;
+    }
+    flush();
+  }
+
   function render() {
     if (P.dirtyTree) renderTree();
     const c = $('plot');
@@ -291,15 +311,8 @@ window.dcaPlot = (api) => {
     // the series, clipped to the frame
     g.save(); g.beginPath(); g.rect(L, TOP, w - L - R, h - TOP - B); g.clip();
     for (const s of list) {
-      const r = s.t.rows;
       g.strokeStyle = s.color; g.lineWidth = 1.5; g.beginPath();
-      let first = true;
-      for (let i = Math.max(0, lower(r, t0) - 1); i < r.length; i++) {
-        const v = r[i][s.k];
-        if (typeof v !== 'number') continue;
-        if (first) { g.moveTo(X(r[i][0]), Y(v)); first = false; } else g.lineTo(X(r[i][0]), Y(v));
-        if (r[i][0] > t1) break;
-      }
+      trace(g, s, t0, t1, X, Y);
       g.stroke();
     }
     g.restore();
@@ -336,11 +349,12 @@ window.dcaPlot = (api) => {
   // ------------------------------------------------------------------------------------------ the mouse
 
   const c = $('plot');
-  let drag = null;
+  let drag = null, dragged = false;
   const tAt = (ev) => frame && frame.T(ev.offsetX);
   c.addEventListener('mousemove', (ev) => {
     if (!frame) return;
-    if (drag) {  // pan: the time under the pointer stays under it
+    if (drag && Math.abs(ev.offsetX - drag.x) > 2) drag.moved = true;
+    if (drag && drag.moved) {  // pan: the time under the pointer stays under it
       const dt = (ev.offsetX - drag.x) / (frame.w - L - R) * (drag.range[1] - drag.range[0]);
       P.x = [drag.range[0] - dt, drag.range[1] - dt];
     }
@@ -350,7 +364,11 @@ window.dcaPlot = (api) => {
   });
   c.addEventListener('mouseleave', () => { drag = null; P.cursor = null; api.cursor(null); api.dirty(); });
   c.addEventListener('mousedown', (ev) => { if (frame) drag = { x: ev.offsetX, range: [frame.t0, frame.t1] }; });
-  window.addEventListener('mouseup', () => { drag = null; });
+  window.addEventListener('mouseup', () => { dragged = !!drag && drag.moved; drag = null; });
+  // replay: a click (not the end of a drag) moves the slider to the time clicked
+  c.addEventListener('click', (ev) => {
+    if (frame && api.mode() === 'replay' && !dragged) api.seek(frame.T(ev.offsetX));
+  });
   // zoom: the wheel, around the time under the pointer
   c.addEventListener('wheel', (ev) => {
     if (!frame) return;
