@@ -35,6 +35,9 @@ async function choose(page, name) {
   check(ok, `the topic tree offers ${name}, and it is chosen`);
 }
 
+// Clicks the element `sel` from inside the page, in one step (the tree and the legend are redrawn as samples come).
+const clickIn = (page, sel) => page.evaluate((s) => document.querySelector(s).click(), sel);
+
 const plotData = (page) => page.evaluate(() => {
   const c = document.getElementById('plot');
   return { x0: Number(c.dataset.x0), x1: Number(c.dataset.x1), series: Number(c.dataset.series),
@@ -75,7 +78,7 @@ async function live(browser) {
         return t && t.rows.length > 3 && [t.rows[0][0]];
       }, 20, late);
       check(got && got[0] < 0.3, `${late}, chosen after 0.5 s, starts at the run's start (${got} s: the server's history)`);
-      await page.click(`#plot-topics .ptopic[data-name="${late}"]`);  // chosen no more
+      await clickIn(page, `#plot-topics .ptopic[data-name="${late}"]`);  // chosen no more
     } else check(false, 'a world signal /world/safety/... is offered');
     const n = await until(page, () => Number(document.getElementById('plot').dataset.samples) >= 40 &&
       Number(document.getElementById('plot').dataset.samples), 20);
@@ -120,12 +123,12 @@ async function live(browser) {
       `a drag pans: x ${zoomed.join('..')} -> ${d.x0}..${d.x1} s`);
     await page.screenshot({ path: join(out, 'plot_zoomed.png') });
     // a click on the legend hides a series (its values out of the readout), another shows it again
-    await page.click('#legend .pseries[data-key$=":1"]:last-child');
+    await clickIn(page, '#legend .pseries[data-key$=":1"]:last-child');
     await page.mouse.move(box[0] + box[2] * 0.6, box[1] + box[3] / 2);
     await frames(page);
     d = await plotData(page);
     check(d.series === 1 && !/scale\.Out/.test(d.readout), `a click on scale.Out[0] in the legend hides it (${d.series} series: ${d.readout})`);
-    await page.click('#legend .pseries[data-key$=":1"]:last-child');
+    await clickIn(page, '#legend .pseries[data-key$=":1"]:last-child');
     await frames(page);
     check((await plotData(page)).series === 2, 'another click shows it again');
     await page.click('#plot-reset');
@@ -139,6 +142,11 @@ async function live(browser) {
     const listed = await page.evaluate(() => [...document.querySelectorAll('#plot-topics .ptopic')].map((r) => r.dataset.name));
     check(listed.length === 1 && listed[0] === '/main/scale/Out', `the filter leaves /main/scale/Out alone (${listed})`);
     await page.evaluate(() => { const f = document.getElementById('plot-filter'); f.value = ''; f.dispatchEvent(new Event('input')); });
+
+    // a world status topic never chosen while the run went: the page followed it from the start all the same
+    const stale = late && late.replace(/[^/]*$/, late.endsWith('clamps') ? 'stale' : 'clamps');
+    const [ns, as] = stale ? await rowsOf(page, stale) : [0, null];
+    check(ns > 20 && as < 0.3, `${stale}, never chosen, is there after the end from the start (${ns} rows from ${as} s)`);
 
     // a port's unit from its manifest, beside its name
     await page.click('#plot-clear');

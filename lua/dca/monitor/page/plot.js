@@ -44,9 +44,18 @@ window.dcaPlot = (api) => {
       const old = P.topics.get(id);
       if (old) { old.units = arr(t.units); old.history = !!t.history; continue; }
       P.topics.set(id, { id, name: String(t.name), fields: arr(t.fields), units: arr(t.units), history: !!t.history,
-        rows: [], stride: 1, seen: 0, received: 0, subscribed: false, asked: false });
+        rows: [], stride: 1, seen: 0, received: 0, asked: false });
       P.dirtyTree = true;
     }
+    // the topics the server keeps (the world's status: a few, polled anyway, no tap) are followed from the start,
+    // chosen or not: after the run's end every one of them is there from its first row
+    for (const t of P.topics.values()) if (t.history) ask(t);
+  }
+
+  function ask(t) {
+    if (t.asked || api.ended()) return;
+    t.asked = true;
+    api.send(api.mode() === 'live' ? { type: 'subscribe', topic: Number(t.id), rate: 60 } : { type: 'subscribe', topic: t.id });
   }
 
   // One row, kept when it falls on the topic's stride; past KEEP rows, every other row goes (the first stays).
@@ -98,11 +107,7 @@ window.dcaPlot = (api) => {
     if (i >= 0) P.chosen.splice(i, 1);
     else {
       P.chosen.push(t.id);
-      if (!t.asked && !api.ended()) {
-        t.asked = true;
-        api.send(api.mode() === 'live' ? { type: 'subscribe', topic: Number(t.id), rate: 60 }
-          : { type: 'subscribe', topic: t.id });
-      }
+      ask(t);
     }
     P.dirtyTree = true;
   }
@@ -260,8 +265,14 @@ window.dcaPlot = (api) => {
     flush();
   }
 
+  let lastLegend = null;
   function render() {
     if (P.dirtyTree) renderTree();
+    for (const row of $('plot-topics').querySelectorAll('.ptopic')) {  // the rows kept, in place
+      const t = topic(row.dataset.id), n = t && t.rows.length ? String(t.rows.length) : '';
+      const span = row.querySelector('.pcount');
+      if (span.textContent !== n) span.textContent = n;
+    }
     const c = $('plot');
     const all = seriesList(), list = all.filter((s) => !P.hidden.has(s.key));
     const w = c.clientWidth || 400, h = c.clientHeight || 220;
@@ -275,9 +286,10 @@ window.dcaPlot = (api) => {
     const why = reason(list);
     $('plot-reason').textContent = why;
     $('plot-reason').hidden = !why;
-    $('legend').innerHTML = all.map((s) => `<span class="pseries${P.hidden.has(s.key) ? ' off' : ''}" ` +
+    const legend = all.map((s) => `<span class="pseries${P.hidden.has(s.key) ? ' off' : ''}" ` +
       `data-key="${esc(s.key)}" style="color:${s.color}" title="${esc(s.t.name)} ${esc(s.field)} (a click hides or ` +
       `shows it)">${esc(s.name)}${s.unit ? ` <small>${esc(s.unit)}</small>` : ''}</span>`).join('');
+    if (legend !== lastLegend) { $('legend').innerHTML = legend; lastLegend = legend; }  // (only when it changed)
     const [t0, t1] = xRange(list);
     c.dataset.x0 = t0.toFixed(3); c.dataset.x1 = t1.toFixed(3);
     let lo = Infinity, hi = -Infinity;
