@@ -220,10 +220,14 @@ window.dcaPlot = (api) => {
 
   // About n round steps between lo and hi (1, 2 or 5 times a power of ten).
   function ticks(lo, hi, n) {
-    const raw = (hi - lo) / n, p = Math.pow(10, Math.floor(Math.log10(raw)));
+    const raw = (hi - lo) / n;
+    if (!(raw > 0) || !isFinite(raw)) return { list: [], step: 1 };
+    const p = Math.pow(10, Math.floor(Math.log10(raw)));
     const step = [1, 2, 5, 10].map((m) => m * p).find((s) => s >= raw) || raw;
     const out = [];
-    for (let v = Math.ceil(lo / step) * step; v <= hi + step * 1e-9; v += step) out.push(Math.abs(v) < step * 1e-9 ? 0 : v);
+    for (let v = Math.ceil(lo / step) * step; v <= hi + step * 1e-9 && out.length < 100; v += step) {
+      out.push(Math.abs(v) < step * 1e-9 ? 0 : v);
+    }
     return { list: out, step };
   }
   const fmt = (v, step) => v.toFixed(Math.max(0, Math.min(6, -Math.floor(Math.log10(step)))));
@@ -386,6 +390,7 @@ window.dcaPlot = (api) => {
     if (!frame) return;
     ev.preventDefault();
     const t = frame.T(ev.offsetX), k = ev.deltaY > 0 ? 1.25 : 0.8;
+    if (k < 1 && frame.t1 - frame.t0 < 1e-4) return;  // (no closer than 0.1 ms across)
     P.x = [t - (t - frame.t0) * k, t + (frame.t1 - t) * k];
     api.dirty();
   }, { passive: false });
