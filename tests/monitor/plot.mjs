@@ -94,7 +94,7 @@ async function live(browser) {
     check(d.series === 2 && d.legend.includes('one.Out') && d.legend.includes('scale.Out'),
       `two series from two topics on one plot, named by their ports (${d.legend})`);
     check(!d.reason, `no reason shown while they have samples (${d.reason})`);
-    await page.screenshot({ path: join(out, 'plot_live_end.png') });
+    await page.screenshot({ path: join(out, 'plot_live_end.png'), fullPage: true });
 
     // hover: the readout at the pointer's time, and the timeline's cursor at the same time
     const box = await page.$eval('#plot', (c) => { const r = c.getBoundingClientRect(); return [r.x, r.y, r.width, r.height]; });
@@ -105,7 +105,7 @@ async function live(browser) {
     check(/one\.Out\[0\] = 1(?![0-9.])/.test(d.readout) && /scale\.Out\[0\] = 2(?![0-9.])/.test(d.readout),
       `the hover readout gives one.Out's value 1 and scale.Out's 2 at t = ${d.cursor} s (${d.readout})`);
     check(d.cursor && d.cursor === d.timelineCursor, `the timeline's cursor is at the plot's (${d.cursor} = ${d.timelineCursor})`);
-    await page.screenshot({ path: join(out, 'plot_hover.png') });
+    await page.screenshot({ path: join(out, 'plot_hover.png'), fullPage: true });
 
     // the wheel zooms in around the pointer; a drag pans
     const before = [d.x0, d.x1];
@@ -121,7 +121,7 @@ async function live(browser) {
     d = await plotData(page);
     check(d.x0 > zoomed[0] && Math.abs((d.x1 - d.x0) - (zoomed[1] - zoomed[0])) < 1e-3,
       `a drag pans: x ${zoomed.join('..')} -> ${d.x0}..${d.x1} s`);
-    await page.screenshot({ path: join(out, 'plot_zoomed.png') });
+    await page.screenshot({ path: join(out, 'plot_zoomed.png'), fullPage: true });
     // a click on the legend hides a series (its values out of the readout), another shows it again
     await clickIn(page, '#legend .pseries[data-key$=":1"]:last-child');
     await page.mouse.move(box[0] + box[2] * 0.6, box[1] + box[3] / 2);
@@ -162,7 +162,7 @@ async function live(browser) {
     await frames(page);
     d = await plotData(page);
     check(/\/main\/ramp\/Count: no samples, and the run has ended/.test(d.reason), `a reason instead of an empty plot (${d.reason})`);
-    await page.screenshot({ path: join(out, 'plot_reason.png') });
+    await page.screenshot({ path: join(out, 'plot_reason.png'), fullPage: true });
   } finally {
     run.p.kill('SIGTERM');
   }
@@ -208,7 +208,7 @@ async function replay(browser) {
     const slider = await page.$eval('#slider', (e) => Number(e.value));
     check(Math.abs(Number(c.playhead) - (x0 + (x1 - x0) * 0.25)) < 0.1 && Math.abs(slider - Number(c.playhead)) < 1e-3,
       `a click a quarter into the plot moves the slider and the playhead there (${c.playhead} s, slider ${slider})`);
-    await page.screenshot({ path: join(out, 'plot_replay.png') });
+    await page.screenshot({ path: join(out, 'plot_replay.png'), fullPage: true });
     console.log(`screenshots: ${out}`);
   } finally {
     mon.p.kill('SIGTERM');
