@@ -67,9 +67,11 @@ async function doorOnce(browser, variant) {
     page = await browser.newPage();
     await page.setViewport({ width: 1400, height: 1000 });
     await page.goto(url);
-    const id = await page.waitForFunction(() => [...document.querySelectorAll('#topic option')]
-      .find((o) => o.textContent === '/world/door')?.value, { timeout: 30000, polling: 20 });
-    await page.select('#topic', await id.jsonValue());
+    await page.waitForFunction((n) => {  // chosen in the plot's topic tree (page/plot.js)
+      const row = [...document.querySelectorAll('#plot-topics .ptopic')].find((r) => r.dataset.name === n);
+      if (row) row.click();
+      return !!row;
+    }, { timeout: 30000, polling: 20 }, '/world/door');
   }
   let reader = null;
   if (variant.startsWith('ws_reader')) {
@@ -158,9 +160,11 @@ async function big(browser) {
   await page.goto(url);
   await page.waitForFunction(() => window.dcaMonitor && window.dcaMonitor.nodes.size >= 1101, { timeout: 60000, polling: 20 });
   const shown_ms = performance.now() - t0;
-  const id = await page.waitForFunction(() => [...document.querySelectorAll('#topic option')]
-    .find((o) => o.textContent === '/bench/signal')?.value, { timeout: 30000, polling: 20 });
-  await page.select('#topic', await id.jsonValue());
+  await page.waitForFunction((n) => {  // chosen in the plot's topic tree (page/plot.js)
+    const row = [...document.querySelectorAll('#plot-topics .ptopic')].find((r) => r.dataset.name === n);
+    if (row) row.click();
+    return !!row;
+  }, { timeout: 30000, polling: 20 }, '/bench/signal');
   const res = { idle: [], busy: [] };
   for (let i = 0; i < rounds; i++) {
     for (const want of ['idle', 'busy']) {

@@ -6,9 +6,9 @@
 //                                                        then a real-time thread's figures (rt { }, wall clock)
 // Every wait is for something the page shows, with a deadline; the screenshots go to OUT_DIR.
 import { spawn } from 'node:child_process';
-import { mkdirSync, rmSync, writeFileSync } from 'node:fs';
+import { mkdirSync, writeFileSync } from 'node:fs';
 import { join } from 'node:path';
-import { check, childEnv, inBrowser, startMonitor, until } from './driver.mjs';
+import { check, childEnv, inBrowser, record, seek, startMonitor, until } from './driver.mjs';
 
 const [mode, exe, src, out] = process.argv.slice(2);
 mkdirSync(out, { recursive: true });
@@ -17,12 +17,15 @@ const door = join(src, 'worlds/door/systems/door_open.dca');
 // Starts `dca ARGS` and resolves with the process and the monitor's URL once it is printed (within 60 s).
 const start = (args) => startMonitor(exe, args);
 
-// Chooses the signal `name` for the plot once the page offers it.
+// Chooses the signal `name` alone for the plot once the page offers it (its topic tree: page/plot.js).
 async function pick(page, name) {
-  const value = await until(page, (n) => [...document.querySelectorAll('#topic option')]
-    .find((o) => o.textContent === n)?.value, 20, name);
-  check(value, `the page offers the signal ${name}`);
-  if (value) await page.select('#topic', value);
+  await page.click('#plot-clear');
+  const ok = await until(page, (n) => {
+    const row = [...document.querySelectorAll('#plot-topics .ptopic')].find((r) => r.dataset.name === n);
+    if (row) row.click();
+    return !!row;
+  }, 20, name);
+  check(ok, `the page offers the signal ${name}`);
 }
 
 // A key holder's token (`dca monitor --token --key FILE`, the run's key) opens the page too.
@@ -282,12 +285,7 @@ async function realTime(browser) {
 
 async function replay(browser) {
   const rec = join(out, 'door.mcap');
-  rmSync(rec, { force: true });
-  const code = await new Promise((resolve) => {
-    const p = spawn(exe, ['run', door, '--sim', 'door', '--record', rec, '--record-ports', 'all', '--quiet'],
-      { stdio: 'ignore', env: childEnv });
-    p.on('exit', resolve);
-  });
+  const code = await record(exe, [door, '--sim', 'door'], rec);
   check(code === 0, `the door run recorded ${rec} (exit ${code})`);
   const mon = await start(['monitor', rec, '--system', door]);
   try {
@@ -296,12 +294,7 @@ async function replay(browser) {
       document.querySelectorAll('.row').length >= 28, 20);
     check(ready, 'the recording is shown in replay mode with its tree');
     const at = async (t) => {
-      await page.evaluate((v) => {
-        const s = document.getElementById('slider');
-        s.value = String(v);
-        s.dispatchEvent(new Event('input'));
-      }, t);
-      await page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
+      await seek(page, t);
       return page.evaluate(() => ({
         distdetect: document.querySelector('.row[data-path="main.dooropensyst.distdetect"]')?.dataset.state,
         dooropen: document.querySelector('.row[data-path="main.dooropensyst.dooropen"]')?.dataset.state,
@@ -315,12 +308,13 @@ async function replay(browser) {
     check(late.dooropen === 'running', `dooropen is running at 15 s (${late.dooropen})`);
     await pick(page, '/world/door');
     const n = await until(page, () => Number(document.getElementById('plot').dataset.samples), 10);
-    check(n > 100, `the recorded /world/door signal is plotted up to the slider (${n} samples)`);
+    check(n > 100, `the recorded /world/door signal is plotted (${n} samples)`);
     const port = '/main/dooropensyst/motionctrl/redundancy/BaseVel';
     await pick(page, port);
     const k = await until(page, () => Number(document.getElementById('plot').dataset.samples) > 100 &&
       document.getElementById('legend').textContent, 10);
-    check(k && k.includes('value[0]'), `the recorded port ${port} is plotted with its fields (${k})`);
+    check(k && k.includes('redundancy.BaseVel[0] m/s') && k.includes('redundancy.BaseVel[2] rad/s'),
+      `the recorded port ${port} is plotted with its fields and their units from the manifest (${k})`);
     await page.click('#play');
     const moved = await until(page, () => Number(document.getElementById('clock').textContent) > 15.2, 10);
     check(moved, 'play advances the time');

@@ -1,10 +1,14 @@
 // What the browser tests share: dca started with its monitor's address awaited, and waits on the page.
 //   const run = await startMonitor(EXE, ARGS)   run.p, run.url, run.exited (--> exit code), run.output()
+//   await runToEnd(EXE, ARGS)                    --> the exit code of EXE ARGS, run to its end
+//   await record(EXE, RUN_ARGS, FILE)            --> the exit code of `EXE run RUN_ARGS` recorded into FILE
+//   await seek(page, t)                          the replay's slider at t, drawn
 //   await until(page, fn, seconds, ...args)      fn's value in the page once truthy (polled), or null after seconds
 //   check(ok, what)                              prints ok / FAIL and counts the failures
 //   await inChromium(body, args)                 body(browser) in headless chromium --> exit code: 1 on a failure
 //   await inBrowser(body)                        the same, then exits with that code
 import { spawn } from 'node:child_process';
+import { rmSync } from 'node:fs';
 import puppeteer from 'puppeteer-core';
 
 // dca's children stop when the process that started them is gone (DCA_PARENT_PID, host/spawn.h): this script's
@@ -28,6 +32,30 @@ export function startMonitor(exe, args) {
     p.stderr.on('data', look);
     p.on('exit', (code) => { clearTimeout(deadline); reject(new Error(`dca exited (${code}) before its monitor:\n${text}`)); });
   });
+}
+
+// Runs `EXE ARGS` (e.g. a run that records) to its end, its output ignored. --> its exit code
+export function runToEnd(exe, args) {
+  return new Promise((resolve) => {
+    const p = spawn(exe, args, { stdio: 'ignore', env: childEnv });
+    p.on('exit', resolve);
+  });
+}
+
+// `EXE run ARGS` recorded into `rec` (made anew) with every port, to its end. --> its exit code
+export function record(exe, args, rec) {
+  rmSync(rec, { force: true });
+  return runToEnd(exe, ['run', ...args, '--record', rec, '--record-ports', 'all', '--quiet']);
+}
+
+// Sets the replay's slider to `t` as a user's drag does, and waits for two frames (the page has drawn it).
+export async function seek(page, t) {
+  await page.evaluate((v) => {
+    const s = document.getElementById('slider');
+    s.value = String(v);
+    s.dispatchEvent(new Event('input'));
+  }, t);
+  await page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
 }
 
 export async function until(page, fn, seconds, ...args) {

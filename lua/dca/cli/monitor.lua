@@ -58,6 +58,13 @@ local function replay(o)
   local mon, merr = require("dca.monitor.server").start{ addr = o.listen, name = tostring(rec.root or o[1]),
     root = rec.root, mode = "replay", model = rec.model, series = rec.series, robot = rec.robot }
   if not mon then io.stderr:write("dca monitor: ", tostring(merr), "\n") return 1 end
+  if spec then  -- the ports' units, from their manifests (the plot's legend), as live
+    local units = {}
+    for _, p in ipairs(require("dca.supervisor.taps").outputs(spec, core.types())) do
+      if p.units ~= "" then units[require("dca.launch.live").topic_of(p.path)] = p.units end
+    end
+    mon.topic_units = function(name) return units[name] end
+  end
   return serve(mon, string.format("replaying %s: %d events, %d signals", o[1], #rec.model.events, #rec.series))
 end
 
@@ -111,6 +118,7 @@ local function attach(o)
     mon.srv, request, function(ok, lerr)
       if not ok then io.stderr:write("dca monitor: ", tostring(lerr), " (no port plots)\n") return end
       mon.on_subscribe = function(id) live:tap_id(id) end
+      mon.topic_units = function(name) return live:units(name) end
     end)
   client:on_close(function(reason)
     io.stderr:write("dca monitor: the supervisor's console closed: ", tostring(reason), "\n")

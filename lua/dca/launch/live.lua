@@ -16,6 +16,7 @@
 --       console request `tap {path, to}` (made through its tree: a restart makes it again), no world signals
 --   live:tap_topic(topic, cb)  -- the tap of that topic, made once: cb(true) | cb(nil, err)
 --   live:tap_id(id, cb)        -- the same by the topic's id (the monitor's page subscribes by id)
+--   live:units(topic)          -- the units its port's manifest gives ("m/s, m/s, rad/s"), or nil
 --   live:retap(below)          -- the taps of the ports below(p) made again (their leaf was restarted)
 --   live:line(line, t, output) -- a line of the run at time t (simulated seconds; nil: now, on the wall clock) to
 --                                 Foxglove's /dca/events (or /dca/log: a process's stderr), as the recordings hold it
@@ -300,6 +301,12 @@ function Live:tap_topic(topic, cb)
   end
   if not added then finish(nil, aerr) return end
   self.link(p, finish)
+end
+
+--- The units of topic `name`'s port, as its manifest writes them ("m/s, m/s, rad/s"), or nil.
+function Live:units(name)
+  local p = self.by_topic[name]
+  return p and p.units ~= "" and p.units or nil
 end
 
 --- The tap of the topic with id `id` in the server's live samples (the monitor's page subscribes by id).

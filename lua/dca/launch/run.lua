@@ -314,6 +314,7 @@ function Run:start_live(cb)
   self.live = require("dca.launch.live").start(self.ctx, self.sup, mon.srv, function(ok, err)
     if not ok then err_line(self, "live taps: ", tostring(err)) cb() return end
     mon.on_subscribe = function(id) self.live:tap_id(id) end
+    mon.topic_units = function(name) return self.live:units(name) end  -- (the plot's units: the manifests')
     if self.live.robot then mon:robot{ urdf = self.live.robot.urdf, frames = self.live.robot.frames, topic = self.live.robot.id } end
     self:say(sformat("foxglove: ws://%s/?token=%s (Foxglove, Lichtblick: foxglove.websocket.v1)", mon.srv:address(),
       mon.srv:token()), nil, nil, true)

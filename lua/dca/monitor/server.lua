@@ -27,7 +27,9 @@
 --
 -- Protocol (JSON text messages). Server -> page: {type = "hello", mode, name, version}, {type = "snapshot",
 -- nodes, exprs, events, config, lines, topics, t}, {type = "delta", ...the same fields, only what changed},
--- coalesced every 50 ms; {type = "samples", topic, name, rows} (host/web); {type = "reply", id, ok, text};
+-- coalesced every 50 ms; {type = "samples", topic, name, rows} (host/web); {type = "history", topic, rows} (a
+-- topic the server keeps, dca.monitor.history: its rows from the start, before its samples); a topic is {id, name,
+-- fields, units? (one per field, or one for all: mon.topic_units), history?}; {type = "reply", id, ok, text};
 -- {type = "robot", urdf, frames, topic} (a URDF world's, at open or when known).
 -- Page -> server: {type = "subscribe", topic, rate}, {type = "command", id, cmd = "abort" | "restart" |
 -- "event" | "config_set" | "estop" | "release" | "clock" | "blackbox", path, kind, value, key, what, speed, why}. A
@@ -37,6 +39,7 @@
 -- more: nothing a page sends is evaluated as code (Lua evaluation needs the cluster key: dca repl).
 local core = require "dca.core"
 local model_mod = require "dca.monitor.model"
+local history_mod = require "dca.monitor.history"
 
 local M = {}
 
@@ -53,6 +56,7 @@ local PAGES = {
   ["/monitor.js"] = { "monitor.js", "text/javascript; charset=utf-8" },
   ["/monitor.css"] = { "monitor.css", "text/css; charset=utf-8" },
   ["/robot3d.js"] = { "robot3d.js", "text/javascript; charset=utf-8" },
+  ["/plot.js"] = { "plot.js", "text/javascript; charset=utf-8" },
 }
 
 -- The 3D view's modules (robot3d.js): three.js and urdf-loader from page/3d/node_modules (scripts/setup, npm ci),
@@ -92,7 +96,7 @@ function M.start(o)
     if text then srv:page("/3d/node_modules/" .. f, text, "text/javascript; charset=utf-8", true) end
   end
   local self = setmetatable({ o = o, srv = srv, model = o.model or model_mod.new(o.root), pages = {}, page_waiters = {},
-                              commands = 0, errors = 0, robot_info = o.robot }, Mon)
+                              commands = 0, errors = 0, robot_info = o.robot, history = {} }, Mon)
   self.topics_seen = self:_topics_key(self:_topics())
   if o.series then
     self.series_by_id = {}
@@ -118,13 +122,32 @@ local function send(c, t, droppable)
   if text then c:send(text, droppable) end
 end
 
--- The live sample topics, for the page.
+--- The units of a topic's `n` fields from its port's manifest text: "m/s, m/s, rad/s" for 3 fields gives one
+--- each; any other text (one unit, or a description such as "0 open, 1 close") is every field's: { text }.
+function M.field_units(text, n)
+  text = type(text) == "string" and text or ""
+  local parts = {}
+  for p in (text .. ","):gmatch("%s*([^,]-)%s*,") do parts[#parts + 1] = p end
+  if n > 1 and #parts == n then return parts end
+  return { text }
+end
+
+-- The live sample topics, for the page: with each field's unit when known (mon.topic_units(name) --> the port's
+-- manifest text, set by whoever made the topics: dca.launch.live) and whether the server keeps its history.
 function Mon:_topics()
   local out = {}
   for _, t in ipairs(self.srv:topics()) do  -- (not the streams of messages: the run's lines are the page's own)
-    if not t.stream then out[#out + 1] = { id = t.id, name = t.name, fields = t.fields } end
+    if not t.stream then
+      local units = self.topic_units and self.topic_units(t.name)
+      out[#out + 1] = { id = t.id, name = t.name, fields = t.fields, history = self.history[t.id] and true or nil,
+                        units = units and M.field_units(units, #(t.fields or {})) or nil }
+    end
   end
-  for _, t in ipairs(self.o.series or {}) do out[#out + 1] = { id = t.id, name = t.name, fields = t.fields } end
+  for _, t in ipairs(self.o.series or {}) do
+    local units = self.topic_units and self.topic_units(t.name)
+    out[#out + 1] = { id = t.id, name = t.name, fields = t.fields,
+                      units = units and M.field_units(units, #(t.fields or {})) or nil }
+  end
   return out
 end
 
@@ -165,7 +188,7 @@ end
 -- The ids of `topics` as one text (a change of it is sent to the pages).
 function Mon:_topics_key(topics)
   local ids = {}
-  for _, t in ipairs(topics) do ids[#ids + 1] = tostring(t.id) end
+  for _, t in ipairs(topics) do ids[#ids + 1] = tostring(t.id) .. (t.units and "u" or "") .. (t.history and "h" or "") end
   return table.concat(ids, ",")
 end
 
@@ -245,6 +268,9 @@ function Mon:_poll_world()
       if fields and (not d.array or type(r[d.array]) == "table") then
         self.world_topics[i] = self.world_topics[i] or srv:topic(d.topic, fields)
         srv:publish(self.world_topics[i], t, values)
+        local h = self.history[self.world_topics[i]] or history_mod.new()
+        self.history[self.world_topics[i]] = h
+        h:add(t, values)
       end
     end
   end)
@@ -345,6 +371,8 @@ function Mon:_message(c, text)
   elseif m.type == "subscribe" and topic_id(m.topic) then
     local id, rate = topic_id(m.topic), tonumber(m.rate) or 30
     if rate ~= rate or rate <= 0 then rate = 30 end  -- (NaN or none: the default)
+    -- a topic the server keeps (the world's status): its history from the start first, then its samples
+    if self.history[id] and rate > 0 then send(c, { type = "history", topic = id, rows = self.history[id]:rows() }) end
     c:subscribe(id, math.min(rate, 200))
     if self.on_subscribe then self.on_subscribe(id) end  -- a port's tap (dca.launch.live)
   elseif m.type == "subscribe" then

@@ -138,6 +138,41 @@ suite:case("the_worlds_clock_reaches_the_page_and_its_commands_are_clock_request
   mon:close()
 end)
 
+-- The world's status topics are kept from the run's start (dca.monitor.history): a page that subscribes late gets
+-- their rows first; a port's topic carries its units from the manifest, one per field when the text has one each.
+suite:case("a_late_page_gets_the_worlds_signals_from_the_start_and_the_ports_units", function()
+  local d = require("dca.worlds").descriptor("door").topics[1]
+  local status = { running = true, speed = 1, stepping = false }
+  local mon = T.ok(server.start{ name = "main", root = "main", mode = "live", world_spec = "door",
+    world = function(_, cb) cb(status) end, request = function(_, cb) cb({ type = "ok", output = "" }) end })
+  local early = page()
+  mon:_open(early)  -- (the world is polled while a page is open)
+  for k = 1, 50 do
+    status.t = k * 0.01
+    for i, f in ipairs(d.fields) do status[f] = k + i end
+    mon:_poll_world()
+  end
+  local port = mon.srv:topic("/main/b/Vel", { "value[0]", "value[1]", "value[2]" })
+  mon.topic_units = function(name) return name == "/main/b/Vel" and "m/s, m/s, rad/s" or nil end
+  local p = page()
+  mon:_open(p)
+  local topics = {}
+  for _, t in ipairs(p.got[2].topics) do topics[t.name] = t end
+  T.eq(topics["/main/b/Vel"].units, { "m/s", "m/s", "rad/s" })
+  local w = T.ok(topics[d.topic], "the world's topic " .. d.topic)
+  T.eq(w.history, true)
+  mon:_message(p, core.json_encode{ type = "subscribe", topic = w.id, rate = 60 })
+  local h = p.got[#p.got]
+  T.eq(h.type, "history")
+  T.eq(#h.rows, 50, "every status so far")
+  T.eq(h.rows[1], { 0.01, 2, 3 }, "from the first")
+  T.eq(p.subs[w.id], 60, "then its samples")
+  T.eq(server.field_units("0 open, 1 close", 1), { "0 open, 1 close" }, "a description is every field's")
+  T.eq(server.field_units("rad/s", 6), { "rad/s" })
+  T.ok(port)
+  mon:close()
+end)
+
 -- A refused command is answered not ok, with the supervisor's reason; an accepted config_set with what was written.
 suite:case("a_refused_command_is_not_ok_and_says_why", function()
   local mon = monitor(function(msg)

@@ -9,13 +9,12 @@
   const token = new URLSearchParams(location.search).get('token') || '';
   const ROW = 18;            // px per tree row (the tree is virtualised: only rows in view are in the page)
   const BIG_GROUP = 30;      // groups with more children start collapsed
-  const PLOT_KEEP = 4000;    // samples kept per plot
-  const COLORS = ['#1565c0', '#c62828', '#2e7d32', '#ef6c00', '#6a1b9a', '#00838f'];
+  const PLOT_KEEP = 4000;    // the robot's rows kept
 
   const S = {
     mode: 'live', nodes: new Map(), order: [], kids: new Map(), exprs: {}, events: [], config: new Map(),
     lines: [], topics: new Map(), series: new Map(), t: 0, viewT: 0, expanded: new Set(), collapsed: new Set(),
-    replayStates: null, plot: { topic: '', fields: [], rows: [], received: 0 }, playing: false, ws: null,
+    replayStates: null, playing: false, ended: false, cursor: null, ws: null,
     nextId: 1, estop: null, clock: null,
     dirty: { tree: true, states: true, exprs: true, timeline: true, plot: true, config: true, lines: true,
       rt: true, pace: true },
@@ -219,8 +218,9 @@
 
   // The timeline is one canvas the size of its box, drawing the rows scrolled into view; a spacer gives the box
   // the whole height.
+  // Replay: the whole run, the slider's time a playhead. Both: the cursor shared with the plot (S.cursor).
   function renderTimeline() {
-    const T = viewTime();
+    const T = S.mode === 'replay' ? S.t : viewTime();
     const rows = periods(T);
     const c = $('timeline'), box = $('timeline-box');
     const w = box.clientWidth || 600;
@@ -248,67 +248,45 @@
       y += 14;
     }
     c.dataset.rows = String(rows.size);
+    timelineX = { x0: label, span, w: w - label - 10 };
+    const mark = (t, color, dash) => {
+      const px = Math.round(x(t)) + 0.5;
+      g.strokeStyle = color; g.setLineDash(dash); g.lineWidth = dash.length ? 1 : 2;
+      g.beginPath(); g.moveTo(px, 12); g.lineTo(px, h); g.stroke(); g.setLineDash([]);
+    };
+    if (S.mode === 'replay') mark(S.viewT, '#d32f2f', []);
+    if (S.cursor !== null && S.cursor >= 0 && S.cursor <= span) mark(S.cursor, '#444', [4, 3]);
+    c.dataset.cursor = S.cursor === null ? '' : S.cursor.toFixed(3);
   }
+
+  // The timeline's hover moves the cursor the plot shares.
+  let timelineX = null;
+  $('timeline').addEventListener('mousemove', (ev) => {
+    if (!timelineX || ev.offsetX < timelineX.x0) return;
+    S.cursor = (ev.offsetX - timelineX.x0) / timelineX.w * timelineX.span;
+    plot.cursorAt(S.cursor);
+    S.dirty.timeline = true; S.dirty.plot = true;
+  });
+  $('timeline').addEventListener('mouseleave', () => {
+    S.cursor = null; plot.cursorAt(null); S.dirty.timeline = true; S.dirty.plot = true;
+  });
 
   // ------------------------------------------------------------------------------------------ plot
 
-  function setTopics(list) {
-    const sel = $('topic');
-    for (const t of list) {
-      if (S.topics.has(String(t.id))) continue;
-      S.topics.set(String(t.id), t);
-      const o = document.createElement('option');
-      o.value = String(t.id); o.textContent = t.name;
-      sel.appendChild(o);
-    }
-  }
-
-  $('topic').addEventListener('change', () => choose($('topic').value));
-  function choose(id) {
-    if (S.plot.topic && S.mode === 'live') send({ type: 'subscribe', topic: Number(S.plot.topic), rate: 0 });
-    const t = S.topics.get(id);
-    S.plot = { topic: id, fields: t ? arr(t.fields) : [], rows: [], received: 0 };
-    if (t && S.mode === 'live') send({ type: 'subscribe', topic: Number(id), rate: 60 });
-    if (t && S.mode === 'replay') send({ type: 'subscribe', topic: id });  // answered by its rows, once
-    $('legend').innerHTML = S.plot.fields.map((f, i) => `<span style="color:${COLORS[i % COLORS.length]}">${esc(f)}</span>`).join('');
-    S.dirty.plot = true;
-  }
-
+  // The plot panel is plot.js (window.dcaPlot): the topics, samples, history and series go to it; it draws when
+  // the plot is dirty. Its cursor and the timeline's are one (S.cursor).
+  const plot = window.dcaPlot({
+    send: (m) => send(m), mode: () => S.mode, viewTime: () => viewTime(), endTime: () => S.t,
+    ended: () => S.ended, cursor: (t) => { S.cursor = t; S.dirty.timeline = true; }, dirty: () => { S.dirty.plot = true; },
+    seek: (t) => { S.playing = false; $('play').textContent = 'play'; seek(t); },
+  });
+  window.dcaPlotPanel = plot;  // for tests and the curious
+  function setTopics(list) { plot.setTopics(list); S.dirty.plot = true; }
   function samples(m) {
     if (S.robot && String(m.topic) === String(S.robot.topic)) robotRows(arr(m.rows));
-    if (String(m.topic) !== S.plot.topic) return;
-    const rows = arr(m.rows);
-    for (const r of rows) S.plot.rows.push(r);
-    if (S.plot.rows.length > PLOT_KEEP) S.plot.rows.splice(0, S.plot.rows.length - PLOT_KEEP);
-    S.plot.received += rows.length;
-    S.dirty.plot = true;
+    if (plot.samples(m)) S.dirty.plot = true;
   }
-
-  function renderPlot() {
-    const c = $('plot');
-    const T = viewTime();
-    const rows = S.mode === 'replay' ? S.plot.rows.filter((r) => r[0] <= T) : S.plot.rows;
-    c.dataset.samples = String(S.mode === 'replay' ? rows.length : S.plot.received);
-    const w = c.clientWidth || 400, h = c.clientHeight || 200;
-    c.width = w; c.height = h;
-    const g = c.getContext('2d');
-    g.clearRect(0, 0, w, h);
-    if (rows.length < 2) return;
-    let t0 = rows[0][0], t1 = rows[rows.length - 1][0], lo = Infinity, hi = -Infinity;
-    for (const r of rows) for (let k = 1; k < r.length; k++) if (r[k] !== null) { lo = Math.min(lo, r[k]); hi = Math.max(hi, r[k]); }
-    if (hi - lo < 1e-9) { hi += 1; lo -= 1; }
-    if (t1 - t0 < 1e-9) t1 = t0 + 1;
-    const X = (t) => 40 + (t - t0) / (t1 - t0) * (w - 50), Y = (v) => h - 15 - (v - lo) / (hi - lo) * (h - 25);
-    g.font = '10px sans-serif'; g.fillStyle = '#555';
-    g.fillText(hi.toPrecision(3), 2, 12); g.fillText(lo.toPrecision(3), 2, h - 15);
-    g.fillText(t0.toFixed(2) + ' s', 40, h - 2); g.fillText(t1.toFixed(2) + ' s', w - 50, h - 2);
-    for (let k = 1; k < rows[0].length; k++) {
-      g.strokeStyle = COLORS[(k - 1) % COLORS.length];
-      g.beginPath();
-      rows.forEach((r, i) => (i ? g.lineTo(X(r[0]), Y(r[k])) : g.moveTo(X(r[0]), Y(r[k]))));
-      g.stroke();
-    }
-  }
+  function renderPlot() { plot.render(); }
 
   // ------------------------------------------------------------------------------------------ config, lines
 
@@ -422,7 +400,25 @@
     for (const e of S.events) t1 = Math.max(t1, e.t);
     S.t = t1;
     $('slider').max = String(t1);
+    sliderScale(t1);
     seek(0);
+  }
+
+  // The slider's scale: times under it, and a mark above it at each transition (at most one per pixel).
+  function sliderScale(t1) {
+    const span = Math.max(t1, 1e-3);
+    let labels = '';
+    for (let k = 0; k <= 5; k++) labels += `<span style="left:${k * 20}%">${(span * k / 5).toFixed(1)} s</span>`;
+    $('slider-labels').innerHTML = labels;
+    const seen = new Set();
+    let marks = '';
+    for (const e of S.events) {
+      const at = Math.round(e.t / span * 400);
+      if (seen.has(at)) continue;
+      seen.add(at);
+      marks += `<i style="left:${(e.t / span * 100).toFixed(2)}%" title="${esc(e.t.toFixed(3))} s: ${esc(e.path)} ${esc(e.state)}"></i>`;
+    }
+    $('slider-marks').innerHTML = marks;
   }
 
   function seek(T) {
@@ -515,7 +511,8 @@
     else if (m.type === 'delta') delta(m);
     else if (m.type === 'samples') samples(m);
     else if (m.type === 'series' && S.robot && String(m.topic) === String(S.robot.topic)) robotRows(arr(m.rows));
-    else if (m.type === 'series' && String(m.topic) === S.plot.topic) { S.plot.rows = arr(m.rows); S.dirty.plot = true; }
+    else if (m.type === 'series') { if (plot.series(m)) S.dirty.plot = true; }
+    else if (m.type === 'history') { if (plot.history(m)) S.dirty.plot = true; }
     else if (m.type === 'robot') robot(m);
     else if (m.type === 'reply') $('reply').textContent = `${m.ok ? 'ok' : 'refused'}: ${m.text || ''}`;
     else if (m.type === 'error') $('reply').textContent = 'error: ' + m.reason;
@@ -530,10 +527,11 @@
     ws.onmessage = (ev) => {
       let m;
       try { m = JSON.parse(ev.data); } catch (e) { return; }
-      if (m.type === 'hello') { greeted = everGreeted = true; onHello(m); } else handle(m);
+      if (m.type === 'hello') { greeted = everGreeted = true; S.ended = false; onHello(m); } else handle(m);
     };
     ws.onclose = () => {
       document.body.dataset.connected = 'no';
+      S.ended = true; S.dirty.plot = true;  // (the plot keeps what it has, and says why nothing more comes)
       if (!greeted && !everGreeted) { deny(); return; }
       $('status').textContent = S.mode === 'replay' ? 'replay (server gone)' : 'disconnected';
       if (S.mode === 'live') setTimeout(connect, 2000);
