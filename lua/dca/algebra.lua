@@ -367,8 +367,8 @@ local function noop() end
 -- i & LOG_MASK of logc, as one integer: id * 16 + one of the codes below (id: the leaf's node id); logv holds
 -- the entry's value for the codes that have one (a start's binding, an ignored event's name).
 -- self.logi is the count of entries written, and says whether the run is busy (processing an event, a start or
--- an abort): then it is -1 - the count at the beginning, and the walk carries the count (`at`: abort_range
--- takes it and gives it back) until it is written back at the end. One field read and two writes
+-- an abort): then it is -1 - the count at the beginning, and the walk carries the count (`at`: start_node and
+-- abort_range take it and give it back) until it is written back at the end. One field read and two writes
 -- an event for both.
 local LOG_SIZE <const> = 256
 local LOG_MASK <const> = LOG_SIZE - 1
@@ -385,9 +385,8 @@ local function log(self, code, v)
   self.logc[i], self.logv[i] = code, v
 end
 
--- A run's engine is two closures made once per run (M.new): the compiled arrays of its expression and the
--- run's state tables are their upvalues, so that an event costs no table lookup to reach them (and the event
--- copies those it reads most into registers once: an upvalue costs an instruction more each time). The state
+-- A run's engine is a set of closures made once per run (M.new): the compiled arrays of its expression and
+-- the run's state tables are their upvalues, so that an event costs no table lookup to reach them. The state
 -- tables live as long as the run (Run:restore fills them in place):
 --   rprev, rnext   the running leaves in start order: a circular doubly linked list through sentinel 0
 --                  (rnext[0] the first started, rprev[0] the last)
@@ -422,150 +421,146 @@ local function make_abort(self, c, rprev, rnext, byname, cmd)
   end
 end
 
+-- start_node(root, b, at) starts node `root` with binding `b` (SEMANTICS.md §3 start order), its whole subtree
+-- in one call (`at`: the log's count, given back second). Returns true when the node is running afterwards,
+-- false when it ended ABORTED at once (a leaf whose process was already running); in that case nothing of the
+-- subtree is left running.
+local function make_start(self, c, st, cmd, abort_range)
+  local op, parent, names, labels, kids, nk = c.op, c.parent, c.name, c.label, c.kids, c.nk
+  local rprev, rnext, byname, bind, cnt, vals = st.rprev, st.rnext, st.byname, st.bind, st.cnt, st.vals
+  local cmd_start, cmd_activate, cmd_log = cmd.start or noop, cmd.activate or noop, cmd.log or noop
+  local is_running, logc, logv = cmd.is_running, self.logc, self.logv
+  local pending = {}  -- the operands of ',' and '#' still to start, the next on top (no command re-enters)
+  return function(root, b, at)
+    local id, sp = root, 0
+    local op, names, labels, rprev, rnext, byname, logc, logv = op, names, labels, rprev, rnext, byname, logc, logv  -- registers, not upvalues
+    while true do
+      local o = op[id]
+      if o == LEAF then
+        local nm = names[id]
+        if byname[nm] or (is_running and is_running(nm)) then
+          at = at + 1
+          logc[at & LOG_MASK], logv[at & LOG_MASK] = id * 16 + L_CONFLICT, nil
+          cmd_log("process " .. nm .. " already running: occurrence aborted")
+          while id ~= root do  -- each ',' and '#' on the way up aborts what it started, innermost first
+            id = parent[id]
+            o = op[id]
+            if o == PAR or o == DIS then at = abort_range(id, at) vals[id] = nil end
+          end
+          return false, at
+        end
+        local lb = labels[id]
+        if lb then cmd_activate(nm, lb) end  -- logged as "+A[l]" with the start
+        local t = rprev[0]  -- appended to the running leaves (start order)
+        rprev[id] = t
+        rnext[id] = 0
+        rnext[t] = id
+        rprev[0] = id
+        byname[nm] = id
+        cmd_start(nm, b)
+        at = at + 1  -- log: "start A" (or "start A init=b"), after "+A[l]" for a labelled leaf
+        local k = at & LOG_MASK
+        logc[k] = id * 16 + L_START
+        logv[k] = b
+        if sp == 0 then return true, at end
+        id, sp = pending[sp], sp - 1
+      elseif o == PAR or o == DIS then  -- every operand, left to right
+        local ks = kids[id]
+        if o == PAR then  -- its values so far: a new list, or its own again if it never handed it up
+          local n, t = nk[id], vals[id]
+          cnt[id] = n
+          if t then for k = 1, n do t[k] = nil end else vals[id] = { n = n } end
+        end
+        for k = #ks, 2, -1 do
+          sp = sp + 1
+          pending[sp] = ks[k]
+        end
+        id = ks[1]
+      else  -- SEQ, COND, REC start their first operand only
+        bind[id] = b
+        id = kids[id][1]
+      end
+    end
+  end
+end
+
 -- Run:event, made once per run: an event of the leaf process `name`; taken (true) when that leaf runs, else
 -- ignored (false) as stale, or queued (nil) while the run is busy. A taken event ends the leaf with outcome
 -- ok/v; then its ancestors react, upward, until one keeps running or the root ends (iterative: recurrence
--- never grows the stack). With kind START it is Run:start instead: the root starts, bound to `v`.
--- The same loop starts the operands the reaction calls for (the next operand of ';', the right one of ':' and
--- ':;'; the root), each whole subtree in SEMANTICS.md §3 start order, without a call: when one ends ABORTED at
--- once (a leaf whose process was already running: nothing of that subtree is left running), the reaction goes
--- on upward from it.
-local START = {}
-local function make_event(self, c, st, cmd, abort_range)
-  local parent, op, cidx, kids, nk, names, labels = c.parent, c.op, c.cidx, c.kids, c.nk, c.name, c.label
-  local rprev, rnext, byname, bind, cnt, vals = st.rprev, st.rnext, st.byname, st.bind, st.cnt, st.vals
-  local logc, logv, queue = self.logc, self.logv, st.queue
-  local cmd_start, cmd_activate, cmd_deactivate, cmd_log = cmd.start or noop, cmd.activate or noop,
-    cmd.deactivate or noop, cmd.log or noop
-  local is_running = cmd.is_running
-  local pending = {}  -- the operands of ',' and '#' still to start, the next on top (no command re-enters)
+-- never grows the stack).
+local function make_event(self, c, st, cmd, start_node, abort_range)
+  local parent, op, cidx, kids, nk, labels = c.parent, c.op, c.cidx, c.kids, c.nk, c.label
+  local rprev, rnext, byname, bind, cnt, vals, logc = st.rprev, st.rnext, st.byname, st.bind, st.cnt, st.vals,
+    self.logc
+  local queue, cmd_deactivate = st.queue, cmd.deactivate or noop
   return function(_, name, kind, v)
-    local code, ok, s, b = 8, true, 0, nil  -- s: the node to start next, with binding b (0: none)
+    local code, ok = 8, true  -- L_EVENT[kind], and kind == "done"
     if kind ~= "done" then
-      if kind == START then
-        s, b = 1, v
-      else
-        code, ok = L_EVENT[kind], false
-        if not code then error("algebra: unknown event kind '" .. tostring(kind) .. "'", 2) end
-        v = nil
-      end
+      code, ok = L_EVENT[kind], false
+      if not code then error("algebra: unknown event kind '" .. tostring(kind) .. "'", 2) end
+      v = nil
     end
     local at = self.logi
     if at < 0 then  -- busy
       queue[#queue + 1] = { name, kind, v }
       return nil
     end
-    -- registers, not upvalues
-    local op, parent, cidx, names, labels, byname, rprev, rnext, logc, logv =
-      op, parent, cidx, names, labels, byname, rprev, rnext, logc, logv
-    local id, p, nx
-    if s == 0 then
-      id = byname[name]
-      if not id then
-        log(self, L_IGNORED[kind], name)
-        return false
-      end
-      p, nx = rprev[id], rnext[id]
-      rnext[p], rprev[nx] = nx, p
-      byname[name] = nil
-      self.logi = -1 - at  -- busy
-      at = at + 1  -- log: "event A done", and "-A[l]" for a labelled leaf
-      logc[at & LOG_MASK] = id * 16 + code
-      local lb = labels[id]
-      if lb then cmd_deactivate(name, lb) end
-    else
-      self.logi = -1 - at  -- busy
+    local byname, rprev, rnext, parent, op = byname, rprev, rnext, parent, op  -- registers, not upvalues
+    local id = byname[name]
+    if not id then
+      log(self, L_IGNORED[kind], name)
+      return false
     end
-    while true do  -- one start a turn (none the first turn of an event)
-      if s ~= 0 then  -- start node s, its whole subtree
-        id = s
-        local sp = 0
-        while true do
-          local o = op[id]
-          if o == LEAF then
-            local nm = names[id]
-            if byname[nm] or (is_running and is_running(nm)) then
-              at = at + 1
-              logc[at & LOG_MASK], logv[at & LOG_MASK] = id * 16 + L_CONFLICT, nil
-              cmd_log("process " .. nm .. " already running: occurrence aborted")
-              while id ~= s do  -- each ',' and '#' on the way up aborts what it started, innermost first
-                id = parent[id]
-                o = op[id]
-                if o == PAR or o == DIS then at = abort_range(id, at) vals[id] = nil end
-              end
-              break
-            end
-            local lb = labels[id]
-            if lb then cmd_activate(nm, lb) end  -- logged as "+A[l]" with the start
-            local t = rprev[0]  -- appended to the running leaves (start order)
-            rprev[id] = t
-            rnext[id] = 0
-            rnext[t] = id
-            rprev[0] = id
-            byname[nm] = id
-            cmd_start(nm, b)
-            at = at + 1  -- log: "start A" (or "start A init=b"), after "+A[l]" for a labelled leaf
-            local k = at & LOG_MASK
-            logc[k] = id * 16 + L_START
-            logv[k] = b
-            if sp == 0 then goto running end
-            id, sp = pending[sp], sp - 1
-          elseif o == PAR or o == DIS then  -- every operand, left to right
-            local ks = kids[id]
-            if o == PAR then  -- its values so far: a new list, or its own again if it never handed it up
-              local n, t = nk[id], vals[id]
-              cnt[id] = n
-              if t then for k = 1, n do t[k] = nil end else vals[id] = { n = n } end
-            end
-            for k = #ks, 2, -1 do
-              sp = sp + 1
-              pending[sp] = ks[k]
-            end
-            id = ks[1]
-          else  -- SEQ, COND, REC start their first operand only
-            bind[id] = b
-            id = kids[id][1]
-          end
-        end
-        ok, v, s = false, nil, 0  -- node `id` (= s) ended ABORTED at once: its parent reacts
+    self.logi = -1 - at  -- busy
+    local p, nx = rprev[id], rnext[id]
+    rnext[p], rprev[nx] = nx, p
+    byname[name] = nil
+    at = at + 1  -- log: "event A done", and "-A[l]" for a labelled leaf
+    logc[at & LOG_MASK] = id * 16 + code
+    local lb = labels[id]
+    if lb then cmd_deactivate(name, lb) end
+    while true do
+      p = parent[id]
+      if p == 0 then
+        if ok then self.st, self.value = "done", v else self.st, self.value = "aborted", nil end
+        break
       end
-      while true do  -- the ancestors react, upward, until one starts an operand or keeps running
-        p = parent[id]
-        if p == 0 then
-          if ok then self.st, self.value = "done", v else self.st, self.value = "aborted", nil end
-          goto running
+      local o = op[p]
+      if o == SEQ then
+        local i = cidx[id]
+        if ok and i < nk[p] then
+          ok, at = start_node(kids[p][i + 1], bind[p], at)
+          if ok then break end
         end
-        local o = op[p]
-        if o == SEQ then
-          local i = cidx[id]
-          if ok and i < nk[p] then s, b = kids[p][i + 1], bind[p]; break end
-        elseif o == PAR then
-          if ok then
-            local t = vals[p]
-            t[cidx[id]] = v
-            local left = cnt[p] - 1
-            cnt[p] = left
-            if left > 0 then goto running end
-            v, vals[p] = t, nil  -- handed up: the next start makes a new list
-          else
-            at = abort_range(p, at)
-          end
-        elseif o == DIS then
+      elseif o == PAR then
+        if ok then
+          local t = vals[p]
+          t[cidx[id]] = v
+          local left = cnt[p] - 1
+          cnt[p] = left
+          if left > 0 then break end
+          v, vals[p] = t, nil  -- handed up: the next start makes a new list
+        else
           at = abort_range(p, at)
-        elseif o == COND then
-          if ok and cidx[id] == 1 then s, b = kids[p][2], v; break end
-        else  -- REC: P done -> Q bound to P's value; Q done -> a new iteration of P with the outer binding
-          if ok then
-            if cidx[id] == 1 then s, b = kids[p][2], v else s, b = kids[p][1], bind[p] end
-            break
-          end
-          v = nil
         end
-        if not ok then v = nil end
-        id = p
+      elseif o == DIS then
+        at = abort_range(p, at)
+      elseif o == COND then
+        if ok and cidx[id] == 1 then
+          ok, at = start_node(kids[p][2], v, at)
+          if ok then break end
+        end
+      else  -- REC: P done -> Q bound to P's value; Q done -> a new iteration of P with the outer binding
+        if ok then
+          local ks = kids[p]
+          if cidx[id] == 1 then ok, at = start_node(ks[2], v, at) else ok, at = start_node(ks[1], bind[p], at) end
+          if ok then break end
+        end
+        v = nil
       end
+      if not ok then v = nil end
+      id = p
     end
-    ::running::
     self.logi = at
     if queue[1] then self:_drain() end
     return true
@@ -588,8 +583,9 @@ function M.new(expr, commands)
     draining = false, queue = {}, logi = 0, logc = {}, logv = {},
   }, Run)
   local abort_range = make_abort(self, c, self.rprev, self.rnext, self.byname, commands)
-  self._abort = abort_range
-  self.event = make_event(self, c, self, commands, abort_range)
+  local start_node = make_start(self, c, self, commands, abort_range)
+  self._start, self._abort = start_node, abort_range
+  self.event = make_event(self, c, self, commands, start_node, abort_range)
   return self
 end
 
@@ -599,7 +595,12 @@ end
 function Run:start(init)
   if self.st == "running" then error("algebra: run:start() while the expression is running", 2) end
   self.st, self.value = "running", nil
-  self:event(nil, START, init)  -- queued if a command of this run calls it
+  local ok, at = self.logi, nil
+  self.logi = -1 - ok  -- busy
+  ok, at = self._start(1, init, ok)
+  self.logi = at
+  if not ok then self.st = "aborted" end
+  self:_drain()
   return self.st == "running"
 end
 
