@@ -15,7 +15,7 @@
 //                                                          -- topic stream = true)
 //   srv:robot(topic_id, { {parent, child}, ... }, urdf)  -- topic_id carries link frames (foxglove.FrameTransforms),
 //                                  -- and /robot_description the URDF (host/codec/frames.h) --> its id
-//   srv:stats()  srv:close()
+//   srv:stats()  srv:flush_samples() (the samples a rate held back, now)  srv:close()
 //   conn:send(text [, droppable])   conn:subscribe(topic_id, rate_per_s)   conn:close(reason)
 //   conn:id()  conn:is_open()  conn:peer()  conn:protocol()  conn:stats()
 //   core.json_encode(value) --> text | nil, err     core.json_decode(text) --> value | nil, err
@@ -376,6 +376,12 @@ int srv_stats(lua_State* L) {
   return 1;
 }
 
+int srv_flush_samples(lua_State* L) {
+  ServerUD* ud = check_server_ud(L);
+  if (ud->s) ud->s->flush_samples();
+  return 0;
+}
+
 int srv_close(lua_State* L) {
   ServerUD* ud = check_server_ud(L);
   if (ud->s) ud->s->close();
@@ -530,7 +536,7 @@ void register_web(lua_State* L) {
       {"page", srv_page},       {"protocol", srv_protocol}, {"topic", srv_topic},
       {"publish", srv_publish}, {"remove_topic", srv_remove_topic}, {"topics", srv_topics}, {"robot", srv_robot},
       {"stream_topic", srv_stream_topic}, {"publish_message", srv_publish_message},
-      {"stats", srv_stats},     {"close", srv_close},   {nullptr, nullptr}};
+      {"stats", srv_stats},     {"flush_samples", srv_flush_samples}, {"close", srv_close},   {nullptr, nullptr}};
   register_type(L, kServerMeta, srv_methods, {srv_gc, srv_close, srv_tostring});
   static const luaL_Reg conn_methods[] = {
       {"send", conn_send}, {"subscribe", conn_subscribe}, {"close", conn_close}, {"id", conn_id},

@@ -64,12 +64,25 @@ class ServerImpl;
 
 // ------------------------------------------------------------------------------------------ a WebSocket
 
-// Per subscribed topic: the rate, the last kept sample's wall time, the rows kept since the last flush.
+// Per subscribed topic: the rate, the last kept sample's wall time, the rows kept since the last flush, and the
+// newest sample the rate held back since then (sent once the interval has passed, or at a final flush: a topic's
+// last sample is never lost, as a run that ends or pauses between two kept ones would lose it).
 struct Subscription {
   double min_interval_s = 0;
   std::chrono::steady_clock::time_point last{};
-  std::string rows;  // "[t,v,...],[t,v,...]"
+  std::string rows;     // "[t,v,...],[t,v,...]"
+  std::string pending;  // "[t,v,...]" or ""
 };
+
+void append_row(std::string& out, std::int64_t t_ns, std::span<const double> values) {
+  out += '[';
+  json::append_number(out, static_cast<double>(t_ns) / 1e9);
+  for (double v : values) {
+    out += ',';
+    json::append_number(out, v);
+  }
+  out += ']';
+}
 
 class HttpSession;
 
@@ -96,7 +109,7 @@ class WsSession : public Connection, public std::enable_shared_from_this<WsSessi
   /// A sample of a topic it may have subscribed to.
   void on_sample(const SampleHub::Topic& t, std::int64_t t_ns, std::span<const double> values);
   /// Sends what its subscriptions kept.
-  void flush_samples(const SampleHub& hub);
+  void flush_samples(const SampleHub& hub, bool held = false);
 
  private:
   struct Out {
@@ -154,6 +167,7 @@ class ServerImpl : public Server, public SampleHub::Observer {
     s.authenticated = authenticated_;
     return s;
   }
+  void flush_samples() override;
   void close() override;
 
   void on_sample(const SampleHub::Topic& t, std::int64_t t_ns, std::span<const double> values) override;
@@ -447,21 +461,28 @@ void WsSession::on_sample(const SampleHub::Topic& t, std::int64_t t_ns, std::spa
   if (it == subs_.end()) return;
   Subscription& sub = it->second;
   const auto now = std::chrono::steady_clock::now();
-  if (std::chrono::duration<double>(now - sub.last).count() < sub.min_interval_s) return;
+  if (std::chrono::duration<double>(now - sub.last).count() < sub.min_interval_s) {
+    sub.pending.clear();
+    append_row(sub.pending, t_ns, values);
+    return;
+  }
   sub.last = now;
+  sub.pending.clear();
   if (sub.rows.size() > 256 * 1024) return;  // a flush is late: keep the memory bounded
   if (!sub.rows.empty()) sub.rows += ',';
-  sub.rows += '[';
-  json::append_number(sub.rows, static_cast<double>(t_ns) / 1e9);
-  for (double v : values) {
-    sub.rows += ',';
-    json::append_number(sub.rows, v);
-  }
-  sub.rows += ']';
+  append_row(sub.rows, t_ns, values);
 }
 
-void WsSession::flush_samples(const SampleHub& hub) {
+void WsSession::flush_samples(const SampleHub& hub, bool held) {
+  const auto now = std::chrono::steady_clock::now();
   for (auto& [id, sub] : subs_) {
+    // the newest sample held back, once its interval has passed (or at once: `held`)
+    if (!sub.pending.empty() && (held || std::chrono::duration<double>(now - sub.last).count() >= sub.min_interval_s)) {
+      if (!sub.rows.empty()) sub.rows += ',';
+      sub.rows += sub.pending;
+      sub.pending.clear();
+      sub.last = now;
+    }
     if (sub.rows.empty()) continue;
     const SampleHub::Topic* t = hub.topic(id);
     std::string msg = "{\"type\":\"samples\",\"topic\":" + std::to_string(id) + ",\"name\":";
@@ -648,6 +669,13 @@ void ServerImpl::arm_flush() {
       if (auto s = ws.lock()) s->flush_samples(self->hub_);
     if (!self->sessions_.empty()) self->arm_flush();
   });
+}
+
+void ServerImpl::flush_samples() {
+  if (closed_) return;
+  const auto sessions = sessions_;  // a send may close a session
+  for (const auto& [id, ws] : sessions)
+    if (auto s = ws.lock()) s->flush_samples(hub_, true);
 }
 
 void ServerImpl::close() {

@@ -143,6 +143,9 @@ class Server : public std::enable_shared_from_this<Server> {
   /// The open WebSocket connections by id.
   virtual std::map<std::uint64_t, Connection::Ptr> connections() const = 0;
   virtual ServerStats stats() const = 0;
+  /// Queues every subscribed sample held back by a subscription's rate (the newest of each, Limits::sample_flush)
+  /// for sending now: before the server closes at a run's end, a page gets each topic's last sample.
+  virtual void flush_samples() = 0;
   /// Stops listening and closes every connection.
   virtual void close() = 0;
 };

@@ -322,6 +322,37 @@ TEST_F(WebServerTest, SubscribedSamplesArriveDecimatedAsJsonRows) {
   EXPECT_EQ(hub.topic(id)->samples, 10u);
 }
 
+// A subscription's rate holds samples back, but never the newest for good: it goes once the interval has passed,
+// or at once on flush_samples() (a run's end: the plots reach it; before, a run ending between two kept samples
+// lost its last ones). Here the interval (1,000 s) never passes.
+TEST_F(WebServerTest, TheNewestSampleARateHeldBackIsSentAtAFinalFlush) {
+  websocket::stream<beast::tcp_stream> ws(io);
+  ASSERT_EQ(ws_connect(ws, with_token("/ws")), "");
+  ASSERT_TRUE(run_until(io, [&] { return echo->opened == 1; }));
+  auto& hub = server->samples();
+  const auto id = hub.add_topic("/main/a/Out", {"value"});
+  echo->last->subscribe(id, 0.001);
+  for (int i = 0; i < 10; i++) {
+    const double v[1] = {0.5 * i};
+    hub.publish(id, i * 1000000, v);
+  }
+  const auto rows = [&] {
+    dca::wire::Value msg;
+    std::string error;
+    const std::string text = ws_read(ws);
+    EXPECT_TRUE(dca::json::decode(text, &msg, &error)) << error << ": " << text;
+    return msg["rows"];
+  };
+  const auto first = rows();
+  ASSERT_EQ(first.as_array().size(), 1u) << "the rate keeps one";
+  EXPECT_EQ(first.as_array()[0].as_array()[1].as_float(), 0.0);
+  server->flush_samples();
+  const auto last = rows();
+  ASSERT_EQ(last.as_array().size(), 1u) << "the newest held back, once";
+  EXPECT_EQ(last.as_array()[0].as_array()[0].as_float(), 0.009);
+  EXPECT_EQ(last.as_array()[0].as_array()[1].as_float(), 4.5);
+}
+
 TEST(WebTextTest, TheKeyTokenIsAKeyedHashNotTheKey) {
   const std::string key(32, 'k');
   const std::string t = dca::web::key_token(key);

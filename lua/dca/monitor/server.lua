@@ -393,6 +393,7 @@ end
 function Mon:close(loop)
   if loop then
     self:_flush()
+    self.srv:flush_samples()  -- each topic's last sample, held back by its rate: the plots reach the end
     loop:run_until(function()
       for c in pairs(self.pages) do if c:is_open() and c:stats().queued_bytes > 0 then return false end end
       return true
