@@ -4,6 +4,13 @@
 //   local rec, err = core.mcap_read("run.mcap")
 //   rec.channels[id] = { topic = "/world/door", schema = "/world/door", encoding = "json" }
 //   rec.messages[i]  = { channel = id, t = log time in ns (integer), data = "{...}" }   -- in file order
+// A channel of the `ros2` profile (encoding "cdr", a ros2msg schema named as one of dca's message types,
+// e.g. "sensor_msgs/msg/JointState") has its messages decoded: data = {"value": {fields by name}}, the JSON a
+// message port's sample has in a recording without the profile (null for a message that does not decode); its
+// channel says encoding = "cdr", decoded = true. Other CDR channels keep their bytes (decoded = nil).
+//
+// core.mcap_message_json(encoding, schema_encoding, schema_name, data): that decoding of one message, for readers
+// of their own (the monitor's): the JSON text, or nil when the channel is not such a CDR channel.
 // A file that is not a well-formed MCAP file this reader understands: nil and the reason ("offset N: ...").
 //
 // core.mcap_writer: an MCAP recording written from Lua (host/codec/mcap.h's Writer on a file), for the recordings
@@ -21,11 +28,15 @@
 
 #include <cstdio>
 #include <fstream>
+#include <map>
 #include <memory>
 #include <optional>
+#include <span>
+#include <string_view>
 
 #include "bindings/lua_support.h"
 #include "host/codec/mcap.h"
+#include "host/codec/msgs.h"
 
 namespace dca::bindings {
 namespace {
@@ -49,10 +60,31 @@ bool slurp(const char* path, std::string* out, std::string* error) {
   return static_cast<bool>(f);
 }
 
+// The message type of a `ros2` profile channel of dca's types, or nullptr.
+const msgs::TypeInfo* cdr_type(std::string_view encoding, std::string_view schema_encoding, std::string_view name) {
+  return encoding == "cdr" && schema_encoding == "ros2msg" ? msgs::find_type(name) : nullptr;
+}
+
+// A CDR message of type t as a recorded message port's JSON sample.
+std::string cdr_json(const msgs::TypeInfo& t, std::string_view data) {
+  return "{\"value\":" + t.json(std::as_bytes(std::span(data.data(), data.size()))) + "}";
+}
+
+int l_mcap_message_json(lua_State* L) {
+  std::size_t n = 0;
+  const char* data = luaL_checklstring(L, 4, &n);
+  const auto* t = cdr_type(luaL_checkstring(L, 1), luaL_checkstring(L, 2), luaL_checkstring(L, 3));
+  if (!t) return lua_pushnil(L), 1;
+  const std::string json = cdr_json(*t, std::string_view(data, n));
+  lua_pushlstring(L, json.data(), json.size());
+  return 1;
+}
+
 // Pushes the contents as the table described above.
 void push_contents(lua_State* L, const mcap::Contents& c) {
   lua_createtable(L, 0, 2);
   lua_createtable(L, 0, static_cast<int>(c.channels.size()));
+  std::map<std::uint16_t, const msgs::TypeInfo*> decoders;
   for (const auto& [id, ch] : c.channels) {
     lua_createtable(L, 0, 3);
     lua_pushlstring(L, ch.topic.data(), ch.topic.size());
@@ -61,6 +93,11 @@ void push_contents(lua_State* L, const mcap::Contents& c) {
     lua_setfield(L, -2, "schema");
     lua_pushlstring(L, ch.message_encoding.data(), ch.message_encoding.size());
     lua_setfield(L, -2, "encoding");
+    if (const auto* t = cdr_type(ch.message_encoding, ch.schema_encoding, ch.schema_name)) {
+      decoders[id] = t;
+      lua_pushboolean(L, 1);
+      lua_setfield(L, -2, "decoded");
+    }
     lua_rawseti(L, -2, id);
   }
   lua_setfield(L, -2, "channels");
@@ -72,7 +109,12 @@ void push_contents(lua_State* L, const mcap::Contents& c) {
     lua_setfield(L, -2, "channel");
     lua_pushinteger(L, static_cast<lua_Integer>(m.log_time));
     lua_setfield(L, -2, "t");
-    lua_pushlstring(L, m.data.data(), m.data.size());
+    if (const auto d = decoders.find(m.channel); d != decoders.end()) {
+      const std::string json = cdr_json(*d->second, m.data);
+      lua_pushlstring(L, json.data(), json.size());
+    } else {
+      lua_pushlstring(L, m.data.data(), m.data.size());
+    }
     lua_setfield(L, -2, "data");
     lua_rawseti(L, -2, i++);
   }
@@ -231,7 +273,8 @@ void open_mcap(lua_State* L) {
   static const luaL_Reg writer[] = {
       {"channel", writer_channel}, {"write", writer_write}, {"finish", writer_finish}, {nullptr, nullptr}};
   lua::register_type(L, kWriterMeta, writer, {writer_gc, nullptr, nullptr});
-  static const luaL_Reg functions[] = {{"mcap_read", l_mcap_read}, {"mcap_writer", l_mcap_writer}, {nullptr, nullptr}};
+  static const luaL_Reg functions[] = {{"mcap_read", l_mcap_read}, {"mcap_writer", l_mcap_writer},
+                                        {"mcap_message_json", l_mcap_message_json}, {nullptr, nullptr}};
   luaL_setfuncs(L, functions, 0);
 }
 
