@@ -54,7 +54,11 @@ for (const [id, ch] of reader.channelsById) {
     check((ch.metadata.get("offered_qos_profiles") ?? "").includes("reliability: 1"),
           `${topic}: no offered_qos_profiles of ROS 2's default QoS`);
     check(text.includes("\nMSG: std_msgs/Header\n"), `${topic}: the definition lacks std_msgs/Header`);
-    decoders.set(id, new MessageReader(parse(text, { ros2: true })));
+    try {
+      if (schema.encoding === "ros2msg") decoders.set(id, new MessageReader(parse(text, { ros2: true })));
+    } catch (e) {
+      check(false, `${topic}: the schema does not parse as a ROS 2 definition: ${e.message}`);
+    }
   } else {
     check(ch.messageEncoding === "json" && schema.encoding === "jsonschema",
           `${ch.topic}: ${ch.messageEncoding} with ${schema.encoding}, not JSON`);
@@ -92,7 +96,7 @@ for await (const msg of reader.readMessages({ validateCrcs: true })) {
   if (n === 1) console.log(`first ${topic}: ${JSON.stringify({ ...m, position: [...m.position], velocity: [...m.velocity], effort: [...m.effort] })}`);
 }
 check(n >= 10, `${topic}: ${n} messages, fewer than 10`);
-console.log(`${file}: profile ros2, ${n} JointState messages decoded from CDR, ${json} JSON messages`);
+console.log(`${file}: profile "${reader.header.profile}", ${n} JointState messages decoded from CDR, ${json} JSON messages`);
 if (same) {
   const a = await messagesOf(reader), b = await messagesOf(await openReader(same));
   check(a.length === b.length, `${topic}: ${a.length} messages, ${b.length} in ${same}`);
