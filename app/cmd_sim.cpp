@@ -41,7 +41,9 @@ constexpr const char* kUsage =
     "                    with a CSV export of its own takes any other name as CSV\n"
     "  --record-compression zstd|lz4|none   an MCAP recording's chunks (default zstd: docs/recording.md)\n"
     "  --record-split SIZE|DURATION        FILE-000.mcap, FILE-001.mcap, ... each of at most about SIZE (100MB,\n"
-    "                    1GiB) or DURATION of simulated time (60s, 10min, 1h), each with every channel\n\n"
+    "                    1GiB) or DURATION of simulated time (60s, 10min, 1h), each with every channel\n"
+    "  --record-profile ros2   the MCAP `ros2` profile: message ports' channels as CDR with ros2msg schemas (the\n"
+    "                    rest stays JSON; docs/recording.md, \"The ros2 profile\")\n\n"
     "--serve: the world as a process (sim/device_node.h): registers NAME (default `world`) with the daemon at\n"
     "ADDR, its ports are the world's signals (`dca types --world WORLD`), and it is the clock master of every\n"
     "node on simulated time (`dca node --clock sim`): time starts at 0 on `go` (or at once with --go) and\n"
@@ -140,6 +142,11 @@ std::string set_value(const std::string& a, const char* v, Options& o) {
   if (a == "--record-split")
     return v && dca::sim::parse_split(v, &o.recording) ? ""
            : "--record-split needs a size (100MB, 1GiB: at least 4096 bytes) or a duration (60s, 10min, 1h)";
+  if (a == "--record-profile") {
+    if (!v || std::string(v) != "ros2") return "--record-profile needs ros2";
+    o.recording.profile = v;
+    return "";
+  }
   if (a == "--blackbox-storm") return storm(v, o);
   if (a == "--sync") return positive(v, o.sync_period) ? "" : "--sync needs positive seconds";
   if (a == "--tick-timeout") {
@@ -162,7 +169,8 @@ std::string set_value(const std::string& a, const char* v, Options& o) {
 int parse(std::span<char* const> args, Options& o) {
   static const std::string kValued =
       " --world --world-opt --seed --duration --period --record-period --record --trace --daemon --name --key"
-      " --host --sync --tick-timeout --blackbox --blackbox-storm --record-compression --record-split ";
+      " --host --sync --tick-timeout --blackbox --blackbox-storm --record-compression --record-split"
+      " --record-profile ";
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string a = args[i];
     if (set_flag(a, o)) continue;

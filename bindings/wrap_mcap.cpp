@@ -4,12 +4,19 @@
 //   local rec, err = core.mcap_read("run.mcap")
 //   rec.channels[id] = { topic = "/world/door", schema = "/world/door", encoding = "json" }
 //   rec.messages[i]  = { channel = id, t = log time in ns (integer), data = "{...}" }   -- in file order
+// A channel of the `ros2` profile (encoding "cdr", a ros2msg schema named as one of dca's message types,
+// e.g. "sensor_msgs/msg/JointState") has its messages decoded: data = {"value": {fields by name}}, the JSON a
+// message port's sample has in a recording without the profile (null for a message that does not decode); its
+// channel says encoding = "cdr", decoded = true. Other CDR channels keep their bytes (decoded = nil).
+//
+// core.mcap_message_json(encoding, schema_encoding, schema_name, data): that decoding of one message, for readers
+// of their own (the monitor's): the JSON text, or nil when the channel is not such a CDR channel.
 // A file that is not a well-formed MCAP file this reader understands: nil and the reason ("offset N: ...").
 //
 // core.mcap_index: a recording read through its summary (chunk indexes, statistics), a chunk at a time, so a long
 // recording is never held whole (`dca monitor FILE.mcap`, dca.monitor.replay):
 //   local idx, err = core.mcap_index("run.mcap")   -- its footer and summary read | nil, reason
-//   idx:summary()   --> { channels = { [id] = {topic, schema, encoding} }, counts = { [id] = messages },
+//   idx:summary()   --> { channels = { [id] = {topic, schema, encoding, decoded} }, counts = { [id] = messages },
 //                   --     chunks = { { start = ns, finish = ns, channels = { [id] = true } }, ... } (file order),
 //                   --     messages, start, finish }
 //   idx:chunk(i)    --> the messages of chunk i, { {channel, t, data}, ... } as core.mcap_read's | nil, reason
@@ -34,11 +41,14 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "bindings/lua_support.h"
 #include "host/codec/mcap.h"
+#include "host/codec/msgs.h"
 
 namespace dca::bindings {
 namespace {
@@ -62,7 +72,28 @@ bool slurp(const char* path, std::string* out, std::string* error) {
   return static_cast<bool>(f);
 }
 
-// Pushes channels as { [id] = {topic, schema, encoding} }.
+// The message type of a `ros2` profile channel of dca's types, or nullptr.
+const msgs::TypeInfo* cdr_type(std::string_view encoding, std::string_view schema_encoding, std::string_view name) {
+  return encoding == "cdr" && schema_encoding == "ros2msg" ? msgs::find_type(name) : nullptr;
+}
+
+// A CDR message of type t as a recorded message port's JSON sample.
+std::string cdr_json(const msgs::TypeInfo& t, std::string_view data) {
+  return "{\"value\":" + t.json(std::as_bytes(std::span(data.data(), data.size()))) + "}";
+}
+
+int l_mcap_message_json(lua_State* L) {
+  std::size_t n = 0;
+  const char* data = luaL_checklstring(L, 4, &n);
+  const auto* t = cdr_type(luaL_checkstring(L, 1), luaL_checkstring(L, 2), luaL_checkstring(L, 3));
+  if (!t) return lua_pushnil(L), 1;
+  const std::string json = cdr_json(*t, std::string_view(data, n));
+  lua_pushlstring(L, json.data(), json.size());
+  return 1;
+}
+
+// Pushes channels as { [id] = {topic, schema, encoding, decoded} } (decoded: a CDR channel of dca's types,
+// whose messages come as their JSON).
 void push_channels(lua_State* L, const std::map<uint16_t, mcap::Contents::Channel>& channels) {
   lua_createtable(L, 0, static_cast<int>(channels.size()));
   for (const auto& [id, ch] : channels) {
@@ -73,12 +104,20 @@ void push_channels(lua_State* L, const std::map<uint16_t, mcap::Contents::Channe
     lua_setfield(L, -2, "schema");
     lua_pushlstring(L, ch.message_encoding.data(), ch.message_encoding.size());
     lua_setfield(L, -2, "encoding");
+    if (cdr_type(ch.message_encoding, ch.schema_encoding, ch.schema_name) != nullptr) {
+      lua_pushboolean(L, 1);
+      lua_setfield(L, -2, "decoded");
+    }
     lua_rawseti(L, -2, id);
   }
 }
 
-// Pushes messages as { {channel, t, data}, ... }.
-void push_messages(lua_State* L, const std::vector<mcap::Contents::Message>& messages) {
+// Pushes messages as { {channel, t, data}, ... }, those of a CDR channel of dca's types as their JSON.
+void push_messages(lua_State* L, const std::vector<mcap::Contents::Message>& messages,
+                   const std::map<uint16_t, mcap::Contents::Channel>& channels) {
+  std::map<std::uint16_t, const msgs::TypeInfo*> decoders;
+  for (const auto& [id, ch] : channels)
+    if (const auto* t = cdr_type(ch.message_encoding, ch.schema_encoding, ch.schema_name)) decoders[id] = t;
   lua_createtable(L, static_cast<int>(messages.size()), 0);
   lua_Integer i = 1;
   for (const auto& m : messages) {
@@ -87,7 +126,12 @@ void push_messages(lua_State* L, const std::vector<mcap::Contents::Message>& mes
     lua_setfield(L, -2, "channel");
     lua_pushinteger(L, static_cast<lua_Integer>(m.log_time));
     lua_setfield(L, -2, "t");
-    lua_pushlstring(L, m.data.data(), m.data.size());
+    if (const auto d = decoders.find(m.channel); d != decoders.end()) {
+      const std::string json = cdr_json(*d->second, m.data);
+      lua_pushlstring(L, json.data(), json.size());
+    } else {
+      lua_pushlstring(L, m.data.data(), m.data.size());
+    }
     lua_setfield(L, -2, "data");
     lua_rawseti(L, -2, i++);
   }
@@ -98,7 +142,7 @@ void push_contents(lua_State* L, const mcap::Contents& c) {
   lua_createtable(L, 0, 2);
   push_channels(L, c.channels);
   lua_setfield(L, -2, "channels");
-  push_messages(L, c.messages);
+  push_messages(L, c.messages, c.channels);
   lua_setfield(L, -2, "messages");
 }
 
@@ -252,7 +296,7 @@ int index_chunk(lua_State* L) {
     lua_pushfstring(L, "%s: %s", x->path.c_str(), error.c_str());
     return 2;
   }
-  push_messages(L, contents->messages);
+  push_messages(L, contents->messages, x->summary.channels);
   return 1;
 }
 
@@ -386,8 +430,9 @@ void open_mcap(lua_State* L) {
   static const luaL_Reg index[] = {
       {"summary", index_summary}, {"chunk", index_chunk}, {"chunks_read", index_chunks_read}, {nullptr, nullptr}};
   lua::register_type(L, kIndexMeta, index, {index_gc, nullptr, nullptr});
-  static const luaL_Reg functions[] = {
-      {"mcap_read", l_mcap_read}, {"mcap_writer", l_mcap_writer}, {"mcap_index", l_mcap_index}, {nullptr, nullptr}};
+  static const luaL_Reg functions[] = {{"mcap_read", l_mcap_read}, {"mcap_writer", l_mcap_writer},
+                                       {"mcap_index", l_mcap_index}, {"mcap_message_json", l_mcap_message_json},
+                                       {nullptr, nullptr}};
   luaL_setfuncs(L, functions, 0);
 }
 

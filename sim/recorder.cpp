@@ -22,9 +22,10 @@ bool is_mcap(const std::string& path) {
 namespace {
 
 // A writer of 64 KiB chunks into f.
-std::unique_ptr<dca::mcap::Writer> file_writer(std::FILE* f, dca::mcap::Compression c) {
+std::unique_ptr<dca::mcap::Writer> file_writer(std::FILE* f, dca::mcap::Compression c, const std::string& profile) {
   return std::make_unique<dca::mcap::Writer>(
-      [f](std::string_view b) { return std::fwrite(b.data(), 1, b.size(), f) == b.size(); }, "dca sim", 64 * 1024, c);
+      [f](std::string_view b) { return std::fwrite(b.data(), 1, b.size(), f) == b.size(); }, "dca sim", 64 * 1024, c,
+      profile);
 }
 
 // Adds what `s` counted to *total.
@@ -54,16 +55,13 @@ bool parse_split(const std::string& text, RecordOptions* o) {
 }
 
 struct Recorder::Mcap {
-  Mcap(std::FILE* f, dca::mcap::Compression c) : writer(file_writer(f, c)) {}
+  Mcap(std::FILE* f, dca::mcap::Compression c) : writer(file_writer(f, c, "")) {}
   std::unique_ptr<dca::mcap::Writer> writer;
   dca::mcap::Stats done;  // a split recording's files before the open one
   std::string failed;     // a file of a split that could not be written
   uint16_t events = 0;  // the channel /dca/events, once there is a note
   uint16_t log = 0;     // the channel /dca/log, once there is a line
-  struct Added {
-    std::string topic, schema_name, schema;
-  };
-  std::vector<Added> added;  // the channels, in id order (a black box made later takes them over)
+  std::vector<dca::mcap::ChannelSpec> added;  // the channels, in id order (a black box made later takes them over)
 };
 
 namespace {
@@ -72,9 +70,6 @@ std::string json_string(const std::string& s);
 
 // The black box's channels and its ring of messages (docs/recording.md, "Black box").
 struct Recorder::Box {
-  struct Channel {
-    std::string topic, schema_name, schema;
-  };
   struct Held {
     uint16_t channel;
     uint64_t t;
@@ -82,8 +77,9 @@ struct Recorder::Box {
   };
   BlackboxOptions o;
   dca::mcap::Compression compression = dca::mcap::Compression::none;
+  std::string profile;  // the header's ("" or "ros2")
   uint64_t before_ns = 0, after_ns = 0;
-  std::vector<Channel> channels;  // channel id - 1
+  std::vector<dca::mcap::ChannelSpec> channels;  // channel id - 1
   std::deque<Held> held;
   std::size_t bytes = 0;
   uint64_t latest = 0;          // the latest message's time
@@ -115,9 +111,9 @@ struct Recorder::Box {
   std::string write(const std::string& file) const {
     std::FILE* f = std::fopen(file.c_str(), "w");
     if (!f) return file + ": cannot write the black box: " + std::strerror(errno);
-    const auto writer = file_writer(f, compression);
+    const auto writer = file_writer(f, compression, profile);
     dca::mcap::Writer& w = *writer;
-    for (const auto& c : channels) w.add_channel(c.topic, c.schema_name, c.schema);
+    for (const auto& c : channels) w.add_channel(c);
     const uint16_t box = w.add_channel("/dca/blackbox", "dca/blackbox",
                                        R"({"type":"object","title":"/dca/blackbox","properties":{"trigger":)"
                                        R"({"type":"string"},"t":{"type":"number"},"before":{"type":"number"},)"
@@ -172,14 +168,14 @@ std::string json_string(const std::string& s) {
 
 }  // namespace
 
-uint16_t Recorder::channel(const std::string& topic, const std::string& schema_name, const std::string& schema) {
+uint16_t Recorder::channel(const dca::mcap::ChannelSpec& spec) {
   if (box_) {
-    box_->channels.push_back({topic, schema_name, schema});
+    box_->channels.push_back(spec);
     return static_cast<uint16_t>(box_->channels.size());
   }
   if (!f_ || !mcap_) return 0;
-  mcap_->added.push_back({topic, schema_name, schema});
-  return mcap_->writer->add_channel(topic, schema_name, schema);
+  mcap_->added.push_back(spec);
+  return mcap_->writer->add_channel(spec);
 }
 
 void Recorder::put(uint16_t channel, uint64_t t_ns, std::string json) {
@@ -204,10 +200,9 @@ void Recorder::put(uint16_t channel, uint64_t t_ns, std::string json) {
 void Recorder::note(double t, const std::string& line, const std::string& path, const std::string& state) {
   if (!mcap_) return;
   if (mcap_->events == 0)
-    mcap_->events = channel(
-        "/dca/events", "dca/events",
-        R"({"type":"object","title":"/dca/events","properties":{"line":{"type":"string"},)"
-        R"("path":{"type":"string"},"state":{"type":"string"}}})");
+    mcap_->events = channel({"/dca/events", "dca/events",
+                             R"({"type":"object","title":"/dca/events","properties":{"line":{"type":"string"},)"
+                             R"("path":{"type":"string"},"state":{"type":"string"}}})", false});
   const auto ns = static_cast<uint64_t>(std::llround(std::max(0.0, t) * 1e9));
   put(mcap_->events, ns,
       "{\"line\":" + json_string(line) + ",\"path\":" + json_string(path) + ",\"state\":" + json_string(state) + "}");
@@ -216,16 +211,21 @@ void Recorder::note(double t, const std::string& line, const std::string& path, 
 void Recorder::log(double t, const std::string& path, const std::string& line) {
   if (!mcap_) return;
   if (mcap_->log == 0)
-    mcap_->log = channel(
-        "/dca/log", "dca/log",
-        R"({"type":"object","title":"/dca/log","properties":{"path":{"type":"string"},"line":{"type":"string"}}})");
+    mcap_->log = channel({"/dca/log", "dca/log",
+                          R"({"type":"object","title":"/dca/log","properties":{"path":{"type":"string"},)"
+                          R"("line":{"type":"string"}}})", false});
   const auto ns = static_cast<uint64_t>(std::llround(std::max(0.0, t) * 1e9));
   put(mcap_->log, ns, "{\"path\":" + json_string(path) + ",\"line\":" + json_string(line) + "}");
 }
 
 uint16_t Recorder::add_channel(const std::string& topic, const std::string& schema, const std::string& schema_name) {
   const std::string name = !schema_name.empty() ? schema_name : topic.size() > 1 ? topic.substr(1) : topic;
-  return channel(topic, name, schema);
+  return channel({topic, name, schema, false});
+}
+
+uint16_t Recorder::add_cdr_channel(const std::string& topic, const std::string& ros_name,
+                                   const std::string& definition) {
+  return channel({topic, ros_name, definition, true});
 }
 
 void Recorder::write(uint16_t channel, int64_t t_ns, const std::string& json) {
@@ -238,7 +238,7 @@ bool Recorder::blackbox(const BlackboxOptions& o) {
   f_ = nullptr;
   std::remove(path_.c_str());
   box_ = std::make_unique<Box>();
-  for (const auto& c : mcap_->added) box_->channels.push_back({c.topic, c.schema_name, c.schema});
+  box_->channels = mcap_->added;
   box_->o = o;
   box_->before_ns = static_cast<uint64_t>(std::llround(std::max(0.0, o.before) * 1e9));
   box_->after_ns = static_cast<uint64_t>(std::llround(std::max(0.0, o.after) * 1e9));
@@ -259,9 +259,18 @@ void Recorder::trigger(double t, const std::string& why) {
 
 void Recorder::configure(const RecordOptions& o) {
   options_ = o;
-  if (box_) box_->compression = o.compression;
+  if (box_) box_->compression = o.compression, box_->profile = o.profile;
   if (!mcap_ || !f_) return;
   mcap_->writer->set_compression(o.compression);
+  if (!o.profile.empty() && o.split_bytes == 0 && o.split_ns == 0) {  // the header again, with the profile
+    if (!(f_ = std::freopen(path_.c_str(), "w", f_))) {
+      mcap_->failed = path_ + ": cannot write the recording: " + std::strerror(errno);
+      return;
+    }
+    mcap_->writer = file_writer(f_, o.compression, o.profile);
+    for (const auto& c : mcap_->added) mcap_->writer->add_channel(c);
+    return;
+  }
   if (o.split_bytes == 0 && o.split_ns == 0) return;
   std::fclose(f_);  // (only the magic, the header and the channels were written: the split's files are the record)
   f_ = nullptr;
@@ -285,8 +294,8 @@ void Recorder::next_file() {
     if (mcap_->failed.empty()) mcap_->failed = files_.back() + ": cannot write the recording: " + std::strerror(errno);
     return;
   }
-  mcap_->writer = file_writer(f_, options_.compression);
-  for (const auto& c : mcap_->added) mcap_->writer->add_channel(c.topic, c.schema_name, c.schema);
+  mcap_->writer = file_writer(f_, options_.compression, options_.profile);
+  for (const auto& c : mcap_->added) mcap_->writer->add_channel(c);
 }
 
 void Recorder::rotate_if_due(uint64_t t_ns) {

@@ -34,6 +34,9 @@ struct RecordOptions {
   dca::mcap::Compression compression = dca::mcap::Compression::zstd;
   std::uint64_t split_bytes = 0;  ///< a new file once this many bytes are written (0: never)
   std::uint64_t split_ns = 0;     ///< a new file every this much simulated time (0: never)
+  /// The header's profile (`dca run --profile`): "" (none: every channel JSON) or "ros2" (the message ports'
+  /// channels CDR with ros2msg schemas, add_cdr_channel; the rest stays JSON).
+  std::string profile;
 };
 
 /// Parses --record-split's value: SIZE (`100MB`, `1.5GB`, `512KB`, bytes) or DURATION (`60s`, `10min`, `1h`).
@@ -73,7 +76,14 @@ class Recorder {
   /// objects described by the JSON Schema `schema`.
   /// `schema_name`: the schema's name ("" : the topic without its leading slash), e.g. foxglove.FrameTransforms.
   uint16_t add_channel(const std::string& topic, const std::string& schema, const std::string& schema_name = "");
-  /// MCAP only: one message (JSON text) on a channel of add_channel at simulated time `t_ns` (a CSV ignores it).
+  /// MCAP only (0 for a CSV): a channel of ROS 2 messages on `topic`, each its CDR (with the encapsulation header),
+  /// the schema named `ros_name` ("sensor_msgs/msg/JointState") of encoding ros2msg holding `definition`
+  /// (dca::msgs::ros2msg_definition). Meant for a recording of profile "ros2".
+  uint16_t add_cdr_channel(const std::string& topic, const std::string& ros_name, const std::string& definition);
+  /// The profile configure() set ("" or "ros2").
+  const std::string& profile() const { return options_.profile; }
+  /// MCAP only: one message (JSON text, or CDR on a channel of add_cdr_channel) on a channel of add_channel at
+  /// simulated time `t_ns` (a CSV ignores it).
   void write(uint16_t channel, int64_t t_ns, const std::string& json);
   /// MCAP only, before any message is written (its channels are kept): the recording becomes a black box. PATH
   /// itself is not written: the n-th trigger writes PATH without ".mcap" + "-n.mcap". False for a CSV.
@@ -103,7 +113,7 @@ class Recorder {
   std::unique_ptr<Mcap> mcap_;  // set when recording MCAP
   struct Box;
   std::unique_ptr<Box> box_;    // set for a black box
-  uint16_t channel(const std::string& topic, const std::string& schema_name, const std::string& schema);
+  uint16_t channel(const dca::mcap::ChannelSpec& spec);
   void put(uint16_t channel, uint64_t t_ns, std::string json);
   long rows_ = 0;
   uint64_t dropped_ = 0;

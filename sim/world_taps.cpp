@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstdio>
 
+#include "host/codec/msgs.h"
 #include "host/net/channel.h"
 
 namespace dca::sim {
@@ -20,7 +21,10 @@ WorldTaps::~WorldTaps() {
 void WorldTaps::record_taps() {
   if (!taps_ || taps_->all().empty()) return;
   taps_->drain([this](tap::Taps::Tap& t, std::int64_t at, Bytes sample) {
-    if (recorder_) recorder_->write(channels_[&t], at, tap::sample_json(t.spec, sample));
+    if (!recorder_) return;
+    if (cdr(t))
+      recorder_->write(channels_[&t], at, std::string(reinterpret_cast<const char*>(sample.data()), sample.size()));
+    else recorder_->write(channels_[&t], at, tap::sample_json(t.spec, sample));
   });
   std::uint64_t dropped = 0;
   for (const auto& t : taps_->all()) dropped += t->dropped() + t->malformed;
@@ -49,6 +53,11 @@ bool WorldTaps::handle(const std::shared_ptr<Channel>& ch, const Message& m, dou
   return true;
 }
 
+bool WorldTaps::cdr(const tap::Taps::Tap& t) const {
+  return recorder_ && recorder_->profile() == "ros2" && t.spec.type == PortType::Message &&
+         msgs::find_type(t.spec.message) != nullptr;
+}
+
 void WorldTaps::add_tap(const std::shared_ptr<Channel>& ch, const Message& m) {
   const auto& p = m.payload;
   if (!taps_) return void(ch->reply_error(m, "tap: the world component is not made yet"));
@@ -63,7 +72,9 @@ void WorldTaps::add_tap(const std::shared_ptr<Channel>& ch, const Message& m) {
   if (!t) return void(ch->reply_error(m, error));
   if (recorder_ && !channels_.count(t)) {
     const std::string topic = tap::topic_of(t->path);
-    channels_[t] = recorder_->add_channel(topic, tap::json_schema(topic, t->spec));
+    const auto* msg = cdr(*t) ? msgs::find_type(t->spec.message) : nullptr;
+    channels_[t] = msg ? recorder_->add_cdr_channel(topic, std::string(msg->ros_name), msg->ros2msg())
+                        : recorder_->add_channel(topic, tap::json_schema(topic, t->spec));
   }
   ch->reply(m, Value::map().set("input", t->input->name()));
 }

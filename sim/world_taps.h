@@ -55,6 +55,8 @@ class WorldTaps {
   std::unique_ptr<Recorder> recorder_;
   tap::Taps* taps_ = nullptr;
   std::map<const tap::Taps::Tap*, std::uint16_t> channels_;  // each tap's recording channel
+  // Whether `t`'s samples are recorded as they are, CDR (a message port in a recording of profile ros2).
+  bool cdr(const tap::Taps::Tap& t) const;
 };
 
 }  // namespace dca::sim

@@ -104,10 +104,10 @@ uint32_t crc32(std::string_view bytes, uint32_t crc) {
   return ~crc;
 }
 
-Writer::Writer(Sink sink, std::string library, size_t chunk_bytes, Compression compression)
+Writer::Writer(Sink sink, std::string library, size_t chunk_bytes, Compression compression, const std::string& profile)
     : sink_(std::move(sink)), chunk_bytes_(chunk_bytes), compression_(compression) {
   std::string header;
-  str(header, "");  // profile: none of the well-known ones (JSON messages)
+  str(header, profile);  // "": none of the well-known ones (JSON messages); "ros2": CDR messages, ros2msg schemas
   str(header, library);
   emit(kMagic);
   emit(record(kHeader, header));
@@ -125,24 +125,45 @@ std::string Writer::schema_record(uint16_t id) const {
   std::string s;
   u16(s, id);
   str(s, c.schema_name);
-  str(s, "jsonschema");
+  str(s, c.cdr ? "ros2msg" : "jsonschema");
   str(s, c.schema);
   return record(kSchema, s);
 }
+
+// ROS 2's default QoS (KEEP_LAST 10, RELIABLE, VOLATILE, AUTOMATIC liveliness, no deadline, lifespan or lease) as
+// the YAML list of rosbag2's offered_qos_profiles: the enums as numbers (rmw's), "infinite" durations as rmw's.
+constexpr const char* kDefaultQos =
+    "- history: 1\n  depth: 10\n  reliability: 1\n  durability: 2\n"
+    "  deadline:\n    sec: 9223372036\n    nsec: 854775807\n"
+    "  lifespan:\n    sec: 9223372036\n    nsec: 854775807\n  liveliness: 1\n"
+    "  liveliness_lease_duration:\n    sec: 9223372036\n    nsec: 854775807\n"
+    "  avoid_ros_namespace_conventions: false";
 
 std::string Writer::channel_record(uint16_t id) const {
   std::string s;
   u16(s, id);
   u16(s, id);  // its schema: one per channel, with the same id
   str(s, channels_[id - 1].topic);
-  str(s, "json");
-  u32(s, 0);  // metadata: an empty map
+  str(s, channels_[id - 1].cdr ? "cdr" : "json");
+  if (!channels_[id - 1].cdr) {
+    u32(s, 0);  // metadata: an empty map
+  } else {  // the ros2 profile's offered_qos_profiles: ROS 2's default QoS, as rosbag2 writes it (YAML)
+    std::string meta;
+    str(meta, "offered_qos_profiles");
+    str(meta, kDefaultQos);
+    u32(s, static_cast<uint32_t>(meta.size()));
+    s += meta;
+  }
   return record(kChannel, s);
 }
 
 uint16_t Writer::add_channel(const std::string& topic, const std::string& schema_name, const std::string& schema) {
+  return add_channel(ChannelSpec{topic, schema_name, schema, false});
+}
+
+uint16_t Writer::add_channel(const ChannelSpec& spec) {
   flush_chunk();  // a channel precedes every message on it: outside the chunks, in the data section
-  channels_.push_back({topic, schema_name, schema});
+  channels_.push_back(spec);
   const auto id = static_cast<uint16_t>(channels_.size());
   emit(schema_record(id));
   emit(channel_record(id));

@@ -4,9 +4,10 @@
 // writer of chunked, indexed files with a summary section, and a reader of what such files hold. Pure of I/O
 // policy: the writer hands its bytes to a sink, the reader parses bytes in memory (or fetches ranges through a
 // callback: read_summary / read_chunk). Channels carry JSON messages described by a JSON Schema (one schema per
-// channel). Chunks are compressed with zstd or lz4 (an LZ4 frame), or not; every chunk is followed by its message
-// indexes, and the summary holds the schemas, channels, chunk indexes and statistics, with a summary offset
-// record per group. Decompression is bounded: a chunk that says it holds more than Limits::max_chunk bytes, a
+// channel), or ROS 2 messages as CDR described by their ros2msg definition (the encodings of the `ros2` profile).
+// Chunks are compressed with zstd or lz4 (an LZ4 frame), or not; every chunk is followed by its message indexes,
+// and the summary holds the schemas, channels, chunk indexes and statistics, with a summary offset record per
+// group. Decompression is bounded: a chunk that says it holds more than Limits::max_chunk bytes, a
 // file whose chunks hold more than Limits::max_total, or a chunk that does not decompress to its stated size is
 // an error, never a crash.
 #include <cstdint>
@@ -38,17 +39,27 @@ struct Stats {
   uint64_t chunk_bytes = 0;                   // the chunks' records before compression
 };
 
+/// A channel as a writer writes it: JSON messages with a JSON Schema, or (`cdr`) a ROS 2 message's CDR (with its
+/// 4-byte encapsulation header) with the message's definition as schema (encoding "ros2msg", named "pkg/msg/T").
+struct ChannelSpec {
+  std::string topic, schema_name, schema;
+  bool cdr = false;
+};
+
 class Writer {
  public:
-  /// Writes the magic and the header at once. A chunk is closed when its records reach `chunk_bytes`.
+  /// Writes the magic and the header (with `profile`: "" for none, "ros2") at once. A chunk is closed when its
+  /// records reach `chunk_bytes`.
   explicit Writer(Sink sink, std::string library = "dca", size_t chunk_bytes = 256 * 1024,
-                  Compression compression = Compression::none);
+                  Compression compression = Compression::none, const std::string& profile = "");
   Writer(const Writer&) = delete;
   Writer& operator=(const Writer&) = delete;
   /// A channel of JSON messages on `topic`, described by the JSON Schema `schema` (named `schema_name`).
   /// Returns its id (1, 2, ...).
   uint16_t add_channel(const std::string& topic, const std::string& schema_name, const std::string& schema);
-  /// Appends one message (JSON text) on `channel` at `log_time_ns` (also its publish time).
+  /// A channel of either kind (ChannelSpec). Returns its id.
+  uint16_t add_channel(const ChannelSpec& spec);
+  /// Appends one message (JSON text, or CDR on a `cdr` channel) on `channel` at `log_time_ns` (also its publish time).
   void write(uint16_t channel, uint64_t log_time_ns, std::string_view json);
   /// Closes the last chunk and writes the data end, the summary, the summary offsets, the footer and the magic.
   /// False when the sink failed at any point. Nothing can be written after.
@@ -64,9 +75,7 @@ class Writer {
   size_t channels() const { return channels_.size(); }
 
  private:
-  struct Channel {
-    std::string topic, schema_name, schema;
-  };
+  using Channel = ChannelSpec;
   struct ChunkIndex {
     uint64_t start_time, end_time, offset, length, index_length, size, compressed;
     std::map<uint16_t, uint64_t> index_offsets;

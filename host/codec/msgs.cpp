@@ -78,6 +78,7 @@ TypeInfo info() {
             return cdr_decode(cdr, *m) ? to_json(*m) : "null";
           },
           [] { return schema_of<M>(); },
+          [] { return ros2msg_definition<M>(); },
           [](std::span<const std::byte> cdr, msgpack::packer<msgpack::sbuffer>& pk) {
             const auto m = std::make_unique<M>();
             if (cdr_decode(cdr, *m)) pack_field(pk, *m);

@@ -27,6 +27,9 @@ struct TypeInfo {
   std::string (*json)(std::span<const std::byte> cdr);
   /// The JSON Schema of json()'s objects: numbers, integers, strings, arrays and objects by field name.
   std::string (*json_schema)();
+  /// Its definition as an MCAP ros2msg schema holds it (dca/msgs_describe.h ros2msg_definition): what a `ros2`
+  /// profile recording's channel of this type is described by.
+  std::string (*ros2msg)();
   /// Packs the message as a msgpack map of its fields by name (nil when `cdr` does not decode).
   void (*pack)(std::span<const std::byte> cdr, msgpack::packer<msgpack::sbuffer>& pk);
   /// The CDR of the default message (zeros, the identity quaternion): what halt() writes to an actuator.

@@ -32,6 +32,34 @@ std::string sample(int n, size_t chunk, dca::mcap::Stats* stats = nullptr, Compr
   return file;
 }
 
+// The ros2 profile: the header says it, a CDR channel has a ros2msg schema and the offered_qos_profiles metadata,
+// its bytes kept as they are, beside a JSON channel (docs/recording.md, "The ros2 profile").
+TEST(McapTest, Ros2ProfileWritesCdrChannelsBesideJson) {
+  std::string file;
+  Writer w([&](std::string_view b) { file.append(b); return true; }, "test", 4096, Compression::none, "ros2");
+  const auto cdr = w.add_channel({"/js", "sensor_msgs/msg/JointState", "std_msgs/Header header\n", true});
+  const auto json = w.add_channel("/j", "J", "{}");
+  const std::string bytes("\x00\x01\x00\x00\x07\x00\xff", 7);
+  w.write(cdr, 5, bytes);
+  w.write(json, 5, "{}");
+  ASSERT_TRUE(w.finish());
+  // the header record (op 0x01) right after the 8-byte magic: its profile string first
+  ASSERT_EQ(file[8], '\x01');
+  EXPECT_EQ(le(file, 17, 4), 4u);
+  EXPECT_EQ(file.substr(21, 4), "ros2");
+  EXPECT_NE(file.find("offered_qos_profiles"), std::string::npos);
+  Contents c;
+  std::string error;
+  ASSERT_TRUE(dca::mcap::read(file, &c, &error)) << error;
+  EXPECT_EQ(c.channels.at(cdr).message_encoding, "cdr");
+  EXPECT_EQ(c.channels.at(cdr).schema_encoding, "ros2msg");
+  EXPECT_EQ(c.channels.at(cdr).schema_name, "sensor_msgs/msg/JointState");
+  EXPECT_EQ(c.channels.at(json).message_encoding, "json");
+  EXPECT_EQ(c.channels.at(json).schema_encoding, "jsonschema");
+  ASSERT_EQ(c.messages.size(), 2u);
+  EXPECT_EQ(c.messages[0].data, bytes);
+}
+
 TEST(McapTest, Crc32IsZlibs) {
   EXPECT_EQ(dca::mcap::crc32("123456789"), 0xCBF43926u);
   EXPECT_EQ(dca::mcap::crc32(""), 0u);

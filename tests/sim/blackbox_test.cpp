@@ -176,4 +176,47 @@ TEST(Blackbox, OnlyAnMcapRecordingIsABlackBox) {
   EXPECT_FALSE(csv.blackbox(BlackboxOptions{}));
 }
 
+// The ros2 profile (docs/recording.md, "The ros2 profile"): the header of the recording and of a black box's file
+// says ros2, a CDR channel keeps its bytes beside the JSON ones.
+TEST(RecorderTest, Ros2ProfileInTheRecordingAndTheBlackBox) {
+  const std::string cdr("\x00\x01\x00\x00\x01\x02", 6);
+  for (const bool box : {false, true}) {
+    const std::string name = box ? "ros2box" : "ros2";
+    {
+      Recorder r(temp(name + ".mcap").string());
+      if (box) {
+        ASSERT_TRUE(r.blackbox(BlackboxOptions{1.0, 0.5, 64u << 20}));
+      }
+      dca::sim::RecordOptions o;
+      o.profile = "ros2";
+      r.configure(o);
+      EXPECT_EQ(r.profile(), "ros2");
+      const auto m = r.add_cdr_channel("/m", "geometry_msgs/msg/Twist", "geometry_msgs/Vector3 linear\n");
+      const auto j = r.add_channel("/j", R"({"type":"object"})");
+      r.write(m, 1000, cdr);
+      r.write(j, 1000, "{}");
+      if (box) r.trigger(0, "test");
+      std::string error;
+      EXPECT_TRUE(r.close(&error)) << error;
+    }
+    const fs::path file = temp(name + (box ? "-1.mcap" : ".mcap"));
+    std::ifstream in(file, std::ios::binary);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    EXPECT_EQ(ss.str().substr(21, 4), "ros2") << file;  // the header's profile, after the magic, op and length
+    const auto c = read(file);
+    ASSERT_GE(c.channels.size(), 2u);
+    EXPECT_EQ(c.channels.at(1).message_encoding, "cdr");
+    EXPECT_EQ(c.channels.at(1).schema_encoding, "ros2msg");
+    EXPECT_EQ(c.channels.at(2).message_encoding, "json");
+    int on_m = 0;
+    for (const auto& msg : c.messages) {
+      if (msg.channel != 1) continue;
+      EXPECT_EQ(msg.data, cdr);
+      ++on_m;
+    }
+    EXPECT_EQ(on_m, 1) << file;
+  }
+}
+
 }  // namespace

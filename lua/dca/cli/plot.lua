@@ -12,7 +12,8 @@ M.usage = [[usage: dca plot FILE.mcap|FILE.csv [-o FILE.png] [--signal PATTERN].
 Draws a recording made by `dca sim --record FILE` or `dca run ... --record FILE [--record-ports ...]` (MCAP or
 CSV) to a PNG (default: FILE.png) with gnuplot, one panel per topic. A signal is TOPIC.FIELD: the world's
 (/world/door.door_angle, /world/wrench.fx, ...) and the recorded ports' (/main/arm/pd/Out for a scalar,
-/main/arm/pd/Out[0] for a vector's first value); a CSV's are its columns. The ports' and the world's sampled
+/main/arm/pd/Out[0] for a vector's first value, /main/arm/js/Joints.position[0] and .header.stamp.sec for a
+message port's fields, of either recording profile); a CSV's are its columns. The ports' and the world's sampled
 signals are drawn as steps (a value holds until the next sample); the run's steps (processes starting, from
 /dca/events) are marked with dashed lines and the processes' names.
 
@@ -51,6 +52,21 @@ local function series_table()
   return s
 end
 
+-- Adds the numbers of a decoded sample `x` as series named from `name`: a vector's as name[i], a message's fields
+-- as name.field (nested: name.header.stamp.sec, name.position[0]), in name order; strings and nulls are left out.
+local function add_numbers(s, topic, name, t, x, depth)
+  if type(x) == "number" then return s.add(topic, name, t, x) end
+  if type(x) ~= "table" or depth > 8 then return end
+  if #x > 0 then
+    for i, y in ipairs(x) do add_numbers(s, topic, sformat("%s[%d]", name, i - 1), t, y, depth + 1) end
+    return
+  end
+  local keys = {}
+  for k in pairs(x) do if type(k) == "string" then keys[#keys + 1] = k end end
+  table.sort(keys)
+  for _, k in ipairs(keys) do add_numbers(s, topic, name .. "." .. k, t, x[k], depth + 1) end
+end
+
 local function read_mcap(file)
   local core = require "dca.core"
   local rec, err = core.mcap_read(file)
@@ -68,14 +84,11 @@ local function read_mcap(file)
     elseif topic and topic:sub(1, 5) ~= "/dca/" and m.data:sub(1, 1) == "{" then
       local ok, v = pcall(core.json_decode, m.data)
       if ok and type(v) == "table" then
-        -- a port's sample { "value": x | [x...] }, or a world group's fields { "q1": x, ... } in name order
+        -- a port's sample { "value": x | [x...] | {message fields} } (a ros2 profile's CDR is decoded to the
+        -- same by core.mcap_read), or a world group's fields { "q1": x, ... } in name order
         local val = v.value
-        if type(val) == "number" then
-          s.add(topic, topic, t, val)
-        elseif type(val) == "table" then
-          for i, x in ipairs(val) do
-            if type(x) == "number" then s.add(topic, sformat("%s[%d]", topic, i - 1), t, x) end
-          end
+        if type(val) == "number" or type(val) == "table" then
+          add_numbers(s, topic, topic, t, val, 0)
         else
           local names = {}
           for k, x in pairs(v) do if type(x) == "number" then names[#names + 1] = k end end

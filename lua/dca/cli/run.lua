@@ -15,7 +15,8 @@ M.usage = [=[usage: dca run FILE.dca [--root NAME] [--hosts FILE] [--repl] [--wa
                     [--sim WORLD [--world-opt KEY=VALUE]... [--seed N] [--record FILE.mcap|FILE.csv] [--realtime]
                     [--tick-timeout MS]
                     [--record-ports all|PATH.PORT,...] [--record-compression zstd|lz4|none]
-                    [--record-split SIZE|DURATION] [--trace FILE]] [--replay REC.mcap [--replay-ports PATTERN,...]]
+                    [--record-split SIZE|DURATION] [--profile ros2] [--trace FILE]]
+                    [--replay REC.mcap [--replay-ports PATTERN,...]]
                     [--blackbox SECONDS_BEFORE,SECONDS_AFTER[,MIB] [--blackbox-storm CLAMPS,SECONDS]]
                     [--driver 'TYPE(HOST, ARGS...)'] [--record FILE.mcap]
                     [--monitor [ADDR] [--monitor-wait] [--as-fast-as-possible]]
@@ -69,6 +70,9 @@ per group as it comes up and one per process transition, and runs the root expre
                   with --record FILE.mcap: FILE-000.mcap, FILE-001.mcap, ... instead, a new file once one holds
                   about SIZE (100MB, 1GiB) or every DURATION of simulated time (60s, 10min, 1h); each file is a
                   whole MCAP recording with every channel
+  --profile ros2  with --record FILE.mcap: the MCAP `ros2` profile (what rosbag2 writes): the message ports'
+                  channels (--record-ports) hold each sample's CDR with its ros2msg schema, so `ros2 bag play`
+                  replays them; the other channels stay JSON (docs/recording.md, "The ros2 profile")
   --replay REC.mcap
                   run against a recording instead of a simulator (--sim replay:REC.mcap, no physics): the
                   world's outputs recorded by `--record REC.mcap --record-ports ...` served at their recorded
@@ -128,7 +132,7 @@ local OPTIONS = {
   ["--record-ports"] = "value", ["--driver"] = "value", ["--replay"] = "value",
   ["--blackbox"] = "value", ["--replay-ports"] = "value",
   ["--blackbox-storm"] = "value", ["--tick-timeout"] = "number",
-  ["--record-compression"] = "value", ["--record-split"] = "value",
+  ["--record-compression"] = "value", ["--record-split"] = "value", ["--profile"] = "value",
 }
 
 -- `--monitor ADDR`: the address, when the argument after --monitor is one (else --monitor alone). --> argv
@@ -176,6 +180,10 @@ local function rule_broken(o)
   if o.record_compression and not ({ zstd = true, lz4 = true, none = true })[o.record_compression] then
     return "--record-compression is zstd, lz4 or none, not '" .. tostring(o.record_compression) .. "'"
   end
+  if o.profile and not (o.record and o.record:match("%.mcap$") and o.sim) then
+    return "--profile goes with --sim WORLD and --record FILE.mcap (on the wall clock no message port is recorded)"
+  end
+  if o.profile and o.profile ~= "ros2" then return "--profile is ros2, not '" .. tostring(o.profile) .. "'" end
   if o.record_split and o.blackbox then return "--record-split and --blackbox exclude each other" end
   local split_units = { [""] = true, B = true, KB = true, MB = true, GB = true, KiB = true, MiB = true, GiB = true,
                         s = true, min = true, h = true }
@@ -219,6 +227,7 @@ local function parse_args(args)
   o.record_outputs = o.record_ports and true or nil
   -- watched live, simulated time is paced to the wall clock (1x) unless asked otherwise (docs/time.md "Pace")
   if o.monitor and o.sim and not o.as_fast_as_possible then o.realtime = true end
+  o.record_profile = o.profile
   for _, k in ipairs({ "record", "trace" }) do
     if o[k] and o[k]:sub(1, 1) ~= "/" then o[k] = (os.getenv("PWD") or ".") .. "/" .. o[k] end
   end

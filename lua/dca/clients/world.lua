@@ -30,7 +30,7 @@ W.__index = W
 
 --- The options a world takes besides where it runs (see the header): what a system's start passes through.
 M.OPTIONS = { "world", "seed", "world_opts", "record", "record_outputs", "blackbox", "blackbox_storm", "realtime", "wait", "trace",
-              "tick_timeout", "record_compression", "record_split" }
+              "tick_timeout", "record_compression", "record_split", "record_profile" }
 
 -- A robot world's spec with its URDF file made absolute ("mock:FILE?OPTIONS" keeps its prefix and options), and
 -- a replay's recording (replay:FILE.mcap): the world process starts in its daemon's folder (docs/robots.md). Any
@@ -54,6 +54,7 @@ function M.argv(o)
   if o.record_outputs then argv[#argv + 1] = "--record-outputs" end
   if o.record_compression then argv[#argv + 1] = "--record-compression" argv[#argv + 1] = o.record_compression end
   if o.record_split then argv[#argv + 1] = "--record-split" argv[#argv + 1] = o.record_split end
+  if o.record_profile then argv[#argv + 1] = "--record-profile" argv[#argv + 1] = o.record_profile end
   if o.blackbox then argv[#argv + 1] = "--blackbox" argv[#argv + 1] = o.blackbox end
   if o.blackbox_storm then argv[#argv + 1] = "--blackbox-storm" argv[#argv + 1] = o.blackbox_storm end
   if o.trace then argv[#argv + 1] = "--trace" argv[#argv + 1] = o.trace end

@@ -77,7 +77,8 @@ function M.check(paths, file)
     if not data then
       errs[#errs + 1] = sformat("%s is not recorded in %s (record it with --record-ports)", p, file)
     elseif not data:match('^{"value":[%[%-%dn]') then
-      errs[#errs + 1] = sformat("%s is recorded in %s without numbers (a Value port): it cannot be replayed", p, file)
+      errs[#errs + 1] = sformat("%s is recorded in %s without numbers (a Value or message port): it cannot be "
+        .. "replayed", p, file)
     end
   end
   if #errs > 0 then return nil, concat(errs, "; ") end

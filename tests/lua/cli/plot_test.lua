@@ -67,6 +67,39 @@ suite:case("a_dca_sim_recording_plots_the_door_by_default_mcap_and_csv", functio
   T.ok(not g:find("'q1'", 1, true), g)
 end)
 
+-- A message port's numeric fields are signals, nested and indexed; its strings are not.
+suite:case("a_message_ports_numeric_fields_are_signals", function()
+  local mcap = T.tmpname(".mcap")
+  local w = assert(require("dca.core").mcap_writer(mcap))
+  local twist = w:channel("/main/base/Twist", "geometry_msgs/msg/Twist", "{}")
+  local js = w:channel("/main/arm/JointState", "sensor_msgs/msg/JointState", "{}")
+  for i = 0, 2 do
+    w:write(twist, '{"value":{"linear":{"x":1,"y":0,"z":0},"angular":{"x":0,"y":0,"z":0.5}}}', i * 10000000)
+    w:write(js, '{"value":{"header":{"stamp":{"sec":0,"nanosec":' .. i * 10000000 .. '},"frame_id":"base"},' ..
+                '"name":["a","b"],"position":[0.1,0.2],"velocity":[],"effort":[]}}', i * 10000000)
+  end
+  assert(w:finish())
+  local out = T.dca("plot " .. mcap .. " --list", 0, "/main/base/Twist.linear.x  3 samples",
+                    "/main/base/Twist.angular.z  3 samples", "/main/arm/JointState.header.stamp.nanosec  3 samples",
+                    "/main/arm/JointState.position[0]  3 samples", "/main/arm/JointState.position[1]  3 samples")
+  T.ok(not out:find("frame_id", 1, true) and not out:find("JointState.name", 1, true), "strings are no signals:\n" .. out)
+end)
+
+-- A ros2 profile channel's CDR (docs/recording.md, "The ros2 profile") read as the port's JSON: a Twist's 4-byte
+-- encapsulation header and six doubles.
+suite:case("a_ros2_cdr_message_reads_as_its_ports_json", function()
+  local core = require "dca.core"
+  local cdr = "\0\1\0\0" .. string.pack("<dddddd", 1, 2, 3, 4, 5, 6.5)
+  local json = core.mcap_message_json("cdr", "ros2msg", "geometry_msgs/msg/Twist", cdr)
+  local v = core.json_decode(json).value
+  T.eq(v.linear.x, 1.0)
+  T.eq(v.linear.z, 3.0)
+  T.eq(v.angular.z, 6.5)
+  T.eq(core.mcap_message_json("cdr", "ros2msg", "geometry_msgs/msg/Twist", cdr:sub(1, 20)), '{"value":null}')
+  T.eq(core.mcap_message_json("json", "jsonschema", "geometry_msgs/msg/Twist", cdr), nil)
+  T.eq(core.mcap_message_json("cdr", "ros2msg", "no_msgs/msg/Nothing", cdr), nil)
+end)
+
 suite:case("errors_name_the_file", function()
   T.dca("plot /nonexistent.mcap", 1, "dca plot: /nonexistent.mcap: cannot open the recording")
   local bad = T.tmpfile("a,b\n1,2,3\n", ".csv")

@@ -230,6 +230,20 @@ suite:case("record_compression_and_split_are_checked_before_the_start", function
   T.contains(out, "--record-split needs a size (100MB, 1GiB: at least 4096 bytes)")
 end)
 
+-- --profile (the MCAP ros2 profile, docs/recording.md) is checked before anything starts: exit code 2 and why.
+suite:case("record_profile_is_checked_before_the_start", function()
+  for cmd, why in pairs({
+    [" run " .. system .. " --sim door --record " .. T.tmpname(".mcap") .. " --profile ros1"] =
+      "--profile is ros2, not 'ros1'",
+    [" run " .. system .. " --sim door --profile ros2"] = "--profile goes with --sim WORLD and --record FILE.mcap",
+    [" sim --record-profile ros1 --record x.mcap"] = "--record-profile needs ros2",
+  }) do
+    local out, rc = T.sh(dca .. cmd)
+    T.eq(rc, 2, out)
+    T.contains(out, why)
+  end
+end)
+
 suite:case("a_black_box_needs_an_mcap_recording", function()
   local out, rc = T.sh(dca .. " run " .. system .. " --sim door --blackbox 1,1")
   T.eq(rc, 2, "exit code")
