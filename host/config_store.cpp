@@ -543,10 +543,8 @@ bool ConfigStore::apply_one(const Txn& t, bool local, std::vector<Entry>* change
   return true;
 }
 
-bool ConfigStore::stage(const Txn& t, const Write& w, const std::optional<Entry>& cur) {
-  if (cur && !(t.stamp > cur->stamp)) return false;
-  staged_[w.key] = Entry{w.key, w.value, t.stamp};
-  return true;
+void ConfigStore::stage(const Txn& t, const Write& w, const std::optional<Entry>& cur) {
+  if (!cur || t.stamp > cur->stamp) staged_[w.key] = Entry{w.key, w.value, t.stamp};
 }
 
 bool ConfigStore::commit(std::size_t txns, bool force, std::string* error) {

@@ -179,8 +179,8 @@ class ConfigStore {
   bool exec(const char* sql, std::string* error) const;
   std::optional<Entry> current(const std::string& key) const;
   bool apply_one(const Txn& t, bool local, std::vector<Entry>* changes, std::string* error);
-  /// A write `w` of `t` over the current value: whether it wins (the higher stamp), staged if so.
-  bool stage(const Txn& t, const Write& w, const std::optional<Entry>& cur);
+  /// A write `w` of `t` over the current value: staged when it wins (the higher stamp).
+  void stage(const Txn& t, const Write& w, const std::optional<Entry>& cur);
   /// The end of one SQLite transaction: the key table written (and its mark) when due or `force`, committed;
   /// the staged writes become the pending ones. False, rolled back, with *error.
   bool commit(std::size_t txns, bool force, std::string* error);

@@ -70,8 +70,9 @@ class ServerImpl;
 struct Subscription {
   double min_interval_s = 0;
   std::chrono::steady_clock::time_point last{};
-  std::string rows;     // "[t,v,...],[t,v,...]"
-  std::string pending;  // "[t,v,...]" or ""
+  std::string rows;  // "[t,v,...],[t,v,...]"
+  std::int64_t pending_t = -1;  // the sample held back (-1: none), formatted only if it is sent
+  std::vector<double> pending;
 };
 
 void append_row(std::string& out, std::int64_t t_ns, std::span<const double> values) {
@@ -462,12 +463,12 @@ void WsSession::on_sample(const SampleHub::Topic& t, std::int64_t t_ns, std::spa
   Subscription& sub = it->second;
   const auto now = std::chrono::steady_clock::now();
   if (std::chrono::duration<double>(now - sub.last).count() < sub.min_interval_s) {
-    sub.pending.clear();
-    append_row(sub.pending, t_ns, values);
+    sub.pending_t = t_ns;
+    sub.pending.assign(values.begin(), values.end());
     return;
   }
   sub.last = now;
-  sub.pending.clear();
+  sub.pending_t = -1;
   if (sub.rows.size() > 256 * 1024) return;  // a flush is late: keep the memory bounded
   if (!sub.rows.empty()) sub.rows += ',';
   append_row(sub.rows, t_ns, values);
@@ -477,10 +478,10 @@ void WsSession::flush_samples(const SampleHub& hub, bool held) {
   const auto now = std::chrono::steady_clock::now();
   for (auto& [id, sub] : subs_) {
     // the newest sample held back, once its interval has passed (or at once: `held`)
-    if (!sub.pending.empty() && (held || std::chrono::duration<double>(now - sub.last).count() >= sub.min_interval_s)) {
+    if (sub.pending_t >= 0 && (held || std::chrono::duration<double>(now - sub.last).count() >= sub.min_interval_s)) {
       if (!sub.rows.empty()) sub.rows += ',';
-      sub.rows += sub.pending;
-      sub.pending.clear();
+      append_row(sub.rows, sub.pending_t, sub.pending);
+      sub.pending_t = -1;
       sub.last = now;
     }
     if (sub.rows.empty()) continue;
