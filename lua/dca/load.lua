@@ -173,7 +173,7 @@ function M.spec(path, opts)
   if core then
     -- the nodes of package types load them from the same search path, this file's folder included
     local dir = core.absolute(folder(path))
-    spec_mod.walk(spec, function(n) if n.package then n.system_dir = dir end end)
+    spec_mod.walk_all(spec, function(n) if n.package then n.system_dir = dir end end)
   end
   return spec, tree, ast
 end

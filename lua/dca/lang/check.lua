@@ -134,6 +134,12 @@ end
 
 --- Reports an instance name that process p lacks, naming the instance whose type it is, or the likely one.
 local function unknown_instance(ctx, p, sc, path, line, col, name, where)
+  local tpl = p.templates and p.templates[name]
+  if tpl then
+    return err(ctx, path, line, col, "'%s' %s is a template (line %d): its instances are added at run time and run "
+               .. "beside the expression, never named in it nor connected (add_child, docs/supervision.md)", name,
+               where, tpl.line)
+  end
   for _, inst in ipairs(p.instances) do
     if inst.type == name then
       return err(ctx, path, line, col, "unknown instance '%s' %s: '%s' is the type of instance '%s' (name the instance)",
@@ -671,6 +677,39 @@ local function usable_strings(ctx, p, sc)
   end
 end
 
+--- The templates (`name instances of Type(args) on { hosts };`): a name no instance has, a known type taking
+--- the host of each instance first and then the written arguments, hosts that are parameters or strings.
+local function templates(ctx, p, sc)
+  for _, t in ipairs(p.templates or {}) do
+    local path = sc.base .. "." .. t.name
+    local clash = p.instances[t.name] or (p.templates[t.name] ~= t and p.templates[t.name])
+    if clash then
+      err(ctx, path, t.line, t.col, "duplicate instance '%s' in process '%s' (first at line %d)", t.name, p.name,
+          clash.line)
+    end
+    for _, a in ipairs(t.args) do check_param_arg(ctx, p, sc, a, path) end
+    for _, a in ipairs(t.hosts) do
+      host_arg(ctx, p, sc, a, sformat("a host of template '%s'", t.name))
+      usable_string(ctx, path, a, sformat("a host of template '%s'", t.name), true)
+    end
+    local d, m = ctx.defs[t.type], ctx.manifest(t.type)
+    if d and #t.args + 1 ~= #d.params then
+      err(ctx, path, t.type_line, t.type_col, "%s takes %s (%s): each instance's host, then %s; template '%s' gives %d",
+          t.type, plural(#d.params, "argument"), concat(names_of(d.params), ", "),
+          plural(math.max(#d.params - 1, 0), "written argument"), t.name, #t.args)
+    elseif not d and m then
+      -- as a leaf: the host given when an instance is added, then the written parameters
+      local inst = { name = t.name, type = t.type, type_line = t.type_line, type_col = t.type_col,
+                     args = { t.hosts[1] } }
+      for i, a in ipairs(t.args) do inst.args[i + 1] = a end
+      M.leaf_parameters(ctx, path, inst, m)
+    elseif not d and ctx.registry_known then
+      err(ctx, path, t.type_line, t.type_col, "unknown process type '%s'%s", t.type,
+          guess_text(t.type, ctx.known_types) or "")
+    end
+  end
+end
+
 --- The verify { } section: its properties parse and name the process's instances (dca.verify.props), so a plain
 --- `dca check` reports them; `--verify` checks what they say.
 local function verify_section(ctx, p, sc)
@@ -703,6 +742,7 @@ M.passes = {
   each(parameters), each(process_host), each(instances), each(leaves),     -- each process definition
   each(external_io), each(connection_sets), each(connections), each(actions), each(usable_strings),
   each(supervision), each(rt_section),                                     -- its supervision policy, real time
+  each(templates),                                                         -- its templates (a fleet)
   each(verify_section),                                                    -- its properties' names
   recursion,                                                               -- between process types
 }

@@ -23,6 +23,10 @@
 --     process = <AST process>,         -- group: its definition (instances, external_io, internal_connections,
 --                                      --   actions.expr: the dca.algebra expression)
 --     children = { node, ...; [name] = node }, -- group: its instances in declaration order and by name
+--     templates = { tpl, ...; [name] = tpl },  -- group: its templates (docs/supervision.md, "A fleet"): tpl =
+--                                      --   { name, path, type, kind, hosts = { bound host... }, instances =
+--                                      --   { node, ...; [host] = node } (one prepared per host, named
+--                                      --   M.instance_name(name, host), its host its first argument), line, col }
 --     parent = node | nil, line, col }  -- where the instance is declared (the root: its process)
 --
 --   model.walk(tree, fn)            fn(node, depth) for every node, parents first
@@ -162,31 +166,52 @@ function M.build(ast, opts)
                    bindings = env, process = def, children = {}, parent = parent, supervision = M.policy(def),
                    fence = M.fence(def),
                    line = decl and decl.line or def.line, col = decl and decl.col or def.col }
+    -- the child `name` of instance (or template) `inst` with its arguments bound (`values`; a leaf's host first)
+    local function instantiate(inst, name, values, host_arg)
+      local cpath = path .. "." .. name
+      local d = defs[inst.type]
+      -- (a template's group instance runs its supervisor on its own host unless its host { } says otherwise)
+      if d then return group(d, cpath, name, values, host_arg and values[1] or host, node, inst) end
+      local params = {}
+      for i = 2, #values do params[i - 1] = values[i] end
+      local child = { path = cpath, name = name, type = inst.type, kind = "leaf", host = values[1], args = values,
+                      params = params, manifest = manifest(inst.type), parent = node, line = inst.line,
+                      col = inst.col, standby = standby[name] }
+      local a = host_arg or inst.args[1]
+      local unusable = a and unusable_host(values[1], a)
+      if unusable then
+        local why = a.kind == "param" and sformat(" (parameter '%s' of %s)", a.value, path) or ""
+        berrors[#berrors + 1] = { line = a.line, col = a.col, path = cpath,
+                                  msg = sformat("the host of leaf %s is %s%s, not a host name%s", cpath,
+                                                shown(values[1]), why, unusable) }
+      end
+      return child
+    end
     for _, inst in ipairs(def.instances) do
       local values = {}
       for i, a in ipairs(inst.args) do values[i] = bind(a, env) end
-      local cpath = path .. "." .. inst.name
-      local child
-      local d = defs[inst.type]
-      if d then
-        child = group(d, cpath, inst.name, values, host, node, inst)
-      else
-        local params = {}
-        for i = 2, #values do params[i - 1] = values[i] end
-        child = { path = cpath, name = inst.name, type = inst.type, kind = "leaf", host = values[1], args = values,
-                  params = params, manifest = manifest(inst.type), parent = node, line = inst.line, col = inst.col,
-                  standby = standby[inst.name] }
-        local a = inst.args[1]
-        local unusable = a and unusable_host(values[1], a)
-        if unusable then
-          local why = a.kind == "param" and sformat(" (parameter '%s' of %s)", a.value, path) or ""
-          berrors[#berrors + 1] = { line = a.line, col = a.col, path = cpath,
-                                    msg = sformat("the host of leaf %s is %s%s, not a host name%s", cpath,
-                                                  shown(values[1]), why, unusable) }
-        end
-      end
+      local child = instantiate(inst, inst.name, values)
       node.children[#node.children + 1] = child
       node.children[inst.name] = child
+    end
+    -- a template: one prepared instance per host of its set, none of them started (dca.supervisor.fleet adds them)
+    node.templates = {}
+    for _, t in ipairs(def.templates or {}) do
+      local tpl = { name = t.name, path = path .. "." .. t.name, type = t.type, kind = defs[t.type] and "group" or "leaf",
+                    hosts = {}, instances = {}, line = t.line, col = t.col }
+      for _, a in ipairs(t.hosts) do
+        local h = bind_host(a, env, "host of template " .. t.name)
+        if type(h) == "string" and not tpl.instances[h] then
+          local values = { h }
+          for i, x in ipairs(t.args) do values[i + 1] = bind(x, env) end
+          local inst = instantiate(t, M.instance_name(t.name, h), values, a)
+          tpl.hosts[#tpl.hosts + 1] = h
+          tpl.instances[#tpl.instances + 1] = inst
+          tpl.instances[h] = inst
+        end
+      end
+      node.templates[#node.templates + 1] = tpl
+      node.templates[t.name] = tpl
     end
     return node
   end
@@ -195,6 +220,12 @@ function M.build(ast, opts)
   local terrors = ports.check(tree, opts.world)
   if #terrors > 0 then return nil, terrors end
   return tree
+end
+
+--- The name of the instance of template `template` on host `host`: "lights_r1", "lights_c1_example" (a host's
+--- characters other than letters, digits and '_' become '_').
+function M.instance_name(template, host)
+  return template .. "_" .. tostring(host):gsub("[^%w_]", "_")
 end
 
 --- Calls fn(node, depth) for every node, depth first, parents before children.

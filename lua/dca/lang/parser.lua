@@ -18,6 +18,9 @@
 --                                                         --   left out); a standby starts after T + margin
 --     }
 --     instantiated_processes { inst instof Type(arg, ...); ... }
+--                                                         -- and templates: `robots instances of Robot(arg, ...)
+--                                                         --   on { host, ... };` (instances added at run time,
+--                                                         --   each on one host of the set, its first argument)
 --     external_io { Alias = inst, Port; ... }             -- an inner port exported under another name
 --     internal_connections(inst, label) { a, Out -> b, In; ... }     -- any number of these
 --     internal_event_actions { expression }               -- dca.algebra syntax, naming instances
@@ -48,6 +51,10 @@
 --     rt = { line, col, clauses = { { kw = "priority" | "cpu", value, line, col, value_line/col }, ... } } | nil,
 --       -- real time for its leaves' nodes, as written (checked by dca.lang.check; docs/time.md, "Real time")
 --     instances = { inst, ...; [name] = inst ... },      -- list in order, and by name (first wins)
+--     templates = { tpl, ...; [name] = tpl ... },        -- `name instances of Type(args) on { hosts };` in
+--                                                        --   instantiated_processes: tpl = inst's fields (args:
+--                                                        --   those written, after the host) and hosts = { arg,
+--                                                        --   ... }, on_line/on_col (docs/supervision.md, "A fleet")
 --     external_io = { x, ...; [alias] = x ... },         -- x = { alias, instance, port, line, col,
 --                                                        --   instance_line/col, port_line/col }
 --     internal_connections = { set, ... },               -- set = { instance, label, line, col,
@@ -146,11 +153,23 @@ local args = expect(tok"(", "args_open", "iname", "itype") *
              Ct((arg * (tok"," * expect(arg, "arg"))^0)^-1) *
              expect(tok")", "args_close", "iname")
 
+-- A template (docs/supervision.md, "A fleet"): `name instances of Type(args) on { host, ... };` (or `on host`):
+-- instances added and removed while the system runs, each on one host of the set, given as the type's first
+-- argument before the written ones.
+local template_hosts = tok"{" * Ct(expect(arg, "tpl_host") * (tok"," * expect(arg, "tpl_host"))^0) *
+                       expect(tok"}", "tpl_hosts_close") + Ct(arg)
+local template_tail = kw"instances" * Cg(Cc(true), "template") * expect(kw"of", "tpl_of", "iname") *
+                      pos("type_pos") * Cg(expect(TYPE_NAME, "type_name", "iname"), "type") *
+                      Cg(Cb("type"), "itype") * Cg(args, "args") *
+                      pos("on_pos") * expect(kw"on", "tpl_on", "iname", "itype") *
+                      Cg(expect(template_hosts, "tpl_hosts", "iname"), "hosts") *
+                      expect(tok";", "instance_semi", "iname")
 local instance = Ct(pos() * -section_start * Cg(NAME, "name") * Cg(Cb("name"), "iname") *
-                    expect(kw"instof", "instof", "iname") *
-                    pos("type_pos") * Cg(expect(TYPE_NAME, "type_name", "iname"), "type") * Cg(Cb("type"), "itype") *
-                    Cg(args, "args") *
-                    expect(tok";", "instance_semi", "iname"))
+                    (template_tail +
+                     expect(kw"instof", "instof", "iname") *
+                     pos("type_pos") * Cg(expect(TYPE_NAME, "type_name", "iname"), "type") * Cg(Cb("type"), "itype") *
+                     Cg(args, "args") *
+                     expect(tok";", "instance_semi", "iname")))
 
 local function section(name, body)
   return Ct(Cg(Cc(name), "section") * pos() * pos("open_" .. name) * kw(name) * body)
@@ -358,7 +377,12 @@ sup_semi          expected ';' to end the supervision clause, found $f
 rt_value          expected a whole number after '$1' (write 'rt { priority 80; cpu 1; }'), found $f
 rt_semi           expected ';' after the value (write 'rt { priority 80; cpu 1; }'), found $f
 section_open      expected '{' after '$1', found $f
-instof            expected 'instof' after the instance name '$1', found $f
+instof            expected 'instof' (or 'instances of', a template) after the instance name '$1', found $f
+tpl_of            expected 'of' after '$1 instances' (write '$1 instances of Type(args) on { "r1", "r2" };'), found $f
+tpl_on            expected 'on' and the hosts of template '$1' (write '$1 instances of $2(args) on { "r1", "r2" };'), found $f
+tpl_hosts         expected the hosts of template '$1' after 'on': { "r1", "r2", param } or one host, found $f
+tpl_host          expected a host (a parameter name or a string) in the hosts of a template, found $f
+tpl_hosts_close   expected ',' and another host, or '}' after the hosts of a template, found $f
 type_name         expected a process type after '$1 instof', found $f
 args_open         expected '(' after the type '$2' of instance '$1' (write $2() when there are no arguments), found $f
 arg               expected an argument after ',' (a parameter name, a string or a number), found $f
@@ -479,7 +503,14 @@ function BUILD.instantiated_processes(proc, sec, idx)
     clean(inst, { "iname", "itype" })
     locate(idx, inst, "pos", "type_pos")
     for _, a in ipairs(inst.args) do locate(idx, a, "pos") end
-    add_named(proc.instances, inst, inst.name)
+    if inst.template then
+      locate(idx, inst, "on_pos")
+      for _, a in ipairs(inst.hosts) do locate(idx, a, "pos") end
+      inst.template = nil
+      add_named(proc.templates, inst, inst.name)
+    else
+      add_named(proc.instances, inst, inst.name)
+    end
   end
 end
 
@@ -537,7 +568,7 @@ function BUILD.verify(proc, sec, idx)
 end
 
 local function build_process(raw, idx)
-  local proc = { name = raw.name, pos = raw.pos, params = {}, instances = {}, external_io = {},
+  local proc = { name = raw.name, pos = raw.pos, params = {}, instances = {}, templates = {}, external_io = {},
                  internal_connections = {}, duplicate_sections = {}, standby_hosts = {} }
   idx.set(proc, raw.pos)
   for i, prm in ipairs(raw.params) do

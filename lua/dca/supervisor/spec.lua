@@ -32,6 +32,11 @@
 --     fence = { fence = 5, margin = 1 },                             -- fencing (seconds; docs/supervision.md,
 --                                                                   --   "Fencing"); nil in hand-made specs: 5, 1
 --     external_io = { { alias = "Vel", instance = "mc", port = "In" }, ... },
+--     templates = { { name = "lights", path = "main.lights", type = "Light", kind = "leaf" | "group",
+--                     hosts = { "r1", "r2" },                       -- the hosts an instance may be added on
+--                     instances = { <a child as above, named lights_r1, on r1>, ... } } } | nil,
+--                                                                  -- (docs/supervision.md, "A fleet":
+--                                                                  --   dca.supervisor.fleet adds them)
 --     sets = { { instance = "forcedata", label = "lbl1",
 --                connections = { { from = "forcedata", out = "Out1", to = "hit", ["in"] = "In1" } } } },
 --   }
@@ -43,6 +48,7 @@
 --   spec_mod.wiring(spec)   --> { { set =, src =, out =, dst =, ["in"] = }, ... } (leaf ports, every set)
 --   spec_mod.route(spec, leaf_path)               --> the direct child (table) whose subtree holds the leaf
 --   spec_mod.walk(spec, fn)                       -- fn(node, depth) for the group and every descendant
+--   spec_mod.walk_all(spec, fn)                   -- the same, and every template's prepared instances
 --   spec_mod.hosts(spec)                          --> sorted list of the host names used in the tree
 --   spec_mod.resolve_leaf(child, client, cb)      -- cb(child with its config("key") arguments read) | cb(nil, err)
 local M = {}
@@ -120,6 +126,19 @@ function M.walk(spec, fn, depth)
   end
 end
 
+--- M.walk, then the same over every prepared instance of every template of the tree (a fleet's instances may
+--- be added while it runs: what is done to the tree's nodes before it starts is done to them too).
+function M.walk_all(spec, fn, depth)
+  M.walk(spec, function(n, depth)
+    fn(n, depth)
+    for _, t in ipairs(n.kind == "group" and n.spec.templates or {}) do
+      for _, c in ipairs(t.instances) do
+        if c.kind == "group" then M.walk_all(c.spec, fn, depth + 1) else fn(c, depth + 1) end
+      end
+    end
+  end, depth)
+end
+
 --- The host names used anywhere in the tree (standby hosts included), sorted.
 function M.hosts(spec)
   local seen, list = {}, {}
@@ -129,6 +148,12 @@ function M.hosts(spec)
     -- the standby hosts too: a child fails over to them (dca.supervisor.failover), so their daemons must run
     for _, h in ipairs(n.standby or {}) do add(h) end
     for _, h in ipairs(n.spec and n.spec.hosts or {}) do add(h) end
+    -- a template's hosts too: an instance may be added on any of them while the system runs
+    for _, t in ipairs(n.spec and n.spec.templates or {}) do
+      for _, c in ipairs(t.instances) do
+        if c.kind == "group" then for _, h in ipairs(M.hosts(c.spec)) do add(h) end else add(c.host) end
+      end
+    end
   end)
   sort(list)
   return list
@@ -185,11 +210,10 @@ function M.from_model(node, file, default_host, parent_rt)
     spec.expr_line, spec.expr_col = actions.text_line or actions.line, actions.text_col or actions.col
     if not spec.expr:find("%S") then spec.expr = nil end
   end
-  for _, c in ipairs(node.children or {}) do
+  local function entry(c)
     if c.kind == "group" then
       local cs = M.from_model(c, file, host, spec.rt)
-      spec.children[#spec.children + 1] = { name = c.name, path = c.path, kind = "group", type = c.type,
-                                            host = cs.host, spec = cs }
+      return { name = c.name, path = c.path, kind = "group", type = c.type, host = cs.host, spec = cs }
     else
       local args = {}
       for i, v in ipairs(c.params or {}) do args[i] = v end
@@ -203,11 +227,18 @@ function M.from_model(node, file, default_host, parent_rt)
                     or { name = tostring(pm) }
         end
       end
-      spec.children[#spec.children + 1] = { name = c.name, path = c.path, kind = "leaf", type = c.type,
-                                            host = c.host, args = args, params = info,
-                                            package = c.manifest and c.manifest.package or nil,
-                                            standby = copy(c.standby), rt = copy(spec.rt) }
+      return { name = c.name, path = c.path, kind = "leaf", type = c.type, host = c.host, args = args, params = info,
+               package = c.manifest and c.manifest.package or nil, standby = copy(c.standby), rt = copy(spec.rt) }
     end
+  end
+  for _, c in ipairs(node.children or {}) do spec.children[#spec.children + 1] = entry(c) end
+  -- templates (docs/supervision.md, "A fleet"): each host's instance prepared, none in `children` until added
+  for _, t in ipairs(node.templates or {}) do
+    spec.templates = spec.templates or {}
+    local tpl = { name = t.name, path = t.path, type = t.type, kind = t.kind, hosts = copy(t.hosts), instances = {},
+                  line = t.line, col = t.col }
+    for i, c in ipairs(t.instances) do tpl.instances[i] = entry(c) end
+    spec.templates[#spec.templates + 1] = tpl
   end
   for _, x in ipairs(proc.external_io or {}) do
     spec.external_io[#spec.external_io + 1] = { alias = x.alias, instance = x.instance, port = x.port }
