@@ -69,6 +69,7 @@ local M = type(previous) == "table" and previous or {}
 local algebra = require "dca.algebra"
 local async = require "dca.async"
 local child = require "dca.supervisor.child"
+local fleet = require "dca.supervisor.fleet"
 local live = require "dca.supervisor.live"
 local policy = require "dca.supervisor.policy"
 local requests = require "dca.supervisor.requests"
@@ -339,6 +340,8 @@ local START = {
   end,
   -- the configuration keys its leaves read, watched: a change reaches their live parameters (dca.supervisor.live)
   function(self, k) live.watch(self, k) end,
+  -- a fresh supervisor of a group that had instances added (a restart of it): they come up again
+  function(self, k) fleet.restore(self, k) end,
 }
 
 --- Start protocol below this group: children started inactive, then connected. cb(true) | cb(nil, reason).
@@ -496,6 +499,7 @@ function Sup:_check_outcome()
   local run = self.run
   if not run or self.state ~= "running" then return end
   local st, v = run:status()
+  if st == "done" or st == "aborted" then fleet.stop_all(self) end
   if st == "done" then
     self.state = "done"
     self.outcome = { status = "done", value = v }
@@ -542,6 +546,7 @@ function Sup:run_expr(init, started)
   local acks = async.join(function() if started then started(true) end end)
   self.run_acks = acks
   self.run:start(init)
+  fleet.run_all(self)   -- (the instances of its templates run beside the expression)
   self.run_acks = nil
   acks.close()
   self:_check_outcome()
@@ -558,6 +563,7 @@ function Sup:abort(cb, reason)
   self.abort_ack = ack
   self.state = "aborting"
   self.run:abort()
+  fleet.stop_all(self)
   self.abort_ack = nil
   self.state = "aborted"
   self.outcome = { status = "aborted", path = self.path, reason = reason or "aborted by its parent" }
@@ -581,6 +587,7 @@ function Sup:child_message(name, msg)
     return
   end
   if t == "restarted" then restart.leaf_restarted(self, msg.path) return end
+  if t == "fleet" then fleet.child_changed(self, ch, msg) return end
   if child.restart(ch, "replacing") and (t == "done" or t == "aborted") then
     -- the old process's last word, sent before its stop: the algebra sees nothing of a restart
     self:log("%s: %s from the process being restarted ignored", ch.path, t)
@@ -602,6 +609,12 @@ end
 
 -- A child's DONE: an event of the algebra when it runs the child.
 function Sup:_child_done(name, ch, msg)
+  if fleet.owns(self, name) then
+    if not fleet.runs(self, name) then self:log("%s: stale done from %s ignored", self.path, ch.path) return end
+    child.set(ch, "done")
+    fleet.ended(self, name, "done", show(msg.value))
+    return
+  end
   local taken = self.run and self.run:is_running(name)
   if taken then
     child.set(ch, "done")
@@ -643,13 +656,17 @@ end
 -- fault (the algebra sees nothing), else an event of the algebra.
 function Sup:_child_aborted(name, ch, msg)
   local path, reason = msg.path or ch.path, msg.reason or "aborted"
-  local taken = self.run and self.run:is_running(name)
+  local taken = self:_runs(name)
   local how = ch.kind == "group" and msg.escalated and "escalated" or "aborted"
   local kind = policy.kind(how)
   if taken and restart.policy_takes(self, kind) then
     child.set(ch, "aborted")
     self:say("%s: %s: %s", ch.path, how, reason)
     restart.fault(self, { name }, how, kind, reason, { path = path, reason = reason })
+    return
+  end
+  if fleet.owns(self, name) then
+    if taken then child.set(ch, "aborted") fleet.ended(self, name, how, reason) end
     return
   end
   if taken then
@@ -681,7 +698,7 @@ function Sup:children_exit(names, reason, lost)
       goto next
     end
     if restart.policy_takes(self, kind) then faulted[#faulted + 1] = name
-    elseif self.run and self.run:is_running(name) then ran[#ran + 1] = name end
+    elseif self:_runs(name) then ran[#ran + 1] = name end
     child.set(ch, ch.kind == "leaf" and "exited" or "lost")
     ch.exit_reason = reason
     ch.handle = nil
@@ -691,8 +708,10 @@ function Sup:children_exit(names, reason, lost)
   -- the group's supervision policy restarts these (one fault, whichever number of leaves it ended)
   if #faulted > 0 then restart.fault(self, faulted, "exit", kind, reason) end
   for _, name in ipairs(ran) do
+    if fleet.owns(self, name) then fleet.ended(self, name, lost and "lost" or "exited", reason) goto fed end
     self.cause = self.cause or { path = self.children[name].path, reason = reason }
     self:_feed(name, "error", reason)
+    ::fed::
   end
   local first = self.children[names[1]]
   if self.starting_cb and first then
@@ -752,6 +771,12 @@ end
 
 ---------------------------------------------------------------------------------------------- routing
 
+--- Whether child `name` runs now: the expression runs it, or it is an instance of a template the group runs
+--- (dca.supervisor.fleet).
+function Sup:_runs(name)
+  return (self.run ~= nil and self.run:is_running(name)) or fleet.runs(self, name)
+end
+
 -- The direct child of this group on the way to `path` (the child itself or the sub-group holding it).
 function Sup:_via(path)
   for _, c in ipairs(self.spec.children) do
@@ -760,12 +785,12 @@ function Sup:_via(path)
   end
 end
 
--- Forwards a request to the child DCAS on the way to `path`. cb(ok, err)
-function Sup:_forward(path, msg, cb)
+-- Forwards a request to the child DCAS on the way to `path` (within `timeout` s, default the request's). cb(ok, err)
+function Sup:_forward(path, msg, cb, timeout)
   local ch = self:_via(path)
   if not ch then cb(nil, sformat("no process '%s' under %s", path, self.path)) return end
   if ch.kind ~= "group" or not ch.handle then cb(nil, sformat("%s is not reachable (%s)", ch.path, ch.state)) return end
-  ch.handle.request(msg, self.timeouts.request, function(r, err) cb(async.outcome(r, err)) end)
+  ch.handle.request(msg, timeout or self.timeouts.request, function(r, err) cb(async.outcome(r, err)) end)
 end
 
 ---------------------------------------------------------------------------------------------- tree
@@ -794,7 +819,7 @@ end
 function Sup:tree(cb)
   local node = { path = self.path, kind = "group", type = self.spec.type, host = self.spec.host, state = self.state,
                  expr = self.run and self.run:render() or self.spec.expr, children = {}, policy = self:policy_status(),
-                 estop = self.estop }
+                 estop = self.estop, fleet = self.spec.templates and fleet.list(self) or nil }
   local j = async.join(function() cb(node) end)
   for i, c in ipairs(self.spec.children) do
     local ch = self.children[c.name]
@@ -829,5 +854,25 @@ function Sup:update(new, cb) return requests.update(self, new, cb) end
 function Sup:restart(path, cb) return restart.manual(self, path, cb) end
 function Sup:restart_leaf(name, cb) return restart.leaf(self, name, cb) end
 function Sup:restart_host(ch, f) return restart.host(self, ch, f) end
+
+--- An instance of the template at `path` (in this group or below) on `host`, started and (the group running)
+--- run; remove_child(path[, host]): the instance at `path` (or the template's on `host`) stopped and ended.
+--- cb(true, instance path) | cb(nil, reason). (dca.supervisor.fleet; docs/supervision.md, "A fleet")
+function Sup:add_child(path, host, cb)
+  if fleet.here(self, path) then return fleet.add(self, path, host, cb) end
+  local ch = self:_via(path)
+  if ch and ch.path == path then cb(nil, sformat("%s is a %s, not a template", path, ch.kind)) return end
+  self:_forward(path, { type = "add_child", path = path, host = host }, function(r, err)
+    if not r then cb(nil, err) return end
+    cb(true, r.path)
+  end, self.timeouts.spawn + self.timeouts.configure + self.timeouts.request)
+end
+function Sup:remove_child(path, host, cb)
+  if fleet.here(self, path) then return fleet.remove(self, path, host, cb) end
+  self:_forward(path, { type = "remove_child", path = path, host = host }, function(r, err)
+    if not r then cb(nil, err) return end
+    cb(true, r.path)
+  end, self.timeouts.shutdown + self.timeouts.request)
+end
 
 return M

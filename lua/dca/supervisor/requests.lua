@@ -66,6 +66,13 @@ M.HANDLERS = {
       reply(ok and { type = "ok", note = how } or { type = "error", reason = how })
     end)
   end,
+  -- a fleet's instances (dca.supervisor.fleet): ok {path} of the instance
+  add_child = function(sup, msg, reply)
+    sup:add_child(msg.path, msg.host, function(ok, r) reply(ok and { type = "ok", path = r } or { type = "error", reason = r }) end)
+  end,
+  remove_child = function(sup, msg, reply)
+    sup:remove_child(msg.path, msg.host, function(ok, r) reply(ok and { type = "ok", path = r } or { type = "error", reason = r }) end)
+  end,
   switch = function(sup, msg, reply) sup:switch(msg.path, msg.label, msg.what, done_by(reply)) end,
   ports = function(sup, msg, reply) taps.request(sup, msg, reply) end,
   tap = function(sup, msg, reply) taps.request(sup, msg, reply) end,

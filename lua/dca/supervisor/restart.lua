@@ -103,7 +103,7 @@ end
 -- (M.code_check's) goes with the transition line and the answer.
 function M.replace(sup, name, note, cb)
   local ch = sup.children[name]
-  local was_running = ch.state == "running" and sup.run ~= nil and sup.run:is_running(name)
+  local was_running = ch.state == "running" and sup:_runs(name)
   local old = ch.handle
   child.mark(ch, { replacing = true, code = note })
   child.set(ch, "restarting")
@@ -212,9 +212,13 @@ function M.failed(sup, name, was_running, reason, cb)
   if h then h.kill("KILL") end
   sup:say("%s: restart failed: %s", ch.path, tostring(reason))
   -- (a restart by the group's policy escalates instead: M.recover)
-  if was_running and not child.restart(ch, "policy") and sup.run and sup.run:is_running(name) then
-    sup.cause = sup.cause or { path = ch.path, reason = reason }
-    sup:_feed(name, "aborted", reason)
+  if was_running and not child.restart(ch, "policy") and sup:_runs(name) then
+    if require("dca.supervisor.fleet").owns(sup, name) then
+      require("dca.supervisor.fleet").ended(sup, name, "aborted", reason)
+    else
+      sup.cause = sup.cause or { path = ch.path, reason = reason }
+      sup:_feed(name, "aborted", reason)
+    end
   end
   cb(nil, reason)
 end
@@ -312,7 +316,7 @@ function M.recover(sup, f)
   sup.restarting_below = sup.restarting_below or {}
   for _, name in ipairs(plan) do
     local ch = sup.children[name]
-    rec.running[name] = sup.run ~= nil and sup.run:is_running(name)
+    rec.running[name] = sup:_runs(name)
     child.mark(ch, { replacing = true, policy = true })
     ch.restarts = (ch.restarts or 0) + 1
     if faulted[name] then
@@ -451,7 +455,7 @@ function M.run_again(sup, name, was_running)
   local ch = sup.children[name]
   local pending = child.restart(ch, "pending")
   child.unmark(ch, "pending", "fault", "policy")
-  if (was_running or pending) and sup.run and sup.run:is_running(name) then sup:_start_child(name, ch.init) end
+  if (was_running or pending) and sup:_runs(name) then sup:_start_child(name, ch.init) end
 end
 
 function M.restarted_line(sup, ch)

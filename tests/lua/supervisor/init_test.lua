@@ -625,7 +625,7 @@ suite:case("an_unknown_request_is_refused_naming_the_requests_there_are", functi
   local r
   sup:handle({ type = "frobnicate" }, function(m) r = m end)
   T.eq(r.type, "error")
-  T.contains(r.reason, "unknown request 'frobnicate' for supervisor main (requests: abort, clock, complete, config_set, configure,")
+  T.contains(r.reason, "unknown request 'frobnicate' for supervisor main (requests: abort, add_child, clock, complete, config_set, configure,")
   sup:handle({ type = "ping" }, function(m) r = m end)
   T.eq(r, { type = "ok", path = "main", state = "new" })
 end)
