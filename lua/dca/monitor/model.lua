@@ -125,6 +125,18 @@ function Model:tree(tree, t)
       n.rt_thread = true
       self:_changed(n)
     end
+    -- a group's templates (a fleet): each with its hosts and how many instances it has, for the page's buttons
+    if tn.fleet then
+      local f, keys = {}, {}
+      for i, t in ipairs(tn.fleet) do
+        local hosts = {}
+        for j, h in ipairs(t.hosts or {}) do hosts[j] = tostring(h) end
+        f[i] = { path = tostring(t.path), type = tostring(t.type), hosts = hosts, instances = #(t.instances or {}) }
+        keys[i] = f[i].path .. "=" .. f[i].instances
+      end
+      local key = table.concat(keys, ",")
+      if key ~= n.fleet_key then n.fleet, n.fleet_key = f, key self:_changed(n) end
+    end
     if tonumber(tn.restarts) and tonumber(tn.restarts) ~= n.restarts then
       n.restarts = tonumber(tn.restarts)
       self:_changed(n)

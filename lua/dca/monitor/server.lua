@@ -312,6 +312,9 @@ local function command_request(m)
     return { type = "inject", path = path, msg = msg }
   end
   if m.cmd == "config_set" and m.key then return config_set(m.key, m.value) end
+  -- a fleet (docs/supervision.md, "A fleet"): an instance of a template added on a host, or an instance removed
+  if m.cmd == "add_child" and path and m.host ~= nil then return { type = "add_child", path = path, host = tostring(m.host) } end
+  if m.cmd == "remove_child" and path then return { type = "remove_child", path = path } end
   -- the robot's emergency stop (docs/safety.md): the console's requests, the monitor as their source
   if m.cmd == "estop" then return { type = "estop", source = "monitor" } end
   if m.cmd == "release" then return { type = "release", what = m.what ~= nil and tostring(m.what) or nil, source = "monitor" } end

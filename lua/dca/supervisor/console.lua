@@ -34,6 +34,11 @@ restart(path)                 a group: abort its expression and start it again (
                                 code whose ports misfit the connections is refused, never wired
 activate(path, label)         activate / deactivate a connection set of a process
 deactivate(path, label)
+add_child(template, host)     a fleet (a template `name instances of Type(args) on { hosts };`): an instance of
+                                the template on one of its hosts, started and run beside the group's expression,
+                                supervised by the group's policy like any child (docs/supervision.md, "A fleet")
+remove_child(path)            that instance stopped (actuators at zero) and ended; remove_child(template, host) too
+fleet(path)                   the templates of a group (default: every group): hosts and instances
 read(path, port)              a leaf's port: its latest sample and how many samples it has seen
 stats(path)                   a leaf's timers: ticks, the period achieved (p50/p99/max, on its clock and on the
                                 wall clock), how late ticks started, and overruns (periods skipped); on a
@@ -87,6 +92,10 @@ local function render_tree(node, out, depth)
   if e and e.latched then extra = extra .. sformat("  [EMERGENCY STOP by %s at %.3f s]", e.source, e.t) end
   out[#out + 1] = sformat("%-30s %-6s %-28s %s%s", name, node.kind, node.type .. "@" .. tostring(node.host),
     tostring(node.state), extra)
+  for _, t in ipairs(node.fleet or {}) do
+    out[#out + 1] = sformat("%-30s %-6s %-28s %d of %d hosts", pad .. "  " .. t.template, "fleet", t.type .. "@{" ..
+      concat(t.hosts, ",") .. "}", #t.instances, #t.hosts)
+  end
   for _, c in ipairs(node.children or {}) do render_tree(c, out, depth + 1) end
   return out
 end
@@ -104,9 +113,14 @@ end
 function M.resolve(spec, path)
   if type(path) ~= "string" then return nil, "a path is a string such as \"main.arm.pd\"" end
   local hits = {}
-  spec_mod.walk(spec, function(n)
-    if n.path == path then hits = { n.path } return end
-    if #n.path > #path and n.path:sub(-#path - 1) == "." .. path then hits[#hits + 1] = n.path end
+  local function try(p)
+    if p == path then hits = { p } return end
+    if #p > #path and p:sub(-#path - 1) == "." .. path then hits[#hits + 1] = p end
+  end
+  -- every process, a fleet's instances (added or not) and its templates
+  spec_mod.walk_all(spec, function(n)
+    try(n.path)
+    for _, t in ipairs(n.kind == "group" and n.spec.templates or {}) do try(t.path) end
   end)
   for _, h in ipairs(hits) do if h == path then return path end end
   if #hits == 1 then return hits[1] end
@@ -161,6 +175,24 @@ local function view_commands(env, c)
   end
   function env.log(n)
     say(concat(sup:recent(n or 20), "\n"))
+  end
+  function env.fleet(p)
+    local path = p ~= nil and c.path_of(p) or nil
+    local lines = {}
+    local function walk(n)
+      if n.kind == "group" and (path == nil or n.path == path) then
+        for _, t in ipairs(n.fleet or {}) do
+          local inst = {}
+          for i, x in ipairs(t.instances) do inst[i] = sformat("%s on %s (%s)", x.path, tostring(x.host), x.state) end
+          lines[#lines + 1] = sformat("%s: %s on { %s }: %s", t.path, t.type, concat(t.hosts, ", "),
+            #inst > 0 and concat(inst, ", ") or "no instance")
+        end
+      end
+      for _, ch in ipairs(n.children or {}) do walk(ch) end
+    end
+    walk(c.get_tree())
+    if #lines == 0 then return (path or sup.path) .. ": no template" end
+    return concat(lines, "\n")
   end
 end
 
@@ -235,6 +267,18 @@ local function action_commands(env, c, reload)
   end
   function env.estop() return estop("estop") end
   function env.release(name) return estop("release", name) end
+  -- a fleet's instances (dca.supervisor.fleet)
+  function env.add_child(p, host)
+    local path = path_of(p)
+    if type(host) ~= "string" then error("add_child(template, host): the host is a string such as \"r1\"", 0) end
+    local ok, r = await(function(k) sup:add_child(path, host, k) end)
+    return done(ok, r, sformat("%s: added on host %s", tostring(r), host))
+  end
+  function env.remove_child(p, host)
+    local path = path_of(p)
+    local ok, r = await(function(k) sup:remove_child(path, host, k) end)
+    return done(ok, r, sformat("%s: removed", tostring(r)))
+  end
   function env.activate(p, label) return set(p, label, "activate") end
   function env.deactivate(p, label) return set(p, label, "deactivate") end
   function env.reload(what)
@@ -389,7 +433,7 @@ end
 -- (pause, resume, step: as in a debugger, and undone by the next). The others (abort, estop, restart, ...) act
 -- on the system, so a bare name gets a hint rather than a function's address.
 local BARE = { help = true, tree = true, status = true, expr = true, log = true, clock = true, pause = true,
-               resume = true, step = true }
+               resume = true, step = true, fleet = true }
 
 --- Evaluates one line; cb(output, more) once (now, or later when the line waits for other supervisors).
 function Repl:eval(line, cb)

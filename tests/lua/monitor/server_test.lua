@@ -98,6 +98,27 @@ suite:case("commands_are_console_requests_values_literals", function()
   mon:close()
 end)
 
+-- A fleet (docs/supervision.md, "A fleet"): the page's add and remove buttons are the console's add_child and
+-- remove_child requests; the tree's templates reach the page with the group's node.
+suite:case("a_fleet_is_changed_by_console_requests_and_its_templates_reach_the_page", function()
+  local mon, asked = monitor()
+  local p = page()
+  mon:_message(p, core.json_encode{ type = "command", id = 1, cmd = "add_child", path = "main.lights", host = "r2" })
+  mon:_message(p, core.json_encode{ type = "command", id = 2, cmd = "remove_child", path = "main.lights_r2" })
+  mon:_message(p, core.json_encode{ type = "command", id = 3, cmd = "add_child", path = "main.lights" })
+  local n = #asked
+  T.eq(asked[n - 1], { type = "add_child", path = "main.lights", host = "r2" })
+  T.eq(asked[n], { type = "remove_child", path = "main.lights_r2" })
+  T.eq(p.got[#p.got].ok, false, "an add without a host is refused before any request")
+  local model = require("dca.monitor.model").new()
+  model:tree({ path = "main", kind = "group", type = "main", host = "h", state = "running", children = {},
+               fleet = { { template = "lights", path = "main.lights", type = "Light", hosts = { "r1", "r2" },
+                           instances = { { name = "lights_r2" } } } } }, 0)
+  T.eq(model.nodes.main.fleet, { { path = "main.lights", type = "Light", hosts = { "r1", "r2" }, instances = 1 } })
+  T.eq(require("dca.supervisor.net").CONSOLE.add_child, true, "a console may send it (dca run's monitor too)")
+  mon:close()
+end)
+
 -- The simulated clock (docs/time.md "Pace"): the page's clock commands are the supervisor's `clock` request (the
 -- REPL's, with its checks); the world's status reaches the page as `clock`, and its time is the page's time
 -- even when no line came since (paused at 3.25 s, the last line at 1 s).

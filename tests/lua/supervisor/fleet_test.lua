@@ -209,4 +209,30 @@ suite:case("a_restarted_group_brings_up_the_instances_it_had", function()
   T.eq(alive(c, "main.fleet.timers"), {}, "a removed instance stays removed")
   T.eq(c:node("main.fleet.lights_r2.c").running, true)
 end)
+-- The REPL's verbs (dca.supervisor.console): add_child, remove_child and fleet(), paths by unique suffix.
+suite:case("the_console_adds_lists_and_removes_instances", function()
+  local c = running()
+  local repl = require("dca.supervisor.console").new(c.root_sup)
+  local function eval(line)
+    local out
+    repl:eval(line, function(o) out = o end)
+    c:settle(c.t + 1, function() return out ~= nil end)
+    c:settle(c.t)
+    return out
+  end
+  T.eq(eval('add_child("lights", "r2")'), "main.fleet.lights_r2: added on host r2")
+  T.eq(eval('add_child("fleet.timers", "r1")'), "main.fleet.timers_r1: added on host r1")
+  T.eq(eval("fleet"), "main.fleet.lights: Light on { r1, r2, r3 }: main.fleet.lights_r2 on r2 (running)\n"
+    .. "main.fleet.timers: Timer on { r1, r2 }: main.fleet.timers_r1 on r1 (running)")
+  T.contains(eval("tree()"), "lights_r2")
+  T.contains(eval("tree()"), "timers")
+  T.contains(eval('add_child("lights", "r7")'), "main.fleet.lights: host r7 is not one of its hosts (r1, r2, r3)")
+  T.contains(eval('add_child("lights")'), "the host is a string")
+  T.eq(eval('remove_child("lights_r2")'), "main.fleet.lights_r2: removed")
+  T.eq(eval('remove_child("timers", "r1")'), "main.fleet.timers_r1: removed")
+  T.eq(eval("fleet('fleet')"), "main.fleet.lights: Light on { r1, r2, r3 }: no instance\n"
+    .. "main.fleet.timers: Timer on { r1, r2 }: no instance")
+  T.eq(eval("remove_child"), "remove_child is a command: type remove_child(...) (help() lists the commands)")
+end)
+
 return suite:run(...)

@@ -114,7 +114,21 @@
       `<span class="type">${esc(n.type)}${kids ? ` (${kids})` : ''}</span><span class="host">@${esc(n.host)}</span>` +
       `<span class="restarts">${n.restarts ? '↻' + n.restarts : ''}</span>` +
       `<span class="fault" title="${esc(st.fault || '')}">${esc(st.fault || '')}</span>` +
-      (live ? '<button data-cmd="restart">restart</button><button data-cmd="abort">abort</button>' : '') + '</div>';
+      (live ? '<button data-cmd="restart">restart</button><button data-cmd="abort">abort</button>' : '') +
+      (live ? fleetButtons(r.path, n) : '') + '</div>';
+  }
+
+  // A fleet (docs/supervision.md, "A fleet"): a group's templates each get an add button (the host asked for), an
+  // instance of one a remove button.
+  function fleetButtons(path, n) {
+    const parent = S.nodes.get(n.parent);
+    const tpl = parent && arr(parent.fleet).find((t) => path.startsWith(t.path + '_'));
+    let html = tpl ? '<button data-cmd="remove_child">remove</button>' : '';
+    for (const t of arr(n.fleet)) {
+      html += `<button data-cmd="add_child" data-tpl="${esc(t.path)}" data-hosts="${esc(arr(t.hosts).join(' '))}">` +
+        `+${esc(t.path.slice(t.path.lastIndexOf('.') + 1))}</button>`;
+    }
+    return html;
   }
 
   let treeRows = [], treeWindow = [];
@@ -136,6 +150,12 @@
     const row = ev.target.closest('.row');
     if (!row) return;
     const path = row.dataset.path;
+    if (ev.target.dataset.cmd === 'add_child') {
+      const hosts = ev.target.dataset.hosts.split(' ');
+      const host = window.prompt(`Host of the new instance of ${ev.target.dataset.tpl} (${hosts.join(', ')})`, hosts[0]);
+      if (host) command({ cmd: 'add_child', path: ev.target.dataset.tpl, host });
+      return;
+    }
     if (ev.target.dataset.cmd) { command({ cmd: ev.target.dataset.cmd, path }); return; }
     if (ev.target.classList.contains('toggle')) {
       if (isExpanded(path)) { S.collapsed.add(path); S.expanded.delete(path); }
