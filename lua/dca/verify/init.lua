@@ -21,6 +21,7 @@
 -- inner = { { r, path, trace } ... }: from R's state where both run, the trace inside each group down to it.
 local explore = require "dca.verify.explore"
 local props = require "dca.verify.props"
+local template = require "dca.verify.template"
 local model = require "dca.lang.model"
 local writers = require "dca.verify.writers"
 
@@ -95,6 +96,7 @@ local function group_events(node, r, faults)
     ev[#ev + 1] = { kind = "stuck", value = "stuck", inner = st.trace, waiting = st.waiting, group = true, r = r }
   end
   if faults then
+    for _, x in ipairs(template.fault_reasons(name, r)) do fault[#fault + 1] = x end
     fault[#fault + 1] = { text = name .. "'s supervisor or its host was lost", fault = true, lost = true }
     ev[#ev + 1] = { kind = "error", value = "lost", fault = true, reasons = fault, group = true }
   end
@@ -358,6 +360,8 @@ local function group(ctx, node)
       operands[child.name] = beh
     end
   end
+  -- its templates: each instance type explored once (docs/verify.md, "A fleet"; dca.verify.template)
+  local templates = template.explore(node, function(n) return group(ctx, n) end, ctx.faults)
   local list, perrs = group_props(node, ctx.ast)
   for _, e in ipairs(perrs) do ctx.errors[#ctx.errors + 1] = e end
   local sets = set_conflicts(node, ctx.conns)
@@ -369,7 +373,11 @@ local function group(ctx, node)
     if c.inner or not c.pair.chain then kept[#kept + 1] = c end
   end
   r.conflicts = kept
-  r.type, r.path, r.node = def.name, node.path, node
+  r.type, r.path, r.node, r.templates = def.name, node.path, node, templates
+  -- an instance escalating the group past its intensity: one more way it ends ABORTED by a fault
+  for _, x in ipairs(template.fault_reasons(node.name, r)) do
+    r.aborted[#r.aborted + 1] = { reason = x.text, fault = true, trace = {} }
+  end
   ctx.states, ctx.transitions = ctx.states + r.states, ctx.transitions + r.transitions
   ctx.memo[def.name] = r
   ctx.groups[#ctx.groups + 1] = r

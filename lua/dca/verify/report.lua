@@ -99,6 +99,7 @@ local function outcomes(r, out, traces)
     out[#out + 1] = sformat("  can end ABORTED by a fault: %s", plural(faults, "crash or lost host", "crashes or lost hosts"))
   end
   if r.cycle then out[#out + 1] = "  can run for ever: its runs can come back to a state they were in (':;')" end
+  for _, l in ipairs(require("dca.verify.template").lines(r)) do out[#out + 1] = l end
   if r.stops_unknown then
     out[#out + 1] = "  unknown   whether it runs until it is stopped (it waits on a group explored in part)"
   elseif r.until_stopped then
