@@ -121,6 +121,31 @@ local function standby_of(def, env, bind_host)
   return out
 end
 
+-- The templates of process `def` (at `path`, its parameters bound in `env`): one prepared instance per host of
+-- each one's set, none of them started (dca.supervisor.fleet adds them). instantiate(inst, name, values, host_arg)
+-- makes a child; bind_host(a, env, what) binds a host argument or records why it cannot be one.
+local function templates_of(def, defs, env, path, bind_host, instantiate)
+  local out = {}
+  for _, t in ipairs(def.templates or {}) do
+    local tpl = { name = t.name, path = path .. "." .. t.name, type = t.type, kind = defs[t.type] and "group" or "leaf",
+                  hosts = {}, instances = {}, line = t.line, col = t.col }
+    for _, a in ipairs(t.hosts) do
+      local h = bind_host(a, env, "host of template " .. t.name)
+      if type(h) == "string" and not tpl.instances[h] then
+        local values = { h }
+        for i, x in ipairs(t.args) do values[i + 1] = bind(x, env) end
+        local inst = instantiate(t, M.instance_name(t.name, h), values, a)
+        tpl.hosts[#tpl.hosts + 1] = h
+        tpl.instances[#tpl.instances + 1] = inst
+        tpl.instances[h] = inst
+      end
+    end
+    out[#out + 1] = tpl
+    out[t.name] = tpl
+  end
+  return out
+end
+
 --- Checks `ast` (dca.lang.check, same opts) and instantiates the tree rooted at opts.root (default "main").
 --- Returns the root node, or nil and the list of errors.
 function M.build(ast, opts)
@@ -194,25 +219,7 @@ function M.build(ast, opts)
       node.children[#node.children + 1] = child
       node.children[inst.name] = child
     end
-    -- a template: one prepared instance per host of its set, none of them started (dca.supervisor.fleet adds them)
-    node.templates = {}
-    for _, t in ipairs(def.templates or {}) do
-      local tpl = { name = t.name, path = path .. "." .. t.name, type = t.type, kind = defs[t.type] and "group" or "leaf",
-                    hosts = {}, instances = {}, line = t.line, col = t.col }
-      for _, a in ipairs(t.hosts) do
-        local h = bind_host(a, env, "host of template " .. t.name)
-        if type(h) == "string" and not tpl.instances[h] then
-          local values = { h }
-          for i, x in ipairs(t.args) do values[i + 1] = bind(x, env) end
-          local inst = instantiate(t, M.instance_name(t.name, h), values, a)
-          tpl.hosts[#tpl.hosts + 1] = h
-          tpl.instances[#tpl.instances + 1] = inst
-          tpl.instances[h] = inst
-        end
-      end
-      node.templates[#node.templates + 1] = tpl
-      node.templates[t.name] = tpl
-    end
+    node.templates = templates_of(def, defs, env, path, bind_host, instantiate)
     return node
   end
   local tree = group(rootdef, root_name, root_name, args, opts.host, nil, nil)
