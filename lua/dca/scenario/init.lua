@@ -132,7 +132,7 @@ end
 --- "main.a stop"), optionally only those matching `pattern`. The same in every backend.
 function Shared:commands(pattern)
   local leaf = {}
-  spec_mod.walk(self.spec, function(n) if n.kind == "leaf" then leaf[n.path] = true end end)
+  spec_mod.walk_all(self.spec, function(n) if n.kind == "leaf" then leaf[n.path] = true end end)
   local out = {}
   for _, l in ipairs(self:transitions()) do
     local path, what = l:match("^(%S+): (%a+)$")
@@ -145,7 +145,7 @@ end
 --- The host name of the process at `path` (from the system's spec), or nil.
 function Shared:host(path)
   local host
-  spec_mod.walk(self.spec, function(n) if n.path == path then host = n.host end end)
+  spec_mod.walk_all(self.spec, function(n) if n.path == path then host = n.host end end)
   return host
 end
 

@@ -103,7 +103,7 @@ function M.system(spec, opts)
   local c = fake.cluster{ behave = behave, timeouts = opts.timeouts, heartbeat = opts.heartbeat or { 1, 5 },
                           config = repo }
   local s = setmetatable({ spec = spec, c = c, file = opts.file, root = opts.root, backend = "memory" }, System)
-  c:root(spec, { timeouts = opts.timeouts })
+  s.sup = c:root(spec, { timeouts = opts.timeouts })   -- (the root's console: Shared.repl)
   return s
 end
 

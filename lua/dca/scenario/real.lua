@@ -335,7 +335,7 @@ end
 -- The pid of the process registered as `path` (node or supervisor), from its host's daemon.
 function System:pid(path)
   local host
-  spec_mod.walk(self.spec, function(n) if n.path == path then host = n.host end end)
+  spec_mod.walk_all(self.spec, function(n) if n.path == path then host = n.host end end)
   if not host then error("no process " .. path, 3) end
   local r = self:_ask(function(k) self:_daemon(host):request({ type = "status" }, 20, k) end, 25,
     "the daemon's status of host " .. host)

@@ -112,10 +112,11 @@ end
 --- Resolves a full path or a unique suffix against the spec tree of `spec`. --> path | nil, err
 function M.resolve(spec, path)
   if type(path) ~= "string" then return nil, "a path is a string such as \"main.arm.pd\"" end
-  local hits = {}
+  local hits, seen = {}, {}
   local function try(p)
     if p == path then hits = { p } return end
-    if #p > #path and p:sub(-#path - 1) == "." .. path then hits[#hits + 1] = p end
+    -- (an added instance is both a child and its template's prepared instance: one hit)
+    if #p > #path and p:sub(-#path - 1) == "." .. path and not seen[p] then seen[p] = true hits[#hits + 1] = p end
   end
   -- every process, a fleet's instances (added or not) and its templates
   spec_mod.walk_all(spec, function(n)
