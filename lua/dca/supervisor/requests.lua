@@ -272,7 +272,14 @@ function M.update(sup, new, cb)
   local function shape(sp)
     local t = { children = {}, external_io = sp.external_io, sets = sp.sets, host = sp.host, type = sp.type,
                 hosts = sp.hosts }
-    for i, c in ipairs(sp.children) do t.children[i] = { c.name, c.kind, c.type, c.host, c.args, c.standby } end
+    for _, c in ipairs(sp.children) do
+      -- (a fleet's added instances are no change of the file: dca.supervisor.fleet)
+      if not (sp == old and require("dca.supervisor.fleet").owns(sup, c.name)) then
+        t.children[#t.children + 1] = { c.name, c.kind, c.type, c.host, c.args, c.standby }
+      end
+    end
+    t.templates = {}
+    for i, x in ipairs(sp.templates or {}) do t.templates[i] = { x.name, x.type, x.hosts } end
     return t
   end
   if not same(shape(old), shape(new)) then

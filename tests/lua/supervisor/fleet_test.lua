@@ -235,4 +235,15 @@ suite:case("the_console_adds_lists_and_removes_instances", function()
   T.eq(eval("remove_child"), "remove_child is a command: type remove_child(...) (help() lists the commands)")
 end)
 
+-- A reload of the same file (Sup:update) is no change of processes: the added instances are the fleet's.
+suite:case("a_reload_of_the_same_file_keeps_the_instances_and_says_no_change", function()
+  local c = running()
+  T.ok(ask(c, "add_child", "main.fleet.lights", "r1"))
+  local lines
+  c.root_sup:update(spec_of(SYSTEM), function(l) lines = l end)
+  c:settle(c.t + 1, function() return lines ~= nil end)
+  T.eq(lines, {})
+  T.eq(c:node("main.fleet.lights_r1.c").running, true)
+end)
+
 return suite:run(...)
