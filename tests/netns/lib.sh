@@ -1,15 +1,17 @@
-# Shared by the tests/netns/*.sh tests: three network namespaces on a bridge, one dca daemon in each.
-#   . lib.sh DCA_EXE TAG SUBNET NAME NAME NAME
+# Shared by the tests/netns/*.sh tests: network namespaces on a bridge (three, or one per NAME given), one dca
+# daemon in each.
+#   . lib.sh DCA_EXE TAG SUBNET NAME NAME NAME [NAME...]
 # DCA_EXE may be empty ($DCA_EXE, else dca on the PATH); TAG is unique and short; SUBNET is e.g. 10.213.0 (the
-# bridge is .1, the hosts .2 .3 .4). It sets dca, src (the source tree), names, ns, addrs, br, work, key, pids,
+# bridge is .1, the hosts .2 .3 .4 ...; at most 12 names). It sets dca, src (the source tree), names, ns, addrs, br, work, key, pids,
 # hosts (the hosts file daemons_up writes), installs the cleanup trap and defines skip/fail. Needs root: without it, skip (exit 77, CTest's skipped).
 dca="${1:-${DCA_EXE:-dca}}"
 tag=$2
 subnet=$3
-names=("$4" "$5" "$6")
+names=("${@:4}")
 src="${DCA_SOURCE_DIR:-$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)}"
-ns=("${tag}a" "${tag}b" "${tag}c")
-addrs=("$subnet.2" "$subnet.3" "$subnet.4")
+ns=() addrs=()
+letters=(a b c d e f g h i j k l)
+for i in "${!names[@]}"; do ns+=("${tag}${letters[$i]}"); addrs+=("$subnet.$((i + 2))"); done
 br="${tag}br"
 work="$(mktemp -d)"
 key="$work/key"
@@ -43,16 +45,16 @@ cleanup() {
 }
 trap cleanup EXIT
 
-# Makes the three namespaces, each with a veth on the bridge and its address, and a fresh cluster key.
+# Makes the namespaces, each with a veth on the bridge and its address, and a fresh cluster key.
 netns_up() {
   [ "$(id -u)" -eq 0 ] || skip "network namespaces need root (uid $(id -u))"
   command -v ip >/dev/null || skip "no 'ip' command (iproute2)"
   ip netns add "${ns[0]}" 2>"$work/err" || skip "cannot create a network namespace: $(cat "$work/err")"
-  ip netns add "${ns[1]}" && ip netns add "${ns[2]}" || fail "ip netns add"
+  local i v
+  for i in "${!ns[@]}"; do [ "$i" -eq 0 ] || ip netns add "${ns[$i]}" || fail "ip netns add"; done
   ip link add "$br" type bridge || skip "cannot create a bridge: $(ip link add "$br" type bridge 2>&1)"
   ip addr add "$subnet.1/24" dev "$br" && ip link set "$br" up || fail "bridge address"
-  local i v
-  for i in 0 1 2; do
+  for i in "${!ns[@]}"; do
     v="${tag}v$i"
     ip link add "$v" type veth peer name "${v}p" || fail "veth"
     ip link set "${v}p" netns "${ns[$i]}" || fail "veth into ${ns[$i]}"
@@ -64,15 +66,15 @@ netns_up() {
 }
 
 # `daemons_up PORT [ARG...]`: a daemon in each namespace listening on its address:PORT, the others as peers,
-# with ARGs (where "{host}" stands for the daemon's host name); returns when all three listen. The hosts file
+# with ARGs (where "{host}" stands for the daemon's host name); returns when all listen. The hosts file
 # $hosts (for `dca run --hosts`) names each daemon's address.
 daemons_up() {
   local port=$1 i j n; shift
   : > "$hosts"
-  for i in 0 1 2; do echo "${names[$i]} ${addrs[$i]}:$port" >> "$hosts"; done
-  for i in 0 1 2; do
+  for i in "${!names[@]}"; do echo "${names[$i]} ${addrs[$i]}:$port" >> "$hosts"; done
+  for i in "${!names[@]}"; do
     local peers=() args=()
-    for j in 0 1 2; do [ "$j" -ne "$i" ] && peers+=(--peer "${addrs[$j]}:$port"); done
+    for j in "${!names[@]}"; do [ "$j" -ne "$i" ] && peers+=(--peer "${addrs[$j]}:$port"); done
     for a in "$@"; do args+=("${a//\{host\}/${names[$i]}}"); done
     ip netns exec "${ns[$i]}" "$dca" daemon --host "${names[$i]}" --listen "${addrs[$i]}:$port" "${peers[@]}" \
       --key "$key" "${args[@]}" >"$work/${names[$i]}.log" 2>&1 &
