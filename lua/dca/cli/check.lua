@@ -111,8 +111,9 @@ function M.main(argv)
   local s = model.summary(tree)
   -- with --promela, standard output is the model alone (spin reads it): the summary goes to standard error
   local say = (o.verify and o.promela) and io.stderr or io.stdout
-  say:write(string.format("%s: ok: %s, %s (%s), %s, %s (%s)\n", file, plural(s.groups, "group"),
+  say:write(string.format("%s: ok: %s, %s (%s)%s, %s, %s (%s)\n", file, plural(s.groups, "group"),
                                 plural(s.instances, "instance"), plural(s.leaves, "leaf"):gsub("leafs", "leaves"),
+                                s.templates > 0 and ", " .. plural(s.templates, "template") or "",
                                 plural(s.connections, "connection"), plural(#s.hosts, "host"),
                                 table.concat(s.hosts, ", ")))
   if o.tree then say:write(M.tree_text(tree)) end

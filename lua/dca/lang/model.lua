@@ -299,22 +299,30 @@ function M.connections(tree)
   return out
 end
 
---- Counts for a one-line summary: { groups, instances, leaves, connections, hosts = { sorted names } }.
+--- Counts for a one-line summary: { groups, instances, leaves, connections, templates, hosts = { sorted names } }
+--- (a template's hosts among the hosts: an instance may run on each).
 function M.summary(tree)
-  local s = { groups = 0, instances = 0, leaves = 0, connections = 0, hosts = {} }
+  local s = { groups = 0, instances = 0, leaves = 0, connections = 0, templates = 0, hosts = {} }
   local seen = {}
+  local function host(h)
+    if h ~= nil and not seen[h] then
+      seen[h] = true
+      s.hosts[#s.hosts + 1] = tostring(h)
+    end
+  end
   M.walk(tree, function(n, depth)
     if depth > 0 then s.instances = s.instances + 1 end
     if n.kind == "group" then
       s.groups = s.groups + 1
       for _, set in ipairs(n.process.internal_connections) do s.connections = s.connections + #set.connections end
+      for _, t in ipairs(n.templates or {}) do
+        s.templates = s.templates + 1
+        for _, h in ipairs(t.hosts) do host(h) end
+      end
     else
       s.leaves = s.leaves + 1
     end
-    if n.host ~= nil and not seen[n.host] then
-      seen[n.host] = true
-      s.hosts[#s.hosts + 1] = tostring(n.host)
-    end
+    host(n.host)
   end)
   table.sort(s.hosts)
   return s

@@ -59,4 +59,11 @@ suite:case("a_host_bound_to_a_bad_value_is_an_error_at_the_template", function()
   T.contains(errs[1].msg, "the host of template robots of main is \"not a host\"")
 end)
 
+suite:case("the_summary_counts_templates_and_their_hosts", function()
+  local ast = assert(parser.parse(GOOD, "fleet.dca"))
+  local s = model.summary(assert(model.build(ast, { args = { "spare-1" } })))
+  T.eq({ s.groups, s.instances, s.templates }, { 1, 1, 2 })
+  T.eq(s.hosts, { "base", "lab-2.example", "r1", "r9", "spare-1" })
+end)
+
 return suite:run(...)
