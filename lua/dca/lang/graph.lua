@@ -278,6 +278,16 @@ function M.dot(tree, opts)
       end
       above, column = below, leaves and below or nil
     end
+    -- its templates (a fleet: docs/supervision.md, "A fleet"): one dashed box each, below its children
+    local tops = {}
+    for _, t in ipairs(n.templates or {}) do
+      local id = q(t.path .. "[*]")
+      add(indent + 1, sformat('%s [shape=box, style="dashed,rounded", label=%s];', id,
+        q(sformat("%s : %s, any number of instances\n@{ %s }", t.name, t.type, concat(t.hosts, ", ")))))
+      after(above, id)
+      tops[#tops + 1] = id
+    end
+    if #tops > 0 then above = tops end
     add(indent, "}")
     return top, above
   end

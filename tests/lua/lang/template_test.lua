@@ -66,4 +66,13 @@ suite:case("the_summary_counts_templates_and_their_hosts", function()
   T.eq(s.hosts, { "base", "lab-2.example", "r1", "r9", "spare-1" })
 end)
 
+suite:case("dca_graph_draws_a_template_as_one_dashed_box_below_its_group", function()
+  local ast = assert(parser.parse(GOOD, "fleet.dca"))
+  local dot = require("dca.lang.graph").dot(assert(model.build(ast, { args = { "spare-1" } })))
+  T.contains(dot, '"main.robots[*]" [shape=box, style="dashed,rounded", label="robots : Robot, any number of '
+    .. 'instances\\n@{ r1, lab-2.example, spare-1 }"];')
+  T.contains(dot, '"main.door" -> "main.robots[*]" [style=invis];')
+  T.ok(not dot:find("robots_r1", 1, true), "no prepared instance is drawn")
+end)
+
 return suite:run(...)
