@@ -246,4 +246,23 @@ suite:case("a_reload_of_the_same_file_keeps_the_instances_and_says_no_change", f
   T.eq(c:node("main.fleet.lights_r1.c").running, true)
 end)
 
+-- A robot switched off (its host lost): with `restart on crash` only, the loss is no fault of the policy's, so it
+-- ends that instance only and the group runs on; with `lost` too, its restart on the lost host fails and the
+-- group escalates (as any child without a standby host): docs/supervision.md, "A fleet".
+suite:case("a_lost_robot_ends_its_instance_when_the_policy_restarts_crashes_only", function()
+  local text = SYSTEM:gsub("restart on crash, lost; }\n  instantiated_processes {\n    door",
+                           "restart on crash; }\n  instantiated_processes {\n    door")
+  assert(text ~= SYSTEM)
+  local c = running(text)
+  T.ok(ask(c, "add_child", "main.fleet.lights", "r1"))
+  T.ok(ask(c, "add_child", "main.fleet.lights", "r2"))
+  c:lose_host("r2")
+  c:settle(c.t + 1)
+  T.ok(said(c, "main%.fleet%.lights_r2: lost: .*not restarted: its instance ends; the group runs on"), "said")
+  T.eq(c.outcome, nil)
+  T.eq(c:node("main.fleet.lights_r1.c").running, true)
+  T.eq(c:node("main.fleet.door").running, true)
+  T.ok(ask(c, "remove_child", "main.fleet.lights_r2"), "and removed by hand")
+end)
+
 return suite:run(...)
