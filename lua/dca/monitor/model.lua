@@ -33,6 +33,7 @@ local WORDS = {
   starting = "starting", started = "started", configured = "configured", running = "running",
   aborting = "aborting", stopped = "stopped", done = "done", aborted = "aborted", exited = "exited",
   lost = "lost", restarting = "restarting", restarted = "running",
+  removed = "removed",  -- a fleet's instance removed (docs/supervision.md, "A fleet")
   DONE = "done", ABORTED = "aborted",  -- the root's outcome ("main: ABORTED at main.b: reason")
 }
 local FAULTS = { aborted = true, exited = true, lost = true, ABORTED = true }

@@ -115,6 +115,9 @@ suite:case("a_fleet_is_changed_by_console_requests_and_its_templates_reach_the_p
                fleet = { { template = "lights", path = "main.lights", type = "Light", hosts = { "r1", "r2" },
                            instances = { { name = "lights_r2" } } } } }, 0)
   T.eq(model.nodes.main.fleet, { { path = "main.lights", type = "Light", hosts = { "r1", "r2" }, instances = 1 } })
+  model:line("main.lights_r2: running", 1)
+  model:line("main.lights_r2: removed", 2)
+  T.eq(model.nodes["main.lights_r2"].state, "removed", "a removed instance's row says so")
   T.eq(require("dca.supervisor.net").CONSOLE.add_child, true, "a console may send it (dca run's monitor too)")
   mon:close()
 end)
