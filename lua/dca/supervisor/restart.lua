@@ -480,6 +480,7 @@ function M.escalate(sup, f, reason)
   if sup.run and sup.state == "running" then
     sup.state = "aborting"
     sup.run:abort()
+    require("dca.supervisor.fleet").stop_all(sup)   -- (its template's instances too)
   end
   sup.state = "aborted"
   sup.outcome = { status = "aborted", path = f.cause.path, reason = reason, escalated = true }

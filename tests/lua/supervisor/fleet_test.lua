@@ -265,4 +265,23 @@ suite:case("a_lost_robot_ends_its_instance_when_the_policy_restarts_crashes_only
   T.ok(ask(c, "remove_child", "main.fleet.lights_r2"), "and removed by hand")
 end)
 
+-- Escalated without a parent's policy: the group's running instances are stopped with its other children, before
+-- its outcome goes up.
+suite:case("an_escalated_group_stops_its_instances_before_its_outcome", function()
+  local text = SYSTEM:gsub("process main%(%) {\n  supervision {[^\n]*\n", "process main() {\n")
+  assert(text ~= SYSTEM)
+  local c = running(text)
+  T.ok(ask(c, "add_child", "main.fleet.lights", "r1"))
+  T.ok(ask(c, "add_child", "main.fleet.lights", "r2"))
+  for _ = 1, 3 do
+    c:kill("main.fleet.lights_r1", "SEGV")
+    c:settle(c.t + 0.5)
+  end
+  local o = c:outcome_within(c.t + 5)
+  T.eq(o and o.type, "aborted")
+  T.contains(o.reason, "restart intensity 2 in 10 s exceeded")
+  T.eq(c:node("main.fleet.lights_r2.c").running, false, "the other instance was stopped")
+  T.eq(c:node("main.fleet.door").running, false)
+end)
+
 return suite:run(...)
