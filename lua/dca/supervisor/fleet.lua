@@ -57,10 +57,10 @@ end
 
 local function hosts_text(t) return concat(t.hosts, ", ") end
 
--- The prepared instance of template `t` on `host`, or nil and why not.
+-- The prepared instance of template `t` on `host` (t.instances[i] is the one on t.hosts[i]), or nil and why not.
 local function prepared(t, host)
-  for _, c in ipairs(t.instances) do
-    if c.host == host or (c.kind == "group" and c.spec.host == host) then return c end
+  for i, h in ipairs(t.hosts) do
+    if h == host then return t.instances[i] end
   end
   return nil, sformat("%s: host %s is not one of its hosts (%s)", t.path, tostring(host), hosts_text(t))
 end
@@ -126,7 +126,7 @@ function M.add(sup, path, host, cb)
   local c, why = prepared(t, host)
   if not c then cb(nil, why) return end
   if sup.children[c.name] then cb(nil, sformat("%s already has an instance on host %s: %s", t.path, host, c.path)) return end
-  if sup.shutdown_waiters or sup.state == "stopping" or sup.state == "stopped" or sup.state == "new" then
+  if sup.shutdown_waiters or not (sup.state == "running" or sup.state == "configured" or sup.state == "starting") then
     cb(nil, sformat("%s: cannot add an instance while its group is %s", t.path, sup.state))
     return
   end
@@ -230,14 +230,14 @@ function M.restore(sup, k)
   local todo = {}
   for _, t in ipairs(sup.spec.templates or {}) do
     for _, name in ipairs(t.added or {}) do
-      for _, c in ipairs(t.instances) do
-        if c.name == name then todo[#todo + 1] = { t = t, c = c } end
+      for i, c in ipairs(t.instances) do
+        if c.name == name then todo[#todo + 1] = { t = t, host = t.hosts[i] } end
       end
     end
     t.added = {}
   end
   async.each_in_order(todo, function(x, _, next)
-    M.add(sup, x.t.path, x.c.kind == "group" and x.c.spec.host or x.c.host, function(ok, err)
+    M.add(sup, x.t.path, x.host, function(ok, err)
       if not ok then k(nil, err) return end
       next()
     end)

@@ -35,6 +35,7 @@
 --     templates = { { name = "lights", path = "main.lights", type = "Light", kind = "leaf" | "group",
 --                     hosts = { "r1", "r2" },                       -- the hosts an instance may be added on
 --                     instances = { <a child as above, named lights_r1, on r1>, ... } } } | nil,
+--                                                                  -- (instances[i] is the one on hosts[i])
 --                                                                  -- (docs/supervision.md, "A fleet":
 --                                                                  --   dca.supervisor.fleet adds them)
 --     sets = { { instance = "forcedata", label = "lbl1",

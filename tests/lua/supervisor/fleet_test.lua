@@ -284,4 +284,17 @@ suite:case("an_escalated_group_stops_its_instances_before_its_outcome", function
   T.eq(c:node("main.fleet.door").running, false)
 end)
 
+-- A group whose run has ended (DONE) takes no new instance; a template whose type fixes its own host still adds
+-- one per host of its set (the i-th prepared instance is the i-th host's).
+suite:case("no_add_once_the_group_run_ended_and_instances_found_by_host", function()
+  local text = SYSTEM:gsub('door instof Counter%(h, 0.1%)', 'door instof Timer(h, 3)')
+                     :gsub("process Light%(h, period%) {\n", 'process Light(h, period) {\n  host { "base" }\n')
+  local c = running(text)
+  T.ok(ask(c, "add_child", "main.fleet.lights", "r2"))
+  T.eq(c.procs[#c.procs].host, "r2", "its leaf on r2 (its supervisor on base, as its host { } says)")
+  c:outcome_within(c.t + 5)
+  local ok, why = ask(c, "add_child", "main.fleet.lights", "r3")
+  T.eq({ ok, why }, { nil, "main.fleet.lights: cannot add an instance while its group is done" })
+end)
+
 return suite:run(...)
