@@ -297,4 +297,24 @@ suite:case("no_add_once_the_group_run_ended_and_instances_found_by_host", functi
   T.eq({ ok, why }, { nil, "main.fleet.lights: cannot add an instance while its group is done" })
 end)
 
+-- one_for_all: a crashed instance restarts every child of the group, the declared door and the other instances
+-- alike (stopped newest first, started in order: the door, then the instances in the order they were added).
+suite:case("one_for_all_restarts_the_instances_with_the_declared_children", function()
+  local text = SYSTEM:gsub("supervision { strategy one_for_one; intensity 2", "supervision { strategy one_for_all; intensity 2")
+  assert(text ~= SYSTEM)
+  local c = running(text)
+  T.ok(ask(c, "add_child", "main.fleet.lights", "r3"))
+  T.ok(ask(c, "add_child", "main.fleet.lights", "r1"))
+  local before = { pid(c, "main.fleet.door"), pid(c, "main.fleet.lights_r3"), pid(c, "main.fleet.lights_r1") }
+  c:kill("main.fleet.lights_r1", "SEGV")
+  c:settle(c.t + 2)
+  local now = { pid(c, "main.fleet.door"), pid(c, "main.fleet.lights_r3"), pid(c, "main.fleet.lights_r1") }
+  for i = 1, 3 do T.ok(now[i] and now[i] ~= before[i], "a fresh process " .. i) end
+  T.ok(said(c, "main%.fleet: one_for_all after lights_r1 killed by SIGSEGV on host r1: restarting door, lights_r3, "
+    .. "lights_r1 %(1/2"), "the plan: the door, then the instances in the order added")
+  T.eq({ c:node("main.fleet.door").running, c:node("main.fleet.lights_r3.c").running,
+         c:node("main.fleet.lights_r1.c").running }, { true, true, true })
+  T.eq(c.outcome, nil)
+end)
+
 return suite:run(...)
