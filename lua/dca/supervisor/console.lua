@@ -32,6 +32,10 @@ restart(path)                 a group: abort its expression and start it again (
                                 leaf sharing its process (--placement group|host) keeps that process's
                                 code: refused, the leaf running on, when its package changed on disk. New
                                 code whose ports misfit the connections is refused, never wired
+upgrade(file, {canary, watch}) roll a new build of a controller package (DIR/NAME.dca.so) to the hosts of its
+                                leaves: the canary host first (default: the first by name), its leaves
+                                restarted one by one onto it and watched (default 5 s); then every other
+                                host. A crash or escalation there rolls the canary back and stops
 activate(path, label)         activate / deactivate a connection set of a process
 deactivate(path, label)
 read(path, port)              a leaf's port: its latest sample and how many samples it has seen
@@ -235,6 +239,17 @@ local function action_commands(env, c, reload)
   end
   function env.estop() return estop("estop") end
   function env.release(name) return estop("release", name) end
+  -- a rolling upgrade of a controller package (dca.supervisor.upgrade): its lines, done or rolled back
+  function env.upgrade(file, o)
+    if type(file) ~= "string" or (o ~= nil and type(o) ~= "table") then
+      error('upgrade("DIR/NAME.dca.so", { canary = "HOST", watch = SECONDS })', 0)
+    end
+    o = o or {}
+    local _, text = await(function(k)
+      require("dca.supervisor.upgrade").run(sup, { file = file, canary = o.canary, watch = o.watch }, k)
+    end)
+    return text
+  end
   function env.activate(p, label) return set(p, label, "activate") end
   function env.deactivate(p, label) return set(p, label, "deactivate") end
   function env.reload(what)
