@@ -118,6 +118,12 @@ end
 --- The rolling upgrade (see the header). Only one at a time per supervisor.
 function M.run(sup, req, cb)
   if not sup.rt.daemon then cb(nil, "upgrade: the supervisor's runtime reaches no daemons (a real run only)") return end
+  if (sup.placement or "process") ~= "process" then
+    -- (a shared node's leaf restarts in the same process, with the code it loaded: it would never change)
+    cb(nil, sformat("upgrade: %s runs its leaves in shared nodes (--placement %s), which cannot replace a package "
+      .. "they loaded; run the system with --placement process to roll a package", sup.path, sup.placement))
+    return
+  end
   if sup.upgrading then cb(nil, sformat("upgrade: %s is already upgrading package '%s'", sup.path, sup.upgrading)) return end
   local name, data = payload(req)
   if not name then cb(nil, data) return end
