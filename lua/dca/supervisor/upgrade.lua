@@ -29,17 +29,26 @@ M.TIMEOUT = 30        -- seconds a daemon's package request may take (the file c
 local function short(v) return (v == nil or v == "") and "none" or tostring(v):sub(1, 12) end
 M.short = short
 
---- The hosts running leaves of package `name` below `sup`, and those leaves. --> plan | nil, err
+--- The hosts running leaves of package `name` below `sup`, and those leaves; a standby host of one of them (it
+--- fails over there) is in the plan too, with no leaf: it gets the file, so that a leaf failing over runs the
+--- version its host had. --> { hosts, leaves = { HOST = { path... } }, standby = { HOST = true }, system_dir }
+--- | nil, err
 function M.plan(sup, name)
-  local leaves, hosts, system_dir = {}, {}, nil
+  local leaves, hosts, standby, system_dir = {}, {}, {}, nil
+  local function add(h)
+    if not leaves[h] then leaves[h] = {} hosts[#hosts + 1] = h end
+    return leaves[h]
+  end
   spec_mod.walk(sup.spec, function(n)
     if n.kind == "leaf" and n.package == name then
-      if not leaves[n.host] then leaves[n.host] = {} hosts[#hosts + 1] = n.host end
-      local l = leaves[n.host]
+      local l = add(n.host)
       l[#l + 1] = n.path
+      for _, h in ipairs(n.standby or {}) do standby[h] = true end
       system_dir = system_dir or n.system_dir
     end
   end)
+  for h in pairs(standby) do add(h) end
+  for h in pairs(standby) do if #leaves[h] > 0 then standby[h] = nil end end
   if #hosts == 0 then
     local used, seen = {}, {}
     spec_mod.walk(sup.spec, function(n)
@@ -51,7 +60,7 @@ function M.plan(sup, name)
   end
   sort(hosts)
   for _, l in pairs(leaves) do sort(l) end
-  return { hosts = hosts, leaves = leaves, system_dir = system_dir }
+  return { hosts = hosts, leaves = leaves, standby = standby, system_dir = system_dir }
 end
 
 -- The package's name and bytes from the request: data (with name) or file (NAME.dca.so). --> name, data | nil, err
@@ -129,10 +138,12 @@ function M.run(sup, req, cb)
   if not name then cb(nil, data) return end
   local plan, perr = M.plan(sup, name)
   if not plan then cb(nil, "upgrade: " .. perr) return end
-  local canary = req.canary or plan.hosts[1]
-  if not plan.leaves[canary] then
+  local running = {}
+  for _, h in ipairs(plan.hosts) do if not plan.standby[h] then running[#running + 1] = h end end
+  local canary = req.canary or running[1]
+  if not plan.leaves[canary] or plan.standby[canary] then
     cb(nil, sformat("upgrade %s: the canary %s runs no leaf of it (hosts that do: %s)", name, tostring(canary),
-      concat(plan.hosts, ", ")))
+      concat(running, ", ")))
     return
   end
   local watch = tonumber(req.watch) or M.WATCH
@@ -175,8 +186,8 @@ end
 function M.say_plan(u)
   local parts = {}
   for i, h in ipairs(u.order) do
-    parts[#parts + 1] = sformat("%s%s (%s, runs %s)", h, i == 1 and " [canary]" or "", concat(u.plan.leaves[h], ", "),
-      short(u.from[h]))
+    parts[#parts + 1] = sformat("%s%s (%s, runs %s)", h, i == 1 and " [canary]" or "",
+      u.plan.standby[h] and "a standby host" or concat(u.plan.leaves[h], ", "), short(u.from[h]))
   end
   u.say("plan: %d byte%s%s to %d host%s, leaf by leaf: %s; the canary watched %g s", #u.data, #u.data == 1 and "" or "s",
     u.version and " (version " .. short(u.version) .. ")" or "", #u.order, #u.order == 1 and "" or "s",

@@ -26,6 +26,20 @@ suite:case("the_plan_is_every_host_running_a_leaf_of_the_package_with_those_leav
   T.eq(err, "no leaf of main uses package 'door' (packages used: other, pkg)")
 end)
 
+suite:case("a_standby_host_of_a_leaf_of_the_package_gets_the_file_and_is_never_the_canary", function()
+  local sb = leaf("main.r1.sc", "h1", "pkg")
+  sb.standby = { "h4", "h2" }  -- h2 runs a leaf of it anyway
+  local sup = { path = "main", spec = { path = "main", children = { sb, leaf("main.r2.sc", "h2", "pkg") } } }
+  local plan = upgrade.plan(sup, "pkg")
+  T.eq(plan.hosts, { "h1", "h2", "h4" })
+  T.eq(plan.leaves.h4, {})
+  T.eq(plan.standby, { h4 = true })
+  local err
+  upgrade.run(setmetatable({ rt = { daemon = function() end } }, { __index = sup }), { name = "pkg", data = "x",
+    canary = "h4" }, function(_, e) err = e end)
+  T.eq(err, "upgrade pkg: the canary h4 runs no leaf of it (hosts that do: h1, h2)")
+end)
+
 suite:case("a_leaf_of_the_canarys_groups_that_ends_or_a_group_above_that_gives_up_fails_it", function()
   local u = {}
   upgrade.watch(u, SUP, { "main.r1.sc" })
