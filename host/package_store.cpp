@@ -79,6 +79,14 @@ bool write_file(const std::string& path, std::string_view data, std::string* err
   return ok;
 }
 
+// The folder's entries (a rename) made durable: flushed to disk (best effort).
+void sync_dir(const std::string& dir) {
+  const int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (fd < 0) return;
+  ::fsync(fd);
+  ::close(fd);
+}
+
 bool exists(const std::string& path) {
   struct stat st{};
   return ::lstat(path.c_str(), &st) == 0;
@@ -166,6 +174,8 @@ std::optional<PackageStore::Versions> PackageStore::install(const std::string& n
     ::unlink(tmp.c_str());
     return fail(sys_error("cannot install", cur));
   }
+  sync_dir(dir_ + "/previous");
+  sync_dir(dir_ + "/current");
   if (!on_path()) return fail("cannot set DCA_CONTROLLER_PATH");
   return v;
 }
@@ -191,6 +201,8 @@ std::optional<PackageStore::Versions> PackageStore::rollback(const std::string& 
   } else if (::rename(prev.c_str(), cur.c_str()) != 0) {
     return fail(sys_error("cannot restore", prev));
   }
+  sync_dir(dir_ + "/previous");
+  sync_dir(dir_ + "/current");
   Versions v;
   v.version = exists(cur) ? package_file_version(cur) : "";
   v.previous = exists(prev) ? package_file_version(prev) : "";
