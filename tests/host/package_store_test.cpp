@@ -186,4 +186,24 @@ TEST(PackageStore, ADaemonInstallsReportsAndRollsBackAndItsChildrenSearchTheStor
   d.stop();
 }
 
+// The store outlives its daemon: a daemon started again on the same state folder searches it first at once.
+TEST(PackageStore, AStoreThatHoldsAPackageIsOnTheSearchPathFromTheStart) {
+  TempDir tmp("pkgstore");
+  std::string error;
+  {
+    PackageStore s("h1", tmp.path() + "/packages", "off");
+    ASSERT_TRUE(s.install("lab", elf("one"), &error)) << error;
+  }
+  ::setenv("DCA_CONTROLLER_PATH", "/opt/lab", 1);
+  PackageStore again("h1", tmp.path() + "/packages", "off");
+  again.start();
+  EXPECT_STREQ(std::getenv("DCA_CONTROLLER_PATH"), (tmp.path() + "/packages/current:/opt/lab").c_str());
+  TempDir empty("pkgstore");
+  ::setenv("DCA_CONTROLLER_PATH", "/opt/lab", 1);
+  PackageStore none("h1", empty.path() + "/packages", "off");
+  none.start();
+  EXPECT_STREQ(std::getenv("DCA_CONTROLLER_PATH"), "/opt/lab") << "an empty store changes nothing";
+  ::unsetenv("DCA_CONTROLLER_PATH");
+}
+
 }  // namespace
