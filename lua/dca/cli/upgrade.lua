@@ -18,7 +18,8 @@ Rolls a new build of a controller package to the hosts of a running system that 
   --system PATH|ADDR  the supervisor that runs the upgrade (the root, e.g. main), found as `dca repl` finds
                       it: its path looked up at --daemon (or $DCA_DAEMON), or its control address
   --canary HOST       the host that goes first (default: the first by name of those running the package)
-  --watch SECONDS     how long the canary runs before the other hosts get the new version (default 5)
+  --watch SECONDS     how long the canary runs before the other hosts get the new version (default 5;
+                      5 or 5s)
   --key FILE          the cluster key (default $DCA_KEY_FILE, else the user's)
 Each host's daemon installs the file (keeping the version it replaces); its leaves of the package restart live
 onto it one by one while the rest of the system runs. A leaf of the canary that crashes, or a group above one
@@ -50,10 +51,11 @@ end
 
 function M.main(argv)
   local o, err = args_mod.parse(argv, "dca upgrade", {
-    ["--system"] = "value", ["--canary"] = "value", ["--watch"] = "number", ["--package"] = "value",
+    ["--system"] = "value", ["--canary"] = "value", ["--watch"] = "value", ["--package"] = "value",
     ["--daemon"] = "value", ["--key"] = "value" })
   if not o then io.stderr:write(err, "\n", M.usage, "\n") return 2 end
   if not o[1] or not o.system then io.stderr:write(M.usage, "\n") return 2 end
+  if o.watch then o.watch = tonumber(tostring(o.watch):match("^(.-)s?$")) or -1 end  -- 5 or 5s
   if o.watch and (o.watch < 0 or o.watch > 3600) then
     io.stderr:write("dca upgrade: --watch is seconds from 0 to 3600\n") return 2
   end

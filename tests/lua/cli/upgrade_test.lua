@@ -12,9 +12,11 @@ suite:case("usage_and_a_package_that_cannot_be_named_exit_2", function()
   local out, rc = T.sh(dca .. " upgrade")
   T.eq(rc, 2)
   T.contains(out, "usage: dca upgrade PACKAGE --system PATH|ADDR")
-  out, rc = T.sh(dca .. " upgrade " .. packages .. "/variants/k3 --system main --watch -1")
-  T.eq(rc, 2)
-  T.contains(out, "dca upgrade: --watch is seconds from 0 to 3600")
+  for _, w in ipairs({ "-1", "5m", "4000" }) do
+    out, rc = T.sh(dca .. " upgrade " .. packages .. "/variants/k3 --system main --watch " .. w)
+    T.eq(rc, 2, w)
+    T.contains(out, "dca upgrade: --watch is seconds from 0 to 3600")
+  end
   out, rc = T.sh(dca .. " upgrade " .. packages .. " --system main")
   T.eq(rc, 2)
   T.contains(out, "dca upgrade: " .. packages .. " holds ")
@@ -42,7 +44,7 @@ suite:case("rolls_a_package_folder_to_a_running_system_printing_the_plan_and_eac
   T.eq(rc, 1, out)
   T.contains(out, "upgrade pkg_ok: the canary h9 runs no leaf of it (hosts that do: h1, h2, h3)")
 
-  out, rc = T.sh(string.format(cmd, packages .. "/variants/k3") .. " --canary h3 --watch 0.2")
+  out, rc = T.sh(string.format(cmd, packages .. "/variants/k3") .. " --canary h3 --watch 0.2s")
   T.eq(rc, 0, out)
   local lines = {}
   for l in out:gmatch("[^\n]+") do lines[#lines + 1] = l end
