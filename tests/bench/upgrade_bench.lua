@@ -3,7 +3,7 @@
 -- host; tests/lua/launch/upgrade_robots.dca's Robot: Counter -> PkgScale of the test package pkg_ok ->
 -- Threshold), with real nodes and supervisors, wall clock:
 --
---   RESULT bench=package_upgrade variant=H_hosts_watch0 n=.. p50_us=.. p99_us=.. p999_us=.. max_us=.. per_host_p50_us=..
+--   RESULT bench=package_upgrade variant=H_hosts_watch0 n=.. p50_us=.. p99_us=.. ... per_host_p50_us=..
 --     from the upgrade's start to its answer "done": the plan (every daemon's package_status), then per host
 --     the file's install by its daemon (its bytes over the control channel, written and renamed) and the live
 --     restart of its leaf; the canary's watch is 0 (what it adds is its length, on the wall clock). Samples
@@ -67,7 +67,8 @@ for _, h in ipairs(SIZES) do
     assert(res[1], res[2])
     restarts[#restarts + 1] = core.now() - t0
     t0, res = core.now(), nil
-    upgrade.run(sys.sup, { file = BUILDS[1 + i % 2], canary = "h1", watch = 0 }, function(ok, text) res = { ok, text } end)
+    upgrade.run(sys.sup, { file = BUILDS[1 + i % 2], canary = "h1", watch = 0 },
+      function(ok, text) res = { ok, text } end)
     sys:wait("the upgrade", function() return res ~= nil end, 60)
     assert(res[1], res[2])
     rolls[#rolls + 1] = core.now() - t0

@@ -44,7 +44,8 @@ TEST(PackageStore, InstallKeepsTheReplacedVersionAndRollbackSwapsThem) {
   ASSERT_TRUE(v1) << error;
   EXPECT_EQ(v1->version, dca::package_version(elf("one")));
   EXPECT_EQ(v1->previous, "") << "none was installed before";
-  const std::string cur = tmp.path() + "/packages/current/lab.dca.so", prev = tmp.path() + "/packages/previous/lab.dca.so";
+  const std::string cur = tmp.path() + "/packages/current/lab.dca.so";
+  const std::string prev = tmp.path() + "/packages/previous/lab.dca.so";
   EXPECT_EQ(read(cur), elf("one"));
   EXPECT_FALSE(exists(prev));
   struct stat st{};

@@ -8,7 +8,7 @@ local console = require "dca.clients.console"
 
 local M = {}
 
-M.summary = "roll a new build of a controller package to a running system's hosts, canary first (rolled back if it fails)"
+M.summary = "roll a new build of a controller package to a running system's hosts, a canary first"
 M.usage = [[usage: dca upgrade PACKAGE --system PATH|ADDR [--canary HOST] [--watch SECONDS] [--package NAME]
                    [--daemon ADDR] [--key FILE]
 
@@ -89,7 +89,8 @@ function M.main(argv)
   c:close()
   local text = r and (r.type == "error" and r.reason or r.text) or uerr
   for line in tostring(text):gmatch("[^\n]+") do
-    if line:sub(1, #prefix) == prefix then print_line(line) elseif not printed[line] then io.stdout:write(line, "\n") end
+    if line:sub(1, #prefix) == prefix then print_line(line)
+    elseif not printed[line] then io.stdout:write(line, "\n") end
   end
   return (r and r.type ~= "error") and 0 or 1
 end

@@ -9,9 +9,10 @@
 -- package store, host/package_store.h, keeps the version it replaced), then each leaf of the package on that host
 -- is restarted live (dca.supervisor.restart: a fresh node loads the file as it is now), one after the other. The
 -- canary is then watched for `watch` seconds: a leaf of their groups that exits, aborts or is lost, or a group
--- above them that aborts, escalates or is lost, fails it (M.failure). Then every other host the same way, in name order, without the
--- watch. A host that fails is rolled back (package_rollback, then its restarted leaves restarted again onto the
--- old file) and the roll stops there: the hosts after it never receive the new version.
+-- above them that aborts, escalates or is lost, fails it (M.failure). Then every other host the same way, in
+-- name order, without the watch (a standby host of those leaves gets the file, with nothing to restart). A host
+-- that fails is rolled back (package_rollback, then its restarted leaves restarted again onto the old file) and
+-- the roll stops there: the hosts after it never receive the new version.
 -- Each step is a line of the supervisor's (`upgrade NAME: ...`: the `dca run` output, the consoles following it),
 -- and the upgrade is recorded in the configuration repository: upgrade.NAME (its state, versions, canary, the
 -- reason of a rollback) and packages.NAME.HOST (the version each host runs), written as each step is done.
@@ -52,7 +53,10 @@ function M.plan(sup, name)
   if #hosts == 0 then
     local used, seen = {}, {}
     spec_mod.walk(sup.spec, function(n)
-      if n.kind == "leaf" and n.package and not seen[n.package] then seen[n.package] = true used[#used + 1] = n.package end
+      if n.kind == "leaf" and n.package and not seen[n.package] then
+        seen[n.package] = true
+        used[#used + 1] = n.package
+      end
     end)
     sort(used)
     return nil, sformat("no leaf of %s uses package '%s' (%s)", sup.path, tostring(name),
@@ -133,7 +137,10 @@ function M.run(sup, req, cb)
       .. "they loaded; run the system with --placement process to roll a package", sup.path, sup.placement))
     return
   end
-  if sup.upgrading then cb(nil, sformat("upgrade: %s is already upgrading package '%s'", sup.path, sup.upgrading)) return end
+  if sup.upgrading then
+    cb(nil, sformat("upgrade: %s is already upgrading package '%s'", sup.path, sup.upgrading))
+    return
+  end
   local name, data = payload(req)
   if not name then cb(nil, data) return end
   local plan, perr = M.plan(sup, name)
@@ -189,7 +196,8 @@ function M.say_plan(u)
     parts[#parts + 1] = sformat("%s%s (%s, runs %s)", h, i == 1 and " [canary]" or "",
       u.plan.standby[h] and "a standby host" or concat(u.plan.leaves[h], ", "), short(u.from[h]))
   end
-  u.say("plan: %d byte%s%s to %d host%s, leaf by leaf: %s; the canary watched %g s", #u.data, #u.data == 1 and "" or "s",
+  u.say("plan: %d byte%s%s to %d host%s, leaf by leaf: %s; the canary watched %g s", #u.data,
+    #u.data == 1 and "" or "s",
     u.version and " (version " .. short(u.version) .. ")" or "", #u.order, #u.order == 1 and "" or "s",
     concat(parts, ", then "), u.watch)
 end
@@ -308,7 +316,8 @@ function M.rollback(u, host, reason, finish)
     for _, p in ipairs(u.plan.leaves[host]) do again[#again + 1] = p end
     each(again, function(path, next)
       sup:restart(path, function(ok, how)
-        u.say("%s: %s %s", host, path, ok and "restarted onto the old version" or "left to its group: " .. tostring(how))
+        u.say("%s: %s %s", host, path,
+          ok and "restarted onto the old version" or "left to its group: " .. tostring(how))
         next()
       end)
     end, function()
@@ -317,7 +326,8 @@ function M.rollback(u, host, reason, finish)
       for _, h in ipairs(u.order) do if not u.done[h] and h ~= host then untouched[#untouched + 1] = h end end
       M.record(u, "rolled back", reason, function()
         finish(nil, sformat("rolled back on %s and stopped%s: %s", host,
-          #untouched > 0 and sformat(" (%s never received version %s)", concat(untouched, ", "), short(u.version)) or "",
+          #untouched > 0 and sformat(" (%s never received version %s)", concat(untouched, ", "), short(u.version))
+            or "",
           reason))
       end)
     end)

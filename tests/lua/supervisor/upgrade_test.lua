@@ -6,7 +6,9 @@ local suite = T.suite("supervisor.upgrade")
 
 local function leaf(path, host, package) return { kind = "leaf", name = path:match("[^.]+$"), path = path, host = host,
                                                   package = package, system_dir = "/sys" } end
-local function group(path, children) return { kind = "group", name = path:match("[^.]+$"), spec = { path = path, children = children } } end
+local function group(path, children)
+  return { kind = "group", name = path:match("[^.]+$"), spec = { path = path, children = children } }
+end
 
 -- main: r1 (h1: src, sc of pkg, sink), r2 (h2: sc of pkg, a nested group arm with a leaf of pkg on h3), gain
 -- of another package on h1.
@@ -70,14 +72,16 @@ end)
 
 suite:case("a_system_in_shared_nodes_or_without_daemons_is_refused_before_anything_changes", function()
   local asked = 0
-  local sup = setmetatable({ placement = "group", rt = { daemon = function() asked = asked + 1 end } }, { __index = SUP })
+  local rt = { daemon = function() asked = asked + 1 end }
+  local sup = setmetatable({ placement = "group", rt = rt }, { __index = SUP })
   local ok, err
   upgrade.run(sup, { name = "pkg", data = "\127ELF" }, function(o, e) ok, err = o, e end)
   T.eq(ok, nil)
   T.eq(err, "upgrade: main runs its leaves in shared nodes (--placement group), which cannot replace a package "
     .. "they loaded; run the system with --placement process to roll a package")
   T.eq(asked, 0, "no daemon asked")
-  upgrade.run(setmetatable({ rt = {} }, { __index = SUP }), { name = "pkg", data = "x" }, function(o, e) ok, err = o, e end)
+  upgrade.run(setmetatable({ rt = {} }, { __index = SUP }), { name = "pkg", data = "x" },
+    function(o, e) ok, err = o, e end)
   T.eq(err, "upgrade: the supervisor's runtime reaches no daemons (a real run only)")
   sup.placement = nil
   upgrade.run(sup, { name = "pkg", data = "x", canary = "h9" }, function(o, e) ok, err = o, e end)
