@@ -32,10 +32,11 @@ restart(path)                 a group: abort its expression and start it again (
                                 leaf sharing its process (--placement group|host) keeps that process's
                                 code: refused, the leaf running on, when its package changed on disk. New
                                 code whose ports misfit the connections is refused, never wired
-upgrade(file, {canary, watch}) roll a new build of a controller package (DIR/NAME.dca.so) to the hosts of its
-                                leaves: the canary host first (default: the first by name), its leaves
-                                restarted one by one onto it and watched (default 5 s); then every other
-                                host. A crash or escalation there rolls the canary back and stops
+upgrade(file, opts)           roll a new build of a controller package (DIR/NAME.dca.so) to the hosts of its
+                                leaves, opts { canary = HOST, watch = SECONDS }: the canary first (default:
+                                the first by name), its leaves restarted one by one onto it and watched
+                                (default 5 s), then every other host. A crash or escalation on the canary
+                                rolls it back and stops (docs/deploy.md)
 activate(path, label)         activate / deactivate a connection set of a process
 deactivate(path, label)
 read(path, port)              a leaf's port: its latest sample and how many samples it has seen
