@@ -8,7 +8,10 @@
 --     and the repository holds the upgrade's record beside the keys it had;
 --   - a build that aborts at its first sample: the canary's leaf crashes in the watch window, h2 is rolled back
 --     (its leaf runs k = 2 again), the roll stops, h1 and h3 never receive the new version (their daemons hold
---     none, their leaves never restarted), and the repository records the rollback and why.
+--     none, their leaves never restarted), and the repository records the rollback and why;
+--   - a build whose output no longer has the name the system connects: its restart on the canary is refused
+--     (never wired), h2 is rolled back, h1 and h3 never receive it, and main starts the robot that the failed
+--     restart ended again, on the old file.
 -- Every wait is on an event (a console answer, a sample read, a transition line) with a deadline that only
 -- bounds a hang; the crash's watch window is long (60 s) and ended by the crash itself.
 local T = require "dca.testing"
@@ -189,6 +192,30 @@ S.step("the repository records the rollback and why, and keeps its keys", functi
   S.eq(next(rec.hosts), nil, "no host runs it")
   local ok = pcall(c.get, c, "packages.pkg_ok.h1")
   S.eq(ok, false, "no host recorded as running it")
+end)
+]])
+  T.eq(rc, 0, "the scenario passes\n" .. out)
+end)
+
+suite:case("a_new_version_whose_ports_misfit_fails_its_restart_on_the_canary_and_is_rolled_back", function()
+  local out, rc = scenario([[
+S.step("upgrade(a build whose output Out is named Scaled) with canary h2: refused there, rolled back", function()
+  local said = sys:repl(string.format("upgrade(%q, { canary = 'h2', watch = 60 })", VARIANTS .. "/renamed/pkg_ok.dca.so"))
+  -- (why, as the restart's refusal or as its group's ABORTED that follows it: whichever reaches the root first)
+  S.contains(said:match("upgrade pkg_ok: h2: failed: [^\n]*"), "restart of main.r2.sc refused: its new code has no "
+    .. "output 'Out' (outputs are: Scaled), which connection main.r2.sc.Out -> main.r2.sink.In (set main.r2:sc[run]) uses")
+  S.contains(said, "upgrade pkg_ok: h2: rolled back to " .. OLD:sub(1, 12))
+  S.contains(said, "upgrade pkg_ok: rolled back on h2 and stopped (h1, h3 never received version ")
+  local r = daemon("h2", { type = "package_status", name = "pkg_ok", system_dir = DIR })
+  S.eq(r.loads.version, OLD, "h2 loads the packages/ folder's again")
+  for _, h in ipairs({ "h1", "h3" }) do
+    S.eq(#daemon(h, { type = "package_status", name = "pkg_ok", system_dir = DIR }).packages, 0, h)
+  end
+  S.eq(record("h2", "rolled back").canary, "h2")
+  -- what follows is the system's: a live restart refused for its ports ends the leaf ABORTED for its group's
+  -- algebra (docs/packages.md, "Rebuild and restart"), which ends the robot; main starts it again, on the old file
+  sys:wait_restart("main.r2", 30, 0)
+  factor("h2", 2)
 end)
 ]])
   T.eq(rc, 0, "the scenario passes\n" .. out)
