@@ -524,6 +524,42 @@ TEST(JointStates, NamesTheJointsAndStampsTheirPositionsAndVelocities) {
   EXPECT_THROW(ControllerUnderTest("JointStates", {"a a"}), std::invalid_argument);
 }
 
+TEST(LinkFrames, NamesEachFrameAndStampsItsTransform) {
+  ControllerUnderTest c("LinkFrames", {"world base_link; base_link arm_link", "0.02"});
+  c.start();
+  c.step();
+  EXPECT_EQ(c.writes("Tf"), 0u) << "not before links.frames has had a sample";
+  Eigen::VectorXd f(14);
+  f << 0, 0, 0.5, 0, 0, 0, 1,  // base_link half a metre up in world
+      1, 2, 3, 0, 0, std::sqrt(0.5), std::sqrt(0.5);  // arm_link turned a quarter about z
+  c.set("Frames", f);
+  c.step();
+  ASSERT_EQ(c.writes("Tf"), 1u);
+  const auto tf = std::make_unique<dca::msgs::TFMessage>(c.get_message<dca::msgs::TFMessage>("Tf"));
+  ASSERT_EQ(tf->transforms.size(), 2u);
+  EXPECT_EQ(tf->transforms[0].header.frame_id.view(), "world");
+  EXPECT_EQ(tf->transforms[0].child_frame_id.view(), "base_link");
+  EXPECT_EQ(tf->transforms[0].transform.translation.z, 0.5);
+  EXPECT_EQ(tf->transforms[0].transform.rotation.w, 1);
+  EXPECT_EQ(tf->transforms[1].header.frame_id.view(), "base_link");
+  EXPECT_EQ(tf->transforms[1].child_frame_id.view(), "arm_link");
+  EXPECT_EQ(tf->transforms[1].transform.translation.y, 2);
+  EXPECT_EQ(tf->transforms[1].transform.rotation.z, std::sqrt(0.5));
+  const auto& stamp = tf->transforms[1].header.stamp;
+  EXPECT_EQ(static_cast<std::int64_t>(stamp.sec) * 1'000'000'000 + stamp.nanosec,
+            static_cast<std::int64_t>(c.now() * 1e9 + 0.5))
+      << "stamped with the clock's time";
+  EXPECT_EQ(tf->transforms[0].header.stamp, stamp);
+  c.set("Frames", Eigen::VectorXd::Zero(7));  // one frame, not two: the run ends, naming both sizes
+  c.step();
+  EXPECT_EQ(c.writes("Tf"), 1u);
+  ASSERT_TRUE(c.ended().has_value());
+  EXPECT_FALSE(c.ended()->done);
+  EXPECT_EQ(c.ended()->reason, "links.frames has 7 numbers, the parameter 'frames' names 2 frames (14 numbers)");
+  EXPECT_THROW(ControllerUnderTest("LinkFrames", {"world"}), std::invalid_argument);
+  EXPECT_THROW(ControllerUnderTest("LinkFrames", {"a b; b c; a c"}), std::invalid_argument);
+}
+
 // A copy of examples/ros2/NAME in `dir` with its bridge in the test's domain on loopback (its `0, "", "",` after
 // the node's name) and each of `changes` made: its path, or "" when a text to change is not there.
 std::string example_copy(const std::string& name, const std::string& dir,
@@ -584,27 +620,97 @@ TEST(BaseOdometry, ThePoseAndTheTwistInTheBasesFrame) {
   EXPECT_EQ(tf->transforms[0].transform.rotation, o->pose.pose.orientation);
 }
 
+// What LinkFrames gives for the UR10 of worlds/ur10/ur10.urdf at joint positions `q`, by its URDF: each frame's
+// translation (the joint's origin) and rotation (the origin's rpy, here a turn about x by alpha, then the joint's
+// turn about z), as x y z qx qy qz qw. Frames: world base_link, the six moving joints' child links, flange, tool0.
+std::vector<std::array<double, 7>> ur10_frames(const std::array<double, 6>& q) {
+  constexpr double h = 1.5707963267949;  // the URDF's pi/2
+  const std::array<double, 3> origin[6] = {{0, 0, 0}, {0, 0, 0.1273}, {-0.612, 0, 0},
+                                           {-0.5723, 0, 0}, {0, 0, 0.163941}, {0, 0, 0.1157}};
+  const double alpha[6] = {0, h, 0, 0, h, -h};
+  std::vector<std::array<double, 7>> f = {{0, 0, 0, 0, 0, 0, 1}};
+  for (int j = 0; j < 6; ++j) {
+    const double a = std::sin(alpha[j] / 2), c = std::cos(alpha[j] / 2);  // Rx(alpha)
+    const double s = std::sin(q[j] / 2), d = std::cos(q[j] / 2);          // Rz(q)
+    f.push_back({origin[j][0], origin[j][1], origin[j][2], a * d, -a * s, c * s, c * d});  // Rx(alpha) Rz(q)
+  }
+  f.push_back({0, 0, 0.0922, 0, 0, 0, 1});
+  f.push_back({0, 0, 0, 0, 0, 0, 1});
+  return f;
+}
+
 // The example (examples/ros2/ur10_ros2.dca), run by dca on the mock UR10 in wall-clock time with its Deadline cut
-// to 2 s and its bridge on loopback: the Fast DDS program gets the six joints on /joint_states.
-TEST(Ros2Example, TheUr10sJointStatesReachAnotherVendor) {
+// to 8 s (the arm rests from 6 s) and its bridge on loopback: the Fast DDS program gets the six joints on
+// /joint_states, and a Cyclone participant of this process reads /joint_states and /tf: nine frames named by the
+// URDF's links, all stamped alike, and once the arm rests, each where the URDF puts it at the joints' positions.
+TEST(Ros2Example, TheUr10sJointStatesAndLinkFramesReachRos2) {
 #ifndef DCA_FASTDDS_PEER
   GTEST_SKIP() << "Fast DDS (Debian's libfastrtps-dev) was not found when this was built";
 #else
   dca::test::TempDir dir("ros2_example");
   const std::string file =
-      example_copy("ur10_ros2.dca", dir.path(), {{"Deadline(\"arm\", 60)", "Deadline(\"arm\", 2)"}});
+      example_copy("ur10_ros2.dca", dir.path(), {{"Deadline(\"arm\", 60)", "Deadline(\"arm\", 8)"}});
   ASSERT_FALSE(file.empty());
   Child peer({DCA_FASTDDS_PEER, test_domain(), "30"});
   ASSERT_FALSE(peer.line_with("ready").empty());
+  Participant ros(loopback());
+  const auto qos = *dca::ros2::qos_profile("default");
+  Endpoint js_reader = ros.reader("rt/joint_states", JointState::dds_name, JointState::type_hash, qos);
+  Endpoint tf_reader =
+      ros.reader("rt/tf", dca::msgs::TFMessage::dds_name, dca::msgs::TFMessage::type_hash, qos);
   Child run({DCA_TEST_EXE, "run", file, "--sim", "mock:" DCA_SOURCE_DIR "/worlds/ur10/ur10.urdf", "--realtime"});
-  EXPECT_EQ(peer.line_with("got "), "got  shoulder_pan_joint 6");
-  EXPECT_FALSE(run.line_with("main.bridge  stopped").empty()) << "the run ends by its Deadline";
+  auto js = std::make_unique<JointState>();
+  auto tf = std::make_unique<dca::msgs::TFMessage>();
+  std::size_t tf_count = 0, js_count = 0;
+  bool stamps_rise = true, stamped_alike = true;
+  std::int64_t last_stamp = -1;
+  std::string stopped;
+  for (const auto deadline = Clock::now() + std::chrono::seconds(60); stopped.empty() && Clock::now() < deadline;) {
+    stopped = run.line_with("main.bridge  stopped", std::chrono::milliseconds(50));
+    js_count += dca::ros2::take(js_reader, [&](std::span<const std::byte> cdr) { (void)dca::msgs::cdr_decode(cdr, *js); });
+    tf_count += dca::ros2::take(tf_reader, [&](std::span<const std::byte> cdr) {
+      if (!dca::msgs::cdr_decode(cdr, *tf) || tf->transforms.empty()) return;
+      const auto& s0 = tf->transforms[0].header.stamp;
+      const std::int64_t t = static_cast<std::int64_t>(s0.sec) * 1'000'000'000 + s0.nanosec;
+      stamps_rise = stamps_rise && t > last_stamp;
+      last_stamp = t;
+      for (const auto& tr : tf->transforms) stamped_alike = stamped_alike && tr.header.stamp == s0;
+    });
+  }
+  EXPECT_FALSE(stopped.empty()) << "the run ends by its Deadline";
+  EXPECT_EQ(peer.line_with("got "), "got  shoulder_pan_joint 6") << "Fast DDS decoded the bridge's JointState";
+  ASSERT_GT(js_count, 0u) << "no /joint_states";
+  ASSERT_GT(tf_count, 0u) << "no /tf";
+  EXPECT_TRUE(stamps_rise) << "each /tf message stamped later than the one before";
+  EXPECT_TRUE(stamped_alike) << "the frames of one message stamped alike";
+  EXPECT_GT(last_stamp, 0) << "stamped with the clock's time";
+  ASSERT_EQ(js->name.size(), 6u);
+  EXPECT_EQ(js->name[2].view(), "elbow_joint");
+  const char* links[] = {"world", "base_link", "shoulder_link", "upper_arm_link", "forearm_link", "wrist_1_link",
+                         "wrist_2_link", "wrist_3_link", "flange", "tool0"};
+  ASSERT_EQ(tf->transforms.size(), 9u);
+  std::array<double, 6> q{};
+  for (std::size_t j = 0; j < 6; ++j) q[j] = js->position[j];
+  EXPECT_NEAR(q[2], 1.5708, 1e-3) << "the last waypoint's elbow: the arm rests there";
+  const auto want = ur10_frames(q);
+  for (std::size_t i = 0; i < 9; ++i) {
+    const auto& tr = tf->transforms[i];
+    EXPECT_EQ(tr.header.frame_id.view(), links[i]) << "frame " << i;
+    EXPECT_EQ(tr.child_frame_id.view(), links[i + 1]) << "frame " << i;
+    const auto& p = tr.transform.translation;
+    const auto& r = tr.transform.rotation;
+    EXPECT_NEAR(p.x, want[i][0], 1e-9) << links[i + 1];
+    EXPECT_NEAR(p.y, want[i][1], 1e-9) << links[i + 1];
+    EXPECT_NEAR(p.z, want[i][2], 1e-9) << links[i + 1];
+    const double dot = r.x * want[i][3] + r.y * want[i][4] + r.z * want[i][5] + r.w * want[i][6];
+    EXPECT_NEAR(std::abs(dot), 1, 1e-9) << links[i + 1] << ": the same rotation (q or -q)";
+  }
 #endif
 }
 
-// The base example (examples/ros2/xr4000_ros2.dca), run by dca in the door world in wall-clock time for 3 s on
-// loopback: a Cyclone participant of this process publishes /cmd_vel and reads /odom and /tf; the base moves
-// forward.
+// The door example (examples/ros2/xr4000_ros2.dca), run by dca in the door world in wall-clock time for 3 s on
+// loopback: a Cyclone participant of this process publishes /cmd_vel and reads /odom, /tf and /joint_states; the
+// base moves forward, the arm's six joints are named and where the world starts them.
 TEST(Ros2Example, TheBaseObeysCmdVelAndPublishesOdom) {
   dca::test::TempDir dir("ros2_base");
   const std::string file = example_copy("xr4000_ros2.dca", dir.path(), {{"Timer(\"base\", 60)", "Timer(\"base\", 3)"}});
@@ -614,6 +720,7 @@ TEST(Ros2Example, TheBaseObeysCmdVelAndPublishesOdom) {
   Endpoint cmd = peer.writer("rt/cmd_vel", Twist::dds_name, Twist::type_hash, qos);
   Endpoint odom = peer.reader("rt/odom", dca::msgs::Odometry::dds_name, dca::msgs::Odometry::type_hash, qos);
   Endpoint tf = peer.reader("rt/tf", dca::msgs::TFMessage::dds_name, dca::msgs::TFMessage::type_hash, qos);
+  Endpoint joints = peer.reader("rt/joint_states", JointState::dds_name, JointState::type_hash, qos);
   Child run({DCA_TEST_EXE, "run", file, "--sim", "door", "--realtime"});
   Twist t;
   t.linear.x = 0.3;
@@ -638,6 +745,16 @@ TEST(Ros2Example, TheBaseObeysCmdVelAndPublishesOdom) {
       tf_frames = std::string(m->transforms[0].header.frame_id.view()) + " " +
                   std::string(m->transforms[0].child_frame_id.view());
   });
+  auto arm = std::make_unique<JointState>();
+  dca::ros2::take(joints, [&](std::span<const std::byte> cdr) { (void)dca::msgs::cdr_decode(cdr, *arm); });
+  ASSERT_EQ(arm->name.size(), 6u) << "/joint_states: the arm's six joints";
+  ASSERT_EQ(arm->position.size(), 6u);
+  const double start[6] = {0.1513, 0.711, -3.428, 0.1658, 1.151, 1.503};  // worlds/door/world.cpp's arm start
+  for (std::size_t j = 0; j < 6; ++j) {
+    EXPECT_EQ(arm->name[j].view(), "arm_joint_" + std::to_string(j + 1));
+    EXPECT_NEAR(arm->position[j], start[j], 0.05) << "the arm holds its start while the base drives";
+  }
+  EXPECT_GT(arm->header.stamp.sec + arm->header.stamp.nanosec, 0u) << "stamped with the clock's (simulated) time";
   EXPECT_GE(fastest, 0.1) << "the base never moved forward at /cmd_vel's 0.3 m/s";
   EXPECT_EQ(tf_frames, "odom base_link") << "/tf: odom -> base_link";
   EXPECT_EQ(frame, "odom base_link");
