@@ -118,7 +118,8 @@ class Child {
  public:
   explicit Child(std::vector<std::string> argv, std::vector<std::string> env = {}) {
     int in[2], out[2];
-    if (pipe(in) != 0 || pipe(out) != 0) throw std::runtime_error("pipe");
+    // (close-on-exec: the next child must not hold this one's stdin open)
+    if (pipe2(in, O_CLOEXEC) != 0 || pipe2(out, O_CLOEXEC) != 0) throw std::runtime_error("pipe");
     posix_spawn_file_actions_t fa;
     posix_spawn_file_actions_init(&fa);
     posix_spawn_file_actions_adddup2(&fa, in[0], 0);
@@ -148,6 +149,11 @@ class Child {
     close(out_);
   }
   bool started() const { return pid_ > 0; }
+  /// Closes the program's stdin (the peers of this test end then).
+  void close_input() {
+    close(stdin_);
+    stdin_ = -1;
+  }
   /// The next line that contains `what` (within `patience`), or "" at the deadline or the end of the output.
   std::string line_with(std::string_view what, std::chrono::milliseconds patience = kPatience) {
     const auto deadline = Clock::now() + patience;
@@ -427,12 +433,15 @@ TEST(Ros2Bridge, ExchangesMessagesWithFastDdsBothWays) {
 #endif
 }
 
-// An SROS2-like enclave made with openssl in `dir` (as `ros2 security create_enclave` makes one): one CA for
-// identities and permissions, the participant's certificate (CN=dca_bridge), governance (everything encrypted, no
-// unauthenticated participants) and permissions (every topic), both signed by the CA. False when openssl fails.
-bool make_enclave(const std::string& dir) {
+// An SROS2-like keystore made with openssl in `keystore` (as `ros2 security create_keystore` and
+// `create_enclave` make one): one CA for identities and permissions (its key stays in the keystore's root), and
+// per name N of `names` the enclave enclaves/dca/N: the CA's certificate as identity and permissions CA, the
+// participant's key and certificate (CN=dca_N), governance (everything encrypted, no unauthenticated
+// participants) and permissions (every topic, for CN=dca_N), both signed by the CA. False when openssl fails.
+bool make_keystore(const std::string& keystore, const std::vector<std::string>& names) {
   const std::string domains = "<domains><id_range><min>0</min><max>230</max></id_range></domains>";
-  std::ofstream(dir + "/governance.xml")
+  std::filesystem::create_directories(keystore);
+  std::ofstream(keystore + "/governance.xml")
       << "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<dds xmlns:xsi=\"http://www.w3.org/2001/XMLSchema-instance\">"
          "<domain_access_rules><domain_rule>"
       << domains
@@ -448,55 +457,76 @@ bool make_enclave(const std::string& dir) {
          "<metadata_protection_kind>ENCRYPT</metadata_protection_kind>"
          "<data_protection_kind>ENCRYPT</data_protection_kind></topic_rule></topic_access_rules></domain_rule>"
          "</domain_access_rules></dds>\n";
-  std::ofstream(dir + "/permissions.xml")
-      << "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<dds xmlns:xsi=\"http://www.w3.org/2001/XMLSchema-instance\">"
-         "<permissions><grant name=\"dca_bridge\">"
-         "<subject_name>CN=dca_bridge</subject_name><validity><not_before>2020-01-01T00:00:00</not_before>"
-         "<not_after>2100-01-01T00:00:00</not_after></validity><allow_rule>"
-      << domains
-      << "<publish><topics><topic>*</topic></topics></publish><subscribe><topics><topic>*</topic></topics>"
-         "</subscribe></allow_rule><default>DENY</default></grant></permissions></dds>\n";
-  const std::string cmd =
-      "cd '" + dir +
-      "' && exec >/dev/null 2>&1 && "
-      "openssl ecparam -name prime256v1 -genkey -noout -out ca.key.pem && "
-      "openssl req -x509 -new -key ca.key.pem -out identity_ca.cert.pem -days 3650 -subj /CN=dca_test_ca && "
-      "cp identity_ca.cert.pem permissions_ca.cert.pem && "
-      "openssl ecparam -name prime256v1 -genkey -noout -out key.pem && "
-      "openssl req -new -key key.pem -out cert.csr -subj /CN=dca_bridge && "
-      "openssl x509 -req -in cert.csr -CA identity_ca.cert.pem -CAkey ca.key.pem -CAcreateserial -out cert.pem "
-      "-days 3650 && "
-      "openssl smime -sign -in governance.xml -text -out governance.p7s -signer identity_ca.cert.pem "
-      "-inkey ca.key.pem && "
-      "openssl smime -sign -in permissions.xml -text -out permissions.p7s -signer identity_ca.cert.pem "
-      "-inkey ca.key.pem";
+  std::string cmd = "cd '" + keystore +
+                    "' && exec >/dev/null 2>&1 && "
+                    "openssl ecparam -name prime256v1 -genkey -noout -out ca.key.pem && "
+                    "openssl req -x509 -new -key ca.key.pem -out ca.cert.pem -days 3650 -subj /CN=dca_test_ca && "
+                    "openssl smime -sign -in governance.xml -text -out governance.p7s -signer ca.cert.pem "
+                    "-inkey ca.key.pem";
+  for (const std::string& n : names) {
+    const std::string e = "enclaves/dca/" + n;
+    std::filesystem::create_directories(keystore + "/" + e);
+    std::ofstream(keystore + "/" + e + "/permissions.xml")
+        << "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<dds "
+           "xmlns:xsi=\"http://www.w3.org/2001/XMLSchema-instance\"><permissions><grant name=\"dca_"
+        << n << "\"><subject_name>CN=dca_" << n
+        << "</subject_name><validity><not_before>2020-01-01T00:00:00</not_before>"
+           "<not_after>2100-01-01T00:00:00</not_after></validity><allow_rule>"
+        << domains
+        << "<publish><topics><topic>*</topic></topics></publish><subscribe><topics><topic>*</topic></topics>"
+           "</subscribe></allow_rule><default>DENY</default></grant></permissions></dds>\n";
+    cmd += " && cp ca.cert.pem " + e + "/identity_ca.cert.pem && cp ca.cert.pem " + e +
+           "/permissions_ca.cert.pem && cp governance.p7s " + e + "/ && cd " + e +
+           " && openssl ecparam -name prime256v1 -genkey -noout -out key.pem && "
+           "openssl req -new -key key.pem -out cert.csr -subj /CN=dca_" + n +
+           " && openssl x509 -req -in cert.csr -CA identity_ca.cert.pem -CAkey ../../../ca.key.pem -CAcreateserial "
+           "-out cert.pem -days 3650 && "
+           "openssl smime -sign -in permissions.xml -text -out permissions.p7s -signer identity_ca.cert.pem "
+           "-inkey ../../../ca.key.pem && cd ../../..";
+  }
   return std::system(cmd.c_str()) == 0;
 }
 
-// SROS2: the bridge in a secured domain (its `security` option: an enclave's directory) exchanges samples with a
-// participant of the same enclave.
-TEST(Ros2Bridge, InASecuredDomainItTalksToASecuredPeer) {
+// SROS2 across processes: the bridge in a secured domain (its `security` option: an enclave's directory)
+// exchanges samples both ways with a participant of another enclave of the same keystore in another process
+// (cyclone_peer.cpp); an unsecured participant in a third process, which has discovered the bridge's
+// participant, neither matches the bridge's writer nor gets a sample.
+TEST(Ros2Bridge, InASecuredDomainItTalksToASecuredPeerAndNotToAnUnauthenticatedOne) {
   dca::test::TempDir dir("ros2_security");
-  const std::string enclave = dir.path() + "/keystore/enclaves/dca/bridge";
-  std::filesystem::create_directories(enclave);
-  if (!make_enclave(enclave)) GTEST_SKIP() << "openssl could not make the enclave";
+  const std::string keystore = dir.path() + "/keystore";
+  if (!make_keystore(keystore, {"bridge", "peer"})) GTEST_SKIP() << "openssl could not make the keystore";
+  const std::string enclave = keystore + "/enclaves/dca/bridge";
   EXPECT_EQ(dca::ros2::enclave_of(enclave), "/dca/bridge");
-  ControllerUnderTest c("ros2_bridge", {"/joint_states sensor_msgs/msg/JointState pub", "dca_bridge", test_domain(),
-                                        "lo", "127.0.0.1", enclave});
+  ControllerUnderTest c("ros2_bridge", {"/joint_states sensor_msgs/msg/JointState pub; /cmd_vel "
+                                        "geometry_msgs/msg/Twist sub",
+                                        "dca_bridge", test_domain(), "lo", "127.0.0.1", enclave});
   c.start();
-  auto options = loopback();
-  options.security = enclave;
-  Participant peer(options);
-  Endpoint reader =
-      peer.reader("rt/joint_states", JointState::dds_name, JointState::type_hash, *dca::ros2::qos_profile("default"));
-  ASSERT_TRUE(matched(bridge_of(c).endpoint(0).handle, true));
+  Child stranger({DCA_CYCLONE_PEER, test_domain(), "60", "-"});
+  Child secured({DCA_CYCLONE_PEER, test_domain(), "60", keystore + "/enclaves/dca/peer"});
+  ASSERT_FALSE(stranger.line_with("ready").empty());
+  ASSERT_FALSE(secured.line_with("ready").empty());
+  ASSERT_FALSE(stranger.line_with("saw participant").empty()) << "the unsecured participant discovers the others";
+  ASSERT_TRUE(matched(bridge_of(c).endpoint(0).handle, true)) << "the secured peer's reader never matched";
   JointState js;
   js.header.frame_id.assign("secret");
-  c.set_message("PubJointState0", js);
-  c.step();
-  JointState got;
-  ASSERT_TRUE(take_one(reader, got));
-  EXPECT_EQ(got.header.frame_id.view(), "secret");
+  js.position.push_back(0.75);
+  for (int i = 0; i < 5; ++i) {  // five samples, each answered by the secured peer
+    c.set_message("PubJointState0", js);
+    c.step();
+    EXPECT_EQ(secured.line_with("got "), "got secret 1") << "sample " << i;
+    const auto deadline = Clock::now() + kPatience;
+    while (c.writes("SubTwist0") <= static_cast<std::uint64_t>(i) && Clock::now() < deadline) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(2));
+      c.step();
+    }
+    ASSERT_EQ(c.writes("SubTwist0"), static_cast<std::uint64_t>(i + 1)) << "the secured peer's answer " << i;
+  }
+  EXPECT_EQ(c.get_message<Twist>("SubTwist0").linear.x, 0.75);
+  dds_publication_matched_status_t st;
+  ASSERT_EQ(dds_get_publication_matched_status(bridge_of(c).endpoint(0).handle, &st), DDS_RETCODE_OK);
+  EXPECT_EQ(st.total_count, 1u) << "the secured peer's reader only";
+  stranger.close_input();
+  EXPECT_EQ(stranger.line_with("end got="), "end got=0") << "the unauthenticated participant read nothing";
 }
 
 TEST(JointStates, NamesTheJointsAndStampsTheirPositionsAndVelocities) {
