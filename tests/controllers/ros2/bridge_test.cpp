@@ -14,6 +14,7 @@
 #include <poll.h>
 #include <signal.h>
 #include <spawn.h>
+#include <sched.h>
 #include <sys/socket.h>
 #include <sys/un.h>
 #include <sys/wait.h>
@@ -394,16 +395,9 @@ TEST(Ros2Bridge, TsharkSeesItsTopicTypeQosAndTypeHashInSedp) {
   EXPECT_EQ(value(6), "0x00000000") << "VOLATILE (0): " << line;
 }
 
-// Another vendor: a Fast DDS program (fastdds_peer.cpp: its own type support, ROS 2's default QoS) in another
-// process gets the bridge's JointState and answers with a Twist that reaches the bridge's output.
-TEST(Ros2Bridge, ExchangesMessagesWithFastDdsBothWays) {
-#ifndef DCA_FASTDDS_PEER
-  GTEST_SKIP() << "Fast DDS (Debian's libfastrtps-dev) was not found when this was built";
-#else
-  ControllerUnderTest c("ros2_bridge", bridge_args("/joint_states sensor_msgs/msg/JointState pub;"
-                                                   "/cmd_vel geometry_msgs/msg/Twist sub"));
-  c.start();
-  Child peer({DCA_FASTDDS_PEER, test_domain(), "30"});
+// The bridge `c` (rows /joint_states pub, /cmd_vel sub) and the Fast DDS program `peer`: the program gets the
+// bridge's JointState and answers with a Twist that reaches the bridge's output.
+void exchange_with_fastdds(ControllerUnderTest& c, Child& peer) {
   ASSERT_TRUE(peer.started());
   ASSERT_FALSE(peer.line_with("ready").empty());
   ASSERT_TRUE(matched(bridge_of(c).endpoint(0).handle, true)) << "Fast DDS's reader never matched";
@@ -430,6 +424,87 @@ TEST(Ros2Bridge, ExchangesMessagesWithFastDdsBothWays) {
   EXPECT_EQ(t.linear.x, 0.25);
   EXPECT_EQ(t.angular.z, -0.5);
   EXPECT_EQ(bridge_of(c).refused(), 0u);
+}
+
+// Another vendor: a Fast DDS program (fastdds_peer.cpp: its own type support, ROS 2's default QoS) in another
+// process on loopback.
+TEST(Ros2Bridge, ExchangesMessagesWithFastDdsBothWays) {
+#ifndef DCA_FASTDDS_PEER
+  GTEST_SKIP() << "Fast DDS (Debian's libfastrtps-dev) was not found when this was built";
+#else
+  ControllerUnderTest c("ros2_bridge", bridge_args("/joint_states sensor_msgs/msg/JointState pub;"
+                                                   "/cmd_vel geometry_msgs/msg/Twist sub"));
+  c.start();
+  Child peer({DCA_FASTDDS_PEER, test_domain(), "30"});
+  exchange_with_fastdds(c, peer);
+#endif
+}
+
+// Two network namespaces joined by a veth pair, 10.217.0.1 (a) and 10.217.0.2 (b), named after this process;
+// enter_a() moves the calling thread (and the threads it makes after) into a. The destructor moves it back and
+// removes both (the veth pair with them).
+class NetnsPair {
+ public:
+  NetnsPair() : tag_(std::to_string(getpid())) {}
+  ~NetnsPair() {
+    if (home_ >= 0) {
+      setns(home_, CLONE_NEWNET);
+      close(home_);
+    }
+    if (made_) (void)std::system(("ip netns del " + a() + " 2>/dev/null; ip netns del " + b() + " 2>/dev/null").c_str());
+  }
+  NetnsPair(const NetnsPair&) = delete;
+  NetnsPair& operator=(const NetnsPair&) = delete;
+  std::string a() const { return "dr2a" + tag_; }
+  std::string b() const { return "dr2b" + tag_; }
+  std::string veth_a() const { return "dr2va" + tag_; }
+  /// Makes them: "" when done, else why not (for a skip).
+  std::string up() {
+    if (geteuid() != 0) return "network namespaces need root (uid " + std::to_string(geteuid()) + ")";
+    if (std::system(("ip netns add " + a() + " >/dev/null 2>&1").c_str()) != 0)
+      return "the kernel refuses a network namespace here (ip netns add " + a() + " failed)";
+    made_ = true;
+    const std::string va = veth_a(), vb = "dr2vb" + tag_;
+    const std::string cmd = "exec >/dev/null 2>&1; ip netns add " + b() + " && ip link add " + va +
+                            " type veth peer name " + vb + " && ip link set " + va + " netns " + a() +
+                            " && ip link set " + vb + " netns " + b() + " && ip -n " + a() +
+                            " addr add 10.217.0.1/24 dev " + va + " && ip -n " + b() + " addr add 10.217.0.2/24 dev " +
+                            vb + " && ip -n " + a() + " link set " + va + " up && ip -n " + b() + " link set " + vb +
+                            " up && ip -n " + a() + " link set lo up && ip -n " + b() + " link set lo up";
+    if (std::system(cmd.c_str()) != 0) return "the kernel refuses a veth pair between namespaces here";
+    return "";
+  }
+  bool enter_a() {
+    home_ = open("/proc/thread-self/ns/net", O_RDONLY | O_CLOEXEC);
+    const int fd = open(("/var/run/netns/" + a()).c_str(), O_RDONLY | O_CLOEXEC);
+    const bool ok = home_ >= 0 && fd >= 0 && setns(fd, CLONE_NEWNET) == 0;
+    if (fd >= 0) close(fd);
+    return ok;
+  }
+
+ private:
+  std::string tag_;
+  bool made_ = false;
+  int home_ = -1;
+};
+
+// Another vendor in another network namespace: the bridge in namespace a (its interface the veth there, its peer
+// b's address) and the Fast DDS program in namespace b (`ip netns exec`), across the veth pair. Run by the CTest
+// test netns.ros2_fastdds alone (DISABLED_ here: the netns tests share 10.217.0.0/24 and never run together).
+TEST(Ros2Netns, DISABLED_ExchangesMessagesWithFastDdsInAnotherNamespace) {
+#ifndef DCA_FASTDDS_PEER
+  GTEST_SKIP() << "Fast DDS (Debian's libfastrtps-dev) was not found when this was built";
+#else
+  const std::string domain = test_domain();  // claimed in this namespace, before leaving it
+  NetnsPair net;
+  if (const std::string why = net.up(); !why.empty()) GTEST_SKIP() << why;
+  ASSERT_TRUE(net.enter_a()) << "setns into " << net.a();
+  ControllerUnderTest c("ros2_bridge", {"/joint_states sensor_msgs/msg/JointState pub; /cmd_vel "
+                                        "geometry_msgs/msg/Twist sub",
+                                        "dca_bridge", domain, net.veth_a(), "10.217.0.2"});
+  c.start();
+  Child peer({"ip", "netns", "exec", net.b(), DCA_FASTDDS_PEER, domain, "30", "10.217.0.2", "10.217.0.1"});
+  exchange_with_fastdds(c, peer);
 #endif
 }
 
