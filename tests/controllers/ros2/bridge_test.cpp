@@ -1,5 +1,7 @@
 // The package ros2 (docs/ros2.md): ros2_bridge alone (dca/testing/controller.h) against DDS peers on loopback:
-// the table, samples both ways, the graph (ros_discovery_info), and the discovery traffic as tshark reads it.
+// the table, samples both ways, the graph (ros_discovery_info), the discovery traffic as tshark reads it, Fast DDS
+// (also in another network namespace), an SROS2-secured domain across processes; the package's other process
+// types alone; and the examples run by dca, read through the bridge.
 // Each test process claims a DDS domain id of its own (the port numbers follow from it), so parallel runs do not
 // meet.
 #include <dca/testing/controller.h>
@@ -490,7 +492,7 @@ class NetnsPair {
 
 // Another vendor in another network namespace: the bridge in namespace a (its interface the veth there, its peer
 // b's address) and the Fast DDS program in namespace b (`ip netns exec`), across the veth pair. Run by the CTest
-// test netns.ros2_fastdds alone (DISABLED_ here: the netns tests share 10.217.0.0/24 and never run together).
+// test netns.ros2_fastdds only (DISABLED_ here), which as a netns test never runs beside another.
 TEST(Ros2Netns, DISABLED_ExchangesMessagesWithFastDdsInAnotherNamespace) {
 #ifndef DCA_FASTDDS_PEER
   GTEST_SKIP() << "Fast DDS (Debian's libfastrtps-dev) was not found when this was built";
