@@ -252,6 +252,14 @@ TEST(Ros2Table, ABadRowIsRefusedNamingIt) {
                 .find("row 3 ('/c'): more than 2 sub rows"),
             std::string::npos);
   EXPECT_THROW(ControllerUnderTest("ros2_bridge", {"/a geometry_msgs/msg/Twist sub", "9node"}), std::invalid_argument);
+  // the interface and the peers go into Cyclone's XML: nothing but addresses (no markup of a configuration)
+  EXPECT_THROW(ControllerUnderTest("ros2_bridge", {"/a geometry_msgs/msg/Twist sub", "n", "0",
+                                                   "lo\"/></Interfaces></General><Tracing><OutputFile>/tmp/x"}),
+               std::invalid_argument);
+  EXPECT_THROW(ControllerUnderTest("ros2_bridge", {"/a geometry_msgs/msg/Twist sub", "n", "0", "", "1.2.3.4 <a>"}),
+               std::invalid_argument);
+  EXPECT_NO_THROW(ControllerUnderTest("ros2_bridge", {"/a geometry_msgs/msg/Twist sub", "n", "0", "eth0",
+                                                      "10.0.0.2 fe80::1 [::1] host-b.local"}));
 }
 
 TEST(Ros2Bridge, PublishesAnInputsSamplesAndWritesWhatItSubscribesTo) {
