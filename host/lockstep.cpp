@@ -47,7 +47,12 @@ void LockstepCore::set_leaves(const void* origin, std::vector<std::string> leave
 // remove when restarted), whose links start their counts afresh.
 void LockstepCore::hosts(Subscriber& s, std::vector<std::string> leaves) {
   for (const auto& l : leaves)
-    if (std::find(s.leaves.begin(), s.leaves.end(), l) == s.leaves.end()) forget(l);
+    if (std::find(s.leaves.begin(), s.leaves.end(), l) == s.leaves.end()) {
+      forget(l);
+      // its outputs count from zero, as a new process's would: the trace says nothing until it writes
+      const std::string prefix = l + ".";
+      std::erase_if(s.out, [&prefix](const auto& kv) { return kv.first.compare(0, prefix.size(), prefix) == 0; });
+    }
   s.leaves = std::move(leaves);
   clocked_stale_ = true;
 }

@@ -183,7 +183,9 @@ process main() {
 
 suite:case("a_crash_and_an_escalation_trigger_the_black_box", function()
   local dir = T.tmpdir()
-  local out, rc = robot_run(T.write(dir .. "/esc.dca", ESCALATES), "--record " .. dir .. "/box.mcap --blackbox 0.3,0.2")
+  -- one process per leaf: the crash ends crashy alone (in simulated time the default shares a host's node)
+  local out, rc = robot_run(T.write(dir .. "/esc.dca", ESCALATES),
+    "--placement process --record " .. dir .. "/box.mcap --blackbox 0.3,0.2")
   T.eq(rc, 1, "the run ends ABORTED:\n" .. out)
   T.contains(out, "box-1.mcap: main.crashy: exited: killed by SIGSEGV on host arm at 0.500 s, [0.200, 0.700] s")
   T.contains(out, "main.crashy: exited: killed by SIGSEGV on host arm at 1.000 s, [0.700, 1.200] s")
