@@ -181,6 +181,17 @@ process main() {
 }
 ]]
 
+-- Crash containment under the default placement in simulated time (`host`, docs/placement.md): the crash ends
+-- every leaf of the host's shared node, and the outcome names the leaf whose code crashed.
+suite:case("in_simulated_time_a_crash_ends_the_hosts_shared_node_and_names_the_leaf_that_crashed", function()
+  local dir = T.tmpdir()
+  local out, rc = robot_run(T.write(dir .. "/esc.dca", ESCALATES), "")
+  T.eq(rc, 1, "the run ends ABORTED:\n" .. out)
+  T.contains(out, "main: ABORTED at main.crashy: restart intensity 1 in 10 s exceeded; last: crashy killed by "
+    .. "SIGSEGV on host arm (shared node leaves:main@arm#")
+  T.ok(out:find("leaves:main@arm#%d+, 2 leaves; it crashed in main%.crashy%)") ~= nil, out)
+end)
+
 suite:case("a_crash_and_an_escalation_trigger_the_black_box", function()
   local dir = T.tmpdir()
   -- one process per leaf: the crash ends crashy alone (in simulated time the default shares a host's node)
