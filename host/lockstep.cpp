@@ -35,6 +35,7 @@ void LockstepCore::subscribe(const void* origin, std::string name, std::shared_p
   s.supervisor = supervisor;
   if (!supervisor) forget(s.name);
   subs_[next_sub_++] = std::move(s);
+  clocked_stale_ = true;
 }
 
 void LockstepCore::set_leaves(const void* origin, std::vector<std::string> leaves) {
@@ -46,8 +47,27 @@ void LockstepCore::set_leaves(const void* origin, std::vector<std::string> leave
 // remove when restarted), whose links start their counts afresh.
 void LockstepCore::hosts(Subscriber& s, std::vector<std::string> leaves) {
   for (const auto& l : leaves)
-    if (std::find(s.leaves.begin(), s.leaves.end(), l) == s.leaves.end()) forget(l);
+    if (std::find(s.leaves.begin(), s.leaves.end(), l) == s.leaves.end()) {
+      forget(l);
+      // its outputs count from zero, as a new process's would: the trace says nothing until it writes
+      const std::string prefix = l + ".";
+      std::erase_if(s.out, [&prefix](const auto& kv) { return kv.first.compare(0, prefix.size(), prefix) == 0; });
+    }
   s.leaves = std::move(leaves);
+  clocked_stale_ = true;
+}
+
+bool LockstepCore::clocked(const std::string& leaf) {
+  if (clocked_stale_) {
+    clocked_.clear();
+    for (const auto& [id, s] : subs_) {
+      if (s.supervisor) continue;
+      if (s.leaves.empty()) clocked_.insert(s.name);
+      else clocked_.insert(s.leaves.begin(), s.leaves.end());
+    }
+    clocked_stale_ = false;
+  }
+  return clocked_.count(leaf) != 0;
 }
 
 // A leaf (re)started in a new process or instance: the counts of every link into it (its inputs are new) or
@@ -99,6 +119,7 @@ void LockstepCore::unsubscribe(const void* origin) {
     if (it->second.supervisor) gone_received_ += it->second.received;
     gone_events_ += it->second.events;
     it = subs_.erase(it);
+    clocked_stale_ = true;
   }
 }
 
@@ -239,6 +260,7 @@ void LockstepCore::advance(const std::vector<std::uint64_t>& due, Nanos t) {
     }
     Value p = Value::map().set("t", t);
     if (auto e = expect_for(it->second); !e.as_map().empty()) p.set("expect", std::move(e));
+    if (hooks_.release) hooks_.release(it->second.leaves.empty() ? std::vector<std::string>{it->second.name} : it->second.leaves);
     if (opts_.trace) p.set("trace", true);
     it->second.link->request("advance", std::move(p),
                              [this, alive, id, t](const std::string& error, bool replied, const Value& reply) {
@@ -351,6 +373,7 @@ void LockstepCore::drop(std::uint64_t id, const std::string& why) {
   // its supervisor hears of its exit (and a restart replaces it)
   auto link = it->second.supervisor ? nullptr : it->second.link;
   subs_.erase(it);
+  clocked_stale_ = true;
   if (link) link->close("dropped from the clock: " + msg);
 }
 

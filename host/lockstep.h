@@ -59,6 +59,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -117,6 +118,9 @@ struct LockstepHooks {
   std::function<std::string(const wire::Value& expect)> take;
   /// The owner's outputs' digests ({out = [[port, count, digest, value]]}) for the trace.
   std::function<wire::Value()> digests;
+  /// Sends what the owner kept back for these components (Endpoint::set_hold), just before their node's
+  /// `advance` goes out: a node is sent its samples with its advance, one wake-up (empty: nothing kept back).
+  std::function<void(const std::vector<std::string>& leaves)> release;
   /// One line of the trace (with trace on): "t kind who what"; "" at the end of each tick's lines.
   std::function<void(const std::string& line)> trace;
   /// The owner's input `in` lost its writer, at the tick the writer's node is lost or a new instance of the
@@ -171,6 +175,9 @@ class LockstepCore {
   /// Simulated time (ns).
   Nanos now() const { return steps_ * period_; }
   bool running() const { return running_; }
+  /// True when component `leaf` is hosted by a node on this clock: the owner's samples to it may wait for
+  /// that node's next `advance` (hook `release`), which is when it takes them in.
+  bool clocked(const std::string& leaf);
   /// The clock's part of `status` (see the file comment).
   wire::Value status() const;
   /// The counts of `quiesce` so far: {events = {node = n}, lost = {leaf = n}}.
@@ -220,6 +227,8 @@ class LockstepCore {
   LockstepHooks hooks_;
   Nanos period_, sync_, idle_, duration_;
   std::map<std::uint64_t, Subscriber> subs_;  // by subscription order
+  std::set<std::string, std::less<>> clocked_;  // the components the node subscribers host (clocked())
+  bool clocked_stale_ = true;                   // subs_ or their leaves changed since clocked_ was made
   std::uint64_t next_sub_ = 1;
   std::vector<std::string> dropped_;
   long steps_ = 0;
@@ -279,6 +288,8 @@ class Lockstep {
   std::string take_owner() { return core_.take_owner(); }
   /// LockstepCore::note.
   void note(const std::string& text) { core_.note(text); }
+  /// LockstepCore::clocked.
+  bool clocked(const std::string& leaf) { return core_.clocked(leaf); }
   /// Called once when the duration is reached (time then holds).
   std::function<void()> on_duration;
   /// Called once, with why, when the channel that said `go` (the master: a run's root) has closed: time then

@@ -1088,6 +1088,12 @@ Value Node::Impl::digests() {
 Value Node::sent_changes() { return impl_->endpoint ? impl_->sent_changes() : Value::map(); }
 std::string Node::take_expected(const Value& expect) { return impl_->endpoint ? impl_->take_expected(expect) : ""; }
 Value Node::digests() { return impl_->endpoint ? impl_->digests() : Value::map(); }
+void Node::hold_sends(std::function<bool(const std::string& to)> hold) {
+  if (impl_->endpoint) impl_->endpoint->set_hold(std::move(hold));
+}
+void Node::release_sends(const std::vector<std::string>& to) {
+  if (impl_->endpoint) impl_->endpoint->release_held(to);
+}
 
 // A request to the process: on the clock master's channel, a shared node's own control channel, or passed on
 // from a leaf's channel (advance, exit).

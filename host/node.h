@@ -197,6 +197,10 @@ class Node {
   wire::Value sent_changes();
   std::string take_expected(const wire::Value& expect);
   wire::Value digests();
+  /// Endpoint::set_hold and Endpoint::release_held of its data endpoint (the world: its samples to a node go
+  /// with that node's advance).
+  void hold_sends(std::function<bool(const std::string& to)> hold);
+  void release_sends(const std::vector<std::string>& to);
 
   struct Impl;
 

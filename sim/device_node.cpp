@@ -112,6 +112,7 @@ struct DeviceNode::Impl {
   std::uint16_t outputs_channel = 0;     // /dca/world/outputs (record_outputs)
   std::string outputs_json;              // a message of it
   long record_every = 1, steps = 0;
+  bool holding = false;  // the node's endpoint holds back the samples to clocked nodes (publish)
   std::map<std::string, std::uint64_t> refused;  // a command input's samples refused from a second writer
   std::vector<std::string> second_writers;       // each (input, writer, holder) once: what was said
   std::vector<std::weak_ptr<Channel>> supervisors;  // the supervisors on the clock: told of each second writer
@@ -160,6 +161,7 @@ struct DeviceNode::Impl {
     h.publish = [this] { publish(); };
     h.sent = [this] { return node->sent_changes(); };
     h.take = [this](const Value& expect) { return node->take_expected(expect); };
+    h.release = [this](const std::vector<std::string>& leaves) { node->release_sends(leaves); };
     h.digests = [this] { return node->digests(); };
     h.writer_gone = [this](const std::string& in) {
       for (std::size_t i = 0; i < component->inputs.size(); ++i)
@@ -407,6 +409,10 @@ struct DeviceNode::Impl {
   }
 
   void publish() {
+    if (!holding) {  // the sensors to a node on the clock go with its next advance (docs/time.md)
+      holding = true;
+      node->hold_sends([this](const std::string& to) { return clock.clocked(to); });
+    }
     const auto& sensors = world.sensors();
     for (std::size_t i = 0; i < component->outputs.size(); ++i) {
       if (sensors[i].alias && component->outputs[i]->links() == 0) continue;  // nobody reads it

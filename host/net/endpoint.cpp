@@ -205,6 +205,29 @@ void Endpoint::set_gated(bool on) {
   for (auto& [key, g] : impl_->gates) g->gated = on;
 }
 
+void Endpoint::set_hold(std::function<bool(const std::string& to)> hold) { impl_->hold = std::move(hold); }
+
+void Endpoint::release_held(const std::vector<std::string>& to) {
+  if (impl_->holding.empty() || to.empty()) return;
+  std::vector<StreamLink*> links;
+  for (auto* l : impl_->holding)
+    if (std::find(to.begin(), to.end(), l->request().to) != to.end()) links.push_back(l);
+  std::vector<endpoint_detail::Trunk*> corked;
+  for (auto* l : links)
+    if (auto* t = l->trunk(); t && std::find(corked.begin(), corked.end(), t) == corked.end()) {
+      t->cork();
+      corked.push_back(t);
+    }
+  for (auto* l : links) l->release_held();
+  for (auto* t : corked) t->uncork();
+}
+
+std::size_t Endpoint::held() const {
+  std::size_t n = 0;
+  for (const auto* l : impl_->holding) n += l->held();
+  return n;
+}
+
 bool Endpoint::sending() const {
   for (const auto& t : impl_->trunks)
     if (!t->write_idle()) return true;

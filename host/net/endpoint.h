@@ -65,7 +65,7 @@ struct LinkInfo {
   Transport transport = Transport::InProcess;
   bool active = false;
   bool broken = false;
-  std::uint64_t sent = 0;     ///< samples handed to the transport
+  std::uint64_t sent = 0;     ///< samples handed to the transport (or kept back for it: Endpoint::set_hold)
   std::uint64_t skipped = 0;  ///< samples not sent while the set was inactive
   std::uint64_t tx_dropped = 0;  ///< samples dropped because the socket was backed up beyond its limit
   std::uint64_t bytes = 0;    ///< bytes of this link's frames handed to the socket (0 in-process)
@@ -137,6 +137,14 @@ class Endpoint {
   /// Lock-step delivery (docs/time.md, host/port.h LinkGate): with `on`, a sample pushed into this
   /// endpoint's inputs waits until release() counts it in. In-process and socket connections alike.
   void set_gated(bool on);
+  /// Lock-step, for the clock master's owner (docs/time.md, "Samples to due nodes only"): a sample pushed on a
+  /// socket connection whose destination component `hold` names is counted as sent but kept back, in order,
+  /// until release_held() names that destination (or a later sample of the link is sent at once). Empty: none.
+  void set_hold(std::function<bool(const std::string& to)> hold);
+  /// Sends what was kept back for the components `to`, each connection's in order, in one write per socket.
+  void release_held(const std::vector<std::string>& to);
+  /// The samples kept back now, over every connection.
+  std::size_t held() const;
   /// One push connection from this endpoint's outputs as the clock master counts it.
   struct SentCount {
     std::string to;   ///< the destination component

@@ -86,6 +86,7 @@ class Trunk;
 
 using endpoint_detail::Connection;
 using endpoint_detail::Socket;
+namespace endpoint_detail { class StreamLink; }
 
 struct Endpoint::Impl {
   Impl(asio::io_context& io_, std::string host_, EndpointOptions o)
@@ -110,6 +111,8 @@ struct Endpoint::Impl {
   std::uint64_t refused = 0;
   bool closing = false;
   bool gated = false;  // lock-step delivery (set_gated)
+  std::function<bool(const std::string& to)> hold;  // lock-step, the clock's owner: samples kept back (set_hold)
+  std::vector<endpoint_detail::StreamLink*> holding;  // the links with samples kept back
   std::map<std::string, std::unique_ptr<LinkGate>, std::less<>> gates;  // by link_key, never removed
 
   /// The gate of connection `key` (made on first use; a connection made again under the same name starts
@@ -355,11 +358,18 @@ class StreamLink final : public Connection {
   bool movable() const { return info_.sent == 0 && !info_.broken; }
   /// Continues on `to` (its hello goes there).
   void move_to(std::shared_ptr<Trunk> to);
+  /// The connection under this link (nullptr when down).
+  Trunk* trunk() const { return trunk_.get(); }
+  /// Lock-step: sends the samples kept back (Endpoint::set_hold), in order; they were counted as sent.
+  void release_held();
+  /// The samples kept back.
+  std::size_t held() const { return held_sizes_.size(); }
 
  private:
   void answer();
   bool oversized(Bytes b);
   void finish(const std::string& error);
+  void drop_held();
 
   Endpoint::Impl* ep_;
   asio::steady_timer timer_;
@@ -370,6 +380,8 @@ class StreamLink final : public Connection {
   bool connected_ = false;
   bool pending_ = false;
   bool oversize_reported_ = false;
+  std::vector<std::byte> held_;            // the samples kept back, one after another
+  std::vector<std::uint32_t> held_sizes_;  // their sizes, in order
 };
 
 // The receiving side of a link over a socket: feeds one local input with what its trunk receives for it.

@@ -88,6 +88,15 @@ void StreamLink::on_write(Bytes b) {
   }
   const Bytes sample = body(b);
   if (oversized(sample)) return;
+  if (ep_ && ep_->hold && ep_->hold(info_.request.to)) {  // kept back until its reader's node is advanced
+    if (held_sizes_.empty()) ep_->holding.push_back(this);
+    held_.insert(held_.end(), sample.begin(), sample.end());
+    held_sizes_.push_back(static_cast<std::uint32_t>(sample.size()));
+    ++info_.sent;
+    info_.bytes += data_frame::kHeader + sample.size();
+    return;
+  }
+  if (!held_sizes_.empty()) release_held();  // those kept back go first
   if (trunk_->send(Kind::Sample, id_, sample)) {
     ++info_.sent;
     info_.bytes += data_frame::kHeader + sample.size();
@@ -96,7 +105,24 @@ void StreamLink::on_write(Bytes b) {
   }
 }
 
+void StreamLink::release_held() {
+  std::size_t at = 0;
+  for (const auto n : held_sizes_) {
+    if (!trunk_ || !trunk_->send(Kind::Sample, id_, Bytes(held_.data() + at, n))) ++info_.tx_dropped;
+    at += n;
+  }
+  drop_held();
+}
+
+void StreamLink::drop_held() {
+  if (held_sizes_.empty()) return;
+  held_.clear();
+  held_sizes_.clear();
+  if (ep_) std::erase(ep_->holding, this);
+}
+
 void StreamLink::close() {
+  drop_held();
   Connection::close();
   ep_ = nullptr;
   timer_.cancel();

@@ -270,6 +270,40 @@ TEST_P(EndpointSocketTest, PushSamplesFlowOnlyWhileActiveAndSwitchingNeverReconn
   EXPECT_TRUE(dst_events.empty());
 }
 
+// Lock-step, the clock's owner (Endpoint::set_hold): samples to a held destination are counted as sent but kept
+// back, while a link to another destination on the same socket goes on; released, they arrive in order, and a
+// sample sent at once after some were kept back goes after them.
+TEST_P(EndpointSocketTest, HeldSamplesAreCountedAndSentInOrderWhenReleased) {
+  dca::PortSet other;
+  dca::Input& other_in = other.add_input(dca::vector_port("In", 8));
+  dst_ep->add_component("/other", other);
+  ASSERT_EQ(connect(*src_ep, req("/src", "Out", "/dst", "In", "s"), dst_ep->location()), "");
+  ASSERT_EQ(connect(*src_ep, req("/src", "Out", "/other", "In", "s"), dst_ep->location()), "");
+  src_ep->activate("s");
+  src_ep->set_hold([](const std::string& to) { return to == "/dst"; });
+  out->write(sample(1));
+  out->write(sample(2));
+  EXPECT_EQ(src_ep->held(), 2u);
+  for (const auto& c : src_ep->sent_counts()) EXPECT_EQ(c.sent, 2u) << c.key;  // counted as sent either way
+  ASSERT_TRUE(run_until(io, [&] { return other_in.queued() == 2; }));  // the same socket, after them
+  EXPECT_EQ(in->queued(), 0u);
+  src_ep->release_held({"/other"});  // nothing kept back for it
+  EXPECT_EQ(src_ep->held(), 2u);
+  src_ep->release_held({"/dst"});
+  EXPECT_EQ(src_ep->held(), 0u);
+  ASSERT_TRUE(run_until(io, [&] { return in->queued() == 2; }));
+  out->write(sample(3));  // kept back, then the hold ends: 4 goes at once, after 3
+  src_ep->set_hold(nullptr);
+  out->write(sample(4));
+  EXPECT_EQ(src_ep->held(), 0u);
+  ASSERT_TRUE(run_until(io, [&] { return in->queued() == 4; }));
+  for (double v : {1.0, 2.0, 3.0, 4.0}) {
+    ASSERT_TRUE(in->pop());
+    EXPECT_EQ(in->vector(), sample(v));
+  }
+  EXPECT_EQ(src_ep->links()[0].tx_dropped, 0u);
+}
+
 // A message port's samples (its type's CDR, docs/data-plane.md "Typed messages") cross the socket as they are,
 // and its type with them: another message type is refused at connect.
 TEST_P(EndpointSocketTest, MessageSamplesCrossTheSocketAndOnlyToTheirType) {

@@ -76,6 +76,11 @@ class LockstepTest : public ::testing::Test {
     };
     h.wall_now = [this] { return wall; };
     h.writer_gone = [this](const std::string& in) { gone.push_back(in + " before step " + std::to_string(steps)); };
+    h.release = [this](const std::vector<std::string>& leaves) {
+      std::string l;
+      for (const auto& x : leaves) l += (l.empty() ? "" : ",") + x;
+      released.push_back(l + " at " + std::to_string(core->now() / kMs) + " ms");
+    };
     core = std::make_unique<LockstepCore>(o, h);
     core->on_duration = [this] { ++durations; };
   }
@@ -99,6 +104,7 @@ class LockstepTest : public ::testing::Test {
   std::unique_ptr<LockstepCore> core;
   int steps = 0, publishes = 0, settles = 0, scheduled = 0, durations = 0;
   std::vector<std::string> gone;  // writer_gone: the owner's inputs that lost their writer, and when
+  std::vector<std::string> released;  // release: the leaves whose held samples went out, and when
   std::optional<Nanos> wall_due;
   Nanos wall = 5'000 * kMs;
   int origin_a = 0, origin_b = 0, origin_s = 0;
@@ -526,6 +532,31 @@ TEST_F(LockstepTest, TheOwnersInputsAreToldTheirWriterIsGone) {
 
 // A leaf added again to a shared node (remove, then add: a restart in the same process) is a new instance: its
 // links' counts start afresh, and its events go on counting from those of its old instance.
+// The owner's samples to a node on the clock wait for that node's advance (docs/time.md, "Samples to due nodes
+// only"): clocked() names the leaves the nodes host (a node's own name until it says which), and each advance
+// releases its node's leaves just before it goes out, so an idle node is sent nothing.
+TEST_F(LockstepTest, TheOwnersSamplesGoToANodeWithItsAdvanceOnly) {
+  make();
+  auto a = subscribe("/a", &origin_a);
+  auto n = subscribe("leaves:g@h#1", &origin_b);
+  EXPECT_TRUE(core->clocked("/a"));
+  EXPECT_TRUE(core->clocked("leaves:g@h#1"));
+  core->set_leaves(&origin_b, {"/r", "/x"});
+  EXPECT_TRUE(core->clocked("/r"));
+  EXPECT_FALSE(core->clocked("leaves:g@h#1"));
+  EXPECT_FALSE(core->clocked("tap:1"));  // no node of the clock: sent at once
+  core->go();
+  run_ticks(100);
+  EXPECT_EQ(released, (std::vector<std::string>{"/a at 10 ms", "/r,/x at 10 ms"}));
+  a->answer(12 * kMs);
+  n->answer(std::nullopt);
+  run_ticks(100);
+  EXPECT_EQ(released.back(), "/a at 12 ms");  // the idle shared node is not released
+  EXPECT_EQ(released.size(), 3u);
+  core->unsubscribe(&origin_a);
+  EXPECT_FALSE(core->clocked("/a"));
+}
+
 TEST_F(LockstepTest, ALeafAddedAgainToASharedNodeStartsAfresh) {
   make();
   using dca::wire::Value;

@@ -14,8 +14,9 @@ Opens a console on the supervisor of the group PATH (e.g. main.dooropensyst, loo
 --daemon or $DCA_DAEMON) or at the control address ADDR (127.0.0.1:PORT). Type help() for the commands;
 any other Lua runs inside the supervisor. Ctrl-D leaves the console; the system keeps running.
 restart(path) of a leaf starts its process anew from what is on disk now (rebuild a controller, then restart
-it) while the rest of the system runs. A leaf that shares its process (dca run --placement group|host) keeps
-the code that process loaded: its restart is refused when its package changed on disk.]]
+it) while the rest of the system runs. A leaf that shares its process (dca run --placement group|host; host is
+the default in simulated time) keeps the code that process loaded, or moves to a process of its own when its
+package changed on disk.]]
 
 local HISTORY = (os.getenv("HOME") or ".") .. "/.dca_history"
 

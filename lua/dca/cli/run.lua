@@ -33,11 +33,13 @@ per group as it comes up and one per process transition, and runs the root expre
   --set KEY=VALUE write KEY into the repository before the start, whatever it holds (repeatable)
   --state-dir DIR the local daemons keep their repositories in DIR/<host> and find them there next time
                   (default: a fresh directory for this run, removed at the end)
-  --placement P   where the leaves run: `process` (default) each in its own `dca node` process, so a crash
-                  ends that leaf only; `group` the leaves of one group on one host in one shared node;
-                  `host` every leaf on one host in one shared node. Leaves that share a node exchange
-                  samples in process and take one lock-step advance per tick; a crash of a shared node
-                  ends each of its leaves (ARCHITECTURE.md, "Placement"). The outcome is the same.
+  --placement P   where the leaves run: `process` (the default on the wall clock) each in its own `dca node`
+                  process, so a crash ends that leaf only; `group` the leaves of one group on one host in
+                  one shared node; `host` (the default with --sim or --replay) every leaf on one host in one
+                  shared node. Leaves that share a node exchange samples in process and take one lock-step
+                  advance per tick; a crash of a shared node ends each of its leaves; a restart of a leaf
+                  whose package changed on disk moves it to a process of its own (docs/placement.md). The
+                  outcome is the same.
   --sim WORLD     run in simulated time: FILE.dca's device ports checked against WORLD's signals (a world
                   plug-in's name, `dca sim --worlds`; ROBOT.urdf, mock:ROBOT.urdf: docs/robots.md; without
                   --sim, the default world's, as `dca check`), the daemons on the simulated clock, the world
@@ -224,6 +226,8 @@ local function parse_args(args)
   if o.replay then o.sim = "replay:" .. o.replay end
   local broken = rule_broken(o)
   if broken then return nil, "dca run: " .. broken end
+  -- in simulated time the leaves of a host share one node unless asked otherwise (docs/placement.md)
+  if o.sim and not o.placement then o.placement = "host" end
   o.record_outputs = o.record_ports and true or nil
   -- watched live, simulated time is paced to the wall clock (1x) unless asked otherwise (docs/time.md "Pace")
   if o.monitor and o.sim and not o.as_fast_as_possible then o.realtime = true end

@@ -30,7 +30,7 @@ restart(path)                 a group: abort its expression and start it again (
                                 effect); a leaf: start its process anew from what is on disk now (rebuilt
                                 code, config values), wired and running as before; nothing else stops. A
                                 leaf sharing its process (--placement group|host) keeps that process's
-                                code: refused, the leaf running on, when its package changed on disk. New
+                                code, or moves to a process of its own when its package changed on disk. New
                                 code whose ports misfit the connections is refused, never wired
 upgrade(file, opts)           roll a new build of a controller package (DIR/NAME.dca.so) to the hosts of its
                                 leaves, opts { canary = HOST, watch = SECONDS }: the canary first (default:

@@ -6,7 +6,8 @@
 -- looks the new process up by its path (NameServer) and opens a channel to its `control` endpoint.
 -- Exit events from a daemon and closed channels become child_exit(name, reason, lost) on the owning supervisor
 -- (lost: its host or channel was lost).
--- Placement (opts.placement, `dca run --placement`): "process" (default) starts each leaf as its own process;
+-- Placement (opts.placement, `dca run --placement`; its default is "host" in simulated time, docs/placement.md):
+-- "process" (nil too) starts each leaf as its own process;
 -- "group" places the leaves of this group on one host in one shared node (`dca node --shared`), "host" every
 -- leaf of the run on one host, whichever group it belongs to, in one shared node (host/node.h). A shared node
 -- is spawned through the daemon's shared spawn (the first asker starts it, the others join; host/daemon.h);
@@ -563,7 +564,9 @@ end
 -- Spawns the resolved `child` through its daemon `dc`, then reaches it (see _reach); a leaf under a shared
 -- placement is added to its shared node instead (spawned or joined once per name).
 function Net:_start(child, dc, cb)
-  local sname = child.kind == "leaf" and M.shared_name(self.opts.placement, child, self.sup and self.sup.path)
+  -- (a leaf moved out of its shared node when its package changed on disk, restart.lua, runs on its own)
+  local sname = child.kind == "leaf" and not child.own_process
+    and M.shared_name(self.opts.placement, child, self.sup and self.sup.path)
   if sname then
     local sh = self.shared[sname]
     if not sh then

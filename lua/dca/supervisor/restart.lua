@@ -64,11 +64,11 @@ function M.leaf(sup, name, cb)
   end)
 end
 
---- Whether leaf `ch` may start anew with the code on disk now, asked before anything of it stops. A leaf in a
---- shared node (`--placement group|host`) with other leaves starts anew in that same process, which cannot
---- replace a package it loaded: when the node says the leaf's package file changed since it loaded it, the
---- restart is refused naming the leaf, its process and what to do (the leaf runs on); else it goes on, with a
---- note that it reuses the process's code. A leaf alone in its node gets a fresh node (its supervisor lets go of
+--- How leaf `ch` starts anew, asked before anything of it stops. A leaf in a shared node (`--placement
+--- group|host`) with other leaves starts anew in that same process, which cannot replace a package it loaded:
+--- when the node says the leaf's package file changed since it loaded it, the leaf moves to a process of its
+--- own (`own_process`: net.lua), which loads the file as it is now; else it stays, with a note that it reuses
+--- the process's code. A leaf alone in its node gets a fresh node (its supervisor lets go of
 --- the old one), so it goes on, said too. cb(true[, note]) | cb(nil, reason)
 function M.code_check(sup, ch, cb)
   if (sup.placement or "process") == "process" then cb(true) return end
@@ -87,11 +87,12 @@ function M.code_check(sup, ch, cb)
       return
     end
     if info.changed then
-      cb(nil, sformat("restart of %s refused: package '%s' is not what its process loaded (%s); %s shares its "
-        .. "process with %d other lea%s in %s: a package loaded in a process cannot be replaced there; run the "
-        .. "system with --placement process to change code live (%s runs on with the code it had)", ch.path,
-        tostring(info.package), tostring(info.changed), ch.path, others, others == 1 and "f" or "ves", where,
-        ch.path))
+      -- a package loaded in a process cannot be replaced there: the leaf leaves the shared node for a process
+      -- of its own, which loads the file as it is on disk now (and stays its own at later restarts)
+      ch.spec.own_process = true
+      cb(true, sformat("moved out of %s (%d other lea%s) to a process of its own: package '%s' is not what that "
+        .. "process loaded (%s) and cannot be replaced there; it runs the code as it is on disk now", where, others,
+        others == 1 and "f" or "ves", tostring(info.package), tostring(info.changed)))
       return
     end
     cb(true, sformat("a fresh instance in %s, with the code that process loaded%s", where,

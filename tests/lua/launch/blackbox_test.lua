@@ -181,9 +181,22 @@ process main() {
 }
 ]]
 
+-- Crash containment under the default placement in simulated time (`host`, docs/placement.md): the crash ends
+-- every leaf of the host's shared node, and the outcome names the leaf whose code crashed.
+suite:case("in_simulated_time_a_crash_ends_the_hosts_shared_node_and_names_the_leaf_that_crashed", function()
+  local dir = T.tmpdir()
+  local out, rc = robot_run(T.write(dir .. "/esc.dca", ESCALATES), "")
+  T.eq(rc, 1, "the run ends ABORTED:\n" .. out)
+  T.contains(out, "main: ABORTED at main.crashy: restart intensity 1 in 10 s exceeded; last: crashy killed by "
+    .. "SIGSEGV on host arm (shared node leaves:main@arm#")
+  T.ok(out:find("leaves:main@arm#%d+, 2 leaves; it crashed in main%.crashy%)") ~= nil, out)
+end)
+
 suite:case("a_crash_and_an_escalation_trigger_the_black_box", function()
   local dir = T.tmpdir()
-  local out, rc = robot_run(T.write(dir .. "/esc.dca", ESCALATES), "--record " .. dir .. "/box.mcap --blackbox 0.3,0.2")
+  -- one process per leaf: the crash ends crashy alone (in simulated time the default shares a host's node)
+  local out, rc = robot_run(T.write(dir .. "/esc.dca", ESCALATES),
+    "--placement process --record " .. dir .. "/box.mcap --blackbox 0.3,0.2")
   T.eq(rc, 1, "the run ends ABORTED:\n" .. out)
   T.contains(out, "box-1.mcap: main.crashy: exited: killed by SIGSEGV on host arm at 0.500 s, [0.200, 0.700] s")
   T.contains(out, "main.crashy: exited: killed by SIGSEGV on host arm at 1.000 s, [0.700, 1.200] s")

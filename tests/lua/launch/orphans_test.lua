@@ -156,7 +156,8 @@ suite:case("kill_9_of_dca_run_on_hand_started_daemons_leaves_only_the_daemons", 
   local hosts_file = T.write(dir .. "/hosts", table.concat(lines, "\n") .. "\n")
   local out = T.tmpname(".out")
   local pid = assert(core.spawn({ "/usr/bin/env", "DCA_KEY_FILE=" .. key, dca, "run",
-    src .. "/worlds/door/systems/door_open.dca", "--sim", "door", "--hosts", hosts_file }, { stdout = out }))
+    src .. "/worlds/door/systems/door_open.dca", "--sim", "door", "--placement", "process", "--hosts", hosts_file },
+    { stdout = out }))
   local up = wait_until(function() return T.read(out):find("approach: running", 1, true) ~= nil end, 60)
   local of_run = {}
   for _, h in ipairs(names) do
