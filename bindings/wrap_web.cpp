@@ -15,6 +15,8 @@
 //                                                          -- topic stream = true)
 //   srv:robot(topic_id, { {parent, child}, ... }, urdf)  -- topic_id carries link frames (foxglove.FrameTransforms),
 //                                  -- and /robot_description the URDF (host/codec/frames.h) --> its id
+//   srv:history(id) --> '{"type":"history","topic":ID,"rows":[[t_s,v1,...],...]}' | nil: the topic's samples from its
+//                  first, bounded and decimated (host/web/sample_history.h), as JSON text for conn:send
 //   srv:stats()  srv:flush_samples() (the samples a rate held back, now)  srv:close()
 //   conn:send(text [, droppable])   conn:subscribe(topic_id, rate_per_s)   conn:close(reason)
 //   conn:id()  conn:is_open()  conn:peer()  conn:protocol()  conn:stats()
@@ -329,6 +331,21 @@ int srv_robot(lua_State* L) {
   return 1;
 }
 
+// srv:history(id) --> the page's message {"type":"history","topic":ID,"rows":[[t,v...],...]} as JSON text, or nil
+// (no sample yet)
+int srv_history(lua_State* L) {
+  web::Server& s = open_server(L);
+  const lua_Integer id = luaL_checkinteger(L, 2);
+  const SampleHistory* h = id > 0 && id < 0x100000000 ? s.samples().history(static_cast<std::uint32_t>(id)) : nullptr;
+  if (!h) {
+    lua_pushnil(L);
+    return 1;
+  }
+  const std::string text = "{\"type\":\"history\",\"topic\":" + std::to_string(id) + ",\"rows\":" + h->json_rows() + "}";
+  lua_pushlstring(L, text.data(), text.size());
+  return 1;
+}
+
 int srv_remove_topic(lua_State* L) {
   web::Server& s = open_server(L);
   s.samples().remove_topic(static_cast<std::uint32_t>(luaL_checkinteger(L, 2)));
@@ -535,6 +552,7 @@ void register_web(lua_State* L) {
       {"add_key_token", srv_add_key_token},
       {"page", srv_page},       {"protocol", srv_protocol}, {"topic", srv_topic},
       {"publish", srv_publish}, {"remove_topic", srv_remove_topic}, {"topics", srv_topics}, {"robot", srv_robot},
+      {"history", srv_history},
       {"stream_topic", srv_stream_topic}, {"publish_message", srv_publish_message},
       {"stats", srv_stats},     {"flush_samples", srv_flush_samples}, {"close", srv_close},   {nullptr, nullptr}};
   register_type(L, kServerMeta, srv_methods, {srv_gc, srv_close, srv_tostring});
