@@ -8,7 +8,8 @@
 //   srv:page("/", html, "text/html; charset=utf-8", true)    -- public (true) or with a token only (false)
 //   srv:protocol("dca.monitor.v1", { open = function(conn) end, message = function(conn, text, binary) end,
 //                                    close = function(conn, reason) end })
-//   local id = srv:topic("/world/door", { "door_angle", "handle_angle" })   -- live samples (host/sample_hub)
+//   local id = srv:topic("/world/door", { "door_angle", "handle_angle" } [, units])  -- live samples (host/sample_hub;
+//                                                   -- units: the manifest's text, "rad", the schema's description)
 //   srv:publish(id, t_seconds, { 0.1, 0.2 })   srv:remove_topic(id)   srv:topics()
 //   local ev = srv:stream_topic("/dca/events", "dca/events", schema)  -- a topic of JSON messages (host/sample_hub)
 //   srv:publish_message(ev, t_seconds, json_text) --> ok  (t < 0: now on the Unix epoch; srv:topics() marks such a
@@ -257,7 +258,8 @@ int srv_topic(lua_State* L) {
       lua_pop(L, 1);
     }
   }
-  lua_pushinteger(L, s.samples().add_topic(name, std::move(fields)));
+  const char* units = luaL_optstring(L, 4, "");
+  lua_pushinteger(L, s.samples().add_topic(name, std::move(fields), units));
   return 1;
 }
 

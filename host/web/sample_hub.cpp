@@ -4,7 +4,7 @@
 
 namespace dca {
 
-std::uint32_t SampleHub::add_topic(const std::string& name, std::vector<std::string> fields) {
+std::uint32_t SampleHub::add_topic(const std::string& name, std::vector<std::string> fields, std::string units) {
   auto it = by_name_.find(name);
   std::uint32_t id = it != by_name_.end() ? it->second : next_id_++;
   Topic& t = topics_[id];
@@ -12,6 +12,7 @@ std::uint32_t SampleHub::add_topic(const std::string& name, std::vector<std::str
   t.id = id;
   t.name = name;
   t.fields = std::move(fields);
+  t.units = std::move(units);
   by_name_[name] = id;
   const auto observers = observers_;  // an observer may remove itself
   for (Observer* o : observers) o->on_topic(t);

@@ -36,6 +36,9 @@ class SampleHub {
     std::uint32_t id = 0;
     std::string name;
     std::vector<std::string> fields;
+    /// Its values' units as its port's manifest writes them ("m/s, m/s, rad/s"; "" unknown): a Foxglove schema's
+    /// description of each number, as a recording's (tap::json_schema).
+    std::string units;
     std::uint64_t samples = 0;  ///< published so far
     /// Link frames (set_frames): each sample is a frames vector, 7 numbers per frame (host/codec/frames.h).
     std::vector<frames::Frame> frames;
@@ -59,7 +62,7 @@ class SampleHub {
   };
 
   /// A new topic (or the one of that name, its fields replaced). Returns its id (1, 2, ...), stable per name.
-  std::uint32_t add_topic(const std::string& name, std::vector<std::string> fields);
+  std::uint32_t add_topic(const std::string& name, std::vector<std::string> fields, std::string units = "");
   /// Makes topic `id` one of link frames (observers are told again, as of a new topic). False for an unknown id.
   bool set_frames(std::uint32_t id, std::vector<frames::Frame> frames);
   /// A topic of one fixed JSON message (e.g. the URDF on /robot_description, schema std_msgs/String).

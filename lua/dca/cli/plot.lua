@@ -10,9 +10,10 @@ M.summary = "draw a recording (`dca sim`/`dca run --record`) to a PNG with gnupl
 M.usage = [[usage: dca plot FILE.mcap|FILE.csv [-o FILE.png] [--signal PATTERN]... [--list] [--script FILE]
 
 Draws a recording made by `dca sim --record FILE` or `dca run ... --record FILE [--record-ports ...]` (MCAP or
-CSV) to a PNG (default: FILE.png) with gnuplot, one panel per topic. A signal is TOPIC.FIELD: the world's
-(/world/door.door_angle, /world/wrench.fx, ...) and the recorded ports' (/main/arm/pd/Out for a scalar,
-/main/arm/pd/Out[0] for a vector's first value, /main/arm/js/Joints.position[0] and .header.stamp.sec for a
+CSV) to a PNG (default: FILE.png) with gnuplot, one panel per topic. A signal is TOPIC[i] or TOPIC.FIELD: the
+world's (/world/door/angle[0], /world/wrist/wrench[0], ...; the groups of `dca sim`'s own recording:
+/world/door.door_angle) and the recorded ports' (/main/arm/pd/Out for a scalar, /main/arm/pd/Out[0] for a
+vector's first value, /main/arm/js/Joints.position[0] and .header.stamp.sec for a
 message port's fields, of either recording profile); a CSV's are its columns. The ports' and the world's sampled
 signals are drawn as steps (a value holds until the next sample); the run's steps (processes starting, from
 /dca/events) are marked with dashed lines and the processes' names.

@@ -60,7 +60,7 @@ function Live:_topics(list)
     local topic = M.topic_of(p.path)
     if p.type ~= "value" and not have[topic] then
       self.by_topic[topic] = p
-      self.srv:topic(topic, fields_of(p))
+      self.srv:topic(topic, fields_of(p), p.units)  -- (units: the schema's, as a recording's)
     end
   end
 end

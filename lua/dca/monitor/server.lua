@@ -139,7 +139,7 @@ function Mon:_topics()
   local out = {}
   for _, t in ipairs(self.srv:topics()) do  -- (not the streams of messages: the run's lines are the page's own)
     if not t.stream then
-      local units = self.topic_units and self.topic_units(t.name)
+      local units = self.topic_units and self.topic_units(t.name) or (self.world_units or {})[t.name]
       out[#out + 1] = { id = t.id, name = t.name, fields = t.fields, history = self.followed[t.id] or nil,
                         units = units and M.field_units(units, #(t.fields or {})) or nil }
     end
@@ -256,18 +256,24 @@ function Mon:_poll_world()
     if t == self.world_t then return end
     self.world_t = t
     self.world_topics = self.world_topics or {}
+    local fed = {}  -- topics a tap feeds (dca.launch.live: the world's signals): the status is not published there
+    for _, x in ipairs(srv:topics()) do fed[x.name] = x.id end
     for i, d in ipairs(require("dca.worlds").descriptor(self.o.world_spec).topics) do
       local values, fields = {}, d.fields
-      if d.array and not fields and type(r[d.array]) == "table" then
+      if fed[d.topic] and fed[d.topic] ~= self.world_topics[i] then fields = nil
+      elseif d.value then fields, values[1] = { "value[0]" }, tonumber(r[d.value]) or 0
+      elseif d.array and not fields and type(r[d.array]) == "table" then
         fields = {}  -- every item, named as a port's {"value": [...]} (and its recorded channel) names them
         for k = 1, #r[d.array] do fields[k] = "value[" .. (k - 1) .. "]" end
       end
-      for k, f in ipairs(fields or {}) do
+      for k, f in ipairs(d.value and {} or fields or {}) do
         local v = d.array and type(r[d.array]) == "table" and r[d.array][k] or r[f]
         values[k] = tonumber(v) or 0
       end
       if fields and (not d.array or type(r[d.array]) == "table") then
-        self.world_topics[i] = self.world_topics[i] or srv:topic(d.topic, fields)
+        self.world_topics[i] = self.world_topics[i] or srv:topic(d.topic, fields, d.units)
+        self.world_units = self.world_units or {}
+        self.world_units[d.topic] = d.units
         srv:publish(self.world_topics[i], t, values)
         self.followed[self.world_topics[i]] = true
       end
