@@ -26,6 +26,7 @@ void SampleHistory::add(std::int64_t t_ns, std::span<const double> values) {
     halve();
     index = index_of(t_ns);
   }
+  index = std::min(index, static_cast<std::int64_t>(max_) - 1);  // (the widest width: the last bucket takes the rest)
   if (!buckets_.empty()) index = std::max(index, buckets_.back().index);  // never before the last bucket
   if (buckets_.empty() || buckets_.back().index != index) buckets_.push_back(Bucket{index, t_ns, t_ns, 0, {}});
   Bucket& b = buckets_.back();

@@ -95,6 +95,19 @@ TEST(SampleHistory, AnyTimeFromAPeerIsTaken) {
   h.add(0, v);  // before the last one's: into the last bucket
   h.add(-5, w);
   EXPECT_LE(h.buckets(), 10u);
+  // times all over the range, at the widest width: still at most its buckets
+  dca::SampleHistory two(2);
+  two.add(0, v);
+  two.add(5000000000000000000, w);                       // the widest width's second bucket
+  two.add(std::numeric_limits<std::int64_t>::max(), w);  // past it
+  EXPECT_LE(two.buckets(), 2u);
+  std::uint64_t x = 88172645463325252ull;
+  for (int i = 0; i < 10000; ++i) {
+    x ^= x << 13, x ^= x >> 7, x ^= x << 17;  // xorshift64
+    two.add(static_cast<std::int64_t>(x), v);
+    ASSERT_LE(two.buckets(), 2u) << i;
+  }
+  EXPECT_LE(two.row_count(), 4u);
   const Rows rows = h.rows();
   ASSERT_FALSE(rows.empty());
   EXPECT_EQ(column_max(rows, 1), 2);
