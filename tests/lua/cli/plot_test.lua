@@ -27,8 +27,9 @@ suite:case("signals_chosen_by_pattern_are_drawn_as_steps_with_the_run_steps_mark
   local script = T.tmpname(".gnuplot")
   T.dca("plot " .. mcap .. " --signal '/main/*' --signal '/world/laser/*' --script " .. script, 0, script)
   local g, data = T.read(script), T.read(script .. ".dat")
-  T.contains(g, "index 0 using 1:2 with steps lw 1.5 title '/main/laser/Distance'")
-  T.contains(g, "index 1 using 1:2 with steps lw 1.5 title '/world/laser/range[0]'")
+  -- each with its unit from the recording's schema (the manifest's)
+  T.contains(g, "index 0 using 1:2 with steps lw 1.5 title '/main/laser/Distance (m)'")
+  T.contains(g, "index 1 using 1:2 with steps lw 1.5 title '/world/laser/range[0] (m)'")
   T.contains(g, "set multiplot layout 2,1")  -- a panel per topic
   T.contains(g, "set arrow from 0, graph 0 to 0, graph 1 nohead dt 2")
   -- one mark at 0 for the two processes starting then, named
@@ -47,9 +48,9 @@ suite:case("a_dca_run_recording_plots_the_door_by_default", function()
   local script = T.tmpname(".gnuplot")
   T.dca("plot " .. run_recording() .. " --script " .. script, 0)
   local g = T.read(script)
-  T.contains(g, "title '/world/door/angle[0]'")
-  T.contains(g, "title '/world/wrist/wrench[0]'")
-  T.contains(g, "title '/world/base/pose[1]'")
+  T.contains(g, "title '/world/door/angle[0] (rad)'")  -- the manifest's unit: radians, as the world has them
+  T.contains(g, "title '/world/wrist/wrench[0] (N, N m)'")
+  T.contains(g, "title '/world/base/pose[1] (m)'", "one unit per element: \"m, m, rad\"'s second")
   T.ok(not g:find("/world/arm/q", 1, true), "the door's signals by default:\n" .. g)
 end)
 
