@@ -2,7 +2,7 @@
 // FILE.mcap` replays a recording).
 //
 //   local rec, err = core.mcap_read("run.mcap")
-//   rec.channels[id] = { topic = "/world/door", schema = "/world/door", encoding = "json" }
+//   rec.channels[id] = { topic = "/world/door", schema = "/world/door", encoding = "json", schema_data = JSON_SCHEMA }
 //   rec.messages[i]  = { channel = id, t = log time in ns (integer), data = "{...}" }   -- in file order
 // A channel of the `ros2` profile (encoding "cdr", a ros2msg schema named as one of dca's message types,
 // e.g. "sensor_msgs/msg/JointState") has its messages decoded: data = {"value": {fields by name}}, the JSON a
@@ -92,7 +92,7 @@ int l_mcap_message_json(lua_State* L) {
   return 1;
 }
 
-// Pushes channels as { [id] = {topic, schema, encoding, decoded} } (decoded: a CDR channel of dca's types,
+// Pushes channels as { [id] = {topic, schema, encoding, schema_data, decoded} } (schema_data: the schema's text) (decoded: a CDR channel of dca's types,
 // whose messages come as their JSON).
 void push_channels(lua_State* L, const std::map<uint16_t, mcap::Contents::Channel>& channels) {
   lua_createtable(L, 0, static_cast<int>(channels.size()));
@@ -104,6 +104,8 @@ void push_channels(lua_State* L, const std::map<uint16_t, mcap::Contents::Channe
     lua_setfield(L, -2, "schema");
     lua_pushlstring(L, ch.message_encoding.data(), ch.message_encoding.size());
     lua_setfield(L, -2, "encoding");
+    lua_pushlstring(L, ch.schema.data(), ch.schema.size());
+    lua_setfield(L, -2, "schema_data");
     if (cdr_type(ch.message_encoding, ch.schema_encoding, ch.schema_name) != nullptr) {
       lua_pushboolean(L, 1);
       lua_setfield(L, -2, "decoded");

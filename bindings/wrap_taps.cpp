@@ -168,7 +168,7 @@ int tp_add(lua_State* L) {
       // again to every viewer
       if (server && *t != PortType::Value && *t != PortType::Message && !ud->topics.count(path)) {
         const auto* known = server->samples().find(topic);
-        ud->topics[path] = known ? known->id : server->samples().add_topic(topic, fields_of({path, *t, size, units, {}}));
+        ud->topics[path] = known ? known->id : server->samples().add_topic(topic, fields_of({path, *t, size, units, {}}), units);
       }
     }
     if (topic.empty()) std::snprintf(err, sizeof err, "tap %s: %s", path.c_str(), error.c_str());

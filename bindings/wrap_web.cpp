@@ -8,13 +8,16 @@
 //   srv:page("/", html, "text/html; charset=utf-8", true)    -- public (true) or with a token only (false)
 //   srv:protocol("dca.monitor.v1", { open = function(conn) end, message = function(conn, text, binary) end,
 //                                    close = function(conn, reason) end })
-//   local id = srv:topic("/world/door", { "door_angle", "handle_angle" })   -- live samples (host/sample_hub)
+//   local id = srv:topic("/world/door", { "door_angle", "handle_angle" } [, units])  -- live samples (host/sample_hub;
+//                                                   -- units: the manifest's text, "rad", the schema's description)
 //   srv:publish(id, t_seconds, { 0.1, 0.2 })   srv:remove_topic(id)   srv:topics()
 //   local ev = srv:stream_topic("/dca/events", "dca/events", schema)  -- a topic of JSON messages (host/sample_hub)
 //   srv:publish_message(ev, t_seconds, json_text) --> ok  (t < 0: now on the Unix epoch; srv:topics() marks such a
 //                                                          -- topic stream = true)
 //   srv:robot(topic_id, { {parent, child}, ... }, urdf)  -- topic_id carries link frames (foxglove.FrameTransforms),
 //                                  -- and /robot_description the URDF (host/codec/frames.h) --> its id
+//   srv:history(id) --> '{"type":"history","topic":ID,"rows":[[t_s,v1,...],...]}' | nil: the topic's samples from its
+//                  first, bounded and decimated (host/web/sample_history.h), as JSON text for conn:send
 //   srv:stats()  srv:flush_samples() (the samples a rate held back, now)  srv:close()
 //   conn:send(text [, droppable])   conn:subscribe(topic_id, rate_per_s)   conn:close(reason)
 //   conn:id()  conn:is_open()  conn:peer()  conn:protocol()  conn:stats()
@@ -255,7 +258,8 @@ int srv_topic(lua_State* L) {
       lua_pop(L, 1);
     }
   }
-  lua_pushinteger(L, s.samples().add_topic(name, std::move(fields)));
+  const char* units = luaL_optstring(L, 4, "");
+  lua_pushinteger(L, s.samples().add_topic(name, std::move(fields), units));
   return 1;
 }
 
@@ -326,6 +330,21 @@ int srv_robot(lua_State* L) {
   lua_pushinteger(L, s.samples().add_message_topic(frames::kDescriptionTopic, frames::kDescriptionSchemaName,
                                                    frames::description_schema(),
                                                    frames::description_message(std::string(urdf, len))));
+  return 1;
+}
+
+// srv:history(id) --> the page's message {"type":"history","topic":ID,"rows":[[t,v...],...]} as JSON text, or nil
+// (no sample yet)
+int srv_history(lua_State* L) {
+  web::Server& s = open_server(L);
+  const lua_Integer id = luaL_checkinteger(L, 2);
+  const SampleHistory* h = id > 0 && id < 0x100000000 ? s.samples().history(static_cast<std::uint32_t>(id)) : nullptr;
+  if (!h) {
+    lua_pushnil(L);
+    return 1;
+  }
+  const std::string text = "{\"type\":\"history\",\"topic\":" + std::to_string(id) + ",\"rows\":" + h->json_rows() + "}";
+  lua_pushlstring(L, text.data(), text.size());
   return 1;
 }
 
@@ -535,6 +554,7 @@ void register_web(lua_State* L) {
       {"add_key_token", srv_add_key_token},
       {"page", srv_page},       {"protocol", srv_protocol}, {"topic", srv_topic},
       {"publish", srv_publish}, {"remove_topic", srv_remove_topic}, {"topics", srv_topics}, {"robot", srv_robot},
+      {"history", srv_history},
       {"stream_topic", srv_stream_topic}, {"publish_message", srv_publish_message},
       {"stats", srv_stats},     {"flush_samples", srv_flush_samples}, {"close", srv_close},   {nullptr, nullptr}};
   register_type(L, kServerMeta, srv_methods, {srv_gc, srv_close, srv_tostring});

@@ -101,7 +101,7 @@ class DeviceWorld {
   }
   /// The robot's URDF text for viewers (/robot_description), "" when there is none.
   virtual std::string robot_description() const { return {}; }
-  /// A world with a recording of its own format (the door world's signal groups, and its CSV export): the
+  /// A world with a recording of its own format (the door world's CSV export): the
   /// Recorder for `path`, its channels added (nullptr: the generic recording, MCAP only, one channel per sensor
   /// signal). Throws std::runtime_error("FILE: reason") when it cannot be written.
   virtual std::unique_ptr<Recorder> own_recorder(const std::string& path) {

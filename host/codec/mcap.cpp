@@ -378,13 +378,17 @@ struct Parser {
   std::string* error;
   Limits limits;
   uint64_t total = 0;  // bytes decompressed so far
-  std::map<uint16_t, std::pair<std::string, std::string>> schemas;  // id -> name, encoding
+  struct Schema {
+    std::string name, encoding, data;
+  };
+  std::map<uint16_t, Schema> schemas;  // id -> its name, encoding and data
 
   bool schema(Cursor c) {
     uint64_t id;
-    std::string name, encoding;
-    if (!c.u(2, &id) || !c.str(&name) || !c.str(&encoding)) return fail(error, c.offset(), "truncated schema");
-    schemas[static_cast<uint16_t>(id)] = {name, encoding};
+    Schema s;
+    if (!c.u(2, &id) || !c.str(&s.name) || !c.str(&s.encoding)) return fail(error, c.offset(), "truncated schema");
+    if (!c.done() && !c.str(&s.data)) return fail(error, c.offset(), "truncated schema data");
+    schemas[static_cast<uint16_t>(id)] = std::move(s);
     return true;
   }
   bool channel(Cursor c) {
@@ -395,8 +399,9 @@ struct Parser {
     if (schema_id != 0) {
       auto s = schemas.find(static_cast<uint16_t>(schema_id));
       if (s == schemas.end()) return fail(error, c.offset(), "channel names an unknown schema");
-      ch.schema_name = s->second.first;
-      ch.schema_encoding = s->second.second;
+      ch.schema_name = s->second.name;
+      ch.schema_encoding = s->second.encoding;
+      ch.schema = s->second.data;
     }
     out->channels[static_cast<uint16_t>(id)] = ch;
     return true;

@@ -108,6 +108,7 @@ uint32_t crc32(std::string_view bytes, uint32_t crc = 0);
 struct Contents {
   struct Channel {
     std::string topic, message_encoding, schema_name, schema_encoding;
+    std::string schema;  ///< the schema's data (a JSON Schema's text, a ros2msg definition); "" when absent
   };
   struct Message {
     uint16_t channel;

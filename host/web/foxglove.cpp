@@ -38,9 +38,11 @@ std::vector<Field> layout(const SampleHub::Topic& t) {
 
 }  // namespace
 
+// (a topic's name without its leading '/', as a recording names its channel's schema: sim/recorder.h add_channel)
 std::string schema_name_of(const SampleHub::Topic& topic) {
   if (!topic.schema_name.empty()) return topic.schema_name;
-  return topic.frames.empty() ? topic.name : frames::kSchemaName;
+  if (!topic.frames.empty()) return frames::kSchemaName;
+  return topic.name.size() > 1 && topic.name[0] == '/' ? topic.name.substr(1) : topic.name;
 }
 
 std::string schema_of(const SampleHub::Topic& topic) {
@@ -49,15 +51,22 @@ std::string schema_of(const SampleHub::Topic& topic) {
   std::string s = "{\"type\":\"object\",\"title\":";
   json::append_string(s, topic.name);
   s += ",\"properties\":{";
+  // a number, described by the units when known (as a port's recorded channel: tap::json_schema)
+  std::string num = "{\"type\":\"number\"";
+  if (!topic.units.empty()) {
+    num += ",\"description\":";
+    json::append_string(num, topic.units);
+  }
+  num += '}';
   bool first = true;
   for (const auto& f : layout(topic)) {
     if (!first) s += ',';
     first = false;
     json::append_string(s, f.name);
     if (!f.array) {
-      s += ":{\"type\":\"number\"}";
+      s += ':' + num;
     } else {
-      s += ":{\"type\":\"array\",\"items\":{\"type\":\"number\"}";
+      s += ":{\"type\":\"array\",\"items\":" + num;
       if (f.count) s += ",\"minItems\":" + std::to_string(f.count) + ",\"maxItems\":" + std::to_string(f.count);
       s += '}';
     }

@@ -4,13 +4,15 @@
 
 namespace dca {
 
-std::uint32_t SampleHub::add_topic(const std::string& name, std::vector<std::string> fields) {
+std::uint32_t SampleHub::add_topic(const std::string& name, std::vector<std::string> fields, std::string units) {
   auto it = by_name_.find(name);
   std::uint32_t id = it != by_name_.end() ? it->second : next_id_++;
   Topic& t = topics_[id];
+  if (t.fields != fields) histories_.erase(id);
   t.id = id;
   t.name = name;
   t.fields = std::move(fields);
+  t.units = std::move(units);
   by_name_[name] = id;
   const auto observers = observers_;  // an observer may remove itself
   for (Observer* o : observers) o->on_topic(t);
@@ -62,6 +64,7 @@ void SampleHub::remove_topic(std::uint32_t id) {
   if (it == topics_.end()) return;
   by_name_.erase(it->second.name);
   topics_.erase(it);
+  histories_.erase(id);
   const auto observers = observers_;
   for (Observer* o : observers) o->on_topic_removed(id);
 }
@@ -70,6 +73,7 @@ bool SampleHub::publish(std::uint32_t id, std::int64_t t_ns, std::span<const dou
   auto it = topics_.find(id);
   if (it == topics_.end()) return false;
   it->second.samples++;
+  if (history_buckets_ > 0 && it->second.frames.empty()) histories_.try_emplace(id, history_buckets_).first->second.add(t_ns, values);
   const auto observers = observers_;
   for (Observer* o : observers) o->on_sample(it->second, t_ns, values);
   return true;
@@ -78,6 +82,11 @@ bool SampleHub::publish(std::uint32_t id, std::int64_t t_ns, std::span<const dou
 const SampleHub::Topic* SampleHub::topic(std::uint32_t id) const {
   auto it = topics_.find(id);
   return it == topics_.end() ? nullptr : &it->second;
+}
+
+const SampleHistory* SampleHub::history(std::uint32_t id) const {
+  auto it = histories_.find(id);
+  return it == histories_.end() ? nullptr : &it->second;
 }
 
 const SampleHub::Topic* SampleHub::find(const std::string& name) const {

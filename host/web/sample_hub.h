@@ -11,6 +11,12 @@
 //   hub.remove_topic(id);                   // on_topic_removed
 //   auto ev = hub.add_stream_topic("/dca/events", "dca/events", schema);
 //   hub.publish_message(ev, t_ns, json);     // every observer's on_message_sample
+//   hub.history(id)                          // topic id's samples from its first, bounded and decimated
+//
+// History: the hub keeps every numeric topic's samples from its first in a SampleHistory
+// (host/web/sample_history.h: at most history_buckets() buckets, two rows each, extremes kept), so a viewer that
+// picks a topic late, or after the run's end, gets it from the start (the monitor's {"type":"history"}).
+// keep_history(0) keeps none. Made again with other fields, a topic's history starts again.
 #include <cstdint>
 #include <map>
 #include <span>
@@ -19,6 +25,7 @@
 #include <vector>
 
 #include "host/codec/frames.h"
+#include "host/web/sample_history.h"
 
 namespace dca {
 
@@ -29,6 +36,9 @@ class SampleHub {
     std::uint32_t id = 0;
     std::string name;
     std::vector<std::string> fields;
+    /// Its values' units as its port's manifest writes them ("m/s, m/s, rad/s"; "" unknown): a Foxglove schema's
+    /// description of each number, as a recording's (tap::json_schema).
+    std::string units;
     std::uint64_t samples = 0;  ///< published so far
     /// Link frames (set_frames): each sample is a frames vector, 7 numbers per frame (host/codec/frames.h).
     std::vector<frames::Frame> frames;
@@ -52,7 +62,7 @@ class SampleHub {
   };
 
   /// A new topic (or the one of that name, its fields replaced). Returns its id (1, 2, ...), stable per name.
-  std::uint32_t add_topic(const std::string& name, std::vector<std::string> fields);
+  std::uint32_t add_topic(const std::string& name, std::vector<std::string> fields, std::string units = "");
   /// Makes topic `id` one of link frames (observers are told again, as of a new topic). False for an unknown id.
   bool set_frames(std::uint32_t id, std::vector<frames::Frame> frames);
   /// A topic of one fixed JSON message (e.g. the URDF on /robot_description, schema std_msgs/String).
@@ -67,6 +77,11 @@ class SampleHub {
   void remove_topic(std::uint32_t id);
   /// Publishes a sample; false for an unknown topic.
   bool publish(std::uint32_t id, std::int64_t t_ns, std::span<const double> values);
+  /// Topic `id`'s history (nullptr: no sample yet, or none kept).
+  const SampleHistory* history(std::uint32_t id) const;
+  /// The buckets of each topic's history from now on (0: none kept; the default 500: at most 1,000 rows a topic).
+  void keep_history(std::size_t buckets) { history_buckets_ = buckets; }
+  std::size_t history_buckets() const { return history_buckets_; }
   /// The topic `id`, or nullptr.
   const Topic* topic(std::uint32_t id) const;
   /// The topic named `name`, or nullptr.
@@ -80,6 +95,8 @@ class SampleHub {
  private:
   std::map<std::uint32_t, Topic> topics_;
   std::map<std::string, std::uint32_t> by_name_;
+  std::map<std::uint32_t, SampleHistory> histories_;
+  std::size_t history_buckets_ = 500;
   std::vector<Observer*> observers_;
   std::uint32_t next_id_ = 1;
 };

@@ -6,8 +6,12 @@
 --     report = { leaves = fn(spec), head = fn(status), tail = fn(leaves, daemon, key, cb) },  -- the run's summary
 --     topics = { { topic = "/world/x", fields = { "a", "b" } },            -- live plots from the world's status:
 --                { topic = "/world/y", fields = { "x", "y" }, array = "k" }, -- fields a, b; or status.k's items;
---                { topic = "/world/z", array = "n" } }                       -- or all of status.n's items, as
+--                { topic = "/world/z", array = "n" },                        -- or all of status.n's items, as
 --                                                                           -- value[0], value[1], ...
+--                { topic = "/world/w", value = "m", units = "rad" } }        -- or status.m as value[0]; units:
+--                                                                           -- the world signal's (manifest)
+--     -- (a topic named as one of the world's signals is its live topic and recorded channel: the status is
+--     -- published there only when no tap feeds it, e.g. in a monitor attached to a running system)
 --     plot = { "/world/x.*", ... },   -- the signals `dca plot` draws by default (patterns as its --signal's)
 --   }
 --

@@ -1,11 +1,12 @@
 -- The cost of watching the door run live with Foxglove (BENCHMARKS.md format): `dca run door_open.dca
--- --sim door` without a monitor (the baseline), with `--monitor` and a Foxglove client subscribed to nothing,
--- to every port of the tree (22 live taps, "/main/..."), and to every channel (the world's signals too),
--- alternated A B C D, twice. The client is tests/foxglove/bench_client.mjs (@foxglove/ws-protocol, installed by
+-- --sim door` without a monitor (the baseline), with `--monitor` and a Foxglove client subscribed to nothing
+-- (with --monitor-taps picked: no tap at all; and by default, --monitor-taps all: every port and world signal
+-- tapped from the start into the server's history), to every port of the tree (22 live taps, "/main/..."), and to
+-- every channel (the world's signals too), alternated A B C D E, twice. The client is tests/foxglove/bench_client.mjs (@foxglove/ws-protocol, installed by
 -- scripts/setup); with a monitor, time starts once the taps are made (--monitor-wait), so run_rtf (simulated
 -- time over the wall time since time started) compares like with like.
 --
---   RESULT bench=door_foxglove variant=seedN_<plain|monitor_idle|ports|all> n=<lock-step rounds>
+--   RESULT bench=door_foxglove variant=seedN_<plain|monitor_untapped|monitor_idle|ports|all> n=<lock-step rounds>
 --          p50_us=.. p99_us=.. p999_us=.. max_us=.. (wall time per lock-step round)
 --          run_rtf=.. run_wall_s=.. sim_s=.. vs_plain=<run_rtf over the baseline's> channels=.. subscribed=..
 --          messages=.. msgs_per_sim_s=.. kb_per_sim_s=.. tap_taken=.. tap_dropped=.. (the live taps' inputs: a
@@ -24,13 +25,14 @@ local client = src .. "/tests/foxglove/bench_client.mjs"
 
 local VARIANTS = {
   { name = "plain" },
+  { name = "monitor_untapped", prefix = "", args = " --monitor-taps picked" },
   { name = "monitor_idle", prefix = "" },
   { name = "ports", prefix = "/main/" },
   { name = "all", prefix = "/" },
 }
 
 local function one(v, base)
-  local cmd = v.prefix and sformat("node %s %s %s '%s' --seed %d", client, exe, system, v.prefix, seed)
+  local cmd = v.prefix and sformat("node %s %s %s '%s' --seed %d%s", client, exe, system, v.prefix, seed, v.args or "")
     or sformat("%s run %s --sim door --seed %d", exe, system, seed)
   local out, code = run(cmd)
   local sim, run_wall = out:match("simulated ([%d.]+) s in [%d.]+ s of wall%-clock time %(([%d.]+) s since time started")
@@ -52,7 +54,7 @@ local function one(v, base)
 end
 
 for round = 1, 2 do
-  io.stderr:write(sformat("foxglove_live_bench: round %d: plain, monitor idle, ports, all channels\n", round))
+  io.stderr:write(sformat("foxglove_live_bench: round %d: plain, monitor untapped, monitor idle, ports, all channels\n", round))
   local base
   for _, v in ipairs(VARIANTS) do
     local rtf = one(v, base)

@@ -13,7 +13,8 @@ const [dca, system, prefix, ...args] = process.argv.slice(2);
 const run = spawn(dca, ["run", system, "--sim", "door", "--monitor", "--monitor-wait", "--as-fast-as-possible", ...args],
                   { stdio: ["ignore", "pipe", "pipe"] });
 let out = "", started = false, channels = 0, subscribed = 0, messages = 0, bytes = 0, page;
-const taps = () => (out.match(/live: tapped /g) ?? []).length;
+// (every tap made before time starts, --monitor-taps all: "live: tapped N of N ..." once, counted as all of them)
+const taps = () => (/live: tapped \d+ of \d+ ports/.test(out) ? Infinity : (out.match(/live: tapped /g) ?? []).length);
 const startTime = (url) => { page = new WebSocket(url, ["dca.monitor.v1"]); page.on("error", () => {}); };
 const connect = (url) => {
   const client = new FoxgloveClient({ ws: new WebSocket(url, [FoxgloveClient.SUPPORTED_SUBPROTOCOL]) });

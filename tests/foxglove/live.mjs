@@ -74,8 +74,8 @@ try {
   subscription = client.subscribe(cmd.id);
   check(channels.has(SIGNAL), `${SIGNAL} not advertised`);
   if (channels.has(SIGNAL)) doorSubscription = client.subscribe(channels.get(SIGNAL).id);
-  await said(/live: tapped main\.dooropensyst\.motionctrl\.xr4000\.Cmd/, 20000, "dca's tap of the port");
-  await said(/live: tapped world\.door\.angle/, 20000, "dca's tap of the world's door angle");
+  // every port and world signal is tapped before time starts (--monitor-taps all, the default)
+  await said(/live: tapped (\d+) of \1 ports and world signals from the start/, 20000, "dca's taps of every port");
 
   // time starts when a monitor page connects
   const page = new WebSocket(url, ["dca.monitor.v1"]);

@@ -10,6 +10,7 @@
 #include <boost/asio/io_context.hpp>
 
 #include "host/codec/json.h"
+#include "host/net/tap.h"
 
 namespace {
 
@@ -59,6 +60,14 @@ TEST(Foxglove, SchemasAndMessagesFollowTheTopicsFields) {
   EXPECT_EQ(dca::foxglove::schema_of(vec),
             "{\"type\":\"object\",\"title\":\"/main/a/Vel\",\"properties\":{\"value\":{\"type\":\"array\",\"items\":"
             "{\"type\":\"number\"},\"minItems\":2,\"maxItems\":2}}}");
+  // named and described as a recording's channel of the same port (tap::json_schema, sim/recorder.h)
+  EXPECT_EQ(dca::foxglove::schema_name_of(vec), "main/a/Vel");
+  vec.units = "m/s, rad/s";
+  const dca::PortSpec port{"a.Vel", dca::PortType::Vector, 2, "m/s, rad/s", {}};
+  EXPECT_EQ(dca::foxglove::schema_of(vec), dca::tap::json_schema("/main/a/Vel", port));
+  any.units = "m";
+  EXPECT_EQ(dca::foxglove::schema_of(any), dca::tap::json_schema("/main/a/X", {"a.X", dca::PortType::VectorX, 0, "m", {}}));
+  vec.units.clear();
   const double v[] = {1.5, -2};
   EXPECT_EQ(dca::foxglove::message_of(vec, 0, v), "{\"value\":[1.5,-2]}");
   EXPECT_EQ(dca::foxglove::message_of(door, 0, v), "{\"door_angle\":1.5,\"handle_angle\":-2}");

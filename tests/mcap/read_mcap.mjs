@@ -114,7 +114,8 @@ if (lines || !want) {
   check(stats?.messageCount === total, `statistics: ${stats?.messageCount} messages, read ${total}`);
 }
 if (lines) {
-  for (const topic of ["/world/arm", "/world/door"]) check((counts.get(topic) ?? 0n) > 0n, `no ${topic} messages`);
+  // (a dca run's world signals: one channel each, as live)
+  for (const topic of ["/world/arm/q", "/world/door/angle"]) check((counts.get(topic) ?? 0n) > 0n, `no ${topic} messages`);
   check(events.length === lines.length, `/dca/events: ${events.length} messages, the run printed ${lines.length} lines`);
   // in the order of their times (the indexed reader sorts by log time; equal times keep the run's order)
   const sorted = lines.map((l, i) => ({ ...l, i })).sort((a, b) => a.t - b.t || a.i - b.i);

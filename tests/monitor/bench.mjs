@@ -2,9 +2,9 @@
 // tests/bench/monitor_bench.lua:
 //   node bench.mjs rtf DCA SOURCE_DIR ROUNDS   the door run in simulated time, alternated (A B C A B C ...):
 //       A no monitor, B --monitor without a page, C --monitor with a headless WebSocket client reading everything
-//       (the snapshot, every delta, the samples of /world/door), C' the same also plotting a port (tapped: one more
+//       (the snapshot, every delta, the samples of /world/door/angle), C' the same also plotting a port (tapped: one more
 //       data link in lock-step, host/net/tap.h), D --monitor with a page in headless
-//       chromium (the tree, the expressions, the timeline and a live plot of /world/door; chromium's rendering
+//       chromium (the tree, the expressions, the timeline and a live plot of /world/door/angle; chromium's rendering
 //       shares the machine's cores with the run). rtf = 20.06 simulated s / the wall time from
 //       the root's first step running to its DONE, as both lines reach this script (the same measure for all).
 //   node bench.mjs big DCA SOURCE_DIR ROUNDS   the 1,000-leaf / 100-group system (supervisor_bench's generated
@@ -71,7 +71,7 @@ async function doorOnce(browser, variant) {
       const row = [...document.querySelectorAll('#plot-topics .ptopic')].find((r) => r.dataset.name === n);
       if (row) row.click();
       return !!row;
-    }, { timeout: 30000, polling: 20 }, '/world/door');
+    }, { timeout: 30000, polling: 20 }, '/world/door/angle');
   }
   let reader = null;
   if (variant.startsWith('ws_reader')) {
@@ -92,7 +92,7 @@ function read(url, port) {
   const u = new URL(url);
   const ws = new WebSocket(`ws://${u.host}/ws?token=${u.searchParams.get('token')}`, 'dca.monitor.v1');
   const st = { samples: 0, bytes: 0 };
-  const want = port ? ['/world/door', '/main/dooropensyst/motionctrl/redundancy/BaseVel'] : ['/world/door'];
+  const want = port ? ['/world/door/angle', '/main/dooropensyst/motionctrl/redundancy/BaseVel'] : ['/world/door/angle'];
   const subscribe = (topics) => {
     for (const t of Array.isArray(topics) ? topics : []) if (want.includes(t.name)) ws.send(JSON.stringify({ type: 'subscribe', topic: t.id, rate: 200 }));
   };

@@ -87,7 +87,7 @@ async function live(browser) {
     const hi = await until(page, () => document.querySelector(
       '.leaf.running[data-path="main.dooropensyst.distdetect"]') !== null, 10);
     check(hi, 'the expression view highlights the running step (distdetect)');
-    await pick(page, '/world/door');
+    await pick(page, '/world/door/angle');
     const ended = await until(page, (s) => document.querySelector(s)?.dataset.state === 'done', 30, sel);
     check(ended, 'distdetect is shown done when its step ends');
     const next = await until(page, () => document.querySelector('.leaf.running[data-path="main.dooropensyst.hit"]') !== null ||
@@ -95,7 +95,10 @@ async function live(browser) {
     check(next, 'the highlight moves to the next step (approach # hit)');
     const n = await until(page, () => Number(document.getElementById('plot').dataset.samples) >= 20 &&
       Number(document.getElementById('plot').dataset.samples), 20);
-    check(n >= 20, `the live plot of /world/door receives samples (${n})`);
+    check(n >= 20, `the live plot of /world/door/angle receives samples (${n})`);
+    // its unit as the world's manifest writes it (worlds/door/world.h: door.angle in rad), not degrees
+    const legend = await page.evaluate(() => document.getElementById('legend').textContent);
+    check(legend === 'door.angle[0] rad', `the door's angle in the manifest's unit (${legend})`);
     // a port: its samples tapped (taps, host/net/tap.h) into the server's live samples once the page subscribes
     const port = '/main/dooropensyst/motionctrl/redundancy/BaseVel';
     await pick(page, port);
@@ -169,10 +172,10 @@ async function attach(browser) {
     const ran = await until(page, (s) => document.querySelector(s)?.dataset.state === 'running', 30, sel);
     const ended = ran && await until(page, (s) => document.querySelector(s)?.dataset.state === 'done', 30, sel);
     check(ran && ended, 'the attached monitor follows the states (hit running, then done)');
-    await pick(page, '/world/door');
+    await pick(page, '/world/door/angle');
     const n = await until(page, () => Number(document.getElementById('plot').dataset.samples) >= 10 &&
       Number(document.getElementById('plot').dataset.samples), 20);
-    check(n >= 10, `the attached monitor plots the world's /world/door (${n} samples)`);
+    check(n >= 10, `the attached monitor plots the world's /world/door/angle (${n} samples)`);
     // a port: tapped (the root's console request `tap`) into the attached process's own tap point
     const port = '/main/dooropensyst/motionctrl/redundancy/BaseVel';
     await pick(page, port);
@@ -306,9 +309,9 @@ async function replay(browser) {
     check(early.distdetect === 'running' && late.distdetect === 'done',
       `the slider moves the view: distdetect ${early.distdetect} at 1 s, ${late.distdetect} at 15 s`);
     check(late.dooropen === 'running', `dooropen is running at 15 s (${late.dooropen})`);
-    await pick(page, '/world/door');
+    await pick(page, '/world/door/angle');
     const n = await until(page, () => Number(document.getElementById('plot').dataset.samples), 10);
-    check(n > 100, `the recorded /world/door signal is plotted (${n} samples)`);
+    check(n > 100, `the recorded /world/door/angle signal is plotted (${n} samples)`);
     const port = '/main/dooropensyst/motionctrl/redundancy/BaseVel';
     await pick(page, port);
     const k = await until(page, () => Number(document.getElementById('plot').dataset.samples) > 100 &&

@@ -2,7 +2,9 @@
 //   node plot.mjs live DCA_EXE SOURCE_DIR OUT_DIR     a small system on the mock UR10, watched live to its end
 //   node plot.mjs replay DCA_EXE SOURCE_DIR OUT_DIR   the same run recorded, then replayed (dca monitor FILE.mcap)
 // Live: time paused at once (the pace control), two ports chosen from the topic tree, then the run goes on to its
-// end (3 s at 1x); a world signal chosen late comes from the run's start (the server's history). After the end:
+// end (3 s at 1x); a world signal and a port chosen late come from the run's start (the server's history: every
+// port tapped from the start, --monitor-taps all), and a port never chosen is there from the start after the end.
+// After the end:
 // both series drawn with their names and units, a hover readout of a value and the timeline's cursor at the
 // same time, the wheel's zoom and a drag's pan change the x range, the filter, and a reason for a chosen signal
 // with no samples. Replay: the whole run drawn whatever the slider, the playhead at the slider's time, the
@@ -18,9 +20,11 @@ mkdirSync(out, { recursive: true });
 const system = join(out, 'plot_live.dca');
 writeFileSync(system, `process main() {
   instantiated_processes { one instof Constant("h1", 0.01, 1); scale instof Gain("h1", 2, 0.01);
-                           ramp instof Counter("h1", 0.01); stop instof Timer("h1", 20); }
+                           ramp instof Counter("h1", 0.01); two instof Constant("h1", 0.01, 3);
+                           idle instof Counter("h1", 0.01);
+                           stop instof Timer("h1", 20); }
   internal_connections(scale, feed) { one, Out -> scale, In; }
-  internal_event_actions { stop # (one, ramp, scale[feed]) }
+  internal_event_actions { stop # (one, ramp, two, scale[feed]) }
 }
 `);
 const world = `mock:${join(src, 'worlds/ur10/ur10.urdf')}`;
@@ -80,6 +84,15 @@ async function live(browser) {
       check(got && got[0] < 0.3, `${late}, chosen after 0.5 s, starts at the run's start (${got} s: the server's history)`);
       await clickIn(page, `#plot-topics .ptopic[data-name="${late}"]`);  // chosen no more
     } else check(false, 'a world signal /world/safety/... is offered');
+    // a port chosen late: from the run's start too (tapped from the start; the server's hub kept it)
+    await choose(page, '/main/two/Out');
+    const two = await until(page, () => {
+      const t = [...window.dcaPlotPanel.P.topics.values()].find((x) => x.name === '/main/two/Out');
+      return t && t.rows.length > 3 && [t.rows[0][0], t.rows[0][1], t.rows.length];
+    }, 20);
+    check(two && two[0] < 0.3 && two[1] === 3,
+      `/main/two/Out, chosen after ${t0 + 0.5} s, starts at the run's start with its value 3 (${two}: t, value, rows)`);
+    await clickIn(page, '#plot-topics .ptopic[data-name="/main/two/Out"]');  // chosen no more
     const n = await until(page, () => Number(document.getElementById('plot').dataset.samples) >= 40 &&
       Number(document.getElementById('plot').dataset.samples), 20);
     check(n, `the two ports' samples come (${n})`);
@@ -148,6 +161,10 @@ async function live(browser) {
     const [ns, as] = stale ? await rowsOf(page, stale) : [0, null];
     check(ns > 20 && as < 0.3, `${stale}, never chosen, is there after the end from the start (${ns} rows from ${as} s)`);
 
+    // a port never chosen while the run went (a world signal): sent at the end, there from the start to the end
+    const [nv, av, bv] = await rowsOf(page, '/world/joint/shoulder_pan_joint/velocity');
+    check(nv > 20 && av < 0.3 && bv > 19,
+      `/world/joint/shoulder_pan_joint/velocity, never chosen, is there after the end: ${nv} rows, ${av}..${bv} s`);
     // a port's unit from its manifest, beside its name
     await page.click('#plot-clear');
     await choose(page, '/world/joint/shoulder_pan_joint/velocity');
@@ -157,11 +174,11 @@ async function live(browser) {
 
     // a topic with no samples: a reason, not an empty box
     await page.click('#plot-clear');
-    await page.evaluate(() => { const f = document.getElementById('plot-filter'); f.value = 'ramp'; f.dispatchEvent(new Event('input')); });
-    await choose(page, '/main/ramp/Count');
+    await page.evaluate(() => { const f = document.getElementById('plot-filter'); f.value = 'idle'; f.dispatchEvent(new Event('input')); });
+    await choose(page, '/main/idle/Count');  // (a leaf the run never runs: its port never sends)
     await frames(page);
     d = await plotData(page);
-    check(/\/main\/ramp\/Count: no samples, and the run has ended/.test(d.reason), `a reason instead of an empty plot (${d.reason})`);
+    check(/\/main\/idle\/Count: no samples, and the run has ended/.test(d.reason), `a reason instead of an empty plot (${d.reason})`);
     await page.screenshot({ path: join(out, 'plot_reason.png'), fullPage: true });
   } finally {
     run.p.kill('SIGTERM');

@@ -121,7 +121,11 @@ std::vector<std::string> DoorDeviceWorld::summary() const {
   return {line};
 }
 
+// Its CSV export only: an MCAP recording is the generic one (sim/device_node.cpp), one channel per signal named
+// and shaped as its live topic (/world/arm/q {"value": [...]}), so one Foxglove layout serves a live run and its
+// recording.
 std::unique_ptr<Recorder> DoorDeviceWorld::own_recorder(const std::string& path) {
+  if (is_mcap(path)) return nullptr;
   auto r = std::make_unique<Recorder>(path, csv_header());
   recording_.emplace(*r);
   return r;

@@ -14,7 +14,8 @@
 // sample of the wrong size is ignored.
 // Status: door_angle, handle_angle, gripper_state, base_pose [x, y, yaw], base_vel, base_cmd and arm_cmd (what the
 // last step applied), arm_q, arm_qd, latched, grasping.
-// Recording: its own format (worlds/door/recording.h): the signal groups as MCAP, or CSV.
+// Recording: MCAP is the generic recording (one channel per signal, as live: /world/arm/q); a CSV name gives its own
+// export (worlds/door/recording.h, csv_header()).
 #include <cstdint>
 #include <memory>
 #include <optional>

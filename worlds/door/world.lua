@@ -5,7 +5,6 @@
 --       door opened to NN.N deg
 --       MotionControl period PATH: nominal 1.000 ms; sim n N p50 .. ms p99 .. ms max .. ms;
 --         wall n N p50 .. ms p99 .. ms p999 .. ms max .. ms        (one line)
---   topics: the door's and the base's state plotted live from the world's status (/world/door, /world/base).
 -- Its options (door_width, jammed, ...) are the C++ plug-in's (worlds/door/plugin.cpp; `dca sim --worlds`).
 local clients = require "dca.clients"
 local node = require "dca.clients.node"
@@ -88,10 +87,17 @@ end
 
 return {
   report = M,
+  -- the door's angles and the base's pose from the world's status, under the names and units of the world's own
+  -- signals (door.angle, ...: their live topics and recorded channels), where no tap feeds them (an attached
+  -- monitor; `dca run --monitor` taps them from the start)
   topics = {
-    { topic = "/world/door", fields = { "door_angle", "handle_angle" } },
-    { topic = "/world/base", fields = { "x", "y", "yaw" }, array = "base_pose" },
+    { topic = "/world/door/angle", value = "door_angle", units = "rad" },
+    { topic = "/world/door/handle_angle", value = "handle_angle", units = "rad" },
+    { topic = "/world/base/pose", array = "base_pose", units = "m, m, rad" },
   },
-  -- what `dca plot` draws of a recording by default: the door's angles, the wrist force, the base's position
-  plot = { "/world/door.*", "/world/wrench.f*", "/world/base.x", "/world/base.y" },
+  -- what `dca plot` draws of a recording by default: the door's angles, the wrist force, the base's position; as
+  -- `dca run` records them (one channel a signal, as live) and as `dca sim --record` does (its signal groups)
+  plot = { "/world/door/angle[0]", "/world/door/handle_angle[0]", "/world/wrist/wrench[0]", "/world/wrist/wrench[1]",
+           "/world/wrist/wrench[2]", "/world/base/pose[0]", "/world/base/pose[1]",
+           "/world/door.*", "/world/wrench.f*", "/world/base.x", "/world/base.y" },
 }

@@ -10,9 +10,10 @@ M.summary = "draw a recording (`dca sim`/`dca run --record`) to a PNG with gnupl
 M.usage = [[usage: dca plot FILE.mcap|FILE.csv [-o FILE.png] [--signal PATTERN]... [--list] [--script FILE]
 
 Draws a recording made by `dca sim --record FILE` or `dca run ... --record FILE [--record-ports ...]` (MCAP or
-CSV) to a PNG (default: FILE.png) with gnuplot, one panel per topic. A signal is TOPIC.FIELD: the world's
-(/world/door.door_angle, /world/wrench.fx, ...) and the recorded ports' (/main/arm/pd/Out for a scalar,
-/main/arm/pd/Out[0] for a vector's first value, /main/arm/js/Joints.position[0] and .header.stamp.sec for a
+CSV) to a PNG (default: FILE.png) with gnuplot, one panel per topic. A signal is TOPIC[i] or TOPIC.FIELD: the
+world's (/world/door/angle[0], /world/wrist/wrench[0], ...; the groups of `dca sim`'s own recording:
+/world/door.door_angle) and the recorded ports' (/main/arm/pd/Out for a scalar, /main/arm/pd/Out[0] for a
+vector's first value, /main/arm/js/Joints.position[0] and .header.stamp.sec for a
 message port's fields, of either recording profile); a CSV's are its columns. The ports' and the world's sampled
 signals are drawn as steps (a value holds until the next sample); the run's steps (processes starting, from
 /dca/events) are marked with dashed lines and the processes' names.
@@ -67,11 +68,39 @@ local function add_numbers(s, topic, name, t, x, depth)
   for _, k in ipairs(keys) do add_numbers(s, topic, name .. "." .. k, t, x[k], depth + 1) end
 end
 
+-- Each JSON channel's units, from its JSON Schema as a port's or world signal's recording writes it (tap::json_schema:
+-- the value's, or its items', description: "rad", "m/s, m/s, rad/s"). --> { [topic] = { text =, size = } }
+local function units_of(channels)
+  local core = require "dca.core"
+  local out = {}
+  for _, ch in pairs(channels) do
+    local ok, js = pcall(core.json_decode, ch.schema_data or "")
+    local v = ok and type(js) == "table" and type(js.properties) == "table" and js.properties.value
+    if type(v) == "table" then
+      local d = type(v.items) == "table" and v.items.description or v.description
+      if type(d) == "string" and d ~= "" then out[ch.topic] = { text = d, size = tonumber(v.maxItems) } end
+    end
+  end
+  return out
+end
+
+--- The unit of series `name` of `topic` given its topic's units `u`: the i-th of a list with one per element
+--- ("m/s, m/s, rad/s" for name[1]: "m/s"), else the whole text; nil when unknown.
+function M.unit_of(u, topic, name)
+  if not u then return nil end
+  local i = tonumber(name:sub(#topic + 1):match("^%[(%d+)%]$"))
+  local parts = {}
+  for p in (u.text .. ","):gmatch("%s*([^,]-)%s*,") do parts[#parts + 1] = p end
+  if i and u.size and u.size > 1 and #parts == u.size then return parts[i + 1] end
+  return u.text
+end
+
 local function read_mcap(file)
   local core = require "dca.core"
   local rec, err = core.mcap_read(file)
   if not rec then return nil, tostring(err) end
   local s = series_table()
+  s.units = units_of(rec.channels)
   for _, m in ipairs(rec.messages) do
     local ch = rec.channels[m.channel]
     local topic = ch and ch.topic
@@ -143,7 +172,8 @@ end
 local function q(s) return "'" .. tostring(s):gsub("'", "''") .. "'" end
 
 -- The data (one gnuplot index block per series) and the script that draws them to `png`.
-local function script_of(chosen, steps, data, png, title)
+local function script_of(chosen, steps, data, png, title, units)
+  units = units or {}
   local blocks = {}
   for i, e in ipairs(chosen) do
     local rows = { "# " .. e.name }
@@ -154,7 +184,8 @@ local function script_of(chosen, steps, data, png, title)
   for i, e in ipairs(chosen) do
     if not panels[e.topic] then panels[e.topic] = {} order[#order + 1] = e.topic end
     local p = panels[e.topic]
-    p[#p + 1] = { index = i - 1, name = e.name }
+    local unit = M.unit_of(units[e.topic], e.topic, e.name)  -- (from the recording's schema: the manifest's)
+    p[#p + 1] = { index = i - 1, name = unit and sformat("%s (%s)", e.name, unit) or e.name }
   end
   local lines = {
     sformat("set terminal pngcairo size 1200,%d noenhanced", math.max(400, 300 * #order)),
@@ -238,7 +269,7 @@ function M.main(argv)
   local png = o.out or (file:gsub("%.mcap$", ""):gsub("%.csv$", "") .. ".png")
   local script_path = o.script or (png .. ".gnuplot")
   local data_path = script_path .. ".dat"
-  local data, script = script_of(chosen, s.steps, data_path, png, file)
+  local data, script = script_of(chosen, s.steps, data_path, png, file, s.units)
   local ok, werr = write(data_path, data)
   if ok then ok, werr = write(script_path, script) end
   if not ok then os.remove(data_path) return fail(werr) end

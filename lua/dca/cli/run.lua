@@ -19,7 +19,7 @@ M.usage = [=[usage: dca run FILE.dca [--root NAME] [--hosts FILE] [--repl] [--wa
                     [--replay REC.mcap [--replay-ports PATTERN,...]]
                     [--blackbox SECONDS_BEFORE,SECONDS_AFTER[,MIB] [--blackbox-storm CLAMPS,SECONDS]]
                     [--driver 'TYPE(HOST, ARGS...)'] [--record FILE.mcap]
-                    [--monitor [ADDR] [--monitor-wait] [--as-fast-as-possible]]
+                    [--monitor [ADDR] [--monitor-wait] [--as-fast-as-possible] [--monitor-taps all|picked]]
 
 Checks FILE.dca (errors stop here, nothing is started), starts one local daemon per host name on 127.0.0.1
 (or uses the daemons named in --hosts, lines of "name address"), starts the supervisor tree, shows one line
@@ -108,7 +108,10 @@ per group as it comes up and one per process transition, and runs the root expre
                   address with its token: the tree, the expressions, the timeline, live plots, the
                   configuration; without the token the page shows nothing and changes nothing. The same
                   port speaks Foxglove's WebSocket protocol (printed: foxglove: ws://ADDR/?token=T): every
-                  port and world signal a channel, tapped when first subscribed to
+                  port and world signal a channel
+  --monitor-taps all|picked  with --monitor: every port and world signal tapped from the start, each kept
+                  from t = 0 (bounded and decimated) so a plot picked late, or after the end, shows the
+                  whole run (all, the default); or each tapped only when first picked or subscribed to
   --monitor-wait  with --sim: simulated time starts only once a monitor page is connected
   --as-fast-as-possible  with --monitor and --sim: simulated time runs as fast as the nodes allow. Without it,
                   --monitor paces simulated time to the wall clock (1x), so a run can be followed live; the
@@ -130,7 +133,7 @@ local OPTIONS = {
   ["--timeout"] = "number", ["--repl"] = "flag", ["--watch"] = "flag", ["--quiet"] = "flag",
   ["--config"] = "value", ["--no-config"] = "flag", ["--state-dir"] = "value", ["--set"] = "list:sets",
   ["--placement"] = "value", ["--trace"] = "value", ["--monitor"] = "flag", ["--monitor-wait"] = "flag",
-  ["--as-fast-as-possible"] = "flag",
+  ["--as-fast-as-possible"] = "flag", ["--monitor-taps"] = "value",
   ["--record-ports"] = "value", ["--driver"] = "value", ["--replay"] = "value",
   ["--blackbox"] = "value", ["--replay-ports"] = "value",
   ["--blackbox-storm"] = "value", ["--tick-timeout"] = "number",
@@ -202,6 +205,9 @@ local function rule_broken(o)
   if o.monitor_wait and not (o.monitor and o.sim) then return "--monitor-wait goes with --monitor and --sim WORLD" end
   if o.as_fast_as_possible and not (o.monitor and o.sim) then
     return "--as-fast-as-possible goes with --monitor and --sim WORLD (without --monitor time is unpaced already)"
+  end
+  if o.monitor_taps and not (o.monitor and (o.monitor_taps == "all" or o.monitor_taps == "picked")) then
+    return "--monitor-taps goes with --monitor and is all or picked, not '" .. tostring(o.monitor_taps) .. "'"
   end
   if o.as_fast_as_possible and o.realtime then return "--as-fast-as-possible and --realtime exclude each other" end
   if o.placement and not M.PLACEMENTS[o.placement] then

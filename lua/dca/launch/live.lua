@@ -1,7 +1,8 @@
 -- dca.launch.live: the live samples of a run for its viewers (ARCHITECTURE.md "Taps"): every output of the tree,
 -- and with --sim every signal of the world, is a topic of the monitor's server's live samples ("/main/door/hit/
--- Force", "/world/arm/q": the recordings' topics), tapped (host/tap.h) into a tap point of the root's process when
--- a viewer first subscribes to it. The server also speaks the Foxglove WebSocket protocol (core.foxglove), so
+-- Force", "/world/arm/q": the recordings' topics), tapped (host/tap.h) into a tap point of the root's process: all of
+-- them before time starts (tap_all; the server's hub keeps each from t = 0), or with --monitor-taps picked when a
+-- viewer first subscribes to it. The server also speaks the Foxglove WebSocket protocol (core.foxglove), so
 -- Foxglove and Lichtblick connect to ws://ADDR/?token=T and plot them; the monitor's page subscribes to the same
 -- topics (live:tap_topic). Foxglove's parameters (its Parameters panel) are the configuration repository's keys:
 -- getParameters reads them on the root's host, setParameters writes them as the monitor's config_set does (through
@@ -15,6 +16,8 @@
 --       o.key, o.root (the root's path); the ports from the root's `ports`, each tap asked of the root as a
 --       console request `tap {path, to}` (made through its tree: a restart makes it again), no world signals
 --   live:tap_topic(topic, cb)  -- the tap of that topic, made once: cb(true) | cb(nil, err)
+--   live:tap_all(k)            -- every port's and world signal's, before time starts (--monitor-taps all, the
+--                              -- default in M.start): the server's hub keeps each from t = 0
 --   live:tap_id(id, cb)        -- the same by the topic's id (the monitor's page subscribes by id)
 --   live:units(topic)          -- the units its port's manifest gives ("m/s, m/s, rad/s"), or nil
 --   live:retap(below)          -- the taps of the ports below(p) made again (their leaf was restarted)
@@ -57,7 +60,7 @@ function Live:_topics(list)
     local topic = M.topic_of(p.path)
     if p.type ~= "value" and not have[topic] then
       self.by_topic[topic] = p
-      self.srv:topic(topic, fields_of(p))
+      self.srv:topic(topic, fields_of(p), p.units)  -- (units: the schema's, as a recording's)
     end
   end
 end
@@ -83,7 +86,10 @@ function M.start(ctx, sup, srv, cb)
   self:_topics(taps.outputs(spec, sup.rt.types and sup.rt.types() or core.types()))
   self:_serve(daemon, ctx.key, "dca " .. spec.path, function(ok, err)
     if not ok then cb(nil, err) return end
-    self:_world_topics(cb)
+    self:_world_topics(function(wok, werr)
+      if not wok or ctx.o.monitor_taps == "picked" then cb(wok, werr) return end
+      self:tap_all(function() cb(true) end)
+    end)
   end)
   return self
 end
@@ -283,7 +289,7 @@ function Live:_send(leaf, msg, timeout, k)
   s.world:request(msg, timeout, function(r, err) k(r or { type = "error", reason = err }) end)
 end
 
-function Live:tap_topic(topic, cb)
+function Live:tap_topic(topic, cb, quiet)
   cb = cb or function(ok, err) if not ok then io.stderr:write("dca run: live tap ", tostring(topic), ": ", tostring(err), "\n") end end
   if self.streams and self.streams[topic] then cb(true) return end  -- the run's lines: published, never tapped
   local p = self.by_topic[topic]
@@ -296,11 +302,34 @@ function Live:tap_topic(topic, cb)
   local added, aerr = self.tp:add(p.path, p.type, p.size, p.units, 256, p.message)
   local function finish(ok, err)
     self.tapped[topic] = ok and true or nil
-    if ok then self.ctx.say(sformat("live: tapped %s (%s)", p.path, topic)) end
+    if ok and not quiet then self.ctx.say(sformat("live: tapped %s (%s)", p.path, topic)) end
     for _, w in ipairs(waiting) do w(ok, err) end
   end
   if not added then finish(nil, aerr) return end
   self.link(p, finish)
+end
+
+--- Every port's and world signal's tap (--monitor-taps all, the default), before time starts, so the server's hub
+--- keeps each from t = 0 (host/web/sample_history.h). Not the link frames (the 3D view's, at the page's rate) nor
+--- message ports (counted, never plotted). A tap that fails is said, the others go on. k() once all are made.
+function Live:tap_all(k)
+  local list = {}
+  for topic, p in pairs(self.by_topic) do
+    if p.type ~= "message" and not (self.robot and self.robot.topic == topic) then list[#list + 1] = topic end
+  end
+  table.sort(list)
+  local left, made = #list + 1, 0
+  local function one()
+    left = left - 1
+    if left > 0 then return end
+    self.ctx.say(sformat("live: tapped %d of %d ports and world signals from the start (--monitor-taps)", made, #list))
+    k()
+  end
+  for _, topic in ipairs(list) do self:tap_topic(topic, function(ok, err)
+    if ok then made = made + 1 else self.ctx.say(sformat("live: no tap of %s: %s", topic, tostring(err))) end
+    one()
+  end, true) end
+  one()
 end
 
 --- The units of topic `name`'s port, as its manifest writes them ("m/s, m/s, rad/s"), or nil.

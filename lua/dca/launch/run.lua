@@ -183,7 +183,7 @@ function Run:live_summary()
 end
 
 -- With --record FILE.mcap: the world closes the recording and says what it holds ("recorded FILE: N messages
--- on K channels (/world/arm n, ..., /main/door/hit/Out n), C chunks"). k() after.
+-- on K channels (/world/arm/q n, ..., /main/door/hit/Out n), C chunks"). k() after.
 function Run:end_recording(k)
   local s, file = self.ctx.sim, self.o.record
   if not (file and file:match("%.mcap$") and s.world:connected()) then k() return end

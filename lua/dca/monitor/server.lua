@@ -27,9 +27,11 @@
 --
 -- Protocol (JSON text messages). Server -> page: {type = "hello", mode, name, version}, {type = "snapshot",
 -- nodes, exprs, events, config, lines, topics, t}, {type = "delta", ...the same fields, only what changed},
--- coalesced every 50 ms; {type = "samples", topic, name, rows} (host/web); {type = "history", topic, rows} (a
--- topic the server keeps, dca.monitor.history: its rows from the start, before its samples); a topic is {id, name,
--- fields, units? (one per field, or one for all: mon.topic_units), history?}; {type = "reply", id, ok, text};
+-- coalesced every 50 ms; {type = "samples", topic, name, rows} (host/web); {type = "history", topic, rows} (every
+-- topic's rows from its first, bounded and decimated by the server's hub, host/web/sample_history.h: sent before its
+-- samples when a page subscribes, and at the run's end, mon:close(loop), of every topic the page did not subscribe
+-- to); a topic is {id, name, fields, units? (one per field, or one for all: mon.topic_units), history? (the world's
+-- status: the page follows it from the start)}; {type = "reply", id, ok, text};
 -- {type = "robot", urdf, frames, topic} (a URDF world's, at open or when known).
 -- Page -> server: {type = "subscribe", topic, rate}, {type = "command", id, cmd = "abort" | "restart" |
 -- "event" | "config_set" | "estop" | "release" | "clock" | "blackbox", path, kind, value, key, what, speed, why}. A
@@ -39,7 +41,6 @@
 -- more: nothing a page sends is evaluated as code (Lua evaluation needs the cluster key: dca repl).
 local core = require "dca.core"
 local model_mod = require "dca.monitor.model"
-local history_mod = require "dca.monitor.history"
 
 local M = {}
 
@@ -96,7 +97,7 @@ function M.start(o)
     if text then srv:page("/3d/node_modules/" .. f, text, "text/javascript; charset=utf-8", true) end
   end
   local self = setmetatable({ o = o, srv = srv, model = o.model or model_mod.new(o.root), pages = {}, page_waiters = {},
-                              commands = 0, errors = 0, robot_info = o.robot, history = {} }, Mon)
+                              commands = 0, errors = 0, robot_info = o.robot, followed = {} }, Mon)
   self.topics_seen = self:_topics_key(self:_topics())
   if o.series then
     self.series_by_id = {}
@@ -133,13 +134,13 @@ function M.field_units(text, n)
 end
 
 -- The live sample topics, for the page: with each field's unit when known (mon.topic_units(name) --> the port's
--- manifest text, set by whoever made the topics: dca.launch.live) and whether the server keeps its history.
+-- manifest text, set by whoever made the topics: dca.launch.live) and whether the page follows it from the start.
 function Mon:_topics()
   local out = {}
   for _, t in ipairs(self.srv:topics()) do  -- (not the streams of messages: the run's lines are the page's own)
     if not t.stream then
-      local units = self.topic_units and self.topic_units(t.name)
-      out[#out + 1] = { id = t.id, name = t.name, fields = t.fields, history = self.history[t.id] and true or nil,
+      local units = self.topic_units and self.topic_units(t.name) or (self.world_units or {})[t.name]
+      out[#out + 1] = { id = t.id, name = t.name, fields = t.fields, history = self.followed[t.id] or nil,
                         units = units and M.field_units(units, #(t.fields or {})) or nil }
     end
   end
@@ -153,7 +154,7 @@ end
 
 function Mon:_open(c)
   self:_flush()  -- what is pending goes to the pages already open: the snapshot holds it for this one
-  self.pages[c] = true
+  self.pages[c] = {}  -- the topics it subscribed to
   send(c, { type = "hello", mode = self.o.mode or "live", name = self.o.name or "", version = 1,
             blackbox = self.o.blackbox ~= nil or nil })
   local snap = self.model:snapshot()
@@ -255,22 +256,26 @@ function Mon:_poll_world()
     if t == self.world_t then return end
     self.world_t = t
     self.world_topics = self.world_topics or {}
+    local fed = {}  -- topics a tap feeds (dca.launch.live: the world's signals): the status is not published there
+    for _, x in ipairs(srv:topics()) do fed[x.name] = x.id end
     for i, d in ipairs(require("dca.worlds").descriptor(self.o.world_spec).topics) do
       local values, fields = {}, d.fields
-      if d.array and not fields and type(r[d.array]) == "table" then
+      if fed[d.topic] and fed[d.topic] ~= self.world_topics[i] then fields = nil
+      elseif d.value then fields, values[1] = { "value[0]" }, tonumber(r[d.value]) or 0
+      elseif d.array and not fields and type(r[d.array]) == "table" then
         fields = {}  -- every item, named as a port's {"value": [...]} (and its recorded channel) names them
         for k = 1, #r[d.array] do fields[k] = "value[" .. (k - 1) .. "]" end
       end
-      for k, f in ipairs(fields or {}) do
+      for k, f in ipairs(d.value and {} or fields or {}) do
         local v = d.array and type(r[d.array]) == "table" and r[d.array][k] or r[f]
         values[k] = tonumber(v) or 0
       end
       if fields and (not d.array or type(r[d.array]) == "table") then
-        self.world_topics[i] = self.world_topics[i] or srv:topic(d.topic, fields)
+        self.world_topics[i] = self.world_topics[i] or srv:topic(d.topic, fields, d.units)
+        self.world_units = self.world_units or {}
+        self.world_units[d.topic] = d.units
         srv:publish(self.world_topics[i], t, values)
-        local h = self.history[self.world_topics[i]] or history_mod.new()
-        self.history[self.world_topics[i]] = h
-        h:add(t, values)
+        self.followed[self.world_topics[i]] = true
       end
     end
   end)
@@ -374,8 +379,10 @@ function Mon:_message(c, text)
   elseif m.type == "subscribe" and topic_id(m.topic) then
     local id, rate = topic_id(m.topic), tonumber(m.rate) or 30
     if rate ~= rate or rate <= 0 then rate = 30 end  -- (NaN or none: the default)
-    -- a topic the server keeps (the world's status): its history from the start first, then its samples
-    if self.history[id] and rate > 0 then send(c, { type = "history", topic = id, rows = self.history[id]:rows() }) end
+    -- its history from its first sample (the server's hub keeps every topic's), then its samples
+    local h = self.srv:history(id)
+    if h then c:send(h) end
+    if self.pages[c] then self.pages[c][id] = true end
     c:subscribe(id, math.min(rate, 200))
     if self.on_subscribe then self.on_subscribe(id) end  -- a port's tap (dca.launch.live)
   elseif m.type == "subscribe" then
@@ -391,12 +398,25 @@ function Mon:_message(c, text)
   end
 end
 
+-- The run's end: every topic's history to each page that did not subscribe to it, so that after the end, with the
+-- server gone, a topic picked on the page shows the run from its start. Droppable: a page that cannot take them all
+-- (a system of thousands of ports) loses some, counted, rather than its connection.
+function Mon:_histories()
+  for c, subs in pairs(self.pages) do
+    for _, t in ipairs(self.srv:topics()) do
+      local h = not subs[t.id] and not t.stream and self.srv:history(t.id)
+      if h then c:send(h, true) end
+    end
+  end
+end
+
 --- Stops the timers and the server (the pages see the connection close). With `loop` (a loop that has stopped:
 --- the end of a run), what is pending is sent first and the loop runs until the pages have it (at most 1 s).
 function Mon:close(loop)
   if loop then
     self:_flush()
     self.srv:flush_samples()  -- each topic's last sample, held back by its rate: the plots reach the end
+    self:_histories()
     loop:run_until(function()
       for c in pairs(self.pages) do if c:is_open() and c:stats().queued_bytes > 0 then return false end end
       return true

@@ -15,7 +15,7 @@ local function run_recording()
 end
 
 suite:case("list_names_the_port_channels_the_world_signals_and_the_steps", function()
-  local out = T.dca("plot " .. run_recording() .. " --list", 0, "/world/door.door_angle  ", "/world/wrench.fx  ",
+  local out = T.dca("plot " .. run_recording() .. " --list", 0, "/world/door/angle[0]  ", "/world/wrist/wrench[0]  ",
                     "step 0.000 s  main.laser", "step 0.000 s  main.stop")
   local n = tonumber(out:match("/main/laser/Distance  (%d+) samples"))
   T.ok(n and n >= 40, "the port's samples over 0.5 s at the 10 ms period:\n" .. out)
@@ -25,10 +25,11 @@ end)
 suite:case("signals_chosen_by_pattern_are_drawn_as_steps_with_the_run_steps_marked", function()
   local mcap = run_recording()
   local script = T.tmpname(".gnuplot")
-  T.dca("plot " .. mcap .. " --signal '/main/*' --signal '/world/laser.*' --script " .. script, 0, script)
+  T.dca("plot " .. mcap .. " --signal '/main/*' --signal '/world/laser/*' --script " .. script, 0, script)
   local g, data = T.read(script), T.read(script .. ".dat")
-  T.contains(g, "index 0 using 1:2 with steps lw 1.5 title '/main/laser/Distance'")
-  T.contains(g, "index 1 using 1:2 with steps lw 1.5 title '/world/laser.range'")
+  -- each with its unit from the recording's schema (the manifest's)
+  T.contains(g, "index 0 using 1:2 with steps lw 1.5 title '/main/laser/Distance (m)'")
+  T.contains(g, "index 1 using 1:2 with steps lw 1.5 title '/world/laser/range[0] (m)'")
   T.contains(g, "set multiplot layout 2,1")  -- a panel per topic
   T.contains(g, "set arrow from 0, graph 0 to 0, graph 1 nohead dt 2")
   -- one mark at 0 for the two processes starting then, named
@@ -38,8 +39,19 @@ suite:case("signals_chosen_by_pattern_are_drawn_as_steps_with_the_run_steps_mark
   T.ok(not g:find("/world/arm", 1, true), "only the chosen signals:\n" .. g)
   -- the data: one block per signal, time and value
   T.ok(data:match("^# /main/laser/Distance\n[%d.e%-]+ [%d.e%-]+\n"), data:sub(1, 200))
-  T.contains(data, "\n\n\n# /world/laser.range\n0 ")
+  T.contains(data, "\n\n\n# /world/laser/range[0]\n0 ")
   T.dca("plot " .. mcap .. " --signal '/main/nothing*'", 1, "no signal matches '/main/nothing*' (--list lists them)")
+end)
+
+-- A dca run's recording holds the world's signals one channel each, as live: the door's by default all the same.
+suite:case("a_dca_run_recording_plots_the_door_by_default", function()
+  local script = T.tmpname(".gnuplot")
+  T.dca("plot " .. run_recording() .. " --script " .. script, 0)
+  local g = T.read(script)
+  T.contains(g, "title '/world/door/angle[0] (rad)'")  -- the manifest's unit: radians, as the world has them
+  T.contains(g, "title '/world/wrist/wrench[0] (N, N m)'")
+  T.contains(g, "title '/world/base/pose[1] (m)'", "one unit per element: \"m, m, rad\"'s second")
+  T.ok(not g:find("/world/arm/q", 1, true), "the door's signals by default:\n" .. g)
 end)
 
 suite:case("a_png_is_written_with_gnuplot", function()

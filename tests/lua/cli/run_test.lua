@@ -11,7 +11,9 @@ for _, c in ipairs({ { "world-opt jammed", "--seed and --world-opt go with --sim
                     { "record x.mcap --blackbox 1,1", "--blackbox goes with --sim WORLD" },
                     { "realtime", "--realtime goes with --sim WORLD" },
                     { "tick-timeout 5000", "--tick-timeout goes with --sim WORLD" },
-                    { "as-fast-as-possible", "--as-fast-as-possible goes with --monitor and --sim WORLD" } }) do
+                    { "as-fast-as-possible", "--as-fast-as-possible goes with --monitor and --sim WORLD" },
+                    { "monitor-taps all", "--monitor-taps goes with --monitor and is all or picked, not 'all'" },
+                    { "monitor --monitor-taps some", "--monitor-taps goes with --monitor and is all or picked, not 'some'" } }) do
   suite:case("run_" .. c[1]:gsub("[^%w]+", "_") .. "_needs_sim", function()
     local out, rc = T.sh(dca .. " run " .. src .. "/worlds/door/systems/door_open.dca --" .. c[1])
     T.eq(rc, 2, "exit code")

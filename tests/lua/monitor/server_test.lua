@@ -162,18 +162,18 @@ suite:case("the_worlds_clock_reaches_the_page_and_its_commands_are_clock_request
   mon:close()
 end)
 
--- The world's status topics are kept from the run's start (dca.monitor.history): a page that subscribes late gets
--- their rows first; a port's topic carries its units from the manifest, one per field when the text has one each.
+-- Every topic is kept from its first sample (the server's hub, host/web/sample_history.h): a page that subscribes
+-- late gets its rows first (the world's status, followed by the page from the start, and a port's alike); a port's topic carries its units from the manifest, one per field when the text has one each.
 suite:case("a_late_page_gets_the_worlds_signals_from_the_start_and_the_ports_units", function()
-  local d = require("dca.worlds").descriptor("door").topics[1]
+  local d = require("dca.worlds").descriptor("mock:arm.urdf").topics[1]  -- /world/safety/clamps
   local status = { running = true, speed = 1, stepping = false }
-  local mon = T.ok(server.start{ name = "main", root = "main", mode = "live", world_spec = "door",
+  local mon = T.ok(server.start{ name = "main", root = "main", mode = "live", world_spec = "mock:arm.urdf",
     world = function(_, cb) cb(status) end, request = function(_, cb) cb({ type = "ok", output = "" }) end })
   local early = page()
   mon:_open(early)  -- (the world is polled while a page is open)
   for k = 1, 50 do
     status.t = k * 0.01
-    for i, f in ipairs(d.fields) do status[f] = k + i end
+    status[d.array] = { k + 1, k + 2 }
     mon:_poll_world()
   end
   local port = mon.srv:topic("/main/b/Vel", { "value[0]", "value[1]", "value[2]" })
@@ -191,6 +191,21 @@ suite:case("a_late_page_gets_the_worlds_signals_from_the_start_and_the_ports_uni
   T.eq(#h.rows, 50, "every status so far")
   T.eq(h.rows[1], { 0.01, 2, 3 }, "from the first")
   T.eq(p.subs[w.id], 60, "then its samples")
+  for k = 1, 30 do mon.srv:publish(port, k * 0.01, { k, 0, 0 }) end
+  mon:_message(p, core.json_encode{ type = "subscribe", topic = port, rate = 60 })
+  h = p.got[#p.got]
+  T.eq(h.type, "history")
+  T.eq(#h.rows, 30, "a port picked late: every sample so far")
+  T.eq(h.rows[1], { 0.01, 1, 0, 0 })
+  -- the run's end: each page gets the history of every topic it did not subscribe to (kept after the server goes)
+  local q = page()
+  mon:_open(q)
+  local before = #p.got
+  mon:_histories()
+  local got = {}
+  for _, m in ipairs(q.got) do if m.type == "history" then got[m.topic] = #m.rows end end
+  T.eq(got, { [w.id] = 50, [port] = 30 }, "the page that subscribed to nothing gets both")
+  T.eq(#p.got, before, "the page that subscribed to both, none")
   T.eq(server.field_units("0 open, 1 close", 1), { "0 open, 1 close" }, "a description is every field's")
   T.eq(server.field_units("rad/s", 6), { "rad/s" })
   T.ok(port)

@@ -20,7 +20,8 @@ suite:case("the_door_world_selects_the_door_report_and_others_none", function()
   T.eq(worlds.descriptor("door").report.head({ door_angle = 0 }), { "door opened to 0.0 deg" })
   T.eq(worlds.descriptor("nosuchworld").report.head({ door_angle = 1 }), {})
   T.eq(worlds.resolve(), "door", "the default world")
-  T.eq(worlds.descriptor("door").topics[1].topic, "/world/door")
+  -- its status topics are named as its signals' live topics and recorded channels
+  T.eq(worlds.descriptor("door").topics[1].topic, "/world/door/angle")
 end)
 
 suite:case("a_bad_world_option_is_refused_with_what_it_takes", function()

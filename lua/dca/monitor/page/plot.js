@@ -5,7 +5,7 @@
 // Several series from several topics (a topic tree with a filter: a click adds a topic, another removes it), each
 // field named from its port (BaseVel[0]) with its unit from the manifest, hidden or shown by a click on the legend; grid, zoom (wheel), pan (drag), hover
 // readout, a cursor shared with the timeline (api.cursor, plot.cursorAt); every topic's rows from the first sample
-// it got (the server's history where it keeps one), bounded by even decimation; a reason in place of an empty
+// it got (the server's history of it from the run's start, sent first), bounded by even decimation; a reason in place of an empty
 // plot. Replay: the whole run, the slider's time a playhead.
 'use strict';
 window.dcaPlot = (api) => {
