@@ -24,22 +24,9 @@ set -uo pipefail
 rounds="${2:-3}"
 exec 3>&1 1>&2  # RESULT lines on stdout (fd 3), everything else on stderr
 
+. "$(dirname "${BASH_SOURCE[0]}")/../netns/fleet_lib.sh"
 netns_up
-daemons_up 7420 --clock sim --state-dir "$work/state/{host}"
-sys="$work/fleet.dca"
-{
-  sed '/^process main()/,$d' "$src/scripts/systems/door_open.dca"
-  sed -n '/^process Robot(h, period)/,/^DCA$/p' "$src/tests/netns/fleet.sh" | sed '$d'
-} > "$sys"
-cp "$src/scripts/systems/door_open.config" "$work/fleet.config"
-DCA_KEY_FILE="$key" "$dca" run "$sys" --hosts "$hosts" --sim door --realtime --world-host door \
-  > "$work/run.out" 2>&1 &
-run_pid=$!
-said() { grep -q -- "$1" "$work/run.out"; }
-said_or_ended() { said "$1" || ! kill -0 "$run_pid" 2>/dev/null; }
-wait_for said_or_ended "main.heartbeat: running"
-said "main.heartbeat: running" || { cat "$work/run.out"; fail "the system did not run"; }
-root=$(grep -o "console: dca repl main --daemon [^ ]*" "$work/run.out" | awk '{print $NF}')
+fleet_up 7420
 
 # timed LINE PATTERN: the wall time in us from typing LINE to the next line of the run matching PATTERN
 timed() {
