@@ -28,6 +28,8 @@
 //   core.make_dir(path)      --> true | nil, err: a new directory of mode 0700
 //   core.write_new_file(path, data) --> true | nil, err: a new file (it must not exist) of mode 0600
 //   core.free_tcp_ports(n)   --> {port...}: n free loopback TCP ports (bound to port 0, then released)
+//   core.package_version(bytes) --> a controller package file's version: the first 16 hex digits of its SHA-256
+//                               (host/package_store.h; a rolling upgrade's plan names it)
 #include <lua.hpp>
 
 #include <fcntl.h>
@@ -51,6 +53,7 @@
 #include "bindings/lua_loop.h"
 #include "bindings/stop_signals.h"
 #include "host/exec.h"
+#include "host/package_store.h"
 #include "host/paths.h"
 #include "host/spawn.h"
 
@@ -284,6 +287,13 @@ int l_free_tcp_ports(lua_State* L) {
   for (int fd : fds) ::close(fd);
   return 1;
 }
+
+int l_package_version(lua_State* L) {
+  std::size_t n = 0;
+  const char* bytes = luaL_checklstring(L, 1, &n);
+  lua_pushstring(L, package_version(std::string_view(bytes, n)).c_str());
+  return 1;
+}
 }  // namespace
 
 void hold_stop_signals() {
@@ -313,6 +323,7 @@ void open_process(lua_State* L) {
                                  {"make_dir", l_make_dir},
                                  {"write_new_file", l_write_new_file},
                                  {"free_tcp_ports", l_free_tcp_ports},
+                                 {"package_version", l_package_version},
                                  {nullptr, nullptr}};
   luaL_setfuncs(L, fns, 0);
 }

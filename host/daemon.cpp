@@ -59,6 +59,11 @@ bool Daemon::start(std::string* error) {
       }
     }
   }
+  // the package store of rolling upgrades lives beside the replica, and only with it
+  packages_ = std::make_unique<PackageStore>(options_.host, config_ ? options_.state_dir + "/packages" : "",
+                                             "no package store on host " + options_.host +
+                                                 " (its daemon runs without a state directory)");
+  packages_->start();
   listener_ = Listener::listen(
       io_, options_.listen, channel_options(options_), [this](Channel::Ptr ch) { accepted(ch); }, error,
       [this](const std::string& why) {
@@ -150,6 +155,8 @@ void Daemon::handle(const Channel::Ptr& ch, const wire::Message& m) {
     }
     for (const auto& n : names_.table().names()) names.emplace_back(n);
     ch->reply(m, wire::Value::map().set("host", options_.host).set("children", children).set("names", names));
+  } else if (packages_ && packages_->handle(ch, m)) {
+    // package_install / package_rollback / package_status
   } else if (m.type.rfind("config_", 0) == 0) {
     if (config_) {
       config_->handle(ch, m);

@@ -29,6 +29,8 @@
 //   config_* {...}             the configuration repository (host/config_service.h has the full list): get, set,
 //                                 list, log, watch (config_changed events), status, and config_sync between
 //                                 daemons; with no state_dir: error "no configuration repository ..."
+//   package_* {...}            the package store of rolling upgrades (host/package_store.h): install, rollback,
+//                                 status; kept in <state_dir>/packages, beside the configuration replica
 // Events besides exit: output {child, pid, name, host, line} for each line a child writes to its stderr (also
 // written to the daemon's own stderr, its log), sent to its requester (a shared child's: its first holder);
 // past the budget (kOutputBurst lines, kOutputRate a second, kOutputBacklog bytes queued on the channel) lines
@@ -50,6 +52,7 @@
 #include "host/exec.h"
 #include "host/fence.h"
 #include "host/names.h"
+#include "host/package_store.h"
 
 namespace dca {
 
@@ -153,6 +156,7 @@ class Daemon {
   std::map<std::string, Executer::ChildId> shared_by_name_;  // the held ones a shared spawn joins
   std::unique_ptr<ConfigService> config_;
   std::string config_off_;  // why there is no repository
+  std::unique_ptr<PackageStore> packages_;
   Handler extra_;
   std::function<void(const std::string&)> on_refused_;
   bool stopped_ = false;

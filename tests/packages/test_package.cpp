@@ -5,10 +5,12 @@
 // parameter: its node fails to start), PKG_BAD_PORT binds an input "SetPoint", a name its manifest lacks,
 // PKG_CRASH_IN_STATIC_INIT faults in a static initialiser,
 // PKG_STDERR writes k lines "line N of PKG_TYPE" to stderr at its first tick, then ends DONE(k). A rebuilt pkg_ok
-// (tests/packages/CMakeLists.txt, lib/variants/): PKG_DEFAULT_K another default k, PKG_OUT another name of Out.
+// (tests/packages/CMakeLists.txt, lib/variants/): PKG_DEFAULT_K another default k, PKG_OUT another name of Out,
+// PKG_CRASH_ON_SAMPLE a bad release that aborts (SIGABRT) at its first sample (a rolling upgrade's failed canary).
 #include <sys/mman.h>
 
 #include <cstdio>
+#include <cstdlib>
 #include <stdexcept>
 
 #include <dca/controller.h>
@@ -59,6 +61,9 @@ class PKG_TYPE final : public dca::PeriodicController {
 #endif
     double x = 0;
     if (in_.read(x) != dca::Read::New) return;
+#ifdef PKG_CRASH_ON_SAMPLE
+    std::abort();
+#endif
     double y = k_ * x;
 #ifdef PKG_MISSING_SYMBOL
     y = dca::missing_for_tests(y);

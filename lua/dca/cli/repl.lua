@@ -42,6 +42,8 @@ local function find(loop, target, daemon, key)
   return addr
 end
 
+M.await, M.find = await, find  -- (dca upgrade reaches a supervisor the same way)
+
 -- A console session on the supervisor's channel.
 local Session = {}
 Session.__index = Session

@@ -32,6 +32,11 @@ restart(path)                 a group: abort its expression and start it again (
                                 leaf sharing its process (--placement group|host) keeps that process's
                                 code: refused, the leaf running on, when its package changed on disk. New
                                 code whose ports misfit the connections is refused, never wired
+upgrade(file, opts)           roll a new build of a controller package (DIR/NAME.dca.so) to the hosts of its
+                                leaves, opts { canary = HOST, watch = SECONDS }: the canary first (default:
+                                the first by name), its leaves restarted one by one onto it and watched
+                                (default 5 s), then every other host. A crash or escalation on the canary
+                                rolls it back and stops (docs/deploy.md)
 activate(path, label)         activate / deactivate a connection set of a process
 deactivate(path, label)
 add_child(template, host)     a fleet (a template `name instances of Type(args) on { hosts };`): an instance of
@@ -279,6 +284,17 @@ local function action_commands(env, c, reload)
     local path = path_of(p)
     local ok, r = await(function(k) sup:remove_child(path, host, k) end)
     return done(ok, r, sformat("%s: removed", tostring(r)))
+  end
+  -- a rolling upgrade of a controller package (dca.supervisor.upgrade): its lines, done or rolled back
+  function env.upgrade(file, o)
+    if type(file) ~= "string" or (o ~= nil and type(o) ~= "table") then
+      error('upgrade("DIR/NAME.dca.so", { canary = "HOST", watch = SECONDS })', 0)
+    end
+    o = o or {}
+    local _, text = await(function(k)
+      require("dca.supervisor.upgrade").run(sup, { file = file, canary = o.canary, watch = o.watch }, k)
+    end)
+    return text
   end
   function env.activate(p, label) return set(p, label, "activate") end
   function env.deactivate(p, label) return set(p, label, "deactivate") end

@@ -170,6 +170,7 @@ function Sup:log(fmt, ...)
   local k = (self.logn or 0) + 1
   self.logn = k
   self.logbuf[1 + (k - 1) % LOG_KEEP] = sformat("%.3f %s", self.rt.now(), line)
+  if self.upgrade_tap then self.upgrade_tap(line) end  -- a rolling upgrade watches its hosts (dca.supervisor.upgrade)
   return line
 end
 

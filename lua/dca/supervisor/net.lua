@@ -42,7 +42,7 @@ end
 --- The requests a console (`dca repl`) may send to a supervisor.
 M.CONSOLE = { repl = true, complete = true, tree = true, inject = true, restart = true, switch = true,
               stats = true, ping = true, ports = true, tap = true, config_set = true, estop = true, release = true,
-              clock = true, add_child = true, remove_child = true }
+              clock = true, add_child = true, remove_child = true, upgrade = true }
 
 --- Answers one request `msg` (number `id`) of a console channel `ch` on supervisor `sup` (nil: not configured
 --- yet). `follow {}` subscribes the channel to the transition lines in `followers` (a set of channels).
@@ -55,7 +55,7 @@ function M.console(ch, id, msg, sup, followers)
   if not M.CONSOLE[msg.type] then
     return M.reply(ch, id, { type = "error", reason = "a console may send " ..
       "repl, complete, tree, inject, restart, switch, stats, ping, ports, tap, config_set, estop, release, " ..
-      "add_child, remove_child or follow, not '" .. tostring(msg.type) .. "'" })
+      "clock, add_child, remove_child, upgrade or follow, not '" .. tostring(msg.type) .. "'" })
   end
   if not sup then return M.reply(ch, id, { type = "error", reason = "the supervisor is not configured yet" }) end
   sup:handle(msg, function(r) M.reply(ch, id, r) end)

@@ -109,6 +109,14 @@ M.HANDLERS = {
   -- a press or release, from the parent: remembered, passed on to the child groups
   estop_event = function(sup, msg, reply) M.estop_event(sup, msg, false) reply({ type = "ok" }) end,
   clock = function(sup, msg, reply) M.clock(sup, msg, reply) end,
+  -- a rolling upgrade of a controller package (dca.supervisor.upgrade): ok {lines} | error (its lines)
+  upgrade = function(sup, msg, reply)
+    -- (the file's bytes come with the request: a path here would read this machine's files)
+    local req = { name = msg.name, data = msg.data, canary = msg.canary, watch = msg.watch }
+    require("dca.supervisor.upgrade").run(sup, req, function(ok, text)
+      reply(ok and { type = "ok", text = text } or { type = "error", reason = text })
+    end)
+  end,
   repl = function(sup, msg, reply)
     local repl = console_of(sup, reply)
     if repl then repl:eval(msg.line or "", function(out, more) reply({ type = "ok", output = out, more = more }) end) end
