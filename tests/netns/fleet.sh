@@ -71,6 +71,38 @@ n8=$(count 8)
 more() { local n; n=$(count 8); [ -n "$n" ] && [ "$n" -gt "$n8" ]; }
 wait_for more || fail "r8 stopped counting after the removes"
 
+# a rebuilt pkg_ok that aborts at its first sample, canary r1: rolled back there, no other robot receives it
+store() { echo "$work/state/$1/packages/$2/pkg_ok.dca.so"; }
+out=$(upgrade "$pk/variants/crash" 60); rc=$?
+echo "$out"
+[ "$rc" -eq 1 ] || fail "a crashing canary: exit code $rc, not 1"
+echo "$out" | grep -q "^upgrade pkg_ok: r1: failed: main.lights_r1.scale: exited: killed by SIGABRT on host r1" ||
+  fail "the canary's crash is not why it failed"
+echo "$out" | grep -q "^upgrade pkg_ok: rolled back on r1 and stopped (r2, r4, r5, r7, r8 never received version " ||
+  fail "not rolled back"
+[ ! -e "$(store r1 current)" ] && cmp -s "$(store r1 previous)" "$pk/variants/crash/pkg_ok.dca.so" ||
+  fail "r1's store: the bad build is not the previous one, or something is installed"
+for h in r2 r4 r5 r7 r8; do [ ! -e "$work/state/$h/packages" ] || fail "$h received the bad build"; done
+# r1's scale runs its old build again (k = 2: Out = 2 In; the bad build never writes), after one crash only.
+# gain N: robot N's scale's Out / In, read one after the other in one line (an event-driven leaf on the simulated
+# clock takes its samples in at the idle ticks, a second apart: both reads see the same tick but at its edge)
+gain() { repl "local i = read(\"lights_r$1.scale\", \"In\") local o = read(\"lights_r$1.scale\", \"Out\") return o / i" |
+  sed -n '2p'; }
+gain_is() { [ "$(gain "$1")" = "$2" ]; }
+wait_for gain_is 1 2.0 || fail "r1's scale does not run its old build after the rollback: Out / In $(gain 1)"
+[ "$(grep -c "\] main.lights_r1.scale: exited: killed by SIGABRT" "$work/run.out")" -eq 1 ] ||
+  fail "r1's scale crashed more than once: the group's restart loaded the bad build"
+# the good rebuild (k = 3) to every robot, canary first; each robot's scale restarted live onto it, runs on
+out=$(upgrade "$pk/variants/k3" 0.5); rc=$?
+echo "$out"
+[ "$rc" -eq 0 ] || fail "the k = 3 build: exit code $rc"
+echo "$out" | grep -q "^upgrade pkg_ok: done: 6 hosts run version [0-9a-f]* (r1, r2, r4, r5, r7, r8)$" || fail "not done"
+for h in r1 r2 r4 r5 r7 r8; do
+  cmp -s "$(store $h current)" "$pk/variants/k3/pkg_ok.dca.so" || fail "$h does not hold the k = 3 build"
+done
+# each robot's scale runs the k = 3 build
+for h in 1 2 4 5 7 8; do wait_for gain_is $h 3.0 || fail "r$h's scale does not run the k = 3 build: Out / In $(gain $h)"; done
+
 # the door robot opens the door meanwhile: its DoorOpenSystem ends DONE with the angle (door.open_angle: 75 deg)
 wait_for said "main.door: done" || { cat "$work/run.out"; fail "the door robot did not open the door"; }
 angle=$(sed -n 's/.*main\.door: done \([0-9.]*\)$/\1/p' "$work/run.out")
@@ -99,6 +131,25 @@ $want"
     fail "conflicts in the replica of ${names[$i]}"
 done
 echo "every replica holds the fleet's ${#changes[@]} changes in order"
+# and the two rolls' records (upgrade.pkg_ok's states in order), and every transaction of base's replica, the
+# same on every replica, its sequence numbers 1..N without a gap
+states() {
+  "$dca" config log 500 --daemon "$1" --key "$key" 2>&1 |
+    sed -n 's/^  [^ ]* #\([0-9]*\) .*upgrade\.pkg_ok = .*state = "\([^"]*\)".*/\1 \2/p' | sort -n | cut -d' ' -f2- |
+    tr '\n' ,
+}
+txns() {
+  "$dca" config log 500 --daemon "$1" --key "$key" 2>&1 | sed -n 's/^  \(base\/[^ ]*\) #\([0-9]*\) /\2 \1 /p' | sort -n
+}
+want_states="rolling,rolled back,rolling,done,"
+[ "$(states "${addrs[0]}:7418")" = "$want_states" ] || fail "base's records of the rolls: $(states "${addrs[0]}:7418")"
+base_txns=$(txns "${addrs[0]}:7418")
+echo "$base_txns" | awk '$1 != NR { exit 1 }' || fail "base's transactions are not 1..N: $base_txns"
+same() { [ "$(txns "$1")" = "$base_txns" ]; }
+for i in "${!names[@]}"; do
+  wait_for same "${addrs[$i]}:7418" || fail "the replica of ${names[$i]} differs from base's: $(txns "${addrs[$i]}:7418")"
+done
+echo "every replica holds base's $(echo "$base_txns" | wc -l) transactions, the rolls' records ($want_states) too"
 
 kill -INT "$run_pid"
 wait "$run_pid"
