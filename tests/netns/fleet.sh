@@ -1,13 +1,17 @@
 #!/usr/bin/env bash
-# A fleet across network namespaces (docs/supervision.md, "A fleet"; docs/deploy.md, "A fleet of robots"): ten
-# daemons, each in its own namespace on a bridge: base (the root's host), door (the door robot: the door system's
-# controllers and its world, the door of worlds/door in Simbody) and eight light robots r1..r8 (a template of
-# Counters). The run is in simulated time paced to the wall clock (`--sim door --realtime --world-host door`: a
-# robot in a fleet moves in real time; every node, the added ones too, in lock-step with the door's world).
+# A fleet across network namespaces (docs/supervision.md, "A fleet"; docs/deploy.md, "A fleet that changes while
+# running", "Rolling upgrade of a package"): ten daemons, each in its own namespace on a bridge: base (the root's
+# host), door (the door robot: the door system's controllers and its world, the door of worlds/door in Simbody)
+# and eight light robots r1..r8 (a template: a Counter feeding PkgScale, of the test package pkg_ok). The run is
+# in simulated time paced to the wall clock (`--sim door --realtime --world-host door`: a robot in a fleet moves
+# in real time; every node, the added ones too, in lock-step with the door's world; tests/netns/fleet_lib.sh).
 # While the door robot opens the door, the eight light robots join through `dca repl` (add_child), each robot's
 # supervisor and Counter in its own namespace and on the clock (their counts advance); then two leave
-# (remove_child), their processes gone, the others running on; the door opens. At the end every replica of the
-# configuration repository (the ten daemons') holds the fleet's ten changes (`fleet.main.lights`), in order.
+# (remove_child), their processes gone, the others running on. `dca upgrade` then rolls a rebuilt pkg_ok that
+# crashes: rolled back on its canary r1, no other robot receives it; then a good rebuild (k = 3) to the six
+# robots, each robot's scale running it. The door opens meanwhile. At the end every replica of the configuration
+# repository (the ten daemons') holds the fleet's ten changes (`fleet.main.lights`) in order, and the same
+# transactions as base's (the rolls' records too), numbered 1..N without a gap.
 # Every wait is a poll bounded by 60 s (wait_for, lib.sh: a loaded 2-core machine, ASan), never a fixed sleep.
 # Needs root; where namespaces cannot be made it says why and exits 77 (skipped).
 #   tests/netns/fleet.sh [DCA_EXE]
