@@ -22,7 +22,8 @@ netns_up
 fleet_up 7418
 
 # the namespace of the (first) process whose command line matches the pattern, or nothing
-ns_of() { local p; p=$(pgrep -f -- "$1" | head -1); [ -n "$p" ] && ip netns identify "$p"; }
+ours() { pgrep -P "$(IFS=,; echo "${pids[*]}")" -f -- "$1"; }  # our daemons' children matching (not another test's)
+ns_of() { local p; p=$(ours "$1" | head -1); [ -n "$p" ] && ip netns identify "$p"; }
 said "world: starting \`dca sim --serve --world door\` on host door" || fail "the world was not started on door"
 got=$(ns_of "dca sim --serve .*--world door")
 [ "$got" = "${ns[1]}" ] || fail "the door's world runs in namespace '$got', not door's ${ns[1]}"
@@ -68,7 +69,7 @@ change removed r3
 echo "$out" | grep -q "main.lights_r6: removed" || fail "r6 did not leave"
 change removed r6
 echo "$out" | grep -q "main.lights_r8 on r8 (running)" || fail "r8 does not run on"
-gone() { ! pgrep -f -- "--name main.lights_r$1" >/dev/null; }
+gone() { ! ours "--name main.lights_r$1" >/dev/null; }
 for i in 3 6; do wait_for gone "$i" || fail "a process of main.lights_r$i is still there"; done
 [ "$(echo "$out" | grep -o "(running)" | wc -l)" -eq 6 ] || fail "not six robots running: $out"
 n8=$(count 8)
