@@ -195,7 +195,8 @@ struct DeviceNode::Impl {
   }
 
   // record_outputs: the world's signals at time 0 on /dca/world/signals ({period, sensors, commands}, each signal
-  // {name, size, units}), and the channel of the outputs as published.
+  // {name, size, units}), and the channel of the outputs: at time 0 as they stand before the first publish (the
+  // start a replay's world takes, so that its own recording of time 0 is the recorded one), then as published.
   void start_outputs(Recorder& r) {
     const auto list = [](const std::vector<DeviceSignal>& sigs) {
       Value a = Value::array();
@@ -208,6 +209,7 @@ struct DeviceNode::Impl {
     r.write(r.add_channel("/dca/world/signals", "{\"type\":\"object\"}"), 0, json::encode(v));
     outputs_channel = r.add_channel("/dca/world/outputs", "{\"type\":\"object\",\"properties\":{\"values\":"
                                     "{\"type\":\"array\",\"description\":\"each sensor's values, in order\"}}}");
+    record_outputs();
   }
 
   // record_outputs: the outputs as just published, {"values": [[...], ...]} at the world's time.

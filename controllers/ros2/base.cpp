@@ -4,6 +4,8 @@
 
 #include <dca/registry.h>
 
+#include "stamp.h"
+
 namespace dca::ros2 {
 namespace {
 
@@ -16,11 +18,6 @@ const OutSpec<msgs::Odometry> kOdometry{.name = "Odometry"};
 const OutSpec<msgs::TFMessage> kTf{.name = "Tf"};
 const Param<std::string> kFrame{.name = "frame", .doc = "header.frame_id: the odometry's frame", .def = "odom"};
 const Param<std::string> kChild{.name = "child", .doc = "child_frame_id: the base's frame", .def = "base_link"};
-
-msgs::Time stamp(Nanos t) {
-  return {.sec = static_cast<std::int32_t>(t / 1'000'000'000),
-          .nanosec = static_cast<std::uint32_t>(t % 1'000'000'000)};
-}
 
 }  // namespace
 
@@ -78,7 +75,7 @@ void BaseOdometry::MainCalc() {
     msg_.twist.twist.linear.y = -s * dx + c * dy;
     msg_.twist.twist.angular.z = std::remainder(pose_(2) - last_pose_(2), 2 * M_PI) / dt;
   }
-  msg_.header.stamp = stamp(t);
+  msg_.header.stamp = stamp_of(t);
   msg_.pose.pose.position.x = pose_(0);
   msg_.pose.pose.position.y = pose_(1);
   msg_.pose.pose.orientation.z = std::sin(pose_(2) / 2);

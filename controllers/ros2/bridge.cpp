@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <atomic>
+#include <cctype>
 #include <stdexcept>
 #include <tuple>
 
@@ -220,6 +221,19 @@ Ros2Bridge::Ros2Bridge(const ControllerContext& ctx) : PeriodicController(ctx), 
   }
   if (!valid_node_name(node_))
     throw bad_param("parameter 'node': '" + node_ + "' is not a ROS 2 node name (letters, digits, '_')");
+  // an interface's name or address, peers' addresses: they go into Cyclone's XML configuration, so nothing else
+  const auto address_like = [](const std::string& text, bool spaces) {
+    return std::all_of(text.begin(), text.end(), [spaces](char c) {
+      return std::isalnum(static_cast<unsigned char>(c)) != 0 || c == '.' || c == ':' || c == '-' || c == '_' ||
+             c == '[' || c == ']' || (spaces && c == ' ');
+    });
+  };
+  if (!address_like(param(kInterface), false))
+    throw bad_param("parameter 'interface': '" + param(kInterface) +
+                    "' is not an interface's name or address (letters, digits, '.', ':', '-', '_')");
+  if (!address_like(param(kPeers), true))
+    throw bad_param("parameter 'peers': '" + param(kPeers) +
+                    "' is not addresses between spaces (letters, digits, '.', ':', '-', '_', '[', ']')");
   options_ = {.domain = static_cast<std::uint32_t>(param(kDomain)),
               .interface = param(kInterface),
               .peers = param(kPeers),

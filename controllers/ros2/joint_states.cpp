@@ -4,6 +4,8 @@
 
 #include <dca/registry.h>
 
+#include "stamp.h"
+
 namespace dca::ros2 {
 namespace {
 
@@ -94,9 +96,7 @@ void JointStates::MainCalc() {
     all = all && have_[i] != 0;
   }
   if (!all) return;
-  const Nanos t = now();
-  msg_.header.stamp.sec = static_cast<std::int32_t>(t / 1'000'000'000);
-  msg_.header.stamp.nanosec = static_cast<std::uint32_t>(t % 1'000'000'000);
+  msg_.header.stamp = stamp_of(now());
   out_.write(msg_);
 }
 

@@ -220,7 +220,7 @@ bool Reader::number(wire::Value* out) {
     i++;
   }
   const std::string_view text = s.substr(start, i - start);
-  if (!is_float) {
+  if (!is_float && text != "-0") {  // ("-0" is the double -0.0, which encodes so: a round trip keeps its sign)
     std::int64_t n = 0;
     auto r = std::from_chars(text.data(), text.data() + text.size(), n);
     if (r.ec == std::errc() && r.ptr == text.data() + text.size()) {

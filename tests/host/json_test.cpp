@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <random>
 #include <string>
 
@@ -23,6 +24,15 @@ TEST(JsonTest, EncodesValuesAndDecodesThemBack) {
   EXPECT_EQ(back["n"].as_int(), 3);
   EXPECT_DOUBLE_EQ(back["x"].as_float(), 0.25);
   EXPECT_EQ(back["list"].as_array()[1].as_string(), "a\"b\\c\n");
+}
+
+TEST(JsonTest, MinusZeroKeepsItsSign) {  // a world's -0 recorded, read and recorded again is -0 (a replay)
+  Value v;
+  ASSERT_TRUE(dca::json::decode("[-0,0,-0.0]", &v, nullptr));
+  EXPECT_TRUE(v.as_array()[0].is_float());
+  EXPECT_TRUE(std::signbit(v.as_array()[0].as_float()));
+  EXPECT_TRUE(v.as_array()[1].is_int());
+  EXPECT_EQ(dca::json::encode(v), "[-0,0,-0]");
 }
 
 TEST(JsonTest, NonFiniteNumbersAndBadUtf8AreStillJson) {

@@ -199,7 +199,8 @@ end)
 
 suite:case("the_ros2_package_includes_only_the_sdk_cyclone_and_its_own", function()
   package_includes_only({ "controllers/ros2" },
-    { "^base%.h$", "^bridge%.h$", "^dds%.h$", "^graph%.h$", "^joint_states%.h$", "^dca/", "^Eigen/", "^dds/",
+    { "^base%.h$", "^bridge%.h$", "^dds%.h$", "^graph%.h$", "^joint_states%.h$", "^link_frames%.h$", "^stamp%.h$",
+      "^dca/", "^Eigen/", "^dds/",
       "^dlfcn%.h$" },
     "the ros2 package (controllers/ros2: the SDK, Cyclone DDS's dds/ and its own)")
 end)

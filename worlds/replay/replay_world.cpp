@@ -7,6 +7,7 @@
 #include <set>
 #include <stdexcept>
 
+#include "host/codec/frames.h"
 #include "host/codec/json.h"
 #include "host/codec/mcap.h"
 
@@ -122,6 +123,29 @@ void read_ports(const mcap::Contents& c, ReplayRecording* rec) {
     if (!broken.count(id) && !p.times.empty()) rec->ports.push_back(std::move(p));
 }
 
+// A URDF world's frames (each transform's parent and child in /world/links/frames' first message) and URDF text
+// (/robot_description's {"data"}) into `rec`; nothing of a message that does not hold them.
+void read_robot(const mcap::Contents& c, ReplayRecording* rec) {
+  std::uint16_t frames_channel = 0, description = 0;
+  for (const auto& [id, ch] : c.channels) {
+    if (ch.topic == "/world/links/frames") frames_channel = id;
+    if (ch.topic == frames::kDescriptionTopic) description = id;
+  }
+  bool have_frames = false, have_description = false;
+  for (const auto& m : c.messages) {
+    wire::Value v;
+    if (m.channel == frames_channel && !have_frames && json::decode(m.data, &v, nullptr)) {
+      have_frames = true;
+      for (const auto& t : v["transforms"].as_array())
+        if (t["parent_frame_id"].is_string() && t["child_frame_id"].is_string())
+          rec->frames.push_back({t["parent_frame_id"].as_string(), t["child_frame_id"].as_string()});
+    } else if (m.channel == description && !have_description && json::decode(m.data, &v, nullptr)) {
+      have_description = true;
+      if (v["data"].is_string()) rec->robot_description = v["data"].as_string();
+    }
+  }
+}
+
 }  // namespace
 
 std::string replay_file(const std::string& spec) {
@@ -153,6 +177,7 @@ ReplayRecording read_replay(const std::string& path) {
     }
   }
   read_ports(c, &rec);
+  read_robot(c, &rec);
   return rec;
 }
 

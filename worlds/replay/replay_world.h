@@ -3,7 +3,9 @@
 // `dca run ... --record REC.mcap --record-ports ...` holds the world's signals (/dca/world/signals) and its
 // outputs exactly as they were published (/dca/world/outputs, sim/device_node.h); `--world replay:REC.mcap`
 // serves them again at their recorded ticks, with the same ports, while the commands it takes are dropped. No
-// physics: the controllers under test run live against what the robot did. C++17-clean.
+// physics: the controllers under test run live against what the robot did. A URDF world's link frames' names
+// (/world/links/frames) and its URDF (/robot_description) are read too, so that the replay's own recording
+// holds them as the recorded one does. C++17-clean.
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -19,6 +21,8 @@ struct ReplayRecording {
   std::vector<std::int64_t> times;          ///< each publish's time (ns), ascending
   std::vector<std::vector<double>> values;  ///< each publish's values, the sensors' in order, flat
   std::vector<RecordedPort> ports;          ///< the controller outputs recorded with numbers (--record-ports)
+  std::vector<frames::Frame> frames;        ///< links.frames' frames (/world/links/frames' first message)
+  std::string robot_description;            ///< the URDF (/robot_description), "" when not recorded
 };
 
 /// Reads the recording of `path` (at most 1 GiB). Throws std::invalid_argument("FILE: why") when it cannot be read
@@ -43,6 +47,9 @@ class ReplayWorld final : public DeviceWorld {
   void status(StatusSink& sink) const override;
   std::string describe() const override;
   const std::vector<RecordedPort>& recorded_ports() const override { return rec_.ports; }
+  // A URDF world's link frames and description as recorded: its replay records them alike.
+  const std::vector<frames::Frame>& frames() const override { return rec_.frames; }
+  std::string robot_description() const override { return rec_.robot_description; }
   std::vector<std::string> summary() const override;
   std::vector<std::string> warnings() const override { return {}; }
 

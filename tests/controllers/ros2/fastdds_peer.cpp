@@ -3,8 +3,9 @@
 // written by hand with Fast CDR (no fastddsgen in Debian). It subscribes to rt/joint_states
 // (sensor_msgs/msg/JointState) and answers each sample on rt/cmd_vel (geometry_msgs/msg/Twist) with linear.x = the
 // first position and angular.z = the second; it prints "got <frame_id> <first name> <n>" to stdout for each.
-//   ros2_fastdds_peer DOMAIN SECONDS    (discovery on loopback: the initial peers 127.0.0.1, participant id 7)
-// It ends after SECONDS, or when stdin closes.
+//   ros2_fastdds_peer DOMAIN SECONDS [LOCAL PEER]
+// UDP on the address LOCAL only (default 127.0.0.1), participant id 7, the initial peers at the address PEER
+// (default 127.0.0.1): Cyclone's unicast discovery ports there. It ends after SECONDS, or when stdin closes.
 #include <fastcdr/Cdr.h>
 #include <fastcdr/FastBuffer.h>
 #include <fastcdr/exceptions/Exception.h>
@@ -106,17 +107,17 @@ class RosType : public TopicDataType {
   bool getKey(void*, eprosima::fastrtps::rtps::InstanceHandle_t*, bool) override { return false; }
 };
 
-DomainParticipant* make_participant(int domain) {
+DomainParticipant* make_participant(int domain, const std::string& local, const std::string& peer) {
   DomainParticipantQos pq;
   pq.name("ros2_fastdds_peer");
   pq.wire_protocol().participant_id = 7;
   pq.transport().use_builtin_transports = false;  // UDP on loopback only: no shared memory with Cyclone
   auto udp = std::make_shared<eprosima::fastdds::rtps::UDPv4TransportDescriptor>();
-  udp->interfaceWhiteList.emplace_back("127.0.0.1");  // announce loopback locators, as the bridge's Cyclone is on lo
+  udp->interfaceWhiteList.emplace_back(local);  // announce this address's locators only, as the bridge's Cyclone
   pq.transport().user_transports.push_back(udp);
   for (int i = 0; i < 8; ++i) {  // Cyclone's participants' unicast discovery ports (index i)
     eprosima::fastrtps::rtps::Locator_t l;
-    eprosima::fastrtps::rtps::IPLocator::setIPv4(l, 127, 0, 0, 1);
+    eprosima::fastrtps::rtps::IPLocator::setIPv4(l, peer);
     l.port = static_cast<std::uint32_t>(7400 + 250 * domain + 10 + 2 * i);
     pq.wire_protocol().builtin.initialPeersList.push_back(l);
   }
@@ -143,10 +144,10 @@ bool stdin_closed() {
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc != 3) return std::fprintf(stderr, "usage: ros2_fastdds_peer DOMAIN SECONDS\n"), 2;
+  if (argc != 3 && argc != 5) return std::fprintf(stderr, "usage: ros2_fastdds_peer DOMAIN SECONDS [LOCAL PEER]\n"), 2;
   const int domain = std::atoi(argv[1]);
   const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(std::atoi(argv[2]));
-  DomainParticipant* p = make_participant(domain);
+  DomainParticipant* p = make_participant(domain, argc == 5 ? argv[3] : "127.0.0.1", argc == 5 ? argv[4] : "127.0.0.1");
   if (p == nullptr) return std::fprintf(stderr, "ros2_fastdds_peer: no participant\n"), 1;
   TypeSupport js_type(new RosType<JointState>("sensor_msgs::msg::dds_::JointState_", 8192));
   TypeSupport twist_type(new RosType<Twist>("geometry_msgs::msg::dds_::Twist_", 64));
