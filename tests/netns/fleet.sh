@@ -18,6 +18,8 @@
 set -uo pipefail
 . "$(dirname "${BASH_SOURCE[0]}")/lib.sh" "${1:-}" "dcq$$" 10.218.0 base door r1 r2 r3 r4 r5 r6 r7 r8
 . "$(dirname "${BASH_SOURCE[0]}")/fleet_lib.sh"
+eval "$(declare -f fail | sed '1s/^fail/lib_fail/')"
+fail() { echo "--- dca run, its last 100 lines:"; tail -100 "$work/run.out" 2>/dev/null; lib_fail "$@"; }
 netns_up
 fleet_up 7418
 
@@ -109,7 +111,7 @@ done
 for h in 1 2 4 5 7 8; do wait_for gain_is $h 3.0 || fail "r$h's scale does not run the k = 3 build: Out / In $(gain $h)"; done
 
 # the door robot opens the door meanwhile: its DoorOpenSystem ends DONE with the angle (door.open_angle: 75 deg)
-wait_for said "main.door: done" || { cat "$work/run.out"; fail "the door robot did not open the door"; }
+wait_for said "main.door: done" || fail "the door robot did not open the door"
 angle=$(sed -n 's/.*main\.door: done \([0-9.]*\)$/\1/p' "$work/run.out")
 awk -v a="$angle" 'BEGIN { exit !(a >= 75) }' || fail "the door opened to '$angle' deg only"
 echo "the door robot opened the door to $angle deg"
