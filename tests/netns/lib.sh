@@ -3,7 +3,8 @@
 #   . lib.sh DCA_EXE TAG SUBNET NAME NAME NAME [NAME...]
 # DCA_EXE may be empty ($DCA_EXE, else dca on the PATH); TAG is unique and short; SUBNET is e.g. 10.213.0 (the
 # bridge is .1, the hosts .2 .3 .4 ...; at most 12 names). It sets dca, src (the source tree), names, ns, addrs, br, work, key, pids,
-# hosts (the hosts file daemons_up writes), installs the cleanup trap and defines skip/fail. Needs root: without it, skip (exit 77, CTest's skipped).
+# hosts (the hosts file daemons_up writes), installs the cleanup trap and defines skip/fail and wait_for. Needs root:
+# without it, skip (exit 77, CTest's skipped).
 dca="${1:-${DCA_EXE:-dca}}"
 tag=$2
 subnet=$3
@@ -83,11 +84,22 @@ daemons_up() {
   wait_listening
 }
 
-# Returns when each daemon (its log $work/NAME.log) has said it listens, at most 5 s each; else fails.
+# `wait_for CMD [ARG...]`: returns 0 as soon as CMD succeeds (polled every 20 ms), 1 once $wait_s seconds went by
+# without (default 60: a start on a loaded 2-core machine, or under ASan, takes seconds; the bound is for a hang,
+# not for how fast it goes). Never a fixed sleep: the caller says what it waited for.
+wait_s="${DCA_NETNS_WAIT:-60}"
+wait_for() {
+  local deadline=$((SECONDS + wait_s))
+  until "$@"; do
+    [ "$SECONDS" -lt "$deadline" ] || return 1
+    sleep 0.02
+  done
+}
+
+# Returns when each daemon (its log $work/NAME.log) has said it listens (wait_for each); else fails.
 wait_listening() {
   local n
   for n in "${names[@]}"; do
-    for _ in $(seq 1 500); do grep -q "listening on" "$work/$n.log" && break; sleep 0.01; done
-    grep -q "listening on" "$work/$n.log" || fail "daemon $n did not start"
+    wait_for grep -q "listening on" "$work/$n.log" || fail "daemon $n did not start within ${wait_s} s"
   done
 }

@@ -13,7 +13,7 @@ M.usage = [=[usage: dca run FILE.dca [--root NAME] [--hosts FILE] [--repl] [--wa
                     [--config FILE | --no-config] [--set KEY=VALUE]... [--state-dir DIR]
                     [--placement process|group|host]
                     [--sim WORLD [--world-opt KEY=VALUE]... [--seed N] [--record FILE.mcap|FILE.csv] [--realtime]
-                    [--tick-timeout MS]
+                    [--tick-timeout MS] [--world-host HOST]
                     [--record-ports all|PATH.PORT,...] [--record-compression zstd|lz4|none]
                     [--record-split SIZE|DURATION] [--profile ros2] [--trace FILE]]
                     [--replay REC.mcap [--replay-ports PATTERN,...]]
@@ -99,6 +99,8 @@ per group as it comes up and one per process transition, and runs the root expre
                   SECONDS of simulated time (default 10,1), a trigger once per storm
   --realtime      passed to the world: simulated time is paced to the wall clock (the nodes stay in
                   lock-step with it), so the wall-clock periods in the summary are the real control periods
+  --world-host HOST  the host whose daemon starts the world (default the first host name in sorted order):
+                  the robot's own computer, where its driver would run
   --tick-timeout MS  passed to the world: how long a node may take to answer an advance before the clock
                   drops it (default 10000; under about 2000 the supervisors are dropped too: docs/time.md)
   --trace FILE    write the run's trace (simulated time): every output's samples per tick (count, digest,
@@ -136,7 +138,7 @@ local OPTIONS = {
   ["--as-fast-as-possible"] = "flag", ["--monitor-taps"] = "value",
   ["--record-ports"] = "value", ["--driver"] = "value", ["--replay"] = "value",
   ["--blackbox"] = "value", ["--replay-ports"] = "value",
-  ["--blackbox-storm"] = "value", ["--tick-timeout"] = "number",
+  ["--blackbox-storm"] = "value", ["--tick-timeout"] = "number", ["--world-host"] = "value",
   ["--record-compression"] = "value", ["--record-split"] = "value", ["--profile"] = "value",
 }
 
@@ -202,6 +204,7 @@ local function rule_broken(o)
   if o.tick_timeout and not (o.sim and o.tick_timeout >= 1 and o.tick_timeout <= 3600000) then
     return "--tick-timeout goes with --sim WORLD and takes milliseconds from 1 to 3600000"
   end
+  if o.world_host and not o.sim then return "--world-host goes with --sim WORLD" end
   if o.monitor_wait and not (o.monitor and o.sim) then return "--monitor-wait goes with --monitor and --sim WORLD" end
   if o.as_fast_as_possible and not (o.monitor and o.sim) then
     return "--as-fast-as-possible goes with --monitor and --sim WORLD (without --monitor time is unpaced already)"
@@ -280,6 +283,16 @@ function M.main(args)
   end
   local spec, err = require("dca.load").spec(o.file, { root = o.root, world = world })
   if not spec then io.stderr:write(err, "\n") return 2 end
+  if o.world_host then
+    local names = require("dca.supervisor.spec").hosts(spec)
+    local known = false
+    for _, h in ipairs(names) do known = known or h == o.world_host end
+    if not known then
+      io.stderr:write(sformat("dca run: --world-host %s is not a host of %s (%s)\n", o.world_host, o.file,
+        table.concat(names, ", ")))
+      return 2
+    end
+  end
   o.config = o.config or (not o.no_config and require("dca.config").defaults_file(o.file)) or nil
   -- a defaults file that does not read stops the run here, before any daemon starts
   if o.config then

@@ -27,7 +27,9 @@
 --   - added on one host of its template's set, at most one instance per host, named `<template>_<host>`
 --     (dca.lang.model.instance_name), its host the type's first argument.
 -- The group tells its parent of each change (`fleet` {path, instance, added | removed}): a parent that restarts
--- the group starts a fresh supervisor with the instances it had (`spec.templates[i].added`).
+-- the group starts a fresh supervisor with the instances it had (`spec.templates[i].added`). It records each change
+-- in the configuration repository of its host, replicated to every host, before it answers: `fleet.PATH` = { hosts
+-- = { host with an instance, in the order they joined... }, last = { what, instance } }, one transaction each.
 local M = {}
 
 local async = require "dca.async"
@@ -88,14 +90,41 @@ local function leave(sup, name)
   if sup.fleet_running then sup.fleet_running[name] = nil end
 end
 
--- The group's record of its instances, which its parent keeps too (a restarted group starts them again).
-local function note(sup, t, name, what)
+-- The template's hosts that have an instance, in the order they were added.
+local function members(sup, t)
+  local hosts = {}
+  for _, name in ipairs(t.added or {}) do
+    local ch = sup.children[name]
+    if ch then hosts[#hosts + 1] = ch.host end
+  end
+  return hosts
+end
+
+-- The configuration repository's record of the template (`fleet.PATH`: its hosts with an instance, in the order
+-- they joined, and the change), one transaction per change, written before the change is answered. Best effort:
+-- a repository that cannot be written is said, and the change stands. k()
+local function record(sup, t, name, what, k)
+  if not sup.rt.config_client then k() return end
+  local value = { hosts = members(sup, t), last = { what = what, instance = name } }
+  sup.rt.config_client(function(c, err)
+    if not c then sup:say("%s: not recorded in the configuration repository: %s", t.path, tostring(err)) k() return end
+    c:set({ ["fleet." .. t.path] = value }, function(r, serr)
+      if not r then sup:say("%s: not recorded in the configuration repository: %s", t.path, tostring(serr)) end
+      k()
+    end)
+  end)
+end
+
+-- The group's record of its instances, which its parent keeps too (a restarted group starts them again), and
+-- the repository's. k()
+local function note(sup, t, name, what, k)
   t.added = t.added or {}
   if what == "added" then t.added[#t.added + 1] = name
   else
     for i, n in ipairs(t.added) do if n == name then table.remove(t.added, i) break end end
   end
   sup.rt.report({ type = "fleet", path = t.path, instance = name, what = what })
+  record(sup, t, name, what, k)
 end
 
 -- A `fleet` event from the child group `ch`: its spec (what a restart of it starts) follows the change.
@@ -148,10 +177,9 @@ function M.add(sup, path, host, cb)
     -- a leaf's device ports wired to the world, as a restart of it does
     local function wired(wok, werr)
       if not wok then failed(werr) return end
-      note(sup, t, ch.name, "added")
       sup:say("%s: added on host %s", ch.path, tostring(host))
       run_one(sup, ch.name)
-      cb(true, ch.path)
+      note(sup, t, ch.name, "added", function() cb(true, ch.path) end)
     end
     if ch.kind == "leaf" then wiring.devices(sup, wired, ch.path) else wired(true) end
   end, function() return false end)
@@ -188,9 +216,8 @@ function M.remove(sup, path, host, cb)
   if sup.fleet_running then sup.fleet_running[name] = nil end
   stop(sup, ch, function()
     leave(sup, name)
-    note(sup, t, name, "removed")
     sup:say("%s: removed", ch.path)
-    cb(true, ch.path)
+    note(sup, t, name, "removed", function() cb(true, ch.path) end)
   end)
 end
 

@@ -11,6 +11,7 @@ for _, c in ipairs({ { "world-opt jammed", "--seed and --world-opt go with --sim
                     { "record x.mcap --blackbox 1,1", "--blackbox goes with --sim WORLD" },
                     { "realtime", "--realtime goes with --sim WORLD" },
                     { "tick-timeout 5000", "--tick-timeout goes with --sim WORLD" },
+                    { "world-host vision", "--world-host goes with --sim WORLD" },
                     { "as-fast-as-possible", "--as-fast-as-possible goes with --monitor and --sim WORLD" },
                     { "monitor-taps all", "--monitor-taps goes with --monitor and is all or picked, not 'all'" },
                     { "monitor --monitor-taps some", "--monitor-taps goes with --monitor and is all or picked, not 'some'" } }) do
@@ -20,6 +21,15 @@ for _, c in ipairs({ { "world-opt jammed", "--seed and --world-opt go with --sim
     T.contains(out, c[2])
   end)
 end
+
+-- --world-host names a host of the system, checked before anything starts.
+suite:case("run_world_host_not_a_host_of_the_system", function()
+  local out, rc = T.sh(dca .. " run " .. src .. "/worlds/door/systems/door_open.dca --sim door --world-host lab")
+  T.eq(rc, 2, "exit code\n" .. out)
+  T.contains(out, "--world-host lab is not a host of " .. src .. "/worlds/door/systems/door_open.dca (manipulation, "
+    .. "platform, vision)")
+  T.eq(out:find("daemon at", 1, true), nil, "nothing started")
+end)
 
 -- Configuration values are data. A defaults file or a --set whose value is code fails the run at
 -- once with the value's file:line:col (or column) and starts nothing; on main they were executed (a loop hung

@@ -317,4 +317,40 @@ suite:case("one_for_all_restarts_the_instances_with_the_declared_children", func
   T.eq(c.outcome, nil)
 end)
 
+-- Each change is recorded in the configuration repository before it is answered: `fleet.PATH`, the hosts with an
+-- instance in the order they joined and the change, one write each, in the order of the changes.
+suite:case("each_change_is_recorded_in_the_configuration_repository_before_its_answer", function()
+  local c = fake.cluster({ behave = BEHAVE, config = {} })
+  c:root(spec_of(SYSTEM))
+  assert(c:configure())
+  c:start()
+  c:settle(c.t + 1)
+  local writes = {}
+  local set = c.config_set
+  function c.config_set(self, values)
+    writes[#writes + 1] = values
+    return set(self, values)
+  end
+  local function answered(what, path, host)
+    local n, res = #writes, nil
+    c.root_sup[what](c.root_sup, path, host, function(ok, r) res = { ok, r, #writes } end)
+    c:settle(c.t + 1, function() return res ~= nil end)
+    T.ok(res and res[1], tostring(res and res[2]))
+    T.eq(res[3], n + 1, what .. " " .. path .. ": one write, made before the answer")
+    c:settle(c.t)
+  end
+  answered("add_child", "main.fleet.lights", "r2")
+  answered("add_child", "main.fleet.lights", "r1")
+  answered("add_child", "main.fleet.timers", "r1")
+  answered("remove_child", "main.fleet.lights_r2")
+  local key = "fleet.main.fleet.lights"
+  T.eq(writes, {
+    { [key] = { hosts = { "r2" }, last = { what = "added", instance = "lights_r2" } } },
+    { [key] = { hosts = { "r2", "r1" }, last = { what = "added", instance = "lights_r1" } } },
+    { ["fleet.main.fleet.timers"] = { hosts = { "r1" }, last = { what = "added", instance = "timers_r1" } } },
+    { [key] = { hosts = { "r1" }, last = { what = "removed", instance = "lights_r2" } } },
+  })
+  T.eq(c.config[key].hosts, { "r1" })
+end)
+
 return suite:run(...)
