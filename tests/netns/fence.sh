@@ -109,8 +109,9 @@ for r in $(seq 1 "$repeats"); do
   for c in silent loud; do
     round=$((round + 1))
     daemons_up $((7420 + round)) --clock sim
+    # (one process per leaf, as the daemon's fence is checked per leaf: simulated time places as `host` otherwise)
     DCA_KEY_FILE="$key" timeout 120 "$dca" run "$sys" --hosts "$hosts" --sim "mock:$urdf" --realtime \
-      --tick-timeout 5000 --trace "$work/run.trace" > "$work/run.out" 2>&1 &
+      --placement process --tick-timeout 5000 --trace "$work/run.trace" > "$work/run.out" 2>&1 &
     run_pid=$!
     for _ in $(seq 1 6000); do grep -qs "main.ctrl: running" "$work/run.out" && break; sleep 0.01; done  # (60 s at most)
     if ! grep -q "main.ctrl: running" "$work/run.out"; then

@@ -47,7 +47,10 @@ DCA
   } > "$sys"
   cp "$src/scripts/systems/door_open.config" "$work/fleet.config"
   mkdir -p "$work/packages" && cp "$pk/pkg_ok.dca.so" "$work/packages/" || fail "the system's packages folder"
-  DCA_KEY_FILE="$key" "$dca" run "$sys" --hosts "$hosts" --sim door --realtime --world-host door "$@" \
+  # (one process per leaf: the test finds each leaf's process and namespace, and `dca upgrade` restarts leaves
+  # onto new code, which a shared node cannot load; simulated time places as `host` otherwise)
+  DCA_KEY_FILE="$key" "$dca" run "$sys" --hosts "$hosts" --sim door --realtime --world-host door \
+    --placement process "$@" \
     > "$work/run.out" 2>&1 &
   run_pid=$!
   wait_for said_or_ended "main.door.motionctrl.puma: running"
