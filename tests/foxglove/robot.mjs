@@ -40,15 +40,17 @@ try {
   });
   check(channels.get(URDF).schemaName === "std_msgs/String", `${URDF}: schema ${channels.get(URDF).schemaName}`);
   check(JSON.parse(channels.get(FRAMES).schema).title === "foxglove.FrameTransforms", `${FRAMES}: its JSON Schema`);
-  urdfSub = client.subscribe(channels.get(URDF).id);
+  // The first subscription starts time (--monitor-wait) once its tap is made: the frames from the first step on.
   framesSub = client.subscribe(channels.get(FRAMES).id);
+  urdfSub = client.subscribe(channels.get(URDF).id);
   await said(/live: tapped world\.links\.frames/, 20000, "dca's tap of the link frames");
-  await pageToEnd(url, run, failures);  // time starts (--monitor-wait)
+  await pageToEnd(url, run, failures);
   client.close();
 
   check(urdf.length === 1 && /<robot name="ur10"/.test(urdf[0]?.data ?? ""), `${URDF}: ${urdf.length} messages`);
   const links = [...(urdf[0]?.data ?? "").matchAll(/<link name="([^"]+)"/g)].map((m) => m[1]);
   check(frames.length > 100, `${frames.length} messages on ${FRAMES}`);
+  check(frames[0]?.t === 10000000n, `the first frames at ${frames[0]?.t} ns, not at the first step (10 ms)`);
   let prev = -1n;
   for (const { t, m } of frames) {
     check(t >= prev, `${FRAMES}: timestamps going back`);

@@ -37,6 +37,7 @@ local taps = require "dca.supervisor.taps"
 local M = {}
 
 local ipairs, tostring, type, sformat, concat = ipairs, tostring, type, string.format, table.concat
+local ROBOT_DESCRIPTION = "/robot_description"  -- (host/codec/frames.h, kDescriptionTopic)
 
 local Live = {}
 Live.__index = Live
@@ -139,8 +140,20 @@ function Live:ended(t)
   if self.fox and t then self.fox:end_time(t) end
 end
 
--- A Foxglove client subscribed to its first channel: who waited for a viewer (--monitor-wait) goes on.
+-- A Foxglove client subscribed to its first channel: who waited for a viewer (--monitor-wait) goes on, once every
+-- tap asked for so far is made (the channel it subscribed to then has its samples from the first step on).
 function Live:_client()
+  local pending = {}
+  for _, state in pairs(self.tapped) do
+    if type(state) == "table" then pending[#pending + 1] = state end
+  end
+  if #pending > 0 then
+    local left = #pending
+    for _, waiting in ipairs(pending) do
+      waiting[#waiting + 1] = function() left = left - 1 if left == 0 then self:_client() end end
+    end
+    return
+  end
   local waiting = self.client_waiters
   self.client_waiters, self.had_client = nil, true
   for _, fn in ipairs(waiting or {}) do fn() end
@@ -292,6 +305,7 @@ end
 function Live:tap_topic(topic, cb, quiet)
   cb = cb or function(ok, err) if not ok then io.stderr:write("dca run: live tap ", tostring(topic), ": ", tostring(err), "\n") end end
   if self.streams and self.streams[topic] then cb(true) return end  -- the run's lines: published, never tapped
+  if topic == ROBOT_DESCRIPTION and self.robot then cb(true) return end  -- the URDF: one message, served by the hub
   local p = self.by_topic[topic]
   if not p then cb(nil, "no port has the topic " .. tostring(topic)) return end
   local state = self.tapped[topic]
