@@ -5,7 +5,8 @@ add_library(dca_warnings INTERFACE)
 target_compile_options(dca_warnings INTERFACE
   -Wall -Wextra -Wpedantic -Wshadow -Wnon-virtual-dtor -Wold-style-cast -Wcast-align
   -Wunused -Woverloaded-virtual -Wnull-dereference -Wdouble-promotion -Wformat=2 -Wimplicit-fallthrough
-  $<$<BOOL:${DCA_WERROR}>:-Werror>)
+  $<$<BOOL:${DCA_WERROR}>:-Werror>
+  $<$<AND:$<BOOL:${CMAKE_UNITY_BUILD}>,$<CXX_COMPILER_ID:GNU>>:-Wno-subobject-linkage>)
 add_library(dca::warnings ALIAS dca_warnings)
 
 # dca::sanitizers: ASan + UBSan when DCA_SANITIZE is on, nothing otherwise.

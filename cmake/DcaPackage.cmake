@@ -25,8 +25,10 @@ function(dca_package_properties target name)
   target_link_libraries(${target} PRIVATE dca::sdk)
   target_compile_definitions(${target} PRIVATE DCA_PACKAGE_NAME="${name}")
   target_compile_features(${target} PRIVATE cxx_std_20)
+  # (UNITY_BUILD OFF: a package's files are compiled one by one even in a unity build of dca's own sources, so
+  # each file may name its ports kIn, kOut in an anonymous namespace, as most packages do)
   set_target_properties(${target} PROPERTIES PREFIX "" OUTPUT_NAME "${name}.dca" SUFFIX ".so"
-                        POSITION_INDEPENDENT_CODE ON)
+                        POSITION_INDEPENDENT_CODE ON UNITY_BUILD OFF)
 endfunction()
 
 function(dca_add_controller_package name)

@@ -80,13 +80,6 @@ TimerServer& Controller::timers() const {
 }
 
 namespace {
-std::string describe(const PortSpec& p) {
-  if (p.type == PortType::Message) return p.message.empty() ? "message" : p.message;
-  std::string d(to_string(p.type));
-  if (p.type == PortType::Vector) d += "[" + std::to_string(p.size) + "]";
-  return d;
-}
-
 // A port bound in a constructor must be the manifest's, of the bound type: std::invalid_argument otherwise, as for
 // a bad parameter, so that the node's start fails at once naming it (not a stand-in that aborts when it runs).
 template <class P>
@@ -94,8 +87,8 @@ P& bound(P* p, const std::string& who, std::string_view name, PortType type, std
          const std::string& missing) {
   if (!p) throw std::invalid_argument(missing + " (list it in Describe())");
   if (p->spec().type != type || (type == PortType::Vector && p->spec().size != size))
-    throw std::invalid_argument(who + ": port '" + std::string(name) + "' is " + describe(p->spec()) +
-                           " in the manifest but bound as " + describe(PortSpec{"", type, size}));
+    throw std::invalid_argument(who + ": port '" + std::string(name) + "' is " + describe_type(p->spec()) +
+                           " in the manifest but bound as " + describe_type(PortSpec{"", type, size}));
   return *p;
 }
 }  // namespace

@@ -60,18 +60,16 @@ PortSpec message_port(std::string name, std::string message, std::string units) 
   return s;
 }
 
-namespace {
-std::string describe(const PortSpec& s) {
-  if (s.type == PortType::Message) return s.message;
+std::string describe_type(const PortSpec& s) {
+  if (s.type == PortType::Message) return s.message.empty() ? "message" : s.message;
   std::string d(to_string(s.type));
-  if (s.type == PortType::Vector) {
+  if (s.type == PortType::Vector) {  // (not "[" + to_string(...): GCC 12 -O3 warns -Wrestrict on it)
     d += '[';
     d += std::to_string(s.size);
     d += ']';
   }
   return d;
 }
-}  // namespace
 
 // Numeric ports carry doubles: a scalar is one, a vector[N] N, a vectorx any number. A vectorx end takes the
 // other end's size; two fixed sizes must be equal (so a scalar and a vector[1] connect). A sample that does not
@@ -86,7 +84,7 @@ std::string compatibility_error(const PortSpec& out, const PortSpec& in) {
   else if (out.type == PortType::Value || in.type == PortType::Value) ok = out.type == in.type;
   else ok = !fixed(out) || !fixed(in) || size(out) == size(in);
   if (ok) return "";
-  return "output '" + out.name + "' is " + describe(out) + " but input '" + in.name + "' is " + describe(in);
+  return "output '" + out.name + "' is " + describe_type(out) + " but input '" + in.name + "' is " + describe_type(in);
 }
 
 bool is_tap_input(const PortSpec& in) { return in.type == PortType::Value && in.name.rfind("tap:", 0) == 0; }

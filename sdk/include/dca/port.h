@@ -73,6 +73,9 @@ PortSpec vectorx_port(std::string name, std::string units = "");
 PortSpec value_port(std::string name, std::string units = "");
 /// A message port spec: `message` is a dca::msgs type's ros_name.
 PortSpec message_port(std::string name, std::string message, std::string units = "");
+/// A port's type as errors name it: "scalar", "vector[6]", "vectorx", "value", or a Message port's ROS 2 type
+/// ("message" when it names none).
+std::string describe_type(const PortSpec& s);
 
 /// A sample's bytes: doubles in host byte order for numeric ports, msgpack bytes for Value ports, the message's
 /// CDR (dca/msgs_cdr.h) for Message ports.
