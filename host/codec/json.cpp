@@ -65,6 +65,15 @@ void append_number(std::string& out, double d) {
   out.append(buf, r.ptr);
 }
 
+void append_numbers(std::string& out, std::span<const double> values) {
+  out += '[';
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    if (i) out += ',';
+    append_number(out, values[i]);
+  }
+  out += ']';
+}
+
 void encode(const wire::Value& v, std::string& out) {
   if (v.is_bool()) {
     out += v.as_bool() ? "true" : "false";

@@ -3,6 +3,7 @@
 // JSON <-> wire::Value, for the web monitor's messages (host/web) and its Lua side (core.json_encode/decode).
 // Pure, no I/O. The decoder never throws and is bounded: at most kMaxDepth levels of nesting; any input that
 // is not one well-formed JSON value (RFC 8259) is refused with the byte offset and the reason.
+#include <span>
 #include <string>
 #include <string_view>
 
@@ -22,6 +23,8 @@ void encode(const wire::Value& v, std::string& out);
 void append_string(std::string& out, std::string_view s);
 /// Appends `d` as a JSON number (shortest round-trip text; NaN and infinities as null).
 void append_number(std::string& out, double d);
+/// Appends `values` as a JSON array of numbers (each as append_number writes it).
+void append_numbers(std::string& out, std::span<const double> values);
 /// Parses `text` (one JSON value, surrounding blanks allowed). False with *error ("offset N: what") otherwise.
 bool decode(std::string_view text, wire::Value* out, std::string* error);
 

@@ -106,12 +106,7 @@ std::string sample_json(const PortSpec& spec, Bytes sample) {
   } else if (spec.type == PortType::Scalar) {
     json::append_number(out, v[0]);
   } else {
-    out += '[';
-    for (std::size_t i = 0; i < v.size(); ++i) {
-      if (i) out += ',';
-      json::append_number(out, v[i]);
-    }
-    out += ']';
+    json::append_numbers(out, v);
   }
   return out + "}";
 }

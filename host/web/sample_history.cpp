@@ -114,12 +114,7 @@ std::string SampleHistory::json_rows() const {
   std::string out = "[";
   for (const auto& row : rows()) {
     if (out.size() > 1) out += ',';
-    out += '[';
-    for (std::size_t i = 0; i < row.size(); ++i) {
-      if (i) out += ',';
-      json::append_number(out, row[i]);
-    }
-    out += ']';
+    json::append_numbers(out, row);
   }
   return out + "]";
 }
