@@ -710,10 +710,12 @@ TEST_F(NodeTest, RtSettingRunsTheLeavesOnARealTimeThreadSamplesCrossBothWays) {
   ASSERT_TRUE(call(sa, "run").ok());
   EXPECT_TRUE(a->running);
   ASSERT_TRUE(run_until([&] { return a->ticks > stopped_at + 10; }));
-  // an end of run on the thread reaches the supervisor
+  // an end of run on the thread reaches the supervisor (c, pulling x, aborts on that sample too, at its own tick)
   x->out->write(-1.0);
   ASSERT_TRUE(run_until([&] {
-    return std::any_of(events.begin(), events.end(), [](const Message& m) { return m.type == "aborted"; });
+    return std::any_of(events.begin(), events.end(), [](const Message& m) {
+      return m.type == "aborted" && m.payload["name"].as_string() == "/g/a";
+    });
   }));
   EXPECT_FALSE(a->running);
   EXPECT_TRUE(b->running);
