@@ -10,11 +10,17 @@ local LEAF = "main.mid.low.leaf"
 -- Under a shared placement (`--placement group|host`) a crash reason ends with the shared node's note.
 local function begins(got, want) S.eq(tostring(got):sub(1, #want), want) end
 
--- Waits until `group` has been restarted (after line `from`) and the leaf runs in its new subtree.
+-- Waits until `group` has been restarted (after line `from`) and the leaf runs in its new subtree: its `running`
+-- line comes after the parent's `restarting` line, and before the group's `restarted` line (said once the group's
+-- run is answered, its subtree running).
 local function restarted(group, budget, from)
   local line, at = sys:wait_restart(group, 30, from)
   S.contains(line, group .. ": restarted " .. budget)
-  sys:wait_line(LEAF .. " running again", "^main%.mid%.low%.leaf: running", 30, at)
+  local parent, name = group:match("^(.*)%.([^.]+)$")
+  local _, began = sys:wait_line(parent .. " restarting " .. name,
+    "^" .. parent:gsub("%p", "%%%0") .. ": %S+ after .*: restarting [%w_, ]*" .. name, 1, from)
+  local _, ran = sys:wait_line(LEAF .. " running again", "^main%.mid%.low%.leaf: running", 1, began)
+  S.ok(ran < at, "the leaf ran before its group said it restarted")
 end
 
 S.step("the tree runs on three hosts", function()

@@ -181,18 +181,22 @@ end
 -- The end of a restart of child `name` (a leaf's new process, or a sub-group's new supervisor with its subtree up):
 -- this group's connections of it made again, the taps it remembers (of the leaf, or of every leaf of the subtree)
 -- made again, the groups above told (`restarted`), then run again with its last `init` if it ran (unless its
--- group's expression aborted it meanwhile). cb(true) | the restart failed (M.failed)
+-- group's expression aborted it meanwhile); its `restarted` line and cb(true) once that run is answered. cb(true) |
+-- the restart failed (M.failed)
 function M.tail(sup, name, was_running, cb)
   local ch = sup.children[name]
   wiring.rewire(sup, ch.path, function(ok, err)
     if not ok then M.failed(sup, name, was_running, err, cb) return end
     taps.retap(sup, ch, function()
       sup.rt.report({ type = "restarted", path = ch.path })
-      M.run_again(sup, name, was_running)
-      M.restarted_line(sup, ch)
-      local note = child.restart(ch, "code")
-      child.unmark(ch, "code")
-      cb(true, note)
+      -- done (said, answered) once its Run has been answered: on simulated time the next tick then finds its
+      -- timers (a restart by hand while time is held is done before time moves on)
+      M.run_again(sup, name, was_running)(function()
+        M.restarted_line(sup, ch)
+        local note = child.restart(ch, "code")
+        child.unmark(ch, "code")
+        cb(true, note)
+      end)
     end)
   end)
 end
@@ -451,12 +455,26 @@ function M.respawn_group(sup, name, was_running, cb)
 end
 
 -- A child started anew runs with its last init if it ran (or its run was asked for meanwhile) and the
--- expression still runs it.
+-- expression still runs it. --> when(k): k() once that run has been answered (or has failed); at once
+-- if there is none.
 function M.run_again(sup, name, was_running)
   local ch = sup.children[name]
   local pending = child.restart(ch, "pending")
   child.unmark(ch, "pending", "fault", "policy")
-  if (was_running or pending) and sup:_runs(name) then sup:_start_child(name, ch.init) end
+  local waiters, answered = {}, false
+  local acks = async.join(function()
+    answered = true
+    for _, w in ipairs(waiters) do w() end
+  end)
+  if (was_running or pending) and sup:_runs(name) then
+    local outer = sup.run_acks
+    sup.run_acks = acks   -- (Sup:_start_child joins the answer to its `run` here)
+    sup:_start_child(name, ch.init)
+    sup.run_acks = outer
+  end
+  acks.close()
+  -- when(k): k() once the run (if any) has been answered, or failed
+  return function(k) if answered then k() else waiters[#waiters + 1] = k end end
 end
 
 function M.restarted_line(sup, ch)

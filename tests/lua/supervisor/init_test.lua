@@ -472,6 +472,30 @@ suite:case("a_leaf_restarted_by_its_own_group_is_wired_again_by_the_groups_above
   T.ok(not lines:find("main.door.mc.rr: exited", 1, true), "the old process's exit is no crash")
 end)
 
+-- A restart answers once the new process has answered its Init and Run: on simulated time a restart by hand while
+-- time is held is then done before time moves on, so the tick after it finds the new process's timers (it was:
+-- the answer came first, the next advance reached the node before its `run`, and the drive wrote nothing until
+-- the idle tick a second later; scenario door_drive_restart, 1 run in 5 under load).
+suite:case("a_restart_answers_once_the_new_process_has_answered_its_run", function()
+  local c = running(compliant())
+  c:settle(1)
+  local from, at = #c.trace, nil
+  c.root_sup:restart("main.compliant", function(ok) if ok then at = #c.trace end end)
+  c:settle(nil, function() return at ~= nil end)
+  T.ok(at, "restarted")
+  local asked, answered, ran = 0, 0, false
+  for i = from + 1, at do
+    local m = c.trace[i]
+    if m.to == "main.compliant" and m.kind == "request" then
+      asked = asked + 1
+      ran = ran or m.type == "run"
+    end
+    if m.from == "main.compliant" and m.kind == "reply" then answered = answered + 1 end
+  end
+  T.ok(ran, "the new process was asked to run")
+  T.eq(answered, asked, "every request to the new process (its run included) was answered before the restart")
+end)
+
 suite:case("a_restart_whose_spawn_fails_ends_the_leaf_aborted_with_the_reason", function()
   local c = running(compliant())
   c:settle(1)
