@@ -108,6 +108,7 @@ function M.replace(sup, name, note, cb)
   local old = ch.handle
   child.mark(ch, { replacing = true, code = note })
   child.set(ch, "restarting")
+  ch.restarts = (ch.restarts or 0) + 1   -- (counted as a policy's are: the tree and the page's count agree)
   sup:say("%s: restarting", ch.path)
   local function ended(ok, err)
     if not ok then M.failed(sup, name, was_running, err, cb) return end

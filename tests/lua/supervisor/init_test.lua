@@ -494,6 +494,8 @@ suite:case("a_restart_answers_once_the_new_process_has_answered_its_run", functi
   end
   T.ok(ran, "the new process was asked to run")
   T.eq(answered, asked, "every request to the new process (its run included) was answered before the restart")
+  -- counted as a policy's restart is: the tree says so (the monitor's row takes its count from it)
+  T.eq(c.root_sup.children.compliant.restarts, 1)
 end)
 
 suite:case("a_restart_whose_spawn_fails_ends_the_leaf_aborted_with_the_reason", function()
