@@ -24,6 +24,7 @@
 
 extern char** environ;
 
+namespace dca::cli::cmd_bench {
 namespace {
 
 struct Options {
@@ -212,3 +213,5 @@ int bench_main(std::span<char* const> args) {
 
 DCA_SUBCOMMAND("bench", "benchmarks: rt (the real-time thread against cyclictest, idle and under load)",
                "dca bench rt [--seconds S] [--priority P] [--cpu C] [--no-load]", bench_main);
+
+}  // namespace dca::cli::cmd_bench

@@ -18,6 +18,7 @@
 #include "host/paths.h"
 #include "host/systemd.h"
 
+namespace dca::cli::cmd_daemon {
 namespace {
 
 constexpr const char* kUsage =
@@ -223,3 +224,5 @@ int cmd_daemon(std::span<char* const> args) {
 }  // namespace
 
 DCA_SUBCOMMAND("daemon", "run this host's daemon (Executer, NameServer, configuration replica)", kUsage, cmd_daemon);
+
+}  // namespace dca::cli::cmd_daemon

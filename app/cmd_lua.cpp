@@ -4,6 +4,7 @@
 #include "bindings/lua_runtime.h"
 #include "app/subcommand.h"
 
+namespace dca::cli::cmd_lua {
 namespace {
 
 int cmd_lua(std::span<char* const> args) {
@@ -24,3 +25,5 @@ DCA_SUBCOMMAND("lua", "run a Lua file with the dca modules on the path",
                "Exit code: the chunk's integer result, 0 when it returns nothing or true, 1 for false or on an error\n"
                "(printed as file:line: message with a traceback).",
                cmd_lua);
+
+}  // namespace dca::cli::cmd_lua

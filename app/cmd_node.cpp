@@ -16,6 +16,7 @@
 #include "host/node.h"
 #include "host/rt/setup.h"
 
+namespace dca::cli::cmd_node {
 namespace {
 
 constexpr const char* kUsage =
@@ -147,3 +148,5 @@ int cmd_node(std::span<char* const> args) {
 }  // namespace
 
 DCA_SUBCOMMAND("node", "host one controller, driven by its supervisor (started by a daemon)", kUsage, cmd_node);
+
+}  // namespace dca::cli::cmd_node

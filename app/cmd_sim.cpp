@@ -19,6 +19,7 @@
 #include "sim/device_node.h"
 #include "sim/world_plugin.h"
 
+namespace dca::cli::cmd_sim {
 namespace {
 
 constexpr const char* kUsage =
@@ -328,3 +329,5 @@ bool world_signals(const std::string& spec, const std::vector<std::string>& opti
 }  // namespace
 
 DCA_SUBCOMMAND("sim", "run a simulated world (Simbody) in lock-step or real time, or serve it to a run", kUsage, cmd_sim);
+
+}  // namespace dca::cli::cmd_sim

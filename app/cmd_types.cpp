@@ -10,6 +10,7 @@
 #include "app/world_ports.h"
 #include "host/paths.h"
 
+namespace dca::cli::cmd_types {
 namespace {
 
 // "scalar", "vector[3]", "vectorx", "value", or a message port's ROS 2 type ("geometry_msgs/msg/Twist").
@@ -139,3 +140,5 @@ DCA_SUBCOMMAND("types", "every controller type with its ports and parameters",
                "its command inputs and state outputs (a URDF world's, its joints' interfaces) and the warnings of\n"
                "loading it; exit code 1 if it does not load.",
                cmd_types);
+
+}  // namespace dca::cli::cmd_types

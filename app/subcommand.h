@@ -33,5 +33,6 @@ struct Registrar {
 #define DCA_CLI_CONCAT2(a, b) a##b
 #define DCA_CLI_CONCAT(a, b) DCA_CLI_CONCAT2(a, b)
 /// DCA_SUBCOMMAND("name", "summary", "usage", fn) registers a subcommand from any file linked into `dca`.
+/// (__COUNTER__, not __LINE__: a unity build joins files, two of which may register on the same line)
 #define DCA_SUBCOMMAND(name, summary, usage, fn) \
-  static const ::dca::cli::Registrar DCA_CLI_CONCAT(dca_subcommand_, __LINE__){{name, summary, usage, fn}}
+  static const ::dca::cli::Registrar DCA_CLI_CONCAT(dca_subcommand_, __COUNTER__){{name, summary, usage, fn}}

@@ -1,26 +1,25 @@
 #include "door/compliant_ctrl.h"
 
 #include <dca/registry.h>
+#include "door/ports.h"
 #include "robot/model.h"
 
 namespace dca::door {
 
 namespace {
-const InSpec<robot::Vec6> kWrench = robot::WrenchIn(), kJoints = robot::JointsIn();
-const OutSpec<robot::Vec9> kVel = actuator(robot::VelOut());
 const Param<double> kCompliance{.name = "compliance", .doc = "(m/s)/N", .def = 0.001};
 const Param<double> kDeadband{.name = "deadband", .doc = "N", .def = 1};
-const Param<double> kMaxSpeed{.name = "max_speed", .doc = "m/s", .def = 0.1, .above = 0};
+const Param<double> kCompliantMaxSpeed{.name = "max_speed", .doc = "m/s", .def = 0.1, .above = 0};
 }  // namespace
 
 Manifest CompliantCtrl::Describe() {
   return {.type = "CompliantCtrl", .doc = "admittance: the tool gives way to the horizontal force it feels",
           .inputs = {kWrench, kJoints}, .outputs = {kVel},
-          .params = {kCompliance, kDeadband, kMaxSpeed, PeriodParam()}, .ends = Ending::Never()};
+          .params = {kCompliance, kDeadband, kCompliantMaxSpeed, PeriodParam()}, .ends = Ending::Never()};
 }
 CompliantCtrl::CompliantCtrl(const ControllerContext& ctx)
     : PeriodicController(ctx), wrench_(port(kWrench)), joints_(port(kJoints)), vel_(port(kVel)), arm_(robot::arm()),
-      compliance_(param(kCompliance)), deadband_(param(kDeadband)), max_speed_(param(kMaxSpeed)) {}
+      compliance_(param(kCompliance)), deadband_(param(kDeadband)), max_speed_(param(kCompliantMaxSpeed)) {}
 void CompliantCtrl::on_configure() {
   have_q_ = have_w_ = false;
   v_.setZero();

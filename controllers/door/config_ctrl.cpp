@@ -1,27 +1,26 @@
 #include "door/config_ctrl.h"
 
 #include <dca/registry.h>
+#include "door/ports.h"
 #include "robot/model.h"
 
 namespace dca::door {
 
 namespace {
-const InSpec<robot::Vec6> kJoints = robot::JointsIn();
-const OutSpec<robot::Vec9> kVel = actuator(robot::VelOut());
 const Param<double> kReach{.name = "reach", .doc = "the tool's preferred distance ahead of the shoulder axis, m",
                            .def = 0.55, .above = 0};
-const Param<double> kGain{.name = "gain", .doc = "1/s", .def = 1.5};
-const Param<double> kMaxSpeed{.name = "max_speed", .doc = "m/s", .def = 0.2, .above = 0};
+const Param<double> kConfigGain{.name = "gain", .doc = "1/s", .def = 1.5};
+const Param<double> kConfigMaxSpeed{.name = "max_speed", .doc = "m/s", .def = 0.2, .above = 0};
 }  // namespace
 
 Manifest ConfigCtrl::Describe() {
   return {.type = "ConfigCtrl", .doc = "moves the base under the tool to keep the arm in a comfortable configuration",
-          .inputs = {kJoints}, .outputs = {kVel}, .params = {kReach, kGain, kMaxSpeed, PeriodParam()},
+          .inputs = {kJoints}, .outputs = {kVel}, .params = {kReach, kConfigGain, kConfigMaxSpeed, PeriodParam()},
           .ends = Ending::Never()};
 }
 ConfigCtrl::ConfigCtrl(const ControllerContext& ctx)
     : PeriodicController(ctx), joints_(port(kJoints)), vel_(port(kVel)), arm_(robot::arm()), reach_(param(kReach)),
-      gain_(param(kGain)), max_speed_(param(kMaxSpeed)) {}
+      gain_(param(kConfigGain)), max_speed_(param(kConfigMaxSpeed)) {}
 void ConfigCtrl::on_configure() {
   have_q_ = false;
   v_.setZero();

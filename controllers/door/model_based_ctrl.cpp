@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include <dca/registry.h>
+#include "door/ports.h"
 #include "robot/model.h"
 
 namespace dca::door {
@@ -10,9 +11,8 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 
 const InSpec<robot::Vec3> kBasePose = robot::PoseIn("BasePose");
-const InSpec<robot::Vec6> kJoints = robot::JointsIn();
-const OutSpec<robot::Vec9> kVel = actuator(robot::VelOut());
-const Param<double> kSpeed{.name = "speed", .doc = "the hand's speed along the circle, m/s", .def = 0.15, .above = 0};
+const Param<double> kModelBasedSpeed{.name = "speed", .doc = "the hand's speed along the circle, m/s", .def = 0.15,
+                                     .above = 0};
 const Param<double> kAngle{.name = "angle", .doc = "DONE when the door is open this far, degrees", .def = 75,
                            .above = 0};
 const Param<double> kRadius{.name = "radius", .doc = "guessed distance from the hand to the hinge, m", .def = 0.75,
@@ -26,12 +26,12 @@ const Param<double> kMinArc{.name = "min_arc", .doc = "the arc (rad) the hand mu
 Manifest ModelBasedCtrl::Describe() {
   return {.type = "ModelBasedCtrl", .doc = "pushes the door open along the circle estimated from the hand's path",
           .inputs = {kBasePose, kJoints}, .outputs = {kVel},
-          .params = {kSpeed, kAngle, kRadius, kSide, kMinArc, PeriodParam()}, .ends = Ending::Done()};
+          .params = {kModelBasedSpeed, kAngle, kRadius, kSide, kMinArc, PeriodParam()}, .ends = Ending::Done()};
 }
 ModelBasedCtrl::ModelBasedCtrl(const ControllerContext& ctx)
     : PeriodicController(ctx), pose_(port(kBasePose)), joints_(port(kJoints)), vel_(port(kVel)), arm_(robot::arm()),
-      speed_(param(kSpeed)), target_(param(kAngle) * kPi / 180), radius_(param(kRadius)), min_arc_(param(kMinArc)),
-      side_(param(kSide) == "right" ? -1.0 : 1.0) {}
+      speed_(param(kModelBasedSpeed)), target_(param(kAngle) * kPi / 180), radius_(param(kRadius)),
+      min_arc_(param(kMinArc)), side_(param(kSide) == "right" ? -1.0 : 1.0) {}
 void ModelBasedCtrl::on_configure() {
   have_pose_ = have_q_ = started_ = false;
   est_.reset();

@@ -1,29 +1,30 @@
 #include "door/press_handle.h"
 
 #include <dca/registry.h>
+#include "door/ports.h"
 #include "robot/model.h"
 
 namespace dca::door {
 
 namespace {
-const InSpec<robot::Vec6> kWrench = robot::WrenchIn(), kJoints = robot::JointsIn();
-const OutSpec<robot::Vec9> kVel = actuator(robot::VelOut());
-const Param<double> kSpeed{.name = "speed", .doc = "downward speed of the tool, m/s", .def = 0.03, .above = 0};
-const Param<double> kForce{.name = "force", .doc = "the force (N) at which the handle counts as stopped", .def = 30,
-                           .above = 0};
+const Param<double> kPressSpeed{.name = "speed", .doc = "downward speed of the tool, m/s", .def = 0.03, .above = 0};
+const Param<double> kPressForce{.name = "force", .doc = "the force (N) at which the handle counts as stopped",
+                                .def = 30, .above = 0};
 const Param<double> kTravel{.name = "travel", .doc = "the travel (m) the handle must allow before it stops",
                             .def = 0.02, .above = 0};
-const Param<double> kCompliance{.name = "compliance", .doc = "horizontal admittance, (m/s)/N", .def = 0.002};
+const Param<double> kPressCompliance{.name = "compliance", .doc = "horizontal admittance, (m/s)/N", .def = 0.002};
 }  // namespace
 
 Manifest PressHandle::Describe() {
   return {.type = "PressHandle", .doc = "presses the grasped handle down, compliantly, until it stops",
           .inputs = {kWrench, kJoints}, .outputs = {kVel},
-          .params = {kSpeed, kForce, kTravel, kCompliance, PeriodParam()}, .ends = Ending::DoneOrAborted()};
+          .params = {kPressSpeed, kPressForce, kTravel, kPressCompliance, PeriodParam()},
+          .ends = Ending::DoneOrAborted()};
 }
 PressHandle::PressHandle(const ControllerContext& ctx)
     : PeriodicController(ctx), wrench_(port(kWrench)), joints_(port(kJoints)), vel_(port(kVel)), arm_(robot::arm()),
-      speed_(param(kSpeed)), force_(param(kForce)), travel_(param(kTravel)), compliance_(param(kCompliance)) {}
+      speed_(param(kPressSpeed)), force_(param(kPressForce)), travel_(param(kTravel)),
+      compliance_(param(kPressCompliance)) {}
 void PressHandle::on_configure() {
   have_start_ = have_bias_ = false;
   v_.setZero();
@@ -50,7 +51,7 @@ void PressHandle::MainCalc() {
   if (f.z() - bias_.z() >= force_) {
     vel_.write(robot::Vec9::Zero().eval());
     if (travel >= travel_) return Done(travel);
-    return Abort("handle jammed: " + text(kForce) + " N reached after " + std::to_string(travel) +
+    return Abort("handle jammed: " + text(kPressForce) + " N reached after " + std::to_string(travel) +
                  " m of travel (needs " + text(kTravel) + " m)");
   }
   // Down at `speed`; horizontally the tool gives way to the lever (which swings in the door's plane), and to

@@ -1,13 +1,13 @@
 #include "door/redundancy_resolution.h"
 
 #include <dca/registry.h>
+#include "door/ports.h"
 #include "robot/model.h"
 
 namespace dca::door {
 
 namespace {
 const InSpec<Vec9> kIn = robot::VelIn("In");
-const InSpec<Vec6> kJoints = robot::JointsIn();
 const OutSpec<Vec3> kBaseVel{.name = "BaseVel", .units = "m/s, m/s, rad/s", .actuator = true};
 const OutSpec<Vec6> kArmVel{.name = "ArmVel", .units = "rad/s", .actuator = true};
 const Param<double> kBaseWeight{.name = "base_weight", .doc = "cost of base motion (higher: the arm does more)",

@@ -1,14 +1,14 @@
 #include "door/thresholds.h"
 
 #include <dca/registry.h>
+#include "door/ports.h"
 
 namespace dca::door {
 
 namespace {
 const InSpec<double> kDistanceIn{.name = "Distance", .units = "m"};
-const Param<double> kDistance{.name = "distance", .doc = "the threshold, m", .def = 0.7, .above = 0};
-const InSpec<robot::Vec6> kWrench = robot::WrenchIn();
-const Param<double> kForce{.name = "force", .doc = "the threshold, N", .def = 6, .above = 0};
+const Param<double> kThresholdDistance{.name = "distance", .doc = "the threshold, m", .def = 0.7, .above = 0};
+const Param<double> kThresholdForce{.name = "force", .doc = "the threshold, N", .def = 6, .above = 0};
 const Param<std::int64_t> kSamples{.name = "samples", .doc = "consecutive samples above the threshold", .def = 3,
                                    .min = 1};
 const Param<double> kSettle{.name = "settle",
@@ -18,10 +18,10 @@ const Param<double> kSettle{.name = "settle",
 
 Manifest DistanceThreshold::Describe() {
   return {.type = "DistanceThreshold", .doc = "DONE(distance) when Distance falls to the threshold",
-          .inputs = {kDistanceIn}, .params = {kDistance, PeriodParam()}, .ends = Ending::Done()};
+          .inputs = {kDistanceIn}, .params = {kThresholdDistance, PeriodParam()}, .ends = Ending::Done()};
 }
 DistanceThreshold::DistanceThreshold(const ControllerContext& ctx)
-    : PeriodicController(ctx), distance_(port(kDistanceIn)), level_(param(kDistance)) {}
+    : PeriodicController(ctx), distance_(port(kDistanceIn)), level_(param(kThresholdDistance)) {}
 void DistanceThreshold::MainCalc() {
   double d = 0;
   if (distance_.read(d) == Read::New && d <= level_) Done(d);
@@ -29,10 +29,10 @@ void DistanceThreshold::MainCalc() {
 
 Manifest ForceThreshold::Describe() {
   return {.type = "ForceThreshold", .doc = "DONE(|f - f0|) when the force departs from its value at the start",
-          .inputs = {kWrench}, .params = {kForce, kSamples, kSettle, PeriodParam()}, .ends = Ending::Done()};
+          .inputs = {kWrench}, .params = {kThresholdForce, kSamples, kSettle, PeriodParam()}, .ends = Ending::Done()};
 }
 ForceThreshold::ForceThreshold(const ControllerContext& ctx)
-    : PeriodicController(ctx), wrench_(port(kWrench)), level_(param(kForce)), settle_(param(kSettle)),
+    : PeriodicController(ctx), wrench_(port(kWrench)), level_(param(kThresholdForce)), settle_(param(kSettle)),
       need_(param(kSamples)) {}
 void ForceThreshold::on_configure() {
   above_ = 0;

@@ -3,15 +3,15 @@
 #include <cmath>
 
 #include <dca/registry.h>
+#include "door/ports.h"
 #include "robot/model.h"
 
 namespace dca::door {
 
 namespace {
 const InSpec<robot::Vec3> kFeature = robot::FeatureIn();
-const OutSpec<robot::Vec9> kVel = actuator(robot::VelOut());
-const Param<double> kSpeed{.name = "speed", .doc = "forward speed, m/s", .def = 0.25};
-const Param<double> kGain{.name = "gain", .doc = "turn rate per radian of bearing error, 1/s", .def = 1.5};
+const Param<double> kServoSpeed{.name = "speed", .doc = "forward speed, m/s", .def = 0.25};
+const Param<double> kServoGain{.name = "gain", .doc = "turn rate per radian of bearing error, 1/s", .def = 1.5};
 const Param<double> kHfov{.name = "hfov", .doc = "the camera's horizontal field of view, rad", .def = 1.0471975511965976,
                           .above = 0};
 const Param<double> kWidth{.name = "width", .doc = "the image's width, px", .def = 640, .above = 0};
@@ -27,12 +27,13 @@ Manifest VisualServoing::Describe() {
   return {.type = "VisualServoing",
           .doc = "drives the robot towards the handle, lining the gripper up with it in the image",
           .inputs = {kFeature}, .outputs = {kVel},
-          .params = {kSpeed, kGain, kHfov, kWidth, kLost, kHeight, kHandleHeight, kLateral, PeriodParam()},
+          .params = {kServoSpeed, kServoGain, kHfov, kWidth, kLost, kHeight, kHandleHeight, kLateral, PeriodParam()},
           .ends = Ending::Aborted()};
 }
 VisualServoing::VisualServoing(const ControllerContext& ctx)
-    : PeriodicController(ctx), feature_(port(kFeature)), vel_(port(kVel)), speed_(param(kSpeed)), gain_(param(kGain)),
-      lost_(param(kLost)), handle_height_(param(kHandleHeight)), lateral_(param(kLateral)), camera_(robot::camera()) {
+    : PeriodicController(ctx), feature_(port(kFeature)), vel_(port(kVel)), speed_(param(kServoSpeed)),
+      gain_(param(kServoGain)), lost_(param(kLost)), handle_height_(param(kHandleHeight)), lateral_(param(kLateral)),
+      camera_(robot::camera()) {
   const double width = param(kWidth);
   focal_ = (width / 2) / std::tan(param(kHfov) / 2);
   centre_u_ = width / 2;

@@ -11,7 +11,7 @@ const OutSpec<Eigen::VectorXd> kError{.name = "Error", .units = "rad or m"};
 const Param<double> kKp{.name = "kp", .doc = "gain on the position error (N m/rad, or 1/s on velocity)", .min = 0};
 const Param<double> kKd{.name = "kd", .doc = "gain on the velocity error (N m s/rad, or 1 on velocity)", .def = 0,
                         .min = 0};
-const Param<std::string> kInterface{
+const Param<std::string> kPdInterface{
     .name = "interface", .doc = "the command interface", .def = "effort", .allowed = {"effort", "velocity"}};
 const Param<std::vector<double>> kTargets{.name = "targets",
                                           .doc = "the reference before any Ref: one per joint (none: hold)"};
@@ -19,7 +19,7 @@ const Param<std::vector<double>> kTargets{.name = "targets",
 
 Manifest JointPD::Describe() {
   Manifest m{.type = "JointPD", .doc = "a joint-space PD for any arm's joints, to a reference (Ref) or targets",
-             .params = {joints_param(), kKp, kKd, kInterface, PeriodParam(), kTargets},
+             .params = {joints_param(), kKp, kKd, kPdInterface, PeriodParam(), kTargets},
              .ends = Ending::Aborted()};
   const Slots& s = slots(true);
   append(m.inputs, s.q);
@@ -33,7 +33,7 @@ Manifest JointPD::Describe() {
 
 JointPD::JointPD(const ControllerContext& ctx)
     : JointGroup(ctx, slots(true)), ref_in_(port(kRef)), ref_vel_in_(port(kRefVel)), error_out_(port(kError)),
-      kp_(param(kKp)), kd_(param(kKd)), velocity_(param(kInterface) == "velocity") {
+      kp_(param(kKp)), kd_(param(kKd)), velocity_(param(kPdInterface) == "velocity") {
   const std::vector<double> targets = param(kTargets);
   if (!targets.empty() && targets.size() != joints().size())
     throw bad_param("parameter 'targets': " + std::to_string(targets.size()) + " numbers for " +

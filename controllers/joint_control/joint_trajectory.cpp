@@ -17,7 +17,7 @@ const OutSpec<double> kReached{.name = "Reached", .units = "waypoints"};
 const Param<double> kTolerance{.name = "tolerance",
                                .doc = "a waypoint is reached within this of it, slower than it per second",
                                .def = 0.01, .above = 0};
-const Param<std::string> kInterface{
+const Param<std::string> kTrajectoryInterface{
     .name = "interface", .doc = "the command interface", .def = "position", .allowed = {"position", "velocity"}};
 const Param<double> kGain{.name = "gain", .doc = "velocity interface: gain on the position error (1/s)", .def = 2,
                           .min = 0};
@@ -41,7 +41,7 @@ std::string fixed4(double v) {
 Manifest JointTrajectory::Describe() {
   Manifest m{.type = "JointTrajectory",
              .doc = "moves any arm's joints through timed waypoints; DONE(seconds) at the last, within tolerance",
-             .params = {joints_param(), kTolerance, kInterface, kGain, kTimeout, PeriodParam(), kPlan},
+             .params = {joints_param(), kTolerance, kTrajectoryInterface, kGain, kTimeout, PeriodParam(), kPlan},
              .ends = Ending::DoneOrAborted()};
   const Slots& s = slots(false);
   append(m.inputs, s.q);
@@ -56,7 +56,7 @@ Manifest JointTrajectory::Describe() {
 JointTrajectory::JointTrajectory(const ControllerContext& ctx)
     : JointGroup(ctx, slots(false)), waypoints_in_(port(kWaypoints)), setpoint_out_(port(kSetpoint)),
       reached_out_(port(kReached)), tolerance_(param(kTolerance)), gain_(param(kGain)), timeout_(param(kTimeout)),
-      velocity_(param(kInterface) == "velocity") {
+      velocity_(param(kTrajectoryInterface) == "velocity") {
   const std::vector<double> plan = param(kPlan);
   if (const std::string why = check(plan.data(), plan.size()); !why.empty())
     throw bad_param("parameter 'waypoints': " + why);

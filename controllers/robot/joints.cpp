@@ -8,11 +8,11 @@ namespace dca::robot {
 
 namespace {
 using Vec1 = Eigen::Matrix<double, 1, 1>;
-const InSpec<Vec1> kQ{.name = "Q", .units = "rad or m", .device = "joint.{joint}.position"};
-const InSpec<Vec1> kQd{.name = "Qd", .units = "rad/s or m/s", .device = "joint.{joint}.velocity"};
+const InSpec<Vec1> kJointQ{.name = "Q", .units = "rad or m", .device = "joint.{joint}.position"};
+const InSpec<Vec1> kJointQd{.name = "Qd", .units = "rad/s or m/s", .device = "joint.{joint}.velocity"};
 // (no actuator: halt()'s zero would be a position; on_halt zeroes a velocity command itself)
-const OutSpec<Vec1> kCmd{.name = "Cmd", .units = "rad or m, or rad/s or m/s",
-                         .device = "joint.{joint}.{interface}_command"};
+const OutSpec<Vec1> kJointCmd{.name = "Cmd", .units = "rad or m, or rad/s or m/s",
+                              .device = "joint.{joint}.{interface}_command"};
 const Param<std::string> kJoint{.name = "joint", .doc = "the joint's name in the URDF"};
 const Param<double> kTarget{.name = "target", .doc = "the position to reach (rad or m)"};
 const Param<double> kTolerance{
@@ -21,20 +21,20 @@ const Param<std::string> kInterface{
     .name = "interface", .doc = "the command interface", .def = "position", .allowed = {"position", "velocity"}};
 const Param<double> kGain{.name = "gain", .doc = "velocity interface: the command is gain * error (1/s)", .def = 2,
                           .above = 0};
-const Param<double> kTimeout{.name = "timeout", .doc = "ABORTED when not there after this many seconds", .def = 30,
-                             .above = 0};
+const Param<double> kJointTimeout{.name = "timeout", .doc = "ABORTED when not there after this many seconds",
+                                  .def = 30, .above = 0};
 }  // namespace
 
 Manifest JointSetpoint::Describe() {
   return {.type = "JointSetpoint", .doc = "drives one joint of a URDF world to a target; DONE(position) when there",
-          .inputs = {kQ, kQd}, .outputs = {kCmd},
-          .params = {kJoint, kTarget, kTolerance, kInterface, kGain, kTimeout, PeriodParam()},
+          .inputs = {kJointQ, kJointQd}, .outputs = {kJointCmd},
+          .params = {kJoint, kTarget, kTolerance, kInterface, kGain, kJointTimeout, PeriodParam()},
           .ends = Ending::DoneOrAborted()};
 }
 
 JointSetpoint::JointSetpoint(const ControllerContext& ctx)
-    : PeriodicController(ctx), q_in_(port(kQ)), qd_in_(port(kQd)), cmd_(port(kCmd)), target_(param(kTarget)),
-      tolerance_(param(kTolerance)), gain_(param(kGain)), timeout_(param(kTimeout)),
+    : PeriodicController(ctx), q_in_(port(kJointQ)), qd_in_(port(kJointQd)), cmd_(port(kJointCmd)),
+      target_(param(kTarget)), tolerance_(param(kTolerance)), gain_(param(kGain)), timeout_(param(kJointTimeout)),
       velocity_(param(kInterface) == "velocity") {}
 
 void JointSetpoint::on_configure() {
@@ -53,7 +53,7 @@ void JointSetpoint::MainCalc() {
   near_ = std::abs(error) <= tolerance_ && std::abs(qd_[0]) <= tolerance_ ? near_ + 1 : 0;
   if (near_ >= 2) return Done(q_[0]);
   if (to_seconds(now() - started()) > timeout_)
-    Abort("joint " + param(kJoint) + " did not reach " + text(kTarget) + " within " + text(kTimeout) + " s");
+    Abort("joint " + param(kJoint) + " did not reach " + text(kTarget) + " within " + text(kJointTimeout) + " s");
 }
 
 void JointSetpoint::on_halt() {

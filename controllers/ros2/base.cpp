@@ -15,8 +15,8 @@ const Param<double> kTimeout{
     .name = "timeout", .doc = "seconds a Twist is obeyed for, then zero (a deadman)", .def = 0.5, .above = 0};
 const InSpec<Eigen::Vector3d> kPose{.name = "Pose", .units = "m, m, rad"};
 const OutSpec<msgs::Odometry> kOdometry{.name = "Odometry"};
-const OutSpec<msgs::TFMessage> kTf{.name = "Tf"};
-const Param<std::string> kFrame{.name = "frame", .doc = "header.frame_id: the odometry's frame", .def = "odom"};
+const OutSpec<msgs::TFMessage> kOdometryTf{.name = "Tf"};
+const Param<std::string> kOdometryFrame{.name = "frame", .doc = "header.frame_id: the odometry's frame", .def = "odom"};
 const Param<std::string> kChild{.name = "child", .doc = "child_frame_id: the base's frame", .def = "base_link"};
 
 }  // namespace
@@ -48,14 +48,14 @@ Manifest BaseOdometry::Describe() {
   return {.type = "BaseOdometry",
           .doc = "a base's pose (x, y, yaw) as nav_msgs/msg/Odometry (ROS 2's /odom)",
           .inputs = {kPose},
-          .outputs = {kOdometry, kTf},
-          .params = {kFrame, kChild, PeriodParam(0.02)},
+          .outputs = {kOdometry, kOdometryTf},
+          .params = {kOdometryFrame, kChild, PeriodParam(0.02)},
           .ends = Ending::Never()};
 }
 
 BaseOdometry::BaseOdometry(const ControllerContext& ctx)
-    : PeriodicController(ctx), in_(port(kPose)), out_(port(kOdometry)), tf_out_(port(kTf)) {
-  if (!msg_.header.frame_id.assign(param(kFrame))) throw bad_param("parameter 'frame' is longer than 63 bytes");
+    : PeriodicController(ctx), in_(port(kPose)), out_(port(kOdometry)), tf_out_(port(kOdometryTf)) {
+  if (!msg_.header.frame_id.assign(param(kOdometryFrame))) throw bad_param("parameter 'frame' is longer than 63 bytes");
   if (!msg_.child_frame_id.assign(param(kChild))) throw bad_param("parameter 'child' is longer than 63 bytes");
   tf_.transforms.resize(1);
   tf_.transforms[0].header.frame_id = msg_.header.frame_id;
