@@ -192,7 +192,7 @@ function M.tail(sup, name, was_running, cb)
       sup.rt.report({ type = "restarted", path = ch.path })
       -- done (said, answered) once its Run has been answered: on simulated time the next tick then finds its
       -- timers (a restart by hand while time is held is done before time moves on)
-      M.run_again(sup, name, was_running)(function()
+      M.run_again(sup, name, was_running, function()
         M.restarted_line(sup, ch)
         local note = child.restart(ch, "code")
         child.unmark(ch, "code")
@@ -456,17 +456,12 @@ function M.respawn_group(sup, name, was_running, cb)
 end
 
 -- A child started anew runs with its last init if it ran (or its run was asked for meanwhile) and the
--- expression still runs it. --> when(k): k() once that run has been answered (or has failed); at once
--- if there is none.
-function M.run_again(sup, name, was_running)
+-- expression still runs it. done() once that run has been answered (or has failed); at once if there is none.
+function M.run_again(sup, name, was_running, done)
   local ch = sup.children[name]
   local pending = child.restart(ch, "pending")
   child.unmark(ch, "pending", "fault", "policy")
-  local waiters, answered = {}, false
-  local acks = async.join(function()
-    answered = true
-    for _, w in ipairs(waiters) do w() end
-  end)
+  local acks = async.join(function() done() end)
   if (was_running or pending) and sup:_runs(name) then
     local outer = sup.run_acks
     sup.run_acks = acks   -- (Sup:_start_child joins the answer to its `run` here)
@@ -474,8 +469,6 @@ function M.run_again(sup, name, was_running)
     sup.run_acks = outer
   end
   acks.close()
-  -- when(k): k() once the run (if any) has been answered, or failed
-  return function(k) if answered then k() else waiters[#waiters + 1] = k end end
 end
 
 function M.restarted_line(sup, ch)
