@@ -160,6 +160,18 @@ int main(int argc, char** argv) {
   DataReader* reader = sub->create_datareader(js_topic, ros_default(DATAREADER_QOS_DEFAULT));
   DataWriter* writer = pub->create_datawriter(twist_topic, ros_default(DATAWRITER_QOS_DEFAULT));
   if (reader == nullptr || writer == nullptr) return std::fprintf(stderr, "ros2_fastdds_peer: no endpoints\n"), 1;
+  // Ready once both endpoints have matched the bridge's: discovery is not symmetric, and a VOLATILE Twist written
+  // before this writer knows the bridge's reader is lost (the bridge may already see this writer).
+  for (;;) {
+    PublicationMatchedStatus pub_st;
+    SubscriptionMatchedStatus sub_st;
+    writer->get_publication_matched_status(pub_st);
+    reader->get_subscription_matched_status(sub_st);
+    if (pub_st.current_count > 0 && sub_st.current_count > 0) break;
+    if (std::chrono::steady_clock::now() >= end || stdin_closed())
+      return std::fprintf(stderr, "ros2_fastdds_peer: the bridge's endpoints never matched\n"), 1;
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
   std::printf("ready\n");
   std::fflush(stdout);
   JointState js;
