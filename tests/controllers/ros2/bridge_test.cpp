@@ -592,6 +592,7 @@ TEST(Ros2Bridge, InASecuredDomainItTalksToASecuredPeerAndNotToAnUnauthenticatedO
   ASSERT_FALSE(secured.line_with("ready").empty());
   ASSERT_FALSE(stranger.line_with("saw participant").empty()) << "the unsecured participant discovers the others";
   ASSERT_TRUE(matched(bridge_of(c).endpoint(0).handle, true)) << "the secured peer's reader never matched";
+  ASSERT_FALSE(secured.line_with("answers matched").empty()) << "the secured peer's writer never matched";
   JointState js;
   js.header.frame_id.assign("secret");
   js.position.push_back(0.75);

@@ -4,6 +4,7 @@
 // (geometry_msgs/msg/Twist) with linear.x = the first position; it prints
 //   "ready"                         once its endpoints exist
 //   "saw participant"               when it first discovers another participant (DCPSParticipant)
+//   "answers matched"               when its writer first matches a reader (an answer written before is lost)
 //   "got <frame_id> <n positions>"  for each JointState
 //   "end got=<n>"                   when it ends: after SECONDS, or when stdin closes
 //   ros2_cyclone_peer DOMAIN SECONDS ENCLAVE_DIR|-    (on loopback: interface lo, peer 127.0.0.1)
@@ -69,12 +70,20 @@ int main(int argc, char** argv) {
     std::printf("ready\n");
     std::fflush(stdout);
     bool saw = false;
+    bool answers_matched = false;
     int got = 0;
     auto js = std::make_unique<JointState>();
     while (std::chrono::steady_clock::now() < end && !stdin_closed()) {
       if (!saw && builtin > 0 && saw_another(builtin, p.gid())) {
         saw = true;
         std::printf("saw participant\n");
+        std::fflush(stdout);
+      }
+      dds_publication_matched_status_t st;
+      if (!answers_matched && dds_get_publication_matched_status(writer.handle, &st) == DDS_RETCODE_OK &&
+          st.current_count > 0) {
+        answers_matched = true;
+        std::printf("answers matched\n");
         std::fflush(stdout);
       }
       dca::ros2::take(reader, [&](std::span<const std::byte> cdr) {
