@@ -121,6 +121,10 @@ struct World::Impl {
   // Buffers reused every step.
   mutable SimTK::Vector a_des, tau, zero_mobility;
   mutable SimTK::Vector_<SimTK::SpatialVec> gravity_forces;
+  // A step's work vectors, kept so that a step allocates only inside Simbody (docs/time.md, "Where a door run's
+  // time goes")
+  SimTK::Vector udot, qdot;
+  SimTK::Vector_<SimTK::SpatialVec> reactions;
 
   explicit Impl(const WorldConfig& c);
   void build();
@@ -436,7 +440,6 @@ void World::Impl::compute_sensors() {
   const double xd = u[dof_u[1]], yd = u[dof_u[2]];
   o.base_vel = {c * xd + sn * yd, -sn * xd + c * yd, u[dof_u[0]]};
   // Wrench: the weld's reaction is what the arm applies to the tool; the tool applies its opposite.
-  SimTK::Vector_<SimTK::SpatialVec> reactions;
   matter.calcMobilizerReactionForces(s, reactions);
   const SimTK::Rotation& R_GS = matter.getMobilizedBody(ft_body).getBodyRotation(s);
   const SimTK::Vec3 torque = ~R_GS * -reactions[ft_body][0], force = ~R_GS * -reactions[ft_body][1];
@@ -494,11 +497,12 @@ void World::step() {
   if (w.dirty) s.invalidateAllCacheAtOrAbove(SimTK::Stage::Dynamics);
   w.system.realize(s, SimTK::Stage::Acceleration);
   // Semi-explicit Euler: u1 = u0 + h udot(t0), q1 = q0 + h N(q0) u1, then back onto the constraints.
-  const SimTK::Vector udot = s.getUDot();
-  s.updU() += h * udot;
-  SimTK::Vector qdot;
-  w.matter.multiplyByN(s, false, s.getU(), qdot);
-  s.updQ() += h * qdot;
+  w.udot = s.getUDot();
+  w.udot *= h;
+  s.updU() += w.udot;
+  w.matter.multiplyByN(s, false, s.getU(), w.qdot);
+  w.qdot *= h;
+  s.updQ() += w.qdot;
   s.updTime() += h;
   w.system.realize(s, SimTK::Stage::Position);
   if (w.grasped) w.system.projectQ(s, 1e-8);
