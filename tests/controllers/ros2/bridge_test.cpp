@@ -412,6 +412,7 @@ void exchange_with_fastdds(ControllerUnderTest& c, Child& peer) {
   ASSERT_FALSE(peer.line_with("ready").empty());
   ASSERT_TRUE(matched(bridge_of(c).endpoint(0).handle, true)) << "Fast DDS's reader never matched";
   ASSERT_TRUE(matched(bridge_of(c).endpoint(1).handle, false)) << "Fast DDS's writer never matched";
+  ASSERT_FALSE(peer.line_with("answers matched").empty()) << "Fast DDS's writer never matched the bridge's reader";
   JointState js;
   js.header.frame_id.assign("base_link");
   dca::msgs::Name name;
