@@ -118,11 +118,10 @@ struct World::Impl {
   Sensors sensors;
   std::unique_ptr<SimTK::Visualizer> visualizer;
   long steps = 0;
-  // Buffers reused every step.
+  // Buffers reused every step, so that a step allocates only inside Simbody (docs/time.md, "Where a door run's
+  // time goes").
   mutable SimTK::Vector a_des, tau, zero_mobility;
   mutable SimTK::Vector_<SimTK::SpatialVec> gravity_forces;
-  // A step's work vectors, kept so that a step allocates only inside Simbody (docs/time.md, "Where a door run's
-  // time goes")
   SimTK::Vector udot, qdot;
   SimTK::Vector_<SimTK::SpatialVec> reactions;
 
