@@ -15,9 +15,10 @@
 --   sup:abort(cb, reason)     -- aborts the running expression (LIFO), cb() once every stop is acknowledged;
 --                             --   with a reason (a person's abort) the group's ABORTED goes up
 --   sup:shutdown(cb)          -- aborts, then stops every child LIFO (processes gone), cb()
---   sup:restart(path, cb)     -- a group below: its expression again; a leaf below: a fresh process of it, wired
+--   sup:restart(path, cb, opts) -- a group below: its expression again; a leaf below: a fresh process of it, wired
 --                             --   and running as before while the rest runs (sup:restart_leaf(name, cb) in the
---                             --   leaf's own group). cb(true) | cb(nil, reason)
+--                             --   leaf's own group). cb(true) | cb(nil, reason). opts.own_process: a leaf in a
+--                             --   shared node moves to a process of its own (an upgrade: restart.code_check)
 --   sup:restart_host(ch, fault)  -- hook (failover): the host a child restarts on after `fault` (nil: its own)
 --   sup:policy_status()       -- the group's supervision policy and its budget used (nil without a policy)
 -- With spec.supervision, faults of its children are restarted by the policy (section "supervision policy").
@@ -852,7 +853,7 @@ function Sup:handle(msg, reply) return requests.handle(self, msg, reply) end
 function Sup:inject(path, msg, cb) return requests.inject(self, path, msg, cb) end
 function Sup:switch(path, label, what, cb) return requests.switch(self, path, label, what, cb) end
 function Sup:update(new, cb) return requests.update(self, new, cb) end
-function Sup:restart(path, cb) return restart.manual(self, path, cb) end
+function Sup:restart(path, cb, opts) return restart.manual(self, path, cb, opts) end
 function Sup:restart_leaf(name, cb) return restart.leaf(self, name, cb) end
 function Sup:restart_host(ch, f) return restart.host(self, ch, f) end
 

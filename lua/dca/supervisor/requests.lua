@@ -60,11 +60,12 @@ M.HANDLERS = {
   node = function(sup, msg, reply) sup:to_leaf(msg.leaf, msg.msg, sup.timeouts.request, passed_on(reply)) end,
   tree = function(sup, _, reply) sup:tree(function(tr) reply({ type = "ok", tree = tr }) end) end,
   inject = function(sup, msg, reply) sup:inject(msg.path, msg.msg, done_by(reply)) end,
-  -- ok {note}: how a leaf was restarted, when that says something (a leaf in a shared node: restart.code_check)
+  -- ok {note}: how a leaf was restarted, when that says something (a leaf in a shared node: restart.code_check);
+  -- own_process: a leaf in a shared node moves to a process of its own (a package upgrade)
   restart = function(sup, msg, reply)
     sup:restart(msg.path, function(ok, how)
       reply(ok and { type = "ok", note = how } or { type = "error", reason = how })
-    end)
+    end, { own_process = msg.own_process == true })
   end,
   -- a fleet's instances (dca.supervisor.fleet): ok {path} of the instance
   add_child = function(sup, msg, reply)

@@ -1,10 +1,11 @@
 -- dca.supervisor.restart: a child of a group started anew, by hand or by the group's supervision policy, as
 -- functions over (sup, child name). The supervisor (dca.supervisor) keeps the state; this module only acts on it.
 --
---   restart.manual(sup, path, cb)   -- the process at `path`: this group (its expression again), a leaf of it
---                                   --   (restart.leaf), or a process below (through the child supervisor)
---   restart.leaf(sup, name, cb)     -- the leaf `name` of this group anew, wired and running as before
---   restart.code_check(sup, ch, cb) -- whether leaf `ch` may start anew with the code on disk now (shared nodes)
+--   restart.manual(sup, path, cb, opts) -- the process at `path`: this group (its expression again), a leaf of
+--                                   --   it (restart.leaf), or a process below (through the child supervisor)
+--   restart.leaf(sup, name, cb, opts) -- the leaf `name` of this group anew, wired and running as before
+--   restart.code_check(sup, ch, cb, opts) -- whether leaf `ch` may start anew with the code on disk now (shared
+--                                   --   nodes); opts.own_process: it moves to a process of its own in any case
 --   restart.policy_takes(sup, kind) --> whether the group's policy restarts a fault of `kind` now
 --   restart.fault(sup, names, how, kind, reason, cause)  -- a fault for the policy (handled from the loop)
 --   restart.host(sup, ch, f)        --> the host child `ch` restarts on after fault `f` (failover), or nil
@@ -52,7 +53,7 @@ end
 --- was running) running again (note: how, for a leaf in a shared node: M.code_check); cb(nil, reason) if it
 --- cannot be restarted (the leaf untouched, running on) or if the restart failed (the leaf then ended ABORTED
 --- with the reason, as for any abort).
-function M.leaf(sup, name, cb)
+function M.leaf(sup, name, cb, opts)
   local why = not_restartable(sup, name)
   if why then cb(nil, why) return end
   local ch, old = sup.children[name], sup.children[name].handle
@@ -61,16 +62,18 @@ function M.leaf(sup, name, cb)
     why = not_restartable(sup, name) or (ch.handle ~= old and ch.path .. " was restarted meanwhile") or nil
     if why then cb(nil, why) return end
     M.replace(sup, name, how, cb)
-  end)
+  end, opts)
 end
 
 --- How leaf `ch` starts anew, asked before anything of it stops. A leaf in a shared node (`--placement
 --- group|host`) with other leaves starts anew in that same process, which cannot replace a package it loaded:
 --- when the node says the leaf's package file changed since it loaded it, the leaf moves to a process of its
 --- own (`own_process`: net.lua), which loads the file as it is now; else it stays, with a note that it reuses
---- the process's code. A leaf alone in its node gets a fresh node (its supervisor lets go of
---- the old one), so it goes on, said too. cb(true[, note]) | cb(nil, reason)
-function M.code_check(sup, ch, cb)
+--- the process's code. `opts.own_process` (a package upgrade: its daemon installed a new version, which a
+--- process it starts now loads, while the node's own search path may not show it) moves it out in any case. A
+--- leaf alone in its node gets a fresh node (its supervisor lets go of the old one), so it goes on, said too.
+--- cb(true[, note]) | cb(nil, reason)
+function M.code_check(sup, ch, cb, opts)
   if (sup.placement or "process") == "process" then cb(true) return end
   ch.handle.request({ type = "code" }, sup.timeouts.request, function(r, err)
     local info, why = async.outcome(r, err)
@@ -84,6 +87,12 @@ function M.code_check(sup, ch, cb)
     if others == 0 then
       -- its supervisor lets go of the node with its last leaf: it starts in a fresh one (docs/placement.md)
       cb(true, sformat("alone in %s: a fresh process, with the code as it is on disk now", where))
+      return
+    end
+    if opts and opts.own_process then
+      ch.spec.own_process = true
+      cb(true, sformat("moved out of %s, beside %d other lea%s, to a process of its own, which loads package '%s' "
+        .. "as its host has it now", where, others, others == 1 and "f" or "ves", tostring(info.package)))
       return
     end
     if info.changed then
@@ -505,7 +514,7 @@ end
 --- Restarts the process at `path`: a group's expression is aborted and started again (its latest event
 --- actions take effect); a leaf is started anew from what is on disk now, while everything else runs
 --- (M.leaf, done by the leaf's own group). cb(true[, note]) | cb(nil, reason)
-function M.manual(sup, path, cb)
+function M.manual(sup, path, cb, opts)
   if path == sup.path then
     sup:abort(function()
       local ok, err = sup:run_expr(sup.last_init)
@@ -522,8 +531,9 @@ function M.manual(sup, path, cb)
     sup.restarting_below[path] = n > 0 and n or nil
     cb(ok, err)
   end
-  if ch and ch.kind == "leaf" then M.leaf(sup, ch.name, finish) return end
-  sup:_forward(path, { type = "restart", path = path }, function(r, err)
+  if ch and ch.kind == "leaf" then M.leaf(sup, ch.name, finish, opts) return end
+  local msg = { type = "restart", path = path, own_process = opts and opts.own_process or nil }
+  sup:_forward(path, msg, function(r, err)
     if not r then finish(nil, err) return end
     -- a leaf below: this group's connections of it are made again before the answer (the `restarted` event
     -- does the same for the groups above one that restarts a leaf by itself; a connection made twice is one)

@@ -7,7 +7,8 @@
 --
 -- The new file goes to one host first, the canary: its daemon installs it (package_install: the daemon's
 -- package store, host/package_store.h, keeps the version it replaced), then each leaf of the package on that host
--- is restarted live (dca.supervisor.restart: a fresh node loads the file as it is now), one after the other. The
+-- is restarted live (dca.supervisor.restart: a fresh node loads the file as it is now; a leaf in a shared node
+-- moves to a node of its own, as the shared one cannot replace what it loaded), one after the other. The
 -- canary is then watched for `watch` seconds: a leaf of their groups that exits, aborts or is lost, or a group
 -- above them that aborts, escalates or is lost, fails it (M.failure). Then every other host the same way, in
 -- name order, without the watch (a standby host of those leaves gets the file, with nothing to restart). A host
@@ -131,12 +132,6 @@ end
 --- The rolling upgrade (see the header). Only one at a time per supervisor.
 function M.run(sup, req, cb)
   if not sup.rt.daemon then cb(nil, "upgrade: the supervisor's runtime reaches no daemons (a real run only)") return end
-  if (sup.placement or "process") ~= "process" then
-    -- (a shared node's leaf restarts in the same process, with the code it loaded: it would never change)
-    cb(nil, sformat("upgrade: %s runs its leaves in shared nodes (--placement %s), which cannot replace a package "
-      .. "they loaded; run the system with --placement process to roll a package", sup.path, sup.placement))
-    return
-  end
   if sup.upgrading then
     cb(nil, sformat("upgrade: %s is already upgrading package '%s'", sup.path, sup.upgrading))
     return
@@ -263,14 +258,16 @@ function M.host(u, host, cb)
       if why then sup.rt.after(0, function() fail(why) end) end
     end
     u.restarted = {}
+    -- (a leaf in a shared node, --placement group|host, moves to a process of its own: the node cannot replace
+    -- a package it loaded; a process the daemon starts now loads the installed version; restart.code_check)
     each(leaves, function(path, next)
       sup:restart(path, function(ok, how)
         if failed then return end
         if not ok then fail(sformat("restart of %s: %s", path, tostring(how))) return end
         u.restarted[#u.restarted + 1] = path
-        u.say("%s: %s restarted (%d/%d)", host, path, #u.restarted, #leaves)
+        u.say("%s: %s restarted (%d/%d)%s", host, path, #u.restarted, #leaves, how and ": " .. how or "")
         next()
-      end)
+      end, { own_process = true })
     end, function()
       if failed then return end
       if host ~= u.canary or u.watch == 0 then

@@ -85,14 +85,16 @@ S.step("the system runs pkg_ok as built (k = 2) on h1, h2 and h3", function()
 end)
 ]]
 
--- Runs the scenario `steps` (after the prelude) with `dca scenario --backend real`. --> output, rc
-local function scenario(steps)
+-- Runs the scenario `steps` (after the prelude) with `dca scenario --backend real` (and --placement
+-- `placement`). --> output, rc
+local function scenario(steps, placement)
   local dir = T.tmpdir()
   os.execute("mkdir '" .. dir .. "/packages' && cp '" .. packages .. "/pkg_ok.dca.so' '" .. dir .. "/packages/'")
   T.write(dir .. "/upgrade.dca", SYSTEM)
   local file = T.write(dir .. "/upgrade.lua", string.format(PRELUDE, dir, packages .. "/variants") .. steps
     .. "\nreturn S.finish()\n")
-  local out, rc = T.sh("timeout 220 " .. dca .. " scenario --backend real " .. file)
+  local out, rc = T.sh("timeout 220 " .. dca .. " scenario --backend real "
+    .. (placement and "--placement " .. placement .. " " or "") .. file)
   T.kept_logs(out)
   return out, rc
 end
@@ -218,6 +220,56 @@ S.step("upgrade(a build whose output Out is named Scaled) with canary h2: refuse
   factor("h2", 2)
 end)
 ]])
+  T.eq(rc, 0, "the scenario passes\n" .. out)
+end)
+
+suite:case("in_shared_nodes_the_upgraded_leaves_move_to_processes_of_their_own_where_a_crash_ends_only_them", function()
+  -- --placement host: each host's src, sc and sink share one node, which cannot replace a package it loaded
+  local out, rc = scenario([[
+S.step("the three leaves of each host share one process", function()
+  for _, h in ipairs(HOSTS) do
+    local i = h:sub(2)
+    S.eq(before["main.r" .. i .. ".sc"], before["main.r" .. i .. ".src"], h .. ": sc in the shared node")
+    S.eq(before["main.r" .. i .. ".sink"], before["main.r" .. i .. ".src"], h .. ": sink in the shared node")
+  end
+end)
+local K3 = version_of(VARIANTS .. "/k3/pkg_ok.dca.so")
+S.step("upgrade(k = 3) with canary h2: each PkgScale leaves its shared node and runs the new version", function()
+  local said = sys:repl(string.format("upgrade(%q, { canary = 'h2', watch = 0.5 })", VARIANTS .. "/k3/pkg_ok.dca.so"))
+  S.contains(said, "upgrade pkg_ok: done: 3 hosts run version " .. K3:sub(1, 12) .. " (h2, h1, h3)")
+  local moved = said:match("upgrade pkg_ok: h1: main.r1.sc restarted %(1/1%): ([^\n]*)") or ""
+  S.contains(moved, "moved out of shared node leaves:main@h1#")
+  S.contains(moved, " (--placement host), beside 2 other leaves, to a process of its own, which loads package "
+    .. "'pkg_ok' as its host has it now")
+  local now = pids()
+  for _, h in ipairs(HOSTS) do
+    local i = h:sub(2)
+    last[h] = factor(h, 3, last[h])
+    S.eq(daemon(h, { type = "package_status", name = "pkg_ok", system_dir = DIR }).loads.version, K3, h)
+    S.ok(now["main.r" .. i .. ".sc"] ~= now["main.r" .. i .. ".src"], h .. ": sc in a process of its own")
+    for _, leaf in ipairs({ "src", "sink" }) do
+      local p = "main.r" .. i .. "." .. leaf
+      S.eq(now[p], before[p], p .. " never stopped")
+    end
+  end
+  before = now
+  S.eq(sys:state("main"), "running")
+end)
+S.step("upgrade(a build that aborts) with canary h2: its leaf crashes alone, h2 rolled back to k = 3", function()
+  local NEW = version_of(VARIANTS .. "/crash/pkg_ok.dca.so")
+  local said = sys:repl(string.format("upgrade(%q, { canary = 'h2', watch = 60 })", VARIANTS .. "/crash/pkg_ok.dca.so"))
+  S.contains(said, "upgrade pkg_ok: h2: installed version " .. NEW:sub(1, 12))
+  S.contains(said, "upgrade pkg_ok: h2: rolled back to " .. K3:sub(1, 12))
+  S.contains(said, "upgrade pkg_ok: rolled back on h2 and stopped (h1, h3 never received version ")
+  S.ok(#sys:lines_matching("^main%.r2%.sc: .*SIGABRT") > 0, "the canary's leaf crashed")
+  factor("h2", 3, last.h2)
+  local now = pids()
+  for _, p in ipairs({ "main.r2.src", "main.r2.sink", "main.r1.sc", "main.r3.sc" }) do
+    S.eq(now[p], before[p], p .. " never stopped: the crash ended only the upgraded leaf's process")
+  end
+  S.eq(sys:state("main"), "running")
+end)
+]], "host")
   T.eq(rc, 0, "the scenario passes\n" .. out)
 end)
 
