@@ -91,8 +91,9 @@ function M.code_check(sup, ch, cb, opts)
     end
     if opts and opts.own_process then
       ch.spec.own_process = true
-      cb(true, sformat("moved out of %s, beside %d other lea%s, to a process of its own, which loads package '%s' "
-        .. "as its host has it now", where, others, others == 1 and "f" or "ves", tostring(info.package)))
+      cb(true, sformat("moved out of %s (%d other lea%s stay%s) to a process of its own, which loads package '%s' "
+        .. "as its host has it now", where, others, others == 1 and "f" or "ves", others == 1 and "s" or "",
+        tostring(info.package)))
       return
     end
     if info.changed then
