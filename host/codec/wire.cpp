@@ -6,6 +6,7 @@
 #include <msgpack.hpp>
 
 #include "host/codec/hex.h"
+#include "host/codec/msgpack_number.h"
 
 namespace dca::wire {
 namespace {
@@ -30,7 +31,7 @@ bool pack(msgpack::packer<StringStream>& pk, const Value& v, int depth) {
   } else if (v.is_int()) {
     pk.pack_int64(v.as_int());
   } else if (v.is_float()) {
-    pk.pack_double(v.as_float());
+    pack_double(pk, v.as_float());
   } else if (v.is_string()) {
     const auto& s = v.as_string();
     pk.pack_str(static_cast<uint32_t>(s.size()));
@@ -49,7 +50,8 @@ bool pack(msgpack::packer<StringStream>& pk, const Value& v, int depth) {
   return true;
 }
 
-// msgpack object -> Value; false with *error for what dca does not carry (ext, integers above INT64_MAX).
+// msgpack object -> Value; false with *error for what dca does not carry (ext). An integer above INT64_MAX is
+// carried as the nearest double.
 bool convert(const msgpack::object& o, Value& out, int depth, std::string* error) {
   if ((o.type == msgpack::type::ARRAY || o.type == msgpack::type::MAP) && depth > kMaxDepth) {
     *error = "values nested deeper than " + std::to_string(kMaxDepth);
@@ -63,11 +65,9 @@ bool convert(const msgpack::object& o, Value& out, int depth, std::string* error
       out = Value(o.via.boolean);
       return true;
     case msgpack::type::POSITIVE_INTEGER:
-      if (o.via.u64 > static_cast<std::uint64_t>(std::numeric_limits<std::int64_t>::max())) {
-        *error = "integer " + std::to_string(o.via.u64) + " out of range";
-        return false;
-      }
-      out = Value(static_cast<std::int64_t>(o.via.u64));
+      // above INT64_MAX: the nearest double (another encoder's whole double, or a uint64 field)
+      if (o.via.u64 > static_cast<std::uint64_t>(std::numeric_limits<std::int64_t>::max())) out = Value(static_cast<double>(o.via.u64));
+      else out = Value(static_cast<std::int64_t>(o.via.u64));
       return true;
     case msgpack::type::NEGATIVE_INTEGER:
       out = Value(o.via.i64);

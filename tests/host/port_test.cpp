@@ -10,6 +10,8 @@
 
 #include <dca/msgs_cdr.h>
 
+#include "host/codec/wire.h"
+
 namespace {
 
 TEST(PortTest, NamesTypesAndModes) {
@@ -37,6 +39,30 @@ TEST(PortTest, CompatibilityChecksTypeAndSize) {
   EXPECT_EQ(dca::compatibility_error(dca::scalar_port("A"), dca::value_port("B")),
             "output 'A' is scalar but input 'B' is value");
   EXPECT_EQ(dca::compatibility_error(dca::value_port("A"), dca::value_port("B")), "");
+}
+
+// A port's latest as msgpack (`read`, a trace's digests, the monitor) reads back as the same doubles, 1e19 too
+// (msgpack-c would write it as an unsigned integer above INT64_MAX, which dca's decoder refused).
+TEST(PortTest, ALatestSampleBeyondInt64PacksAsADoubleThatReadsBack) {
+  dca::Input scalar(dca::scalar_port("In"), 2), vec(dca::vectorx_port("V"), 2);
+  const double big = 1e19;
+  const std::array<double, 3> three{2.0, 1e19, -0.5};
+  scalar.deliver({reinterpret_cast<const std::byte*>(&big), sizeof big});
+  vec.deliver({reinterpret_cast<const std::byte*>(three.data()), sizeof three});
+  auto latest = [](const dca::Port& p) {
+    msgpack::sbuffer sb;
+    msgpack::packer<msgpack::sbuffer> pk(sb);
+    p.pack_latest(pk);
+    dca::wire::Value v;
+    EXPECT_TRUE(dca::wire::decode_value({sb.data(), sb.size()}, v));
+    return v;
+  };
+  EXPECT_EQ(latest(scalar).as_float(), 1e19);
+  const auto v = latest(vec);
+  ASSERT_EQ(v.as_array().size(), 3u);
+  EXPECT_EQ(v.as_array()[0].as_float(), 2.0);
+  EXPECT_EQ(v.as_array()[1].as_float(), 1e19);
+  EXPECT_EQ(v.as_array()[2].as_float(), -0.5);
 }
 
 TEST(PortTest, AVectorxInputTakesAScalarSampleAndAScalarInputRefusesThreeValues) {
