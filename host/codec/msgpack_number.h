@@ -1,4 +1,5 @@
 #pragma once
+// host/codec: pure encoders and decoders. No Asio, no Beast, no socket, nothing of host/net or host/web.
 // A double onto msgpack as dca's wire carries it (docs/control-plane.md, "Messages" 9). msgpack-c's
 // pack_double writes a whole double as an integer (2.0 as 2), which dca keeps; but a whole double from 2^63
 // up would become an unsigned integer above INT64_MAX (and at 2^64 msgpack-c converts out of range): those go
