@@ -153,11 +153,11 @@ void pack_sample(msgpack::packer<msgpack::sbuffer>& pk, PortType type, Bytes b, 
     return d;
   };
   if (type == PortType::Scalar) {
-    wire::pack_double(pk, n ? at(0) : 0.0);
+    wire::pack_real(pk, n ? at(0) : 0.0);
     return;
   }
   pk.pack_array(static_cast<std::uint32_t>(n));
-  for (std::size_t i = 0; i < n; ++i) wire::pack_double(pk, at(i));
+  for (std::size_t i = 0; i < n; ++i) wire::pack_real(pk, at(i));
 }
 }  // namespace
 

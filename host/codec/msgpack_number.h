@@ -11,9 +11,11 @@
 
 namespace dca::wire {
 
+inline constexpr double kTwoTo63 = 9223372036854775808.0;  // the first whole double beyond int64
+
 template <class Stream>
-void pack_double(msgpack::packer<Stream>& pk, double d) {
-  if (!(d >= 9223372036854775808.0)) {  // (NaN too: msgpack-c writes it as float64)
+void pack_real(msgpack::packer<Stream>& pk, double d) {
+  if (!(d >= kTwoTo63)) {  // (NaN too: msgpack-c writes it as float64)
     pk.pack_double(d);
     return;
   }
@@ -23,6 +25,13 @@ void pack_double(msgpack::packer<Stream>& pk, double d) {
   buf[0] = static_cast<char>(0xcb);  // float 64, big-endian
   for (int i = 0; i < 8; ++i) buf[1 + i] = static_cast<char>((bits >> (56 - 8 * i)) & 0xff);
   pk.pack_str_body(buf, sizeof buf);  // (the raw bytes: pack_str_body writes its argument as it is)
+}
+
+// A float stays float32 on the wire (a message's float32 field), below 2^63.
+template <class Stream>
+void pack_real(msgpack::packer<Stream>& pk, float f) {
+  if (!(static_cast<double>(f) >= kTwoTo63)) pk.pack_float(f);
+  else pack_real(pk, static_cast<double>(f));
 }
 
 }  // namespace dca::wire

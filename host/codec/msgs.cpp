@@ -46,9 +46,7 @@ std::string schema_of() {
 template <class T>
 void pack_field(msgpack::packer<msgpack::sbuffer>& pk, const T& v) {
   if constexpr (std::is_floating_point_v<T>) {
-    // (a float32 stays float32 on the wire, but from 2^63 up it would become an integer dca cannot read)
-    if (std::is_same_v<T, double> || static_cast<double>(v) >= 9223372036854775808.0) wire::pack_double(pk, static_cast<double>(v));
-    else pk.pack(v);
+    wire::pack_real(pk, v);  // (not pk.pack: a whole value from 2^63 up would become an integer dca cannot read)
   } else if constexpr (detail::Primitive<T>) {
     pk.pack(v);
   } else if constexpr (detail::IsString<T>::value) {

@@ -31,7 +31,7 @@ bool pack(msgpack::packer<StringStream>& pk, const Value& v, int depth) {
   } else if (v.is_int()) {
     pk.pack_int64(v.as_int());
   } else if (v.is_float()) {
-    pack_double(pk, v.as_float());
+    pack_real(pk, v.as_float());
   } else if (v.is_string()) {
     const auto& s = v.as_string();
     pk.pack_str(static_cast<uint32_t>(s.size()));
@@ -66,8 +66,10 @@ bool convert(const msgpack::object& o, Value& out, int depth, std::string* error
       return true;
     case msgpack::type::POSITIVE_INTEGER:
       // above INT64_MAX: the nearest double (another encoder's whole double, or a uint64 field)
-      if (o.via.u64 > static_cast<std::uint64_t>(std::numeric_limits<std::int64_t>::max())) out = Value(static_cast<double>(o.via.u64));
-      else out = Value(static_cast<std::int64_t>(o.via.u64));
+      if (o.via.u64 > static_cast<std::uint64_t>(std::numeric_limits<std::int64_t>::max()))
+        out = Value(static_cast<double>(o.via.u64));
+      else
+        out = Value(static_cast<std::int64_t>(o.via.u64));
       return true;
     case msgpack::type::NEGATIVE_INTEGER:
       out = Value(o.via.i64);
