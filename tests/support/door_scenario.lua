@@ -49,7 +49,10 @@ function M.held(S, sys, t)
     sys:wait_state(M.VS, "running", 30)
     at.t = sys:world_hold_at(t, 60)
     at.pid = sys:pid(M.VS)
-    S.ok(M.norm(sys:world_read("base.cmd_vel")) > 1e-4, "base.cmd_vel " .. S.show(sys:world_read("base.cmd_vel")))
+    local v = sys:world_read("base.cmd_vel")
+    -- (a failure says why a node left the clock, if one did: a flake once dropped puma at 20 ms)
+    S.ok(M.norm(v) > 1e-4, "base.cmd_vel " .. S.show(v) .. ", the clock's dropped subscribers "
+      .. S.show(sys:world_status().dropped))
   end)
   return at
 end
