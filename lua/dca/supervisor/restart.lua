@@ -89,20 +89,16 @@ function M.code_check(sup, ch, cb, opts)
       cb(true, sformat("alone in %s: a fresh process, with the code as it is on disk now", where))
       return
     end
-    if opts and opts.own_process then
-      ch.spec.own_process = true
-      cb(true, sformat("moved out of %s (%d other lea%s stay%s) to a process of its own, which loads package '%s' "
-        .. "as its host has it now", where, others, others == 1 and "f" or "ves", others == 1 and "s" or "",
-        tostring(info.package)))
-      return
-    end
-    if info.changed then
+    local upgrade = opts and opts.own_process
+    if upgrade or info.changed then
       -- a package loaded in a process cannot be replaced there: the leaf leaves the shared node for a process
       -- of its own, which loads the file as it is on disk now (and stays its own at later restarts)
       ch.spec.own_process = true
-      cb(true, sformat("moved out of %s (%d other lea%s) to a process of its own: package '%s' is not what that "
-        .. "process loaded (%s) and cannot be replaced there; it runs the code as it is on disk now", where, others,
-        others == 1 and "f" or "ves", tostring(info.package), tostring(info.changed)))
+      local why = upgrade and sformat("it loads package '%s' as its host has it now", tostring(info.package))
+        or sformat("package '%s' is not what that process loaded (%s) and cannot be replaced there; it runs the "
+          .. "code as it is on disk now", tostring(info.package), tostring(info.changed))
+      cb(true, sformat("moved out of %s (%d other lea%s) to a process of its own: %s", where, others,
+        others == 1 and "f" or "ves", why))
       return
     end
     cb(true, sformat("a fresh instance in %s, with the code that process loaded%s", where,

@@ -239,8 +239,8 @@ S.step("upgrade(k = 3) with canary h2: each PkgScale leaves its shared node and 
   S.contains(said, "upgrade pkg_ok: done: 3 hosts run version " .. K3:sub(1, 12) .. " (h2, h1, h3)")
   local moved = said:match("upgrade pkg_ok: h1: main.r1.sc restarted %(1/1%): ([^\n]*)") or ""
   S.contains(moved, "moved out of shared node leaves:main@h1#")
-  S.contains(moved, " (--placement host) (2 other leaves stay) to a process of its own, which loads package "
-    .. "'pkg_ok' as its host has it now")
+  S.contains(moved, " (--placement host) (2 other leaves) to a process of its own: it loads package 'pkg_ok' as "
+    .. "its host has it now")
   local now = pids()
   for _, h in ipairs(HOSTS) do
     local i = h:sub(2)
