@@ -230,7 +230,17 @@ class LinkGate {
   void reset();
   /// The connection this gate now belongs to: a sample of any other (the one it replaced, whose last samples
   /// may still arrive after the new one's hello) is dropped, never counted or delivered as the new one's.
-  void adopt(InputFeeder* feeder) { owner_ = feeder; }
+  /// `sender` and `serial` are the hello's (data_frame::Hello): see `later`.
+  void adopt(InputFeeder* feeder, std::uint64_t sender = 0, std::uint64_t serial = 0) {
+    owner_ = feeder;
+    sender_ = sender;
+    serial_ = serial;
+  }
+  /// Whether a hello from `sender` numbered `serial` is later than the owner's: false only for an earlier hello
+  /// of the same sender (a moved link's first hello read after its second, on the other socket).
+  bool later(std::uint64_t sender, std::uint64_t serial) const {
+    return sender == 0 || sender != sender_ || serial > serial_;
+  }
   /// Samples dropped as a replaced connection's.
   std::uint64_t stale() const { return stale_; }
   bool gated = false;
@@ -238,6 +248,7 @@ class LinkGate {
  private:
   std::uint64_t received_ = 0, delivered_ = 0, allowed_ = 0, stale_ = 0;
   InputFeeder* owner_ = nullptr;  // adopt() (an identity, compared only: it may be gone)
+  std::uint64_t sender_ = 0, serial_ = 0;  // the owner's hello
   InputFeeder* from_ = nullptr;  // the connection whose samples these are (an identity: it may be gone)
   std::vector<std::vector<std::byte>> held_;
   std::size_t held_head_ = 0;

@@ -85,6 +85,10 @@ std::string encode_hello(const Hello& h) {
                      .set("size", static_cast<std::int64_t>(h.out.size));
   if (r.stamped) v.set("stamped", true);
   if (h.out.type == PortType::Message) v.set("message", h.out.message);  // its type's ROS name
+  if (h.sender != 0) {
+    v.set("sender", static_cast<std::int64_t>(h.sender & kMaxSerial));
+    v.set("serial", static_cast<std::int64_t>(h.serial & kMaxSerial));
+  }
   std::string out;
   wire::encode_value(v, out);
   return out;
@@ -148,6 +152,11 @@ std::string decode_map(const wire::Value& v, Hello& h) {
   for (const auto& [key, val] : v.as_map()) {
     if (!key.is_string()) continue;
     have_type = have_type || key.as_string() == "type";
+    if (key.as_string() == "sender" || key.as_string() == "serial") {
+      if (!val.is_int() || val.as_int() < 0) return "hello: '" + key.as_string() + "' is not a count";
+      (key.as_string() == "sender" ? h.sender : h.serial) = static_cast<std::uint64_t>(val.as_int());
+      continue;
+    }
     if (key.as_string() == "stamped") {
       if (!val.is_bool()) return "hello: 'stamped' is not a boolean";
       h.request.stamped = val.as_bool();

@@ -82,12 +82,17 @@ bool decode_auth(Bytes body, wire::Message& m, std::string* error);
 /// Limits on a Hello's fields, checked by decode_hello before anything is allocated for them.
 inline constexpr std::uint32_t kMaxQueue = 4096;        ///< an input's queue capacity (samples)
 inline constexpr std::uint32_t kMaxSize = 1u << 16;     ///< a port's vector size (elements)
+inline constexpr std::uint64_t kMaxSerial = (1ull << 62) - 1;  ///< a hello's sender and serial (a msgpack int)
 inline constexpr std::size_t kMaxName = 256;            ///< a component, port or set name (bytes)
 
 /// The Hello's fields.
 struct Hello {
   ConnectRequest request;
   PortSpec out;  ///< the source output's spec (name = request.out; type, size and a message port's message)
+  /// The sending endpoint's random id and the number of hellos it had sent before this one: a link moved to
+  /// another connection says hello twice, on two sockets whose frames may be read in either order; the reader
+  /// keeps the later one (0, 0: a sender that does not say, taken as the latest).
+  std::uint64_t sender = 0, serial = 0;
 };
 
 /// Packs a Hello body (msgpack map).

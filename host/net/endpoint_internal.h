@@ -13,6 +13,7 @@
 #include <cstring>
 #include <map>
 #include <optional>
+#include <random>
 #include <span>
 #include <unordered_map>
 #include <utility>
@@ -114,6 +115,16 @@ struct Endpoint::Impl {
   std::function<bool(const std::string& to)> hold;  // lock-step, the clock's owner: samples kept back (set_hold)
   std::vector<endpoint_detail::StreamLink*> holding;  // the links with samples kept back
   std::map<std::string, std::unique_ptr<LinkGate>, std::less<>> gates;  // by link_key, never removed
+  // In each hello this endpoint sends: its random id and how many it sent before (data_frame::Hello)
+  const std::uint64_t sender = random_sender();
+  std::uint64_t hellos = 0;
+
+  // A nonzero random id within data_frame::kMaxSerial.
+  static std::uint64_t random_sender() {
+    std::random_device rd;
+    const std::uint64_t v = ((std::uint64_t{rd()} << 32) | rd()) & data_frame::kMaxSerial;
+    return v == 0 ? 1 : v;
+  }
 
   /// The gate of connection `key` (made on first use; a connection made again under the same name starts
   /// its counts again).
@@ -332,8 +343,13 @@ class StreamLink final : public Connection {
   void start(std::shared_ptr<Trunk> trunk, const std::string& addr, Endpoint::ConnectDone done, int timeout_ms);
 
   /// The Hello body that opens this link.
-  std::string hello() const {
-    return data_frame::encode_hello({info_.request, out_ ? out_->spec() : PortSpec{}});
+  std::string hello() {
+    data_frame::Hello h{info_.request, out_ ? out_->spec() : PortSpec{}};
+    if (ep_) {
+      h.sender = ep_->sender;
+      h.serial = ep_->hellos++;
+    }
+    return data_frame::encode_hello(h);
   }
 
   void on_write(Bytes b) override;
@@ -387,9 +403,10 @@ class StreamLink final : public Connection {
 // The receiving side of a link over a socket: feeds one local input with what its trunk receives for it.
 class InLink final : public PullSource, public InputFeeder {
  public:
-  InLink(Trunk& trunk, std::uint32_t id, ConnectRequest r, Input* in, LinkGate& gate)
-      : trunk_(&trunk), id_(id), r_(std::move(r)), in_(in), gate_(&gate) {
-    gate_->adopt(this);
+  // `h`'s link; the gate's owner unless an earlier hello of its sender (LinkGate::later)
+  InLink(Trunk& trunk, std::uint32_t id, const data_frame::Hello& h, Input* in, LinkGate& gate)
+      : trunk_(&trunk), id_(id), r_(h.request), in_(in), gate_(&gate) {
+    if (gate_->later(h.sender, h.serial)) gate_->adopt(this, h.sender, h.serial);
     in_->add_feeder(this);
     if (r_.mode == Mode::Pull) in_->add_pull_source(this);
     else in_->reserve_queue(r_.queue);

@@ -334,7 +334,10 @@ void Trunk::on_hello(std::uint32_t id, Bytes body) {
     send(Kind::HelloError, id, as_bytes(error));
     return;
   }
-  in_.emplace(id, std::make_unique<InLink>(*this, id, h.request, in, ep_->gate(link_key(h.request), true)));
+  // a moved link's earlier hello, read after its later one on the other socket, neither resets nor takes the gate
+  auto& gate = ep_->gate(link_key(h.request), false);
+  if (gate.later(h.sender, h.serial) && gate.received() > 0) gate.reset();
+  in_.emplace(id, std::make_unique<InLink>(*this, id, h, in, gate));
   send(Kind::HelloOk, id, {});
 }
 

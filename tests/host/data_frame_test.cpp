@@ -84,6 +84,17 @@ TEST(DataFrameTest, HelloRoundTripsAndRejectsGarbage) {
   EXPECT_EQ(mback.out.type, dca::PortType::Message);
   EXPECT_EQ(mback.out.message, "geometry_msgs/msg/Twist");
   EXPECT_EQ(dca::compatibility_error(mback.out, dca::message_port("CmdVel", "geometry_msgs/msg/Twist")), "");
+  // the sender's id and serial (a moved link's two hellos told apart); a hello without them reads 0, 0
+  df::Hello s{{"/a", "Out", "/b", "In", "s"}, dca::vector_port("Out", 2)};
+  s.sender = df::kMaxSerial;
+  s.serial = 5;
+  const auto sb = df::encode_hello(s);
+  df::Hello sback;
+  ASSERT_TRUE(df::decode_hello({reinterpret_cast<const std::byte*>(sb.data()), sb.size()}, sback, &err)) << err;
+  EXPECT_EQ(sback.sender, df::kMaxSerial);
+  EXPECT_EQ(sback.serial, 5u);
+  EXPECT_EQ(back.sender, 0u);
+  EXPECT_EQ(back.serial, 0u);
 }
 
 // Regression: a hello with queue = 4294967295 made the destination allocate the queue and die of bad_alloc.
@@ -106,6 +117,8 @@ TEST(DataFrameTest, HostileHelloFieldsAreRefusedWithTheirName) {
   EXPECT_EQ(refused(hello().set("to", std::string("/b\0x", 4))), "hello: 'to' holds a control character");
   EXPECT_EQ(refused(hello().set("set", "a\nb")), "hello: 'set' holds a control character");
   EXPECT_EQ(refused(hello().set("to", "")), "hello: no destination named");
+  EXPECT_EQ(refused(hello().set("serial", std::int64_t{-2})), "hello: 'serial' is not a count");
+  EXPECT_EQ(refused(hello().set("sender", "me")), "hello: 'sender' is not a count");
   std::string body, err;
   dca::wire::encode_value(hello().set("queue", std::int64_t{df::kMaxQueue}), body);
   df::Hello h;

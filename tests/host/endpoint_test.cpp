@@ -680,6 +680,45 @@ TEST_P(EndpointSocketTest, SimultaneousOpensEndOnOneConnection) {
   EXPECT_EQ(src_ep->refused() + dst_ep->refused(), 0u);
 }
 
+// Two endpoints opening to each other at once: a link that moves to the other connection says hello on both
+// sockets, whose frames may be read in either order. Read last, its earlier hello neither resets the reader's
+// gate nor takes it over, so the samples after the move are taken and counted. (A door run once waited forever
+// for a command lost so: `waited 5000 ms for sample 1 ... got 0`.)
+TEST_P(EndpointSocketTest, AMovedLinksEarlierHelloReadLastLeavesTheGateToTheLaterOne) {
+  dca::test::RawDataClient first(io, dst_address()), second(io, dst_address());
+  ASSERT_EQ(first.handshake(dca::data_key(kKey)), "");
+  ASSERT_EQ(second.handshake(dca::data_key(kKey)), "");
+  first.introduce(src_ep->location());
+  second.introduce(src_ep->location());
+  const auto r = req("/src", "Out", "/dst", "In", "s");
+  auto hello_n = [&](std::uint64_t serial) {
+    df::Hello h{r, dca::vector_port("Out", 8)};
+    h.sender = 77;
+    h.serial = serial;
+    return df::encode_hello(h);
+  };
+  dst_ep->set_gated(true);
+  second.send_frame(df::Kind::Hello, hello_n(1), 3);  // the later hello, read first
+  auto ok = second.read_frame();
+  ASSERT_TRUE(ok && ok->kind == df::Kind::HelloOk);
+  second.send_frame(df::Kind::Sample, sample_bytes(1), 3);
+  ASSERT_TRUE(run_until(io, [&] { return dst_ep->received(dca::link_key(r)) == 1; }));
+  first.send_frame(df::Kind::Hello, hello_n(0), 1);  // the earlier one, read last
+  ok = first.read_frame();
+  ASSERT_TRUE(ok && ok->kind == df::Kind::HelloOk);
+  first.send_frame(df::Kind::Close, "moved", 1);
+  second.send_frame(df::Kind::Sample, sample_bytes(2), 3);
+  ASSERT_TRUE(run_until(io, [&] { return dst_ep->received(dca::link_key(r)) == 2; }))
+      << "got " << dst_ep->received(dca::link_key(r));
+  EXPECT_TRUE(dst_ep->release(dca::link_key(r), 2));
+  ASSERT_EQ(in->queued(), 2u);
+  in->pop();
+  EXPECT_EQ(in->vector(), sample(1));
+  in->pop();
+  EXPECT_EQ(in->vector(), sample(2));
+  EXPECT_TRUE(dst_events.empty()) << "a move is reported nowhere";
+}
+
 // A restarted process (a new endpoint at a new address): its links both ways are made again on one new
 // connection, and the old connection's links were reported broken.
 TEST_P(EndpointSocketTest, RestartedPeerGetsANewConnectionCarryingBothWays) {
