@@ -227,6 +227,7 @@ int serve(const Options& o, dca::sim::DeviceWorld& world) {
     std::fprintf(stderr, "dca sim: %s\n", failure.c_str());
     return 1;
   }
+  if (!dn.stuck().empty()) return 1;  // said (DeviceNode): the run that drove it hears of the exit
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
   print_lines("dca sim: ", world.summary());
   std::printf("dca sim: simulated %.3f s in %.3f s wall\n", dca::to_seconds(dn.now()), wall);

@@ -188,6 +188,7 @@ void LockstepCore::tick() {
       std::fprintf(stderr, "%s: time holds: %s\n", opts_.log_name.c_str(), late.c_str());
       dropped_.push_back("time held at " + std::to_string(to_seconds(now())) + " s: " + late);
       running_ = false;
+      if (on_stuck) on_stuck("time cannot go on at " + std::to_string(to_seconds(now())) + " s: " + late);
       return;
     }
     const Nanos s0 = hooks_.wall_now();
@@ -553,6 +554,9 @@ Lockstep::Lockstep(Loop& loop, LockstepOptions options, LockstepHooks hooks)
       }()) {
   core_.on_duration = [this] {
     if (on_duration) on_duration();
+  };
+  core_.on_stuck = [this](const std::string& why) {
+    if (on_stuck) on_stuck(why);
   };
 }
 

@@ -184,6 +184,8 @@ class LockstepCore {
   wire::Value counts() const;
   /// Called once when `duration` is reached (time then holds).
   std::function<void()> on_duration;
+  /// Called once, with why, when time cannot go on: a sample counted for the owner never came (time holds).
+  std::function<void(const std::string&)> on_stuck;
 
  private:
   struct Subscriber {
@@ -295,6 +297,8 @@ class Lockstep {
   /// Called once, with why, when the channel that said `go` (the master: a run's root) has closed: time then
   /// holds. A world whose master died would otherwise run on alone at full speed (the owner exits).
   std::function<void(const std::string&)> on_master_lost;
+  /// LockstepCore::on_stuck.
+  std::function<void(const std::string&)> on_stuck;
 
  private:
   void schedule(std::optional<Nanos> wall_due);

@@ -107,6 +107,7 @@ struct DeviceNode::Impl {
   std::vector<double> buffer;  // a sensor's values
   bool own_format = false;  // the world records itself (DeviceWorld::own_recorder)
   Lockstep clock;
+  std::string stuck;  // DeviceNode::stuck
   WorldTaps taps;  // tap, record_end, note; the recording
   std::vector<std::uint16_t> channels;  // each sensor's recording channel
   std::uint16_t outputs_channel = 0;     // /dca/world/outputs (record_outputs)
@@ -513,7 +514,16 @@ DeviceNode::DeviceNode(Loop& loop, DeviceWorld& world, DeviceNodeOptions options
     std::fprintf(stderr, "dca sim: %s: the world stops\n", why.c_str());
     impl_->loop.stop();
   };
+  // a command lost on its way: the run cannot go on as written, and holding time would leave it waiting for
+  // ever; its runner hears of the world's exit (dca.clients.world on_lost, with this line)
+  impl_->clock.on_stuck = [this](const std::string& why) {
+    std::fprintf(stderr, "dca sim: %s: the world stops\n", why.c_str());
+    impl_->stuck = why;
+    impl_->loop.stop();
+  };
 }
+
+const std::string& DeviceNode::stuck() const { return impl_->stuck; }
 
 DeviceNode::~DeviceNode() = default;
 

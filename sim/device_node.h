@@ -87,6 +87,8 @@ class DeviceNode {
   wire::Value status() const;
   /// Called once when `duration` is reached (time then holds).
   std::function<void()> on_duration;
+  /// Why time could not go on (a counted command that never came: the world then stops, its exit code 1), or "".
+  const std::string& stuck() const;
 
   struct Impl;
 

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <deque>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -81,6 +82,7 @@ class LockstepTest : public ::testing::Test {
       for (const auto& x : leaves) l += (l.empty() ? "" : ",") + x;
       released.push_back(l + " at " + std::to_string(core->now() / kMs) + " ms");
     };
+    if (take) h.take = take;
     core = std::make_unique<LockstepCore>(o, h);
     core->on_duration = [this] { ++durations; };
   }
@@ -101,6 +103,7 @@ class LockstepTest : public ::testing::Test {
   }
 
   bool inline_quiet = false;  // each tick a handler of its own: the tests count them
+  std::function<std::string(const dca::wire::Value&)> take;  // the owner's `take` hook, when set before make()
   std::unique_ptr<LockstepCore> core;
   int steps = 0, publishes = 0, settles = 0, scheduled = 0, durations = 0;
   std::vector<std::string> gone;  // writer_gone: the owner's inputs that lost their writer, and when
@@ -410,6 +413,35 @@ TEST_F(LockstepTest, AWritersCountsGoToTheReaderWithItsNextAdvance) {
   b->answer(std::nullopt);
   run_ticks(100);
   EXPECT_FALSE(b->payloads[2].find("expect"));  // unchanged: not said again
+}
+
+// A command counted for the owner that never came (its `take` gave up, naming it): time cannot go on. It holds,
+// the owner's process is told why, once (the world then stops: a run no longer waits for ever, unsaid).
+TEST_F(LockstepTest, ACountedSampleForTheOwnerThatNeverCameStopsTimeAndSaysWhy) {
+  using dca::wire::Value;
+  std::vector<std::string> expected;
+  take = [&](const Value& expect) -> std::string {
+    for (const auto& [key, n] : expect.as_map()) expected.push_back(key.as_string() + "=" + std::to_string(n.as_int(0)));
+    return "advance: world waited 5000 ms for sample 1 of /a|Cmd, got 0";
+  };
+  make();
+  std::vector<std::string> stuck;
+  core->on_stuck = [&](const std::string& why) { stuck.push_back(why); };
+  auto a = subscribe("/a", &origin_a);
+  core->go();
+  run_ticks(100);
+  a->answer(std::nullopt, Value::map().set("sent", Value::map().set("world", Value::map().set("/a|Cmd>world|cmd@s", 1))));
+  run_ticks(100);
+  EXPECT_EQ(expected, (std::vector<std::string>{"/a|Cmd>world|cmd@s=1"}));
+  ASSERT_EQ(stuck.size(), 1u);
+  EXPECT_EQ(stuck[0], "time cannot go on at 0.010000 s: advance: world waited 5000 ms for sample 1 of /a|Cmd, got 0");
+  EXPECT_EQ(core->now(), 10 * kMs);
+  run_ticks(100);
+  EXPECT_EQ(stuck.size(), 1u);
+  EXPECT_EQ(core->now(), 10 * kMs) << "time holds";
+  const auto dropped = core->status()["dropped"].as_array();
+  ASSERT_EQ(dropped.size(), 1u);
+  EXPECT_EQ(dropped[0].as_string(), "time held at 0.010000 s: advance: world waited 5000 ms for sample 1 of /a|Cmd, got 0");
 }
 
 // The barrier: an event in a round holds time until every supervisor has answered two waves of quiesce

@@ -78,7 +78,9 @@ end
 function W:_exit(msg, finish)
   self.exited = daemon_client.describe_exit(msg, self.o.host)
   local what = self.o.what or "the world"
-  if not self.stopping and self.started and self.on_lost then self.on_lost(what .. " " .. self.exited) end
+  if not self.stopping and self.started and self.on_lost then
+    self.on_lost(what .. " " .. self.exited .. self:_own_words(": the world stops$"))
+  end
   local ws = self.exit_waiters or {}
   self.exit_waiters = nil
   for _, w in ipairs(ws) do w() end
@@ -86,13 +88,16 @@ function W:_exit(msg, finish)
 end
 
 -- What the world said before it ended, when its daemon's log is at hand (o.log: a daemon `dca run` started
--- keeps the output of its children there): its "dca sim:" lines, e.g. the URDF's XML error with file:line.
-function W:_own_words()
+-- keeps the output of its children there): its "dca sim:" lines, e.g. the URDF's XML error with file:line;
+-- with `pattern`, those of them that match it (why it stopped by itself).
+function W:_own_words(pattern)
   local f = self.o.log and io.open(self.o.log, "r")
   if not f then return "" end
   local said = {}
   for line in f:lines() do
-    if line:find(self.o.said or "dca sim: ", 1, true) == 1 then said[#said + 1] = "\n  " .. line end
+    if line:find(self.o.said or "dca sim: ", 1, true) == 1 and (not pattern or line:find(pattern)) then
+      said[#said + 1] = "\n  " .. line
+    end
   end
   f:close()
   return table.concat(said)
