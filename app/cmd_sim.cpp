@@ -26,7 +26,7 @@ constexpr const char* kUsage =
     "usage: dca sim [--world WORLD] [--world-opt KEY[=VALUE]]... [--seed N] [--duration S] [--period S]\n"
     "               [--record FILE] [--record-period S] [--realtime]\n"
     "       dca sim --serve --daemon ADDR [--name world] [--key FILE] [--host NAME] [--go] [--sync S]\n"
-    "               [--tick-timeout MS] [--trace FILE] [world options as above]\n"
+    "               [--tick-timeout MS] [--spin auto|off|US] [--trace FILE] [world options as above]\n"
     "       dca sim --worlds\n\n"
     "Runs a simulated world at a fixed control period (default 0.001 s), as fast as the machine allows or, with\n"
     "--realtime, paced to the wall clock. WORLD is a world's name (`dca sim --worlds` lists them with their\n"
@@ -52,6 +52,8 @@ constexpr const char* kUsage =
     "paces it. Prints `dca sim: world ready` once registered and a summary when it exits.\n"
     "  --sync S             every subscriber is advanced at least every S seconds (default 0.01)\n"
     "  --tick-timeout MS    a node that does not answer an advance in MS is dropped from the clock (10000)\n"
+    "  --spin auto|off|US   nodes poll for their next advance for US µs after answering one, and the world for\n"
+    "                       the answers (auto: 2000 while every process on the clock has a CPU of its own)\n"
     "  --record-outputs     with --record FILE.mcap: the world's outputs as published too, exactly, on\n"
     "                       /dca/world/outputs (what `--world replay:FILE.mcap` serves again)\n"
     "  --blackbox B,A[,MB]  with --record FILE.mcap: a black box instead (docs/recording.md): the last B s held\n"
@@ -72,6 +74,7 @@ struct Options {
   std::uint64_t seed = 0;
   double duration = -1, period = 1e-3, record_period = 0.01, sync_period = 0.01;
   int tick_timeout_ms = 10000;
+  int spin_us = -1;  // --spin: -1 auto, 0 off
 };
 
 int usage_error(const std::string& why) {
@@ -150,6 +153,15 @@ std::string set_value(const std::string& a, const char* v, Options& o) {
   }
   if (a == "--blackbox-storm") return storm(v, o);
   if (a == "--sync") return positive(v, o.sync_period) ? "" : "--sync needs positive seconds";
+  if (a == "--spin") {
+    const std::string w = v ? v : "";
+    char* end = nullptr;
+    const long us = w == "auto" ? -1 : w == "off" ? 0 : std::strtol(w.c_str(), &end, 10);
+    if (w != "auto" && w != "off" && (w.empty() || *end != '\0' || us <= 0 || us > 100000))
+      return "--spin needs auto, off or microseconds from 1 to 100000";
+    o.spin_us = static_cast<int>(us);
+    return "";
+  }
   if (a == "--tick-timeout") {
     double ms = 0;
     if (!positive(v, ms)) return "--tick-timeout needs positive milliseconds";
@@ -170,7 +182,7 @@ std::string set_value(const std::string& a, const char* v, Options& o) {
 int parse(std::span<char* const> args, Options& o) {
   static const std::string kValued =
       " --world --world-opt --seed --duration --period --record-period --record --trace --daemon --name --key"
-      " --host --sync --tick-timeout --blackbox --blackbox-storm --record-compression --record-split"
+      " --host --sync --tick-timeout --spin --blackbox --blackbox-storm --record-compression --record-split"
       " --record-profile ";
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string a = args[i];
@@ -201,6 +213,7 @@ int serve(const Options& o, dca::sim::DeviceWorld& world) {
   dca::sim::DeviceNodeOptions dno;
   dno.sync_period = o.sync_period;
   dno.tick_timeout_ms = o.tick_timeout_ms;
+  dno.spin_us = o.spin_us;
   dno.realtime = o.realtime;
   dno.duration = o.duration;
   dno.trace = o.trace;

@@ -17,6 +17,7 @@ bool run_node(Loop& loop, Node& node, const std::function<void()>& on_ready, boo
     started = true;
     on_ready();
   });
+  loop.allow_spin();  // lock-step may ask a node (and the world, its master) to spin between rounds
   loop.run();
   *ready = started;
   if (failure.empty()) return true;

@@ -1,5 +1,7 @@
 #include "host/lockstep.h"
 
+#include <sched.h>
+
 #include <algorithm>
 #include <cstdio>
 #include <limits>
@@ -253,6 +255,7 @@ Value LockstepCore::expect_for(Subscriber& s) {
 void LockstepCore::advance(const std::vector<std::uint64_t>& due, Nanos t) {
   waiting_ = static_cast<int>(due.size()) + 1;
   std::weak_ptr<bool> alive = alive_;
+  const int spin = spin_window();
   for (const auto id : due) {
     auto it = subs_.find(id);
     if (it == subs_.end()) {
@@ -263,12 +266,27 @@ void LockstepCore::advance(const std::vector<std::uint64_t>& due, Nanos t) {
     if (auto e = expect_for(it->second); !e.as_map().empty()) p.set("expect", std::move(e));
     if (hooks_.release) hooks_.release(it->second.leaves.empty() ? std::vector<std::string>{it->second.name} : it->second.leaves);
     if (opts_.trace) p.set("trace", true);
+    if (spin > 0) p.set("spin", spin);
     it->second.link->request("advance", std::move(p),
                              [this, alive, id, t](const std::string& error, bool replied, const Value& reply) {
                                if (!alive.expired()) answered(id, t, error, replied, reply);
                              });
   }
+  if (spin > 0 && waiting_ > 1 && hooks_.spin) hooks_.spin(spin);
   if (--waiting_ == 0) advanced(t);
+}
+
+// How long a node polls for its next advance after answering (and the master for the answers): never while
+// paced to the wall clock; else the set window, or (auto) kAutoSpinUs while every process on the clock, this
+// one included, can have a CPU of its own. Spinning takes the sleep and the wake-up out of each round (a halted
+// idle virtual CPU's wake-up is an exit to the host); with more processes than CPUs the spinners would take
+// turns on a CPU instead.
+int LockstepCore::spin_window() const {
+  if (speed_ > 0 || opts_.spin_us == 0) return 0;
+  if (opts_.spin_us > 0) return opts_.spin_us;
+  std::size_t nodes = 1;
+  for (const auto& [id, s] : subs_) nodes += s.supervisor ? 0 : 1;
+  return opts_.cpus > 0 && nodes <= static_cast<std::size_t>(opts_.cpus) ? kAutoSpinUs : 0;
 }
 
 void LockstepCore::add_sent(const Value& sent) {
@@ -543,11 +561,20 @@ Nanos steady_now() {
       .count();
 }
 
+// The options with the CPUs this process may run on (auto spin), unless set.
+LockstepOptions with_cpus(LockstepOptions o) {
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  if (o.cpus == 0 && ::sched_getaffinity(0, sizeof set, &set) == 0) o.cpus = CPU_COUNT(&set);
+  return o;
+}
+
 }  // namespace
 
 Lockstep::Lockstep(Loop& loop, LockstepOptions options, LockstepHooks hooks)
-    : loop_(loop), opts_(options), timer_(loop.io()), master_timer_(loop.io()), core_(std::move(options), [&] {
+    : loop_(loop), opts_(options), timer_(loop.io()), master_timer_(loop.io()), core_(with_cpus(std::move(options)), [&] {
         hooks.settle = [this] { loop_.settle(); };
+        hooks.spin = [this](int us) { loop_.spin_for(std::chrono::microseconds(us)); };
         hooks.schedule = [this](std::optional<Nanos> wall_due) { schedule(wall_due); };
         hooks.wall_now = steady_now;
         return std::move(hooks);

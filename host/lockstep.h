@@ -100,7 +100,15 @@ struct LockstepOptions {
   std::string log_name = "dca lockstep";  ///< prefix of its messages on stderr
   std::string owner = "world";    ///< the owner's component name (links into it are counted for `take`)
   bool trace = false;             ///< ask the nodes for their outputs' digests (hook `trace` gets the lines)
+  /// µs a node polls for its next `advance` after answering one, and the master for the answers (docs/time.md,
+  /// "Spinning"): -1 auto (kAutoSpinUs while every node on the clock and the master can have a CPU of their
+  /// own, unpaced), 0 never
+  int spin_us = -1;
+  int cpus = 0;                   ///< the CPUs this process may run on (auto spin); 0: unknown, no auto spin
 };
+
+/// The spin window of `LockstepOptions::spin_us` = -1, when it applies.
+inline constexpr int kAutoSpinUs = 2000;
 
 /// What the clock master asks of the process it runs in.
 struct LockstepHooks {
@@ -126,6 +134,8 @@ struct LockstepHooks {
   /// The owner's input `in` lost its writer, at the tick the writer's node is lost or a new instance of the
   /// writer subscribes: a device input applies its safe value (zero velocity) until a new sample comes.
   std::function<void(const std::string& in)> writer_gone;
+  /// The advances are out: poll for the answers for `us` µs before sleeping (Loop::spin_for; empty: never).
+  std::function<void(int us)> spin;
 };
 
 /// The clock master's logic, without sockets or clocks of its own.
@@ -205,6 +215,7 @@ class LockstepCore {
   enum class Phase { Idle, Round, SyncBefore, Waves, SyncAfter };
   std::vector<std::uint64_t> due_at(Nanos t) const;
   void advance(const std::vector<std::uint64_t>& due, Nanos t);
+  int spin_window() const;
   wire::Value expect_for(Subscriber& s);
   void answered(std::uint64_t id, Nanos t, const std::string& error, bool replied, const wire::Value& reply);
   void advanced(Nanos t);

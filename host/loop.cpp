@@ -2,6 +2,10 @@
 
 #include <boost/asio/steady_timer.hpp>
 
+#include <sched.h>
+
+#include <algorithm>
+
 namespace dca {
 
 Loop::Loop() = default;
@@ -20,7 +24,30 @@ Loop::~Loop() {
 
 std::size_t Loop::run() {
   io_.restart();
-  return io_.run();
+  if (!may_spin_) return io_.run();
+  std::size_t total = 0;
+  for (;;) {
+    if (spin_until_ != std::chrono::steady_clock::time_point{}) {  // in a spin window: poll, yield, poll
+      const std::size_t n = io_.poll();
+      total += n;
+      ++spun_;
+      if (io_.stopped()) break;
+      if (n == 0) {
+        if (std::chrono::steady_clock::now() >= spin_until_) spin_until_ = {};
+        else sched_yield();  // polite: any other runnable process on this CPU goes first
+      }
+      continue;
+    }
+    const std::size_t n = io_.run_one();
+    total += n;
+    if (n == 0) break;  // stopped, or out of work
+  }
+  return total;
+}
+
+void Loop::spin_for(std::chrono::microseconds window) {
+  if (!may_spin_ || window.count() <= 0) return;
+  spin_until_ = std::max(spin_until_, std::chrono::steady_clock::now() + window);
 }
 
 std::size_t Loop::settle(int max_rounds) {

@@ -13,6 +13,7 @@
 #include <boost/asio/steady_timer.hpp>
 #pragma GCC diagnostic pop
 #include <chrono>
+#include <cstdint>
 #include <functional>
 #include <initializer_list>
 #include <map>
@@ -43,6 +44,14 @@ class Loop {
   /// one-thread io_context). Lock-step uses it to drain data sockets before a tick and to flush writes after
   /// it. Returns the number of handlers run.
   std::size_t settle(int max_rounds = 1000);
+  /// Lets spin_for() work in this loop's run() (a node or world on simulated time; else run() is io_context::run).
+  void allow_spin() { may_spin_ = true; }
+  /// With allow_spin(): for `window` from now, run() polls instead of sleeping, yielding the CPU between polls
+  /// (sched_yield), so a message arriving meanwhile is taken without a wake-up. Lock-step uses it between a
+  /// node's answer and its next `advance` (docs/time.md, "Spinning"). Each call extends the window.
+  void spin_for(std::chrono::microseconds window);
+  /// The polls run() made in spin windows so far.
+  std::uint64_t spun() const { return spun_; }
   /// Makes run() return after the current handler (safe from any thread and from signal handlers' callbacks).
   void stop();
   /// True once stop() was called and run() has not been entered since.
@@ -59,6 +68,9 @@ class Loop {
   void wait_signal();
   void wait_extra(boost::asio::signal_set* set, int signal);
   boost::asio::io_context io_{1};
+  bool may_spin_ = false;
+  std::chrono::steady_clock::time_point spin_until_{};  // spin_for's window (epoch: none)
+  std::uint64_t spun_ = 0;
   std::map<int, std::pair<std::unique_ptr<boost::asio::signal_set>, std::function<void()>>> extra_;
   std::unique_ptr<boost::asio::signal_set> signals_;
   std::function<void(int)> on_signal_;

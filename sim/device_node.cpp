@@ -148,6 +148,7 @@ struct DeviceNode::Impl {
     c.period = from_seconds(w.period());
     c.sync_period = o.sync_period;
     c.tick_timeout_ms = o.tick_timeout_ms;
+    c.spin_us = o.spin_us;
     c.realtime = o.realtime;
     c.duration = o.duration;
     c.log_name = "dca sim";

@@ -51,6 +51,7 @@ inline constexpr const char* kEstopInput = "estop";
 struct DeviceNodeOptions {
   double sync_period = 0.01;      ///< s: every subscriber is advanced at least this often
   int tick_timeout_ms = 10000;    ///< how long a subscriber may take to answer an advance
+  int spin_us = -1;               ///< LockstepOptions::spin_us
   bool realtime = false;          ///< pace time to the wall clock
   double duration = -1;           ///< s of simulated time after which time holds (-1: never)
   std::string trace;              ///< file the lock-step trace goes to ("" = none; docs/time.md)

@@ -8,7 +8,8 @@
 --          vs_harness=.. run_rtf=.. run_wall_s=.. vs_harness_run=.. world_step_s=..
 --   (rtf and wall_s: the whole `dca run`, start-up included; run_*: from time's start to the outcome, as the
 --   harness is timed without building its world and controllers; world_step_s: the world's stepping in it)
---   (placement: `dca run --placement process|group|host`; period: MotionControl's, 10ms or 1ms)
+--   (placement: `dca run --placement process|group|host`, or onehost: host with the three hosts named alike, one
+--   shared node for every leaf; period: MotionControl's, 10ms or 1ms; _spinX: `dca run --spin X`, else auto)
 --   RESULT bench=raw_world_scripted_door variant=seedN n=1 ... rtf=.. wall_s=.. sim_s=..
 --   RESULT bench=door_harness variant=seedN_motionPms n=<10 ms periods> ... rtf=.. wall_s=.. sim_s=.. door_deg=..
 --          opened_s=..   (the tick DoorOpen ended DONE; door_demo's opened_s beside it: the same tick, as the
@@ -61,11 +62,28 @@ end
 
 -- One supervised run: `placement` (dca run --placement; the variant names it), `period` "10ms" or "1ms"
 -- (MotionControl's period: motion.period).
-local function demo(seed, placement, period, base, base_opened, before)
-  local extra = sformat(" --placement %s", placement)
+-- The placement "onehost": the system with its three host arguments alike (one shared node for every leaf),
+-- a copy beside its configuration in a folder of its own, removed at the end.
+local onehost_dir
+local function system_file(placement)
+  if placement ~= "onehost" then return src .. "/worlds/door/systems/door_open.dca", placement end
+  if not onehost_dir then
+    onehost_dir = run("mktemp -d"):gsub("%s+$", "")
+    local f = assert(io.open(src .. "/worlds/door/systems/door_open.dca")):read("a")
+    local one, n = f:gsub('DoorOpenSystem%("vision", "platform", "manipulation"%)', 'DoorOpenSystem("vision", "vision", "vision")')
+    assert(n == 1, "door_open.dca: its hosts' line changed")
+    assert(io.open(onehost_dir .. "/door_open.dca", "w")):write(one):close()
+    run(sformat("cp %s/worlds/door/systems/door_open.config %s/", src, onehost_dir))
+  end
+  return onehost_dir .. "/door_open.dca", "host"
+end
+
+local function demo(seed, placement, period, spin, base, base_opened, before)
+  local file, how = system_file(placement)
+  local extra = sformat(" --placement %s", how)
   if period == "1ms" then extra = extra .. " --set motion.period=0.001" end
-  local out, code = run(sformat("%s run %s/worlds/door/systems/door_open.dca --sim door --seed %d --quiet%s",
-    before or exe, src, seed, extra))
+  if spin ~= "auto" then extra = extra .. " --spin " .. spin end
+  local out, code = run(sformat("%s run %s --sim door --seed %d --quiet%s", before or exe, file, seed, extra))
   local deg = out:match("door opened to ([%d.%-]+) deg")
   local sim, wall = out:match("simulated ([%d.]+) s in ([%d.]+) s of wall%-clock time")
   -- (a build before these figures were printed has none: 0)
@@ -81,8 +99,8 @@ local function demo(seed, placement, period, base, base_opened, before)
   local run_rtf = run_wall > 0 and sim / run_wall or 0
   local function vs(rtf) return (base or 0) > 0 and rtf / base or 0 end
   local opened = out:match("[%d.]+ %-%s+([%d.]+)%s+main%.dooropensyst%.dooropen%s")
-  print(sformat("RESULT bench=door_demo variant=seed%d_%s_%s%s n=%d p50_us=%.1f p99_us=%.1f p999_us=%.1f max_us=%.1f rtf=%.2f wall_s=%.3f sim_s=%.3f door_deg=%s advances=%s processes_per_round=%.2f per_process_p50_us=%.1f vs_harness=%.2f run_rtf=%.2f run_wall_s=%.3f vs_harness_run=%.2f world_step_s=%.3f opened_s=%s harness_opened_s=%s",
-    seed, placement, period, before and "_before" or "", num(rounds), num(p50), num(p99), num(max), num(max), sim / wall, wall, sim, deg or "?",
+  print(sformat("RESULT bench=door_demo variant=seed%d_%s_%s%s%s n=%d p50_us=%.1f p99_us=%.1f p999_us=%.1f max_us=%.1f rtf=%.2f wall_s=%.3f sim_s=%.3f door_deg=%s advances=%s processes_per_round=%.2f per_process_p50_us=%.1f vs_harness=%.2f run_rtf=%.2f run_wall_s=%.3f vs_harness_run=%.2f world_step_s=%.3f opened_s=%s harness_opened_s=%s",
+    seed, placement, period, spin ~= "auto" and "_spin" .. spin or "", before and "_before" or "", num(rounds), num(p50), num(p99), num(max), num(max), sim / wall, wall, sim, deg or "?",
     adv, per_round, num(p50) / math.max(1, per_round), vs(sim / wall), run_rtf, run_wall, vs(run_rtf), num(step),
     opened or "?", base_opened or "?"))
 end
@@ -98,6 +116,8 @@ local function list(env, default)
   return t
 end
 local placements, periods = list("DCA_BENCH_PLACEMENTS", "process,group,host"), list("DCA_BENCH_PERIODS", "10ms,1ms")
+-- DCA_BENCH_SPIN (default "auto"): `dca run --spin` values, each a variant (suffix _spinX unless auto)
+local spins = list("DCA_BENCH_SPIN", "auto")
 for round = 1, 2 do
   for _, seed in ipairs(seeds) do
     io.stderr:write(sformat("door_bench: round %d, seed %d: raw world, then the supervised system\n", round, seed))
@@ -106,11 +126,14 @@ for round = 1, 2 do
       for _, placement in ipairs(placements) do
         -- DCA_BENCH_BEFORE=EXE: another build's dca (e.g. before a change) beside this one, after the same
         -- harness run: harness, before, after, A B A B
-        local before = os.getenv("DCA_BENCH_BEFORE")
-        local base, opened = harness(seed, period)
-        if before then demo(seed, placement, period, base, opened, before) end
-        demo(seed, placement, period, base, opened)
+        for _, spin in ipairs(spins) do
+          local before = os.getenv("DCA_BENCH_BEFORE")
+          local base, opened = harness(seed, period)
+          if before then demo(seed, placement, period, spin, base, opened, before) end
+          demo(seed, placement, period, spin, base, opened)
+        end
       end
     end
   end
 end
+if onehost_dir then run("rm -rf " .. onehost_dir) end

@@ -67,7 +67,10 @@ class LockstepTest : public ::testing::Test {
     o.inline_quiet = inline_quiet;
     o.duration = duration;
     o.realtime = realtime;
+    o.cpus = cpus;
+    o.spin_us = spin_us;
     dca::LockstepHooks h;
+    h.spin = [this](int us) { master_spins.push_back(us); };
     h.step = [this] { ++steps; };
     h.publish = [this] { ++publishes; };
     h.settle = [this] { ++settles; };
@@ -104,6 +107,8 @@ class LockstepTest : public ::testing::Test {
 
   bool inline_quiet = false;  // each tick a handler of its own: the tests count them
   std::function<std::string(const dca::wire::Value&)> take;  // the owner's `take` hook, when set before make()
+  int cpus = 0, spin_us = -1;      // LockstepOptions', set before make()
+  std::vector<int> master_spins;   // hook `spin`: the windows the master polled for answers
   std::unique_ptr<LockstepCore> core;
   int steps = 0, publishes = 0, settles = 0, scheduled = 0, durations = 0;
   std::vector<std::string> gone;  // writer_gone: the owner's inputs that lost their writer, and when
@@ -442,6 +447,49 @@ TEST_F(LockstepTest, ACountedSampleForTheOwnerThatNeverCameStopsTimeAndSaysWhy) 
   const auto dropped = core->status()["dropped"].as_array();
   ASSERT_EQ(dropped.size(), 1u);
   EXPECT_EQ(dropped[0].as_string(), "time held at 0.010000 s: advance: world waited 5000 ms for sample 1 of /a|Cmd, got 0");
+}
+
+// Spinning: while every process on the clock, the master's included, has a CPU of its own, an advance asks its
+// node to poll for the next one and the master polls for the answers; with more processes than CPUs, paced to
+// the wall clock, or set off, neither. A set window applies whatever the count.
+TEST_F(LockstepTest, AdvancesAskToSpinWhileEveryProcessOnTheClockHasACpu) {
+  cpus = 2;
+  make();
+  auto a = subscribe("/a", &origin_a);
+  auto s = subscribe("/sup", &origin_s, true);  // a supervisor is not advanced: no CPU of the round
+  core->go();
+  run_ticks(100);
+  ASSERT_EQ(a->payloads.size(), 1u);
+  EXPECT_EQ(a->payloads[0]["spin"].as_int(0), dca::kAutoSpinUs);
+  EXPECT_EQ(master_spins, std::vector<int>{dca::kAutoSpinUs});
+  auto b = subscribe("/b", &origin_b);  // three processes on two CPUs
+  a->answer(std::nullopt);
+  run_ticks(100);
+  ASSERT_GE(b->payloads.size(), 1u);
+  EXPECT_FALSE(b->payloads.back().find("spin"));
+  EXPECT_EQ(master_spins.size(), 1u) << "no more polling for answers";
+  (void)s;
+}
+
+TEST_F(LockstepTest, ASetSpinWindowAppliesAndOffOrPacedNeverSpins) {
+  // one node on a fresh clock with these options (paced: its first tick at the wall time asked for): the
+  // spin its first advance asks for, 0 for none
+  auto first_spin = [&](int cpus_now, int spin_now, bool paced) {
+    cpus = cpus_now;
+    spin_us = spin_now;
+    make(-1, paced);
+    auto a = subscribe("/a", &origin_a);
+    core->go();
+    run_ticks(100);
+    if (paced) wall = *wall_due;
+    run_ticks(100);
+    EXPECT_EQ(a->payloads.size(), 1u);
+    return a->payloads.empty() ? -1 : static_cast<int>(a->payloads[0]["spin"].as_int(0));
+  };
+  EXPECT_EQ(first_spin(1, 300, false), 300) << "a set window, whatever the CPUs";
+  EXPECT_EQ(first_spin(8, 0, false), 0) << "off";
+  EXPECT_EQ(first_spin(8, -1, true), 0) << "paced to the wall clock";
+  EXPECT_EQ(master_spins, std::vector<int>{300});
 }
 
 // The barrier: an event in a round holds time until every supervisor has answered two waves of quiesce

@@ -4,6 +4,7 @@
 
 #include <boost/asio/post.hpp>
 #include <csignal>
+#include <vector>
 
 namespace {
 
@@ -39,6 +40,37 @@ TEST(LoopTest, StopEndsRun) {
   boost::asio::post(loop.io(), [&] { loop.stop(); });
   loop.run();
   EXPECT_TRUE(loop.stopped());
+}
+
+// Spinning (lock-step between rounds): within a window run() polls instead of sleeping, handlers run as
+// usual, and a stop ends it; after the window, or without allow_spin(), it sleeps as io_context::run does.
+TEST(LoopTest, ASpinWindowPollsRunsHandlersAndEndsOnStop) {
+  dca::Loop loop;
+  loop.allow_spin();
+  std::vector<int> order;
+  boost::asio::steady_timer later(loop.io(), 20ms), end(loop.io(), 40ms);
+  boost::asio::post(loop.io(), [&] {
+    order.push_back(1);
+    loop.spin_for(10ms);  // then polls until 10 ms from now
+  });
+  later.async_wait([&](const boost::system::error_code&) { order.push_back(2); });  // after the window: slept for
+  end.async_wait([&](const boost::system::error_code&) {
+    order.push_back(3);
+    loop.spin_for(1s);  // a window the stop ends
+    boost::asio::post(loop.io(), [&] { loop.stop(); });
+  });
+  loop.run();
+  EXPECT_EQ(order, (std::vector<int>{1, 2, 3}));
+  EXPECT_GT(loop.spun(), 0u);
+}
+
+TEST(LoopTest, WithoutAllowSpinASpinWindowIsIgnored) {
+  dca::Loop loop;
+  boost::asio::post(loop.io(), [&] { loop.spin_for(1s); });
+  boost::asio::steady_timer t(loop.io(), 5ms);
+  t.async_wait([](const boost::system::error_code&) {});
+  loop.run();  // out of work after the timer: returns
+  EXPECT_EQ(loop.spun(), 0u);
 }
 
 TEST(LoopTest, SignalsAreDeliveredFromTheLoop) {

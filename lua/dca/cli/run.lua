@@ -13,7 +13,7 @@ M.usage = [=[usage: dca run FILE.dca [--root NAME] [--hosts FILE] [--repl] [--wa
                     [--config FILE | --no-config] [--set KEY=VALUE]... [--state-dir DIR]
                     [--placement process|group|host]
                     [--sim WORLD [--world-opt KEY=VALUE]... [--seed N] [--record FILE.mcap|FILE.csv] [--realtime]
-                    [--tick-timeout MS] [--world-host HOST]
+                    [--tick-timeout MS] [--spin auto|off|US] [--world-host HOST]
                     [--record-ports all|PATH.PORT,...] [--record-compression zstd|lz4|none]
                     [--record-split SIZE|DURATION] [--profile ros2] [--trace FILE]]
                     [--replay REC.mcap [--replay-ports PATTERN,...]]
@@ -103,6 +103,9 @@ per group as it comes up and one per process transition, and runs the root expre
                   the robot's own computer, where its driver would run
   --tick-timeout MS  passed to the world: how long a node may take to answer an advance before the clock
                   drops it (default 10000; under about 2000 the supervisors are dropped too: docs/time.md)
+  --spin auto|off|US  passed to the world: after answering an advance a node polls for the next one for US
+                  µs instead of sleeping, and the world for the answers (auto, the default: 2000 while
+                  every process on the clock has a CPU of its own; docs/time.md "Spinning")
   --trace FILE    write the run's trace (simulated time): every output's samples per tick (count, digest,
                   value), every set switch, event and transition with its tick; `dca trace diff A B` gives
                   the first divergence of two (ARCHITECTURE.md "Time")
@@ -139,6 +142,7 @@ local OPTIONS = {
   ["--record-ports"] = "value", ["--driver"] = "value", ["--replay"] = "value",
   ["--blackbox"] = "value", ["--replay-ports"] = "value",
   ["--blackbox-storm"] = "value", ["--tick-timeout"] = "number", ["--world-host"] = "value",
+  ["--spin"] = "value",
   ["--record-compression"] = "value", ["--record-split"] = "value", ["--profile"] = "value",
 }
 
@@ -203,6 +207,13 @@ local function rule_broken(o)
   if o.realtime and not o.sim then return "--realtime goes with --sim WORLD" end
   if o.tick_timeout and not (o.sim and o.tick_timeout >= 1 and o.tick_timeout <= 3600000) then
     return "--tick-timeout goes with --sim WORLD and takes milliseconds from 1 to 3600000"
+  end
+  if o.spin then
+    local us = tonumber(o.spin)
+    if not o.sim or not (o.spin == "auto" or o.spin == "off" or (us and us % 1 == 0 and us >= 1
+        and us <= 100000)) then
+      return "--spin goes with --sim WORLD and takes auto, off or microseconds from 1 to 100000"
+    end
   end
   if o.world_host and not o.sim then return "--world-host goes with --sim WORLD" end
   if o.monitor_wait and not (o.monitor and o.sim) then return "--monitor-wait goes with --monitor and --sim WORLD" end

@@ -15,6 +15,7 @@
 --                                      -- emergency stop (docs/safety.md); cb(state now) | cb(nil, err)
 --   o.world_opts: the world's own options (`--world-opt`, docs/worlds.md); o.realtime: simulated time paced to the wall clock;
 --   o.tick_timeout: ms a node may take to answer an advance before it is dropped from the clock
+--   o.spin: "auto" (default), "off" or µs: how long nodes poll for their next advance (docs/time.md "Spinning")
 --   Another robot process (a driver: dca.launch.driver): o.argv its argv, o.what its name in messages, o.said
 --   the prefix of its own lines in the log, o.class its client's class (default dca.clients.Plain)
 local core = require "dca.core"
@@ -30,7 +31,7 @@ W.__index = W
 
 --- The options a world takes besides where it runs (see the header): what a system's start passes through.
 M.OPTIONS = { "world", "seed", "world_opts", "record", "record_outputs", "blackbox", "blackbox_storm", "realtime", "wait", "trace",
-              "tick_timeout", "record_compression", "record_split", "record_profile" }
+              "tick_timeout", "spin", "record_compression", "record_split", "record_profile" }
 
 -- A robot world's spec with its URDF file made absolute ("mock:FILE?OPTIONS" keeps its prefix and options), and
 -- a replay's recording (replay:FILE.mcap): the world process starts in its daemon's folder (docs/robots.md). Any
@@ -61,6 +62,7 @@ function M.argv(o)
   if o.realtime then argv[#argv + 1] = "--realtime" end
   -- (ms: a node that does not answer an advance within it is dropped from the clock; default 10000)
   if o.tick_timeout then argv[#argv + 1] = "--tick-timeout" argv[#argv + 1] = tostring(o.tick_timeout) end
+  if o.spin then argv[#argv + 1] = "--spin" argv[#argv + 1] = tostring(o.spin) end
   return argv
 end
 

@@ -11,6 +11,7 @@ for _, c in ipairs({ { "world-opt jammed", "--seed and --world-opt go with --sim
                     { "record x.mcap --blackbox 1,1", "--blackbox goes with --sim WORLD" },
                     { "realtime", "--realtime goes with --sim WORLD" },
                     { "tick-timeout 5000", "--tick-timeout goes with --sim WORLD" },
+                    { "spin auto", "--spin goes with --sim WORLD" },
                     { "world-host vision", "--world-host goes with --sim WORLD" },
                     { "as-fast-as-possible", "--as-fast-as-possible goes with --monitor and --sim WORLD" },
                     { "monitor-taps all", "--monitor-taps goes with --monitor and is all or picked, not 'all'" },
