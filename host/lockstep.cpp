@@ -572,7 +572,11 @@ LockstepOptions with_cpus(LockstepOptions o) {
 }  // namespace
 
 Lockstep::Lockstep(Loop& loop, LockstepOptions options, LockstepHooks hooks)
-    : loop_(loop), opts_(options), timer_(loop.io()), master_timer_(loop.io()), core_(with_cpus(std::move(options)), [&] {
+    : loop_(loop),
+      opts_(options),
+      timer_(loop.io()),
+      master_timer_(loop.io()),
+      core_(with_cpus(std::move(options)), [&] {
         hooks.settle = [this] { loop_.settle(); };
         hooks.spin = [this](int us) { loop_.spin_for(std::chrono::microseconds(us)); };
         hooks.schedule = [this](std::optional<Nanos> wall_due) { schedule(wall_due); };

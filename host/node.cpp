@@ -1008,7 +1008,8 @@ void Node::Impl::advance(const Channel::Ptr& ch, const Message& m) {
   if (done) return;
   ch->reply(m, advance_reply(p["trace"].as_bool()));
   // asked to, the node polls for its next advance instead of sleeping (docs/time.md, "Spinning")
-  if (const auto spin = p["spin"].as_int(0); spin > 0) loop.spin_for(std::chrono::microseconds(std::min<std::int64_t>(spin, 100'000)));
+  if (const auto spin = p["spin"].as_int(0); spin > 0)
+    loop.spin_for(std::chrono::microseconds(std::min<std::int64_t>(spin, 100'000)));
 }
 
 Value Node::Impl::advance_reply(bool trace) {
