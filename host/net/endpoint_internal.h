@@ -13,7 +13,6 @@
 #include <cstring>
 #include <map>
 #include <optional>
-#include <random>
 #include <span>
 #include <unordered_map>
 #include <utility>
@@ -119,10 +118,12 @@ struct Endpoint::Impl {
   const std::uint64_t sender = random_sender();
   std::uint64_t hellos = 0;
 
-  // A nonzero random id within data_frame::kMaxSerial.
+  // A nonzero random id within data_frame::kMaxSerial (the operating system's random source, auth::random_bytes).
   static std::uint64_t random_sender() {
-    std::random_device rd;
-    const std::uint64_t v = ((std::uint64_t{rd()} << 32) | rd()) & data_frame::kMaxSerial;
+    const std::string b = auth::random_bytes(sizeof(std::uint64_t));
+    std::uint64_t v = 0;
+    std::memcpy(&v, b.data(), sizeof v);
+    v &= data_frame::kMaxSerial;
     return v == 0 ? 1 : v;
   }
 
